@@ -1,0 +1,17 @@
+//! The main world's components. Authored components (`Transform`, `Visibility`) are written by
+//! users and importers; derived ones (`GlobalTransform`, `InheritedVisibility`) are written only
+//! by the `PostUpdate` systems in this module's children.
+
+pub mod camera;
+pub mod light;
+pub mod mesh;
+pub mod transform;
+pub mod visibility;
+
+pub use bevy_ecs::hierarchy::{ChildOf, Children};
+pub use bevy_ecs::name::Name;
+pub use camera::{Camera, Exposure, Projection};
+pub use light::{AmbientLight, DirectionalLight, PointLight, SpotLight};
+pub use mesh::{Mesh3d, MeshMaterial3d};
+pub use transform::{GlobalTransform, Transform};
+pub use visibility::{InheritedVisibility, Visibility};

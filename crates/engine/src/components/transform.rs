@@ -1,0 +1,176 @@
+//! `Transform` (local, authored) and `GlobalTransform` (world, derived), and the propagation
+//! system that derives the second from the first down the `ChildOf` hierarchy.
+//!
+//! Propagation runs in `PostUpdate`. It walks from every root; a subtree is recomputed when its
+//! root's `Transform` or parent link changed, or when any ancestor was recomputed, and
+//! `GlobalTransform` is only written when it is recomputed, so change detection downstream
+//! (extraction) sees exactly the entities that moved.
+
+use bevy_ecs::prelude::*;
+use glam::{Affine3A, Mat3, Mat4, Quat, Vec3};
+
+/// Local placement relative to the parent (or the world for a root).
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[require(GlobalTransform)]
+pub struct Transform {
+    pub translation: Vec3,
+    pub rotation: Quat,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Transform {
+    pub const IDENTITY: Self = Self {
+        translation: Vec3::ZERO,
+        rotation: Quat::IDENTITY,
+        scale: Vec3::ONE,
+    };
+
+    pub fn from_xyz(x: f32, y: f32, z: f32) -> Self {
+        Self::from_translation(Vec3::new(x, y, z))
+    }
+    pub fn from_translation(translation: Vec3) -> Self {
+        Self {
+            translation,
+            ..Self::IDENTITY
+        }
+    }
+    pub fn from_rotation(rotation: Quat) -> Self {
+        Self {
+            rotation,
+            ..Self::IDENTITY
+        }
+    }
+    pub fn from_scale(scale: Vec3) -> Self {
+        Self {
+            scale,
+            ..Self::IDENTITY
+        }
+    }
+    pub fn with_rotation(mut self, rotation: Quat) -> Self {
+        self.rotation = rotation;
+        self
+    }
+    pub fn with_scale(mut self, scale: Vec3) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// Decomposes a matrix (glTF `node.matrix`). Shear is lost, as the glTF spec allows.
+    pub fn from_matrix(m: Mat4) -> Self {
+        let (scale, rotation, translation) = m.to_scale_rotation_translation();
+        Self {
+            translation,
+            rotation,
+            scale,
+        }
+    }
+
+    /// Turns the transform so local −Z points at `target` (cameras and lights look down −Z).
+    pub fn looking_at(mut self, target: Vec3, up: Vec3) -> Self {
+        self.look_at(target, up);
+        self
+    }
+
+    pub fn look_at(&mut self, target: Vec3, up: Vec3) {
+        let back = (self.translation - target).normalize_or(Vec3::Z);
+        let right = up
+            .cross(back)
+            .try_normalize()
+            .unwrap_or_else(|| back.any_orthonormal_vector());
+        let up = back.cross(right);
+        self.rotation = Quat::from_mat3(&Mat3::from_cols(right, up, back));
+    }
+
+    pub fn to_affine(&self) -> Affine3A {
+        Affine3A::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
+    }
+
+    /// Local −Z in the parent's space.
+    pub fn forward(&self) -> Vec3 {
+        self.rotation * Vec3::NEG_Z
+    }
+}
+
+/// World placement, derived by propagation. Do not write it; write `Transform`.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
+pub struct GlobalTransform(pub Affine3A);
+
+impl GlobalTransform {
+    pub fn translation(&self) -> Vec3 {
+        self.0.translation.into()
+    }
+    pub fn matrix(&self) -> Mat4 {
+        Mat4::from(self.0)
+    }
+    /// Local −Z in world space, normalised.
+    pub fn forward(&self) -> Vec3 {
+        self.0
+            .matrix3
+            .mul_vec3(Vec3::NEG_Z.into())
+            .normalize_or(Vec3::NEG_Z.into())
+            .into()
+    }
+    /// Whether the transform mirrors space (negative determinant), which flips triangle winding.
+    pub fn is_mirrored(&self) -> bool {
+        self.0.matrix3.determinant() < 0.0
+    }
+}
+
+/// Derives `GlobalTransform` for every entity with a `Transform`.
+pub fn propagate_transforms(
+    roots: Query<(Entity, Ref<Transform>, Option<&Children>), Without<ChildOf>>,
+    nodes: Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
+    mut globals: Query<&mut GlobalTransform>,
+) {
+    for (entity, transform, children) in &roots {
+        let dirty = transform.is_changed();
+        let world = transform.to_affine();
+        if dirty && let Ok(mut g) = globals.get_mut(entity) {
+            g.0 = world;
+        }
+        if let Some(children) = children {
+            for &child in children {
+                propagate_recursive(child, world, dirty, &nodes, &mut globals, 0);
+            }
+        }
+    }
+}
+
+/// Deeper than any authored scene; a cycle slipping past the importer's check stops here
+/// instead of overflowing the stack.
+const MAX_HIERARCHY_DEPTH: u32 = 4096;
+
+fn propagate_recursive(
+    entity: Entity,
+    parent_world: Affine3A,
+    parent_dirty: bool,
+    nodes: &Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
+    globals: &mut Query<&mut GlobalTransform>,
+    depth: u32,
+) {
+    if depth > MAX_HIERARCHY_DEPTH {
+        tracing::error!(
+            "hierarchy deeper than {MAX_HIERARCHY_DEPTH} at {entity}; not propagating further"
+        );
+        return;
+    }
+    let Ok((transform, child_of, children)) = nodes.get(entity) else {
+        return; // a child without Transform takes no part in placement
+    };
+    let dirty = parent_dirty || transform.is_changed() || child_of.is_changed();
+    let world = parent_world * transform.to_affine();
+    if dirty && let Ok(mut g) = globals.get_mut(entity) {
+        g.0 = world;
+    }
+    if let Some(children) = children {
+        for &child in children {
+            propagate_recursive(child, world, dirty, nodes, globals, depth + 1);
+        }
+    }
+}

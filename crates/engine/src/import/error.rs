@@ -1,0 +1,85 @@
+//! Import errors: every failure names the file it came from and says what is wrong in terms of
+//! the file (which buffer, which accessor, which extension), never in terms of our code.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::mesh::MeshError;
+
+/// A failed import. Display reads `path: problem`.
+#[derive(Debug, thiserror::Error)]
+pub struct ImportError {
+    pub path: PathBuf,
+    pub kind: ImportErrorKind,
+}
+
+impl fmt::Display for ImportError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.path.display(), self.kind)
+    }
+}
+
+impl ImportError {
+    pub fn new(path: impl Into<PathBuf>, kind: ImportErrorKind) -> Self {
+        Self {
+            path: path.into(),
+            kind,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ImportErrorKind {
+    #[error("cannot read the file: {0}")]
+    Io(#[source] std::io::Error),
+    #[error("unsupported file type (expected .gltf or .glb)")]
+    UnknownFormat,
+    #[error("not a valid glTF file: {0}")]
+    Malformed(String),
+    #[error("invalid glTF: {0}")]
+    Invalid(String),
+    #[error("requires extension {name}, which Penumbra does not support")]
+    UnsupportedExtension { name: String },
+    #[error("buffer {index} ({uri}): {reason}")]
+    Buffer {
+        index: usize,
+        uri: String,
+        reason: String,
+    },
+    #[error("image {index} ({uri}): {reason}")]
+    Image {
+        index: usize,
+        uri: String,
+        reason: String,
+    },
+    #[error(
+        "URI {uri:?} points outside the scene's folder (pass --allow-outside-folder to permit it)"
+    )]
+    UriOutsideFolder { uri: String },
+    #[error("accessor {index}: {reason}")]
+    Accessor { index: usize, reason: String },
+    #[error("mesh {mesh} primitive {primitive}: {reason}")]
+    Primitive {
+        mesh: usize,
+        primitive: usize,
+        reason: String,
+    },
+    #[error("mesh {mesh} primitive {primitive}: {source}")]
+    Mesh {
+        mesh: usize,
+        primitive: usize,
+        #[source]
+        source: MeshError,
+    },
+    #[error("node hierarchy: {0}")]
+    Hierarchy(String),
+    #[error("scene {index} does not exist (the file has {count})")]
+    NoSuchScene { index: usize, count: usize },
+    #[error("{what} is {value}, over the limit of {limit} ({how_to_raise})")]
+    LimitExceeded {
+        what: &'static str,
+        value: u64,
+        limit: u64,
+        how_to_raise: &'static str,
+    },
+}

@@ -1,0 +1,245 @@
+//! Accessor decoding with every range checked before it is read.
+//!
+//! The gltf crate's own readers slice buffers without bounds checks (a malformed file panics),
+//! so Penumbra decodes accessors itself: element size, stride, view and buffer extents are
+//! checked with overflow-safe arithmetic, then components are converted to `f32` (normalised
+//! integers per the glTF spec: signed `max(c / MAX, −1)`, unsigned `c / MAX`) and sparse
+//! substitutions applied.
+
+use gltf::accessor::{DataType, Dimensions};
+
+/// A decoding failure, reported by the caller as `accessor N: reason`.
+pub(crate) type AccessorResult<T> = Result<T, String>;
+
+fn component_size(t: DataType) -> usize {
+    match t {
+        DataType::I8 | DataType::U8 => 1,
+        DataType::I16 | DataType::U16 => 2,
+        DataType::U32 | DataType::F32 => 4,
+    }
+}
+
+fn dimensions_len(d: Dimensions) -> usize {
+    match d {
+        Dimensions::Scalar => 1,
+        Dimensions::Vec2 => 2,
+        Dimensions::Vec3 => 3,
+        Dimensions::Vec4 => 4,
+        Dimensions::Mat2 => 4,
+        Dimensions::Mat3 => 9,
+        Dimensions::Mat4 => 16,
+    }
+}
+
+fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
+    match t {
+        DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
+        DataType::I8 => {
+            let v = bytes[0] as i8 as f32;
+            if normalized { (v / 127.0).max(-1.0) } else { v }
+        }
+        DataType::U8 => {
+            let v = bytes[0] as f32;
+            if normalized { v / 255.0 } else { v }
+        }
+        DataType::I16 => {
+            let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f32;
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
+        }
+        DataType::U16 => {
+            let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f32;
+            if normalized { v / 65535.0 } else { v }
+        }
+        DataType::U32 => {
+            let v = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+            if normalized {
+                v as f32 / u32::MAX as f32
+            } else {
+                v as f32
+            }
+        }
+    }
+}
+
+/// The byte window `[start, start + stride·(count−1) + elem)` inside a view inside a buffer.
+fn strided_window<'b>(
+    buffers: &'b [Vec<u8>],
+    view: &gltf::buffer::View,
+    offset_in_view: usize,
+    count: usize,
+    elem_size: usize,
+    stride_override: Option<usize>,
+) -> AccessorResult<(&'b [u8], usize)> {
+    let buffer = buffers
+        .get(view.buffer().index())
+        .ok_or_else(|| format!("buffer {} does not exist", view.buffer().index()))?;
+    let stride = stride_override.unwrap_or(view.stride().unwrap_or(elem_size));
+    if stride < elem_size {
+        return Err(format!(
+            "byteStride {stride} is smaller than the element size {elem_size}"
+        ));
+    }
+    let view_end = view
+        .offset()
+        .checked_add(view.length())
+        .filter(|&end| end <= buffer.len())
+        .ok_or_else(|| {
+            format!(
+                "bufferView {} (offset {}, length {}) runs past the end of buffer {} ({} bytes)",
+                view.index(),
+                view.offset(),
+                view.length(),
+                view.buffer().index(),
+                buffer.len()
+            )
+        })?;
+    if count == 0 {
+        return Ok((&[], stride));
+    }
+    let needed = stride
+        .checked_mul(count - 1)
+        .and_then(|n| n.checked_add(elem_size))
+        .and_then(|n| n.checked_add(offset_in_view))
+        .filter(|&n| n <= view.length())
+        .ok_or_else(|| {
+            format!(
+                "{count} elements of {elem_size} bytes at stride {stride} from offset {offset_in_view} do not fit in bufferView {} ({} bytes)",
+                view.index(),
+                view.length()
+            )
+        })?;
+    let start = view.offset() + offset_in_view;
+    Ok((&buffer[start..view_end.min(view.offset() + needed)], stride))
+}
+
+/// Decodes an accessor of `N` components per element to `f32`.
+pub(crate) fn read_f32<const N: usize>(
+    accessor: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+) -> AccessorResult<Vec<[f32; N]>> {
+    let dims = dimensions_len(accessor.dimensions());
+    if dims != N {
+        return Err(format!(
+            "expected {N} components per element, found {:?}",
+            accessor.dimensions()
+        ));
+    }
+    let ty = accessor.data_type();
+    let csize = component_size(ty);
+    let elem = csize * N;
+    let count = accessor.count();
+    let normalized = accessor.normalized();
+    let decode = |bytes: &[u8]| -> [f32; N] {
+        std::array::from_fn(|c| read_component(&bytes[c * csize..], ty, normalized))
+    };
+
+    let mut out: Vec<[f32; N]> = match accessor.view() {
+        Some(view) => {
+            let (window, stride) =
+                strided_window(buffers, &view, accessor.offset(), count, elem, None)?;
+            (0..count)
+                .map(|i| decode(&window[i * stride..i * stride + elem]))
+                .collect()
+        }
+        None => vec![[0.0; N]; count],
+    };
+
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        if n > count {
+            return Err(format!(
+                "sparse count {n} exceeds the accessor count {count}"
+            ));
+        }
+        let indices = sparse.indices();
+        let isize = match indices.index_type() {
+            gltf::accessor::sparse::IndexType::U8 => 1,
+            gltf::accessor::sparse::IndexType::U16 => 2,
+            gltf::accessor::sparse::IndexType::U32 => 4,
+        };
+        let (iwin, _) = strided_window(
+            buffers,
+            &indices.view(),
+            indices.offset(),
+            n,
+            isize,
+            Some(isize),
+        )
+        .map_err(|e| format!("sparse indices: {e}"))?;
+        let values = sparse.values();
+        let (vwin, _) = strided_window(
+            buffers,
+            &values.view(),
+            values.offset(),
+            n,
+            elem,
+            Some(elem),
+        )
+        .map_err(|e| format!("sparse values: {e}"))?;
+        for k in 0..n {
+            let b = &iwin[k * isize..];
+            let target = match isize {
+                1 => b[0] as usize,
+                2 => u16::from_le_bytes([b[0], b[1]]) as usize,
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+            };
+            let slot = out.get_mut(target).ok_or_else(|| {
+                format!("sparse index {target} is out of range for {count} elements")
+            })?;
+            *slot = decode(&vwin[k * elem..(k + 1) * elem]);
+        }
+    }
+    Ok(out)
+}
+
+/// Decodes an index accessor (unsigned scalar).
+pub(crate) fn read_indices(
+    accessor: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+) -> AccessorResult<Vec<u32>> {
+    if accessor.dimensions() != Dimensions::Scalar {
+        return Err(format!(
+            "indices must be scalars, found {:?}",
+            accessor.dimensions()
+        ));
+    }
+    match accessor.data_type() {
+        DataType::U8 | DataType::U16 | DataType::U32 => {}
+        other => {
+            return Err(format!(
+                "indices must be unsigned integers, found {other:?}"
+            ));
+        }
+    }
+    if accessor.normalized() {
+        return Err("indices must not be normalized".into());
+    }
+    // Through f32 would lose integers above 2^24: decode the integers directly.
+    let ty = accessor.data_type();
+    let csize = component_size(ty);
+    let count = accessor.count();
+    let decode = |b: &[u8]| -> u32 {
+        match csize {
+            1 => b[0] as u32,
+            2 => u16::from_le_bytes([b[0], b[1]]) as u32,
+            _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        }
+    };
+    if accessor.sparse().is_some() {
+        // Sparse index buffers are legal but unseen in practice; the float path is exact for
+        // the values an index buffer can address on any GPU we target (< 2^24 vertices).
+        return Ok(read_f32::<1>(accessor, buffers)?
+            .into_iter()
+            .map(|[v]| v as u32)
+            .collect());
+    }
+    let Some(view) = accessor.view() else {
+        return Ok(vec![0; count]);
+    };
+    let (window, stride) = strided_window(buffers, &view, accessor.offset(), count, csize, None)?;
+    Ok((0..count).map(|i| decode(&window[i * stride..])).collect())
+}

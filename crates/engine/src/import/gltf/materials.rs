@@ -1,0 +1,141 @@
+//! glTF materials, textures and samplers to `StandardMaterial` descriptions. Textures still name
+//! glTF image indices here; `spawn` swaps them for `Handle<Image>`s.
+
+use glam::{Vec2, Vec3, Vec4};
+use gltf::texture::{MagFilter, MinFilter, WrappingMode};
+
+use crate::material::{AlphaMode, FilterMode, Sampler, StandardMaterial, UvTransform, WrapMode};
+
+#[derive(Debug, Clone)]
+pub(crate) struct TextureDesc {
+    pub image: usize,
+    pub sampler: Sampler,
+    pub uv_set: u32,
+    pub transform: UvTransform,
+}
+
+/// A material with its textures still as glTF image indices, in `StandardMaterial::textures` order.
+#[derive(Debug, Clone)]
+pub(crate) struct MaterialDesc {
+    pub material: StandardMaterial,
+    pub textures: [Option<TextureDesc>; 5],
+}
+
+pub(crate) const NORMAL_SLOT: usize = 2;
+
+fn sampler(s: gltf::texture::Sampler) -> Sampler {
+    let wrap = |w| match w {
+        WrappingMode::ClampToEdge => WrapMode::ClampToEdge,
+        WrappingMode::MirroredRepeat => WrapMode::MirroredRepeat,
+        WrappingMode::Repeat => WrapMode::Repeat,
+    };
+    let (min_filter, mipmap_filter) = match s.min_filter() {
+        None | Some(MinFilter::LinearMipmapLinear) => {
+            (FilterMode::Linear, Some(FilterMode::Linear))
+        }
+        Some(MinFilter::Nearest) => (FilterMode::Nearest, None),
+        Some(MinFilter::Linear) => (FilterMode::Linear, None),
+        Some(MinFilter::NearestMipmapNearest) => (FilterMode::Nearest, Some(FilterMode::Nearest)),
+        Some(MinFilter::LinearMipmapNearest) => (FilterMode::Linear, Some(FilterMode::Nearest)),
+        Some(MinFilter::NearestMipmapLinear) => (FilterMode::Nearest, Some(FilterMode::Linear)),
+    };
+    let mag_filter = match s.mag_filter() {
+        Some(MagFilter::Nearest) => FilterMode::Nearest,
+        _ => FilterMode::Linear,
+    };
+    Sampler {
+        mag_filter,
+        min_filter,
+        mipmap_filter,
+        wrap_u: wrap(s.wrap_s()),
+        wrap_v: wrap(s.wrap_t()),
+    }
+}
+
+/// KHR_texture_transform read from raw extension JSON (normal and occlusion texture infos are
+/// not typed by the gltf crate). Returns the transform and the optional texCoord override.
+fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option<u32>) {
+    let pair = |key: &str, default: Vec2| {
+        v.get(key)
+            .and_then(|a| a.as_array())
+            .filter(|a| a.len() == 2)
+            .and_then(|a| Some(Vec2::new(a[0].as_f64()? as f32, a[1].as_f64()? as f32)))
+            .unwrap_or(default)
+    };
+    let t = UvTransform {
+        offset: pair("offset", Vec2::ZERO),
+        rotation: v.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32,
+        scale: pair("scale", Vec2::ONE),
+    };
+    (
+        t,
+        v.get("texCoord").and_then(|c| c.as_u64()).map(|c| c as u32),
+    )
+}
+
+fn texture(
+    texture: gltf::Texture,
+    tex_coord: u32,
+    transform: Option<(UvTransform, Option<u32>)>,
+) -> TextureDesc {
+    let (transform, uv_override) = transform.unwrap_or_default();
+    TextureDesc {
+        image: texture.source().index(),
+        sampler: sampler(texture.sampler()),
+        uv_set: uv_override.unwrap_or(tex_coord),
+        transform,
+    }
+}
+
+fn info(i: gltf::texture::Info) -> TextureDesc {
+    let tt = i.texture_transform().map(|t| {
+        (
+            UvTransform {
+                offset: t.offset().into(),
+                rotation: t.rotation(),
+                scale: t.scale().into(),
+            },
+            t.tex_coord(),
+        )
+    });
+    texture(i.texture(), i.tex_coord(), tt)
+}
+
+pub(crate) fn convert(m: &gltf::Material) -> MaterialDesc {
+    let pbr = m.pbr_metallic_roughness();
+    let material = StandardMaterial {
+        base_color: Vec4::from(pbr.base_color_factor()),
+        metallic: pbr.metallic_factor(),
+        roughness: pbr.roughness_factor(),
+        normal_scale: m.normal_texture().map_or(1.0, |t| t.scale()),
+        occlusion_strength: m.occlusion_texture().map_or(1.0, |t| t.strength()),
+        emissive: Vec3::from(m.emissive_factor()),
+        emissive_strength: m.emissive_strength().unwrap_or(1.0),
+        alpha_mode: match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        double_sided: m.double_sided(),
+        unlit: m.unlit(),
+        ..StandardMaterial::default()
+    };
+    let textures = [
+        pbr.base_color_texture().map(info),
+        pbr.metallic_roughness_texture().map(info),
+        m.normal_texture().map(|t| {
+            let tt = t
+                .extension_value("KHR_texture_transform")
+                .map(transform_from_json);
+            texture(t.texture(), t.tex_coord(), tt)
+        }),
+        m.occlusion_texture().map(|t| {
+            let tt = t
+                .extension_value("KHR_texture_transform")
+                .map(transform_from_json);
+            texture(t.texture(), t.tex_coord(), tt)
+        }),
+        m.emissive_texture().map(info),
+    ];
+    MaterialDesc { material, textures }
+}

@@ -1,0 +1,643 @@
+//! glTF 2.0 import (`.gltf` with external or data-URI buffers, and `.glb`).
+//!
+//! [`GltfScene::load`] is phase one and the only fallible part: read the file; refuse unsupported
+//! required extensions by name; validate the JSON; resolve buffers (GLB chunk, data URIs, files
+//! inside the scene's folder); check the node hierarchy is a forest; decode every primitive
+//! (accessors bounds-checked, topology expanded, normals and tangents completed) and every
+//! referenced image (in parallel). [`GltfScene::spawn`] is phase two: assets into `Assets<T>`,
+//! nodes into entities under one [`SceneRoot`], infallibly.
+
+mod accessor;
+mod images;
+mod materials;
+mod primitive;
+mod source;
+
+use std::path::{Path, PathBuf};
+
+use bevy_ecs::prelude::*;
+use glam::{Mat4, Vec3};
+
+use crate::assets::{Assets, Handle};
+use crate::components::{
+    Camera, DirectionalLight, Exposure, Mesh3d, MeshMaterial3d, Name, PointLight, Projection,
+    SpotLight, Transform, Visibility,
+};
+use crate::image::Image;
+use crate::import::{ImportError, ImportErrorKind};
+use crate::material::{StandardMaterial, TextureRef};
+use crate::mesh::Mesh;
+use materials::MaterialDesc;
+
+/// Extensions Penumbra implements. A file that lists any other in `extensionsRequired` is refused.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_unlit",
+    "KHR_texture_transform",
+    "KHR_mesh_quantization",
+];
+
+#[derive(Debug, Clone)]
+pub struct ImportOptions {
+    /// Which scene to spawn; `None` is the file's default scene (or scene 0).
+    pub scene: Option<usize>,
+    /// Let relative URIs reach outside the scene's folder (`..`, absolute paths, symlinks).
+    pub allow_outside_folder: bool,
+    pub max_data_uri_bytes: u64,
+    pub max_image_dimension: u32,
+    pub max_image_bytes: u64,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        Self {
+            scene: None,
+            allow_outside_folder: false,
+            // 256 MiB: larger than any single buffer in the Khronos samples by 20×.
+            max_data_uri_bytes: 256 << 20,
+            // 16384 is the largest 2D texture wgpu guarantees on desktop adapters.
+            max_image_dimension: 16384,
+            max_image_bytes: 1 << 30,
+        }
+    }
+}
+
+/// The root entity of a spawned scene; despawning it (recursively) removes the whole scene.
+#[derive(Component, Debug, Clone)]
+#[require(Transform, Visibility)]
+pub struct SceneRoot {
+    pub source: PathBuf,
+    pub scene: Option<usize>,
+}
+
+/// A camera that came from the file (glTF camera index). Spawned inactive; activate one to look
+/// through it (`penumbra render --camera N`).
+#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GltfCamera {
+    pub index: usize,
+}
+
+#[derive(Debug, Clone)]
+enum LightDesc {
+    Directional(DirectionalLight),
+    Point(PointLight),
+    Spot(SpotLight),
+}
+
+#[derive(Debug, Clone)]
+struct NodeDesc {
+    name: String,
+    transform: Transform,
+    children: Vec<usize>,
+    mesh: Option<usize>,
+    camera: Option<usize>,
+    light: Option<usize>,
+}
+
+#[derive(Debug, Clone)]
+struct PrimitiveDesc {
+    mesh: Mesh,
+    material: Option<usize>,
+}
+
+/// A decoded, validated glTF file: plain data, ready to spawn any number of times.
+#[derive(Debug, Clone)]
+pub struct GltfScene {
+    pub path: PathBuf,
+    meshes: Vec<(String, Vec<PrimitiveDesc>)>,
+    materials: Vec<MaterialDesc>,
+    images: Vec<Option<Image>>,
+    nodes: Vec<NodeDesc>,
+    cameras: Vec<(String, Projection)>,
+    lights: Vec<LightDesc>,
+    /// Root nodes of the scene to spawn.
+    roots: Vec<usize>,
+    scene_index: Option<usize>,
+    /// Things the file uses that Penumbra ignores (optional extensions), for the user to see.
+    pub warnings: Vec<String>,
+}
+
+impl GltfScene {
+    /// Reads and decodes `path`.
+    pub fn load(path: &Path, options: &ImportOptions) -> Result<GltfScene, ImportError> {
+        let bytes =
+            std::fs::read(path).map_err(|e| ImportError::new(path, ImportErrorKind::Io(e)))?;
+        Self::from_bytes(&bytes, path, options)
+    }
+
+    /// Decodes a file already in memory; `path` names it in errors and anchors relative URIs.
+    pub fn from_bytes(
+        bytes: &[u8],
+        path: &Path,
+        options: &ImportOptions,
+    ) -> Result<GltfScene, ImportError> {
+        load_inner(bytes, path, options).map_err(|kind| ImportError::new(path, kind))
+    }
+
+    pub fn camera_count(&self) -> usize {
+        self.cameras.len()
+    }
+
+    pub fn scene_index(&self) -> Option<usize> {
+        self.scene_index
+    }
+
+    /// Spawns the selected scene under a new [`SceneRoot`] entity and returns it.
+    pub fn spawn(&self, world: &mut World) -> Entity {
+        world.init_resource::<Assets<Image>>();
+        world.init_resource::<Assets<StandardMaterial>>();
+        world.init_resource::<Assets<Mesh>>();
+        let image_handles: Vec<Option<Handle<Image>>> = {
+            let mut images = world.resource_mut::<Assets<Image>>();
+            self.images
+                .iter()
+                .map(|i| i.clone().map(|i| images.add(i)))
+                .collect()
+        };
+        let (material_handles, default_material) = {
+            let mut mats = world.resource_mut::<Assets<StandardMaterial>>();
+            let handles: Vec<_> = self
+                .materials
+                .iter()
+                .map(|d| mats.add(resolve_material(d, &image_handles)))
+                .collect();
+            let default = mats.add(StandardMaterial::default());
+            (handles, default)
+        };
+        let mesh_handles: Vec<Vec<(Handle<Mesh>, Option<usize>)>> = {
+            let mut meshes = world.resource_mut::<Assets<Mesh>>();
+            self.meshes
+                .iter()
+                .map(|(_, prims)| {
+                    prims
+                        .iter()
+                        .map(|p| (meshes.add(p.mesh.clone()), p.material))
+                        .collect()
+                })
+                .collect()
+        };
+        let name = self
+            .path
+            .file_name()
+            .map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
+        let root = world
+            .spawn((
+                SceneRoot {
+                    source: self.path.clone(),
+                    scene: self.scene_index,
+                },
+                Name::new(name),
+            ))
+            .id();
+        let ctx = SpawnCtx {
+            scene: self,
+            meshes: &mesh_handles,
+            materials: &material_handles,
+            default_material,
+        };
+        let mut stack: Vec<(usize, Entity)> = self.roots.iter().rev().map(|&n| (n, root)).collect();
+        while let Some((node, parent)) = stack.pop() {
+            let e = ctx.spawn_node(world, node, parent);
+            stack.extend(self.nodes[node].children.iter().rev().map(|&c| (c, e)));
+        }
+        root
+    }
+}
+
+struct SpawnCtx<'a> {
+    scene: &'a GltfScene,
+    meshes: &'a [Vec<(Handle<Mesh>, Option<usize>)>],
+    materials: &'a [Handle<StandardMaterial>],
+    default_material: Handle<StandardMaterial>,
+}
+
+impl SpawnCtx<'_> {
+    fn spawn_node(&self, world: &mut World, node: usize, parent: Entity) -> Entity {
+        let desc = &self.scene.nodes[node];
+        let mut e = world.spawn((
+            Name::new(desc.name.clone()),
+            desc.transform,
+            ChildOf(parent),
+        ));
+        if let Some(c) = desc.camera {
+            let (_, projection) = &self.scene.cameras[c];
+            e.insert((
+                Camera {
+                    projection: *projection,
+                    exposure: Exposure::default(),
+                    is_active: false,
+                    order: 0,
+                },
+                GltfCamera { index: c },
+            ));
+        }
+        if let Some(l) = desc.light {
+            match &self.scene.lights[l] {
+                LightDesc::Directional(d) => e.insert(*d),
+                LightDesc::Point(p) => e.insert(*p),
+                LightDesc::Spot(s) => e.insert(*s),
+            };
+        }
+        let id = e.id();
+        if let Some(m) = desc.mesh {
+            let prims = &self.meshes[m];
+            let material =
+                |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
+            if let [(mesh, mat)] = prims.as_slice() {
+                world
+                    .entity_mut(id)
+                    .insert((Mesh3d(*mesh), MeshMaterial3d(material(*mat))));
+            } else {
+                let mesh_name = &self.scene.meshes[m].0;
+                for (k, (mesh, mat)) in prims.iter().enumerate() {
+                    world.spawn((
+                        Name::new(format!("{mesh_name} primitive {k}")),
+                        Transform::IDENTITY,
+                        Mesh3d(*mesh),
+                        MeshMaterial3d(material(*mat)),
+                        ChildOf(id),
+                    ));
+                }
+            }
+        }
+        id
+    }
+}
+
+fn resolve_material(d: &MaterialDesc, images: &[Option<Handle<Image>>]) -> StandardMaterial {
+    let mut m = d.material.clone();
+    let slots = [
+        &mut m.base_color_texture,
+        &mut m.metallic_roughness_texture,
+        &mut m.normal_texture,
+        &mut m.occlusion_texture,
+        &mut m.emissive_texture,
+    ];
+    for (slot, tex) in slots.into_iter().zip(&d.textures) {
+        *slot = tex.as_ref().and_then(|t| {
+            images
+                .get(t.image)
+                .copied()
+                .flatten()
+                .map(|image| TextureRef {
+                    image,
+                    sampler: t.sampler,
+                    uv_set: t.uv_set,
+                    transform: t.transform,
+                })
+        });
+    }
+    m
+}
+
+fn load_inner(
+    bytes: &[u8],
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<GltfScene, ImportErrorKind> {
+    source::check_glb_header(bytes)?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| ImportErrorKind::Malformed(e.to_string()))?;
+
+    // Required extensions first: a file that needs what we lack must be refused by name, before
+    // validation complains about its contents in less useful terms.
+    if let Some(name) = document
+        .extensions_required()
+        .find(|e| !SUPPORTED_EXTENSIONS.contains(e))
+    {
+        return Err(ImportErrorKind::UnsupportedExtension {
+            name: name.to_owned(),
+        });
+    }
+    validate(&document)?;
+    let mut warnings: Vec<String> = document
+        .extensions_used()
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .map(|e| format!("optional extension {e} is not supported and is ignored"))
+        .collect();
+
+    let base_dir = path.parent().unwrap_or(Path::new("."));
+    let buffers = load_buffers(&document, blob, base_dir, options)?;
+    let roots = scene_roots(&document, options.scene)?;
+
+    let materials: Vec<MaterialDesc> = document
+        .materials()
+        .map(|m| materials::convert(&m))
+        .collect();
+    let mut meshes = Vec::new();
+    for mesh in document.meshes() {
+        let mut prims = Vec::new();
+        for prim in mesh.primitives() {
+            let material = prim.material().index();
+            let needs = primitive::GeometryNeeds {
+                normal_map_uv_set: material
+                    .and_then(|m| materials.get(m))
+                    .and_then(|m| m.textures[materials::NORMAL_SLOT].as_ref())
+                    .map(|t| t.uv_set),
+            };
+            match primitive::build(&prim, &buffers, &needs, mesh.index())? {
+                primitive::Built::Mesh(mesh) => prims.push(PrimitiveDesc { mesh, material }),
+                primitive::Built::Skipped(why) => warnings.push(why),
+            }
+        }
+        meshes.push((
+            mesh.name()
+                .map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned),
+            prims,
+        ));
+    }
+
+    let images = decode_images(&document, &materials, &buffers, base_dir, path, options)?;
+    let nodes = document
+        .nodes()
+        .map(|n| NodeDesc {
+            name: n
+                .name()
+                .map_or_else(|| format!("node{}", n.index()), str::to_owned),
+            transform: match n.transform() {
+                gltf::scene::Transform::Matrix { matrix } => {
+                    Transform::from_matrix(Mat4::from_cols_array_2d(&matrix))
+                }
+                gltf::scene::Transform::Decomposed {
+                    translation,
+                    rotation,
+                    scale,
+                } => Transform {
+                    translation: translation.into(),
+                    rotation: glam::Quat::from_array(rotation).normalize(),
+                    scale: scale.into(),
+                },
+            },
+            children: n.children().map(|c| c.index()).collect(),
+            mesh: n.mesh().map(|m| m.index()),
+            camera: n.camera().map(|c| c.index()),
+            light: n.light().map(|l| l.index()),
+        })
+        .collect();
+    let cameras = document
+        .cameras()
+        .map(|c| {
+            let name = c
+                .name()
+                .map_or_else(|| format!("camera{}", c.index()), str::to_owned);
+            let projection = match c.projection() {
+                gltf::camera::Projection::Perspective(p) => Projection::Perspective {
+                    yfov: p.yfov(),
+                    znear: p.znear(),
+                    aspect_ratio: p.aspect_ratio(),
+                },
+                gltf::camera::Projection::Orthographic(o) => Projection::Orthographic {
+                    xmag: Some(o.xmag()),
+                    ymag: o.ymag(),
+                    znear: o.znear(),
+                    zfar: o.zfar(),
+                },
+            };
+            (name, projection)
+        })
+        .collect();
+    let lights = document
+        .lights()
+        .into_iter()
+        .flatten()
+        .map(|l| {
+            let color = Vec3::from(l.color());
+            match l.kind() {
+                gltf::khr_lights_punctual::Kind::Directional => {
+                    LightDesc::Directional(DirectionalLight {
+                        color,
+                        illuminance: l.intensity(),
+                        shadows: true,
+                    })
+                }
+                gltf::khr_lights_punctual::Kind::Point => LightDesc::Point(PointLight {
+                    color,
+                    intensity: l.intensity(),
+                    range: l.range(),
+                    shadows: true,
+                }),
+                gltf::khr_lights_punctual::Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => LightDesc::Spot(SpotLight {
+                    color,
+                    intensity: l.intensity(),
+                    range: l.range(),
+                    inner_cone_angle,
+                    outer_cone_angle,
+                    shadows: true,
+                }),
+            }
+        })
+        .collect();
+
+    for w in &warnings {
+        tracing::warn!("{}: {w}", path.display());
+    }
+    Ok(GltfScene {
+        path: path.to_path_buf(),
+        meshes,
+        materials,
+        images,
+        nodes,
+        cameras,
+        lights,
+        roots,
+        scene_index: options
+            .scene
+            .or_else(|| document.default_scene().map(|s| s.index())),
+        warnings,
+    })
+}
+
+fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
+    use gltf::json::validation::Validate;
+    let root = document.as_json();
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        let path = path().to_string();
+        // Required extensions were checked against Penumbra's own list already.
+        if !path.starts_with("extensionsRequired") {
+            errors.push(format!("{path}: {error}"));
+        }
+    });
+    if errors.is_empty() {
+        return Ok(());
+    }
+    let more = if errors.len() > 5 {
+        format!(" (and {} more)", errors.len() - 5)
+    } else {
+        String::new()
+    };
+    errors.truncate(5);
+    Err(ImportErrorKind::Invalid(format!(
+        "{}{more}",
+        errors.join("; ")
+    )))
+}
+
+fn load_buffers(
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+    base_dir: &Path,
+    options: &ImportOptions,
+) -> Result<Vec<Vec<u8>>, ImportErrorKind> {
+    let mut buffers = Vec::new();
+    for buffer in document.buffers() {
+        let index = buffer.index();
+        let (uri, data) = match buffer.source() {
+            gltf::buffer::Source::Bin => {
+                let data = blob.take().ok_or_else(|| ImportErrorKind::Buffer {
+                    index,
+                    uri: "GLB binary chunk".into(),
+                    reason: "the file has no binary chunk".into(),
+                })?;
+                ("GLB binary chunk".to_owned(), data)
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                let short = if uri.starts_with("data:") {
+                    "data URI".to_owned()
+                } else {
+                    uri.to_owned()
+                };
+                let data = source::read_uri(base_dir, uri, options).map_err(|e| {
+                    e.into_kind(uri, |reason| ImportErrorKind::Buffer {
+                        index,
+                        uri: short.clone(),
+                        reason,
+                    })
+                })?;
+                (short, data)
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(ImportErrorKind::Buffer {
+                index,
+                uri,
+                reason: format!(
+                    "has {} bytes but byteLength says {}",
+                    data.len(),
+                    buffer.length()
+                ),
+            });
+        }
+        buffers.push(data);
+    }
+    Ok(buffers)
+}
+
+/// The root nodes to spawn, after checking the node graph is a forest (each node has at most one
+/// parent and no cycles), as glTF requires.
+fn scene_roots(
+    document: &gltf::Document,
+    requested: Option<usize>,
+) -> Result<Vec<usize>, ImportErrorKind> {
+    let n = document.nodes().len();
+    let mut parent: Vec<Option<usize>> = vec![None; n];
+    for node in document.nodes() {
+        for child in node.children() {
+            if let Some(p) = parent[child.index()] {
+                return Err(ImportErrorKind::Hierarchy(format!(
+                    "node {} is a child of both node {p} and node {}",
+                    child.index(),
+                    node.index()
+                )));
+            }
+            parent[child.index()] = Some(node.index());
+        }
+    }
+    // Every node reachable from a parentless node is in a tree; anything left over is on a cycle.
+    let mut reached = vec![false; n];
+    let mut stack: Vec<usize> = (0..n).filter(|&i| parent[i].is_none()).collect();
+    while let Some(i) = stack.pop() {
+        reached[i] = true;
+        stack.extend(
+            document
+                .nodes()
+                .nth(i)
+                .into_iter()
+                .flat_map(|node| node.children().map(|c| c.index())),
+        );
+    }
+    if let Some(i) = reached.iter().position(|r| !r) {
+        return Err(ImportErrorKind::Hierarchy(format!(
+            "node {i} is part of a cycle"
+        )));
+    }
+    let scene_count = document.scenes().len();
+    let scene = match requested {
+        Some(index) if index >= scene_count => {
+            return Err(ImportErrorKind::NoSuchScene {
+                index,
+                count: scene_count,
+            });
+        }
+        Some(index) => document.scenes().nth(index),
+        None => document
+            .default_scene()
+            .or_else(|| document.scenes().next()),
+    };
+    let roots: Vec<usize> = match scene {
+        Some(s) => s.nodes().map(|n| n.index()).collect(),
+        // No scenes at all: show every root node rather than nothing.
+        None => (0..n).filter(|&i| parent[i].is_none()).collect(),
+    };
+    if let Some(&r) = roots.iter().find(|&&r| parent[r].is_some()) {
+        return Err(ImportErrorKind::Hierarchy(format!(
+            "scene root node {r} is also a child of another node"
+        )));
+    }
+    Ok(roots)
+}
+
+fn decode_images(
+    document: &gltf::Document,
+    materials: &[MaterialDesc],
+    buffers: &[Vec<u8>],
+    base_dir: &Path,
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<Vec<Option<Image>>, ImportErrorKind> {
+    let mut used = vec![false; document.images().len()];
+    for t in materials.iter().flat_map(|m| m.textures.iter().flatten()) {
+        if let Some(u) = used.get_mut(t.image) {
+            *u = true;
+        }
+    }
+    let file = path
+        .file_name()
+        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    let mut jobs = Vec::new();
+    for image in document.images().filter(|i| used[i.index()]) {
+        let uri = match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => uri.to_owned(),
+            gltf::image::Source::Uri { .. } => "data URI".to_owned(),
+            gltf::image::Source::View { view, .. } => format!("bufferView {}", view.index()),
+        };
+        let label = format!(
+            "{file}#{}",
+            image
+                .name()
+                .map_or_else(|| format!("image{}", image.index()), str::to_owned)
+        );
+        jobs.push((
+            image.index(),
+            uri,
+            label,
+            images::image_bytes(&image, buffers, base_dir, options)?,
+        ));
+    }
+    let decoded = images::parallel_map(&jobs, |(index, uri, label, bytes)| {
+        let bytes = match bytes {
+            images::ImageBytes::Slice(s) => s,
+            images::ImageBytes::Owned(v) => v.as_slice(),
+        };
+        images::decode(bytes, *index, uri, label.clone(), options)
+    });
+    let mut out: Vec<Option<Image>> = vec![None; used.len()];
+    for ((index, ..), image) in jobs.iter().zip(decoded) {
+        out[*index] = Some(image?);
+    }
+    Ok(out)
+}

@@ -1,0 +1,196 @@
+//! One glTF mesh primitive to one `Mesh`: attributes decoded, topology expanded to lists,
+//! missing normals made flat, missing tangents generated (MikkTSpace) when a normal map needs them.
+
+use glam::{Vec2, Vec3, Vec4};
+use gltf::mesh::{Mode, Semantic};
+
+use super::accessor::{read_f32, read_indices};
+use crate::import::ImportErrorKind;
+use crate::mesh::{Mesh, Topology};
+
+/// What the primitive's material asks of its geometry.
+pub(crate) struct GeometryNeeds {
+    /// UV set of the normal map, if the material has one: tangents are needed in that set.
+    pub normal_map_uv_set: Option<u32>,
+}
+
+pub(crate) enum Built {
+    Mesh(Mesh),
+    /// No POSITION: the spec says to skip rendering the primitive.
+    Skipped(String),
+}
+
+pub(crate) fn build(
+    prim: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    needs: &GeometryNeeds,
+    mesh_index: usize,
+) -> Result<Built, ImportErrorKind> {
+    let primitive = prim.index();
+    let acc_err = |a: &gltf::Accessor, reason: String| ImportErrorKind::Accessor {
+        index: a.index(),
+        reason,
+    };
+    let read3 = |s: Semantic| -> Result<Option<Vec<Vec3>>, ImportErrorKind> {
+        prim.get(&s)
+            .map(|a| {
+                read_f32::<3>(&a, buffers)
+                    .map(|v| v.into_iter().map(Vec3::from).collect())
+                    .map_err(|e| acc_err(&a, e))
+            })
+            .transpose()
+    };
+    let Some(positions) = read3(Semantic::Positions)? else {
+        return Ok(Built::Skipped(format!(
+            "mesh {mesh_index} primitive {primitive} has no POSITION; skipped as the glTF spec asks"
+        )));
+    };
+    let n = positions.len();
+    let mut mesh = Mesh {
+        positions,
+        ..Default::default()
+    };
+    mesh.normals = read3(Semantic::Normals)?.unwrap_or_default();
+    if let Some(a) = prim.get(&Semantic::Tangents) {
+        mesh.tangents = read_f32::<4>(&a, buffers)
+            .map_err(|e| acc_err(&a, e))?
+            .into_iter()
+            .map(Vec4::from)
+            .collect();
+    }
+    for (set, dst) in [(0, &mut mesh.uv0), (1, &mut mesh.uv1)] {
+        if let Some(a) = prim.get(&Semantic::TexCoords(set)) {
+            *dst = read_f32::<2>(&a, buffers)
+                .map_err(|e| acc_err(&a, e))?
+                .into_iter()
+                .map(Vec2::from)
+                .collect();
+        }
+    }
+    if let Some(a) = prim.get(&Semantic::Colors(0)) {
+        mesh.colors = match a.dimensions() {
+            gltf::accessor::Dimensions::Vec3 => read_f32::<3>(&a, buffers)
+                .map_err(|e| acc_err(&a, e))?
+                .into_iter()
+                .map(|c| Vec3::from(c).extend(1.0))
+                .collect(),
+            _ => read_f32::<4>(&a, buffers)
+                .map_err(|e| acc_err(&a, e))?
+                .into_iter()
+                .map(Vec4::from)
+                .collect(),
+        };
+    }
+
+    let elements: Option<Vec<u32>> = match prim.indices() {
+        Some(a) => Some(read_indices(&a, buffers).map_err(|e| acc_err(&a, e))?),
+        None => None,
+    };
+    let (topology, indices) = expand_topology(prim.mode(), elements, n);
+    mesh.topology = topology;
+    mesh.indices = indices;
+    // Dangling indices must be caught before anything below indexes attribute arrays by them.
+    mesh.validate().map_err(|source| ImportErrorKind::Mesh {
+        mesh: mesh_index,
+        primitive,
+        source,
+    })?;
+
+    let replaced = mesh.sanitize();
+    if replaced > 0 {
+        tracing::warn!(
+            "mesh {mesh_index} primitive {primitive}: replaced {replaced} non-finite attribute values"
+        );
+    }
+    if topology == Topology::TriangleList {
+        if mesh.normals.is_empty() {
+            mesh.compute_flat_normals();
+        }
+        if let Some(set) = needs.normal_map_uv_set
+            && mesh.tangents.is_empty()
+        {
+            let has_uvs = if set == 0 {
+                !mesh.uv0.is_empty()
+            } else {
+                !mesh.uv1.is_empty()
+            };
+            if has_uvs {
+                mesh.generate_tangents(set)
+                    .map_err(|source| ImportErrorKind::Mesh {
+                        mesh: mesh_index,
+                        primitive,
+                        source,
+                    })?;
+            }
+        }
+    }
+    Ok(Built::Mesh(mesh))
+}
+
+/// Strips, fans and loops become lists, following the glTF 2.0 spec §3.7.2.1 exactly so the
+/// winding of every triangle is preserved.
+fn expand_topology(
+    mode: Mode,
+    elements: Option<Vec<u32>>,
+    vertex_count: usize,
+) -> (Topology, Option<Vec<u32>>) {
+    let seq = |e: &Option<Vec<u32>>| -> Vec<u32> {
+        e.clone()
+            .unwrap_or_else(|| (0..vertex_count as u32).collect())
+    };
+    match mode {
+        Mode::Triangles => (Topology::TriangleList, elements),
+        Mode::Lines => (Topology::LineList, elements),
+        Mode::Points => (Topology::PointList, elements),
+        Mode::TriangleStrip => {
+            let v = seq(&elements);
+            let tris = (0..v.len().saturating_sub(2))
+                .flat_map(|i| {
+                    // p_i = {v_i, v_{i+(1+i%2)}, v_{i+(2−i%2)}}
+                    let odd = i % 2;
+                    [v[i], v[i + 1 + odd], v[i + 2 - odd]]
+                })
+                .collect();
+            (Topology::TriangleList, Some(tris))
+        }
+        Mode::TriangleFan => {
+            let v = seq(&elements);
+            // p_i = {v_{i+1}, v_{i+2}, v_0}
+            let tris = (0..v.len().saturating_sub(2))
+                .flat_map(|i| [v[i + 1], v[i + 2], v[0]])
+                .collect();
+            (Topology::TriangleList, Some(tris))
+        }
+        Mode::LineStrip => {
+            let v = seq(&elements);
+            let lines = v.windows(2).flat_map(|w| [w[0], w[1]]).collect();
+            (Topology::LineList, Some(lines))
+        }
+        Mode::LineLoop => {
+            let v = seq(&elements);
+            let mut lines: Vec<u32> = v.windows(2).flat_map(|w| [w[0], w[1]]).collect();
+            if v.len() > 1 {
+                lines.extend_from_slice(&[v[v.len() - 1], v[0]]);
+            }
+            (Topology::LineList, Some(lines))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_the_winding_of_their_first_triangle() {
+        let (_, s) = expand_topology(Mode::TriangleStrip, None, 5);
+        assert_eq!(s.unwrap(), [0, 1, 2, 1, 3, 2, 2, 3, 4]);
+        let (_, f) = expand_topology(Mode::TriangleFan, None, 4);
+        assert_eq!(f.unwrap(), [1, 2, 0, 2, 3, 0]);
+        let (t, l) = expand_topology(Mode::LineLoop, Some(vec![4, 5, 6]), 7);
+        assert_eq!(
+            (t, l.unwrap()),
+            (Topology::LineList, vec![4, 5, 5, 6, 6, 4])
+        );
+    }
+}

@@ -1,0 +1,57 @@
+//! Penumbra's main world: the [`App`] and its schedules, [`Time`], the scene components,
+//! [`Assets`] for meshes, materials and images, built-in primitives, and scene import.
+//!
+//! Data flows one way: users and importers write authored components (`Transform`, `Visibility`,
+//! lights, cameras, `Mesh3d`); `PostUpdate` derives world-space state (`GlobalTransform`,
+//! `InheritedVisibility`); the render crate's extraction then reads it. Nothing here knows the GPU.
+
+pub mod app;
+pub mod assets;
+pub mod bounds;
+pub mod components;
+pub mod image;
+pub mod import;
+pub mod material;
+pub mod mesh;
+pub mod primitives;
+pub mod time;
+
+use bevy_ecs::schedule::IntoScheduleConfigs;
+
+pub use app::{App, Plugin, PostUpdate, Startup, Update};
+pub use assets::{Assets, Handle, StaleHandle};
+pub use time::{Time, TimeMode};
+
+/// Registers the asset stores and the `PostUpdate` systems that derive world-space state.
+pub struct CorePlugin;
+
+impl Plugin for CorePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<Assets<mesh::Mesh>>()
+            .init_resource::<Assets<material::StandardMaterial>>()
+            .init_resource::<Assets<image::Image>>()
+            .add_systems(
+                PostUpdate,
+                (
+                    components::transform::propagate_transforms,
+                    components::visibility::propagate_visibility,
+                )
+                    .chain(),
+            );
+    }
+}
+
+pub mod prelude {
+    pub use crate::CorePlugin;
+    pub use crate::app::{App, Plugin, PostUpdate, Startup, Update};
+    pub use crate::assets::{Assets, Handle};
+    pub use crate::bounds::Aabb;
+    pub use crate::components::*;
+    pub use crate::image::Image;
+    pub use crate::import::{ImportError, ImportOptions, load_scene};
+    pub use crate::material::{AlphaMode, StandardMaterial, TextureRef};
+    pub use crate::mesh::{Mesh, Topology};
+    pub use crate::time::{Time, TimeMode};
+    pub use bevy_ecs::prelude::*;
+    pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+}

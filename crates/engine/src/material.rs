@@ -1,0 +1,196 @@
+//! `StandardMaterial`: glTF 2.0 metallic-roughness, with the extensions Penumbra supports
+//! (KHR_materials_emissive_strength, KHR_materials_unlit, KHR_texture_transform).
+//! Colours are linear; textures say which image, sampler, UV set and UV transform they use.
+
+use glam::{Mat3, Vec2, Vec3, Vec4};
+
+use crate::assets::Handle;
+use crate::image::Image;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum FilterMode {
+    Nearest,
+    #[default]
+    Linear,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum WrapMode {
+    #[default]
+    Repeat,
+    MirroredRepeat,
+    ClampToEdge,
+}
+
+/// Texture sampling state (glTF `sampler`). Mipmaps are always generated; `mipmap: None`
+/// samples only the top level, as glTF's NEAREST/LINEAR minification filters ask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Sampler {
+    pub mag_filter: FilterMode,
+    pub min_filter: FilterMode,
+    pub mipmap_filter: Option<FilterMode>,
+    pub wrap_u: WrapMode,
+    pub wrap_v: WrapMode,
+}
+
+impl Default for Sampler {
+    /// glTF leaves unspecified filters to the implementation; trilinear is the quality choice.
+    fn default() -> Self {
+        Self {
+            mag_filter: FilterMode::Linear,
+            min_filter: FilterMode::Linear,
+            mipmap_filter: Some(FilterMode::Linear),
+            wrap_u: WrapMode::Repeat,
+            wrap_v: WrapMode::Repeat,
+        }
+    }
+}
+
+/// KHR_texture_transform: `uv' = T · R · S · uv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UvTransform {
+    pub offset: Vec2,
+    /// Radians, counter-clockwise in UV space.
+    pub rotation: f32,
+    pub scale: Vec2,
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        Self {
+            offset: Vec2::ZERO,
+            rotation: 0.0,
+            scale: Vec2::ONE,
+        }
+    }
+}
+
+impl UvTransform {
+    /// The 3×3 matrix from the extension's specification (translation · rotation · scale).
+    pub fn matrix(&self) -> Mat3 {
+        let (s, c) = self.rotation.sin_cos();
+        let translation = Mat3::from_cols(Vec3::X, Vec3::Y, self.offset.extend(1.0));
+        let rotation = Mat3::from_cols(Vec3::new(c, s, 0.0), Vec3::new(-s, c, 0.0), Vec3::Z);
+        let scale = Mat3::from_diagonal(self.scale.extend(1.0));
+        translation * rotation * scale
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TextureRef {
+    pub image: Handle<Image>,
+    pub sampler: Sampler,
+    /// Which TEXCOORD set (0 or 1).
+    pub uv_set: u32,
+    pub transform: UvTransform,
+}
+
+impl TextureRef {
+    pub fn new(image: Handle<Image>) -> Self {
+        Self {
+            image,
+            sampler: Sampler::default(),
+            uv_set: 0,
+            transform: UvTransform::default(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum AlphaMode {
+    #[default]
+    Opaque,
+    /// Discard below the cutoff (glTF default 0.5).
+    Mask(f32),
+    /// Blended, drawn after opaque geometry, sorted back to front.
+    Blend,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct StandardMaterial {
+    /// Linear RGBA factor.
+    pub base_color: Vec4,
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic: f32,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// Blue: metallic, green: roughness (glTF).
+    pub metallic_roughness_texture: Option<TextureRef>,
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+    pub occlusion_texture: Option<TextureRef>,
+    pub occlusion_strength: f32,
+    /// Linear RGB factor.
+    pub emissive: Vec3,
+    /// KHR_materials_emissive_strength multiplier.
+    pub emissive_strength: f32,
+    pub emissive_texture: Option<TextureRef>,
+    pub alpha_mode: AlphaMode,
+    pub double_sided: bool,
+    /// KHR_materials_unlit: base colour only, no lighting.
+    pub unlit: bool,
+}
+
+impl Default for StandardMaterial {
+    /// glTF's default material: white, fully metallic, fully rough.
+    fn default() -> Self {
+        Self {
+            base_color: Vec4::ONE,
+            base_color_texture: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emissive: Vec3::ZERO,
+            emissive_strength: 1.0,
+            emissive_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+            unlit: false,
+        }
+    }
+}
+
+impl StandardMaterial {
+    /// A plain dielectric of the given linear colour and roughness.
+    pub fn from_color(base_color: Vec4, roughness: f32) -> Self {
+        Self {
+            base_color,
+            metallic: 0.0,
+            roughness,
+            ..Default::default()
+        }
+    }
+
+    /// Every texture slot in the fixed order the renderer binds them.
+    pub fn textures(&self) -> [Option<&TextureRef>; 5] {
+        [
+            self.base_color_texture.as_ref(),
+            self.metallic_roughness_texture.as_ref(),
+            self.normal_texture.as_ref(),
+            self.occlusion_texture.as_ref(),
+            self.emissive_texture.as_ref(),
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uv_transform_matches_the_extension_example() {
+        // The extension's GLSL builds the rotation column-major as mat3(c, s, 0, −s, c, 0, 0, 0, 1),
+        // so uv (1, 0), scaled to (2, 0) and turned by π/2, lands on (0, 2), then offset by 0.5.
+        let t = UvTransform {
+            offset: Vec2::new(0.5, 0.0),
+            rotation: std::f32::consts::FRAC_PI_2,
+            scale: Vec2::splat(2.0),
+        };
+        let p = t.matrix() * Vec3::new(1.0, 0.0, 1.0);
+        assert!((p.truncate() - Vec2::new(0.5, 2.0)).length() < 1e-5, "{p}");
+    }
+}

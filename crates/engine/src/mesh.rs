@@ -1,0 +1,335 @@
+//! `Mesh`: geometry as parallel attribute arrays, the form importers and primitive builders hand
+//! over. The render crate's mesh pool decides the GPU layout; nothing here knows about it.
+//!
+//! Topology is normalised at import to lists (strips, fans and loops are expanded), so the GPU
+//! side deals with three topologies and winding is always explicit per triangle.
+
+use glam::{Vec2, Vec3, Vec4};
+
+use crate::bounds::Aabb;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Topology {
+    #[default]
+    TriangleList,
+    LineList,
+    PointList,
+}
+
+impl Topology {
+    pub fn vertices_per_primitive(self) -> usize {
+        match self {
+            Topology::TriangleList => 3,
+            Topology::LineList => 2,
+            Topology::PointList => 1,
+        }
+    }
+}
+
+/// Geometry of one drawable primitive. An empty attribute vector means "absent".
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    pub topology: Topology,
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    /// xyz tangent, w the bitangent sign (±1), as glTF.
+    pub tangents: Vec<Vec4>,
+    pub uv0: Vec<Vec2>,
+    pub uv1: Vec<Vec2>,
+    /// Linear RGBA.
+    pub colors: Vec<Vec4>,
+    pub indices: Option<Vec<u32>>,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    #[error("attribute {name} has {len} values but there are {vertices} positions")]
+    AttributeLength {
+        name: &'static str,
+        len: usize,
+        vertices: usize,
+    },
+    #[error("index {index} at position {at} is out of range for {vertices} vertices")]
+    IndexOutOfRange {
+        index: u32,
+        at: usize,
+        vertices: usize,
+    },
+    #[error("{count} indices is not a whole number of {topology:?} primitives")]
+    PartialPrimitive { count: usize, topology: Topology },
+    #[error("tangent generation needs triangles with normals and texture coordinates")]
+    TangentInputsMissing,
+    #[error("tangent generation failed: {0}")]
+    Tangents(String),
+}
+
+impl Mesh {
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of vertices the draw consumes (index count, or vertex count when non-indexed).
+    pub fn element_count(&self) -> usize {
+        self.indices.as_ref().map_or(self.positions.len(), Vec::len)
+    }
+
+    pub fn aabb(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
+    /// Checks the invariants the GPU side relies on: equal attribute lengths, indices in range,
+    /// whole primitives.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        let n = self.positions.len();
+        let check = |name, len: usize| {
+            if len != 0 && len != n {
+                Err(MeshError::AttributeLength {
+                    name,
+                    len,
+                    vertices: n,
+                })
+            } else {
+                Ok(())
+            }
+        };
+        check("NORMAL", self.normals.len())?;
+        check("TANGENT", self.tangents.len())?;
+        check("TEXCOORD_0", self.uv0.len())?;
+        check("TEXCOORD_1", self.uv1.len())?;
+        check("COLOR_0", self.colors.len())?;
+        if let Some(indices) = &self.indices {
+            if let Some((at, &index)) = indices.iter().enumerate().find(|(_, i)| **i as usize >= n)
+            {
+                return Err(MeshError::IndexOutOfRange {
+                    index,
+                    at,
+                    vertices: n,
+                });
+            }
+        }
+        let count = self.element_count();
+        if count % self.topology.vertices_per_primitive() != 0 {
+            return Err(MeshError::PartialPrimitive {
+                count,
+                topology: self.topology,
+            });
+        }
+        Ok(())
+    }
+
+    /// Replaces non-finite attribute values so that no NaN can flow from input into shading:
+    /// positions become the origin (the triangle degenerates and is not rasterised), normals and
+    /// tangents a fixed unit vector, UVs and colours zero / white. Returns how many were replaced.
+    pub fn sanitize(&mut self) -> usize {
+        fn fix<T: Copy>(v: &mut [T], finite: impl Fn(&T) -> bool, fallback: T) -> usize {
+            let mut n = 0;
+            for x in v.iter_mut().filter(|x| !finite(x)) {
+                *x = fallback;
+                n += 1;
+            }
+            n
+        }
+        fix(&mut self.positions, |p| p.is_finite(), Vec3::ZERO)
+            + fix(
+                &mut self.normals,
+                |p| p.is_finite() && p.length_squared() > 0.0,
+                Vec3::Z,
+            )
+            + fix(
+                &mut self.tangents,
+                |p| p.is_finite() && p.truncate().length_squared() > 0.0,
+                Vec4::new(1.0, 0.0, 0.0, 1.0),
+            )
+            + fix(&mut self.uv0, |p| p.is_finite(), Vec2::ZERO)
+            + fix(&mut self.uv1, |p| p.is_finite(), Vec2::ZERO)
+            + fix(&mut self.colors, |p| p.is_finite(), Vec4::ONE)
+    }
+
+    /// Expands indices so every triangle owns its three vertices (needed for flat normals).
+    pub fn unindex(&mut self) {
+        let Some(indices) = self.indices.take() else {
+            return;
+        };
+        fn gather<T: Copy>(v: &mut Vec<T>, idx: &[u32]) {
+            if !v.is_empty() {
+                *v = idx.iter().map(|&i| v[i as usize]).collect();
+            }
+        }
+        gather(&mut self.positions, &indices);
+        gather(&mut self.normals, &indices);
+        gather(&mut self.tangents, &indices);
+        gather(&mut self.uv0, &indices);
+        gather(&mut self.uv1, &indices);
+        gather(&mut self.colors, &indices);
+    }
+
+    /// Face normals, as the glTF spec asks for when NORMAL is absent. Unindexes the mesh.
+    pub fn compute_flat_normals(&mut self) {
+        if self.topology != Topology::TriangleList {
+            return;
+        }
+        self.unindex();
+        self.normals = self
+            .positions
+            .chunks_exact(3)
+            .flat_map(|t| {
+                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Z);
+                [n; 3]
+            })
+            .collect();
+    }
+
+    /// MikkTSpace tangents (the space glTF normal maps are baked in), from `NORMAL` and the given
+    /// UV set. Vertices MikkTSpace leaves undefined (degenerate faces) get +X with sign +1.
+    pub fn generate_tangents(&mut self, uv_set: u32) -> Result<(), MeshError> {
+        let uv_len = if uv_set == 0 {
+            self.uv0.len()
+        } else {
+            self.uv1.len()
+        };
+        if self.topology != Topology::TriangleList
+            || self.normals.len() != self.positions.len()
+            || uv_len != self.positions.len()
+        {
+            return Err(MeshError::TangentInputsMissing);
+        }
+        let vertex_count = self.positions.len();
+        let indices = self
+            .indices
+            .clone()
+            .unwrap_or_else(|| (0..vertex_count as u32).collect());
+        let mut geometry = TangentGeometry {
+            mesh: self,
+            indices: &indices,
+            uv_set,
+            out: vec![Vec4::new(1.0, 0.0, 0.0, 1.0); vertex_count],
+        };
+        bevy_mikktspace::generate_tangents(&mut geometry)
+            .map_err(|e| MeshError::Tangents(format!("{e:?}")))?;
+        let out = geometry.out;
+        self.tangents = out;
+        Ok(())
+    }
+}
+
+struct TangentGeometry<'a> {
+    mesh: &'a Mesh,
+    indices: &'a [u32],
+    uv_set: u32,
+    out: Vec<Vec4>,
+}
+
+impl TangentGeometry<'_> {
+    fn vertex(&self, face: usize, vert: usize) -> usize {
+        self.indices[face * 3 + vert] as usize
+    }
+}
+
+impl bevy_mikktspace::Geometry for TangentGeometry<'_> {
+    fn num_faces(&self) -> usize {
+        self.indices.len() / 3
+    }
+    fn num_vertices_of_face(&self, _face: usize) -> usize {
+        3
+    }
+    fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.mesh.positions[self.vertex(face, vert)].into()
+    }
+    fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.mesh.normals[self.vertex(face, vert)].into()
+    }
+    fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+        let uvs = if self.uv_set == 0 {
+            &self.mesh.uv0
+        } else {
+            &self.mesh.uv1
+        };
+        let uv = uvs[self.vertex(face, vert)];
+        // glTF's v grows downwards, but its normal maps store +Y as "up in the image", which is
+        // MikkTSpace's +v when v grows upwards (how Blender and other bakers compute it before
+        // export flips v). Feeding 1 − v yields the bitangent sign glTF expects.
+        [uv.x, 1.0 - uv.y]
+    }
+    fn set_tangent(
+        &mut self,
+        tangent_space: Option<bevy_mikktspace::TangentSpace>,
+        face: usize,
+        vert: usize,
+    ) {
+        if let Some(ts) = tangent_space {
+            let i = self.vertex(face, vert);
+            // A vertex shared by faces gets the last face's tangent; MikkTSpace gives shared
+            // vertices the same tangent unless they should be split, which glTF meshes already are.
+            self.out[i] = Vec4::from_array(ts.tangent_encoded());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad() -> Mesh {
+        Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+            normals: vec![Vec3::Z; 4],
+            uv0: vec![
+                Vec2::new(0.0, 1.0),
+                Vec2::new(1.0, 1.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::ZERO,
+            ],
+            indices: Some(vec![0, 1, 2, 0, 2, 3]),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn tangents_follow_increasing_u() {
+        let mut m = quad();
+        m.generate_tangents(0).unwrap();
+        for t in &m.tangents {
+            assert!((t.truncate() - Vec3::X).length() < 1e-4, "{t}");
+            // Standard, unmirrored mapping: the bitangent cross(N, T) · w is image-up, +Y, so w = +1,
+            // as exporters write it.
+            assert_eq!(t.w, 1.0);
+        }
+    }
+
+    #[test]
+    fn validation_catches_bad_indices_and_lengths() {
+        let mut m = quad();
+        m.indices = Some(vec![0, 1, 9]);
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::IndexOutOfRange { index: 9, .. })
+        ));
+        let mut m = quad();
+        m.uv1 = vec![Vec2::ZERO];
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::AttributeLength {
+                name: "TEXCOORD_1",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn flat_normals_face_the_winding() {
+        let mut m = quad();
+        m.normals.clear();
+        m.compute_flat_normals();
+        assert_eq!(m.positions.len(), 6);
+        assert!(m.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6));
+    }
+
+    #[test]
+    fn sanitize_replaces_nan() {
+        let mut m = quad();
+        m.normals[1] = Vec3::NAN;
+        m.positions[2].x = f32::INFINITY;
+        assert_eq!(m.sanitize(), 2);
+        assert!(m.normals.iter().all(|n| n.is_finite()));
+    }
+}

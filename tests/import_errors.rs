@@ -1,0 +1,316 @@
+//! Every kind of bad glTF input gives a typed error naming the file and the problem, never a
+//! panic, and leaves the world exactly as it was.
+
+use std::path::{Path, PathBuf};
+
+use penumbra::engine::import::{ImportErrorKind, ImportOptions, load_scene};
+use penumbra::prelude::*;
+
+mod common;
+use common::{asset, scratch_dir};
+
+/// A valid one-triangle glTF whose buffer lives in `triangle.bin` beside it.
+fn triangle_json(buffer_uri: &str, extra_root: &str) -> String {
+    format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  {extra_root}
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+  "buffers": [{{"uri": "{buffer_uri}", "byteLength": 36}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 36}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                  "min": [0,0,0], "max": [1,1,0]}}]
+}}"#
+    )
+}
+
+fn triangle_bin() -> Vec<u8> {
+    [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect()
+}
+
+fn write_scene(name: &str, json: &str, with_bin: bool) -> PathBuf {
+    let dir = scratch_dir(name);
+    if with_bin {
+        std::fs::write(dir.join("triangle.bin"), triangle_bin()).unwrap();
+    }
+    let path = dir.join("scene.gltf");
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+/// Loads into a fresh world and checks that a failure leaves no entity or asset behind.
+fn load_expecting_error(path: &Path) -> penumbra::engine::import::ImportError {
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    let before = app.world.entities().count_spawned();
+    let err =
+        load_scene(&mut app.world, path, &ImportOptions::default()).expect_err("load must fail");
+    assert_eq!(
+        app.world.entities().count_spawned(),
+        before,
+        "a failed load left entities behind"
+    );
+    assert!(
+        app.world.resource::<Assets<Mesh>>().is_empty(),
+        "a failed load left meshes behind"
+    );
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with(&path.display().to_string()),
+        "error must name the file: {msg}"
+    );
+    err
+}
+
+#[test]
+fn the_valid_fixture_loads() {
+    let path = write_scene("valid", &triangle_json("triangle.bin", ""), true);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &ImportOptions::default()).expect("fixture is valid");
+    assert_eq!(app.world.resource::<Assets<Mesh>>().len(), 1);
+}
+
+#[test]
+fn truncated_glb_is_malformed() {
+    let bytes = std::fs::read(asset("BoxTextured/BoxTextured.glb")).unwrap();
+    let path = scratch_dir("truncated").join("box.glb");
+    std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::Malformed(_)), "{err}");
+    assert!(err.to_string().contains("truncated"), "{err}");
+}
+
+#[test]
+fn bad_json_is_malformed() {
+    let path = write_scene(
+        "badjson",
+        r#"{"asset": {"version": "2.0"}, "nodes": [ {"mesh": 0 }"#,
+        false,
+    );
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::Malformed(_)), "{err}");
+}
+
+#[test]
+fn missing_buffer_file_names_the_buffer() {
+    let path = write_scene("missingbuf", &triangle_json("nowhere.bin", ""), false);
+    let err = load_expecting_error(&path);
+    assert!(
+        matches!(err.kind, ImportErrorKind::Buffer { index: 0, .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("nowhere.bin"), "{err}");
+}
+
+#[test]
+fn missing_image_names_the_image() {
+    let json = triangle_json("triangle.bin", "").replacen(
+        "\"scene\": 0,",
+        r#""scene": 0,
+  "images": [{"uri": "missing.png"}], "textures": [{"source": 0}],
+  "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],"#,
+        1,
+    );
+    let json = json.replace(
+        r#""attributes": {"POSITION": 0}}"#,
+        r#""attributes": {"POSITION": 0}, "material": 0}"#,
+    );
+    let path = write_scene("missingimg", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(
+        matches!(err.kind, ImportErrorKind::Image { index: 0, .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("missing.png"), "{err}");
+}
+
+#[test]
+fn accessor_past_the_buffer_end_is_refused() {
+    let json = triangle_json("triangle.bin", "").replace("\"count\": 3", "\"count\": 300");
+    let path = write_scene("accrange", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(
+        matches!(err.kind, ImportErrorKind::Accessor { index: 0, .. }),
+        "{err}"
+    );
+}
+
+#[test]
+fn buffer_view_past_the_buffer_end_is_refused() {
+    let json = triangle_json("triangle.bin", "").replace(
+        "\"byteOffset\": 0, \"byteLength\": 36",
+        "\"byteOffset\": 24, \"byteLength\": 36",
+    );
+    let path = write_scene("viewrange", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(
+        matches!(err.kind, ImportErrorKind::Accessor { .. }),
+        "{err}"
+    );
+}
+
+#[test]
+fn unsupported_required_extension_is_named() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["EXT_made_up"], "extensionsRequired": ["EXT_made_up"],"#,
+    );
+    let path = write_scene("reqext", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(
+        matches!(&err.kind, ImportErrorKind::UnsupportedExtension { name } if name == "EXT_made_up"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("EXT_made_up"), "{err}");
+}
+
+#[test]
+fn spec_gloss_sample_is_refused_with_the_extension_name() {
+    let err = load_expecting_error(&asset("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf"));
+    assert!(
+        matches!(&err.kind, ImportErrorKind::UnsupportedExtension { name } if name == "KHR_materials_pbrSpecularGlossiness"),
+        "{err}"
+    );
+}
+
+#[test]
+fn uri_outside_the_scene_folder_is_refused() {
+    for uri in ["../triangle.bin", "/etc/passwd", "sub/../../triangle.bin"] {
+        let path = write_scene("outside", &triangle_json(uri, ""), true);
+        let err = load_expecting_error(&path);
+        assert!(
+            matches!(&err.kind, ImportErrorKind::UriOutsideFolder { .. }),
+            "{uri}: {err}"
+        );
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn symlink_out_of_the_scene_folder_is_refused() {
+    let outside = scratch_dir("symlink-target");
+    std::fs::write(outside.join("secret.bin"), triangle_bin()).unwrap();
+    let path = write_scene("symlink", &triangle_json("link.bin", ""), false);
+    let link = path.parent().unwrap().join("link.bin");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(outside.join("secret.bin"), &link).unwrap();
+    let err = load_expecting_error(&path);
+    assert!(
+        matches!(&err.kind, ImportErrorKind::UriOutsideFolder { .. }),
+        "{err}"
+    );
+    // ... unless the user allows it.
+    let mut world = App::new().world;
+    let opts = ImportOptions {
+        allow_outside_folder: true,
+        ..Default::default()
+    };
+    load_scene(&mut world, &path, &opts).expect("allowed by the flag");
+}
+
+#[test]
+fn unsupported_uri_scheme_is_refused() {
+    let path = write_scene(
+        "scheme",
+        &triangle_json("https://example.com/triangle.bin", ""),
+        false,
+    );
+    let err = load_expecting_error(&path);
+    assert!(err.to_string().contains("scheme"), "{err}");
+}
+
+#[test]
+fn buffer_shorter_than_its_byte_length_is_refused() {
+    let json = triangle_json("triangle.bin", "").replace(
+        "\"byteLength\": 36}],\n  \"bufferViews",
+        "\"byteLength\": 360}],\n  \"bufferViews",
+    );
+    let path = write_scene("shortbuf", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::Buffer { .. }), "{err}");
+}
+
+#[test]
+fn node_cycles_and_shared_children_are_refused() {
+    let json = triangle_json("triangle.bin", "").replace(
+        r#""nodes": [{"mesh": 0}]"#,
+        r#""nodes": [{"mesh": 0}, {"children": [2]}, {"children": [1]}]"#,
+    );
+    let path = write_scene("cycle", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::Hierarchy(_)), "{err}");
+    let json = triangle_json("triangle.bin", "")
+        .replace(
+            r#""nodes": [{"mesh": 0}]"#,
+            r#""nodes": [{"mesh": 0}, {"children": [0]}, {"children": [0]}]"#,
+        )
+        .replace(
+            r#""scenes": [{"nodes": [0]}]"#,
+            r#""scenes": [{"nodes": [1, 2]}]"#,
+        );
+    let path = write_scene("shared", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::Hierarchy(_)), "{err}");
+}
+
+#[test]
+fn out_of_range_index_in_json_is_invalid() {
+    let json = triangle_json("triangle.bin", "")
+        .replace(r#""nodes": [{"mesh": 0}]"#, r#""nodes": [{"mesh": 7}]"#);
+    let path = write_scene("badindex", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::Invalid(_)), "{err}");
+    assert!(err.to_string().contains("nodes[0].mesh"), "{err}");
+}
+
+#[test]
+fn requesting_a_missing_scene_is_an_error() {
+    let mut world = App::new().world;
+    let opts = ImportOptions {
+        scene: Some(5),
+        ..Default::default()
+    };
+    let err = load_scene(
+        &mut world,
+        &asset("MultipleScenes/MultipleScenes.gltf"),
+        &opts,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            err.kind,
+            ImportErrorKind::NoSuchScene { index: 5, count: 2 }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn index_out_of_vertex_range_is_refused() {
+    let json = triangle_json("triangle.bin", "")
+        .replace(r#""uri": "triangle.bin", "byteLength": 36"#, r#""uri": "triangle.bin", "byteLength": 42"#)
+        .replace(
+            r#""bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}]"#,
+            r#""bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}]"#,
+        )
+        .replace(
+            r#""max": [1,1,0]}]"#,
+            r#""max": [1,1,0]}, {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]"#,
+        )
+        .replace(r#""attributes": {"POSITION": 0}}"#, r#""attributes": {"POSITION": 0}, "indices": 1}"#);
+    let dir = scratch_dir("badindices");
+    let mut bin = triangle_bin();
+    bin.extend_from_slice(&[0, 0, 1, 0, 9, 0]);
+    std::fs::write(dir.join("triangle.bin"), bin).unwrap();
+    let path = dir.join("scene.gltf");
+    std::fs::write(&path, json).unwrap();
+    let err = load_expecting_error(&path);
+    assert!(err.to_string().contains("index 9"), "{err}");
+}
