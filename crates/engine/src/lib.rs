@@ -9,6 +9,7 @@ pub mod app;
 pub mod assets;
 pub mod bounds;
 pub mod components;
+pub mod framing;
 pub mod image;
 pub mod import;
 pub mod material;

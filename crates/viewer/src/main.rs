@@ -1,1 +1,36 @@
-fn main() {}
+//! `penumbra`: the command-line entry point. Subcommands: `view` (interactive window), `render`
+//! (headless screenshot), `bench` (CPU/GPU timings). The binary adds no rendering features of its
+//! own; it wires the engine and renderer to a window or a file.
+
+mod cli;
+mod commands;
+mod scene;
+mod view;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+                tracing_subscriber::EnvFilter::new(if args.verbose { "info" } else { "warn" })
+            }),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let result = match args.command {
+        cli::Command::Render(a) => commands::render::run(a),
+        cli::Command::Bench(a) => commands::bench::run(a),
+        cli::Command::View(a) => view::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("penumbra: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,155 @@
+//! The GPU context: instance, adapter, device and queue, shared by every render-world owner.
+//!
+//! Adapter choice: `WGPU_BACKEND` limits the backends (wgpu's own variable), `WGPU_ADAPTER_NAME`
+//! picks by substring; otherwise Vulkan is preferred over other backends, and a discrete GPU over
+//! an integrated one over a CPU (software) one. Headless rendering and window surfaces use the
+//! same context; a window passes its surface so that only adapters able to present are chosen.
+
+use std::sync::Arc;
+
+/// What to install when no adapter is found: the message every caller (CLI, tests) prints.
+pub const INSTALL_HINT: &str = "no GPU adapter found. Penumbra needs a Vulkan driver (or GL through EGL). \
+On Debian/Ubuntu without a GPU install the software Vulkan driver: `apt-get install -y mesa-vulkan-drivers`";
+
+#[derive(Debug, thiserror::Error)]
+pub enum ContextError {
+    #[error("{INSTALL_HINT} (backends searched: {backends:?}{filter})")]
+    NoAdapter {
+        backends: wgpu::Backends,
+        filter: String,
+    },
+    #[error("cannot create the GPU device on {adapter}: {source}")]
+    Device {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+}
+
+/// Device capabilities Penumbra adapts to.
+#[derive(Debug, Clone, Copy)]
+pub struct Capabilities {
+    /// GPU timestamps at pass boundaries (used by stats and `penumbra bench`).
+    pub timestamps: bool,
+}
+
+#[derive(Clone)]
+pub struct GpuContext {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: Arc<wgpu::AdapterInfo>,
+    pub caps: Capabilities,
+}
+
+/// How to pick the adapter.
+#[derive(Debug, Clone, Default)]
+pub struct AdapterRequest {
+    /// Only these backends (default: `WGPU_BACKEND`, else all).
+    pub backends: Option<wgpu::Backends>,
+    /// Substring of the adapter name (default: `WGPU_ADAPTER_NAME`).
+    pub name: Option<String>,
+}
+
+impl GpuContext {
+    /// A context for headless rendering.
+    pub fn new_headless(request: &AdapterRequest) -> Result<Self, ContextError> {
+        let instance = wgpu::Instance::new(Self::instance_descriptor(request));
+        Self::with_instance(instance, request, None)
+    }
+
+    pub fn instance_descriptor(request: &AdapterRequest) -> wgpu::InstanceDescriptor {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if let Some(b) = request.backends {
+            desc.backends = b;
+        }
+        desc
+    }
+
+    /// A context on an existing instance; with `surface`, only adapters that can present to it.
+    pub fn with_instance(
+        instance: wgpu::Instance,
+        request: &AdapterRequest,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Self, ContextError> {
+        let backends = request
+            .backends
+            .unwrap_or_else(|| wgpu::Backends::all().with_env());
+        let name = request
+            .name
+            .clone()
+            .or_else(|| std::env::var("WGPU_ADAPTER_NAME").ok());
+        let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        let adapter = adapters
+            .into_iter()
+            .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
+            .filter(|a| {
+                name.as_ref()
+                    .is_none_or(|n| a.get_info().name.to_lowercase().contains(&n.to_lowercase()))
+            })
+            .max_by_key(|a| adapter_rank(&a.get_info()))
+            .ok_or_else(|| ContextError::NoAdapter {
+                backends,
+                filter: name
+                    .map(|n| format!(", name containing {n:?}"))
+                    .unwrap_or_default(),
+            })?;
+        let info = adapter.get_info();
+        let available = adapter.features();
+        let timestamps = available.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut features = wgpu::Features::empty();
+        if timestamps {
+            features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("penumbra"),
+            required_features: features,
+            required_limits: adapter.limits(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|source| ContextError::Device {
+            adapter: info.name.clone(),
+            source,
+        })?;
+        tracing::info!(
+            "GPU: {} ({:?}, {:?}, driver {})",
+            info.name,
+            info.backend,
+            info.device_type,
+            info.driver_info
+        );
+        Ok(Self {
+            instance,
+            adapter,
+            device,
+            queue,
+            info: Arc::new(info),
+            caps: Capabilities { timestamps },
+        })
+    }
+
+    /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)".
+    pub fn describe(&self) -> String {
+        format!("{} ({:?})", self.info.name, self.info.backend)
+    }
+}
+
+fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan => 3,
+        wgpu::Backend::Metal | wgpu::Backend::Dx12 => 2,
+        wgpu::Backend::Gl => 1,
+        _ => 0,
+    };
+    let device = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 4,
+        wgpu::DeviceType::IntegratedGpu => 3,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 1,
+        wgpu::DeviceType::Other => 0,
+    };
+    (backend, device)
+}

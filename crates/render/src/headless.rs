@@ -1,0 +1,173 @@
+//! Headless screenshots: stage a scene in an `App` (spawn it, pick or frame a camera), render N
+//! fixed-step frames offscreen, read the pixels back. `penumbra render`, the golden-image tests
+//! and users' own screenshot tests all go through here, so they see the same frame.
+
+use bevy_ecs::prelude::*;
+use penumbra_engine::components::{Camera, Exposure, Projection};
+use penumbra_engine::framing::{framing_camera_from, world_bounds};
+use penumbra_engine::import::{GltfCamera, GltfScene};
+use penumbra_engine::{App, CorePlugin, Time};
+
+use crate::renderer::{Renderer, RendererError};
+use crate::{RenderOutput, RenderPlugin};
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraChoice {
+    /// Frame the scene's bounds from +Z.
+    Auto,
+    /// Frame the scene's bounds from a direction: `yaw` degrees about +Y from +Z towards +X,
+    /// then `pitch` degrees up.
+    Orbit { yaw: f32, pitch: f32 },
+    /// The file's camera with this index.
+    Gltf(usize),
+}
+
+#[derive(Debug, Clone)]
+pub struct ShotSettings {
+    /// `None`: 512 pixels high, as wide as the camera's aspect ratio asks (square otherwise).
+    pub size: Option<(u32, u32)>,
+    pub camera: CameraChoice,
+    /// Overrides the camera's exposure.
+    pub exposure_ev100: Option<f32>,
+}
+
+impl Default for ShotSettings {
+    fn default() -> Self {
+        Self {
+            size: None,
+            camera: CameraChoice::Auto,
+            exposure_ev100: None,
+        }
+    }
+}
+
+/// Largest texture dimension wgpu guarantees on desktop GPUs (and lavapipe's limit).
+pub const MAX_SIZE: u32 = 16384;
+/// EV100 far outside any real scene (a moonless night is about −3, noon sun 15).
+pub const EV100_RANGE: std::ops::RangeInclusive<f32> = -30.0..=40.0;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ShotError {
+    #[error("--camera {index}: the scene has {count} camera(s){}", if *.count > 0 { format!(" (valid: 0..{})", .count - 1) } else { String::new() })]
+    NoSuchCamera { index: usize, count: usize },
+    #[error("--size {0}x{1}: each side must be between 1 and {MAX_SIZE}")]
+    Size(u32, u32),
+    #[error("--exposure {0}: must be a finite EV100 between {lo} and {hi}", lo = EV100_RANGE.start(), hi = EV100_RANGE.end())]
+    Exposure(f32),
+    #[error(transparent)]
+    Render(#[from] RendererError),
+}
+
+impl ShotSettings {
+    pub fn validate(&self) -> Result<(), ShotError> {
+        if let Some((w, h)) = self.size
+            && !((1..=MAX_SIZE).contains(&w) && (1..=MAX_SIZE).contains(&h))
+        {
+            return Err(ShotError::Size(w, h));
+        }
+        if let Some(ev) = self.exposure_ev100
+            && !(ev.is_finite() && EV100_RANGE.contains(&ev))
+        {
+            return Err(ShotError::Exposure(ev));
+        }
+        Ok(())
+    }
+}
+
+/// An app with the scene spawned and one active camera; returns it with the output size.
+pub fn stage_scene(
+    scene: &GltfScene,
+    settings: &ShotSettings,
+) -> Result<(App, (u32, u32)), ShotError> {
+    settings.validate()?;
+    let mut app = App::new();
+    app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+    app.insert_resource(Time::fixed_hz(60.0));
+    scene.spawn(&mut app.world);
+    // One update without a renderer: transforms propagate, nothing is drawn.
+    app.update();
+    let size = stage_camera(&mut app, settings)?;
+    Ok((app, size))
+}
+
+/// Chooses (or frames) the camera in an already-updated app; returns the output size.
+pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32), ShotError> {
+    let world = &mut app.world;
+    let default_height = 512;
+    let size = match settings.camera {
+        CameraChoice::Gltf(index) => {
+            let mut q = world.query::<(&mut Camera, &GltfCamera)>();
+            let count = q.iter(world).count();
+            let mut found = None;
+            for (mut cam, g) in q.iter_mut(world) {
+                cam.is_active = g.index == index;
+                if g.index == index {
+                    found = Some(cam.projection);
+                }
+            }
+            let projection = found.ok_or(ShotError::NoSuchCamera { index, count })?;
+            let aspect = match projection {
+                Projection::Perspective { aspect_ratio, .. } => aspect_ratio,
+                Projection::Orthographic { xmag, ymag, .. } => xmag.map(|x| x / ymag),
+            }
+            .filter(|a| a.is_finite() && *a > 0.0)
+            .unwrap_or(1.0);
+            settings.size.unwrap_or((
+                (default_height as f32 * aspect).round().max(1.0) as u32,
+                default_height,
+            ))
+        }
+        CameraChoice::Auto | CameraChoice::Orbit { .. } => {
+            let size = settings.size.unwrap_or((default_height, default_height));
+            let bounds = world_bounds(world);
+            let direction = match settings.camera {
+                CameraChoice::Orbit { yaw, pitch } => {
+                    let (yaw, pitch) = (yaw.to_radians(), pitch.to_radians());
+                    glam::Vec3::new(
+                        yaw.sin() * pitch.cos(),
+                        pitch.sin(),
+                        yaw.cos() * pitch.cos(),
+                    )
+                }
+                _ => glam::Vec3::Z,
+            };
+            let (camera, transform) = framing_camera_from(
+                &bounds,
+                direction,
+                45f32.to_radians(),
+                size.0 as f32 / size.1 as f32,
+            );
+            world.spawn((camera, transform));
+            size
+        }
+    };
+    if let Some(ev100) = settings.exposure_ev100 {
+        let mut q = world.query::<&mut Camera>();
+        for mut c in q.iter_mut(world) {
+            c.exposure = Exposure { ev100 };
+        }
+    }
+    Ok(size)
+}
+
+/// Renders `frames` fixed-step updates of a staged app and returns the last frame's RGBA8.
+pub fn render_frames(
+    app: &mut App,
+    renderer: Renderer,
+    size: (u32, u32),
+    frames: u32,
+) -> Result<Vec<u8>, ShotError> {
+    app.insert_resource(renderer);
+    app.insert_resource(RenderOutput::Headless {
+        width: size.0,
+        height: size.1,
+    });
+    for _ in 0..frames.max(1) {
+        app.update();
+    }
+    Ok(app
+        .world
+        .resource::<Renderer>()
+        .read_headless()
+        .map_err(RendererError::from)?)
+}

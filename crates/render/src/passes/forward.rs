@@ -1,0 +1,124 @@
+//! Forward pass: every batch as one instanced draw. Opaque and masked batches first (sorted by
+//! pipeline, material and mesh so state changes are minimal), then blended draws back to front.
+
+use penumbra_engine::Handle;
+use penumbra_engine::mesh::Mesh;
+
+use crate::pipelines::pipeline_cache::{PipelineCache, PipelineKey};
+use crate::prepare::materials::{MaterialKey, MaterialTable};
+use crate::prepare::mesh_pool::{MeshId, MeshPool};
+use crate::targets::FrameTargets;
+use crate::timing::GpuTimer;
+
+/// Instances `first..first + count` of `draw_slots`, drawn with one pipeline, material and mesh.
+#[derive(Debug, Clone, Copy)]
+pub struct Batch {
+    pub key: PipelineKey,
+    pub material: MaterialKey,
+    pub mesh: Handle<Mesh>,
+    pub mesh_id: MeshId,
+    pub first: u32,
+    pub count: u32,
+}
+
+#[derive(Debug, Default, Clone, Copy)]
+pub struct DrawCounts {
+    pub draw_calls: u32,
+    pub instances: u32,
+    pub primitives: u64,
+}
+
+pub struct ForwardInputs<'a> {
+    pub targets: &'a FrameTargets,
+    pub view_bind_group: &'a wgpu::BindGroup,
+    pub mesh_pool: &'a MeshPool,
+    pub materials: &'a MaterialTable,
+    pub clear_color: wgpu::Color,
+}
+
+pub fn encode(
+    encoder: &mut wgpu::CommandEncoder,
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    inputs: ForwardInputs,
+    batches: &[Batch],
+    timer: Option<&mut GpuTimer>,
+) -> DrawCounts {
+    let (color, resolve) = inputs.targets.color_attachment();
+    // Multisampled colour need not be stored once resolved.
+    let store = if resolve.is_some() {
+        wgpu::StoreOp::Discard
+    } else {
+        wgpu::StoreOp::Store
+    };
+    // Pipelines are created before the pass borrows the cache immutably.
+    for b in batches {
+        pipelines.forward(device, b.key);
+    }
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("forward"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: resolve,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(inputs.clear_color),
+                store,
+            },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: &inputs.targets.depth_view,
+            // Reverse-Z: the far plane is 0.
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(0.0),
+                store: wgpu::StoreOp::Discard,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: timer.and_then(|t| t.pass("forward")),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    let mut counts = DrawCounts::default();
+    if batches.is_empty() {
+        return counts;
+    }
+    pass.set_bind_group(0, inputs.view_bind_group, &[]);
+    pass.set_vertex_buffer(0, inputs.mesh_pool.vertex_buffer().slice(..));
+    pass.set_index_buffer(
+        inputs.mesh_pool.index_buffer().slice(..),
+        wgpu::IndexFormat::Uint32,
+    );
+    let mut bound_key = None;
+    let mut bound_material = None;
+    for b in batches {
+        let (Some(entry), Some(material)) = (
+            inputs.mesh_pool.entry(b.mesh_id),
+            inputs.materials.get(&b.material),
+        ) else {
+            continue;
+        };
+        if bound_key != Some(b.key) {
+            pass.set_pipeline(pipelines.forward_cached(&b.key).expect("created above"));
+            bound_key = Some(b.key);
+        }
+        if bound_material != Some(b.material) {
+            pass.set_bind_group(1, &material.bind_group, &[]);
+            bound_material = Some(b.material);
+        }
+        let instances = b.first..b.first + b.count;
+        match &entry.indices {
+            Some(r) => pass.draw_indexed(r.clone(), entry.vertices.start as i32, instances),
+            None => pass.draw(entry.vertices.clone(), instances),
+        }
+        counts.draw_calls += 1;
+        counts.instances += b.count;
+        let per_primitive = match b.key.topology {
+            crate::pipelines::pipeline_cache::TopologyKey::Triangles => 3,
+            crate::pipelines::pipeline_cache::TopologyKey::Lines => 2,
+            crate::pipelines::pipeline_cache::TopologyKey::Points => 1,
+        };
+        counts.primitives += (entry.element_count() / per_primitive) as u64 * b.count as u64;
+    }
+    counts
+}

@@ -1,0 +1,3 @@
+//! Passes: each encodes GPU work from what prepare made. Nothing here reads the ECS.
+pub mod forward;
+pub mod tonemap;

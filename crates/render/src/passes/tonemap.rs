@@ -1,0 +1,37 @@
+//! Tonemap pass: one full-screen triangle from the resolved HDR target into the output.
+
+use crate::pipelines::pipeline_cache::{PipelineCache, Tonemapper};
+use crate::targets::FrameTargets;
+use crate::timing::GpuTimer;
+
+pub fn encode(
+    encoder: &mut wgpu::CommandEncoder,
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    targets: &FrameTargets,
+    tonemapper: Tonemapper,
+    output: &wgpu::TextureView,
+    output_format: wgpu::TextureFormat,
+    timer: Option<&mut GpuTimer>,
+) {
+    let pipeline = pipelines.tonemap(device, tonemapper, output_format);
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("tonemap"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: output,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: timer.and_then(|t| t.pass("tonemap")),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, &targets.tonemap_bind_group, &[]);
+    pass.draw(0..3, 0..1);
+}

@@ -1,0 +1,157 @@
+//! The instance buffer: one 64-byte record per drawable entity (world transform, material slot),
+//! retained across frames. Each entity owns a slot for its lifetime; only entities extraction
+//! reports as changed are re-packed, and only the span of slots that changed is uploaded.
+
+use std::collections::HashMap;
+
+use bevy_ecs::entity::Entity;
+use bytemuck::{Pod, Zeroable};
+use glam::Affine3A;
+
+use super::buffer::GrowableBuffer;
+
+/// Mirrors `struct Instance` in `shaders/forward.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuInstance {
+    /// Rows of the 3×4 affine `world_from_local`, translation in the last column.
+    pub rows: [[f32; 4]; 3],
+    pub material: u32,
+    pub flags: u32,
+    pub _pad: [u32; 2],
+}
+
+impl GpuInstance {
+    pub fn new(world_from_local: &Affine3A, material: u32) -> Self {
+        let m = world_from_local.matrix3;
+        let t = world_from_local.translation;
+        Self {
+            rows: [
+                [m.x_axis.x, m.y_axis.x, m.z_axis.x, t.x],
+                [m.x_axis.y, m.y_axis.y, m.z_axis.y, t.y],
+                [m.x_axis.z, m.y_axis.z, m.z_axis.z, t.z],
+            ],
+            material,
+            flags: 0,
+            _pad: [0; 2],
+        }
+    }
+}
+
+pub struct InstanceBuffer {
+    cpu: Vec<GpuInstance>,
+    buffer: GrowableBuffer,
+    slots: HashMap<Entity, u32>,
+    free: Vec<u32>,
+    dirty: Option<(u32, u32)>,
+    /// Bytes written by the last `upload` (0 when nothing changed).
+    pub last_upload_bytes: u64,
+}
+
+impl InstanceBuffer {
+    pub fn new(device: &wgpu::Device) -> Self {
+        Self {
+            cpu: Vec::new(),
+            buffer: GrowableBuffer::new(
+                device,
+                "instances",
+                wgpu::BufferUsages::STORAGE,
+                1024 * 64,
+            ),
+            slots: HashMap::new(),
+            free: Vec::new(),
+            dirty: None,
+            last_upload_bytes: 0,
+        }
+    }
+
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        self.buffer.buffer()
+    }
+
+    pub fn slot(&self, entity: Entity) -> Option<u32> {
+        self.slots.get(&entity).copied()
+    }
+
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    fn mark(&mut self, slot: u32) {
+        self.dirty = Some(
+            self.dirty
+                .map_or((slot, slot), |(a, b)| (a.min(slot), b.max(slot))),
+        );
+    }
+
+    /// Writes the entity's record, allocating a slot on first sight. Returns the slot.
+    pub fn set(&mut self, entity: Entity, instance: GpuInstance) -> u32 {
+        let slot = match self.slots.get(&entity) {
+            Some(&s) => s,
+            None => {
+                let s = self.free.pop().unwrap_or_else(|| {
+                    self.cpu.push(GpuInstance::zeroed());
+                    self.cpu.len() as u32 - 1
+                });
+                self.slots.insert(entity, s);
+                s
+            }
+        };
+        self.cpu[slot as usize] = instance;
+        self.mark(slot);
+        slot
+    }
+
+    pub fn remove(&mut self, entity: Entity) {
+        if let Some(s) = self.slots.remove(&entity) {
+            self.free.push(s);
+        }
+    }
+
+    /// Uploads the changed span; returns true when the buffer was replaced (bind groups stale).
+    pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> bool {
+        self.last_upload_bytes = 0;
+        let size = std::mem::size_of::<GpuInstance>() as u64;
+        let grew = self.buffer.reserve(device, self.cpu.len() as u64 * size);
+        let span = if grew {
+            (!self.cpu.is_empty()).then(|| (0, self.cpu.len() as u32 - 1))
+        } else {
+            self.dirty
+        };
+        if let Some((a, b)) = span {
+            let bytes: &[u8] = bytemuck::cast_slice(&self.cpu[a as usize..=b as usize]);
+            queue.write_buffer(self.buffer.buffer(), a as u64 * size, bytes);
+            self.last_upload_bytes = bytes.len() as u64;
+        }
+        self.dirty = None;
+        grew
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Quat, Vec3};
+
+    #[test]
+    fn rows_reproduce_the_affine_transform() {
+        let a = Affine3A::from_scale_rotation_translation(
+            Vec3::new(1.0, 2.0, 3.0),
+            Quat::from_rotation_z(0.3),
+            Vec3::new(4.0, 5.0, 6.0),
+        );
+        let g = GpuInstance::new(&a, 0);
+        let p = Vec3::new(0.5, -1.0, 2.0);
+        let by_rows = Vec3::new(
+            Vec3::from_slice(&g.rows[0][..3]).dot(p) + g.rows[0][3],
+            Vec3::from_slice(&g.rows[1][..3]).dot(p) + g.rows[1][3],
+            Vec3::from_slice(&g.rows[2][..3]).dot(p) + g.rows[2][3],
+        );
+        assert!((by_rows - a.transform_point3(p)).length() < 1e-5);
+        assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
+    }
+}

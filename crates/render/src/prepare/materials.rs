@@ -1,0 +1,267 @@
+//! The material table: every material in use packed into one storage buffer (indexed per
+//! instance), plus one bind group per material holding its five textures and samplers.
+//!
+//! Each frame, prepare visits the materials that draws use; a material is re-packed and its bind
+//! group rebuilt only when its version changed or one of its images was (re)uploaded. Missing
+//! textures bind the null texture, so every draw has a complete bind group.
+
+use std::collections::HashMap;
+
+use bytemuck::{Pod, Zeroable};
+use penumbra_engine::Handle;
+use penumbra_engine::material::{AlphaMode, StandardMaterial};
+
+use super::buffer::GrowableBuffer;
+use super::textures::TextureCache;
+use crate::world::RenderScene;
+
+pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
+pub const FLAG_DOUBLE_SIDED: u32 = 2;
+
+/// Mirrors `struct Material` in `shaders/forward.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 4],
+    pub emissive: [f32; 3],
+    pub alpha_cutoff: f32,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub normal_scale: f32,
+    pub occlusion_strength: f32,
+    pub flags: u32,
+    pub _pad: [u32; 3],
+    pub uv: [[f32; 4]; 10],
+}
+
+/// Which material a draw uses: `None` is the glTF default material.
+pub type MaterialKey = Option<Handle<StandardMaterial>>;
+
+/// What of a material selects the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum AlphaKey {
+    Opaque,
+    Mask,
+    Blend,
+}
+
+pub struct MaterialEntry {
+    pub slot: u32,
+    version: u64,
+    pub bind_group: wgpu::BindGroup,
+    pub alpha: AlphaKey,
+    pub unlit: bool,
+    pub double_sided: bool,
+}
+
+pub struct MaterialTable {
+    cpu: Vec<GpuMaterial>,
+    buffer: GrowableBuffer,
+    entries: HashMap<MaterialKey, MaterialEntry>,
+    free_slots: Vec<u32>,
+    /// The default material's "asset" (it has none; version 0 forever).
+    default_material: StandardMaterial,
+    dirty: bool,
+}
+
+impl MaterialTable {
+    pub fn new(device: &wgpu::Device) -> Self {
+        Self {
+            cpu: Vec::new(),
+            buffer: GrowableBuffer::new(
+                device,
+                "material table",
+                wgpu::BufferUsages::STORAGE,
+                64 * std::mem::size_of::<GpuMaterial>() as u64,
+            ),
+            entries: HashMap::new(),
+            free_slots: Vec::new(),
+            default_material: StandardMaterial::default(),
+            dirty: false,
+        }
+    }
+
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        self.buffer.buffer()
+    }
+
+    pub fn get(&self, key: &MaterialKey) -> Option<&MaterialEntry> {
+        self.entries.get(key)
+    }
+
+    /// Makes `key` ready to draw. Returns false when its asset is missing (the draw is skipped
+    /// with a warning by the caller).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        textures: &mut TextureCache,
+        layout: &wgpu::BindGroupLayout,
+        scene: &RenderScene,
+        key: MaterialKey,
+    ) -> bool {
+        let (material, version) = match key {
+            None => (&self.default_material, 0),
+            Some(h) => match scene.materials.get(&h) {
+                Some(s) => (s.data.as_ref(), s.version),
+                None => return false,
+            },
+        };
+        let material = material.clone();
+        // Resolve textures first: an image that changed forces a new bind group even when the
+        // material itself did not.
+        let srgb_slots = [true, false, false, false, true];
+        let mut views = Vec::with_capacity(5);
+        let mut any_uploaded = false;
+        for (slot, tex) in material.textures().into_iter().enumerate() {
+            let image = tex.and_then(|t| scene.images.get(&t.image).map(|s| (t, s)));
+            match image {
+                Some((t, snap)) => {
+                    let (view, uploaded) = textures.get_or_upload(
+                        device,
+                        queue,
+                        t.image,
+                        srgb_slots[slot],
+                        snap.version,
+                        &snap.data,
+                    );
+                    any_uploaded |= uploaded;
+                    views.push((view.clone(), Some(t.sampler)));
+                }
+                None => {
+                    if let Some(t) = tex {
+                        tracing::warn!(
+                            "material texture refers to a missing image {:?}; using the null texture",
+                            t.image
+                        );
+                    }
+                    views.push((textures.null_view().clone(), None));
+                }
+            }
+        }
+        if let Some(e) = self.entries.get(&key)
+            && e.version == version
+            && !any_uploaded
+        {
+            return true;
+        }
+
+        let slot = match self.entries.get(&key) {
+            Some(e) => e.slot,
+            None => self.free_slots.pop().unwrap_or_else(|| {
+                self.cpu.push(GpuMaterial::zeroed());
+                self.cpu.len() as u32 - 1
+            }),
+        };
+        self.cpu[slot as usize] = pack(&material);
+        self.dirty = true;
+
+        let samplers: Vec<wgpu::Sampler> = views
+            .iter()
+            .map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone())
+            .collect();
+        let mut entries = Vec::with_capacity(10);
+        for (i, ((view, _), sampler)) in views.iter().zip(&samplers).enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 2 * i as u32,
+                resource: wgpu::BindingResource::TextureView(view),
+            });
+            entries.push(wgpu::BindGroupEntry {
+                binding: 2 * i as u32 + 1,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("material textures"),
+            layout,
+            entries: &entries,
+        });
+        let alpha = match material.alpha_mode {
+            AlphaMode::Opaque => AlphaKey::Opaque,
+            AlphaMode::Mask(_) => AlphaKey::Mask,
+            AlphaMode::Blend => AlphaKey::Blend,
+        };
+        self.entries.insert(
+            key,
+            MaterialEntry {
+                slot,
+                version,
+                bind_group,
+                alpha,
+                unlit: material.unlit,
+                double_sided: material.double_sided,
+            },
+        );
+        true
+    }
+
+    /// Frees slots of materials whose asset is gone.
+    pub fn retain(&mut self, scene: &RenderScene) {
+        let free = &mut self.free_slots;
+        self.entries.retain(|k, e| {
+            let live = k.is_none_or(|h| scene.materials.contains_key(&h));
+            if !live {
+                free.push(e.slot);
+            }
+            live
+        });
+    }
+
+    /// Uploads the packed table if anything changed; returns true if the buffer was replaced.
+    pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> bool {
+        if !self.dirty {
+            return false;
+        }
+        self.dirty = false;
+        let bytes: &[u8] = bytemuck::cast_slice(&self.cpu);
+        let grew = self.buffer.reserve(device, bytes.len() as u64);
+        queue.write_buffer(self.buffer.buffer(), 0, bytes);
+        grew
+    }
+}
+
+fn pack(m: &StandardMaterial) -> GpuMaterial {
+    let mut uv = [[0.0; 4]; 10];
+    for (slot, tex) in m.textures().into_iter().enumerate() {
+        let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| {
+            (t.transform.matrix(), t.uv_set)
+        });
+        // Rows of the 2×3 affine part: uv' = (row0 · (u, v, 1), row1 · (u, v, 1)).
+        uv[2 * slot] = [mat.x_axis.x, mat.y_axis.x, mat.z_axis.x, set as f32];
+        uv[2 * slot + 1] = [mat.x_axis.y, mat.y_axis.y, mat.z_axis.y, 0.0];
+    }
+    let mut flags = 0;
+    if m.normal_texture.is_some() {
+        flags |= FLAG_HAS_NORMAL_MAP;
+    }
+    if m.double_sided {
+        flags |= FLAG_DOUBLE_SIDED;
+    }
+    let emissive = m.emissive * m.emissive_strength;
+    GpuMaterial {
+        base_color: m.base_color.to_array(),
+        emissive: emissive.to_array(),
+        alpha_cutoff: match m.alpha_mode {
+            AlphaMode::Mask(c) => c,
+            _ => 0.5,
+        },
+        metallic: m.metallic,
+        roughness: m.roughness,
+        normal_scale: m.normal_scale,
+        occlusion_strength: m.occlusion_strength,
+        flags,
+        _pad: [0; 3],
+        uv,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_material_matches_the_wgsl_layout() {
+        // 4 × vec4 of scalars + 10 × vec4 of UV rows.
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 14 * 16);
+    }
+}

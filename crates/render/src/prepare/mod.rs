@@ -1,0 +1,8 @@
+//! Prepare: CPU to GPU uploads, one owner module per resource kind. Each owner keeps what it
+//! uploaded and re-uploads only what extraction reports as changed.
+pub mod buffer;
+pub mod instances;
+pub mod lights;
+pub mod materials;
+pub mod mesh_pool;
+pub mod textures;

@@ -1,0 +1,104 @@
+//! Reading textures back to the CPU: the tonemapped output (for screenshots) and the linear HDR
+//! target (for tests that check radiance before tonemapping). Rows are copied at wgpu's 256-byte
+//! alignment and unpadded here.
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReadbackError {
+    #[error("mapping the readback buffer failed: {0}")]
+    Map(String),
+    #[error("the GPU did not finish: {0}")]
+    Poll(String),
+}
+
+/// Copies a whole single-sampled 2D texture with `bytes_per_pixel` and returns tightly packed rows.
+pub fn read_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, ReadbackError> {
+    let (w, h) = (texture.width(), texture.height());
+    let unpadded = w * bytes_per_pixel;
+    let padded = unpadded.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: padded as u64 * h as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("readback"),
+    });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+    );
+    queue.submit([encoder.finish()]);
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| ReadbackError::Poll(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| ReadbackError::Map(e.to_string()))?
+        .map_err(|e| ReadbackError::Map(e.to_string()))?;
+    let data = slice
+        .get_mapped_range()
+        .map_err(|e| ReadbackError::Map(format!("{e:?}")))?;
+    let mut out = Vec::with_capacity((unpadded * h) as usize);
+    for row in data.chunks_exact(padded as usize) {
+        out.extend_from_slice(&row[..unpadded as usize]);
+    }
+    drop(data);
+    buffer.unmap();
+    Ok(out)
+}
+
+/// IEEE 754 binary16 to f32 (handles subnormals, infinities and NaN).
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = ((h >> 15) as u32) << 31;
+    let exp = ((h >> 10) & 0x1f) as u32;
+    let mant = (h & 0x3ff) as u32;
+    let bits = match (exp, mant) {
+        (0, 0) => sign,
+        (0, m) => {
+            // Subnormal: value = m · 2^−24.
+            let v = m as f32 * (1.0 / 16_777_216.0);
+            return if sign != 0 { -v } else { v };
+        }
+        (0x1f, 0) => sign | 0x7f80_0000,
+        (0x1f, m) => sign | 0x7f80_0000 | (m << 13),
+        (e, m) => sign | ((e + 112) << 23) | (m << 13),
+    };
+    f32::from_bits(bits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn f16_conversion_matches_known_values() {
+        assert_eq!(f16_to_f32(0x3c00), 1.0);
+        assert_eq!(f16_to_f32(0xc000), -2.0);
+        assert_eq!(f16_to_f32(0x7bff), 65504.0);
+        assert_eq!(f16_to_f32(0x0001), 2f32.powi(-24));
+        assert!(f16_to_f32(0x7c00).is_infinite());
+        assert!(f16_to_f32(0x7e00).is_nan());
+    }
+}

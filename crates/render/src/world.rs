@@ -1,0 +1,87 @@
+//! `RenderScene`: everything the renderer needs from the main world, as plain data. Extraction
+//! writes it (and is the only code that reads the ECS); prepare and the passes read it.
+//!
+//! Draw items are retained across frames, keyed by entity: extraction touches only entities
+//! whose transform, mesh, material or visibility changed, and lists what it touched in
+//! `changed_draws` / `removed_draws` so that prepare uploads exactly that. Assets are shared
+//! `Arc` snapshots stamped with the version they had when extracted.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use bevy_ecs::entity::Entity;
+use bevy_ecs::resource::Resource;
+use glam::{Affine3A, Vec3};
+use penumbra_engine::Handle;
+use penumbra_engine::components::Projection;
+use penumbra_engine::image::Image;
+use penumbra_engine::material::StandardMaterial;
+use penumbra_engine::mesh::Mesh;
+
+/// The camera the frame is rendered from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExtractedView {
+    /// Camera placement; scale is ignored.
+    pub world_from_view: Affine3A,
+    pub projection: Projection,
+    /// Linear multiplier applied to radiance before tonemapping.
+    pub exposure: f32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrawItem {
+    pub world_from_local: Affine3A,
+    pub mesh: Handle<Mesh>,
+    /// `None` draws with the glTF default material.
+    pub material: Option<Handle<StandardMaterial>>,
+    pub visible: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LightKind {
+    Directional,
+    Point,
+    Spot {
+        inner_cone_angle: f32,
+        outer_cone_angle: f32,
+    },
+    Ambient,
+}
+
+/// One light in world space with its intensity folded into `color` (cd, lux or cd/m²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExtractedLight {
+    pub kind: LightKind,
+    pub color: Vec3,
+    pub position: Vec3,
+    /// Direction the light travels (unit), for directional and spot lights.
+    pub direction: Vec3,
+    /// `None`: unbounded (inverse-square only).
+    pub range: Option<f32>,
+}
+
+/// An asset as of the version extraction saw.
+#[derive(Debug, Clone)]
+pub struct Snapshot<T> {
+    pub version: u64,
+    pub data: Arc<T>,
+}
+
+#[derive(Resource, Default)]
+pub struct RenderScene {
+    /// Incremented by every extraction. A renderer that did not see the previous one (attached
+    /// late, or skipped a frame) cannot trust the change lists and resynchronises from `draws`.
+    pub frame: u64,
+    pub view: Option<ExtractedView>,
+    pub draws: HashMap<Entity, DrawItem>,
+    /// Entities inserted or changed in `draws` this frame.
+    pub changed_draws: Vec<Entity>,
+    /// Entities removed from `draws` this frame.
+    pub removed_draws: Vec<Entity>,
+    pub lights: Vec<ExtractedLight>,
+    /// True when the scene has no lights and `lights` holds the default key + ambient pair.
+    pub default_lighting: bool,
+    pub meshes: HashMap<Handle<Mesh>, Snapshot<Mesh>>,
+    pub materials: HashMap<Handle<StandardMaterial>, Snapshot<StandardMaterial>>,
+    pub images: HashMap<Handle<Image>, Snapshot<Image>>,
+}

@@ -1,0 +1,165 @@
+//! Command-line arguments. Values are parsed here and range-checked where they are used, so
+//! every out-of-range setting is reported with the flag's name.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use penumbra_render::Tonemapper;
+use penumbra_render::headless::CameraChoice;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "penumbra",
+    version,
+    about = "A real-time glTF renderer and viewer"
+)]
+pub struct Cli {
+    /// Log progress (info level; RUST_LOG overrides).
+    #[arg(short, long, global = true)]
+    pub verbose: bool,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Open a window on a scene (the embedded default scene without one).
+    View(ViewArgs),
+    /// Render a scene headless to a PNG.
+    Render(RenderArgs),
+    /// Measure CPU and GPU frame times and load-to-first-frame.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Which scene of the file (default: the file's default scene).
+    #[arg(long = "scene", value_name = "INDEX")]
+    pub scene_index: Option<usize>,
+    /// Let relative URIs in the file reach outside its folder.
+    #[arg(long)]
+    pub allow_outside_folder: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct LookArgs {
+    #[arg(long, value_enum, default_value_t = TonemapArg::Neutral)]
+    pub tonemap: TonemapArg,
+    /// MSAA samples (1 or 4).
+    #[arg(long, default_value_t = 4)]
+    pub msaa: u32,
+    /// Exposure as EV100 (default: the camera's, EV100 −0.263, which maps radiance 1 to 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub exposure: Option<f32>,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// A .gltf or .glb file.
+    #[arg(value_name = "SCENE")]
+    pub path: PathBuf,
+    /// Output PNG.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// WIDTHxHEIGHT (default 512 high, camera's aspect).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// `auto` frames the scene from the front (+Z); `orbit:YAW:PITCH` frames it from that
+    /// direction (degrees); N uses the file's camera N.
+    #[arg(long, default_value = "auto", value_parser = parse_camera)]
+    pub camera: CameraChoice,
+    /// Fixed-step (60 Hz) frames to run before the screenshot.
+    #[arg(long, default_value_t = 1)]
+    pub frames: u32,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// A .gltf or .glb file (default: the embedded default scene).
+    #[arg(value_name = "SCENE")]
+    pub path: Option<PathBuf>,
+    #[arg(long, default_value = "auto", value_parser = parse_camera)]
+    pub camera: CameraChoice,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+    /// Present without waiting for vertical sync.
+    #[arg(long)]
+    pub no_vsync: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// A .gltf or .glb file (default: the embedded default scene).
+    #[arg(value_name = "SCENE")]
+    pub path: Option<PathBuf>,
+    #[arg(long, value_parser = parse_size, default_value = "1920x1080")]
+    pub size: (u32, u32),
+    /// Timed frames (after warm-up frames that are not counted).
+    #[arg(long, default_value_t = 60)]
+    pub frames: u32,
+    #[arg(long, default_value_t = 5)]
+    pub warmup: u32,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TonemapArg {
+    Neutral,
+    Aces,
+    None,
+}
+
+impl From<TonemapArg> for Tonemapper {
+    fn from(t: TonemapArg) -> Self {
+        match t {
+            TonemapArg::Neutral => Tonemapper::Neutral,
+            TonemapArg::Aces => Tonemapper::Aces,
+            TonemapArg::None => Tonemapper::None,
+        }
+    }
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("{s:?} is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{v:?} is not a whole number"))
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+fn parse_camera(s: &str) -> Result<CameraChoice, String> {
+    if s == "auto" {
+        return Ok(CameraChoice::Auto);
+    }
+    if let Some(rest) = s.strip_prefix("orbit:") {
+        let (yaw, pitch) = rest
+            .split_once(':')
+            .ok_or_else(|| format!("{s:?}: expected orbit:YAW:PITCH (degrees)"))?;
+        let deg = |v: &str| {
+            v.parse::<f32>()
+                .ok()
+                .filter(|d| d.is_finite() && d.abs() <= 360.0)
+                .ok_or_else(|| format!("{v:?} is not an angle in degrees"))
+        };
+        return Ok(CameraChoice::Orbit {
+            yaw: deg(yaw)?,
+            pitch: deg(pitch)?.clamp(-89.0, 89.0),
+        });
+    }
+    s.parse()
+        .map(CameraChoice::Gltf)
+        .map_err(|_| format!("{s:?} is neither `auto`, `orbit:YAW:PITCH` nor a camera index"))
+}

@@ -1,0 +1,28 @@
+//! Scene sources for the subcommands: a file from the command line, or the embedded default
+//! scene (DamagedHelmet, CC-BY 4.0; see assets/README.md), compiled into the binary.
+
+use std::path::{Path, PathBuf};
+
+use penumbra_engine::import::{GltfScene, ImportError, ImportOptions};
+
+use crate::cli::SceneArgs;
+
+const DEFAULT_SCENE: &[u8] = include_bytes!("../../../assets/DamagedHelmet.glb");
+const DEFAULT_SCENE_NAME: &str = "<embedded>/DamagedHelmet.glb";
+
+pub fn options(args: &SceneArgs) -> ImportOptions {
+    ImportOptions {
+        scene: args.scene_index,
+        allow_outside_folder: args.allow_outside_folder,
+        ..Default::default()
+    }
+}
+
+/// Loads `path`, or the embedded default scene when `None`.
+pub fn load(path: Option<&Path>, args: &SceneArgs) -> Result<GltfScene, ImportError> {
+    let opts = options(args);
+    match path {
+        Some(p) => GltfScene::load(p, &opts),
+        None => GltfScene::from_bytes(DEFAULT_SCENE, &PathBuf::from(DEFAULT_SCENE_NAME), &opts),
+    }
+}

@@ -1,0 +1,84 @@
+// Output: linear HDR scene colour (already exposed) -> tonemapped display colour. The sRGB encode
+// happens exactly once: by the hardware when the output format is *Srgb, else here.
+
+override TONEMAPPER: u32 = 0u; // 0 Khronos PBR Neutral, 1 ACES (Hill fit), 2 none (clamp)
+override ENCODE_SRGB: bool = false;
+
+@group(0) @binding(0) var hdr: texture_2d<f32>;
+
+struct VertexOut {
+    @builtin(position) position: vec4<f32>,
+};
+
+// One triangle covering the screen: no vertex buffer, no diagonal seam.
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    var out: VertexOut;
+    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    return out;
+}
+
+// Khronos PBR Neutral (Khronos 3D Commerce working group, 2024): hue-preserving, leaves colours
+// below 0.76 untouched so that base colours reproduce as authored.
+fn pbr_neutral(color_in: vec3<f32>) -> vec3<f32> {
+    let start_compression = 0.8 - 0.04;
+    let desaturation = 0.15;
+    var color = color_in;
+    let x = min(color.r, min(color.g, color.b));
+    let offset = select(0.04, x - 6.25 * x * x, x < 0.08);
+    color -= offset;
+    let peak = max(color.r, max(color.g, color.b));
+    if peak < start_compression {
+        return color;
+    }
+    let d = 1.0 - start_compression;
+    let new_peak = 1.0 - d * d / (peak + d - start_compression);
+    color *= new_peak / peak;
+    let g = 1.0 - 1.0 / (desaturation * (peak - new_peak) + 1.0);
+    return mix(color, vec3<f32>(new_peak), g);
+}
+
+// ACES RRT+ODT fit by Stephen Hill (BakingLab, MIT licence), with the sRGB <-> ACEScg matrices.
+fn rrt_and_odt_fit(v: vec3<f32>) -> vec3<f32> {
+    let a = v * (v + 0.0245786) - 0.000090537;
+    let b = v * (0.983729 * v + 0.4329510) + 0.238081;
+    return a / b;
+}
+
+fn aces_hill(color: vec3<f32>) -> vec3<f32> {
+    // Column-major: these are the transposes of Hill's row-major HLSL matrices.
+    let aces_input = mat3x3<f32>(
+        vec3<f32>(0.59719, 0.07600, 0.02840),
+        vec3<f32>(0.35458, 0.90834, 0.13383),
+        vec3<f32>(0.04823, 0.01566, 0.83777),
+    );
+    let aces_output = mat3x3<f32>(
+        vec3<f32>(1.60475, -0.10208, -0.00327),
+        vec3<f32>(-0.53108, 1.10813, -0.07276),
+        vec3<f32>(-0.07367, -0.00605, 1.07602),
+    );
+    return clamp(aces_output * rrt_and_odt_fit(aces_input * color), vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
+fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
+    let lo = c * 12.92;
+    let hi = 1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, c <= vec3<f32>(0.0031308));
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    let c = max(textureLoad(hdr, vec2<i32>(in.position.xy), 0).rgb, vec3<f32>(0.0));
+    var mapped: vec3<f32>;
+    switch TONEMAPPER {
+        case 0u: { mapped = pbr_neutral(c); }
+        case 1u: { mapped = aces_hill(c); }
+        default: { mapped = c; }
+    }
+    mapped = clamp(mapped, vec3<f32>(0.0), vec3<f32>(1.0));
+    if ENCODE_SRGB {
+        mapped = srgb_encode(mapped);
+    }
+    return vec4<f32>(mapped, 1.0);
+}
