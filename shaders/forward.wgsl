@@ -225,7 +225,11 @@ fn env_brdf_approx(n_dot_v: f32, perceptual_roughness: f32) -> vec2<f32> {
 }
 
 struct Surface {
+    base_color: vec3<f32>,
+    metallic: f32,
+    // base_color · (1 − metallic): the Lambertian lobe of the dielectric half of glTF's mix.
     diffuse_color: vec3<f32>,
+    // Specular reflectance at normal incidence, mixed: 0.04 (dielectric) to base_color (metal).
     f0: vec3<f32>,
     perceptual_roughness: f32,
     alpha: f32,
@@ -235,23 +239,36 @@ struct Surface {
     occlusion: f32,
 };
 
-// Light from a uniform environment of radiance `l`, energy-conserving with multiple scattering
+// Dielectric reflectance at normal incidence, glTF 2.0 (IOR 1.5).
+const DIELECTRIC_F0: vec3<f32> = vec3<f32>(0.04);
+
+// Directional albedo of the specular lobe, single plus multiple scattering: E = FssEss + Fms·Ems
 // (Fdez-Agüera 2019, "A Multiple-Scattering Microfacet Model for Real-Time Image-based
-// Lighting"): a white surface returns exactly `l` whatever its roughness or metalness, which the
+// Lighting"), with (A, B) = `env_brdf_approx`. For f0 = 1 it is exactly 1.
+fn specular_albedo(f0: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
+    let fss_ess = f0 * ab.x + ab.y;
+    let ems = 1.0 - (ab.x + ab.y);
+    let f_avg = f0 + (vec3<f32>(1.0) - f0) / 21.0;
+    return fss_ess + ems * fss_ess * f_avg / (vec3<f32>(1.0) - ems * f_avg);
+}
+
+// Light from a uniform environment of radiance `l`. As glTF defines the material, this is
+// mix(dielectric, metal, metallic): the dielectric's diffuse lobe gets what its specular lobe
+// leaves, so a white surface returns exactly `l` whatever its roughness or metalness, which the
 // white-furnace test checks.
 fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let ab = env_brdf_approx(s.n_dot_v, s.perceptual_roughness);
-    let fss_ess = s.f0 * ab.x + ab.y;
-    let ess = ab.x + ab.y;
-    let ems = 1.0 - ess;
-    let f_avg = s.f0 + (vec3<f32>(1.0) - s.f0) / 21.0;
-    let fms_ems = ems * fss_ess * f_avg / (vec3<f32>(1.0) - ems * f_avg);
-    let k_d = s.diffuse_color * (vec3<f32>(1.0) - fss_ess - fms_ems);
-    return (fss_ess + fms_ems + k_d) * l * s.occlusion;
+    let dielectric_specular = specular_albedo(DIELECTRIC_F0, ab);
+    let metal_specular = specular_albedo(s.base_color, ab);
+    let specular = mix(dielectric_specular, metal_specular, s.metallic);
+    let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
+    return (specular + diffuse) * l * s.occlusion;
 }
 
 // Radiance reflected towards the eye from light arriving along `l` with illuminance `e`
-// (measured perpendicular to the light): BRDF · E · N·L.
+// (measured perpendicular to the light): BRDF · E · N·L, with glTF's BRDF (spec appendix B):
+// mix(dielectric, metal, metallic), where the dielectric's diffuse lobe is weighted by
+// 1 − F(0.04). Schlick's F is linear in f0, so the specular lobes combine into F(f0 mixed).
 fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(s.n, l);
     if n_dot_l <= 0.0 {
@@ -262,7 +279,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let f = f_schlick(s.f0, v_dot_h);
     let spec = f * (d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
-    let diffuse = (vec3<f32>(1.0) - f) * s.diffuse_color / PI;
+    let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
 }
 
@@ -358,8 +375,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
         let metallic = clamp(mat.metallic * mr.b, 0.0, 1.0);
         let perceptual_roughness = clamp(mat.roughness * mr.g, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
         var s: Surface;
+        s.base_color = base.rgb;
+        s.metallic = metallic;
         s.diffuse_color = base.rgb * (1.0 - metallic);
-        s.f0 = mix(vec3<f32>(0.04), base.rgb, metallic);
+        s.f0 = mix(DIELECTRIC_F0, base.rgb, metallic);
         s.perceptual_roughness = perceptual_roughness;
         s.alpha = perceptual_roughness * perceptual_roughness;
         s.n = n;

@@ -28,10 +28,7 @@ fn triangle_json(buffer_uri: &str, extra_root: &str) -> String {
 }
 
 fn triangle_bin() -> Vec<u8> {
-    [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-        .iter()
-        .flat_map(|f| f.to_le_bytes())
-        .collect()
+    [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).collect()
 }
 
 fn write_scene(name: &str, json: &str, with_bin: bool) -> PathBuf {
@@ -49,22 +46,11 @@ fn load_expecting_error(path: &Path) -> penumbra::engine::import::ImportError {
     let mut app = App::new();
     app.add_plugins(CorePlugin);
     let before = app.world.entities().count_spawned();
-    let err =
-        load_scene(&mut app.world, path, &ImportOptions::default()).expect_err("load must fail");
-    assert_eq!(
-        app.world.entities().count_spawned(),
-        before,
-        "a failed load left entities behind"
-    );
-    assert!(
-        app.world.resource::<Assets<Mesh>>().is_empty(),
-        "a failed load left meshes behind"
-    );
+    let err = load_scene(&mut app.world, path, &ImportOptions::default()).expect_err("load must fail");
+    assert_eq!(app.world.entities().count_spawned(), before, "a failed load left entities behind");
+    assert!(app.world.resource::<Assets<Mesh>>().is_empty(), "a failed load left meshes behind");
     let msg = err.to_string();
-    assert!(
-        msg.starts_with(&path.display().to_string()),
-        "error must name the file: {msg}"
-    );
+    assert!(msg.starts_with(&path.display().to_string()), "error must name the file: {msg}");
     err
 }
 
@@ -89,11 +75,7 @@ fn truncated_glb_is_malformed() {
 
 #[test]
 fn bad_json_is_malformed() {
-    let path = write_scene(
-        "badjson",
-        r#"{"asset": {"version": "2.0"}, "nodes": [ {"mesh": 0 }"#,
-        false,
-    );
+    let path = write_scene("badjson", r#"{"asset": {"version": "2.0"}, "nodes": [ {"mesh": 0 }"#, false);
     let err = load_expecting_error(&path);
     assert!(matches!(err.kind, ImportErrorKind::Malformed(_)), "{err}");
 }
@@ -102,10 +84,7 @@ fn bad_json_is_malformed() {
 fn missing_buffer_file_names_the_buffer() {
     let path = write_scene("missingbuf", &triangle_json("nowhere.bin", ""), false);
     let err = load_expecting_error(&path);
-    assert!(
-        matches!(err.kind, ImportErrorKind::Buffer { index: 0, .. }),
-        "{err}"
-    );
+    assert!(matches!(err.kind, ImportErrorKind::Buffer { index: 0, .. }), "{err}");
     assert!(err.to_string().contains("nowhere.bin"), "{err}");
 }
 
@@ -118,16 +97,10 @@ fn missing_image_names_the_image() {
   "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],"#,
         1,
     );
-    let json = json.replace(
-        r#""attributes": {"POSITION": 0}}"#,
-        r#""attributes": {"POSITION": 0}, "material": 0}"#,
-    );
+    let json = json.replace(r#""attributes": {"POSITION": 0}}"#, r#""attributes": {"POSITION": 0}, "material": 0}"#);
     let path = write_scene("missingimg", &json, true);
     let err = load_expecting_error(&path);
-    assert!(
-        matches!(err.kind, ImportErrorKind::Image { index: 0, .. }),
-        "{err}"
-    );
+    assert!(matches!(err.kind, ImportErrorKind::Image { index: 0, .. }), "{err}");
     assert!(err.to_string().contains("missing.png"), "{err}");
 }
 
@@ -136,38 +109,25 @@ fn accessor_past_the_buffer_end_is_refused() {
     let json = triangle_json("triangle.bin", "").replace("\"count\": 3", "\"count\": 300");
     let path = write_scene("accrange", &json, true);
     let err = load_expecting_error(&path);
-    assert!(
-        matches!(err.kind, ImportErrorKind::Accessor { index: 0, .. }),
-        "{err}"
-    );
+    assert!(matches!(err.kind, ImportErrorKind::Accessor { index: 0, .. }), "{err}");
 }
 
 #[test]
 fn buffer_view_past_the_buffer_end_is_refused() {
-    let json = triangle_json("triangle.bin", "").replace(
-        "\"byteOffset\": 0, \"byteLength\": 36",
-        "\"byteOffset\": 24, \"byteLength\": 36",
-    );
+    let json = triangle_json("triangle.bin", "")
+        .replace("\"byteOffset\": 0, \"byteLength\": 36", "\"byteOffset\": 24, \"byteLength\": 36");
     let path = write_scene("viewrange", &json, true);
     let err = load_expecting_error(&path);
-    assert!(
-        matches!(err.kind, ImportErrorKind::Accessor { .. }),
-        "{err}"
-    );
+    assert!(matches!(err.kind, ImportErrorKind::Accessor { .. }), "{err}");
 }
 
 #[test]
 fn unsupported_required_extension_is_named() {
-    let json = triangle_json(
-        "triangle.bin",
-        r#""extensionsUsed": ["EXT_made_up"], "extensionsRequired": ["EXT_made_up"],"#,
-    );
+    let json =
+        triangle_json("triangle.bin", r#""extensionsUsed": ["EXT_made_up"], "extensionsRequired": ["EXT_made_up"],"#);
     let path = write_scene("reqext", &json, true);
     let err = load_expecting_error(&path);
-    assert!(
-        matches!(&err.kind, ImportErrorKind::UnsupportedExtension { name } if name == "EXT_made_up"),
-        "{err}"
-    );
+    assert!(matches!(&err.kind, ImportErrorKind::UnsupportedExtension { name } if name == "EXT_made_up"), "{err}");
     assert!(err.to_string().contains("EXT_made_up"), "{err}");
 }
 
@@ -185,10 +145,7 @@ fn uri_outside_the_scene_folder_is_refused() {
     for uri in ["../triangle.bin", "/etc/passwd", "sub/../../triangle.bin"] {
         let path = write_scene("outside", &triangle_json(uri, ""), true);
         let err = load_expecting_error(&path);
-        assert!(
-            matches!(&err.kind, ImportErrorKind::UriOutsideFolder { .. }),
-            "{uri}: {err}"
-        );
+        assert!(matches!(&err.kind, ImportErrorKind::UriOutsideFolder { .. }), "{uri}: {err}");
     }
 }
 
@@ -202,36 +159,24 @@ fn symlink_out_of_the_scene_folder_is_refused() {
     let _ = std::fs::remove_file(&link);
     std::os::unix::fs::symlink(outside.join("secret.bin"), &link).unwrap();
     let err = load_expecting_error(&path);
-    assert!(
-        matches!(&err.kind, ImportErrorKind::UriOutsideFolder { .. }),
-        "{err}"
-    );
+    assert!(matches!(&err.kind, ImportErrorKind::UriOutsideFolder { .. }), "{err}");
     // ... unless the user allows it.
     let mut world = App::new().world;
-    let opts = ImportOptions {
-        allow_outside_folder: true,
-        ..Default::default()
-    };
+    let opts = ImportOptions { allow_outside_folder: true, ..Default::default() };
     load_scene(&mut world, &path, &opts).expect("allowed by the flag");
 }
 
 #[test]
 fn unsupported_uri_scheme_is_refused() {
-    let path = write_scene(
-        "scheme",
-        &triangle_json("https://example.com/triangle.bin", ""),
-        false,
-    );
+    let path = write_scene("scheme", &triangle_json("https://example.com/triangle.bin", ""), false);
     let err = load_expecting_error(&path);
     assert!(err.to_string().contains("scheme"), "{err}");
 }
 
 #[test]
 fn buffer_shorter_than_its_byte_length_is_refused() {
-    let json = triangle_json("triangle.bin", "").replace(
-        "\"byteLength\": 36}],\n  \"bufferViews",
-        "\"byteLength\": 360}],\n  \"bufferViews",
-    );
+    let json = triangle_json("triangle.bin", "")
+        .replace("\"byteLength\": 36}],\n  \"bufferViews", "\"byteLength\": 360}],\n  \"bufferViews");
     let path = write_scene("shortbuf", &json, true);
     let err = load_expecting_error(&path);
     assert!(matches!(err.kind, ImportErrorKind::Buffer { .. }), "{err}");
@@ -239,22 +184,14 @@ fn buffer_shorter_than_its_byte_length_is_refused() {
 
 #[test]
 fn node_cycles_and_shared_children_are_refused() {
-    let json = triangle_json("triangle.bin", "").replace(
-        r#""nodes": [{"mesh": 0}]"#,
-        r#""nodes": [{"mesh": 0}, {"children": [2]}, {"children": [1]}]"#,
-    );
+    let json = triangle_json("triangle.bin", "")
+        .replace(r#""nodes": [{"mesh": 0}]"#, r#""nodes": [{"mesh": 0}, {"children": [2]}, {"children": [1]}]"#);
     let path = write_scene("cycle", &json, true);
     let err = load_expecting_error(&path);
     assert!(matches!(err.kind, ImportErrorKind::Hierarchy(_)), "{err}");
     let json = triangle_json("triangle.bin", "")
-        .replace(
-            r#""nodes": [{"mesh": 0}]"#,
-            r#""nodes": [{"mesh": 0}, {"children": [0]}, {"children": [0]}]"#,
-        )
-        .replace(
-            r#""scenes": [{"nodes": [0]}]"#,
-            r#""scenes": [{"nodes": [1, 2]}]"#,
-        );
+        .replace(r#""nodes": [{"mesh": 0}]"#, r#""nodes": [{"mesh": 0}, {"children": [0]}, {"children": [0]}]"#)
+        .replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [1, 2]}]"#);
     let path = write_scene("shared", &json, true);
     let err = load_expecting_error(&path);
     assert!(matches!(err.kind, ImportErrorKind::Hierarchy(_)), "{err}");
@@ -262,8 +199,7 @@ fn node_cycles_and_shared_children_are_refused() {
 
 #[test]
 fn out_of_range_index_in_json_is_invalid() {
-    let json = triangle_json("triangle.bin", "")
-        .replace(r#""nodes": [{"mesh": 0}]"#, r#""nodes": [{"mesh": 7}]"#);
+    let json = triangle_json("triangle.bin", "").replace(r#""nodes": [{"mesh": 0}]"#, r#""nodes": [{"mesh": 7}]"#);
     let path = write_scene("badindex", &json, true);
     let err = load_expecting_error(&path);
     assert!(matches!(err.kind, ImportErrorKind::Invalid(_)), "{err}");
@@ -273,23 +209,9 @@ fn out_of_range_index_in_json_is_invalid() {
 #[test]
 fn requesting_a_missing_scene_is_an_error() {
     let mut world = App::new().world;
-    let opts = ImportOptions {
-        scene: Some(5),
-        ..Default::default()
-    };
-    let err = load_scene(
-        &mut world,
-        &asset("MultipleScenes/MultipleScenes.gltf"),
-        &opts,
-    )
-    .unwrap_err();
-    assert!(
-        matches!(
-            err.kind,
-            ImportErrorKind::NoSuchScene { index: 5, count: 2 }
-        ),
-        "{err}"
-    );
+    let opts = ImportOptions { scene: Some(5), ..Default::default() };
+    let err = load_scene(&mut world, &asset("MultipleScenes/MultipleScenes.gltf"), &opts).unwrap_err();
+    assert!(matches!(err.kind, ImportErrorKind::NoSuchScene { index: 5, count: 2 }), "{err}");
 }
 
 #[test]

@@ -5,17 +5,118 @@ use std::path::{Path, PathBuf};
 
 /// A test asset under `tests/assets/`.
 pub fn asset(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/assets")
-        .join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets").join(rel)
 }
 
 /// A fresh, empty folder for one test's scratch files, under the target directory.
 pub fn scratch_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("penumbra-tests")
-        .join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("penumbra-tests").join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+use std::sync::OnceLock;
+
+use penumbra::engine::import::{GltfScene, ImportOptions};
+use penumbra::render::headless::{ShotSettings, render_frames, stage_scene};
+use penumbra::render::{AdapterRequest, GpuContext, RenderSettings, Renderer};
+
+/// One GPU context per test process. Goldens were made on lavapipe's Vulkan driver, so the
+/// Vulkan backend is required unless `WGPU_BACKEND` says otherwise; without an adapter the test
+/// fails and says what to install.
+pub fn gpu() -> GpuContext {
+    static CTX: OnceLock<GpuContext> = OnceLock::new();
+    CTX.get_or_init(|| {
+        let backends = if std::env::var_os("WGPU_BACKEND").is_some() { None } else { Some(wgpu::Backends::VULKAN) };
+        GpuContext::new_headless(&AdapterRequest { backends, name: None })
+            .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter: {e}"))
+    })
+    .clone()
+}
+
+pub struct Shot {
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+}
+
+/// Renders a test asset headless, one frame.
+pub fn render_asset(rel: &str, shot: &ShotSettings, settings: RenderSettings) -> Shot {
+    let scene = GltfScene::load(&asset(rel), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let (mut app, size) = stage_scene(&scene, shot).unwrap_or_else(|e| panic!("{e}"));
+    let renderer = Renderer::new(gpu(), settings).unwrap_or_else(|e| panic!("{e}"));
+    let rgba8 = render_frames(&mut app, renderer, size, 1).unwrap_or_else(|e| panic!("{e}"));
+    Shot { width: size.0, height: size.1, rgba8 }
+}
+
+/// FLIP thresholds: the mean error over the image and the error at a high percentile (a few
+/// outlier pixels are tolerated, a wrong region is not).
+#[derive(Debug, Clone, Copy)]
+pub struct Tolerance {
+    pub mean: f32,
+    pub percentile: f32,
+    pub at_percentile: f32,
+}
+
+impl Default for Tolerance {
+    /// Same driver, same inputs: lavapipe is deterministic, so any real change shows up far above
+    /// these. They leave room for LLVM choosing other vector widths on another CPU.
+    fn default() -> Self {
+        Self { mean: 0.01, percentile: 0.999, at_percentile: 0.2 }
+    }
+}
+
+pub fn golden_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/goldens").join(format!("{name}.png"))
+}
+
+/// Compares `shot` with `tests/goldens/<name>.png` using FLIP. On failure writes
+/// `<name>.actual.png` and `<name>.diff.png` (FLIP error, magma) beside the golden and panics
+/// with their paths. `PENUMBRA_UPDATE_GOLDENS=1` rewrites the golden instead.
+pub fn check_golden(name: &str, shot: &Shot, tol: Tolerance) {
+    let golden = golden_path(name);
+    let save = |path: &Path, rgba: &[u8]| {
+        image::save_buffer(path, rgba, shot.width, shot.height, image::ColorType::Rgba8).unwrap();
+    };
+    if std::env::var_os("PENUMBRA_UPDATE_GOLDENS").is_some() {
+        std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
+        save(&golden, &shot.rgba8);
+        eprintln!("updated golden {}", golden.display());
+        return;
+    }
+    let expected = image::open(&golden)
+        .unwrap_or_else(|e| {
+            panic!("cannot open golden {} ({e}); run with PENUMBRA_UPDATE_GOLDENS=1 to create it", golden.display())
+        })
+        .into_rgba8();
+    assert_eq!(
+        (expected.width(), expected.height()),
+        (shot.width, shot.height),
+        "golden {} has another size",
+        golden.display()
+    );
+    let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
+    let reference = nv_flip::FlipImageRgb8::with_data(shot.width, shot.height, &rgb(expected.as_raw()));
+    let test = nv_flip::FlipImageRgb8::with_data(shot.width, shot.height, &rgb(&shot.rgba8));
+    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mut pool = nv_flip::FlipPool::from_image(&error);
+    let mean = pool.mean();
+    let at = pool.get_percentile(tol.percentile, true);
+    if mean > tol.mean || at > tol.at_percentile {
+        let actual = golden.with_extension("actual.png");
+        let diff = golden.with_extension("diff.png");
+        save(&actual, &shot.rgba8);
+        let magma = error.apply_color_lut(&nv_flip::magma_lut());
+        image::save_buffer(&diff, &magma.to_vec(), shot.width, shot.height, image::ColorType::Rgb8).unwrap();
+        panic!(
+            "{name}: FLIP mean {mean:.5} (limit {}), {}th percentile {at:.4} (limit {})\n  expected: {}\n  actual:   {}\n  diff:     {}",
+            tol.mean,
+            tol.percentile * 100.0,
+            tol.at_percentile,
+            golden.display(),
+            actual.display(),
+            diff.display()
+        );
+    }
 }

@@ -55,13 +55,8 @@ impl App {
         let mut world = World::new();
         world.init_resource::<Schedules>();
         world.init_resource::<Time>();
-        let mut app = Self {
-            world,
-            schedule_order: Vec::new(),
-            startup_done: false,
-            plugin_names: Vec::new(),
-            runner: None,
-        };
+        let mut app =
+            Self { world, schedule_order: Vec::new(), startup_done: false, plugin_names: Vec::new(), runner: None };
         app.add_schedule(Schedule::new(Startup));
         for label in [Update.intern(), PostUpdate.intern()] {
             app.add_schedule(Schedule::new(label));
@@ -118,9 +113,7 @@ impl App {
         self
     }
 
-    pub fn init_resource<R: bevy_ecs::resource::Resource + bevy_ecs::world::FromWorld>(
-        &mut self,
-    ) -> &mut Self {
+    pub fn init_resource<R: bevy_ecs::resource::Resource + bevy_ecs::world::FromWorld>(&mut self) -> &mut Self {
         self.world.init_resource::<R>();
         self
     }
@@ -171,9 +164,6 @@ mod tests {
         app.add_systems(PostUpdate, |mut l: ResMut<Log>| l.0.push("post"));
         app.update();
         app.update();
-        assert_eq!(
-            app.world.resource::<Log>().0,
-            ["startup", "update", "post", "update", "post"]
-        );
+        assert_eq!(app.world.resource::<Log>().0, ["startup", "update", "post", "update", "post"]);
     }
 }

@@ -115,12 +115,7 @@ pub struct Assets<T: Send + Sync + 'static> {
 
 impl<T: Send + Sync + 'static> Default for Assets<T> {
     fn default() -> Self {
-        Self {
-            slots: Vec::new(),
-            free: Vec::new(),
-            len: 0,
-            next_version: 1,
-        }
+        Self { slots: Vec::new(), free: Vec::new(), len: 0, next_version: 1 }
     }
 }
 
@@ -147,32 +142,18 @@ impl<T: Send + Sync + 'static> Assets<T> {
             let slot = &mut self.slots[index as usize];
             slot.value = Some(value);
             slot.version = version;
-            return Handle {
-                index,
-                generation: slot.generation,
-                _marker: PhantomData,
-            };
+            return Handle { index, generation: slot.generation, _marker: PhantomData };
         }
         let index = u32::try_from(self.slots.len()).expect("more than 2^32 assets of one type");
-        self.slots.push(Slot {
-            generation: 0,
-            value: Some(value),
-            version,
-        });
-        Handle {
-            index,
-            generation: 0,
-            _marker: PhantomData,
-        }
+        self.slots.push(Slot { generation: 0, value: Some(value), version });
+        Handle { index, generation: 0, _marker: PhantomData }
     }
 
     fn stale(&self, handle: Handle<T>) -> StaleHandle {
         let current = match self.slots.get(handle.index as usize) {
             None => SlotState::OutOfRange,
             Some(slot) if slot.value.is_none() => SlotState::Free,
-            Some(slot) => SlotState::Live {
-                generation: slot.generation,
-            },
+            Some(slot) => SlotState::Live { generation: slot.generation },
         };
         StaleHandle {
             type_name: std::any::type_name::<T>(),
@@ -195,8 +176,7 @@ impl<T: Send + Sync + 'static> Assets<T> {
 
     /// The shared snapshot of an asset (what extraction hands to the render world).
     pub fn get_arc(&self, handle: Handle<T>) -> Result<&Arc<T>, StaleHandle> {
-        self.slot(handle)
-            .map(|s| s.value.as_ref().expect("checked by slot()"))
+        self.slot(handle).map(|s| s.value.as_ref().expect("checked by slot()"))
     }
 
     /// The version stamped on the asset's last insert or mutation.
@@ -234,16 +214,9 @@ impl<T: Send + Sync + 'static> Assets<T> {
     /// Iterates live assets in slot order.
     pub fn iter(&self) -> impl Iterator<Item = (Handle<T>, &T)> {
         self.slots.iter().enumerate().filter_map(|(i, slot)| {
-            slot.value.as_ref().map(|v| {
-                (
-                    Handle {
-                        index: i as u32,
-                        generation: slot.generation,
-                        _marker: PhantomData,
-                    },
-                    v.as_ref(),
-                )
-            })
+            slot.value
+                .as_ref()
+                .map(|v| (Handle { index: i as u32, generation: slot.generation, _marker: PhantomData }, v.as_ref()))
         })
     }
 }
@@ -255,9 +228,7 @@ impl<T: Clone + Send + Sync + 'static> Assets<T> {
         let version = self.bump_version();
         let slot = &mut self.slots[handle.index as usize];
         slot.version = version;
-        Ok(Arc::make_mut(
-            slot.value.as_mut().expect("checked by slot()"),
-        ))
+        Ok(Arc::make_mut(slot.value.as_mut().expect("checked by slot()")))
     }
 }
 
@@ -275,10 +246,7 @@ mod tests {
         let err = assets.get(a).unwrap_err();
         assert_eq!(err.current, SlotState::Live { generation: 1 });
         assert_eq!(*assets.get(b).unwrap(), 2);
-        assert!(
-            assets.remove(a).is_err(),
-            "removing through a stale handle fails"
-        );
+        assert!(assets.remove(a).is_err(), "removing through a stale handle fails");
         assert_eq!(assets.len(), 1);
     }
 
@@ -290,11 +258,7 @@ mod tests {
         let snapshot = assets.get_arc(h).unwrap().clone();
         assets.get_mut(h).unwrap().push(2);
         assert!(assets.version(h).unwrap() > v0);
-        assert_eq!(
-            *snapshot,
-            vec![1],
-            "copy-on-write keeps the render world's snapshot intact"
-        );
+        assert_eq!(*snapshot, vec![1], "copy-on-write keeps the render world's snapshot intact");
         assert_eq!(*assets.get(h).unwrap(), vec![1, 2]);
     }
 
@@ -306,9 +270,6 @@ mod tests {
         }
         let foreign = big.add(9);
         let small = Assets::<u8>::new();
-        assert_eq!(
-            small.get(foreign).unwrap_err().current,
-            SlotState::OutOfRange
-        );
+        assert_eq!(small.get(foreign).unwrap_err().current, SlotState::OutOfRange);
     }
 }

@@ -11,10 +11,7 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box: `union` with it is the identity.
-    pub const EMPTY: Aabb = Aabb {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
-    };
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
 
     /// Bounds of the finite points; non-finite points are skipped.
     pub fn from_points<'a>(points: impl IntoIterator<Item = &'a Vec3>) -> Aabb {
@@ -33,10 +30,7 @@ impl Aabb {
     }
 
     pub fn union(&self, other: &Aabb) -> Aabb {
-        Aabb {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
+        Aabb { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
     pub fn center(&self) -> Vec3 {
@@ -56,10 +50,7 @@ impl Aabb {
         let m = world_from_local.matrix3;
         let abs = glam::Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
         let half = abs * Vec3A::from(self.half_extents());
-        Aabb {
-            min: (center - half).into(),
-            max: (center + half).into(),
-        }
+        Aabb { min: (center - half).into(), max: (center + half).into() }
     }
 }
 
@@ -70,14 +61,8 @@ mod tests {
 
     #[test]
     fn rotated_box_bounds_contain_every_corner() {
-        let b = Aabb {
-            min: Vec3::new(-1.0, -2.0, -3.0),
-            max: Vec3::new(1.0, 2.0, 3.0),
-        };
-        let t = Affine3A::from_rotation_translation(
-            Quat::from_rotation_y(0.7),
-            Vec3::new(5.0, 0.0, 0.0),
-        );
+        let b = Aabb { min: Vec3::new(-1.0, -2.0, -3.0), max: Vec3::new(1.0, 2.0, 3.0) };
+        let t = Affine3A::from_rotation_translation(Quat::from_rotation_y(0.7), Vec3::new(5.0, 0.0, 0.0));
         let w = b.transformed(&t);
         for i in 0..8 {
             let c = Vec3::new(
@@ -94,13 +79,7 @@ mod tests {
     fn non_finite_points_are_ignored() {
         let pts = [Vec3::ONE, Vec3::splat(f32::NAN), Vec3::ZERO];
         let b = Aabb::from_points(&pts);
-        assert_eq!(
-            b,
-            Aabb {
-                min: Vec3::ZERO,
-                max: Vec3::ONE
-            }
-        );
+        assert_eq!(b, Aabb { min: Vec3::ZERO, max: Vec3::ONE });
         assert!(Aabb::from_points(&[]).is_empty());
     }
 }

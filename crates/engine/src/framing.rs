@@ -5,9 +5,7 @@ use glam::Vec3;
 
 use crate::assets::Assets;
 use crate::bounds::Aabb;
-use crate::components::{
-    Camera, GlobalTransform, InheritedVisibility, Mesh3d, Projection, Transform,
-};
+use crate::components::{Camera, GlobalTransform, InheritedVisibility, Mesh3d, Projection, Transform};
 use crate::mesh::Mesh;
 
 /// World-space bounds of every visible mesh (after `PostUpdate` has propagated transforms).
@@ -33,26 +31,14 @@ pub fn framing_camera(bounds: &Aabb, yfov: f32, aspect: f32) -> (Camera, Transfo
 
 /// A camera on the ray from the centre of `bounds` along `direction`, looking back at the
 /// centre, as close as it can be while every corner of the box stays inside the frame.
-pub fn framing_camera_from(
-    bounds: &Aabb,
-    direction: Vec3,
-    yfov: f32,
-    aspect: f32,
-) -> (Camera, Transform) {
+pub fn framing_camera_from(bounds: &Aabb, direction: Vec3, yfov: f32, aspect: f32) -> (Camera, Transform) {
     let (center, half) = if bounds.is_empty() {
         (Vec3::ZERO, Vec3::ONE)
     } else {
-        (
-            bounds.center(),
-            bounds.half_extents().max(Vec3::splat(1e-6)),
-        )
+        (bounds.center(), bounds.half_extents().max(Vec3::splat(1e-6)))
     };
     let back = direction.normalize_or(Vec3::Z);
-    let up = if back.cross(Vec3::Y).length_squared() < 1e-6 {
-        Vec3::NEG_Z
-    } else {
-        Vec3::Y
-    };
+    let up = if back.cross(Vec3::Y).length_squared() < 1e-6 { Vec3::NEG_Z } else { Vec3::Y };
     let looking = Transform::from_translation(back).looking_at(Vec3::ZERO, up);
     let (tan_y, tan_x) = ((0.5 * yfov).tan(), (0.5 * yfov).tan() * aspect);
     // Each corner, in view axes with z towards the camera, needs the camera at least
@@ -74,16 +60,9 @@ pub fn framing_camera_from(
     // Reverse-Z with an infinite far plane leaves plenty of precision; the near plane only has
     // to stay in front of the bounds and must scale with them (tiny and huge scenes alike).
     let znear = ((distance - radius) * 0.5).max(radius * 1e-3);
-    let transform =
-        Transform::from_translation(center + back * distance).with_rotation(looking.rotation);
-    let camera = Camera {
-        projection: Projection::Perspective {
-            yfov,
-            znear,
-            aspect_ratio: None,
-        },
-        ..Default::default()
-    };
+    let transform = Transform::from_translation(center + back * distance).with_rotation(looking.rotation);
+    let camera =
+        Camera { projection: Projection::Perspective { yfov, znear, aspect_ratio: None }, ..Default::default() };
     (camera, transform)
 }
 
@@ -94,39 +73,19 @@ mod tests {
     #[test]
     fn framing_scales_with_the_scene() {
         for scale in [1e-4f32, 1.0, 1e5] {
-            let b = Aabb {
-                min: Vec3::splat(-scale),
-                max: Vec3::splat(scale),
-            };
+            let b = Aabb { min: Vec3::splat(-scale), max: Vec3::splat(scale) };
             let (cam, t) = framing_camera(&b, 0.8, 1.5);
             let d = t.translation.z;
-            assert!(
-                d > scale * 2.0 && d < scale * 10.0,
-                "distance {d} for scale {scale}"
-            );
-            assert!(
-                cam.projection.znear() < d - scale * 3f32.sqrt() && cam.projection.znear() > 0.0
-            );
-            assert!(
-                t.rotation.angle_between(glam::Quat::IDENTITY) < 1e-6,
-                "front view looks down -Z"
-            );
+            assert!(d > scale * 2.0 && d < scale * 10.0, "distance {d} for scale {scale}");
+            assert!(cam.projection.znear() < d - scale * 3f32.sqrt() && cam.projection.znear() > 0.0);
+            assert!(t.rotation.angle_between(glam::Quat::IDENTITY) < 1e-6, "front view looks down -Z");
         }
     }
 
     #[test]
     fn every_corner_is_inside_the_frustum_from_any_direction() {
-        let b = Aabb {
-            min: Vec3::new(-3.0, -1.0, -0.5),
-            max: Vec3::new(2.0, 4.0, 1.0),
-        };
-        for dir in [
-            Vec3::Z,
-            Vec3::X,
-            Vec3::Y,
-            Vec3::new(1.0, 0.7, -0.4),
-            Vec3::NEG_Y,
-        ] {
+        let b = Aabb { min: Vec3::new(-3.0, -1.0, -0.5), max: Vec3::new(2.0, 4.0, 1.0) };
+        for dir in [Vec3::Z, Vec3::X, Vec3::Y, Vec3::new(1.0, 0.7, -0.4), Vec3::NEG_Y] {
             let (cam, t) = framing_camera_from(&b, dir, 0.8, 1.3);
             let clip_from_world = cam.projection.clip_from_view(1.3) * t.to_affine().inverse();
             for i in 0..8 {

@@ -15,11 +15,6 @@ pub struct Image {
 impl Image {
     /// A 1×1 image of one colour.
     pub fn solid(rgba: [u8; 4], label: impl Into<String>) -> Self {
-        Self {
-            width: 1,
-            height: 1,
-            rgba8: rgba.to_vec(),
-            label: label.into(),
-        }
+        Self { width: 1, height: 1, rgba8: rgba.to_vec(), label: label.into() }
     }
 }

@@ -14,6 +14,7 @@ pub mod image;
 pub mod import;
 pub mod material;
 pub mod mesh;
+pub mod parallel;
 pub mod primitives;
 pub mod time;
 
@@ -33,11 +34,7 @@ impl Plugin for CorePlugin {
             .init_resource::<Assets<image::Image>>()
             .add_systems(
                 PostUpdate,
-                (
-                    components::transform::propagate_transforms,
-                    components::visibility::propagate_visibility,
-                )
-                    .chain(),
+                (components::transform::propagate_transforms, components::visibility::propagate_visibility).chain(),
             );
     }
 }

@@ -57,20 +57,19 @@ pub struct UvTransform {
 
 impl Default for UvTransform {
     fn default() -> Self {
-        Self {
-            offset: Vec2::ZERO,
-            rotation: 0.0,
-            scale: Vec2::ONE,
-        }
+        Self { offset: Vec2::ZERO, rotation: 0.0, scale: Vec2::ONE }
     }
 }
 
 impl UvTransform {
-    /// The 3×3 matrix from the extension's specification (translation · rotation · scale).
+    /// `uv' = T · R · S · uv`, with R turning UVs counter-clockwise as the image is seen (v points
+    /// down, so in (u, v) coordinates that is u' = c·u + s·v, v' = −s·u + c·v). The extension's
+    /// README prints the GLSL transposed; the TextureTransformTest sample's markers (green: right
+    /// direction, red: reversed) confirm this orientation, as the Khronos sample viewer uses.
     pub fn matrix(&self) -> Mat3 {
         let (s, c) = self.rotation.sin_cos();
         let translation = Mat3::from_cols(Vec3::X, Vec3::Y, self.offset.extend(1.0));
-        let rotation = Mat3::from_cols(Vec3::new(c, s, 0.0), Vec3::new(-s, c, 0.0), Vec3::Z);
+        let rotation = Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z);
         let scale = Mat3::from_diagonal(self.scale.extend(1.0));
         translation * rotation * scale
     }
@@ -87,12 +86,7 @@ pub struct TextureRef {
 
 impl TextureRef {
     pub fn new(image: Handle<Image>) -> Self {
-        Self {
-            image,
-            sampler: Sampler::default(),
-            uv_set: 0,
-            transform: UvTransform::default(),
-        }
+        Self { image, sampler: Sampler::default(), uv_set: 0, transform: UvTransform::default() }
     }
 }
 
@@ -157,12 +151,7 @@ impl Default for StandardMaterial {
 impl StandardMaterial {
     /// A plain dielectric of the given linear colour and roughness.
     pub fn from_color(base_color: Vec4, roughness: f32) -> Self {
-        Self {
-            base_color,
-            metallic: 0.0,
-            roughness,
-            ..Default::default()
-        }
+        Self { base_color, metallic: 0.0, roughness, ..Default::default() }
     }
 
     /// Every texture slot in the fixed order the renderer binds them.
@@ -183,14 +172,10 @@ mod tests {
 
     #[test]
     fn uv_transform_matches_the_extension_example() {
-        // The extension's GLSL builds the rotation column-major as mat3(c, s, 0, −s, c, 0, 0, 0, 1),
-        // so uv (1, 0), scaled to (2, 0) and turned by π/2, lands on (0, 2), then offset by 0.5.
-        let t = UvTransform {
-            offset: Vec2::new(0.5, 0.0),
-            rotation: std::f32::consts::FRAC_PI_2,
-            scale: Vec2::splat(2.0),
-        };
+        // uv (1, 0) is scaled to (2, 0), turned by π/2 to (0, −2), then offset by (0.5, 0).
+        let t =
+            UvTransform { offset: Vec2::new(0.5, 0.0), rotation: std::f32::consts::FRAC_PI_2, scale: Vec2::splat(2.0) };
         let p = t.matrix() * Vec3::new(1.0, 0.0, 1.0);
-        assert!((p.truncate() - Vec2::new(0.5, 2.0)).length() < 1e-5, "{p}");
+        assert!((p.truncate() - Vec2::new(0.5, -2.0)).length() < 1e-5, "{p}");
     }
 }

@@ -44,17 +44,9 @@ pub struct Mesh {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MeshError {
     #[error("attribute {name} has {len} values but there are {vertices} positions")]
-    AttributeLength {
-        name: &'static str,
-        len: usize,
-        vertices: usize,
-    },
+    AttributeLength { name: &'static str, len: usize, vertices: usize },
     #[error("index {index} at position {at} is out of range for {vertices} vertices")]
-    IndexOutOfRange {
-        index: u32,
-        at: usize,
-        vertices: usize,
-    },
+    IndexOutOfRange { index: u32, at: usize, vertices: usize },
     #[error("{count} indices is not a whole number of {topology:?} primitives")]
     PartialPrimitive { count: usize, topology: Topology },
     #[error("tangent generation needs triangles with normals and texture coordinates")]
@@ -82,37 +74,21 @@ impl Mesh {
     pub fn validate(&self) -> Result<(), MeshError> {
         let n = self.positions.len();
         let check = |name, len: usize| {
-            if len != 0 && len != n {
-                Err(MeshError::AttributeLength {
-                    name,
-                    len,
-                    vertices: n,
-                })
-            } else {
-                Ok(())
-            }
+            if len != 0 && len != n { Err(MeshError::AttributeLength { name, len, vertices: n }) } else { Ok(()) }
         };
         check("NORMAL", self.normals.len())?;
         check("TANGENT", self.tangents.len())?;
         check("TEXCOORD_0", self.uv0.len())?;
         check("TEXCOORD_1", self.uv1.len())?;
         check("COLOR_0", self.colors.len())?;
-        if let Some(indices) = &self.indices {
-            if let Some((at, &index)) = indices.iter().enumerate().find(|(_, i)| **i as usize >= n)
-            {
-                return Err(MeshError::IndexOutOfRange {
-                    index,
-                    at,
-                    vertices: n,
-                });
-            }
+        if let Some(indices) = &self.indices
+            && let Some((at, &index)) = indices.iter().enumerate().find(|(_, i)| **i as usize >= n)
+        {
+            return Err(MeshError::IndexOutOfRange { index, at, vertices: n });
         }
         let count = self.element_count();
-        if count % self.topology.vertices_per_primitive() != 0 {
-            return Err(MeshError::PartialPrimitive {
-                count,
-                topology: self.topology,
-            });
+        if !count.is_multiple_of(self.topology.vertices_per_primitive()) {
+            return Err(MeshError::PartialPrimitive { count, topology: self.topology });
         }
         Ok(())
     }
@@ -130,11 +106,7 @@ impl Mesh {
             n
         }
         fix(&mut self.positions, |p| p.is_finite(), Vec3::ZERO)
-            + fix(
-                &mut self.normals,
-                |p| p.is_finite() && p.length_squared() > 0.0,
-                Vec3::Z,
-            )
+            + fix(&mut self.normals, |p| p.is_finite() && p.length_squared() > 0.0, Vec3::Z)
             + fix(
                 &mut self.tangents,
                 |p| p.is_finite() && p.truncate().length_squared() > 0.0,
@@ -182,11 +154,7 @@ impl Mesh {
     /// MikkTSpace tangents (the space glTF normal maps are baked in), from `NORMAL` and the given
     /// UV set. Vertices MikkTSpace leaves undefined (degenerate faces) get +X with sign +1.
     pub fn generate_tangents(&mut self, uv_set: u32) -> Result<(), MeshError> {
-        let uv_len = if uv_set == 0 {
-            self.uv0.len()
-        } else {
-            self.uv1.len()
-        };
+        let uv_len = if uv_set == 0 { self.uv0.len() } else { self.uv1.len() };
         if self.topology != Topology::TriangleList
             || self.normals.len() != self.positions.len()
             || uv_len != self.positions.len()
@@ -194,18 +162,14 @@ impl Mesh {
             return Err(MeshError::TangentInputsMissing);
         }
         let vertex_count = self.positions.len();
-        let indices = self
-            .indices
-            .clone()
-            .unwrap_or_else(|| (0..vertex_count as u32).collect());
+        let indices = self.indices.clone().unwrap_or_else(|| (0..vertex_count as u32).collect());
         let mut geometry = TangentGeometry {
             mesh: self,
             indices: &indices,
             uv_set,
             out: vec![Vec4::new(1.0, 0.0, 0.0, 1.0); vertex_count],
         };
-        bevy_mikktspace::generate_tangents(&mut geometry)
-            .map_err(|e| MeshError::Tangents(format!("{e:?}")))?;
+        bevy_mikktspace::generate_tangents(&mut geometry).map_err(|e| MeshError::Tangents(format!("{e:?}")))?;
         let out = geometry.out;
         self.tangents = out;
         Ok(())
@@ -239,23 +203,14 @@ impl bevy_mikktspace::Geometry for TangentGeometry<'_> {
         self.mesh.normals[self.vertex(face, vert)].into()
     }
     fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
-        let uvs = if self.uv_set == 0 {
-            &self.mesh.uv0
-        } else {
-            &self.mesh.uv1
-        };
+        let uvs = if self.uv_set == 0 { &self.mesh.uv0 } else { &self.mesh.uv1 };
         let uv = uvs[self.vertex(face, vert)];
         // glTF's v grows downwards, but its normal maps store +Y as "up in the image", which is
         // MikkTSpace's +v when v grows upwards (how Blender and other bakers compute it before
         // export flips v). Feeding 1 − v yields the bitangent sign glTF expects.
         [uv.x, 1.0 - uv.y]
     }
-    fn set_tangent(
-        &mut self,
-        tangent_space: Option<bevy_mikktspace::TangentSpace>,
-        face: usize,
-        vert: usize,
-    ) {
+    fn set_tangent(&mut self, tangent_space: Option<bevy_mikktspace::TangentSpace>, face: usize, vert: usize) {
         if let Some(ts) = tangent_space {
             let i = self.vertex(face, vert);
             // A vertex shared by faces gets the last face's tangent; MikkTSpace gives shared
@@ -273,12 +228,7 @@ mod tests {
         Mesh {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
             normals: vec![Vec3::Z; 4],
-            uv0: vec![
-                Vec2::new(0.0, 1.0),
-                Vec2::new(1.0, 1.0),
-                Vec2::new(1.0, 0.0),
-                Vec2::ZERO,
-            ],
+            uv0: vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::ZERO],
             indices: Some(vec![0, 1, 2, 0, 2, 3]),
             ..Default::default()
         }
@@ -300,19 +250,10 @@ mod tests {
     fn validation_catches_bad_indices_and_lengths() {
         let mut m = quad();
         m.indices = Some(vec![0, 1, 9]);
-        assert!(matches!(
-            m.validate(),
-            Err(MeshError::IndexOutOfRange { index: 9, .. })
-        ));
+        assert!(matches!(m.validate(), Err(MeshError::IndexOutOfRange { index: 9, .. })));
         let mut m = quad();
         m.uv1 = vec![Vec2::ZERO];
-        assert!(matches!(
-            m.validate(),
-            Err(MeshError::AttributeLength {
-                name: "TEXCOORD_1",
-                ..
-            })
-        ));
+        assert!(matches!(m.validate(), Err(MeshError::AttributeLength { name: "TEXCOORD_1", .. })));
     }
 
     #[test]

@@ -12,21 +12,14 @@ impl Mesh {
     pub fn uv_sphere(radius: f32, sectors: u32, stacks: u32) -> Mesh {
         let sectors = sectors.max(3);
         let stacks = stacks.max(2);
-        let mut m = Mesh {
-            topology: Topology::TriangleList,
-            ..Default::default()
-        };
+        let mut m = Mesh { topology: Topology::TriangleList, ..Default::default() };
         for j in 0..=stacks {
             let v = j as f32 / stacks as f32;
             let polar = v * PI; // 0 at +Y
             for i in 0..=sectors {
                 let u = i as f32 / sectors as f32;
                 let azimuth = u * TAU;
-                let n = Vec3::new(
-                    polar.sin() * azimuth.cos(),
-                    polar.cos(),
-                    -polar.sin() * azimuth.sin(),
-                );
+                let n = Vec3::new(polar.sin() * azimuth.cos(), polar.cos(), -polar.sin() * azimuth.sin());
                 m.positions.push(n * radius);
                 m.normals.push(n);
                 m.uv0.push(Vec2::new(u, v));
@@ -85,20 +78,10 @@ impl Mesh {
     pub fn plane(size: f32) -> Mesh {
         let h = size * 0.5;
         Mesh {
-            positions: vec![
-                Vec3::new(-h, 0.0, h),
-                Vec3::new(h, 0.0, h),
-                Vec3::new(h, 0.0, -h),
-                Vec3::new(-h, 0.0, -h),
-            ],
+            positions: vec![Vec3::new(-h, 0.0, h), Vec3::new(h, 0.0, h), Vec3::new(h, 0.0, -h), Vec3::new(-h, 0.0, -h)],
             normals: vec![Vec3::Y; 4],
             tangents: vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 4],
-            uv0: vec![
-                Vec2::new(0.0, 1.0),
-                Vec2::new(1.0, 1.0),
-                Vec2::new(1.0, 0.0),
-                Vec2::new(0.0, 0.0),
-            ],
+            uv0: vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)],
             indices: Some(vec![0, 1, 2, 0, 2, 3]),
             ..Default::default()
         }
@@ -138,10 +121,7 @@ mod tests {
             let given = m.tangents.clone();
             m.generate_tangents(0).unwrap();
             for (a, b) in given.iter().zip(&m.tangents) {
-                assert!(
-                    a.truncate().dot(b.truncate()) > 0.99 && a.w == b.w,
-                    "{a} vs {b}"
-                );
+                assert!(a.truncate().dot(b.truncate()) > 0.99 && a.w == b.w, "{a} vs {b}");
             }
         }
     }

@@ -37,13 +37,7 @@ impl Time {
     pub const MAX_DELTA: Duration = Duration::from_millis(250);
 
     pub fn new(mode: TimeMode) -> Self {
-        Self {
-            mode,
-            delta: Duration::ZERO,
-            elapsed: Duration::ZERO,
-            frame: 0,
-            last_tick: None,
-        }
+        Self { mode, delta: Duration::ZERO, elapsed: Duration::ZERO, frame: 0, last_tick: None }
     }
 
     /// Fixed step of `1/hz` seconds.

@@ -23,11 +23,7 @@ impl FramePlan {
     pub fn new(has_opaque: bool, has_blend: bool) -> Self {
         let mut passes = vec![(
             Pass::Opaque,
-            if has_opaque {
-                "opaque or masked draws exist"
-            } else {
-                "clears the targets (no opaque draws)"
-            },
+            if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
         )];
         if has_blend {
             passes.push((Pass::Transparent, "blended draws exist"));

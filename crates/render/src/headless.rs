@@ -33,11 +33,7 @@ pub struct ShotSettings {
 
 impl Default for ShotSettings {
     fn default() -> Self {
-        Self {
-            size: None,
-            camera: CameraChoice::Auto,
-            exposure_ev100: None,
-        }
+        Self { size: None, camera: CameraChoice::Auto, exposure_ev100: None }
     }
 }
 
@@ -75,10 +71,7 @@ impl ShotSettings {
 }
 
 /// An app with the scene spawned and one active camera; returns it with the output size.
-pub fn stage_scene(
-    scene: &GltfScene,
-    settings: &ShotSettings,
-) -> Result<(App, (u32, u32)), ShotError> {
+pub fn stage_scene(scene: &GltfScene, settings: &ShotSettings) -> Result<(App, (u32, u32)), ShotError> {
     settings.validate()?;
     let mut app = App::new();
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
@@ -112,10 +105,7 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
             }
             .filter(|a| a.is_finite() && *a > 0.0)
             .unwrap_or(1.0);
-            settings.size.unwrap_or((
-                (default_height as f32 * aspect).round().max(1.0) as u32,
-                default_height,
-            ))
+            settings.size.unwrap_or(((default_height as f32 * aspect).round().max(1.0) as u32, default_height))
         }
         CameraChoice::Auto | CameraChoice::Orbit { .. } => {
             let size = settings.size.unwrap_or((default_height, default_height));
@@ -123,20 +113,12 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
             let direction = match settings.camera {
                 CameraChoice::Orbit { yaw, pitch } => {
                     let (yaw, pitch) = (yaw.to_radians(), pitch.to_radians());
-                    glam::Vec3::new(
-                        yaw.sin() * pitch.cos(),
-                        pitch.sin(),
-                        yaw.cos() * pitch.cos(),
-                    )
+                    glam::Vec3::new(yaw.sin() * pitch.cos(), pitch.sin(), yaw.cos() * pitch.cos())
                 }
                 _ => glam::Vec3::Z,
             };
-            let (camera, transform) = framing_camera_from(
-                &bounds,
-                direction,
-                45f32.to_radians(),
-                size.0 as f32 / size.1 as f32,
-            );
+            let (camera, transform) =
+                framing_camera_from(&bounds, direction, 45f32.to_radians(), size.0 as f32 / size.1 as f32);
             world.spawn((camera, transform));
             size
         }
@@ -151,23 +133,11 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
 }
 
 /// Renders `frames` fixed-step updates of a staged app and returns the last frame's RGBA8.
-pub fn render_frames(
-    app: &mut App,
-    renderer: Renderer,
-    size: (u32, u32),
-    frames: u32,
-) -> Result<Vec<u8>, ShotError> {
+pub fn render_frames(app: &mut App, renderer: Renderer, size: (u32, u32), frames: u32) -> Result<Vec<u8>, ShotError> {
     app.insert_resource(renderer);
-    app.insert_resource(RenderOutput::Headless {
-        width: size.0,
-        height: size.1,
-    });
+    app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     for _ in 0..frames.max(1) {
         app.update();
     }
-    Ok(app
-        .world
-        .resource::<Renderer>()
-        .read_headless()
-        .map_err(RendererError::from)?)
+    Ok(app.world.resource::<Renderer>().read_headless().map_err(RendererError::from)?)
 }

@@ -62,11 +62,7 @@ impl Plugin for RenderPlugin {
     }
 }
 
-fn render_headless(
-    output: Option<Res<RenderOutput>>,
-    scene: Res<RenderScene>,
-    renderer: Option<ResMut<Renderer>>,
-) {
+fn render_headless(output: Option<Res<RenderOutput>>, scene: Res<RenderScene>, renderer: Option<ResMut<Renderer>>) {
     let (Some(output), Some(mut renderer)) = (output, renderer) else {
         return;
     };

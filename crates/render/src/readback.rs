@@ -26,24 +26,14 @@ pub fn read_texture(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("readback"),
-    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
     encoder.copy_texture_to_buffer(
         texture.as_image_copy(),
         wgpu::TexelCopyBufferInfo {
             buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
-            },
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
         },
-        wgpu::Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     queue.submit([encoder.finish()]);
     let slice = buffer.slice(..);
@@ -51,15 +41,9 @@ pub fn read_texture(
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| ReadbackError::Poll(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| ReadbackError::Map(e.to_string()))?
-        .map_err(|e| ReadbackError::Map(e.to_string()))?;
-    let data = slice
-        .get_mapped_range()
-        .map_err(|e| ReadbackError::Map(format!("{e:?}")))?;
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| ReadbackError::Poll(e.to_string()))?;
+    rx.recv().map_err(|e| ReadbackError::Map(e.to_string()))?.map_err(|e| ReadbackError::Map(e.to_string()))?;
+    let data = slice.get_mapped_range().map_err(|e| ReadbackError::Map(format!("{e:?}")))?;
     let mut out = Vec::with_capacity((unpadded * h) as usize);
     for row in data.chunks_exact(padded as usize) {
         out.extend_from_slice(&row[..unpadded as usize]);

@@ -26,9 +26,9 @@ use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::prepare::buffer::GrowableBuffer;
 use crate::prepare::instances::{GpuInstance, InstanceBuffer};
 use crate::prepare::lights::LightBuffer;
-use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable};
+use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS};
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
-use crate::prepare::textures::TextureCache;
+use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
 use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT};
 use crate::timing::GpuTimer;
@@ -48,12 +48,7 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         // A dark neutral grey: silhouettes of dark and light objects both stay visible.
-        Self {
-            msaa: 4,
-            tonemapper: Tonemapper::Neutral,
-            clear_color: [0.02, 0.02, 0.025],
-            gpu_timing: false,
-        }
+        Self { msaa: 4, tonemapper: Tonemapper::Neutral, clear_color: [0.02, 0.02, 0.025], gpu_timing: false }
     }
 }
 
@@ -140,11 +135,7 @@ pub enum RendererError {
 /// free. On CPU rasterisers it is not: llvmpipe's anisotropic path made a 256² DamagedHelmet
 /// frame take over two minutes instead of 0.3 s (measured here), so software adapters get none.
 fn max_anisotropy(ctx: &GpuContext) -> u16 {
-    if ctx.info.device_type == wgpu::DeviceType::Cpu {
-        1
-    } else {
-        8
-    }
+    if ctx.info.device_type == wgpu::DeviceType::Cpu { 1 } else { 8 }
 }
 
 #[derive(Resource)]
@@ -192,20 +183,14 @@ impl Renderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let timer =
-            (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
+        let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx)),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
             lights: LightBuffer::new(device),
-            draw_slots: GrowableBuffer::new(
-                device,
-                "draw slots",
-                wgpu::BufferUsages::STORAGE,
-                4096 * 4,
-            ),
+            draw_slots: GrowableBuffer::new(device, "draw slots", wgpu::BufferUsages::STORAGE, 4096 * 4),
             view_buffer,
             pipelines,
             view_bind_group: None,
@@ -267,18 +252,11 @@ impl Renderer {
 
     /// Renders into the renderer's own offscreen output (`Rgba8UnormSrgb`) of `size`.
     pub fn render_headless(&mut self, scene: &RenderScene, size: (u32, u32)) {
-        let needs_new = self
-            .headless
-            .as_ref()
-            .is_none_or(|(t, _)| (t.width(), t.height()) != size);
+        let needs_new = self.headless.as_ref().is_none_or(|(t, _)| (t.width(), t.height()) != size);
         if needs_new {
             let texture = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("headless output"),
-                size: wgpu::Extent3d {
-                    width: size.0.max(1),
-                    height: size.1.max(1),
-                    depth_or_array_layers: 1,
-                },
+                size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -295,27 +273,17 @@ impl Renderer {
 
     /// The last headless frame as tightly packed sRGB RGBA8 rows.
     pub fn read_headless(&self) -> Result<Vec<u8>, ReadbackError> {
-        let (texture, _) = self
-            .headless
-            .as_ref()
-            .ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
+        let (texture, _) = self.headless.as_ref().ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
         readback::read_texture(&self.ctx.device, &self.ctx.queue, texture, 4)
     }
 
     /// The last frame's linear HDR colour (exposed, before tonemapping) as RGBA f32.
     pub fn read_hdr(&self) -> Result<Vec<[f32; 4]>, ReadbackError> {
-        let targets = self
-            .targets
-            .as_ref()
-            .ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
+        let targets = self.targets.as_ref().ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
         let bytes = readback::read_texture(&self.ctx.device, &self.ctx.queue, &targets.hdr, 8)?;
         Ok(bytes
             .chunks_exact(8)
-            .map(|px| {
-                std::array::from_fn(|c| {
-                    readback::f16_to_f32(u16::from_le_bytes([px[2 * c], px[2 * c + 1]]))
-                })
-            })
+            .map(|px| std::array::from_fn(|c| readback::f16_to_f32(u16::from_le_bytes([px[2 * c], px[2 * c + 1]]))))
             .collect())
     }
 
@@ -331,26 +299,19 @@ impl Renderer {
         self.frame += 1;
         let device = self.ctx.device.clone();
         let queue = self.ctx.queue.clone();
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("frame"),
-        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
 
-        if self
-            .targets
-            .as_ref()
-            .is_none_or(|t| t.size != size || t.samples != self.settings.msaa)
-        {
-            self.targets = Some(FrameTargets::new(
-                &device,
-                &self.pipelines.tonemap_layout,
-                size,
-                self.settings.msaa,
-            ));
+        if self.targets.as_ref().is_none_or(|t| t.size != size || t.samples != self.settings.msaa) {
+            self.targets = Some(FrameTargets::new(&device, &self.pipelines.tonemap_layout, size, self.settings.msaa));
         }
 
         self.apply_draw_changes(scene);
-        self.prepare_materials(scene);
+        let t = Instant::now();
+        self.prepare_materials(scene, &mut encoder);
+        tracing::debug!("materials and textures prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+        let t = Instant::now();
         self.prepare_meshes(scene, &mut encoder);
+        tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
         if self.batches_dirty {
             self.rebuild_batches();
         }
@@ -360,9 +321,7 @@ impl Renderer {
         let mut slots = std::mem::take(&mut self.opaque_slots);
         let opaque_len = slots.len();
         slots.extend(blend_batches.iter().map(|(_, slot)| *slot));
-        let mut rebind = self
-            .draw_slots
-            .reserve(&device, (slots.len().max(1) * 4) as u64);
+        let mut rebind = self.draw_slots.reserve(&device, (slots.len().max(1) * 4) as u64);
         if !slots.is_empty() {
             queue.write_buffer(self.draw_slots.buffer(), 0, bytemuck::cast_slice(&slots));
         }
@@ -379,11 +338,7 @@ impl Renderer {
         let mut batches = self.opaque_batches.clone();
         let blend_first = opaque_len as u32;
         for (i, (batch, _)) in blend_batches.iter().enumerate() {
-            batches.push(Batch {
-                first: blend_first + i as u32,
-                count: 1,
-                ..*batch
-            });
+            batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
         }
         let plan = FramePlan::new(!self.opaque_batches.is_empty(), !blend_batches.is_empty());
 
@@ -416,14 +371,18 @@ impl Renderer {
             &mut self.pipelines,
             targets,
             self.settings.tonemapper,
-            output,
-            output_format,
+            tonemap::Output { view: output, format: output_format },
             self.timer.as_mut(),
         );
         if let Some(t) = &self.timer {
             t.resolve(&mut encoder);
         }
         queue.submit([encoder.finish()]);
+        tracing::debug!(
+            "frame {} encoded and submitted after {:.1} ms",
+            self.frame,
+            cpu_start.elapsed().as_secs_f64() * 1e3
+        );
         self.mesh_pool.evict(self.frame);
 
         self.stats = FrameStats {
@@ -434,11 +393,7 @@ impl Renderer {
             lights: self.lights.count(),
             instance_bytes_uploaded: self.instances.last_upload_bytes,
             cpu_ms: cpu_start.elapsed().as_secs_f64() * 1e3,
-            gpu_ms: self
-                .timer
-                .as_ref()
-                .map(|t| t.read(&device))
-                .unwrap_or_default(),
+            gpu_ms: self.timer.as_ref().map(|t| t.read(&device)).unwrap_or_default(),
             plan,
             pipelines: self.pipelines.forward_pipeline_count(),
         };
@@ -449,12 +404,7 @@ impl Renderer {
         self.last_scene_frame = Some(scene.frame);
         if !in_step {
             // Missed change lists: diff against the full draw set instead.
-            let gone: Vec<Entity> = self
-                .draws
-                .keys()
-                .filter(|e| !scene.draws.contains_key(e))
-                .copied()
-                .collect();
+            let gone: Vec<Entity> = self.draws.keys().filter(|e| !scene.draws.contains_key(e)).copied().collect();
             let all: Vec<Entity> = scene.draws.keys().copied().collect();
             self.apply_changes(scene, &gone, &all);
         } else {
@@ -488,10 +438,7 @@ impl Renderer {
             // The material slot is assigned by prepare_materials; slot 0 until then is harmless
             // because the instance is re-packed below once the slot is known.
             let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
-            let slot = self.instances.set(
-                *entity,
-                GpuInstance::new(&item.world_from_local, material_slot),
-            );
+            let slot = self.instances.set(*entity, GpuInstance::new(&item.world_from_local, material_slot));
             let state = DrawState {
                 slot,
                 mesh: item.mesh,
@@ -528,15 +475,33 @@ impl Renderer {
         }
     }
 
-    fn prepare_materials(&mut self, scene: &RenderScene) {
+    fn prepare_materials(&mut self, scene: &RenderScene, encoder: &mut wgpu::CommandEncoder) {
         self.materials.retain(scene);
         let keys: Vec<MaterialKey> = self.material_users.keys().copied().collect();
+        // New or changed images are uploaded together so their mip chains build in parallel.
+        let mut requests = Vec::new();
+        for m in keys.iter().flatten().filter_map(|h| scene.materials.get(h)) {
+            for (slot, tex) in m.data.textures().into_iter().enumerate() {
+                let Some(t) = tex else { continue };
+                let Some(img) = scene.images.get(&t.image) else { continue };
+                let srgb = SRGB_SLOTS[slot];
+                let queued = requests.iter().any(|r: &TextureRequest| r.image == t.image && r.srgb == srgb);
+                if !queued && self.textures.is_stale(t.image, srgb, img.version) {
+                    requests.push(TextureRequest {
+                        image: t.image,
+                        srgb,
+                        version: img.version,
+                        data: img.data.clone(),
+                    });
+                }
+            }
+        }
+        self.textures.upload_many(&self.ctx.device, &self.ctx.queue, encoder, &mut self.pipelines, &requests);
         let mut new_slots = false;
         for key in keys {
             let before = self.materials.get(&key).map(|m| m.slot);
             let ok = self.materials.prepare(
                 &self.ctx.device,
-                &self.ctx.queue,
                 &mut self.textures,
                 &self.pipelines.material_layout,
                 scene,
@@ -555,12 +520,10 @@ impl Renderer {
         self.textures.retain(|h| scene.images.contains_key(&h));
         if new_slots {
             // Instances packed before their material had a slot get the real one now.
-            let entities: Vec<(Entity, DrawState)> =
-                self.draws.iter().map(|(e, d)| (*e, *d)).collect();
+            let entities: Vec<(Entity, DrawState)> = self.draws.iter().map(|(e, d)| (*e, *d)).collect();
             for (e, d) in entities {
                 if let Some(m) = self.materials.get(&d.material) {
-                    self.instances
-                        .set(e, GpuInstance::new(&d.world_from_local, m.slot));
+                    self.instances.set(e, GpuInstance::new(&d.world_from_local, m.slot));
                 }
             }
         }
@@ -569,15 +532,12 @@ impl Renderer {
     fn prepare_meshes(&mut self, scene: &RenderScene, encoder: &mut wgpu::CommandEncoder) {
         // Mesh assets that vanished release their pool entries; entries nothing refers to are
         // evicted at the end of the frame.
-        self.mesh_pool
-            .retain_assets(|h| scene.meshes.contains_key(&h));
+        self.mesh_pool.retain_assets(|h| scene.meshes.contains_key(&h));
         let handles: Vec<Handle<Mesh>> = self.mesh_users.keys().copied().collect();
         for handle in handles {
             let Some(snapshot) = scene.meshes.get(&handle) else {
                 if self.warned_missing.insert(handle) {
-                    tracing::warn!(
-                        "a draw refers to mesh {handle:?}, which no longer exists; not drawn"
-                    );
+                    tracing::warn!("a draw refers to mesh {handle:?}, which no longer exists; not drawn");
                 }
                 if self.mesh_ids.remove(&handle).is_some() {
                     self.batches_dirty = true;
@@ -585,15 +545,8 @@ impl Renderer {
                 self.mesh_pool.release_asset(handle);
                 continue;
             };
-            let id = self.mesh_pool.get_or_upload(
-                &self.ctx.device,
-                &self.ctx.queue,
-                encoder,
-                handle,
-                snapshot.version,
-                &snapshot.data,
-                self.frame,
-            );
+            let id =
+                self.mesh_pool.get_or_upload(&self.ctx.device, &self.ctx.queue, encoder, handle, snapshot, self.frame);
             if self.mesh_ids.insert(handle, id) != Some(id) {
                 self.batches_dirty = true;
             }
@@ -635,9 +588,7 @@ impl Renderer {
         }
         // Opaque before masked (AlphaKey order), then by pipeline, material, mesh; the slot
         // makes the order total, so the frame is deterministic whatever the hash-map order.
-        items.sort_unstable_by(|a, b| {
-            (a.0.alpha, a.0, a.1, a.2, a.3).cmp(&(b.0.alpha, b.0, b.1, b.2, b.3))
-        });
+        items.sort_unstable_by_key(|&(key, material, mesh, slot)| (key.alpha, key, material, mesh, slot));
         self.blend_entities.sort_unstable();
         self.opaque_batches.clear();
         self.opaque_slots.clear();
@@ -668,8 +619,7 @@ impl Renderer {
         let mut out: Vec<(f32, Entity, Batch, u32)> = Vec::new();
         for entity in &self.blend_entities {
             let d = &self.draws[entity];
-            let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh))
-            else {
+            let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else {
                 continue;
             };
             let Some(entry) = self.mesh_pool.entry(mesh_id) else {
@@ -677,14 +627,7 @@ impl Renderer {
             };
             let center = entry.aabb.transformed(&d.world_from_local).center();
             let depth = (center - eye).dot(forward.into());
-            let batch = Batch {
-                key,
-                material: d.material,
-                mesh: d.mesh,
-                mesh_id,
-                first: 0,
-                count: 1,
-            };
+            let batch = Batch { key, material: d.material, mesh: d.mesh, mesh_id, first: 0, count: 1 };
             out.push((depth, *entity, batch, d.slot));
         }
         // Farthest first; ties broken by entity so the order is deterministic.
@@ -704,26 +647,19 @@ impl Renderer {
                     camera_position: Vec3::from(view.world_from_view.translation).to_array(),
                     exposure: view.exposure,
                     camera_forward: (rotation * Vec3::NEG_Z).normalize().to_array(),
-                    is_orthographic: matches!(view.projection, Projection::Orthographic { .. })
-                        as u32,
+                    is_orthographic: matches!(view.projection, Projection::Orthographic { .. }) as u32,
                     light_count: self.lights.count(),
                     _pad: [0; 3],
                 }
             }
-            None => GpuView {
-                light_count: 0,
-                ..GpuView::zeroed()
-            },
+            None => GpuView { light_count: 0, ..GpuView::zeroed() },
         };
         queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&gpu));
     }
 
     fn create_view_bind_group(&self, device: &wgpu::Device) -> wgpu::BindGroup {
         fn buf(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            }
+            wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
         }
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view"),

@@ -17,17 +17,8 @@ pub struct FrameTargets {
 }
 
 impl FrameTargets {
-    pub fn new(
-        device: &wgpu::Device,
-        tonemap_layout: &wgpu::BindGroupLayout,
-        size: (u32, u32),
-        samples: u32,
-    ) -> Self {
-        let extent = wgpu::Extent3d {
-            width: size.0.max(1),
-            height: size.1.max(1),
-            depth_or_array_layers: 1,
-        };
+    pub fn new(device: &wgpu::Device, tonemap_layout: &wgpu::BindGroupLayout, size: (u32, u32), samples: u32) -> Self {
+        let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -48,28 +39,15 @@ impl FrameTargets {
             attach | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
         );
         let hdr_view = hdr.create_view(&Default::default());
-        let hdr_msaa_view = (samples > 1).then(|| {
-            tex("hdr colour msaa", HDR_FORMAT, samples, attach).create_view(&Default::default())
-        });
-        let depth_view =
-            tex("depth", DEPTH_FORMAT, samples, attach).create_view(&Default::default());
+        let hdr_msaa_view =
+            (samples > 1).then(|| tex("hdr colour msaa", HDR_FORMAT, samples, attach).create_view(&Default::default()));
+        let depth_view = tex("depth", DEPTH_FORMAT, samples, attach).create_view(&Default::default());
         let tonemap_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tonemap input"),
             layout: tonemap_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(&hdr_view),
-            }],
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&hdr_view) }],
         });
-        Self {
-            size,
-            samples,
-            hdr,
-            hdr_view,
-            hdr_msaa_view,
-            depth_view,
-            tonemap_bind_group,
-        }
+        Self { size, samples, hdr, hdr_view, hdr_msaa_view, depth_view, tonemap_bind_group }
     }
 
     /// Where the forward pass draws, and what it resolves into.

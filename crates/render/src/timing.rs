@@ -33,14 +33,7 @@ impl GpuTimer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Self {
-            query_set,
-            resolve,
-            readback,
-            labels: Vec::new(),
-            capacity,
-            period_ns: queue.get_timestamp_period(),
-        }
+        Self { query_set, resolve, readback, labels: Vec::new(), capacity, period_ns: queue.get_timestamp_period() }
     }
 
     pub fn begin_frame(&mut self) {

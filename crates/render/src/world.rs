@@ -41,10 +41,7 @@ pub struct DrawItem {
 pub enum LightKind {
     Directional,
     Point,
-    Spot {
-        inner_cone_angle: f32,
-        outer_cone_angle: f32,
-    },
+    Spot { inner_cone_angle: f32, outer_cone_angle: f32 },
     Ambient,
 }
 

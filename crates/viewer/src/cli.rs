@@ -8,11 +8,7 @@ use penumbra_render::Tonemapper;
 use penumbra_render::headless::CameraChoice;
 
 #[derive(Parser, Debug)]
-#[command(
-    name = "penumbra",
-    version,
-    about = "A real-time glTF renderer and viewer"
-)]
+#[command(name = "penumbra", version, about = "A real-time glTF renderer and viewer")]
 pub struct Cli {
     /// Log progress (info level; RUST_LOG overrides).
     #[arg(short, long, global = true)]
@@ -129,14 +125,8 @@ impl From<TonemapArg> for Tonemapper {
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("{s:?} is not WIDTHxHEIGHT"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("{v:?} is not a whole number"))
-    };
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?} is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("{v:?} is not a whole number"));
     Ok((parse(w)?, parse(h)?))
 }
 
@@ -145,19 +135,14 @@ fn parse_camera(s: &str) -> Result<CameraChoice, String> {
         return Ok(CameraChoice::Auto);
     }
     if let Some(rest) = s.strip_prefix("orbit:") {
-        let (yaw, pitch) = rest
-            .split_once(':')
-            .ok_or_else(|| format!("{s:?}: expected orbit:YAW:PITCH (degrees)"))?;
+        let (yaw, pitch) = rest.split_once(':').ok_or_else(|| format!("{s:?}: expected orbit:YAW:PITCH (degrees)"))?;
         let deg = |v: &str| {
             v.parse::<f32>()
                 .ok()
                 .filter(|d| d.is_finite() && d.abs() <= 360.0)
                 .ok_or_else(|| format!("{v:?} is not an angle in degrees"))
         };
-        return Ok(CameraChoice::Orbit {
-            yaw: deg(yaw)?,
-            pitch: deg(pitch)?.clamp(-89.0, 89.0),
-        });
+        return Ok(CameraChoice::Orbit { yaw: deg(yaw)?, pitch: deg(pitch)?.clamp(-89.0, 89.0) });
     }
     s.parse()
         .map(CameraChoice::Gltf)

@@ -11,11 +11,7 @@ const DEFAULT_SCENE: &[u8] = include_bytes!("../../../assets/DamagedHelmet.glb")
 const DEFAULT_SCENE_NAME: &str = "<embedded>/DamagedHelmet.glb";
 
 pub fn options(args: &SceneArgs) -> ImportOptions {
-    ImportOptions {
-        scene: args.scene_index,
-        allow_outside_folder: args.allow_outside_folder,
-        ..Default::default()
-    }
+    ImportOptions { scene: args.scene_index, allow_outside_folder: args.allow_outside_folder, ..Default::default() }
 }
 
 /// Loads `path`, or the embedded default scene when `None`.

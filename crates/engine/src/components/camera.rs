@@ -13,27 +13,14 @@ use super::visibility::Visibility;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Projection {
     /// `aspect_ratio: None` follows the render target.
-    Perspective {
-        yfov: f32,
-        znear: f32,
-        aspect_ratio: Option<f32>,
-    },
+    Perspective { yfov: f32, znear: f32, aspect_ratio: Option<f32> },
     /// Half-extents `xmag`/`ymag` as in glTF; `xmag: None` follows the target's aspect.
-    Orthographic {
-        xmag: Option<f32>,
-        ymag: f32,
-        znear: f32,
-        zfar: f32,
-    },
+    Orthographic { xmag: Option<f32>, ymag: f32, znear: f32, zfar: f32 },
 }
 
 impl Default for Projection {
     fn default() -> Self {
-        Projection::Perspective {
-            yfov: 45f32.to_radians(),
-            znear: 0.1,
-            aspect_ratio: None,
-        }
+        Projection::Perspective { yfov: 45f32.to_radians(), znear: 0.1, aspect_ratio: None }
     }
 }
 
@@ -41,17 +28,12 @@ impl Projection {
     /// `clip_from_view` for a target of the given aspect (width / height).
     pub fn clip_from_view(&self, target_aspect: f32) -> Mat4 {
         match *self {
-            Projection::Perspective {
-                yfov,
-                znear,
-                aspect_ratio,
-            } => reverse_z_infinite_perspective(yfov, aspect_ratio.unwrap_or(target_aspect), znear),
-            Projection::Orthographic {
-                xmag,
-                ymag,
-                znear,
-                zfar,
-            } => reverse_z_orthographic(xmag.unwrap_or(ymag * target_aspect), ymag, znear, zfar),
+            Projection::Perspective { yfov, znear, aspect_ratio } => {
+                reverse_z_infinite_perspective(yfov, aspect_ratio.unwrap_or(target_aspect), znear)
+            }
+            Projection::Orthographic { xmag, ymag, znear, zfar } => {
+                reverse_z_orthographic(xmag.unwrap_or(ymag * target_aspect), ymag, znear, zfar)
+            }
         }
     }
 
@@ -99,9 +81,7 @@ impl Exposure {
 
     /// Exposure that makes the pre-tonemap value equal to radiance (scale exactly 1).
     pub fn unit() -> Self {
-        Exposure {
-            ev100: (1.0f32 / 1.2).log2(),
-        }
+        Exposure { ev100: (1.0f32 / 1.2).log2() }
     }
 
     /// Saturation-based exposure, `1 / (1.2 · 2^EV100)` (Lagarde & de Rousiers 2014, "Moving
@@ -130,12 +110,7 @@ pub struct Camera {
 
 impl Default for Camera {
     fn default() -> Self {
-        Self {
-            projection: Projection::default(),
-            exposure: Exposure::default(),
-            is_active: true,
-            order: 0,
-        }
+        Self { projection: Projection::default(), exposure: Exposure::default(), is_active: true, order: 0 }
     }
 }
 

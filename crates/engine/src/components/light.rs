@@ -20,11 +20,7 @@ pub struct DirectionalLight {
 
 impl Default for DirectionalLight {
     fn default() -> Self {
-        Self {
-            color: Vec3::ONE,
-            illuminance: 1.0,
-            shadows: true,
-        }
+        Self { color: Vec3::ONE, illuminance: 1.0, shadows: true }
     }
 }
 
@@ -41,12 +37,7 @@ pub struct PointLight {
 
 impl Default for PointLight {
     fn default() -> Self {
-        Self {
-            color: Vec3::ONE,
-            intensity: 1.0,
-            range: None,
-            shadows: true,
-        }
+        Self { color: Vec3::ONE, intensity: 1.0, range: None, shadows: true }
     }
 }
 
@@ -88,9 +79,6 @@ pub struct AmbientLight {
 
 impl Default for AmbientLight {
     fn default() -> Self {
-        Self {
-            color: Vec3::ONE,
-            intensity: 1.0,
-        }
+        Self { color: Vec3::ONE, intensity: 1.0 }
     }
 }

@@ -25,32 +25,19 @@ impl Default for Transform {
 }
 
 impl Transform {
-    pub const IDENTITY: Self = Self {
-        translation: Vec3::ZERO,
-        rotation: Quat::IDENTITY,
-        scale: Vec3::ONE,
-    };
+    pub const IDENTITY: Self = Self { translation: Vec3::ZERO, rotation: Quat::IDENTITY, scale: Vec3::ONE };
 
     pub fn from_xyz(x: f32, y: f32, z: f32) -> Self {
         Self::from_translation(Vec3::new(x, y, z))
     }
     pub fn from_translation(translation: Vec3) -> Self {
-        Self {
-            translation,
-            ..Self::IDENTITY
-        }
+        Self { translation, ..Self::IDENTITY }
     }
     pub fn from_rotation(rotation: Quat) -> Self {
-        Self {
-            rotation,
-            ..Self::IDENTITY
-        }
+        Self { rotation, ..Self::IDENTITY }
     }
     pub fn from_scale(scale: Vec3) -> Self {
-        Self {
-            scale,
-            ..Self::IDENTITY
-        }
+        Self { scale, ..Self::IDENTITY }
     }
     pub fn with_rotation(mut self, rotation: Quat) -> Self {
         self.rotation = rotation;
@@ -64,11 +51,7 @@ impl Transform {
     /// Decomposes a matrix (glTF `node.matrix`). Shear is lost, as the glTF spec allows.
     pub fn from_matrix(m: Mat4) -> Self {
         let (scale, rotation, translation) = m.to_scale_rotation_translation();
-        Self {
-            translation,
-            rotation,
-            scale,
-        }
+        Self { translation, rotation, scale }
     }
 
     /// Turns the transform so local −Z points at `target` (cameras and lights look down −Z).
@@ -79,10 +62,7 @@ impl Transform {
 
     pub fn look_at(&mut self, target: Vec3, up: Vec3) {
         let back = (self.translation - target).normalize_or(Vec3::Z);
-        let right = up
-            .cross(back)
-            .try_normalize()
-            .unwrap_or_else(|| back.any_orthonormal_vector());
+        let right = up.cross(back).try_normalize().unwrap_or_else(|| back.any_orthonormal_vector());
         let up = back.cross(right);
         self.rotation = Quat::from_mat3(&Mat3::from_cols(right, up, back));
     }
@@ -110,11 +90,7 @@ impl GlobalTransform {
     }
     /// Local −Z in world space, normalised.
     pub fn forward(&self) -> Vec3 {
-        self.0
-            .matrix3
-            .mul_vec3(Vec3::NEG_Z.into())
-            .normalize_or(Vec3::NEG_Z.into())
-            .into()
+        self.0.matrix3.mul_vec3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Z)
     }
     /// Whether the transform mirrors space (negative determinant), which flips triangle winding.
     pub fn is_mirrored(&self) -> bool {
@@ -155,9 +131,7 @@ fn propagate_recursive(
     depth: u32,
 ) {
     if depth > MAX_HIERARCHY_DEPTH {
-        tracing::error!(
-            "hierarchy deeper than {MAX_HIERARCHY_DEPTH} at {entity}; not propagating further"
-        );
+        tracing::error!("hierarchy deeper than {MAX_HIERARCHY_DEPTH} at {entity}; not propagating further");
         return;
     }
     let Ok((transform, child_of, children)) = nodes.get(entity) else {

@@ -21,10 +21,7 @@ impl fmt::Display for ImportError {
 
 impl ImportError {
     pub fn new(path: impl Into<PathBuf>, kind: ImportErrorKind) -> Self {
-        Self {
-            path: path.into(),
-            kind,
-        }
+        Self { path: path.into(), kind }
     }
 }
 
@@ -41,29 +38,15 @@ pub enum ImportErrorKind {
     #[error("requires extension {name}, which Penumbra does not support")]
     UnsupportedExtension { name: String },
     #[error("buffer {index} ({uri}): {reason}")]
-    Buffer {
-        index: usize,
-        uri: String,
-        reason: String,
-    },
+    Buffer { index: usize, uri: String, reason: String },
     #[error("image {index} ({uri}): {reason}")]
-    Image {
-        index: usize,
-        uri: String,
-        reason: String,
-    },
-    #[error(
-        "URI {uri:?} points outside the scene's folder (pass --allow-outside-folder to permit it)"
-    )]
+    Image { index: usize, uri: String, reason: String },
+    #[error("URI {uri:?} points outside the scene's folder (pass --allow-outside-folder to permit it)")]
     UriOutsideFolder { uri: String },
     #[error("accessor {index}: {reason}")]
     Accessor { index: usize, reason: String },
     #[error("mesh {mesh} primitive {primitive}: {reason}")]
-    Primitive {
-        mesh: usize,
-        primitive: usize,
-        reason: String,
-    },
+    Primitive { mesh: usize, primitive: usize, reason: String },
     #[error("mesh {mesh} primitive {primitive}: {source}")]
     Mesh {
         mesh: usize,
@@ -76,10 +59,5 @@ pub enum ImportErrorKind {
     #[error("scene {index} does not exist (the file has {count})")]
     NoSuchScene { index: usize, count: usize },
     #[error("{what} is {value}, over the limit of {limit} ({how_to_raise})")]
-    LimitExceeded {
-        what: &'static str,
-        value: u64,
-        limit: u64,
-        how_to_raise: &'static str,
-    },
+    LimitExceeded { what: &'static str, value: u64, limit: u64, how_to_raise: &'static str },
 }

@@ -16,15 +16,8 @@ pub use error::{ImportError, ImportErrorKind};
 pub use gltf::{GltfCamera, GltfScene, ImportOptions, SceneRoot};
 
 /// Loads a scene file (`.gltf` or `.glb`) and spawns it under a new root entity.
-pub fn load_scene(
-    world: &mut World,
-    path: &Path,
-    options: &ImportOptions,
-) -> Result<Entity, ImportError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+pub fn load_scene(world: &mut World, path: &Path, options: &ImportOptions) -> Result<Entity, ImportError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match ext.as_deref() {
         Some("gltf" | "glb") => {
             let scene = GltfScene::load(path, options)?;

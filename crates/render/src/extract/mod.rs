@@ -11,8 +11,8 @@ use bevy_ecs::prelude::*;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::assets::Assets;
 use penumbra_engine::components::{
-    AmbientLight, Camera, DirectionalLight, GlobalTransform, InheritedVisibility, Mesh3d,
-    MeshMaterial3d, PointLight, SpotLight,
+    AmbientLight, Camera, DirectionalLight, GlobalTransform, InheritedVisibility, Mesh3d, MeshMaterial3d, PointLight,
+    SpotLight,
 };
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
@@ -22,14 +22,7 @@ use crate::world::{DrawItem, ExtractedLight, ExtractedView, LightKind, RenderSce
 
 /// Systems in the order they run.
 pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, ()> {
-    (
-        begin_frame,
-        extract_view,
-        extract_draws,
-        extract_lights,
-        extract_assets,
-    )
-        .chain()
+    (begin_frame, extract_view, extract_draws, extract_lights, extract_assets).chain()
 }
 
 fn begin_frame(mut scene: ResMut<RenderScene>) {
@@ -38,15 +31,9 @@ fn begin_frame(mut scene: ResMut<RenderScene>) {
     scene.removed_draws.clear();
 }
 
-fn extract_view(
-    cameras: Query<(&Camera, &GlobalTransform, &InheritedVisibility)>,
-    mut scene: ResMut<RenderScene>,
-) {
-    let view = cameras
-        .iter()
-        .filter(|(c, _, v)| c.is_active && v.0)
-        .max_by_key(|(c, ..)| c.order)
-        .map(|(camera, transform, _)| {
+fn extract_view(cameras: Query<(&Camera, &GlobalTransform, &InheritedVisibility)>, mut scene: ResMut<RenderScene>) {
+    let view = cameras.iter().filter(|(c, _, v)| c.is_active && v.0).max_by_key(|(c, ..)| c.order).map(
+        |(camera, transform, _)| {
             // Only rotation and translation define the view; a scaled camera would skew it.
             let (_, rotation, translation) = transform.0.to_scale_rotation_translation();
             ExtractedView {
@@ -54,35 +41,19 @@ fn extract_view(
                 projection: camera.projection,
                 exposure: camera.exposure.scale(),
             }
-        });
+        },
+    );
     if scene.view != view {
         scene.view = view;
     }
 }
 
-#[allow(clippy::type_complexity)]
 fn extract_draws(
     changed: Query<
-        (
-            Entity,
-            &GlobalTransform,
-            &Mesh3d,
-            Option<&MeshMaterial3d>,
-            &InheritedVisibility,
-        ),
-        Or<(
-            Changed<GlobalTransform>,
-            Changed<Mesh3d>,
-            Changed<MeshMaterial3d>,
-            Changed<InheritedVisibility>,
-        )>,
+        (Entity, &GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility),
+        Or<(Changed<GlobalTransform>, Changed<Mesh3d>, Changed<MeshMaterial3d>, Changed<InheritedVisibility>)>,
     >,
-    all: Query<(
-        &GlobalTransform,
-        &Mesh3d,
-        Option<&MeshMaterial3d>,
-        &InheritedVisibility,
-    )>,
+    all: Query<(&GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility)>,
     mut removed_meshes: RemovedComponents<Mesh3d>,
     mut removed_materials: RemovedComponents<MeshMaterial3d>,
     mut scene: ResMut<RenderScene>,
@@ -134,41 +105,45 @@ pub mod default_lighting {
     pub const AMBIENT_RADIANCE: f32 = 0.25;
 }
 
-#[allow(clippy::type_complexity)]
+/// A light's own data, placement or visibility changed.
+type LightChanged = Or<(
+    Changed<DirectionalLight>,
+    Changed<PointLight>,
+    Changed<SpotLight>,
+    Changed<AmbientLight>,
+    Changed<GlobalTransform>,
+    Changed<InheritedVisibility>,
+)>;
+type IsLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>, With<AmbientLight>)>;
+
+/// Lights of every type removed (or despawned) since the last extraction.
+#[derive(bevy_ecs::system::SystemParam)]
+struct RemovedLights<'w, 's> {
+    directional: RemovedComponents<'w, 's, DirectionalLight>,
+    point: RemovedComponents<'w, 's, PointLight>,
+    spot: RemovedComponents<'w, 's, SpotLight>,
+    ambient: RemovedComponents<'w, 's, AmbientLight>,
+}
+
+impl RemovedLights<'_, '_> {
+    fn count(&mut self) -> usize {
+        self.directional.read().count()
+            + self.point.read().count()
+            + self.spot.read().count()
+            + self.ambient.read().count()
+    }
+}
+
 fn extract_lights(
     directional: Query<(&DirectionalLight, &GlobalTransform, &InheritedVisibility)>,
     point: Query<(&PointLight, &GlobalTransform, &InheritedVisibility)>,
     spot: Query<(&SpotLight, &GlobalTransform, &InheritedVisibility)>,
     ambient: Query<(&AmbientLight, &InheritedVisibility)>,
-    changed: Query<
-        (),
-        (
-            Or<(
-                Changed<DirectionalLight>,
-                Changed<PointLight>,
-                Changed<SpotLight>,
-                Changed<AmbientLight>,
-                Changed<GlobalTransform>,
-                Changed<InheritedVisibility>,
-            )>,
-            Or<(
-                With<DirectionalLight>,
-                With<PointLight>,
-                With<SpotLight>,
-                With<AmbientLight>,
-            )>,
-        ),
-    >,
-    mut removed_d: RemovedComponents<DirectionalLight>,
-    mut removed_p: RemovedComponents<PointLight>,
-    mut removed_s: RemovedComponents<SpotLight>,
-    mut removed_a: RemovedComponents<AmbientLight>,
+    changed: Query<(), (LightChanged, IsLight)>,
+    mut removed: RemovedLights,
     mut scene: ResMut<RenderScene>,
 ) {
-    let removed = removed_d.read().count()
-        + removed_p.read().count()
-        + removed_s.read().count()
-        + removed_a.read().count();
+    let removed = removed.count();
     // The default key light follows the camera, so it must be refreshed whenever the view moves.
     if removed == 0 && changed.is_empty() && !scene.default_lighting && !scene.lights.is_empty() {
         return;
@@ -199,10 +174,7 @@ fn extract_lights(
     for (l, t, v) in &spot {
         if v.0 {
             lights.push(ExtractedLight {
-                kind: LightKind::Spot {
-                    inner_cone_angle: l.inner_cone_angle,
-                    outer_cone_angle: l.outer_cone_angle,
-                },
+                kind: LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle },
                 color: l.color * l.intensity,
                 position: t.translation(),
                 direction: t.forward(),
@@ -221,13 +193,11 @@ fn extract_lights(
             });
         }
     }
-    let authored =
-        directional.iter().len() + point.iter().len() + spot.iter().len() + ambient.iter().len();
+    let authored = directional.iter().len() + point.iter().len() + spot.iter().len() + ambient.iter().len();
     scene.default_lighting = authored == 0;
     if scene.default_lighting {
-        let view_rotation = scene.view.map_or(glam::Quat::IDENTITY, |v| {
-            v.world_from_view.to_scale_rotation_translation().1
-        });
+        let view_rotation =
+            scene.view.map_or(glam::Quat::IDENTITY, |v| v.world_from_view.to_scale_rotation_translation().1);
         lights.push(ExtractedLight {
             kind: LightKind::Directional,
             color: Vec3::splat(default_lighting::KEY_ILLUMINANCE),
@@ -254,10 +224,7 @@ fn sync_assets<T: Send + Sync + 'static>(
     for (handle, _) in assets.iter() {
         let version = assets.version(handle).expect("live handle from iter");
         if snapshots.get(&handle).is_none_or(|s| s.version != version) {
-            let data = assets
-                .get_arc(handle)
-                .expect("live handle from iter")
-                .clone();
+            let data = assets.get_arc(handle).expect("live handle from iter").clone();
             snapshots.insert(handle, Snapshot { version, data });
         }
     }

@@ -46,11 +46,7 @@ pub fn encode(
 ) -> DrawCounts {
     let (color, resolve) = inputs.targets.color_attachment();
     // Multisampled colour need not be stored once resolved.
-    let store = if resolve.is_some() {
-        wgpu::StoreOp::Discard
-    } else {
-        wgpu::StoreOp::Store
-    };
+    let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     // Pipelines are created before the pass borrows the cache immutably.
     for b in batches {
         pipelines.forward(device, b.key);
@@ -61,18 +57,12 @@ pub fn encode(
             view: color,
             depth_slice: None,
             resolve_target: resolve,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(inputs.clear_color),
-                store,
-            },
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(inputs.clear_color), store },
         })],
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: &inputs.targets.depth_view,
             // Reverse-Z: the far plane is 0.
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Clear(0.0),
-                store: wgpu::StoreOp::Discard,
-            }),
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
             stencil_ops: None,
         }),
         timestamp_writes: timer.and_then(|t| t.pass("forward")),
@@ -85,17 +75,12 @@ pub fn encode(
     }
     pass.set_bind_group(0, inputs.view_bind_group, &[]);
     pass.set_vertex_buffer(0, inputs.mesh_pool.vertex_buffer().slice(..));
-    pass.set_index_buffer(
-        inputs.mesh_pool.index_buffer().slice(..),
-        wgpu::IndexFormat::Uint32,
-    );
+    pass.set_index_buffer(inputs.mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
     let mut bound_key = None;
     let mut bound_material = None;
     for b in batches {
-        let (Some(entry), Some(material)) = (
-            inputs.mesh_pool.entry(b.mesh_id),
-            inputs.materials.get(&b.material),
-        ) else {
+        let (Some(entry), Some(material)) = (inputs.mesh_pool.entry(b.mesh_id), inputs.materials.get(&b.material))
+        else {
             continue;
         };
         if bound_key != Some(b.key) {

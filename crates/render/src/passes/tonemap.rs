@@ -4,27 +4,29 @@ use crate::pipelines::pipeline_cache::{PipelineCache, Tonemapper};
 use crate::targets::FrameTargets;
 use crate::timing::GpuTimer;
 
+/// Where the tonemapped frame goes.
+pub struct Output<'a> {
+    pub view: &'a wgpu::TextureView,
+    pub format: wgpu::TextureFormat,
+}
+
 pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
     pipelines: &mut PipelineCache,
     targets: &FrameTargets,
     tonemapper: Tonemapper,
-    output: &wgpu::TextureView,
-    output_format: wgpu::TextureFormat,
+    output: Output,
     timer: Option<&mut GpuTimer>,
 ) {
-    let pipeline = pipelines.tonemap(device, tonemapper, output_format);
+    let pipeline = pipelines.tonemap(device, tonemapper, output.format);
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("tonemap"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: output,
+            view: output.view,
             depth_slice: None,
             resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                store: wgpu::StoreOp::Store,
-            },
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
         })],
         depth_stencil_attachment: None,
         timestamp_writes: timer.and_then(|t| t.pass("tonemap")),

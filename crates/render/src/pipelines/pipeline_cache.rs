@@ -86,10 +86,13 @@ pub struct PipelineCache {
     pub view_layout: wgpu::BindGroupLayout,
     pub material_layout: wgpu::BindGroupLayout,
     pub tonemap_layout: wgpu::BindGroupLayout,
+    pub mipmap_layout: wgpu::BindGroupLayout,
     forward_layout: wgpu::PipelineLayout,
     tonemap_pipeline_layout: wgpu::PipelineLayout,
+    mipmap_pipeline_layout: wgpu::PipelineLayout,
     forward: HashMap<PipelineKey, wgpu::RenderPipeline>,
     tonemap: HashMap<(Tonemapper, wgpu::TextureFormat), wgpu::RenderPipeline>,
+    mipmap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
 }
 
 fn storage(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
@@ -163,26 +166,54 @@ impl PipelineCache {
                 count: None,
             }],
         });
+        let mipmap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("mipmap"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let mipmap_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("mipmap"),
+            bind_group_layouts: &[Some(&mipmap_layout)],
+            immediate_size: 0,
+        });
         let forward_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("forward"),
             bind_group_layouts: &[Some(&view_layout), Some(&material_layout)],
             immediate_size: 0,
         });
-        let tonemap_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("tonemap"),
-                bind_group_layouts: &[Some(&tonemap_layout)],
-                immediate_size: 0,
-            });
+        let tonemap_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tonemap"),
+            bind_group_layouts: &[Some(&tonemap_layout)],
+            immediate_size: 0,
+        });
         Self {
             shaders,
             view_layout,
             material_layout,
             tonemap_layout,
+            mipmap_layout,
             forward_layout,
             tonemap_pipeline_layout,
+            mipmap_pipeline_layout,
             forward: HashMap::new(),
             tonemap: HashMap::new(),
+            mipmap: HashMap::new(),
         }
     }
 
@@ -210,12 +241,8 @@ impl PipelineCache {
             AlphaKey::Mask => 1.0,
             AlphaKey::Blend => 2.0,
         };
-        let constants = [
-            ("ALPHA_MODE", alpha),
-            ("UNLIT", if key.unlit { 1.0 } else { 0.0 }),
-        ];
-        let blend = (key.alpha == AlphaKey::Blend)
-            .then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
+        let constants = [("ALPHA_MODE", alpha), ("UNLIT", if key.unlit { 1.0 } else { 0.0 })];
+        let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
         let label = format!("forward {key:?}");
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(&label),
@@ -223,10 +250,7 @@ impl PipelineCache {
             vertex: wgpu::VertexState {
                 module,
                 entry_point: Some("vs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    ..Default::default()
-                },
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
                 buffers: &[Some(GpuVertex::layout())],
             },
             primitive: wgpu::PrimitiveState {
@@ -236,11 +260,7 @@ impl PipelineCache {
                     TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
                 },
                 strip_index_format: None,
-                front_face: if key.front_face_cw {
-                    wgpu::FrontFace::Cw
-                } else {
-                    wgpu::FrontFace::Ccw
-                },
+                front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
                 cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
                 unclipped_depth: false,
                 polygon_mode: wgpu::PolygonMode::Fill,
@@ -256,18 +276,11 @@ impl PipelineCache {
                 stencil: wgpu::StencilState::default(),
                 bias: wgpu::DepthBiasState::default(),
             }),
-            multisample: wgpu::MultisampleState {
-                count: key.sample_count,
-                mask: !0,
-                alpha_to_coverage_enabled: false,
-            },
+            multisample: wgpu::MultisampleState { count: key.sample_count, mask: !0, alpha_to_coverage_enabled: false },
             fragment: Some(wgpu::FragmentState {
                 module,
                 entry_point: Some("fs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    ..Default::default()
-                },
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
                 targets: &[Some(wgpu::ColorTargetState {
                     format: key.color_format.0,
                     blend,
@@ -289,10 +302,7 @@ impl PipelineCache {
         if !self.tonemap.contains_key(&key) {
             let module = self.shaders.get("tonemap.wgsl");
             let encode = if format.is_srgb() { 0.0 } else { 1.0 };
-            let constants = [
-                ("TONEMAPPER", tonemapper.constant()),
-                ("ENCODE_SRGB", encode),
-            ];
+            let constants = [("TONEMAPPER", tonemapper.constant()), ("ENCODE_SRGB", encode)];
             let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("tonemap"),
                 layout: Some(&self.tonemap_pipeline_layout),
@@ -327,5 +337,39 @@ impl PipelineCache {
             self.tonemap.insert(key, p);
         }
         &self.tonemap[&key]
+    }
+
+    /// The pipeline that writes one mip level of a texture of `format` from the level above.
+    pub fn mipmap(&mut self, device: &wgpu::Device, format: wgpu::TextureFormat) -> &wgpu::RenderPipeline {
+        if !self.mipmap.contains_key(&format) {
+            let module = self.shaders.get("mipmap.wgsl");
+            let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("mipmap"),
+                layout: Some(&self.mipmap_pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+            self.mipmap.insert(format, p);
+        }
+        &self.mipmap[&format]
     }
 }

@@ -8,14 +8,9 @@ use std::collections::HashMap;
 
 /// The shaders compiled into the binary: (file name, source).
 pub const EMBEDDED: &[(&str, &str)] = &[
-    (
-        "forward.wgsl",
-        include_str!("../../../../shaders/forward.wgsl"),
-    ),
-    (
-        "tonemap.wgsl",
-        include_str!("../../../../shaders/tonemap.wgsl"),
-    ),
+    ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
+    ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
+    ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
 ];
 
 #[derive(Debug, thiserror::Error)]
@@ -35,17 +30,14 @@ pub fn validate(file: &str, source: &str) -> Result<naga::Module, ShaderError> {
         column: loc.map_or(0, |l| l.line_position),
         message,
     };
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| located(e.message().to_owned(), e.location(source)))?;
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .map_err(|e| {
-        let loc = e.spans().next().map(|(span, _)| span.location(source));
-        located(e.as_inner().to_string(), loc)
-    })?;
+    let module =
+        naga::front::wgsl::parse_str(source).map_err(|e| located(e.message().to_owned(), e.location(source)))?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| {
+            let loc = e.spans().next().map(|(span, _)| span.location(source));
+            located(e.as_inner().to_string(), loc)
+        })?;
     Ok(module)
 }
 
@@ -68,9 +60,7 @@ impl ShaderLibrary {
     }
 
     pub fn get(&self, file: &str) -> &wgpu::ShaderModule {
-        self.modules
-            .get(file)
-            .unwrap_or_else(|| panic!("{file} is not an embedded shader"))
+        self.modules.get(file).unwrap_or_else(|| panic!("{file} is not an embedded shader"))
     }
 }
 

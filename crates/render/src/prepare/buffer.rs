@@ -8,12 +8,7 @@ pub struct GrowableBuffer {
 }
 
 impl GrowableBuffer {
-    pub fn new(
-        device: &wgpu::Device,
-        label: &'static str,
-        usage: wgpu::BufferUsages,
-        initial_bytes: u64,
-    ) -> Self {
+    pub fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages, initial_bytes: u64) -> Self {
         let usage = usage | wgpu::BufferUsages::COPY_DST;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
@@ -21,11 +16,7 @@ impl GrowableBuffer {
             usage,
             mapped_at_creation: false,
         });
-        Self {
-            buffer,
-            label,
-            usage,
-        }
+        Self { buffer, label, usage }
     }
 
     pub fn buffer(&self) -> &wgpu::Buffer {

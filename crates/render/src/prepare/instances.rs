@@ -52,12 +52,7 @@ impl InstanceBuffer {
     pub fn new(device: &wgpu::Device) -> Self {
         Self {
             cpu: Vec::new(),
-            buffer: GrowableBuffer::new(
-                device,
-                "instances",
-                wgpu::BufferUsages::STORAGE,
-                1024 * 64,
-            ),
+            buffer: GrowableBuffer::new(device, "instances", wgpu::BufferUsages::STORAGE, 1024 * 64),
             slots: HashMap::new(),
             free: Vec::new(),
             dirty: None,
@@ -82,10 +77,7 @@ impl InstanceBuffer {
     }
 
     fn mark(&mut self, slot: u32) {
-        self.dirty = Some(
-            self.dirty
-                .map_or((slot, slot), |(a, b)| (a.min(slot), b.max(slot))),
-        );
+        self.dirty = Some(self.dirty.map_or((slot, slot), |(a, b)| (a.min(slot), b.max(slot))));
     }
 
     /// Writes the entity's record, allocating a slot on first sight. Returns the slot.
@@ -117,11 +109,7 @@ impl InstanceBuffer {
         self.last_upload_bytes = 0;
         let size = std::mem::size_of::<GpuInstance>() as u64;
         let grew = self.buffer.reserve(device, self.cpu.len() as u64 * size);
-        let span = if grew {
-            (!self.cpu.is_empty()).then(|| (0, self.cpu.len() as u32 - 1))
-        } else {
-            self.dirty
-        };
+        let span = if grew { (!self.cpu.is_empty()).then(|| (0, self.cpu.len() as u32 - 1)) } else { self.dirty };
         if let Some((a, b)) = span {
             let bytes: &[u8] = bytemuck::cast_slice(&self.cpu[a as usize..=b as usize]);
             queue.write_buffer(self.buffer.buffer(), a as u64 * size, bytes);

@@ -31,10 +31,7 @@ pub fn pack(light: &ExtractedLight) -> GpuLight {
         LightKind::Directional => (KIND_DIRECTIONAL, 0.0, 0.0),
         LightKind::Point => (KIND_POINT, 0.0, 0.0),
         LightKind::Ambient => (KIND_AMBIENT, 0.0, 0.0),
-        LightKind::Spot {
-            inner_cone_angle,
-            outer_cone_angle,
-        } => {
+        LightKind::Spot { inner_cone_angle, outer_cone_angle } => {
             // KHR_lights_punctual's smooth cone falloff as scale/offset of cos(angle); the
             // 0.001 floor keeps inner == outer from dividing by zero (a hard-edged cone).
             let cos_outer = outer_cone_angle.cos();
@@ -62,10 +59,7 @@ pub struct LightBuffer {
 
 impl LightBuffer {
     pub fn new(device: &wgpu::Device) -> Self {
-        Self {
-            buffer: GrowableBuffer::new(device, "lights", wgpu::BufferUsages::STORAGE, 64 * 64),
-            count: 0,
-        }
+        Self { buffer: GrowableBuffer::new(device, "lights", wgpu::BufferUsages::STORAGE, 64 * 64), count: 0 }
     }
 
     pub fn buffer(&self) -> &wgpu::Buffer {
@@ -77,12 +71,7 @@ impl LightBuffer {
     }
 
     /// Packs and uploads all lights; returns true when the buffer was replaced.
-    pub fn upload(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        lights: &[ExtractedLight],
-    ) -> bool {
+    pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, lights: &[ExtractedLight]) -> bool {
         let packed: Vec<GpuLight> = lights.iter().map(pack).collect();
         let bytes: &[u8] = bytemuck::cast_slice(&packed);
         let grew = self.buffer.reserve(device, bytes.len() as u64);
@@ -100,13 +89,7 @@ mod tests {
     use glam::Vec3;
 
     fn light(kind: LightKind) -> ExtractedLight {
-        ExtractedLight {
-            kind,
-            color: Vec3::ONE,
-            position: Vec3::ZERO,
-            direction: Vec3::NEG_Z,
-            range: None,
-        }
+        ExtractedLight { kind, color: Vec3::ONE, position: Vec3::ZERO, direction: Vec3::NEG_Z, range: None }
     }
 
     #[test]
@@ -114,13 +97,7 @@ mod tests {
         let kinds = [
             (LightKind::Directional, KIND_DIRECTIONAL),
             (LightKind::Point, KIND_POINT),
-            (
-                LightKind::Spot {
-                    inner_cone_angle: 0.1,
-                    outer_cone_angle: 0.5,
-                },
-                KIND_SPOT,
-            ),
+            (LightKind::Spot { inner_cone_angle: 0.1, outer_cone_angle: 0.5 }, KIND_SPOT),
             (LightKind::Ambient, KIND_AMBIENT),
         ];
         for (k, want) in kinds {
@@ -131,17 +108,11 @@ mod tests {
 
     #[test]
     fn spot_falloff_is_one_inside_and_zero_outside() {
-        let g = pack(&light(LightKind::Spot {
-            inner_cone_angle: 0.2,
-            outer_cone_angle: 0.4,
-        }));
+        let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.2, outer_cone_angle: 0.4 }));
         let at = |angle: f32| (angle.cos() * g.spot_scale + g.spot_offset).clamp(0.0, 1.0);
         assert!((at(0.1) - 1.0).abs() < 1e-5);
         assert!(at(0.41) == 0.0);
-        let g = pack(&light(LightKind::Spot {
-            inner_cone_angle: 0.4,
-            outer_cone_angle: 0.4,
-        }));
+        let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.4, outer_cone_angle: 0.4 }));
         assert!(g.spot_scale.is_finite());
     }
 }

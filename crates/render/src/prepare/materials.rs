@@ -15,6 +15,9 @@ use super::buffer::GrowableBuffer;
 use super::textures::TextureCache;
 use crate::world::RenderScene;
 
+/// Which of `StandardMaterial::textures()` hold colour (sRGB): base colour and emissive.
+pub const SRGB_SLOTS: [bool; 5] = [true, false, false, false, true];
+
 pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
 pub const FLAG_DOUBLE_SIDED: u32 = 2;
 
@@ -48,6 +51,8 @@ pub enum AlphaKey {
 pub struct MaterialEntry {
     pub slot: u32,
     version: u64,
+    /// Versions of the images bound in each slot (0: null texture).
+    texture_versions: [u64; 5],
     pub bind_group: wgpu::BindGroup,
     pub alpha: AlphaKey,
     pub unlit: bool,
@@ -91,10 +96,10 @@ impl MaterialTable {
 
     /// Makes `key` ready to draw. Returns false when its asset is missing (the draw is skipped
     /// with a warning by the caller).
+    /// Textures must already be uploaded (`TextureCache::upload_many`).
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
-        queue: &wgpu::Queue,
         textures: &mut TextureCache,
         layout: &wgpu::BindGroupLayout,
         scene: &RenderScene,
@@ -110,22 +115,15 @@ impl MaterialTable {
         let material = material.clone();
         // Resolve textures first: an image that changed forces a new bind group even when the
         // material itself did not.
-        let srgb_slots = [true, false, false, false, true];
+        let srgb_slots = SRGB_SLOTS;
         let mut views = Vec::with_capacity(5);
-        let mut any_uploaded = false;
+        let mut texture_versions = [0u64; 5];
         for (slot, tex) in material.textures().into_iter().enumerate() {
             let image = tex.and_then(|t| scene.images.get(&t.image).map(|s| (t, s)));
-            match image {
-                Some((t, snap)) => {
-                    let (view, uploaded) = textures.get_or_upload(
-                        device,
-                        queue,
-                        t.image,
-                        srgb_slots[slot],
-                        snap.version,
-                        &snap.data,
-                    );
-                    any_uploaded |= uploaded;
+            let uploaded = image.and_then(|(t, _)| textures.get(t.image, srgb_slots[slot]).map(|v| (t, v)));
+            match uploaded {
+                Some((t, (view, version))) => {
+                    texture_versions[slot] = version;
                     views.push((view.clone(), Some(t.sampler)));
                 }
                 None => {
@@ -141,7 +139,7 @@ impl MaterialTable {
         }
         if let Some(e) = self.entries.get(&key)
             && e.version == version
-            && !any_uploaded
+            && e.texture_versions == texture_versions
         {
             return true;
         }
@@ -156,10 +154,8 @@ impl MaterialTable {
         self.cpu[slot as usize] = pack(&material);
         self.dirty = true;
 
-        let samplers: Vec<wgpu::Sampler> = views
-            .iter()
-            .map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone())
-            .collect();
+        let samplers: Vec<wgpu::Sampler> =
+            views.iter().map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone()).collect();
         let mut entries = Vec::with_capacity(10);
         for (i, ((view, _), sampler)) in views.iter().zip(&samplers).enumerate() {
             entries.push(wgpu::BindGroupEntry {
@@ -186,6 +182,7 @@ impl MaterialTable {
             MaterialEntry {
                 slot,
                 version,
+                texture_versions,
                 bind_group,
                 alpha,
                 unlit: material.unlit,
@@ -223,9 +220,7 @@ impl MaterialTable {
 fn pack(m: &StandardMaterial) -> GpuMaterial {
     let mut uv = [[0.0; 4]; 10];
     for (slot, tex) in m.textures().into_iter().enumerate() {
-        let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| {
-            (t.transform.matrix(), t.uv_set)
-        });
+        let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| (t.transform.matrix(), t.uv_set));
         // Rows of the 2×3 affine part: uv' = (row0 · (u, v, 1), row1 · (u, v, 1)).
         uv[2 * slot] = [mat.x_axis.x, mat.y_axis.x, mat.z_axis.x, set as f32];
         uv[2 * slot + 1] = [mat.x_axis.y, mat.y_axis.y, mat.z_axis.y, 0.0];

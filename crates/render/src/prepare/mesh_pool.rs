@@ -21,6 +21,8 @@ use penumbra_engine::bounds::Aabb;
 use penumbra_engine::mesh::{Mesh, Topology};
 use range_alloc::RangeAllocator;
 
+use crate::world::Snapshot;
+
 /// One interleaved vertex. Absent attributes are zero (colour: white).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -70,9 +72,7 @@ pub struct PoolEntry {
 impl PoolEntry {
     /// Vertices the draw consumes.
     pub fn element_count(&self) -> u32 {
-        self.indices
-            .as_ref()
-            .map_or(self.vertices.len(), |r| r.len()) as u32
+        self.indices.as_ref().map_or(self.vertices.len(), |r| r.len()) as u32
     }
 }
 
@@ -101,12 +101,7 @@ pub struct MeshPool {
 const VERTEX_SIZE: u64 = std::mem::size_of::<GpuVertex>() as u64;
 const INDEX_SIZE: u64 = 4;
 
-fn create_buffer(
-    device: &wgpu::Device,
-    label: &str,
-    bytes: u64,
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
+fn create_buffer(device: &wgpu::Device, label: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: bytes,
@@ -127,12 +122,7 @@ impl MeshPool {
                 v as u64 * VERTEX_SIZE,
                 wgpu::BufferUsages::VERTEX,
             ),
-            index_buffer: create_buffer(
-                device,
-                "mesh pool indices",
-                i as u64 * INDEX_SIZE,
-                wgpu::BufferUsages::INDEX,
-            ),
+            index_buffer: create_buffer(device, "mesh pool indices", i as u64 * INDEX_SIZE, wgpu::BufferUsages::INDEX),
             vertex_alloc: RangeAllocator::new(0..v),
             index_alloc: RangeAllocator::new(0..i),
             entries: Vec::new(),
@@ -171,10 +161,10 @@ impl MeshPool {
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         handle: Handle<Mesh>,
-        version: u64,
-        mesh: &Mesh,
+        snapshot: &Snapshot<Mesh>,
         frame: u64,
     ) -> MeshId {
+        let (version, mesh) = (snapshot.version, snapshot.data.as_ref());
         if let Some(&(v, id)) = self.by_asset.get(&handle) {
             if v == version && self.entry(id).is_some() {
                 self.touch(id, frame);
@@ -212,12 +202,7 @@ impl MeshPool {
 
     /// Releases every asset for which `live` is false.
     pub fn retain_assets(&mut self, live: impl Fn(Handle<Mesh>) -> bool) {
-        let dead: Vec<Handle<Mesh>> = self
-            .by_asset
-            .keys()
-            .copied()
-            .filter(|h| !live(*h))
-            .collect();
+        let dead: Vec<Handle<Mesh>> = self.by_asset.keys().copied().filter(|h| !live(*h)).collect();
         for h in dead {
             self.release_asset(h);
         }
@@ -228,10 +213,7 @@ impl MeshPool {
         let mut freed = 0;
         for i in 0..self.entries.len() {
             let stale = match &self.entries[i] {
-                Some(e) => {
-                    e.asset_refs == 0
-                        || frame.saturating_sub(e.last_used_frame) > self.evict_after_frames
-                }
+                Some(e) => e.asset_refs == 0 || frame.saturating_sub(e.last_used_frame) > self.evict_after_frames,
                 None => false,
             };
             if stale {
@@ -261,19 +243,11 @@ impl MeshPool {
         let vertices = interleave(mesh);
         let vcount = vertices.len() as u32;
         let vrange = self.allocate(device, encoder, true, vcount.max(1));
-        queue.write_buffer(
-            &self.vertex_buffer,
-            vrange.start as u64 * VERTEX_SIZE,
-            bytemuck::cast_slice(&vertices),
-        );
+        queue.write_buffer(&self.vertex_buffer, vrange.start as u64 * VERTEX_SIZE, bytemuck::cast_slice(&vertices));
         self.stats.bytes_uploaded += vertices.len() as u64 * VERTEX_SIZE;
         let irange = mesh.indices.as_ref().map(|indices| {
             let r = self.allocate(device, encoder, false, (indices.len() as u32).max(1));
-            queue.write_buffer(
-                &self.index_buffer,
-                r.start as u64 * INDEX_SIZE,
-                bytemuck::cast_slice(indices),
-            );
+            queue.write_buffer(&self.index_buffer, r.start as u64 * INDEX_SIZE, bytemuck::cast_slice(indices));
             self.stats.bytes_uploaded += indices.len() as u64 * INDEX_SIZE;
             r.start..r.start + indices.len() as u32
         });
@@ -317,13 +291,7 @@ impl MeshPool {
                 wgpu::BufferUsages::VERTEX,
             )
         } else {
-            (
-                &mut self.index_alloc,
-                &mut self.index_buffer,
-                INDEX_SIZE,
-                "mesh pool indices",
-                wgpu::BufferUsages::INDEX,
-            )
+            (&mut self.index_alloc, &mut self.index_buffer, INDEX_SIZE, "mesh pool indices", wgpu::BufferUsages::INDEX)
         };
         if let Ok(r) = alloc.allocate_range(len) {
             return r;
@@ -370,10 +338,7 @@ fn interleave(mesh: &Mesh) -> Vec<GpuVertex> {
             tangent: mesh.tangents.get(i).copied().unwrap_or_default().into(),
             uv0: mesh.uv0.get(i).copied().unwrap_or_default().into(),
             uv1: mesh.uv1.get(i).copied().unwrap_or_default().into(),
-            color: mesh
-                .colors
-                .get(i)
-                .map_or([u16::MAX; 4], |c| c.to_array().map(unorm16)),
+            color: mesh.colors.get(i).map_or([u16::MAX; 4], |c| c.to_array().map(unorm16)),
         })
         .collect()
 }

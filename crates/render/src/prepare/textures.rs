@@ -2,39 +2,68 @@
 //! deduplicated by their state, and the 1×1 null texture bound to every empty material slot.
 //!
 //! An `Image` is colour-space agnostic; the material slot decides (base colour and emissive are
-//! sRGB, the rest linear), so the cache is keyed by (image, sRGB). Mips are built on the CPU
-//! with a 2×2 box filter, in linear light for sRGB images (averaging encoded values darkens
-//! mips). Textures are created once per image; they never sit on the per-frame path.
+//! sRGB, the rest linear), so the cache is keyed by (image, sRGB). Only level 0 is uploaded; the
+//! mip chain is rendered on the GPU (`shaders/mipmap.wgsl`), through sRGB views for sRGB
+//! textures so averaging happens in linear light. Textures are created when an image first
+//! appears or changes; they never sit on the per-frame path.
 
 use std::collections::HashMap;
-use std::sync::OnceLock;
+use std::sync::Arc;
 
 use penumbra_engine::Handle;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
 
+use crate::pipelines::pipeline_cache::PipelineCache;
+
 pub struct GpuTexture {
     pub view: wgpu::TextureView,
+    /// The image version it was made from.
     pub version: u64,
     pub bytes: u64,
+}
+
+/// An image that some material needs in one colour space.
+pub struct TextureRequest {
+    pub image: Handle<Image>,
+    pub srgb: bool,
+    pub version: u64,
+    pub data: Arc<Image>,
 }
 
 pub struct TextureCache {
     textures: HashMap<(Handle<Image>, bool), GpuTexture>,
     samplers: HashMap<Sampler, wgpu::Sampler>,
     null_view: wgpu::TextureView,
+    mip_sampler: wgpu::Sampler,
     max_anisotropy: u16,
 }
 
 impl TextureCache {
     /// `max_anisotropy` applies to trilinear samplers (1 disables anisotropic filtering).
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, max_anisotropy: u16) -> Self {
-        let null = Image::solid([255, 255, 255, 255], "null texture");
-        let null_view = create_texture(device, queue, &null, false).0;
+        let null = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("null texture"),
+            size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        write_level(queue, &null, 0, 1, 1, &[255; 4]);
+        let mip_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("mip generation"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
         Self {
             textures: HashMap::new(),
             samplers: HashMap::new(),
-            null_view,
+            null_view: null.create_view(&Default::default()),
+            mip_sampler,
             max_anisotropy: max_anisotropy.clamp(1, 16),
         }
     }
@@ -48,31 +77,32 @@ impl TextureCache {
         self.textures.values().map(|t| t.bytes).sum()
     }
 
-    /// The view for `image` in the given colour space, uploading it if it is new or changed.
-    /// Returns whether an upload happened (materials using it must rebuild their bind groups).
-    pub fn get_or_upload(
+    /// Whether `image` in this colour space must be (re)uploaded for `version`.
+    pub fn is_stale(&self, image: Handle<Image>, srgb: bool, version: u64) -> bool {
+        self.textures.get(&(image, srgb)).is_none_or(|t| t.version != version)
+    }
+
+    /// The view and the image version it holds, if uploaded.
+    pub fn get(&self, image: Handle<Image>, srgb: bool) -> Option<(&wgpu::TextureView, u64)> {
+        self.textures.get(&(image, srgb)).map(|t| (&t.view, t.version))
+    }
+
+    /// Uploads every stale request's level 0 and encodes its mip generation into `encoder`.
+    pub fn upload_many(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        handle: Handle<Image>,
-        srgb: bool,
-        version: u64,
-        image: &Image,
-    ) -> (&wgpu::TextureView, bool) {
-        let key = (handle, srgb);
-        let stale = self.textures.get(&key).is_none_or(|t| t.version != version);
-        if stale {
-            let (view, bytes) = create_texture(device, queue, image, srgb);
-            self.textures.insert(
-                key,
-                GpuTexture {
-                    view,
-                    version,
-                    bytes,
-                },
-            );
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &mut PipelineCache,
+        requests: &[TextureRequest],
+    ) {
+        for r in requests {
+            if !self.is_stale(r.image, r.srgb, r.version) {
+                continue;
+            }
+            let (view, bytes) = self.create_texture(device, queue, encoder, pipelines, &r.data, r.srgb);
+            self.textures.insert((r.image, r.srgb), GpuTexture { view, version: r.version, bytes });
         }
-        (&self.textures[&key].view, stale)
     }
 
     /// Drops textures whose image is gone.
@@ -116,127 +146,93 @@ impl TextureCache {
             })
         })
     }
-}
 
-fn create_texture(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    image: &Image,
-    srgb: bool,
-) -> (wgpu::TextureView, u64) {
-    let levels = mip_chain(image, srgb);
-    let format = if srgb {
-        wgpu::TextureFormat::Rgba8UnormSrgb
-    } else {
-        wgpu::TextureFormat::Rgba8Unorm
-    };
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(&image.label),
-        size: wgpu::Extent3d {
-            width: image.width,
-            height: image.height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: levels.len() as u32,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
-    let mut bytes = 0;
-    for (level, (w, h, data)) in levels.iter().enumerate() {
-        queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &texture,
-                mip_level: level as u32,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            data,
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(4 * w),
-                rows_per_image: Some(*h),
-            },
-            wgpu::Extent3d {
-                width: *w,
-                height: *h,
-                depth_or_array_layers: 1,
-            },
-        );
-        bytes += data.len() as u64;
-    }
-    (
-        texture.create_view(&wgpu::TextureViewDescriptor::default()),
-        bytes,
-    )
-}
-
-fn srgb_to_linear_table() -> &'static [f32; 256] {
-    static T: OnceLock<[f32; 256]> = OnceLock::new();
-    T.get_or_init(|| {
-        std::array::from_fn(|i| {
-            let c = i as f32 / 255.0;
-            if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        })
-    })
-}
-
-/// Linear [0, 1] → sRGB byte, through a 4096-entry table (12 bits of linear input resolve every
-/// sRGB code above the toe; below it the table is exact to ±1 code).
-fn linear_to_srgb_byte(x: f32) -> u8 {
-    static T: OnceLock<Vec<u8>> = OnceLock::new();
-    let t = T.get_or_init(|| {
-        (0..4096)
-            .map(|i| {
-                let c = i as f32 / 4095.0;
-                let s = if c <= 0.0031308 {
-                    c * 12.92
-                } else {
-                    1.055 * c.powf(1.0 / 2.4) - 0.055
-                };
-                (s * 255.0).round() as u8
+    fn create_texture(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &mut PipelineCache,
+        image: &Image,
+        srgb: bool,
+    ) -> (wgpu::TextureView, u64) {
+        let format = if srgb { wgpu::TextureFormat::Rgba8UnormSrgb } else { wgpu::TextureFormat::Rgba8Unorm };
+        let levels = mip_level_count(image.width, image.height);
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(&image.label),
+            size: wgpu::Extent3d { width: image.width, height: image.height, depth_or_array_layers: 1 },
+            mip_level_count: levels,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST
+                | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        write_level(queue, &texture, 0, image.width, image.height, &image.rgba8);
+        let level_view = |level: u32| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                base_mip_level: level,
+                mip_level_count: Some(1),
+                ..Default::default()
             })
-            .collect()
-    });
-    t[(x.clamp(0.0, 1.0) * 4095.0).round() as usize]
+        };
+        for level in 1..levels {
+            let source = level_view(level - 1);
+            let target = level_view(level);
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mipmap source"),
+                layout: &pipelines.mipmap_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&source) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.mip_sampler) },
+                ],
+            });
+            let pipeline = pipelines.mipmap(device, format);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("mipmap"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        // A full chain adds a third to level 0.
+        let bytes = image.rgba8.len() as u64 * 4 / 3;
+        (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes)
+    }
 }
 
-/// Every mip level, top first, each as (width, height, RGBA8 bytes).
-fn mip_chain(image: &Image, srgb: bool) -> Vec<(u32, u32, Vec<u8>)> {
-    let mut levels = vec![(image.width, image.height, image.rgba8.clone())];
-    let to_lin = srgb_to_linear_table();
-    while let Some((w, h, src)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
-        let (w, h) = (*w as usize, *h as usize);
-        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
-        let mut dst = vec![0u8; nw * nh * 4];
-        for y in 0..nh {
-            // Odd sizes: the last row/column folds into its neighbour (clamped), a common
-            // approximation whose error is under one texel of the parent level.
-            let (y0, y1) = ((2 * y).min(h - 1), (2 * y + 1).min(h - 1));
-            for x in 0..nw {
-                let (x0, x1) = ((2 * x).min(w - 1), (2 * x + 1).min(w - 1));
-                let px = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(px, py)| (py * w + px) * 4);
-                let o = (y * nw + x) * 4;
-                for c in 0..4 {
-                    if srgb && c < 3 {
-                        let sum: f32 = px.iter().map(|&p| to_lin[src[p + c] as usize]).sum();
-                        dst[o + c] = linear_to_srgb_byte(sum * 0.25);
-                    } else {
-                        let sum: u32 = px.iter().map(|&p| src[p + c] as u32).sum();
-                        dst[o + c] = ((sum + 2) / 4) as u8;
-                    }
-                }
-            }
-        }
-        levels.push((nw as u32, nh as u32, dst));
-    }
-    levels
+/// Levels down to 1×1: ⌊log2(max side)⌋ + 1.
+pub fn mip_level_count(width: u32, height: u32) -> u32 {
+    32 - width.max(height).max(1).leading_zeros()
+}
+
+fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, level: u32, w: u32, h: u32, data: &[u8]) {
+    queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: level,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        data,
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * w), rows_per_image: Some(h) },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
 }
 
 #[cfg(test)]
@@ -244,39 +240,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn mip_chain_reaches_one_by_one_for_odd_sizes() {
-        let img = Image {
-            width: 5,
-            height: 3,
-            rgba8: vec![128; 5 * 3 * 4],
-            label: "t".into(),
-        };
-        let chain = mip_chain(&img, false);
-        let dims: Vec<_> = chain.iter().map(|(w, h, _)| (*w, *h)).collect();
-        assert_eq!(dims, [(5, 3), (2, 1), (1, 1)]);
-        assert!(
-            chain
-                .iter()
-                .all(|(w, h, d)| d.len() == (*w * *h * 4) as usize)
-        );
-    }
-
-    #[test]
-    fn srgb_mips_average_in_linear_light() {
-        // Black and white checker: the linear average is 0.5, which sRGB-encodes to 188, not 128.
-        let mut rgba = Vec::new();
-        for i in 0..4 {
-            let v = if i % 3 == 0 { 0 } else { 255 };
-            rgba.extend_from_slice(&[v, v, v, 255]);
-        }
-        let img = Image {
-            width: 2,
-            height: 2,
-            rgba8: rgba,
-            label: "t".into(),
-        };
-        let chain = mip_chain(&img, true);
-        assert_eq!(chain[1].2[0], 188);
-        assert_eq!(mip_chain(&img, false)[1].2[0], 128);
+    fn mip_chains_reach_one_by_one() {
+        assert_eq!(mip_level_count(1, 1), 1);
+        assert_eq!(mip_level_count(2048, 2048), 12);
+        assert_eq!(mip_level_count(211, 211), 8);
+        assert_eq!(mip_level_count(5, 3), 3);
     }
 }

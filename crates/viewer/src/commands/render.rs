@@ -1,6 +1,8 @@
 //! `penumbra render`: one scene, one PNG. The GPU context and pipelines are created on a second
 //! thread while the scene file is read and decoded, since on a 2-core machine neither needs the
-//! other until the first frame.
+//! other until the first frame. `-v` logs the time at each step.
+
+use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow};
 use penumbra_render::headless::{ShotSettings, render_frames, stage_scene};
@@ -10,29 +12,28 @@ use crate::cli::RenderArgs;
 use crate::scene;
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let settings = RenderSettings {
-        msaa: args.look.msaa,
-        tonemapper: args.look.tonemap.into(),
-        ..Default::default()
-    };
+    let start = Instant::now();
+    let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
+    let settings = RenderSettings { msaa: args.look.msaa, tonemapper: args.look.tonemap.into(), ..Default::default() };
     settings.validate().map_err(|e| anyhow!("--msaa: {e}"))?;
-    let shot = ShotSettings {
-        size: args.size,
-        camera: args.camera,
-        exposure_ev100: args.look.exposure,
-    };
+    let shot = ShotSettings { size: args.size, camera: args.camera, exposure_ev100: args.look.exposure };
     shot.validate()?;
     let gpu = std::thread::spawn(move || -> Result<Renderer> {
         let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
-        Ok(Renderer::new(ctx, settings)?)
+        step("GPU context");
+        let renderer = Renderer::new(ctx, settings)?;
+        step("renderer ready");
+        Ok(renderer)
     });
     let scene = scene::load(Some(&args.path), &args.scene_args)?;
+    step("scene decoded");
     let (mut app, size) = stage_scene(&scene, &shot)?;
-    let renderer = gpu
-        .join()
-        .map_err(|_| anyhow!("the GPU setup thread panicked"))??;
+    step("scene staged");
+    let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))??;
     let pixels = render_frames(&mut app, renderer, size, args.frames)?;
+    step("rendered and read back");
     image::save_buffer(&args.out, &pixels, size.0, size.1, image::ColorType::Rgba8)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
+    step("PNG written");
     Ok(())
 }

@@ -1,5 +1,313 @@
+//! `penumbra view`: a window showing a scene with a basic orbit camera. The full viewer (egui
+//! panels, picking, drag-and-drop) is issue #6; this is the window loop it will grow from.
+//!
+//! Each frame: input moves the orbit camera's goal; `App::update` runs the schedules (extraction
+//! included); the renderer draws the extracted scene into the swap-chain image. Resizes
+//! reconfigure the surface at the window's physical size; a 0×0 (minimised) window skips frames.
+
+mod orbit;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow, bail};
+use bevy_ecs::entity::Entity;
+use bevy_ecs::world::Mut;
+use glam::{Vec2, Vec3};
+use penumbra_engine::components::{Camera, GlobalTransform, Projection, Transform};
+use penumbra_engine::framing::world_bounds;
+use penumbra_engine::import::GltfScene;
+use penumbra_engine::{App, Time, TimeMode};
+use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
+use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, ModifiersState, NamedKey};
+use winit::window::{Window, WindowId};
+
 use crate::cli::ViewArgs;
-use anyhow::Result;
-pub fn run(_args: ViewArgs) -> Result<()> {
-    Ok(())
+use crate::scene;
+use orbit::{OrbitCamera, OrbitState};
+
+pub fn run(args: ViewArgs) -> Result<()> {
+    #[cfg(all(unix, not(target_os = "macos")))]
+    if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        bail!(
+            "no display: DISPLAY and WAYLAND_DISPLAY are unset, so `penumbra view` cannot open a window. \
+             For a headless screenshot use `penumbra render SCENE --out shot.png`"
+        );
+    }
+    let settings = RenderSettings { msaa: args.look.msaa, tonemapper: args.look.tonemap.into(), ..Default::default() };
+    settings.validate().map_err(|e| anyhow!("--msaa: {e}"))?;
+    let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
+    let event_loop = EventLoop::new().map_err(|e| {
+        anyhow!("cannot open a window ({e}). For a headless screenshot use `penumbra render SCENE --out shot.png`")
+    })?;
+    let mut viewer = Viewer { args, scene, settings, running: None, error: None };
+    event_loop.run_app(&mut viewer).context("window event loop")?;
+    match viewer.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct Viewer {
+    args: ViewArgs,
+    scene: GltfScene,
+    settings: RenderSettings,
+    running: Option<Running>,
+    error: Option<anyhow::Error>,
+}
+
+struct Input {
+    cursor: Vec2,
+    left: bool,
+    middle: bool,
+    right: bool,
+    modifiers: ModifiersState,
+}
+
+struct Running {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    app: App,
+    camera: Entity,
+    orbit: OrbitCamera,
+    home: OrbitState,
+    input: Input,
+    last_frame: Instant,
+}
+
+impl Viewer {
+    fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
+        let title = format!("penumbra — {}", self.scene.path.display());
+        let window = Arc::new(
+            event_loop
+                .create_window(
+                    Window::default_attributes()
+                        .with_title(title)
+                        .with_inner_size(winit::dpi::LogicalSize::new(1280, 800)),
+                )
+                .context("cannot create the window")?,
+        );
+        let request = AdapterRequest::default();
+        let desc =
+            GpuContext::instance_descriptor(&request).with_display_handle(Box::new(event_loop.owned_display_handle()));
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
+        let ctx = GpuContext::with_instance(instance, &request, Some(&surface))?;
+        let size = window.inner_size();
+        let caps = surface.get_capabilities(&ctx.adapter);
+        let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
+        let present_mode =
+            if self.args.no_vsync { wgpu::PresentMode::AutoNoVsync } else { wgpu::PresentMode::AutoVsync };
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes[0],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+            view_formats: vec![],
+        };
+        surface.configure(&ctx.device, &config);
+
+        let shot = ShotSettings {
+            size: Some((config.width, config.height)),
+            camera: self.args.camera,
+            exposure_ev100: self.args.look.exposure,
+        };
+        let (mut app, _) = stage_scene(&self.scene, &shot)?;
+        app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
+        // The orbit camera starts where the staged camera (auto-framed or the file's) looks from.
+        app.update();
+        let bounds = world_bounds(&mut app.world);
+        let (camera, state) = {
+            let mut q = app.world.query::<(Entity, &Camera, &GlobalTransform)>();
+            let (e, _, g) =
+                q.iter(&app.world).find(|(_, c, _)| c.is_active).ok_or_else(|| anyhow!("no active camera"))?;
+            let eye = g.translation();
+            let target = if bounds.is_empty() {
+                eye + g.forward()
+            } else {
+                // The point along the view ray nearest the scene's centre.
+                let t = (bounds.center() - eye).dot(g.forward()).max(1e-3);
+                eye + g.forward() * t
+            };
+            (e, OrbitState::looking_at(eye, target))
+        };
+        if !matches!(self.args.camera, CameraChoice::Auto | CameraChoice::Orbit { .. }) {
+            // Orbiting a file's camera would move its node; drive a free camera from its pose.
+            let cam = *app.world.get::<Camera>(camera).expect("queried");
+            app.world.get_mut::<Camera>(camera).expect("queried").is_active = false;
+            let free = app.world.spawn((Camera { is_active: true, ..cam }, state.transform())).id();
+            return self.finish(window, surface, config, app, free, state, ctx);
+        }
+        self.finish(window, surface, config, app, camera, state, ctx)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        window: Arc<Window>,
+        surface: wgpu::Surface<'static>,
+        config: wgpu::SurfaceConfiguration,
+        mut app: App,
+        camera: Entity,
+        state: OrbitState,
+        ctx: GpuContext,
+    ) -> Result<Running> {
+        app.insert_resource(Renderer::new(ctx, self.settings.clone())?);
+        app.insert_resource(RenderOutput::External);
+        Ok(Running {
+            window,
+            surface,
+            config,
+            app,
+            camera,
+            orbit: OrbitCamera::new(state),
+            home: state,
+            input: Input {
+                cursor: Vec2::ZERO,
+                left: false,
+                middle: false,
+                right: false,
+                modifiers: ModifiersState::empty(),
+            },
+            last_frame: Instant::now(),
+        })
+    }
+}
+
+impl Running {
+    fn yfov(&self) -> f32 {
+        match self.app.world.get::<Camera>(self.camera).map(|c| c.projection) {
+            Some(Projection::Perspective { yfov, .. }) => yfov,
+            _ => 45f32.to_radians(),
+        }
+    }
+
+    /// The point under the cursor on the plane through the orbit target facing the camera.
+    fn cursor_point(&self) -> Option<Vec3> {
+        let (w, h) = (self.config.width as f32, self.config.height as f32);
+        let t = self.orbit.goal.transform();
+        let tan = (0.5 * self.yfov()).tan();
+        let ndc = Vec2::new(2.0 * self.input.cursor.x / w - 1.0, 1.0 - 2.0 * self.input.cursor.y / h);
+        let dir = t.rotation * Vec3::new(ndc.x * tan * w / h, ndc.y * tan, -1.0);
+        Some(t.translation + dir * self.orbit.goal.distance)
+    }
+
+    fn resize(&mut self, width: u32, height: u32, device: &wgpu::Device) {
+        if width == 0 || height == 0 {
+            return; // minimised: keep the old configuration, skip frames until restored
+        }
+        self.config.width = width;
+        self.config.height = height;
+        self.surface.configure(device, &self.config);
+    }
+
+    fn frame(&mut self) {
+        let now = Instant::now();
+        let dt = (now - self.last_frame).as_secs_f32();
+        self.last_frame = now;
+        let transform = self.orbit.update(dt);
+        if let Some(mut t) = self.app.world.get_mut::<Transform>(self.camera) {
+            *t = transform;
+        }
+        self.app.update();
+        if self.config.width == 0 || self.config.height == 0 {
+            return;
+        }
+        let device = self.app.world.resource::<Renderer>().context().device.clone();
+        let texture = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&device, &self.config);
+                return;
+            }
+            _ => return, // timeout, occluded, validation: try again next frame
+        };
+        let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let size = (self.config.width, self.config.height);
+        let format = self.config.format;
+        self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
+            let scene = world.resource::<RenderScene>();
+            renderer.render(scene, &view, format, size);
+            renderer.context().queue.present(texture);
+        });
+    }
+}
+
+impl ApplicationHandler for Viewer {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.running.is_some() {
+            return;
+        }
+        match self.start(event_loop) {
+            Ok(r) => {
+                r.window.request_redraw();
+                self.running = Some(r);
+            }
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(r) = self.running.as_mut() else { return };
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                let device = r.app.world.resource::<Renderer>().context().device.clone();
+                r.resize(size.width, size.height, &device);
+            }
+            WindowEvent::ModifiersChanged(m) => r.input.modifiers = m.state(),
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => match event.logical_key
+            {
+                Key::Named(NamedKey::Escape) => event_loop.exit(),
+                Key::Character(c) if c.eq_ignore_ascii_case("f") => r.orbit.goal = r.home,
+                _ => {}
+            },
+            WindowEvent::MouseInput { state, button, .. } => {
+                let down = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => r.input.left = down,
+                    MouseButton::Middle => r.input.middle = down,
+                    MouseButton::Right => r.input.right = down,
+                    _ => {}
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = Vec2::new(position.x as f32, position.y as f32);
+                let d = p - r.input.cursor;
+                r.input.cursor = p;
+                let h = r.config.height as f32;
+                if r.input.middle || r.input.right || (r.input.left && r.input.modifiers.shift_key()) {
+                    let yfov = r.yfov();
+                    r.orbit.pan(d.x, d.y, h, yfov);
+                } else if r.input.left {
+                    r.orbit.orbit(d.x, d.y, h);
+                }
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let notches = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                let towards = r.cursor_point();
+                r.orbit.zoom(notches, towards);
+            }
+            WindowEvent::RedrawRequested => {
+                r.frame();
+                r.window.request_redraw();
+            }
+            _ => {}
+        }
+    }
 }

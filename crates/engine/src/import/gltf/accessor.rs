@@ -44,11 +44,7 @@ fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
         }
         DataType::I16 => {
             let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f32;
-            if normalized {
-                (v / 32767.0).max(-1.0)
-            } else {
-                v
-            }
+            if normalized { (v / 32767.0).max(-1.0) } else { v }
         }
         DataType::U16 => {
             let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f32;
@@ -56,11 +52,7 @@ fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
         }
         DataType::U32 => {
             let v = u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
-            if normalized {
-                v as f32 / u32::MAX as f32
-            } else {
-                v as f32
-            }
+            if normalized { v as f32 / u32::MAX as f32 } else { v as f32 }
         }
     }
 }
@@ -74,29 +66,22 @@ fn strided_window<'b>(
     elem_size: usize,
     stride_override: Option<usize>,
 ) -> AccessorResult<(&'b [u8], usize)> {
-    let buffer = buffers
-        .get(view.buffer().index())
-        .ok_or_else(|| format!("buffer {} does not exist", view.buffer().index()))?;
+    let buffer =
+        buffers.get(view.buffer().index()).ok_or_else(|| format!("buffer {} does not exist", view.buffer().index()))?;
     let stride = stride_override.unwrap_or(view.stride().unwrap_or(elem_size));
     if stride < elem_size {
-        return Err(format!(
-            "byteStride {stride} is smaller than the element size {elem_size}"
-        ));
+        return Err(format!("byteStride {stride} is smaller than the element size {elem_size}"));
     }
-    let view_end = view
-        .offset()
-        .checked_add(view.length())
-        .filter(|&end| end <= buffer.len())
-        .ok_or_else(|| {
-            format!(
-                "bufferView {} (offset {}, length {}) runs past the end of buffer {} ({} bytes)",
-                view.index(),
-                view.offset(),
-                view.length(),
-                view.buffer().index(),
-                buffer.len()
-            )
-        })?;
+    let view_end = view.offset().checked_add(view.length()).filter(|&end| end <= buffer.len()).ok_or_else(|| {
+        format!(
+            "bufferView {} (offset {}, length {}) runs past the end of buffer {} ({} bytes)",
+            view.index(),
+            view.offset(),
+            view.length(),
+            view.buffer().index(),
+            buffer.len()
+        )
+    })?;
     if count == 0 {
         return Ok((&[], stride));
     }
@@ -123,27 +108,20 @@ pub(crate) fn read_f32<const N: usize>(
 ) -> AccessorResult<Vec<[f32; N]>> {
     let dims = dimensions_len(accessor.dimensions());
     if dims != N {
-        return Err(format!(
-            "expected {N} components per element, found {:?}",
-            accessor.dimensions()
-        ));
+        return Err(format!("expected {N} components per element, found {:?}", accessor.dimensions()));
     }
     let ty = accessor.data_type();
     let csize = component_size(ty);
     let elem = csize * N;
     let count = accessor.count();
     let normalized = accessor.normalized();
-    let decode = |bytes: &[u8]| -> [f32; N] {
-        std::array::from_fn(|c| read_component(&bytes[c * csize..], ty, normalized))
-    };
+    let decode =
+        |bytes: &[u8]| -> [f32; N] { std::array::from_fn(|c| read_component(&bytes[c * csize..], ty, normalized)) };
 
     let mut out: Vec<[f32; N]> = match accessor.view() {
         Some(view) => {
-            let (window, stride) =
-                strided_window(buffers, &view, accessor.offset(), count, elem, None)?;
-            (0..count)
-                .map(|i| decode(&window[i * stride..i * stride + elem]))
-                .collect()
+            let (window, stride) = strided_window(buffers, &view, accessor.offset(), count, elem, None)?;
+            (0..count).map(|i| decode(&window[i * stride..i * stride + elem])).collect()
         }
         None => vec![[0.0; N]; count],
     };
@@ -151,9 +129,7 @@ pub(crate) fn read_f32<const N: usize>(
     if let Some(sparse) = accessor.sparse() {
         let n = sparse.count();
         if n > count {
-            return Err(format!(
-                "sparse count {n} exceeds the accessor count {count}"
-            ));
+            return Err(format!("sparse count {n} exceeds the accessor count {count}"));
         }
         let indices = sparse.indices();
         let isize = match indices.index_type() {
@@ -161,25 +137,11 @@ pub(crate) fn read_f32<const N: usize>(
             gltf::accessor::sparse::IndexType::U16 => 2,
             gltf::accessor::sparse::IndexType::U32 => 4,
         };
-        let (iwin, _) = strided_window(
-            buffers,
-            &indices.view(),
-            indices.offset(),
-            n,
-            isize,
-            Some(isize),
-        )
-        .map_err(|e| format!("sparse indices: {e}"))?;
+        let (iwin, _) = strided_window(buffers, &indices.view(), indices.offset(), n, isize, Some(isize))
+            .map_err(|e| format!("sparse indices: {e}"))?;
         let values = sparse.values();
-        let (vwin, _) = strided_window(
-            buffers,
-            &values.view(),
-            values.offset(),
-            n,
-            elem,
-            Some(elem),
-        )
-        .map_err(|e| format!("sparse values: {e}"))?;
+        let (vwin, _) = strided_window(buffers, &values.view(), values.offset(), n, elem, Some(elem))
+            .map_err(|e| format!("sparse values: {e}"))?;
         for k in 0..n {
             let b = &iwin[k * isize..];
             let target = match isize {
@@ -187,9 +149,9 @@ pub(crate) fn read_f32<const N: usize>(
                 2 => u16::from_le_bytes([b[0], b[1]]) as usize,
                 _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
             };
-            let slot = out.get_mut(target).ok_or_else(|| {
-                format!("sparse index {target} is out of range for {count} elements")
-            })?;
+            let slot = out
+                .get_mut(target)
+                .ok_or_else(|| format!("sparse index {target} is out of range for {count} elements"))?;
             *slot = decode(&vwin[k * elem..(k + 1) * elem]);
         }
     }
@@ -197,22 +159,14 @@ pub(crate) fn read_f32<const N: usize>(
 }
 
 /// Decodes an index accessor (unsigned scalar).
-pub(crate) fn read_indices(
-    accessor: &gltf::Accessor,
-    buffers: &[Vec<u8>],
-) -> AccessorResult<Vec<u32>> {
+pub(crate) fn read_indices(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> AccessorResult<Vec<u32>> {
     if accessor.dimensions() != Dimensions::Scalar {
-        return Err(format!(
-            "indices must be scalars, found {:?}",
-            accessor.dimensions()
-        ));
+        return Err(format!("indices must be scalars, found {:?}", accessor.dimensions()));
     }
     match accessor.data_type() {
         DataType::U8 | DataType::U16 | DataType::U32 => {}
         other => {
-            return Err(format!(
-                "indices must be unsigned integers, found {other:?}"
-            ));
+            return Err(format!("indices must be unsigned integers, found {other:?}"));
         }
     }
     if accessor.normalized() {
@@ -232,10 +186,7 @@ pub(crate) fn read_indices(
     if accessor.sparse().is_some() {
         // Sparse index buffers are legal but unseen in practice; the float path is exact for
         // the values an index buffer can address on any GPU we target (< 2^24 vertices).
-        return Ok(read_f32::<1>(accessor, buffers)?
-            .into_iter()
-            .map(|[v]| v as u32)
-            .collect());
+        return Ok(read_f32::<1>(accessor, buffers)?.into_iter().map(|[v]| v as u32).collect());
     }
     let Some(view) = accessor.view() else {
         return Ok(vec![0; count]);

@@ -26,36 +26,21 @@ pub(crate) fn image_bytes<'a>(
     let index = image.index();
     match image.source() {
         gltf::image::Source::View { view, .. } => {
-            let err = |reason: String| ImportErrorKind::Image {
-                index,
-                uri: format!("bufferView {}", view.index()),
-                reason,
-            };
-            let buffer = buffers
-                .get(view.buffer().index())
-                .ok_or_else(|| err("buffer missing".into()))?;
-            let end = view
-                .offset()
-                .checked_add(view.length())
-                .filter(|&e| e <= buffer.len())
-                .ok_or_else(|| {
-                    err(format!(
-                        "bufferView runs past the end of buffer {} ({} bytes)",
-                        view.buffer().index(),
-                        buffer.len()
-                    ))
-                })?;
+            let err =
+                |reason: String| ImportErrorKind::Image { index, uri: format!("bufferView {}", view.index()), reason };
+            let buffer = buffers.get(view.buffer().index()).ok_or_else(|| err("buffer missing".into()))?;
+            let end = view.offset().checked_add(view.length()).filter(|&e| e <= buffer.len()).ok_or_else(|| {
+                err(format!(
+                    "bufferView runs past the end of buffer {} ({} bytes)",
+                    view.buffer().index(),
+                    buffer.len()
+                ))
+            })?;
             Ok(ImageBytes::Slice(&buffer[view.offset()..end]))
         }
         gltf::image::Source::Uri { uri, .. } => read_uri(base_dir, uri, options)
             .map(ImageBytes::Owned)
-            .map_err(|e| {
-                e.into_kind(uri, |reason| ImportErrorKind::Image {
-                    index,
-                    uri: uri.to_owned(),
-                    reason,
-                })
-            }),
+            .map_err(|e| e.into_kind(uri, |reason| ImportErrorKind::Image { index, uri: uri.to_owned(), reason })),
     }
 }
 
@@ -66,18 +51,19 @@ pub(crate) fn decode(
     label: String,
     options: &ImportOptions,
 ) -> Result<Image, ImportErrorKind> {
-    let err = |reason: String| ImportErrorKind::Image {
-        index,
-        uri: uri.to_owned(),
-        reason,
-    };
+    let err = |reason: String| ImportErrorKind::Image { index, uri: uri.to_owned(), reason };
+    // JPEG straight to RGBA with zune-jpeg: the image crate decodes to RGB and then converts,
+    // which for a 2048² texture is 12 MiB more memory to fault in and one more pass over it.
+    if bytes.starts_with(&[0xff, 0xd8, 0xff])
+        && let Some(image) = decode_jpeg_rgba(bytes, &label, options).map_err(err)?
+    {
+        return Ok(image);
+    }
     let mut reader = image::ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| err(format!("cannot read: {e}")))?;
     if reader.format().is_none() {
-        return Err(err(
-            "unknown image format (Penumbra decodes PNG and JPEG)".into()
-        ));
+        return Err(err("unknown image format (Penumbra decodes PNG and JPEG)".into()));
     }
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(options.max_image_dimension);
@@ -92,40 +78,32 @@ pub(crate) fn decode(
         other => err(format!("cannot decode: {other}")),
     })?;
     let rgba = decoded.into_rgba8();
-    Ok(Image {
-        width: rgba.width(),
-        height: rgba.height(),
-        rgba8: rgba.into_raw(),
-        label,
-    })
+    Ok(Image { width: rgba.width(), height: rgba.height(), rgba8: rgba.into_raw(), label })
 }
 
-/// Runs `jobs` on up to `available_parallelism` threads, keeping their order.
-pub(crate) fn parallel_map<T: Sync, R: Send>(jobs: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(jobs.len())
-        .max(1);
-    if threads == 1 {
-        return jobs.iter().map(f).collect();
+/// `Ok(None)`: a JPEG zune-jpeg cannot turn into RGBA (CMYK, say); the caller falls back to the
+/// image crate.
+fn decode_jpeg_rgba(bytes: &[u8], label: &str, options: &ImportOptions) -> Result<Option<Image>, String> {
+    use zune_core::bytestream::ZCursor;
+    use zune_core::colorspace::ColorSpace;
+    use zune_core::options::DecoderOptions;
+    let max = options.max_image_dimension as usize;
+    let opts =
+        DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::RGBA).set_max_width(max).set_max_height(max);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), opts);
+    decoder.decode_headers().map_err(|e| format!("cannot decode JPEG: {e}"))?;
+    let Some((w, h)) = decoder.dimensions() else { return Ok(None) };
+    if decoder.output_colorspace() != Some(ColorSpace::RGBA) {
+        return Ok(None);
     }
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut results: Vec<Option<R>> = (0..jobs.len()).map(|_| None).collect();
-    let slots = std::sync::Mutex::new(&mut results);
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(job) = jobs.get(i) else { break };
-                    let r = f(job);
-                    slots.lock().expect("no panics while holding the lock")[i] = Some(r);
-                }
-            });
-        }
-    });
-    results
-        .into_iter()
-        .map(|r| r.expect("every job ran"))
-        .collect()
+    let size = w as u64 * h as u64 * 4;
+    if size > options.max_image_bytes {
+        return Err(format!(
+            "{w}×{h} decodes to {size} bytes, over the limit of {} (raise ImportOptions::max_image_bytes)",
+            options.max_image_bytes
+        ));
+    }
+    let mut rgba8 = vec![0u8; size as usize];
+    decoder.decode_into(&mut rgba8).map_err(|e| format!("cannot decode JPEG: {e}"))?;
+    Ok(Some(Image { width: w as u32, height: h as u32, rgba8, label: label.to_owned() }))
 }

@@ -30,9 +30,7 @@ fn sampler(s: gltf::texture::Sampler) -> Sampler {
         WrappingMode::Repeat => WrapMode::Repeat,
     };
     let (min_filter, mipmap_filter) = match s.min_filter() {
-        None | Some(MinFilter::LinearMipmapLinear) => {
-            (FilterMode::Linear, Some(FilterMode::Linear))
-        }
+        None | Some(MinFilter::LinearMipmapLinear) => (FilterMode::Linear, Some(FilterMode::Linear)),
         Some(MinFilter::Nearest) => (FilterMode::Nearest, None),
         Some(MinFilter::Linear) => (FilterMode::Linear, None),
         Some(MinFilter::NearestMipmapNearest) => (FilterMode::Nearest, Some(FilterMode::Nearest)),
@@ -43,13 +41,7 @@ fn sampler(s: gltf::texture::Sampler) -> Sampler {
         Some(MagFilter::Nearest) => FilterMode::Nearest,
         _ => FilterMode::Linear,
     };
-    Sampler {
-        mag_filter,
-        min_filter,
-        mipmap_filter,
-        wrap_u: wrap(s.wrap_s()),
-        wrap_v: wrap(s.wrap_t()),
-    }
+    Sampler { mag_filter, min_filter, mipmap_filter, wrap_u: wrap(s.wrap_s()), wrap_v: wrap(s.wrap_t()) }
 }
 
 /// KHR_texture_transform read from raw extension JSON (normal and occlusion texture infos are
@@ -67,17 +59,10 @@ fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option<u32>) {
         rotation: v.get("rotation").and_then(|r| r.as_f64()).unwrap_or(0.0) as f32,
         scale: pair("scale", Vec2::ONE),
     };
-    (
-        t,
-        v.get("texCoord").and_then(|c| c.as_u64()).map(|c| c as u32),
-    )
+    (t, v.get("texCoord").and_then(|c| c.as_u64()).map(|c| c as u32))
 }
 
-fn texture(
-    texture: gltf::Texture,
-    tex_coord: u32,
-    transform: Option<(UvTransform, Option<u32>)>,
-) -> TextureDesc {
+fn texture(texture: gltf::Texture, tex_coord: u32, transform: Option<(UvTransform, Option<u32>)>) -> TextureDesc {
     let (transform, uv_override) = transform.unwrap_or_default();
     TextureDesc {
         image: texture.source().index(),
@@ -89,14 +74,7 @@ fn texture(
 
 fn info(i: gltf::texture::Info) -> TextureDesc {
     let tt = i.texture_transform().map(|t| {
-        (
-            UvTransform {
-                offset: t.offset().into(),
-                rotation: t.rotation(),
-                scale: t.scale().into(),
-            },
-            t.tex_coord(),
-        )
+        (UvTransform { offset: t.offset().into(), rotation: t.rotation(), scale: t.scale().into() }, t.tex_coord())
     });
     texture(i.texture(), i.tex_coord(), tt)
 }
@@ -124,15 +102,11 @@ pub(crate) fn convert(m: &gltf::Material) -> MaterialDesc {
         pbr.base_color_texture().map(info),
         pbr.metallic_roughness_texture().map(info),
         m.normal_texture().map(|t| {
-            let tt = t
-                .extension_value("KHR_texture_transform")
-                .map(transform_from_json);
+            let tt = t.extension_value("KHR_texture_transform").map(transform_from_json);
             texture(t.texture(), t.tex_coord(), tt)
         }),
         m.occlusion_texture().map(|t| {
-            let tt = t
-                .extension_value("KHR_texture_transform")
-                .map(transform_from_json);
+            let tt = t.extension_value("KHR_texture_transform").map(transform_from_json);
             texture(t.texture(), t.tex_coord(), tt)
         }),
         m.emissive_texture().map(info),

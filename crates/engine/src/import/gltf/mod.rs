@@ -14,14 +14,15 @@ mod primitive;
 mod source;
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use bevy_ecs::prelude::*;
 use glam::{Mat4, Vec3};
 
 use crate::assets::{Assets, Handle};
 use crate::components::{
-    Camera, DirectionalLight, Exposure, Mesh3d, MeshMaterial3d, Name, PointLight, Projection,
-    SpotLight, Transform, Visibility,
+    Camera, DirectionalLight, Exposure, Mesh3d, MeshMaterial3d, Name, PointLight, Projection, SpotLight, Transform,
+    Visibility,
 };
 use crate::image::Image;
 use crate::import::{ImportError, ImportErrorKind};
@@ -97,7 +98,7 @@ struct NodeDesc {
 
 #[derive(Debug, Clone)]
 struct PrimitiveDesc {
-    mesh: Mesh,
+    mesh: Arc<Mesh>,
     material: Option<usize>,
 }
 
@@ -107,7 +108,7 @@ pub struct GltfScene {
     pub path: PathBuf,
     meshes: Vec<(String, Vec<PrimitiveDesc>)>,
     materials: Vec<MaterialDesc>,
-    images: Vec<Option<Image>>,
+    images: Vec<Option<Arc<Image>>>,
     nodes: Vec<NodeDesc>,
     cameras: Vec<(String, Projection)>,
     lights: Vec<LightDesc>,
@@ -121,17 +122,12 @@ pub struct GltfScene {
 impl GltfScene {
     /// Reads and decodes `path`.
     pub fn load(path: &Path, options: &ImportOptions) -> Result<GltfScene, ImportError> {
-        let bytes =
-            std::fs::read(path).map_err(|e| ImportError::new(path, ImportErrorKind::Io(e)))?;
+        let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, ImportErrorKind::Io(e)))?;
         Self::from_bytes(&bytes, path, options)
     }
 
     /// Decodes a file already in memory; `path` names it in errors and anchors relative URIs.
-    pub fn from_bytes(
-        bytes: &[u8],
-        path: &Path,
-        options: &ImportOptions,
-    ) -> Result<GltfScene, ImportError> {
+    pub fn from_bytes(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<GltfScene, ImportError> {
         load_inner(bytes, path, options).map_err(|kind| ImportError::new(path, kind))
     }
 
@@ -150,18 +146,13 @@ impl GltfScene {
         world.init_resource::<Assets<Mesh>>();
         let image_handles: Vec<Option<Handle<Image>>> = {
             let mut images = world.resource_mut::<Assets<Image>>();
-            self.images
-                .iter()
-                .map(|i| i.clone().map(|i| images.add(i)))
-                .collect()
+            // Shared, not copied: a textured model's images are tens of megabytes.
+            self.images.iter().map(|i| i.clone().map(|i| images.add_arc(i))).collect()
         };
         let (material_handles, default_material) = {
             let mut mats = world.resource_mut::<Assets<StandardMaterial>>();
-            let handles: Vec<_> = self
-                .materials
-                .iter()
-                .map(|d| mats.add(resolve_material(d, &image_handles)))
-                .collect();
+            let handles: Vec<_> =
+                self.materials.iter().map(|d| mats.add(resolve_material(d, &image_handles))).collect();
             let default = mats.add(StandardMaterial::default());
             (handles, default)
         };
@@ -169,33 +160,13 @@ impl GltfScene {
             let mut meshes = world.resource_mut::<Assets<Mesh>>();
             self.meshes
                 .iter()
-                .map(|(_, prims)| {
-                    prims
-                        .iter()
-                        .map(|p| (meshes.add(p.mesh.clone()), p.material))
-                        .collect()
-                })
+                .map(|(_, prims)| prims.iter().map(|p| (meshes.add_arc(p.mesh.clone()), p.material)).collect())
                 .collect()
         };
-        let name = self
-            .path
-            .file_name()
-            .map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
-        let root = world
-            .spawn((
-                SceneRoot {
-                    source: self.path.clone(),
-                    scene: self.scene_index,
-                },
-                Name::new(name),
-            ))
-            .id();
-        let ctx = SpawnCtx {
-            scene: self,
-            meshes: &mesh_handles,
-            materials: &material_handles,
-            default_material,
-        };
+        let name = self.path.file_name().map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
+        let root =
+            world.spawn((SceneRoot { source: self.path.clone(), scene: self.scene_index }, Name::new(name))).id();
+        let ctx = SpawnCtx { scene: self, meshes: &mesh_handles, materials: &material_handles, default_material };
         let mut stack: Vec<(usize, Entity)> = self.roots.iter().rev().map(|&n| (n, root)).collect();
         while let Some((node, parent)) = stack.pop() {
             let e = ctx.spawn_node(world, node, parent);
@@ -215,20 +186,11 @@ struct SpawnCtx<'a> {
 impl SpawnCtx<'_> {
     fn spawn_node(&self, world: &mut World, node: usize, parent: Entity) -> Entity {
         let desc = &self.scene.nodes[node];
-        let mut e = world.spawn((
-            Name::new(desc.name.clone()),
-            desc.transform,
-            ChildOf(parent),
-        ));
+        let mut e = world.spawn((Name::new(desc.name.clone()), desc.transform, ChildOf(parent)));
         if let Some(c) = desc.camera {
             let (_, projection) = &self.scene.cameras[c];
             e.insert((
-                Camera {
-                    projection: *projection,
-                    exposure: Exposure::default(),
-                    is_active: false,
-                    order: 0,
-                },
+                Camera { projection: *projection, exposure: Exposure::default(), is_active: false, order: 0 },
                 GltfCamera { index: c },
             ));
         }
@@ -242,12 +204,9 @@ impl SpawnCtx<'_> {
         let id = e.id();
         if let Some(m) = desc.mesh {
             let prims = &self.meshes[m];
-            let material =
-                |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
+            let material = |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
             if let [(mesh, mat)] = prims.as_slice() {
-                world
-                    .entity_mut(id)
-                    .insert((Mesh3d(*mesh), MeshMaterial3d(material(*mat))));
+                world.entity_mut(id).insert((Mesh3d(*mesh), MeshMaterial3d(material(*mat))));
             } else {
                 let mesh_name = &self.scene.meshes[m].0;
                 for (k, (mesh, mat)) in prims.iter().enumerate() {
@@ -276,39 +235,26 @@ fn resolve_material(d: &MaterialDesc, images: &[Option<Handle<Image>>]) -> Stand
     ];
     for (slot, tex) in slots.into_iter().zip(&d.textures) {
         *slot = tex.as_ref().and_then(|t| {
-            images
-                .get(t.image)
-                .copied()
-                .flatten()
-                .map(|image| TextureRef {
-                    image,
-                    sampler: t.sampler,
-                    uv_set: t.uv_set,
-                    transform: t.transform,
-                })
+            images.get(t.image).copied().flatten().map(|image| TextureRef {
+                image,
+                sampler: t.sampler,
+                uv_set: t.uv_set,
+                transform: t.transform,
+            })
         });
     }
     m
 }
 
-fn load_inner(
-    bytes: &[u8],
-    path: &Path,
-    options: &ImportOptions,
-) -> Result<GltfScene, ImportErrorKind> {
+fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<GltfScene, ImportErrorKind> {
     source::check_glb_header(bytes)?;
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes)
-        .map_err(|e| ImportErrorKind::Malformed(e.to_string()))?;
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| ImportErrorKind::Malformed(e.to_string()))?;
 
     // Required extensions first: a file that needs what we lack must be refused by name, before
     // validation complains about its contents in less useful terms.
-    if let Some(name) = document
-        .extensions_required()
-        .find(|e| !SUPPORTED_EXTENSIONS.contains(e))
-    {
-        return Err(ImportErrorKind::UnsupportedExtension {
-            name: name.to_owned(),
-        });
+    if let Some(name) = document.extensions_required().find(|e| !SUPPORTED_EXTENSIONS.contains(e)) {
+        return Err(ImportErrorKind::UnsupportedExtension { name: name.to_owned() });
     }
     validate(&document)?;
     let mut warnings: Vec<String> = document
@@ -321,10 +267,7 @@ fn load_inner(
     let buffers = load_buffers(&document, blob, base_dir, options)?;
     let roots = scene_roots(&document, options.scene)?;
 
-    let materials: Vec<MaterialDesc> = document
-        .materials()
-        .map(|m| materials::convert(&m))
-        .collect();
+    let materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
     let mut meshes = Vec::new();
     for mesh in document.meshes() {
         let mut prims = Vec::new();
@@ -337,33 +280,21 @@ fn load_inner(
                     .map(|t| t.uv_set),
             };
             match primitive::build(&prim, &buffers, &needs, mesh.index())? {
-                primitive::Built::Mesh(mesh) => prims.push(PrimitiveDesc { mesh, material }),
+                primitive::Built::Mesh(mesh) => prims.push(PrimitiveDesc { mesh: Arc::new(mesh), material }),
                 primitive::Built::Skipped(why) => warnings.push(why),
             }
         }
-        meshes.push((
-            mesh.name()
-                .map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned),
-            prims,
-        ));
+        meshes.push((mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned), prims));
     }
 
     let images = decode_images(&document, &materials, &buffers, base_dir, path, options)?;
     let nodes = document
         .nodes()
         .map(|n| NodeDesc {
-            name: n
-                .name()
-                .map_or_else(|| format!("node{}", n.index()), str::to_owned),
+            name: n.name().map_or_else(|| format!("node{}", n.index()), str::to_owned),
             transform: match n.transform() {
-                gltf::scene::Transform::Matrix { matrix } => {
-                    Transform::from_matrix(Mat4::from_cols_array_2d(&matrix))
-                }
-                gltf::scene::Transform::Decomposed {
-                    translation,
-                    rotation,
-                    scale,
-                } => Transform {
+                gltf::scene::Transform::Matrix { matrix } => Transform::from_matrix(Mat4::from_cols_array_2d(&matrix)),
+                gltf::scene::Transform::Decomposed { translation, rotation, scale } => Transform {
                     translation: translation.into(),
                     rotation: glam::Quat::from_array(rotation).normalize(),
                     scale: scale.into(),
@@ -378,21 +309,14 @@ fn load_inner(
     let cameras = document
         .cameras()
         .map(|c| {
-            let name = c
-                .name()
-                .map_or_else(|| format!("camera{}", c.index()), str::to_owned);
+            let name = c.name().map_or_else(|| format!("camera{}", c.index()), str::to_owned);
             let projection = match c.projection() {
-                gltf::camera::Projection::Perspective(p) => Projection::Perspective {
-                    yfov: p.yfov(),
-                    znear: p.znear(),
-                    aspect_ratio: p.aspect_ratio(),
-                },
-                gltf::camera::Projection::Orthographic(o) => Projection::Orthographic {
-                    xmag: Some(o.xmag()),
-                    ymag: o.ymag(),
-                    znear: o.znear(),
-                    zfar: o.zfar(),
-                },
+                gltf::camera::Projection::Perspective(p) => {
+                    Projection::Perspective { yfov: p.yfov(), znear: p.znear(), aspect_ratio: p.aspect_ratio() }
+                }
+                gltf::camera::Projection::Orthographic(o) => {
+                    Projection::Orthographic { xmag: Some(o.xmag()), ymag: o.ymag(), znear: o.znear(), zfar: o.zfar() }
+                }
             };
             (name, projection)
         })
@@ -405,29 +329,21 @@ fn load_inner(
             let color = Vec3::from(l.color());
             match l.kind() {
                 gltf::khr_lights_punctual::Kind::Directional => {
-                    LightDesc::Directional(DirectionalLight {
+                    LightDesc::Directional(DirectionalLight { color, illuminance: l.intensity(), shadows: true })
+                }
+                gltf::khr_lights_punctual::Kind::Point => {
+                    LightDesc::Point(PointLight { color, intensity: l.intensity(), range: l.range(), shadows: true })
+                }
+                gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+                    LightDesc::Spot(SpotLight {
                         color,
-                        illuminance: l.intensity(),
+                        intensity: l.intensity(),
+                        range: l.range(),
+                        inner_cone_angle,
+                        outer_cone_angle,
                         shadows: true,
                     })
                 }
-                gltf::khr_lights_punctual::Kind::Point => LightDesc::Point(PointLight {
-                    color,
-                    intensity: l.intensity(),
-                    range: l.range(),
-                    shadows: true,
-                }),
-                gltf::khr_lights_punctual::Kind::Spot {
-                    inner_cone_angle,
-                    outer_cone_angle,
-                } => LightDesc::Spot(SpotLight {
-                    color,
-                    intensity: l.intensity(),
-                    range: l.range(),
-                    inner_cone_angle,
-                    outer_cone_angle,
-                    shadows: true,
-                }),
             }
         })
         .collect();
@@ -444,9 +360,7 @@ fn load_inner(
         cameras,
         lights,
         roots,
-        scene_index: options
-            .scene
-            .or_else(|| document.default_scene().map(|s| s.index())),
+        scene_index: options.scene.or_else(|| document.default_scene().map(|s| s.index())),
         warnings,
     })
 }
@@ -465,16 +379,9 @@ fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
     if errors.is_empty() {
         return Ok(());
     }
-    let more = if errors.len() > 5 {
-        format!(" (and {} more)", errors.len() - 5)
-    } else {
-        String::new()
-    };
+    let more = if errors.len() > 5 { format!(" (and {} more)", errors.len() - 5) } else { String::new() };
     errors.truncate(5);
-    Err(ImportErrorKind::Invalid(format!(
-        "{}{more}",
-        errors.join("; ")
-    )))
+    Err(ImportErrorKind::Invalid(format!("{}{more}", errors.join("; "))))
 }
 
 fn load_buffers(
@@ -496,17 +403,9 @@ fn load_buffers(
                 ("GLB binary chunk".to_owned(), data)
             }
             gltf::buffer::Source::Uri(uri) => {
-                let short = if uri.starts_with("data:") {
-                    "data URI".to_owned()
-                } else {
-                    uri.to_owned()
-                };
+                let short = if uri.starts_with("data:") { "data URI".to_owned() } else { uri.to_owned() };
                 let data = source::read_uri(base_dir, uri, options).map_err(|e| {
-                    e.into_kind(uri, |reason| ImportErrorKind::Buffer {
-                        index,
-                        uri: short.clone(),
-                        reason,
-                    })
+                    e.into_kind(uri, |reason| ImportErrorKind::Buffer { index, uri: short.clone(), reason })
                 })?;
                 (short, data)
             }
@@ -515,11 +414,7 @@ fn load_buffers(
             return Err(ImportErrorKind::Buffer {
                 index,
                 uri,
-                reason: format!(
-                    "has {} bytes but byteLength says {}",
-                    data.len(),
-                    buffer.length()
-                ),
+                reason: format!("has {} bytes but byteLength says {}", data.len(), buffer.length()),
             });
         }
         buffers.push(data);
@@ -529,10 +424,7 @@ fn load_buffers(
 
 /// The root nodes to spawn, after checking the node graph is a forest (each node has at most one
 /// parent and no cycles), as glTF requires.
-fn scene_roots(
-    document: &gltf::Document,
-    requested: Option<usize>,
-) -> Result<Vec<usize>, ImportErrorKind> {
+fn scene_roots(document: &gltf::Document, requested: Option<usize>) -> Result<Vec<usize>, ImportErrorKind> {
     let n = document.nodes().len();
     let mut parent: Vec<Option<usize>> = vec![None; n];
     for node in document.nodes() {
@@ -552,31 +444,18 @@ fn scene_roots(
     let mut stack: Vec<usize> = (0..n).filter(|&i| parent[i].is_none()).collect();
     while let Some(i) = stack.pop() {
         reached[i] = true;
-        stack.extend(
-            document
-                .nodes()
-                .nth(i)
-                .into_iter()
-                .flat_map(|node| node.children().map(|c| c.index())),
-        );
+        stack.extend(document.nodes().nth(i).into_iter().flat_map(|node| node.children().map(|c| c.index())));
     }
     if let Some(i) = reached.iter().position(|r| !r) {
-        return Err(ImportErrorKind::Hierarchy(format!(
-            "node {i} is part of a cycle"
-        )));
+        return Err(ImportErrorKind::Hierarchy(format!("node {i} is part of a cycle")));
     }
     let scene_count = document.scenes().len();
     let scene = match requested {
         Some(index) if index >= scene_count => {
-            return Err(ImportErrorKind::NoSuchScene {
-                index,
-                count: scene_count,
-            });
+            return Err(ImportErrorKind::NoSuchScene { index, count: scene_count });
         }
         Some(index) => document.scenes().nth(index),
-        None => document
-            .default_scene()
-            .or_else(|| document.scenes().next()),
+        None => document.default_scene().or_else(|| document.scenes().next()),
     };
     let roots: Vec<usize> = match scene {
         Some(s) => s.nodes().map(|n| n.index()).collect(),
@@ -584,9 +463,7 @@ fn scene_roots(
         None => (0..n).filter(|&i| parent[i].is_none()).collect(),
     };
     if let Some(&r) = roots.iter().find(|&&r| parent[r].is_some()) {
-        return Err(ImportErrorKind::Hierarchy(format!(
-            "scene root node {r} is also a child of another node"
-        )));
+        return Err(ImportErrorKind::Hierarchy(format!("scene root node {r} is also a child of another node")));
     }
     Ok(roots)
 }
@@ -598,16 +475,14 @@ fn decode_images(
     base_dir: &Path,
     path: &Path,
     options: &ImportOptions,
-) -> Result<Vec<Option<Image>>, ImportErrorKind> {
+) -> Result<Vec<Option<Arc<Image>>>, ImportErrorKind> {
     let mut used = vec![false; document.images().len()];
     for t in materials.iter().flat_map(|m| m.textures.iter().flatten()) {
         if let Some(u) = used.get_mut(t.image) {
             *u = true;
         }
     }
-    let file = path
-        .file_name()
-        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let mut jobs = Vec::new();
     for image in document.images().filter(|i| used[i.index()]) {
         let uri = match image.source() {
@@ -615,29 +490,19 @@ fn decode_images(
             gltf::image::Source::Uri { .. } => "data URI".to_owned(),
             gltf::image::Source::View { view, .. } => format!("bufferView {}", view.index()),
         };
-        let label = format!(
-            "{file}#{}",
-            image
-                .name()
-                .map_or_else(|| format!("image{}", image.index()), str::to_owned)
-        );
-        jobs.push((
-            image.index(),
-            uri,
-            label,
-            images::image_bytes(&image, buffers, base_dir, options)?,
-        ));
+        let label = format!("{file}#{}", image.name().map_or_else(|| format!("image{}", image.index()), str::to_owned));
+        jobs.push((image.index(), uri, label, images::image_bytes(&image, buffers, base_dir, options)?));
     }
-    let decoded = images::parallel_map(&jobs, |(index, uri, label, bytes)| {
+    let decoded = crate::parallel::parallel_map(&jobs, |(index, uri, label, bytes)| {
         let bytes = match bytes {
             images::ImageBytes::Slice(s) => s,
             images::ImageBytes::Owned(v) => v.as_slice(),
         };
         images::decode(bytes, *index, uri, label.clone(), options)
     });
-    let mut out: Vec<Option<Image>> = vec![None; used.len()];
+    let mut out: Vec<Option<Arc<Image>>> = vec![None; used.len()];
     for ((index, ..), image) in jobs.iter().zip(decoded) {
-        out[*index] = Some(image?);
+        out[*index] = Some(Arc::new(image?));
     }
     Ok(out)
 }

@@ -27,16 +27,11 @@ pub(crate) fn build(
     mesh_index: usize,
 ) -> Result<Built, ImportErrorKind> {
     let primitive = prim.index();
-    let acc_err = |a: &gltf::Accessor, reason: String| ImportErrorKind::Accessor {
-        index: a.index(),
-        reason,
-    };
+    let acc_err = |a: &gltf::Accessor, reason: String| ImportErrorKind::Accessor { index: a.index(), reason };
     let read3 = |s: Semantic| -> Result<Option<Vec<Vec3>>, ImportErrorKind> {
         prim.get(&s)
             .map(|a| {
-                read_f32::<3>(&a, buffers)
-                    .map(|v| v.into_iter().map(Vec3::from).collect())
-                    .map_err(|e| acc_err(&a, e))
+                read_f32::<3>(&a, buffers).map(|v| v.into_iter().map(Vec3::from).collect()).map_err(|e| acc_err(&a, e))
             })
             .transpose()
     };
@@ -46,25 +41,14 @@ pub(crate) fn build(
         )));
     };
     let n = positions.len();
-    let mut mesh = Mesh {
-        positions,
-        ..Default::default()
-    };
+    let mut mesh = Mesh { positions, ..Default::default() };
     mesh.normals = read3(Semantic::Normals)?.unwrap_or_default();
     if let Some(a) = prim.get(&Semantic::Tangents) {
-        mesh.tangents = read_f32::<4>(&a, buffers)
-            .map_err(|e| acc_err(&a, e))?
-            .into_iter()
-            .map(Vec4::from)
-            .collect();
+        mesh.tangents = read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec4::from).collect();
     }
     for (set, dst) in [(0, &mut mesh.uv0), (1, &mut mesh.uv1)] {
         if let Some(a) = prim.get(&Semantic::TexCoords(set)) {
-            *dst = read_f32::<2>(&a, buffers)
-                .map_err(|e| acc_err(&a, e))?
-                .into_iter()
-                .map(Vec2::from)
-                .collect();
+            *dst = read_f32::<2>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec2::from).collect();
         }
     }
     if let Some(a) = prim.get(&Semantic::Colors(0)) {
@@ -74,11 +58,7 @@ pub(crate) fn build(
                 .into_iter()
                 .map(|c| Vec3::from(c).extend(1.0))
                 .collect(),
-            _ => read_f32::<4>(&a, buffers)
-                .map_err(|e| acc_err(&a, e))?
-                .into_iter()
-                .map(Vec4::from)
-                .collect(),
+            _ => read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec4::from).collect(),
         };
     }
 
@@ -90,17 +70,11 @@ pub(crate) fn build(
     mesh.topology = topology;
     mesh.indices = indices;
     // Dangling indices must be caught before anything below indexes attribute arrays by them.
-    mesh.validate().map_err(|source| ImportErrorKind::Mesh {
-        mesh: mesh_index,
-        primitive,
-        source,
-    })?;
+    mesh.validate().map_err(|source| ImportErrorKind::Mesh { mesh: mesh_index, primitive, source })?;
 
     let replaced = mesh.sanitize();
     if replaced > 0 {
-        tracing::warn!(
-            "mesh {mesh_index} primitive {primitive}: replaced {replaced} non-finite attribute values"
-        );
+        tracing::warn!("mesh {mesh_index} primitive {primitive}: replaced {replaced} non-finite attribute values");
     }
     if topology == Topology::TriangleList {
         if mesh.normals.is_empty() {
@@ -109,18 +83,13 @@ pub(crate) fn build(
         if let Some(set) = needs.normal_map_uv_set
             && mesh.tangents.is_empty()
         {
-            let has_uvs = if set == 0 {
-                !mesh.uv0.is_empty()
-            } else {
-                !mesh.uv1.is_empty()
-            };
+            let has_uvs = if set == 0 { !mesh.uv0.is_empty() } else { !mesh.uv1.is_empty() };
             if has_uvs {
-                mesh.generate_tangents(set)
-                    .map_err(|source| ImportErrorKind::Mesh {
-                        mesh: mesh_index,
-                        primitive,
-                        source,
-                    })?;
+                mesh.generate_tangents(set).map_err(|source| ImportErrorKind::Mesh {
+                    mesh: mesh_index,
+                    primitive,
+                    source,
+                })?;
             }
         }
     }
@@ -129,15 +98,8 @@ pub(crate) fn build(
 
 /// Strips, fans and loops become lists, following the glTF 2.0 spec §3.7.2.1 exactly so the
 /// winding of every triangle is preserved.
-fn expand_topology(
-    mode: Mode,
-    elements: Option<Vec<u32>>,
-    vertex_count: usize,
-) -> (Topology, Option<Vec<u32>>) {
-    let seq = |e: &Option<Vec<u32>>| -> Vec<u32> {
-        e.clone()
-            .unwrap_or_else(|| (0..vertex_count as u32).collect())
-    };
+fn expand_topology(mode: Mode, elements: Option<Vec<u32>>, vertex_count: usize) -> (Topology, Option<Vec<u32>>) {
+    let seq = |e: &Option<Vec<u32>>| -> Vec<u32> { e.clone().unwrap_or_else(|| (0..vertex_count as u32).collect()) };
     match mode {
         Mode::Triangles => (Topology::TriangleList, elements),
         Mode::Lines => (Topology::LineList, elements),
@@ -156,9 +118,7 @@ fn expand_topology(
         Mode::TriangleFan => {
             let v = seq(&elements);
             // p_i = {v_{i+1}, v_{i+2}, v_0}
-            let tris = (0..v.len().saturating_sub(2))
-                .flat_map(|i| [v[i + 1], v[i + 2], v[0]])
-                .collect();
+            let tris = (0..v.len().saturating_sub(2)).flat_map(|i| [v[i + 1], v[i + 2], v[0]]).collect();
             (Topology::TriangleList, Some(tris))
         }
         Mode::LineStrip => {
@@ -188,9 +148,6 @@ mod tests {
         let (_, f) = expand_topology(Mode::TriangleFan, None, 4);
         assert_eq!(f.unwrap(), [1, 2, 0, 2, 3, 0]);
         let (t, l) = expand_topology(Mode::LineLoop, Some(vec![4, 5, 6]), 7);
-        assert_eq!(
-            (t, l.unwrap()),
-            (Topology::LineList, vec![4, 5, 5, 6, 6, 4])
-        );
+        assert_eq!((t, l.unwrap()), (Topology::LineList, vec![4, 5, 5, 6, 6, 4]));
     }
 }

@@ -26,11 +26,7 @@ pub(crate) fn check_glb_header(bytes: &[u8]) -> Result<(), ImportErrorKind> {
         return Err(ImportErrorKind::Malformed(format!(
             "GLB header declares {declared} bytes but the file has {}{}",
             bytes.len(),
-            if declared > bytes.len() {
-                " (truncated?)"
-            } else {
-                ""
-            }
+            if declared > bytes.len() { " (truncated?)" } else { "" }
         )));
     }
     Ok(())
@@ -46,15 +42,9 @@ pub(crate) enum UriError {
 
 impl UriError {
     /// Maps to the import error for a buffer or image at `index`.
-    pub(crate) fn into_kind(
-        self,
-        uri: &str,
-        make: impl FnOnce(String) -> ImportErrorKind,
-    ) -> ImportErrorKind {
+    pub(crate) fn into_kind(self, uri: &str, make: impl FnOnce(String) -> ImportErrorKind) -> ImportErrorKind {
         match self {
-            UriError::OutsideFolder => ImportErrorKind::UriOutsideFolder {
-                uri: uri.to_owned(),
-            },
+            UriError::OutsideFolder => ImportErrorKind::UriOutsideFolder { uri: uri.to_owned() },
             UriError::Unsupported(r) | UriError::Read(r) => make(r),
             UriError::TooLarge { size, limit } => ImportErrorKind::LimitExceeded {
                 what: "a data URI's decoded size",
@@ -67,11 +57,7 @@ impl UriError {
 }
 
 /// Reads what `uri` names, relative to `base_dir`.
-pub(crate) fn read_uri(
-    base_dir: &Path,
-    uri: &str,
-    options: &ImportOptions,
-) -> Result<Vec<u8>, UriError> {
+pub(crate) fn read_uri(base_dir: &Path, uri: &str, options: &ImportOptions) -> Result<Vec<u8>, UriError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         return decode_data_uri(rest, options.max_data_uri_bytes);
     }
@@ -94,22 +80,17 @@ fn has_scheme(uri: &str) -> bool {
         Some(i) if i > 1 => {
             let scheme = &uri[..i];
             scheme.starts_with(|c: char| c.is_ascii_alphabetic())
-                && scheme
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+                && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
         }
         _ => false,
     }
 }
 
 fn decode_data_uri(rest: &str, limit: u64) -> Result<Vec<u8>, UriError> {
-    let (header, payload) = rest
-        .split_once(',')
-        .ok_or_else(|| UriError::Read("data URI has no ',' before its payload".into()))?;
+    let (header, payload) =
+        rest.split_once(',').ok_or_else(|| UriError::Read("data URI has no ',' before its payload".into()))?;
     if !header.ends_with(";base64") {
-        return Err(UriError::Unsupported(
-            "data URI is not base64-encoded".into(),
-        ));
+        return Err(UriError::Unsupported("data URI is not base64-encoded".into()));
     }
     // Base64 expands 3 bytes to 4: check the bound before allocating.
     let size = payload.len() as u64 / 4 * 3;
@@ -122,11 +103,7 @@ fn decode_data_uri(rest: &str, limit: u64) -> Result<Vec<u8>, UriError> {
 }
 
 /// `base_dir/relative`, refused when it escapes `base_dir` (unless `allow_outside`).
-pub(crate) fn resolve_inside(
-    base_dir: &Path,
-    relative: &str,
-    allow_outside: bool,
-) -> Result<PathBuf, UriError> {
+pub(crate) fn resolve_inside(base_dir: &Path, relative: &str, allow_outside: bool) -> Result<PathBuf, UriError> {
     let rel = Path::new(relative);
     let joined = base_dir.join(rel);
     if allow_outside {
@@ -163,18 +140,9 @@ mod tests {
     #[test]
     fn parent_and_absolute_uris_are_refused() {
         let base = Path::new("/tmp");
-        assert!(matches!(
-            resolve_inside(base, "../etc/passwd", false),
-            Err(UriError::OutsideFolder)
-        ));
-        assert!(matches!(
-            resolve_inside(base, "a/../../b", false),
-            Err(UriError::OutsideFolder)
-        ));
-        assert!(matches!(
-            resolve_inside(base, "/etc/passwd", false),
-            Err(UriError::OutsideFolder)
-        ));
+        assert!(matches!(resolve_inside(base, "../etc/passwd", false), Err(UriError::OutsideFolder)));
+        assert!(matches!(resolve_inside(base, "a/../../b", false), Err(UriError::OutsideFolder)));
+        assert!(matches!(resolve_inside(base, "/etc/passwd", false), Err(UriError::OutsideFolder)));
         assert!(resolve_inside(base, "a/../b.bin", false).is_ok());
     }
 
@@ -189,19 +157,8 @@ mod tests {
     #[test]
     fn data_uris_decode_and_respect_the_limit() {
         let opts = ImportOptions::default();
-        assert_eq!(
-            read_uri(
-                Path::new("."),
-                "data:application/octet-stream;base64,AAEC",
-                &opts
-            )
-            .unwrap(),
-            [0, 1, 2]
-        );
-        assert!(matches!(
-            decode_data_uri(";base64,AAAAAAAA", 3),
-            Err(UriError::TooLarge { .. })
-        ));
+        assert_eq!(read_uri(Path::new("."), "data:application/octet-stream;base64,AAEC", &opts).unwrap(), [0, 1, 2]);
+        assert!(matches!(decode_data_uri(";base64,AAAAAAAA", 3), Err(UriError::TooLarge { .. })));
     }
 
     #[test]

@@ -1,0 +1,116 @@
+//! Orbit camera: a target point, a distance, yaw and pitch. Input sets the goal; the camera
+//! eases towards it with an exponential filter whose rate is per second, so motion feels the
+//! same at 30 and 240 frames per second.
+
+use glam::{Quat, Vec3};
+use penumbra_engine::components::Transform;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrbitState {
+    pub target: Vec3,
+    pub distance: f32,
+    /// Radians about +Y, 0 looking down −Z.
+    pub yaw: f32,
+    /// Radians, positive looking down on the target.
+    pub pitch: f32,
+}
+
+impl OrbitState {
+    /// The state that reproduces a camera at `eye` looking at `target`.
+    pub fn looking_at(eye: Vec3, target: Vec3) -> Self {
+        let offset = eye - target;
+        let distance = offset.length().max(1e-6);
+        let dir = offset / distance;
+        Self { target, distance, yaw: dir.x.atan2(dir.z), pitch: dir.y.clamp(-1.0, 1.0).asin() }
+    }
+
+    pub fn transform(&self) -> Transform {
+        let rotation = Quat::from_rotation_y(self.yaw) * Quat::from_rotation_x(-self.pitch);
+        Transform::from_translation(self.target + rotation * Vec3::Z * self.distance).with_rotation(rotation)
+    }
+}
+
+pub struct OrbitCamera {
+    pub current: OrbitState,
+    pub goal: OrbitState,
+    /// Distances below this are not allowed (zooming through the target).
+    pub min_distance: f32,
+}
+
+/// How fast the camera closes the gap to its goal: 1 − e^(−rate·dt) of it per frame.
+const SMOOTHING_RATE: f32 = 18.0;
+const PITCH_LIMIT: f32 = 1.55;
+
+impl OrbitCamera {
+    pub fn new(state: OrbitState) -> Self {
+        Self { current: state, goal: state, min_distance: state.distance * 1e-3 }
+    }
+
+    /// Left drag: pixels to radians (a full window width turns half a circle).
+    pub fn orbit(&mut self, dx: f32, dy: f32, window_height: f32) {
+        let k = std::f32::consts::PI / window_height.max(1.0);
+        self.goal.yaw -= dx * k;
+        self.goal.pitch = (self.goal.pitch + dy * k).clamp(-PITCH_LIMIT, PITCH_LIMIT);
+    }
+
+    /// Middle or shift drag: the target moves with the cursor in the view plane.
+    pub fn pan(&mut self, dx: f32, dy: f32, window_height: f32, yfov: f32) {
+        let world_per_pixel = 2.0 * self.goal.distance * (0.5 * yfov).tan() / window_height.max(1.0);
+        let t = self.goal.transform();
+        let right = t.rotation * Vec3::X;
+        let up = t.rotation * Vec3::Y;
+        self.goal.target += (-dx * right + dy * up) * world_per_pixel;
+    }
+
+    /// Wheel: each notch moves 15 % of the way; `towards` (a world point under the cursor) pulls
+    /// the target along so the zoom heads where the user points.
+    pub fn zoom(&mut self, notches: f32, towards: Option<Vec3>) {
+        let factor = 0.85f32.powf(notches);
+        let new_distance = (self.goal.distance * factor).max(self.min_distance);
+        if let Some(p) = towards {
+            let moved = 1.0 - new_distance / self.goal.distance;
+            self.goal.target += (p - self.goal.target) * moved;
+        }
+        self.goal.distance = new_distance;
+    }
+
+    /// Advances the eased state by `dt` seconds.
+    pub fn update(&mut self, dt: f32) -> Transform {
+        let a = 1.0 - (-SMOOTHING_RATE * dt.max(0.0)).exp();
+        let (c, g) = (&mut self.current, &self.goal);
+        c.target = c.target.lerp(g.target, a);
+        // Distance eases in log space so zooming feels uniform at every scale.
+        c.distance = (c.distance.ln() + (g.distance.ln() - c.distance.ln()) * a).exp();
+        c.yaw += (g.yaw - c.yaw) * a;
+        c.pitch += (g.pitch - c.pitch) * a;
+        c.transform()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn looking_at_round_trips() {
+        let s = OrbitState::looking_at(Vec3::new(3.0, 2.0, 5.0), Vec3::new(1.0, 0.0, 0.0));
+        let t = s.transform();
+        assert!((t.translation - Vec3::new(3.0, 2.0, 5.0)).length() < 1e-4);
+        let forward = t.rotation * Vec3::NEG_Z;
+        assert!((forward - (Vec3::new(1.0, 0.0, 0.0) - t.translation).normalize()).length() < 1e-4);
+    }
+
+    #[test]
+    fn easing_is_frame_rate_independent() {
+        let start = OrbitState { target: Vec3::ZERO, distance: 10.0, yaw: 0.0, pitch: 0.0 };
+        let run = |steps: u32| {
+            let mut cam = OrbitCamera::new(start);
+            cam.orbit(100.0, 0.0, 500.0);
+            for _ in 0..steps {
+                cam.update(0.25 / steps as f32);
+            }
+            cam.current.yaw
+        };
+        assert!((run(8) - run(64)).abs() < 1e-3);
+    }
+}
