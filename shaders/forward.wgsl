@@ -143,8 +143,10 @@ fn vs_main(in: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip_position = view.clip_from_rel * vec4<f32>(rel, 1.0);
     out.rel_position = rel;
-    out.normal = cof * in.normal;
-    out.tangent = vec4<f32>(linear * in.tangent.xyz, in.tangent.w * s);
+    // Normalised here: the cofactor scales normals by the square of the object's scale, which for
+    // a 1e-4 scale model would be 1e-8 before interpolation.
+    out.normal = safe_normalize(cof * in.normal, vec3<f32>(0.0));
+    out.tangent = vec4<f32>(safe_normalize(linear * in.tangent.xyz, vec3<f32>(0.0)), in.tangent.w * s);
     out.uv0 = in.uv0;
     out.uv1 = in.uv1;
     out.color = in.color;
@@ -184,9 +186,11 @@ fn slot_coord(mat: Material, slot: u32, sets: UvSets) -> TexCoord {
     return TexCoord(linear * uv + vec2<f32>(r0.z, r1.z), linear * dx, linear * dy);
 }
 
+// Normalises, or returns `fallback` for a zero, denormal or NaN vector. The threshold is just above
+// f32's smallest normal number so that vectors of tiny scenes (1e-12 m²) still normalise.
 fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     let l2 = dot(v, v);
-    if !(l2 > 1e-24) {
+    if !(l2 > 1e-36) {
         return fallback;
     }
     return v * inverseSqrt(l2);
@@ -303,9 +307,11 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>) -> vec3<f32> {
         }
         default: {
             let to_light = (light.position - view.camera_position) - rel_pos;
-            // A light touching the surface: clamp the distance at 1 mm (the inverse-square law
-            // would otherwise divide by zero); see the stability notes in the README.
-            let dist2 = max(dot(to_light, to_light), 1e-6);
+            // Only guards the division: any fixed physical floor (1 mm, 1 cm as some engines use)
+            // would break scenes modelled at small scales, so the floor sits just above f32's
+            // smallest normal number. A light touching the surface saturates the pixel, and the
+            // output clamp keeps it finite.
+            let dist2 = max(dot(to_light, to_light), 1e-30);
             let l = to_light * inverseSqrt(dist2);
             var atten = range_window(dist2, light.range) / dist2;
             if light.kind == LIGHT_SPOT {

@@ -67,15 +67,20 @@ impl Default for Tolerance {
     }
 }
 
-pub fn golden_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/goldens").join(format!("{name}.png"))
+pub fn golden_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/goldens")
 }
 
 /// Compares `shot` with `tests/goldens/<name>.png` using FLIP. On failure writes
 /// `<name>.actual.png` and `<name>.diff.png` (FLIP error, magma) beside the golden and panics
 /// with their paths. `PENUMBRA_UPDATE_GOLDENS=1` rewrites the golden instead.
 pub fn check_golden(name: &str, shot: &Shot, tol: Tolerance) {
-    let golden = golden_path(name);
+    check_golden_in(&golden_dir(), name, shot, tol)
+}
+
+/// [`check_golden`] against `dir/<name>.png`.
+pub fn check_golden_in(dir: &Path, name: &str, shot: &Shot, tol: Tolerance) {
+    let golden = dir.join(format!("{name}.png"));
     let save = |path: &Path, rgba: &[u8]| {
         image::save_buffer(path, rgba, shot.width, shot.height, image::ColorType::Rgba8).unwrap();
     };
@@ -118,5 +123,62 @@ pub fn check_golden(name: &str, shot: &Shot, tol: Tolerance) {
             actual.display(),
             diff.display()
         );
+    }
+}
+
+use penumbra::prelude::*;
+use penumbra::render::{RenderOutput, RenderPlugin};
+
+/// An empty app with the engine and render plugins, for scenes built in code.
+pub fn scene_app() -> App {
+    let mut app = App::new();
+    app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+    app
+}
+
+/// Runs one update of `app`, rendering headless at `size` (a renderer is attached on first use),
+/// and returns the tonemapped sRGB RGBA8 pixels.
+pub fn render_app(app: &mut App, size: (u32, u32), settings: RenderSettings) -> Vec<u8> {
+    if !app.world.contains_resource::<Renderer>() {
+        app.insert_resource(Renderer::new(gpu(), settings).unwrap());
+    }
+    app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
+    app.update();
+    app.world.resource::<Renderer>().read_headless().unwrap()
+}
+
+/// The last frame's HDR colour (linear, exposed, before tonemapping).
+pub fn hdr_of(app: &App) -> Vec<[f32; 4]> {
+    app.world.resource::<Renderer>().read_hdr().unwrap()
+}
+
+/// Spawns a mesh with a material; returns the entity.
+pub fn spawn_mesh(app: &mut App, mesh: Mesh, material: StandardMaterial, transform: Transform) -> Entity {
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(mesh);
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(material);
+    app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), transform)).id()
+}
+
+/// Luminance-ish brightness (mean of RGB, 0..255) of the pixel at (x, y).
+pub fn brightness(rgba: &[u8], width: u32, x: u32, y: u32) -> f32 {
+    let i = ((y * width + x) * 4) as usize;
+    (rgba[i] as f32 + rgba[i + 1] as f32 + rgba[i + 2] as f32) / 3.0
+}
+
+/// FLIP mean error between two RGBA8 images of the same size.
+pub fn flip_mean(a: &[u8], b: &[u8], width: u32, height: u32) -> f32 {
+    let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
+    let reference = nv_flip::FlipImageRgb8::with_data(width, height, &rgb(a));
+    let test = nv_flip::FlipImageRgb8::with_data(width, height, &rgb(b));
+    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    nv_flip::FlipPool::from_image(&error).mean()
+}
+
+/// Panics if any HDR value is NaN, infinite, negative or above f16's largest finite value.
+pub fn assert_finite_hdr(hdr: &[[f32; 4]], what: &str) {
+    for (i, p) in hdr.iter().enumerate() {
+        for c in &p[..3] {
+            assert!(c.is_finite() && *c >= 0.0 && *c <= 65504.0, "{what}: pixel {i} is {p:?}");
+        }
     }
 }

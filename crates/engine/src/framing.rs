@@ -32,10 +32,13 @@ pub fn framing_camera(bounds: &Aabb, yfov: f32, aspect: f32) -> (Camera, Transfo
 /// A camera on the ray from the centre of `bounds` along `direction`, looking back at the
 /// centre, as close as it can be while every corner of the box stays inside the frame.
 pub fn framing_camera_from(bounds: &Aabb, direction: Vec3, yfov: f32, aspect: f32) -> (Camera, Transform) {
-    let (center, half) = if bounds.is_empty() {
-        (Vec3::ZERO, Vec3::ONE)
+    let largest = if bounds.is_empty() { 0.0 } else { bounds.half_extents().max_element() };
+    // Flat or point-like bounds get a minimum thickness relative to their size (a fixed floor
+    // would dominate a micrometre-scale scene); an empty scene or a single point a unit box.
+    let (center, half) = if largest > 0.0 && largest.is_finite() {
+        (bounds.center(), bounds.half_extents().max(Vec3::splat(largest * 1e-3)))
     } else {
-        (bounds.center(), bounds.half_extents().max(Vec3::splat(1e-6)))
+        (if bounds.is_empty() { Vec3::ZERO } else { bounds.center() }, Vec3::ONE)
     };
     let back = direction.normalize_or(Vec3::Z);
     let up = if back.cross(Vec3::Y).length_squared() < 1e-6 { Vec3::NEG_Z } else { Vec3::Y };

@@ -310,7 +310,7 @@ impl Renderer {
         self.prepare_materials(scene, &mut encoder);
         tracing::debug!("materials and textures prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
         let t = Instant::now();
-        self.prepare_meshes(scene, &mut encoder);
+        self.prepare_meshes(scene);
         tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
         if self.batches_dirty {
             self.rebuild_batches();
@@ -529,7 +529,7 @@ impl Renderer {
         }
     }
 
-    fn prepare_meshes(&mut self, scene: &RenderScene, encoder: &mut wgpu::CommandEncoder) {
+    fn prepare_meshes(&mut self, scene: &RenderScene) {
         // Mesh assets that vanished release their pool entries; entries nothing refers to are
         // evicted at the end of the frame.
         self.mesh_pool.retain_assets(|h| scene.meshes.contains_key(&h));
@@ -545,8 +545,7 @@ impl Renderer {
                 self.mesh_pool.release_asset(handle);
                 continue;
             };
-            let id =
-                self.mesh_pool.get_or_upload(&self.ctx.device, &self.ctx.queue, encoder, handle, snapshot, self.frame);
+            let id = self.mesh_pool.get_or_upload(&self.ctx.device, &self.ctx.queue, handle, snapshot, self.frame);
             if self.mesh_ids.insert(handle, id) != Some(id) {
                 self.batches_dirty = true;
             }
@@ -571,40 +570,32 @@ impl Renderer {
     /// Sorts visible opaque and masked draws into instanced batches; collects blended draws.
     fn rebuild_batches(&mut self) {
         self.batches_dirty = false;
-        let mut items: Vec<(PipelineKey, MaterialKey, Handle<Mesh>, u32)> = Vec::new();
+        let mut items: Vec<(PipelineKey, MaterialKey, MeshId, Handle<Mesh>, u32)> = Vec::new();
         self.blend_entities.clear();
         for (entity, d) in &self.draws {
             if !d.visible {
                 continue;
             }
-            let Some(key) = self.pipeline_key(d) else {
-                continue;
-            };
+            let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else { continue };
             if key.alpha == AlphaKey::Blend {
                 self.blend_entities.push(*entity);
             } else {
-                items.push((key, d.material, d.mesh, d.slot));
+                items.push((key, d.material, mesh_id, d.mesh, d.slot));
             }
         }
-        // Opaque before masked (AlphaKey order), then by pipeline, material, mesh; the slot
-        // makes the order total, so the frame is deterministic whatever the hash-map order.
-        items.sort_unstable_by_key(|&(key, material, mesh, slot)| (key.alpha, key, material, mesh, slot));
+        // Opaque before masked (AlphaKey order), then by pipeline, material and pool entry (mesh
+        // assets with identical content share an entry, so they batch together); the slot makes
+        // the order total, so the frame is deterministic whatever the hash-map order.
+        items.sort_unstable_by_key(|&(key, material, mesh_id, _, slot)| (key.alpha, key, material, mesh_id, slot));
         self.blend_entities.sort_unstable();
         self.opaque_batches.clear();
         self.opaque_slots.clear();
-        for (key, material, mesh, slot) in items {
+        for (key, material, mesh_id, mesh, slot) in items {
             let i = self.opaque_slots.len() as u32;
             self.opaque_slots.push(slot);
             match self.opaque_batches.last_mut() {
-                Some(b) if b.key == key && b.material == material && b.mesh == mesh => b.count += 1,
-                _ => self.opaque_batches.push(Batch {
-                    key,
-                    material,
-                    mesh,
-                    mesh_id: self.mesh_ids[&mesh],
-                    first: i,
-                    count: 1,
-                }),
+                Some(b) if b.key == key && b.material == material && b.mesh_id == mesh_id => b.count += 1,
+                _ => self.opaque_batches.push(Batch { key, material, mesh, mesh_id, first: i, count: 1 }),
             }
         }
     }

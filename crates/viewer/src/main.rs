@@ -4,6 +4,7 @@
 
 mod cli;
 mod commands;
+mod hugepages;
 mod scene;
 mod view;
 
@@ -12,6 +13,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    hugepages::enable();
     let args = cli::Cli::parse();
     tracing_subscriber::fmt()
         .with_env_filter(

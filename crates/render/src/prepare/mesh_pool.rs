@@ -159,7 +159,6 @@ impl MeshPool {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
         handle: Handle<Mesh>,
         snapshot: &Snapshot<Mesh>,
         frame: u64,
@@ -175,7 +174,7 @@ impl MeshPool {
         let hash = content_hash(mesh);
         let id = match self.by_hash.get(&hash) {
             Some(&id) => id,
-            None => self.upload(device, queue, encoder, mesh, hash, frame),
+            None => self.upload(device, queue, mesh, hash, frame),
         };
         if let Some(e) = self.entries[id.0 as usize].as_mut() {
             e.asset_refs += 1;
@@ -235,18 +234,17 @@ impl MeshPool {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
         mesh: &Mesh,
         hash: blake3::Hash,
         frame: u64,
     ) -> MeshId {
         let vertices = interleave(mesh);
         let vcount = vertices.len() as u32;
-        let vrange = self.allocate(device, encoder, true, vcount.max(1));
+        let vrange = self.allocate(device, queue, true, vcount.max(1));
         queue.write_buffer(&self.vertex_buffer, vrange.start as u64 * VERTEX_SIZE, bytemuck::cast_slice(&vertices));
         self.stats.bytes_uploaded += vertices.len() as u64 * VERTEX_SIZE;
         let irange = mesh.indices.as_ref().map(|indices| {
-            let r = self.allocate(device, encoder, false, (indices.len() as u32).max(1));
+            let r = self.allocate(device, queue, false, (indices.len() as u32).max(1));
             queue.write_buffer(&self.index_buffer, r.start as u64 * INDEX_SIZE, bytemuck::cast_slice(indices));
             self.stats.bytes_uploaded += indices.len() as u64 * INDEX_SIZE;
             r.start..r.start + indices.len() as u32
@@ -275,13 +273,7 @@ impl MeshPool {
     }
 
     /// A range of `len` elements, growing the buffer when it does not fit.
-    fn allocate(
-        &mut self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        vertex: bool,
-        len: u32,
-    ) -> Range<u32> {
+    fn allocate(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, vertex: bool, len: u32) -> Range<u32> {
         let (alloc, buffer, elem, label, usage) = if vertex {
             (
                 &mut self.vertex_alloc,
@@ -299,9 +291,13 @@ impl MeshPool {
         let old_end = alloc.initial_range().end;
         let new_end = old_end.saturating_mul(2).max(old_end.saturating_add(len));
         let new_buffer = create_buffer(device, label, new_end as u64 * elem, usage);
-        // Copy only what is allocated would need the allocator's used ranges; copying the whole
-        // old buffer is one GPU copy and keeps every offset valid.
-        encoder.copy_buffer_to_buffer(buffer, 0, &new_buffer, 0, old_end as u64 * elem);
+        // The copy is submitted on its own, now: `queue.write_buffer` data is applied at the start
+        // of the next submission, so writes already made to the old buffer land before this copy
+        // and writes made to the new one after growing land after it. Encoded into the frame's
+        // encoder instead, the copy would run after the new writes and overwrite them.
+        let mut copy = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        copy.copy_buffer_to_buffer(buffer, 0, &new_buffer, 0, old_end as u64 * elem);
+        queue.submit([copy.finish()]);
         *buffer = new_buffer;
         alloc.grow_to(new_end);
         tracing::debug!("{label}: grew to {new_end} elements");

@@ -1,0 +1,114 @@
+//! The `penumbra` binary as users run it: deterministic screenshots, and one clear line (naming
+//! the file or flag) for every kind of bad input, with a failing exit status.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn penumbra(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_penumbra")).args(args).output().expect("the binary runs")
+}
+
+fn asset(rel: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/assets").join(rel).display().to_string()
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn two_renders_write_identical_bytes() {
+    let dir = out_dir("determinism");
+    let shots: Vec<Vec<u8>> = ["a.png", "b.png"]
+        .iter()
+        .map(|name| {
+            let out = dir.join(name);
+            let o = penumbra(&[
+                "render",
+                &asset("BoxTextured/BoxTextured.glb"),
+                "--out",
+                out.to_str().unwrap(),
+                "--size",
+                "96x64",
+                "--camera",
+                "orbit:30:20",
+            ]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            std::fs::read(out).unwrap()
+        })
+        .collect();
+    assert_eq!(shots[0], shots[1], "two runs differ");
+    let img = image::load_from_memory(&shots[0]).unwrap();
+    assert_eq!((img.width(), img.height()), (96, 64));
+}
+
+#[test]
+fn camera_aspect_sets_the_default_size() {
+    let dir = out_dir("aspect");
+    let out = dir.join("cam.png");
+    let o = penumbra(&["render", &asset("Cameras/Cameras.gltf"), "--out", out.to_str().unwrap(), "--camera", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(out).unwrap();
+    assert_eq!(img.height(), 512);
+    assert_eq!(img.width(), 512, "the sample's perspective camera has aspect ratio 1.0");
+}
+
+#[test]
+fn a_broken_file_fails_with_its_name() {
+    let dir = out_dir("broken");
+    let bad = dir.join("broken.gltf");
+    std::fs::write(&bad, "{ not json").unwrap();
+    let o = penumbra(&["render", bad.to_str().unwrap(), "--out", dir.join("x.png").to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("broken.gltf") && e.contains("not a valid glTF"), "{e}");
+    assert!(!dir.join("x.png").exists(), "no output on failure");
+}
+
+#[test]
+fn a_missing_file_fails_with_its_name() {
+    let o = penumbra(&["render", "/nonexistent/scene.glb", "--out", "/tmp/never.png"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("/nonexistent/scene.glb"), "{}", stderr(&o));
+}
+
+#[test]
+fn out_of_range_settings_name_their_flag() {
+    let scene = asset("BoxTextured/BoxTextured.glb");
+    let cases: [(&[&str], &str); 5] = [
+        (&["--msaa", "3"], "--msaa"),
+        (&["--size", "0x10"], "--size"),
+        (&["--size", "20000x10"], "--size"),
+        (&["--exposure", "1e9"], "--exposure"),
+        (&["--camera", "7"], "--camera 7"),
+    ];
+    for (extra, flag) in cases {
+        let mut args = vec!["render", scene.as_str(), "--out", "/tmp/penumbra-never.png"];
+        args.extend_from_slice(extra);
+        let o = penumbra(&args);
+        assert!(!o.status.success(), "{extra:?} was accepted");
+        assert!(stderr(&o).contains(flag), "{extra:?}: {}", stderr(&o));
+    }
+    let o = penumbra(&["render", &scene, "--out", "/tmp/x.png", "--size", "big"]);
+    assert!(!o.status.success() && stderr(&o).contains("--size"), "{}", stderr(&o));
+}
+
+#[test]
+fn view_without_a_display_points_to_render() {
+    let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .arg("view")
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("no display") && e.contains("penumbra render"), "{e}");
+}

@@ -1,0 +1,149 @@
+//! Properties of the renderer that goldens alone would not pin down: pipelines compile once,
+//! unchanged frames upload nothing, mirrored transforms keep their front faces, a material whose
+//! image vanished still draws, and frames are deterministic.
+
+use penumbra::prelude::*;
+use penumbra::render::{RenderSettings, Renderer};
+
+mod common;
+use common::{brightness, render_app, scene_app, spawn_mesh};
+
+const SIZE: (u32, u32) = (64, 64);
+
+fn lit_camera(app: &mut App, z: f32) {
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, z).looking_at(Vec3::ZERO, Vec3::Y)));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
+}
+
+fn white() -> StandardMaterial {
+    StandardMaterial::from_color(Vec4::ONE, 1.0)
+}
+
+/// A plane facing +Z (towards the camera) before any transform.
+fn facing_quad() -> Mesh {
+    let mut m = Mesh::plane(2.0);
+    for p in &mut m.positions {
+        *p = Vec3::new(p.x, -p.z, 0.0);
+    }
+    for n in &mut m.normals {
+        *n = Vec3::Z;
+    }
+    m
+}
+
+fn settings() -> RenderSettings {
+    RenderSettings { msaa: 1, ..Default::default() }
+}
+
+#[test]
+fn pipelines_compile_once_and_unchanged_frames_upload_nothing() {
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(white());
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    // A second asset with the same content: the mesh pool stores it once, so it batches too.
+    let twin = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let cubes: Vec<Entity> = [mesh, mesh, twin]
+        .into_iter()
+        .enumerate()
+        .map(|(i, m)| {
+            app.world.spawn((Mesh3d(m), MeshMaterial3d(material), Transform::from_xyz(i as f32 - 1.0, 0.0, 0.0))).id()
+        })
+        .collect();
+    render_app(&mut app, SIZE, settings());
+    let first = app.world.resource::<Renderer>().stats().clone();
+    assert_eq!(first.instances, 3);
+    assert_eq!(first.draw_calls, 1, "three cubes sharing mesh content and material are one instanced draw");
+    assert_eq!(first.instance_bytes_uploaded, 3 * 64);
+    render_app(&mut app, SIZE, settings());
+    let second = app.world.resource::<Renderer>().stats().clone();
+    assert_eq!(second.instance_bytes_uploaded, 0, "nothing changed, nothing uploaded");
+    assert_eq!(second.pipelines, first.pipelines, "no pipeline was compiled twice");
+    app.world.get_mut::<Transform>(cubes[1]).unwrap().translation.y = 0.5;
+    render_app(&mut app, SIZE, settings());
+    let third = app.world.resource::<Renderer>().stats().clone();
+    assert_eq!(third.instance_bytes_uploaded, 64, "one moved entity, one instance record");
+}
+
+#[test]
+fn mirrored_transforms_keep_their_front_faces() {
+    for scale in [Vec3::new(-1.0, 1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(-1.0, -1.0, 1.0)] {
+        let mut app = scene_app();
+        lit_camera(&mut app, 4.0);
+        spawn_mesh(&mut app, facing_quad(), white(), Transform::from_scale(scale));
+        let px = render_app(&mut app, SIZE, settings());
+        assert!(brightness(&px, SIZE.0, 32, 32) > 150.0, "scale {scale}: the quad was culled");
+    }
+    // A quad turned away is culled: single-sided materials show nothing from behind.
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    spawn_mesh(&mut app, facing_quad(), white(), Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::PI)));
+    let px = render_app(&mut app, SIZE, settings());
+    assert!(brightness(&px, SIZE.0, 32, 32) < 20.0, "a back face was drawn");
+}
+
+#[test]
+fn double_sided_materials_light_their_back_faces() {
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    let material = StandardMaterial { double_sided: true, ..white() };
+    spawn_mesh(
+        &mut app,
+        facing_quad(),
+        material,
+        Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::PI)),
+    );
+    let px = render_app(&mut app, SIZE, settings());
+    assert!(brightness(&px, SIZE.0, 32, 32) > 150.0, "the back face of a double-sided quad is dark or missing");
+}
+
+#[test]
+fn a_material_whose_image_vanished_draws_with_the_null_texture() {
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    let image = app.world.resource_mut::<Assets<Image>>().add(Image::solid([0, 0, 0, 255], "black"));
+    let material = StandardMaterial { base_color_texture: Some(TextureRef::new(image)), ..white() };
+    spawn_mesh(&mut app, facing_quad(), material, Transform::IDENTITY);
+    let black = render_app(&mut app, SIZE, settings());
+    assert!(brightness(&black, SIZE.0, 32, 32) < 20.0, "the black texture was not applied");
+    app.world.resource_mut::<Assets<Image>>().remove(image).unwrap();
+    let white = render_app(&mut app, SIZE, settings());
+    assert!(brightness(&white, SIZE.0, 32, 32) > 150.0, "without its image the draw must use the white null texture");
+}
+
+#[test]
+fn frames_are_deterministic() {
+    let shot = || {
+        let mut app = scene_app();
+        lit_camera(&mut app, 5.0);
+        for i in 0..5 {
+            let m = StandardMaterial {
+                base_color: Vec4::new(0.2 * i as f32, 0.5, 0.8, 0.6),
+                alpha_mode: AlphaMode::Blend,
+                ..white()
+            };
+            spawn_mesh(
+                &mut app,
+                Mesh::uv_sphere(0.6, 24, 12),
+                m,
+                Transform::from_xyz(i as f32 * 0.4 - 0.8, 0.0, i as f32 * -0.3),
+            );
+        }
+        render_app(&mut app, SIZE, RenderSettings::default())
+    };
+    assert_eq!(shot(), shot());
+}
+
+#[test]
+fn blended_draws_are_sorted_back_to_front() {
+    // A red quad in front of a green one, both half transparent: the front colour dominates.
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    let blend = |c: Vec4| StandardMaterial { base_color: c, alpha_mode: AlphaMode::Blend, unlit: true, ..white() };
+    // Spawned front first, so only sorting puts it last.
+    spawn_mesh(&mut app, facing_quad(), blend(Vec4::new(1.0, 0.0, 0.0, 0.7)), Transform::from_xyz(0.0, 0.0, 0.5));
+    spawn_mesh(&mut app, facing_quad(), blend(Vec4::new(0.0, 1.0, 0.0, 0.7)), Transform::from_xyz(0.0, 0.0, -0.5));
+    let px = render_app(&mut app, SIZE, settings());
+    let i = ((32 * SIZE.0 + 32) * 4) as usize;
+    assert!(px[i] > px[i + 1], "green ended on top of red: {:?}", &px[i..i + 4]);
+}
