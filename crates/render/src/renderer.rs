@@ -31,7 +31,7 @@ use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
 use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT};
-use crate::timing::GpuTimer;
+use crate::timing::{FrameTimings, GpuTimer};
 use crate::world::RenderScene;
 
 #[derive(Debug, Clone, PartialEq)]
@@ -77,14 +77,15 @@ pub struct FrameStats {
     pub lights: u32,
     pub instance_bytes_uploaded: u64,
     pub cpu_ms: f64,
-    pub gpu_ms: Vec<(&'static str, f64)>,
+    /// GPU time per pass of the newest frame the GPU has finished (timing enabled only).
+    pub gpu: Option<FrameTimings>,
     pub plan: FramePlan,
     pub pipelines: usize,
 }
 
 impl FrameStats {
-    pub fn gpu_total_ms(&self) -> f64 {
-        self.gpu_ms.iter().map(|(_, ms)| ms).sum()
+    pub fn gpu_total_ms(&self) -> Option<f64> {
+        self.gpu.as_ref().map(|t| t.passes.iter().map(|(_, ms)| ms).sum())
     }
 }
 
@@ -169,6 +170,7 @@ pub struct Renderer {
     warned_missing: std::collections::HashSet<Handle<Mesh>>,
     /// `RenderScene::frame` of the last scene rendered.
     last_scene_frame: Option<u64>,
+    last_submission: Option<wgpu::SubmissionIndex>,
 }
 
 impl Renderer {
@@ -210,6 +212,7 @@ impl Renderer {
             stats: FrameStats::default(),
             warned_missing: Default::default(),
             last_scene_frame: None,
+            last_submission: None,
             settings,
             ctx,
         })
@@ -238,6 +241,23 @@ impl Renderer {
 
     pub fn stats(&self) -> &FrameStats {
         &self.stats
+    }
+
+    /// The submission of the last frame, to wait on (bounding frames in flight).
+    pub fn last_submission(&self) -> Option<&wgpu::SubmissionIndex> {
+        self.last_submission.as_ref()
+    }
+
+    /// Waits for the GPU to finish everything submitted and collects outstanding timings.
+    pub fn finish(&mut self) {
+        let device = self.ctx.device.clone();
+        match self.timer.as_mut() {
+            Some(t) => t.finish(&device),
+            None => {
+                let _ = device.poll(wgpu::PollType::wait_indefinitely());
+            }
+        }
+        self.stats.gpu = self.timer.as_ref().and_then(|t| t.latest().cloned());
     }
 
     pub fn memory(&self) -> MemoryStats {
@@ -343,7 +363,7 @@ impl Renderer {
         let plan = FramePlan::new(!self.opaque_batches.is_empty(), !blend_batches.is_empty());
 
         if let Some(t) = self.timer.as_mut() {
-            t.begin_frame();
+            t.begin_frame(&device, self.frame);
         }
         let targets = self.targets.as_ref().expect("made above");
         let [r, g, b] = self.settings.clear_color;
@@ -377,7 +397,14 @@ impl Renderer {
         if let Some(t) = &self.timer {
             t.resolve(&mut encoder);
         }
-        queue.submit([encoder.finish()]);
+        let command_buffer = encoder.finish();
+        // CPU time is our work up to here; submission can block on a software driver busy
+        // with the previous frame, which is GPU time, not ours.
+        let cpu_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
+        self.last_submission = Some(queue.submit([command_buffer]));
+        if let Some(t) = self.timer.as_mut() {
+            t.after_submit();
+        }
         tracing::debug!(
             "frame {} encoded and submitted after {:.1} ms",
             self.frame,
@@ -392,8 +419,8 @@ impl Renderer {
             primitives: counts.primitives,
             lights: self.lights.count(),
             instance_bytes_uploaded: self.instances.last_upload_bytes,
-            cpu_ms: cpu_start.elapsed().as_secs_f64() * 1e3,
-            gpu_ms: self.timer.as_ref().map(|t| t.read(&device)).unwrap_or_default(),
+            cpu_ms,
+            gpu: self.timer.as_ref().and_then(|t| t.latest().cloned()),
             plan,
             pipelines: self.pipelines.forward_pipeline_count(),
         };

@@ -1,94 +1,171 @@
-//! GPU timing with timestamp queries written at pass boundaries. Enabled on request (stats
-//! panel, `penumbra bench`); reading results waits for the GPU, so it stays off otherwise.
+//! GPU timing with timestamp queries written at pass boundaries.
+//!
+//! A ring of query sets and readback buffers, one per frame in flight: each frame's timestamps
+//! are resolved and copied into its own slot and mapped asynchronously after submission;
+//! `collect` picks up whatever has completed without waiting. So timing never stalls the CPU on
+//! the GPU, and the stats show the most recent finished frame (usually one or two behind).
+//! Enabled on request (stats panel, `penumbra bench`).
 
-pub struct GpuTimer {
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+const FREE: u8 = 0;
+const RECORDING: u8 = 1;
+const MAPPING: u8 = 2;
+const MAPPED: u8 = 3;
+const FAILED: u8 = 4;
+
+struct Slot {
     query_set: wgpu::QuerySet,
     resolve: wgpu::Buffer,
     readback: wgpu::Buffer,
     labels: Vec<&'static str>,
-    capacity: u32,
-    period_ns: f32,
+    frame: u64,
+    state: Arc<AtomicU8>,
+}
+
+/// Per-pass GPU milliseconds of one frame.
+#[derive(Debug, Clone, Default)]
+pub struct FrameTimings {
+    pub frame: u64,
+    pub passes: Vec<(&'static str, f64)>,
+}
+
+pub struct GpuTimer {
+    slots: Vec<Slot>,
+    current: Option<usize>,
+    period_ns: f64,
+    latest: Option<FrameTimings>,
 }
 
 impl GpuTimer {
     pub const MAX_PASSES: u32 = 16;
+    /// Frames whose timings can be outstanding at once.
+    pub const RING: usize = 4;
 
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
-        let capacity = Self::MAX_PASSES * 2;
-        let query_set = device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("pass timestamps"),
-            ty: wgpu::QueryType::Timestamp,
-            count: capacity,
-        });
-        let bytes = capacity as u64 * 8;
-        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamp resolve"),
-            size: bytes,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamp readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        Self { query_set, resolve, readback, labels: Vec::new(), capacity, period_ns: queue.get_timestamp_period() }
+        let count = Self::MAX_PASSES * 2;
+        let bytes = count as u64 * 8;
+        let slots = (0..Self::RING)
+            .map(|_| Slot {
+                query_set: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("pass timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count,
+                }),
+                resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamp resolve"),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                readback: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamp readback"),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                labels: Vec::new(),
+                frame: 0,
+                state: Arc::new(AtomicU8::new(FREE)),
+            })
+            .collect();
+        Self { slots, current: None, period_ns: queue.get_timestamp_period() as f64, latest: None }
     }
 
-    pub fn begin_frame(&mut self) {
-        self.labels.clear();
+    /// Starts recording `frame` in a free slot. Returns false (and records nothing) when every
+    /// slot still waits for the GPU: that frame goes untimed rather than stalling.
+    pub fn begin_frame(&mut self, device: &wgpu::Device, frame: u64) -> bool {
+        self.collect(device);
+        self.current = self.slots.iter().position(|s| s.state.load(Ordering::Acquire) == FREE);
+        if let Some(i) = self.current {
+            let slot = &mut self.slots[i];
+            slot.labels.clear();
+            slot.frame = frame;
+            slot.state.store(RECORDING, Ordering::Release);
+        }
+        self.current.is_some()
     }
 
-    /// Timestamp writes for a render pass named `label`.
+    /// Timestamp writes for a render pass named `label` in the current frame.
     pub fn pass(&mut self, label: &'static str) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
-        let i = self.labels.len() as u32;
-        if 2 * i + 1 >= self.capacity {
+        let slot = &mut self.slots[self.current?];
+        let i = slot.labels.len() as u32;
+        if i >= Self::MAX_PASSES {
             return None;
         }
-        self.labels.push(label);
+        slot.labels.push(label);
         Some(wgpu::RenderPassTimestampWrites {
-            query_set: &self.query_set,
+            query_set: &slot.query_set,
             beginning_of_pass_write_index: Some(2 * i),
             end_of_pass_write_index: Some(2 * i + 1),
         })
     }
 
+    /// Encodes the resolve and copy of the current frame's timestamps.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
-        let n = self.labels.len() as u32 * 2;
-        if n == 0 {
-            return;
+        let Some(slot) = self.current.map(|i| &self.slots[i]) else { return };
+        let n = slot.labels.len() as u32 * 2;
+        if n > 0 {
+            encoder.resolve_query_set(&slot.query_set, 0..n, &slot.resolve, 0);
+            encoder.copy_buffer_to_buffer(&slot.resolve, 0, &slot.readback, 0, n as u64 * 8);
         }
-        encoder.resolve_query_set(&self.query_set, 0..n, &self.resolve, 0);
-        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, n as u64 * 8);
     }
 
-    /// Milliseconds per pass of the last submitted frame; blocks until the GPU is done.
-    pub fn read(&self, device: &wgpu::Device) -> Vec<(&'static str, f64)> {
-        let n = self.labels.len() as u64 * 2;
+    /// After the frame's submission: maps its readback buffer when the GPU is done with it.
+    pub fn after_submit(&mut self) {
+        let Some(i) = self.current.take() else { return };
+        let slot = &self.slots[i];
+        let n = slot.labels.len() as u64 * 2;
         if n == 0 {
-            return Vec::new();
+            slot.state.store(FREE, Ordering::Release);
+            return;
         }
-        let slice = self.readback.slice(0..n * 8);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        if device.poll(wgpu::PollType::wait_indefinitely()).is_err() {
-            return Vec::new();
-        }
-        let out = match slice.get_mapped_range() {
-            Ok(data) => {
-                let ticks: &[u64] = bytemuck::cast_slice(&data);
-                self.labels
-                    .iter()
-                    .enumerate()
-                    .map(|(i, l)| {
-                        let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
-                        (*l, dt as f64 * self.period_ns as f64 / 1e6)
-                    })
-                    .collect()
+        slot.state.store(MAPPING, Ordering::Release);
+        let state = slot.state.clone();
+        slot.readback.slice(0..n * 8).map_async(wgpu::MapMode::Read, move |r| {
+            state.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
+        });
+    }
+
+    /// Reads every completed slot without blocking; remembers the newest frame's timings.
+    pub fn collect(&mut self, device: &wgpu::Device) {
+        let _ = device.poll(wgpu::PollType::Poll);
+        for slot in &self.slots {
+            match slot.state.load(Ordering::Acquire) {
+                MAPPED => {
+                    let n = slot.labels.len() * 2;
+                    if let Ok(data) = slot.readback.slice(0..n as u64 * 8).get_mapped_range() {
+                        let ticks: &[u64] = bytemuck::cast_slice(&data);
+                        let passes = slot
+                            .labels
+                            .iter()
+                            .enumerate()
+                            .map(|(i, l)| {
+                                (*l, ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * self.period_ns / 1e6)
+                            })
+                            .collect();
+                        if self.latest.as_ref().is_none_or(|t| t.frame < slot.frame) {
+                            self.latest = Some(FrameTimings { frame: slot.frame, passes });
+                        }
+                    }
+                    slot.readback.unmap();
+                    slot.state.store(FREE, Ordering::Release);
+                }
+                FAILED => slot.state.store(FREE, Ordering::Release),
+                _ => {}
             }
-            Err(_) => Vec::new(),
-        };
-        self.readback.unmap();
-        out
+        }
+    }
+
+    /// Waits for every outstanding frame and collects it (end of a benchmark).
+    pub fn finish(&mut self, device: &wgpu::Device) {
+        let _ = device.poll(wgpu::PollType::wait_indefinitely());
+        self.collect(device);
+    }
+
+    /// The newest completed frame's timings.
+    pub fn latest(&self) -> Option<&FrameTimings> {
+        self.latest.as_ref()
     }
 }

@@ -4,7 +4,6 @@
 
 mod cli;
 mod commands;
-mod hugepages;
 mod scene;
 mod view;
 
@@ -13,7 +12,6 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
-    hugepages::enable();
     let args = cli::Cli::parse();
     tracing_subscriber::fmt()
         .with_env_filter(
