@@ -236,3 +236,19 @@ fn index_out_of_vertex_range_is_refused() {
     let err = load_expecting_error(&path);
     assert!(err.to_string().contains("index 9"), "{err}");
 }
+
+#[test]
+fn an_accessor_asking_for_absurd_memory_is_refused_before_allocating() {
+    // A sparse accessor needs no bufferView: its base is all zeros, and nothing in the file
+    // bounds its count.
+    let json = triangle_json("triangle.bin", "").replace(
+        r#""accessors": [{"bufferView": 0, "componentType": 5126, "count": 3,"#,
+        r#""accessors": [{"componentType": 5126, "count": 4000000000,
+                  "sparse": {"count": 1, "indices": {"bufferView": 0, "componentType": 5125},
+                             "values": {"bufferView": 0}},"#,
+    );
+    let path = write_scene("hugecount", &json, true);
+    let err = load_expecting_error(&path);
+    assert!(matches!(err.kind, ImportErrorKind::LimitExceeded { .. }), "{err}");
+    assert!(err.to_string().contains("max_accessor_elements"), "{err}");
+}

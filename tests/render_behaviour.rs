@@ -147,3 +147,30 @@ fn blended_draws_are_sorted_back_to_front() {
     let i = ((32 * SIZE.0 + 32) * 4) as usize;
     assert!(px[i] > px[i + 1], "green ended on top of red: {:?}", &px[i..i + 4]);
 }
+
+#[test]
+fn changing_msaa_between_frames_rebuilds_what_depends_on_it() {
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    spawn_mesh(&mut app, Mesh::cuboid(Vec3::ONE), white(), Transform::IDENTITY);
+    render_app(&mut app, SIZE, RenderSettings { msaa: 4, ..Default::default() });
+    app.world.resource_mut::<Renderer>().set_settings(settings()).unwrap();
+    let px = render_app(&mut app, SIZE, settings());
+    assert!(brightness(&px, SIZE.0, 32, 32) > 100.0);
+    assert!(
+        app.world.resource_mut::<Renderer>().set_settings(RenderSettings { msaa: 3, ..Default::default() }).is_err()
+    );
+}
+
+#[test]
+fn a_mesh_removed_and_reinserted_in_one_frame_stays_drawn() {
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    let e = spawn_mesh(&mut app, facing_quad(), white(), Transform::IDENTITY);
+    render_app(&mut app, SIZE, settings());
+    let mesh = *app.world.get::<Mesh3d>(e).unwrap();
+    app.world.entity_mut(e).remove::<Mesh3d>();
+    app.world.entity_mut(e).insert(mesh);
+    let px = render_app(&mut app, SIZE, settings());
+    assert!(brightness(&px, SIZE.0, 32, 32) > 150.0, "the re-inserted mesh vanished");
+}

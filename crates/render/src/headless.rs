@@ -3,7 +3,7 @@
 //! and users' own screenshot tests all go through here, so they see the same frame.
 
 use bevy_ecs::prelude::*;
-use penumbra_engine::components::{Camera, Exposure, Projection};
+use penumbra_engine::components::{Camera, Exposure};
 use penumbra_engine::framing::{framing_camera_from, world_bounds};
 use penumbra_engine::import::{GltfCamera, GltfScene};
 use penumbra_engine::{App, CorePlugin, Time};
@@ -95,16 +95,10 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
             for (mut cam, g) in q.iter_mut(world) {
                 cam.is_active = g.index == index;
                 if g.index == index {
-                    found = Some(cam.projection);
+                    found = Some(g.aspect_ratio);
                 }
             }
-            let projection = found.ok_or(ShotError::NoSuchCamera { index, count })?;
-            let aspect = match projection {
-                Projection::Perspective { aspect_ratio, .. } => aspect_ratio,
-                Projection::Orthographic { xmag, ymag, .. } => xmag.map(|x| x / ymag),
-            }
-            .filter(|a| a.is_finite() && *a > 0.0)
-            .unwrap_or(1.0);
+            let aspect = found.ok_or(ShotError::NoSuchCamera { index, count })?.unwrap_or(1.0);
             settings.size.unwrap_or(((default_height as f32 * aspect).round().max(1.0) as u32, default_height))
         }
         CameraChoice::Auto | CameraChoice::Orbit { .. } => {

@@ -235,6 +235,10 @@ impl Renderer {
         if !settings.gpu_timing {
             self.timer = None;
         }
+        // The sample count is part of every batch's pipeline key.
+        if settings.msaa != self.settings.msaa {
+            self.batches_dirty = true;
+        }
         self.settings = settings;
         Ok(())
     }
@@ -503,7 +507,8 @@ impl Renderer {
     }
 
     fn prepare_materials(&mut self, scene: &RenderScene, encoder: &mut wgpu::CommandEncoder) {
-        self.materials.retain(scene);
+        let users = &self.material_users;
+        self.materials.retain(scene, |k| users.contains_key(k));
         let keys: Vec<MaterialKey> = self.material_users.keys().copied().collect();
         // New or changed images are uploaded together so their mip chains build in parallel.
         let mut requests = Vec::new();
@@ -545,6 +550,7 @@ impl Renderer {
             new_slots |= before != Some(m.slot);
         }
         self.textures.retain(|h| scene.images.contains_key(&h));
+        self.material_bits.retain(|k, _| self.material_users.contains_key(k));
         if new_slots {
             // Instances packed before their material had a slot get the real one now.
             let entities: Vec<(Entity, DrawState)> = self.draws.iter().map(|(e, d)| (*e, *d)).collect();
@@ -560,6 +566,7 @@ impl Renderer {
         // Mesh assets that vanished release their pool entries; entries nothing refers to are
         // evicted at the end of the frame.
         self.mesh_pool.retain_assets(|h| scene.meshes.contains_key(&h));
+        self.warned_missing.retain(|h| self.mesh_users.contains_key(h) && !scene.meshes.contains_key(h));
         let handles: Vec<Handle<Mesh>> = self.mesh_users.keys().copied().collect();
         for handle in handles {
             let Some(snapshot) = scene.meshes.get(&handle) else {

@@ -49,9 +49,15 @@ impl Transform {
     }
 
     /// Decomposes a matrix (glTF `node.matrix`). Shear is lost, as the glTF spec allows.
+    /// A singular matrix (a zero scale, which glTF allows to hide a node) keeps its translation
+    /// and column lengths with no rotation, rather than the NaN rotation decomposition yields.
     pub fn from_matrix(m: Mat4) -> Self {
         let (scale, rotation, translation) = m.to_scale_rotation_translation();
-        Self { translation, rotation, scale }
+        if rotation.is_finite() && scale.is_finite() {
+            return Self { translation, rotation, scale };
+        }
+        let scale = Vec3::new(m.x_axis.truncate().length(), m.y_axis.truncate().length(), m.z_axis.truncate().length());
+        Self { translation: m.w_axis.truncate(), rotation: Quat::IDENTITY, scale }
     }
 
     /// Turns the transform so local −Z points at `target` (cameras and lights look down −Z).
@@ -102,10 +108,14 @@ impl GlobalTransform {
 pub fn propagate_transforms(
     roots: Query<(Entity, Ref<Transform>, Option<&Children>), Without<ChildOf>>,
     nodes: Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
+    mut unparented: RemovedComponents<ChildOf>,
     mut globals: Query<&mut GlobalTransform>,
 ) {
+    // An entity that lost its parent is a root whose world transform changed although its
+    // `Transform` did not.
+    let unparented: std::collections::HashSet<Entity> = unparented.read().collect();
     for (entity, transform, children) in &roots {
-        let dirty = transform.is_changed();
+        let dirty = transform.is_changed() || unparented.contains(&entity);
         let world = transform.to_affine();
         if dirty && let Ok(mut g) = globals.get_mut(entity) {
             g.0 = world;
@@ -146,5 +156,32 @@ fn propagate_recursive(
         for &child in children {
             propagate_recursive(child, world, dirty, nodes, globals, depth + 1);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::App;
+    use crate::CorePlugin;
+
+    #[test]
+    fn unparenting_recomputes_the_world_transform() {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin);
+        let parent = app.world.spawn(Transform::from_xyz(10.0, 0.0, 0.0)).id();
+        let child = app.world.spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(parent))).id();
+        app.update();
+        assert_eq!(app.world.get::<GlobalTransform>(child).unwrap().translation(), Vec3::new(11.0, 0.0, 0.0));
+        app.world.entity_mut(child).remove::<ChildOf>();
+        app.update();
+        assert_eq!(app.world.get::<GlobalTransform>(child).unwrap().translation(), Vec3::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn a_zero_scale_matrix_decomposes_without_nan() {
+        let m = Mat4::from_scale_rotation_translation(Vec3::ZERO, Quat::from_rotation_y(1.0), Vec3::new(1.0, 2.0, 3.0));
+        let t = Transform::from_matrix(m);
+        assert!(t.rotation.is_finite() && t.scale == Vec3::ZERO && t.translation == Vec3::new(1.0, 2.0, 3.0));
     }
 }

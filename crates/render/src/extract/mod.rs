@@ -70,6 +70,10 @@ fn extract_draws(
         scene.changed_draws.push(entity);
     }
     for entity in removed_meshes.read() {
+        // Removed and inserted again within the frame: still drawable, already re-extracted.
+        if all.contains(entity) {
+            continue;
+        }
         if scene.draws.remove(&entity).is_some() {
             scene.removed_draws.push(entity);
         }

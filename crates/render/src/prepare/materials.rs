@@ -67,6 +67,8 @@ pub struct MaterialTable {
     /// The default material's "asset" (it has none; version 0 forever).
     default_material: StandardMaterial,
     dirty: bool,
+    /// (material, slot) pairs already warned about a missing image, so the log says it once.
+    warned_missing: std::collections::HashSet<(MaterialKey, usize)>,
 }
 
 impl MaterialTable {
@@ -83,6 +85,7 @@ impl MaterialTable {
             free_slots: Vec::new(),
             default_material: StandardMaterial::default(),
             dirty: false,
+            warned_missing: Default::default(),
         }
     }
 
@@ -192,11 +195,13 @@ impl MaterialTable {
         true
     }
 
-    /// Frees slots of materials whose asset is gone.
-    pub fn retain(&mut self, scene: &RenderScene) {
+    /// Frees the slots (and bind groups, which hold textures alive) of materials whose asset is
+    /// gone or that no draw uses.
+    pub fn retain(&mut self, scene: &RenderScene, used: impl Fn(&MaterialKey) -> bool) {
         let free = &mut self.free_slots;
+        self.warned_missing.retain(|(k, _)| k.is_none_or(|h| scene.materials.contains_key(&h)));
         self.entries.retain(|k, e| {
-            let live = k.is_none_or(|h| scene.materials.contains_key(&h));
+            let live = k.is_none_or(|h| scene.materials.contains_key(&h)) && used(k);
             if !live {
                 free.push(e.slot);
             }

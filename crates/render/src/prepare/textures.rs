@@ -156,6 +156,22 @@ impl TextureCache {
         image: &Image,
         srgb: bool,
     ) -> (wgpu::TextureView, u64) {
+        let max = device.limits().max_texture_dimension_2d;
+        let fitted;
+        let image = if image.width > max || image.height > max {
+            fitted = fit_within(image, max);
+            tracing::warn!(
+                "{}: {}×{} exceeds this GPU's texture limit of {max}; uploading it at {}×{}",
+                image.label,
+                image.width,
+                image.height,
+                fitted.width,
+                fitted.height
+            );
+            &fitted
+        } else {
+            image
+        };
         let format = if srgb { wgpu::TextureFormat::Rgba8UnormSrgb } else { wgpu::TextureFormat::Rgba8Unorm };
         let levels = mip_level_count(image.width, image.height);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
@@ -216,6 +232,28 @@ impl TextureCache {
     }
 }
 
+/// Halves `image` (2×2 box) until both sides fit `max`: the fallback for images larger than the
+/// GPU allows. Averages stored values (a slight darkening of sRGB detail is acceptable here:
+/// the image could not be shown at all otherwise).
+fn fit_within(image: &Image, max: u32) -> Image {
+    let (mut w, mut h, mut data) = (image.width as usize, image.height as usize, image.rgba8.clone());
+    while w > max as usize || h > max as usize {
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let mut out = vec![0u8; nw * nh * 4];
+        for y in 0..nh {
+            for x in 0..nw {
+                for c in 0..4 {
+                    let at = |xx: usize, yy: usize| data[(yy.min(h - 1) * w + xx.min(w - 1)) * 4 + c] as u32;
+                    let sum = at(2 * x, 2 * y) + at(2 * x + 1, 2 * y) + at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1);
+                    out[(y * nw + x) * 4 + c] = ((sum + 2) / 4) as u8;
+                }
+            }
+        }
+        (w, h, data) = (nw, nh, out);
+    }
+    Image { width: w as u32, height: h as u32, rgba8: data, label: image.label.clone() }
+}
+
 /// Levels down to 1×1: ⌊log2(max side)⌋ + 1.
 pub fn mip_level_count(width: u32, height: u32) -> u32 {
     32 - width.max(height).max(1).leading_zeros()
@@ -238,6 +276,14 @@ fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, level: u32, w: u32,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn oversized_images_are_halved_until_they_fit() {
+        let img = Image { width: 10, height: 3, rgba8: vec![200; 10 * 3 * 4], label: "t".into() };
+        let fitted = fit_within(&img, 4);
+        assert_eq!((fitted.width, fitted.height), (2, 1));
+        assert!(fitted.rgba8.iter().all(|&b| b == 200));
+    }
 
     #[test]
     fn mip_chains_reach_one_by_one() {

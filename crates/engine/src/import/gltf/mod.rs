@@ -46,6 +46,9 @@ pub struct ImportOptions {
     /// Let relative URIs reach outside the scene's folder (`..`, absolute paths, symlinks).
     pub allow_outside_folder: bool,
     pub max_data_uri_bytes: u64,
+    /// Elements one accessor may have (checked before decoding; an accessor without a
+    /// bufferView could otherwise ask for any amount of memory).
+    pub max_accessor_elements: u64,
     pub max_image_dimension: u32,
     pub max_image_bytes: u64,
 }
@@ -57,6 +60,9 @@ impl Default for ImportOptions {
             allow_outside_folder: false,
             // 256 MiB: larger than any single buffer in the Khronos samples by 20×.
             max_data_uri_bytes: 256 << 20,
+            // 64 Mi elements: four times the vertex count of the largest scanned meshes
+            // people view, and at most 1 GiB for a vec4 attribute.
+            max_accessor_elements: 1 << 26,
             // 16384 is the largest 2D texture wgpu guarantees on desktop adapters.
             max_image_dimension: 16384,
             max_image_bytes: 1 << 30,
@@ -74,9 +80,11 @@ pub struct SceneRoot {
 
 /// A camera that came from the file (glTF camera index). Spawned inactive; activate one to look
 /// through it (`penumbra render --camera N`).
-#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
 pub struct GltfCamera {
     pub index: usize,
+    /// The aspect ratio the file asks for (width / height), if any.
+    pub aspect_ratio: Option<f32>,
 }
 
 #[derive(Debug, Clone)]
@@ -110,7 +118,7 @@ pub struct GltfScene {
     materials: Vec<MaterialDesc>,
     images: Vec<Option<Arc<Image>>>,
     nodes: Vec<NodeDesc>,
-    cameras: Vec<(String, Projection)>,
+    cameras: Vec<(String, Projection, Option<f32>)>,
     lights: Vec<LightDesc>,
     /// Root nodes of the scene to spawn.
     roots: Vec<usize>,
@@ -188,10 +196,10 @@ impl SpawnCtx<'_> {
         let desc = &self.scene.nodes[node];
         let mut e = world.spawn((Name::new(desc.name.clone()), desc.transform, ChildOf(parent)));
         if let Some(c) = desc.camera {
-            let (_, projection) = &self.scene.cameras[c];
+            let (_, projection, aspect_ratio) = &self.scene.cameras[c];
             e.insert((
                 Camera { projection: *projection, exposure: Exposure::default(), is_active: false, order: 0 },
-                GltfCamera { index: c },
+                GltfCamera { index: c, aspect_ratio: *aspect_ratio },
             ));
         }
         if let Some(l) = desc.light {
@@ -274,6 +282,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         for prim in mesh.primitives() {
             let material = prim.material().index();
             let needs = primitive::GeometryNeeds {
+                max_elements: options.max_accessor_elements,
                 normal_map_uv_set: material
                     .and_then(|m| materials.get(m))
                     .and_then(|m| m.textures[materials::NORMAL_SLOT].as_ref())
@@ -296,7 +305,10 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
                 gltf::scene::Transform::Matrix { matrix } => Transform::from_matrix(Mat4::from_cols_array_2d(&matrix)),
                 gltf::scene::Transform::Decomposed { translation, rotation, scale } => Transform {
                     translation: translation.into(),
-                    rotation: glam::Quat::from_array(rotation).normalize(),
+                    // A zero quaternion is invalid glTF but seen in the wild; identity, not NaN.
+                    rotation: glam::Vec4::from_array(rotation)
+                        .try_normalize()
+                        .map_or(glam::Quat::IDENTITY, glam::Quat::from_vec4),
                     scale: scale.into(),
                 },
             },
@@ -310,15 +322,19 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         .cameras()
         .map(|c| {
             let name = c.name().map_or_else(|| format!("camera{}", c.index()), str::to_owned);
-            let projection = match c.projection() {
+            // The file's aspect ratio is kept aside (it sizes default screenshots) rather than
+            // baked into the projection: forced onto a viewport of another shape it would stretch
+            // the image. Vertical field of view (or ymag) is what the camera keeps.
+            let (projection, aspect_ratio) = match c.projection() {
                 gltf::camera::Projection::Perspective(p) => {
-                    Projection::Perspective { yfov: p.yfov(), znear: p.znear(), aspect_ratio: p.aspect_ratio() }
+                    (Projection::Perspective { yfov: p.yfov(), znear: p.znear(), aspect_ratio: None }, p.aspect_ratio())
                 }
-                gltf::camera::Projection::Orthographic(o) => {
-                    Projection::Orthographic { xmag: Some(o.xmag()), ymag: o.ymag(), znear: o.znear(), zfar: o.zfar() }
-                }
+                gltf::camera::Projection::Orthographic(o) => (
+                    Projection::Orthographic { xmag: None, ymag: o.ymag(), znear: o.znear(), zfar: o.zfar() },
+                    Some(o.xmag() / o.ymag()),
+                ),
             };
-            (name, projection)
+            (name, projection, aspect_ratio.filter(|a| a.is_finite() && *a > 0.0))
         })
         .collect();
     let lights = document

@@ -10,6 +10,8 @@ use crate::mesh::{Mesh, Topology};
 
 /// What the primitive's material asks of its geometry.
 pub(crate) struct GeometryNeeds {
+    /// `ImportOptions::max_accessor_elements`.
+    pub max_elements: u64,
     /// UV set of the normal map, if the material has one: tangents are needed in that set.
     pub normal_map_uv_set: Option<u32>,
 }
@@ -28,6 +30,16 @@ pub(crate) fn build(
 ) -> Result<Built, ImportErrorKind> {
     let primitive = prim.index();
     let acc_err = |a: &gltf::Accessor, reason: String| ImportErrorKind::Accessor { index: a.index(), reason };
+    for a in prim.attributes().map(|(_, a)| a).chain(prim.indices()) {
+        if a.count() as u64 > needs.max_elements {
+            return Err(ImportErrorKind::LimitExceeded {
+                what: "an accessor's element count",
+                value: a.count() as u64,
+                limit: needs.max_elements,
+                how_to_raise: "ImportOptions::max_accessor_elements",
+            });
+        }
+    }
     let read3 = |s: Semantic| -> Result<Option<Vec<Vec3>>, ImportErrorKind> {
         prim.get(&s)
             .map(|a| {
