@@ -3,6 +3,8 @@
 // views are sRGB, so the hardware decodes before filtering and encodes after: averaging happens
 // in linear light.
 
+#import penumbra::common::fullscreen_position
+
 @group(0) @binding(0) var source: texture_2d<f32>;
 @group(0) @binding(1) var linear_clamp: sampler;
 
@@ -13,11 +15,10 @@ struct VertexOut {
 
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     var out: VertexOut;
-    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    out.position = fullscreen_position(i);
     // Clip-space y is up, texture v is down.
-    out.uv = vec2<f32>(uv.x, 1.0 - uv.y);
+    out.uv = vec2<f32>(0.5 * out.position.x + 0.5, 0.5 - 0.5 * out.position.y);
     return out;
 }
 

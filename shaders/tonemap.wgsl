@@ -1,8 +1,10 @@
 // Output: linear HDR scene colour (already exposed) -> tonemapped display colour. The sRGB encode
 // happens exactly once: by the hardware when the output format is *Srgb, else here.
 
-override TONEMAPPER: u32 = 0u; // 0 Khronos PBR Neutral, 1 ACES (Hill fit), 2 none (clamp)
-override ENCODE_SRGB: bool = false;
+// Variants: TONEMAP_NEUTRAL or TONEMAP_ACES (neither: clamp only); ENCODE_SRGB when the output
+// format is not an sRGB format.
+
+#import penumbra::common::fullscreen_position
 
 @group(0) @binding(0) var hdr: texture_2d<f32>;
 
@@ -10,12 +12,10 @@ struct VertexOut {
     @builtin(position) position: vec4<f32>,
 };
 
-// One triangle covering the screen: no vertex buffer, no diagonal seam.
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     var out: VertexOut;
-    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    out.position = fullscreen_position(i);
     return out;
 }
 
@@ -70,15 +70,16 @@ fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let c = max(textureLoad(hdr, vec2<i32>(in.position.xy), 0).rgb, vec3<f32>(0.0));
-    var mapped: vec3<f32>;
-    switch TONEMAPPER {
-        case 0u: { mapped = pbr_neutral(c); }
-        case 1u: { mapped = aces_hill(c); }
-        default: { mapped = c; }
-    }
+    var mapped = c;
+#ifdef TONEMAP_NEUTRAL
+    mapped = pbr_neutral(c);
+#endif
+#ifdef TONEMAP_ACES
+    mapped = aces_hill(c);
+#endif
     mapped = clamp(mapped, vec3<f32>(0.0), vec3<f32>(1.0));
-    if ENCODE_SRGB {
-        mapped = srgb_encode(mapped);
-    }
+#ifdef ENCODE_SRGB
+    mapped = srgb_encode(mapped);
+#endif
     return vec4<f32>(mapped, 1.0);
 }

@@ -29,7 +29,8 @@ use penumbra_engine::{App, Plugin};
 
 pub use context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT};
 pub use pipelines::pipeline_cache::Tonemapper;
-pub use renderer::{FrameStats, MemoryStats, RenderSettings, Renderer, RendererError};
+pub use pipelines::shader_library::ShaderError;
+pub use renderer::{FrameStats, MemoryStats, RenderSettings, Renderer, RendererError, ShaderSource};
 pub use world::RenderScene;
 
 /// Runs after `PostUpdate`: reads the main world into `RenderScene`.

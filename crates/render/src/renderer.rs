@@ -22,7 +22,9 @@ use crate::frame::{FramePlan, Pass};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs};
 use crate::passes::tonemap;
 use crate::pipelines::pipeline_cache::{FormatKey, PipelineCache, PipelineKey, Tonemapper};
+use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
+use crate::pipelines::shader_watcher::ShaderWatcher;
 use crate::prepare::buffer::GrowableBuffer;
 use crate::prepare::instances::{GpuInstance, InstanceBuffer};
 use crate::prepare::lights::LightBuffer;
@@ -32,7 +34,7 @@ use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
 use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT};
 use crate::timing::{FrameTimings, GpuTimer};
-use crate::world::RenderScene;
+use crate::world::{LightKind, RenderScene};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {
@@ -41,14 +43,33 @@ pub struct RenderSettings {
     pub tonemapper: Tonemapper,
     /// Linear RGB written behind the scene (after exposure, before tonemapping).
     pub clear_color: [f64; 3],
-    /// Collect per-pass GPU times (waits for the GPU each frame).
+    /// Collect per-pass GPU times (read back a few frames late, without stalling).
     pub gpu_timing: bool,
+    /// Where the shaders come from.
+    pub shaders: ShaderSource,
+}
+
+/// Where the renderer's WGSL comes from.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum ShaderSource {
+    /// The shaders compiled into the binary.
+    #[default]
+    Embedded,
+    /// The `*.wgsl` files of a folder (missing ones from the embedded set); with `watch`, edits
+    /// are picked up while running (hot reload).
+    Folder { dir: std::path::PathBuf, watch: bool },
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
         // A dark neutral grey: silhouettes of dark and light objects both stay visible.
-        Self { msaa: 4, tonemapper: Tonemapper::Neutral, clear_color: [0.02, 0.02, 0.025], gpu_timing: false }
+        Self {
+            msaa: 4,
+            tonemapper: Tonemapper::Neutral,
+            clear_color: [0.02, 0.02, 0.025],
+            gpu_timing: false,
+            shaders: ShaderSource::Embedded,
+        }
     }
 }
 
@@ -80,7 +101,12 @@ pub struct FrameStats {
     /// GPU time per pass of the newest frame the GPU has finished (timing enabled only).
     pub gpu: Option<FrameTimings>,
     pub plan: FramePlan,
+    /// Forward pipelines in the cache.
     pub pipelines: usize,
+    /// Pipelines compiled since start-up.
+    pub pipelines_compiled: usize,
+    /// Shader library generation: incremented by every successful hot reload.
+    pub shader_generation: u64,
 }
 
 impl FrameStats {
@@ -157,7 +183,7 @@ pub struct Renderer {
     material_users: HashMap<MaterialKey, u32>,
     mesh_ids: HashMap<Handle<Mesh>, MeshId>,
     /// Material pipeline bits last seen, to notice a material switching alpha mode.
-    material_bits: HashMap<MaterialKey, (AlphaKey, bool, bool)>,
+    material_bits: HashMap<MaterialKey, (AlphaKey, bool, bool, TextureSet)>,
     opaque_batches: Vec<Batch>,
     opaque_slots: Vec<u32>,
     blend_entities: Vec<Entity>,
@@ -171,13 +197,32 @@ pub struct Renderer {
     /// `RenderScene::frame` of the last scene rendered.
     last_scene_frame: Option<u64>,
     last_submission: Option<wgpu::SubmissionIndex>,
+    shader_watcher: Option<ShaderWatcher>,
+    /// The newest shader problem; cleared by the next successful reload.
+    shader_error: Option<ShaderError>,
+    /// Whether the scene has point or spot lights (part of every pipeline key).
+    local_lights: bool,
 }
 
 impl Renderer {
     pub fn new(ctx: GpuContext, settings: RenderSettings) -> Result<Self, RendererError> {
         settings.validate()?;
         let device = &ctx.device;
-        let shaders = ShaderLibrary::new(device)?;
+        let (shaders, shader_error, shader_watcher) = match &settings.shaders {
+            ShaderSource::Embedded => (ShaderLibrary::embedded()?, None, None),
+            ShaderSource::Folder { dir, watch } => {
+                let (lib, error) = ShaderLibrary::for_dir(dir);
+                if let Some(e) = &error {
+                    tracing::error!("{e} (using the embedded shaders until it is fixed)");
+                }
+                let watcher = watch
+                    .then(|| {
+                        ShaderWatcher::new(dir).map_err(|e| tracing::warn!("not watching {}: {e}", dir.display())).ok()
+                    })
+                    .flatten();
+                (lib, error, watcher)
+            }
+        };
         let pipelines = PipelineCache::new(device, shaders);
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
@@ -213,6 +258,9 @@ impl Renderer {
             warned_missing: Default::default(),
             last_scene_frame: None,
             last_submission: None,
+            shader_watcher,
+            shader_error,
+            local_lights: false,
             settings,
             ctx,
         })
@@ -245,6 +293,52 @@ impl Renderer {
 
     pub fn stats(&self) -> &FrameStats {
         &self.stats
+    }
+
+    /// The newest shader error (a hot reload that failed, or a broken shader folder at start),
+    /// cleared when a reload succeeds. Frames keep drawing with the last good pipelines.
+    pub fn shader_error(&self) -> Option<&ShaderError> {
+        self.shader_error.as_ref()
+    }
+
+    /// The shader library in use.
+    pub fn shaders(&self) -> &ShaderLibrary {
+        self.pipelines.shaders()
+    }
+
+    /// Keys (with their shader variants) of the forward pipelines compiled so far.
+    pub fn forward_pipeline_keys(&self) -> Vec<PipelineKey> {
+        self.pipelines.forward_keys().copied().collect()
+    }
+
+    /// Re-reads the shader folder because `files` changed, rebuilding the pipelines that use them.
+    pub fn reload_shaders(&mut self, files: &[String]) -> Result<ReloadReport, ShaderError> {
+        let result = self.pipelines.reload(&self.ctx.device, files);
+        match &result {
+            Ok(report) => {
+                tracing::info!("shaders reloaded ({}): {} pipelines rebuilt", files.join(", "), report.rebuilt);
+                self.shader_error = None;
+            }
+            Err(e) => {
+                tracing::error!("{e} (keeping the last good shaders)");
+                self.shader_error = Some(e.clone());
+            }
+        }
+        result
+    }
+
+    /// Applies the watcher's settled changes, if any; returns the reload's outcome.
+    pub fn poll_shader_changes(&mut self) -> Option<Result<ReloadReport, ShaderError>> {
+        let files = self.shader_watcher.as_mut()?.poll();
+        if files.is_empty() {
+            return None;
+        }
+        Some(self.reload_shaders(&files))
+    }
+
+    /// Whether file events are waiting to settle into a reload.
+    pub fn shader_changes_pending(&self) -> bool {
+        self.shader_watcher.as_ref().is_some_and(ShaderWatcher::busy)
     }
 
     /// The submission of the last frame, to wait on (bounding frames in flight).
@@ -321,6 +415,7 @@ impl Renderer {
     ) {
         let cpu_start = Instant::now();
         self.frame += 1;
+        self.poll_shader_changes();
         let device = self.ctx.device.clone();
         let queue = self.ctx.queue.clone();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
@@ -329,6 +424,11 @@ impl Renderer {
             self.targets = Some(FrameTargets::new(&device, &self.pipelines.tonemap_layout, size, self.settings.msaa));
         }
 
+        let local_lights = scene.lights.iter().any(|l| matches!(l.kind, LightKind::Point | LightKind::Spot { .. }));
+        if local_lights != self.local_lights {
+            self.local_lights = local_lights;
+            self.batches_dirty = true;
+        }
         self.apply_draw_changes(scene);
         let t = Instant::now();
         self.prepare_materials(scene, &mut encoder);
@@ -371,7 +471,7 @@ impl Renderer {
         }
         let targets = self.targets.as_ref().expect("made above");
         let [r, g, b] = self.settings.clear_color;
-        let counts = if plan.runs(Pass::Opaque) {
+        let (counts, forward_error) = if plan.runs(Pass::Opaque) {
             forward::encode(
                 &mut encoder,
                 &device,
@@ -387,9 +487,9 @@ impl Renderer {
                 self.timer.as_mut(),
             )
         } else {
-            DrawCounts::default()
+            (DrawCounts::default(), None)
         };
-        tonemap::encode(
+        let tonemap_result = tonemap::encode(
             &mut encoder,
             &device,
             &mut self.pipelines,
@@ -398,6 +498,12 @@ impl Renderer {
             tonemap::Output { view: output, format: output_format },
             self.timer.as_mut(),
         );
+        if let Some(e) = forward_error.or(tonemap_result.err())
+            && self.shader_error.as_ref() != Some(&e)
+        {
+            tracing::error!("{e}");
+            self.shader_error = Some(e);
+        }
         if let Some(t) = &self.timer {
             t.resolve(&mut encoder);
         }
@@ -427,6 +533,8 @@ impl Renderer {
             gpu: self.timer.as_ref().and_then(|t| t.latest().cloned()),
             plan,
             pipelines: self.pipelines.forward_pipeline_count(),
+            pipelines_compiled: self.pipelines.compiled,
+            shader_generation: self.pipelines.generation,
         };
     }
 
@@ -543,7 +651,7 @@ impl Renderer {
                 continue;
             }
             let m = self.materials.get(&key).expect("prepared");
-            let bits = (m.alpha, m.unlit, m.double_sided);
+            let bits = (m.alpha, m.unlit, m.double_sided, m.textures);
             if self.material_bits.insert(key, bits) != Some(bits) {
                 self.batches_dirty = true;
             }
@@ -592,6 +700,8 @@ impl Renderer {
         Some(PipelineKey {
             unlit: m.unlit,
             alpha: m.alpha,
+            textures: m.textures,
+            local_lights: self.local_lights,
             topology: entry.topology.into(),
             cull_back_faces: !m.double_sided,
             front_face_cw: d.mirrored,

@@ -5,6 +5,7 @@ use penumbra_engine::Handle;
 use penumbra_engine::mesh::Mesh;
 
 use crate::pipelines::pipeline_cache::{PipelineCache, PipelineKey};
+use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::materials::{MaterialKey, MaterialTable};
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::targets::FrameTargets;
@@ -36,6 +37,8 @@ pub struct ForwardInputs<'a> {
     pub clear_color: wgpu::Color,
 }
 
+/// Encodes the pass. A batch whose pipeline cannot be compiled (a broken shader folder at
+/// start-up) is skipped and its error returned; everything else still draws.
 pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
@@ -43,13 +46,16 @@ pub fn encode(
     inputs: ForwardInputs,
     batches: &[Batch],
     timer: Option<&mut GpuTimer>,
-) -> DrawCounts {
+) -> (DrawCounts, Option<ShaderError>) {
     let (color, resolve) = inputs.targets.color_attachment();
     // Multisampled colour need not be stored once resolved.
     let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     // Pipelines are created before the pass borrows the cache immutably.
+    let mut error = None;
     for b in batches {
-        pipelines.forward(device, b.key);
+        if let Err(e) = pipelines.forward(device, b.key) {
+            error = Some(e);
+        }
     }
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("forward"),
@@ -71,7 +77,7 @@ pub fn encode(
     });
     let mut counts = DrawCounts::default();
     if batches.is_empty() {
-        return counts;
+        return (counts, error);
     }
     pass.set_bind_group(0, inputs.view_bind_group, &[]);
     pass.set_vertex_buffer(0, inputs.mesh_pool.vertex_buffer().slice(..));
@@ -84,7 +90,8 @@ pub fn encode(
             continue;
         };
         if bound_key != Some(b.key) {
-            pass.set_pipeline(pipelines.forward_cached(&b.key).expect("created above"));
+            let Some(pipeline) = pipelines.forward_cached(&b.key) else { continue };
+            pass.set_pipeline(pipeline);
             bound_key = Some(b.key);
         }
         if bound_material != Some(b.material) {
@@ -105,5 +112,5 @@ pub fn encode(
         };
         counts.primitives += (entry.element_count() / per_primitive) as u64 * b.count as u64;
     }
-    counts
+    (counts, error)
 }

@@ -1,6 +1,7 @@
 //! Tonemap pass: one full-screen triangle from the resolved HDR target into the output.
 
 use crate::pipelines::pipeline_cache::{PipelineCache, Tonemapper};
+use crate::pipelines::shader_library::ShaderError;
 use crate::targets::FrameTargets;
 use crate::timing::GpuTimer;
 
@@ -18,8 +19,8 @@ pub fn encode(
     tonemapper: Tonemapper,
     output: Output,
     timer: Option<&mut GpuTimer>,
-) {
-    let pipeline = pipelines.tonemap(device, tonemapper, output.format);
+) -> Result<(), ShaderError> {
+    let pipeline = pipelines.tonemap(device, tonemapper, output.format)?;
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("tonemap"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -36,4 +37,5 @@ pub fn encode(
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, &targets.tonemap_bind_group, &[]);
     pass.draw(0..3, 0..1);
+    Ok(())
 }

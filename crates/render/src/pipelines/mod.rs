@@ -1,3 +1,5 @@
-//! Shaders and pipelines: the shader library (embedded WGSL, validated) and the pipeline cache.
+//! Shaders and pipelines: the shader library (embedded or on-disk WGSL, composed and validated),
+//! the folder watcher behind hot reload, and the pipeline cache.
 pub mod pipeline_cache;
 pub mod shader_library;
+pub mod shader_watcher;

@@ -1,24 +1,50 @@
-//! The pipeline cache: owns the bind group layouts and every render pipeline, each compiled once
-//! per [`PipelineKey`] and kept for the renderer's lifetime.
+//! The pipeline cache: owns the bind group layouts, the shader library and every render
+//! pipeline, each compiled once per key and kept until a shader it uses changes.
 //!
-//! Feature switches that would otherwise be shader branches (alpha mode, unlit) are WGSL
-//! `override` constants fixed at pipeline creation, so each pipeline's shader contains only the
-//! path it runs. Every draw is an instanced draw (a batch of one is an instance count of one), so
-//! instancing is not a key dimension.
+//! Keys include the shader variant: which material textures a draw samples, its alpha mode,
+//! whether it is unlit, whether the scene has point or spot lights. Each variant's shader is
+//! composed with only that code (`#ifdef` switches, see `shader_library.rs`), so a scene without
+//! normal maps or local lights runs shaders without them. Every draw is instanced (a batch of one
+//! has an instance count of one), so instancing is not a key dimension.
+//!
+//! Hot reload ([`PipelineCache::reload`]): a candidate shader library is built from the changed
+//! files, every cached pipeline whose entry shader depends on them is rebuilt with it inside a
+//! wgpu error scope, and only if all succeed are the library and those pipelines swapped in.
+//! Pipelines that do not use the changed files are untouched. On any error nothing changes and
+//! the frame keeps drawing with the last good pipelines.
 
 use std::collections::HashMap;
 
 use penumbra_engine::mesh::Topology;
 
-use super::shader_library::ShaderLibrary;
+use super::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 use crate::prepare::materials::AlphaKey;
 use crate::prepare::mesh_pool::GpuVertex;
+
+/// Which material textures a draw samples (bits in `StandardMaterial::textures()` order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct TextureSet(pub u8);
+
+impl TextureSet {
+    pub const BASE_COLOR: u8 = 1;
+    pub const METALLIC_ROUGHNESS: u8 = 2;
+    pub const NORMAL: u8 = 4;
+    pub const OCCLUSION: u8 = 8;
+    pub const EMISSIVE: u8 = 16;
+
+    pub fn has(self, bit: u8) -> bool {
+        self.0 & bit != 0
+    }
+}
 
 /// Everything that selects a forward pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct PipelineKey {
     pub unlit: bool,
     pub alpha: AlphaKey,
+    pub textures: TextureSet,
+    /// The scene has point or spot lights (else their code is left out).
+    pub local_lights: bool,
     pub topology: TopologyKey,
     /// Double-sided materials draw both faces.
     pub cull_back_faces: bool,
@@ -27,6 +53,25 @@ pub struct PipelineKey {
     pub sample_count: u32,
     pub color_format: FormatKey,
     pub depth_format: FormatKey,
+}
+
+impl PipelineKey {
+    /// The shader variant this key compiles.
+    pub fn shader_defs(&self) -> ShaderDefs {
+        let t = self.textures;
+        let lit = !self.unlit;
+        ShaderDefs::default()
+            .with("UNLIT", self.unlit)
+            .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
+            .with("ALPHA_BLEND", self.alpha == AlphaKey::Blend)
+            .with("BASE_COLOR_TEXTURE", t.has(TextureSet::BASE_COLOR))
+            // An unlit surface reads only its base colour.
+            .with("METALLIC_ROUGHNESS_TEXTURE", lit && t.has(TextureSet::METALLIC_ROUGHNESS))
+            .with("NORMAL_MAP", lit && t.has(TextureSet::NORMAL))
+            .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
+            .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
+            .with("LOCAL_LIGHTS", lit && self.local_lights)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -71,14 +116,14 @@ pub enum Tonemapper {
     None,
 }
 
-impl Tonemapper {
-    fn constant(self) -> f64 {
-        match self {
-            Tonemapper::Neutral => 0.0,
-            Tonemapper::Aces => 1.0,
-            Tonemapper::None => 2.0,
-        }
-    }
+/// What a hot reload did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReloadReport {
+    pub files: Vec<String>,
+    /// Pipelines rebuilt because they use a changed file.
+    pub rebuilt: usize,
+    /// Pipelines left alone.
+    pub untouched: usize,
 }
 
 pub struct PipelineCache {
@@ -93,6 +138,10 @@ pub struct PipelineCache {
     forward: HashMap<PipelineKey, wgpu::RenderPipeline>,
     tonemap: HashMap<(Tonemapper, wgpu::TextureFormat), wgpu::RenderPipeline>,
     mipmap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    /// Pipelines created since start-up (a pipeline compiled twice would show here).
+    pub compiled: usize,
+    /// Incremented by every successful reload.
+    pub generation: u64,
 }
 
 fn storage(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
@@ -105,6 +154,43 @@ fn storage(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayou
             min_binding_size: None,
         },
         count: None,
+    }
+}
+
+fn texture(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+fn sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    }
+}
+
+/// Creates a pipeline inside a validation error scope, so a shader that composes but does not
+/// fit the pipeline (a renamed entry point, a changed binding) is an error, not a crash.
+fn checked_pipeline(
+    device: &wgpu::Device,
+    file: &str,
+    create: impl FnOnce() -> wgpu::RenderPipeline,
+) -> Result<wgpu::RenderPipeline, ShaderError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let pipeline = create();
+    match pollster::block_on(scope.pop()) {
+        None => Ok(pipeline),
+        Some(e) => Err(ShaderError::whole_file(file, e.to_string())),
     }
 }
 
@@ -130,78 +216,29 @@ impl PipelineCache {
                 storage(4, wgpu::ShaderStages::FRAGMENT),
             ],
         });
-        let mut material_entries = Vec::new();
-        for i in 0..5u32 {
-            material_entries.push(wgpu::BindGroupLayoutEntry {
-                binding: 2 * i,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            });
-            material_entries.push(wgpu::BindGroupLayoutEntry {
-                binding: 2 * i + 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            });
-        }
+        let material_entries: Vec<_> = (0..5u32).flat_map(|i| [texture(2 * i, true), sampler(2 * i + 1)]).collect();
         let material_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("material"),
             entries: &material_entries,
         });
         let tonemap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tonemap"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            }],
+            entries: &[texture(0, false)],
         });
         let mipmap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mipmap"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
+            entries: &[texture(0, true), sampler(1)],
         });
-        let mipmap_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("mipmap"),
-            bind_group_layouts: &[Some(&mipmap_layout)],
-            immediate_size: 0,
-        });
-        let forward_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("forward"),
-            bind_group_layouts: &[Some(&view_layout), Some(&material_layout)],
-            immediate_size: 0,
-        });
-        let tonemap_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tonemap"),
-            bind_group_layouts: &[Some(&tonemap_layout)],
-            immediate_size: 0,
-        });
+        let layout = |label, groups: &[Option<&wgpu::BindGroupLayout>]| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: groups,
+                immediate_size: 0,
+            })
+        };
+        let forward_layout = layout("forward", &[Some(&view_layout), Some(&material_layout)]);
+        let tonemap_pipeline_layout = layout("tonemap", &[Some(&tonemap_layout)]);
+        let mipmap_pipeline_layout = layout("mipmap", &[Some(&mipmap_layout)]);
         Self {
             shaders,
             view_layout,
@@ -214,19 +251,31 @@ impl PipelineCache {
             forward: HashMap::new(),
             tonemap: HashMap::new(),
             mipmap: HashMap::new(),
+            compiled: 0,
+            generation: 0,
         }
+    }
+
+    pub fn shaders(&self) -> &ShaderLibrary {
+        &self.shaders
     }
 
     pub fn forward_pipeline_count(&self) -> usize {
         self.forward.len()
     }
 
-    pub fn forward(&mut self, device: &wgpu::Device, key: PipelineKey) -> &wgpu::RenderPipeline {
+    /// Keys of the forward pipelines compiled so far.
+    pub fn forward_keys(&self) -> impl Iterator<Item = &PipelineKey> {
+        self.forward.keys()
+    }
+
+    /// The forward pipeline for `key`, compiling it on first use.
+    pub fn forward(&mut self, device: &wgpu::Device, key: PipelineKey) -> Result<&wgpu::RenderPipeline, ShaderError> {
         if !self.forward.contains_key(&key) {
-            let p = self.create_forward(device, key);
+            let p = self.create_forward(device, &mut None, key)?;
             self.forward.insert(key, p);
         }
-        &self.forward[&key]
+        Ok(&self.forward[&key])
     }
 
     /// A pipeline already created by [`PipelineCache::forward`].
@@ -234,142 +283,198 @@ impl PipelineCache {
         self.forward.get(key)
     }
 
-    fn create_forward(&self, device: &wgpu::Device, key: PipelineKey) -> wgpu::RenderPipeline {
-        let module = self.shaders.get("forward.wgsl");
-        let alpha = match key.alpha {
-            AlphaKey::Opaque => 0.0,
-            AlphaKey::Mask => 1.0,
-            AlphaKey::Blend => 2.0,
-        };
-        let constants = [("ALPHA_MODE", alpha), ("UNLIT", if key.unlit { 1.0 } else { 0.0 })];
-        let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
-        let label = format!("forward {key:?}");
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(&label),
-            layout: Some(&self.forward_layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
-                buffers: &[Some(GpuVertex::layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: match key.topology {
-                    TopologyKey::Triangles => wgpu::PrimitiveTopology::TriangleList,
-                    TopologyKey::Lines => wgpu::PrimitiveTopology::LineList,
-                    TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
-                },
-                strip_index_format: None,
-                front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
-                cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
-                unclipped_depth: false,
-                polygon_mode: wgpu::PolygonMode::Fill,
-                conservative: false,
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: key.depth_format.0,
-                // Blended surfaces are sorted back to front and must not hide what lies behind
-                // them in later draws.
-                depth_write_enabled: Some(key.alpha != AlphaKey::Blend),
-                // Reverse-Z: nearer is greater.
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState { count: key.sample_count, mask: !0, alpha_to_coverage_enabled: false },
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some("fs_main"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: key.color_format.0,
-                    blend,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-    }
-
     pub fn tonemap(
         &mut self,
         device: &wgpu::Device,
         tonemapper: Tonemapper,
         format: wgpu::TextureFormat,
-    ) -> &wgpu::RenderPipeline {
+    ) -> Result<&wgpu::RenderPipeline, ShaderError> {
         let key = (tonemapper, format);
         if !self.tonemap.contains_key(&key) {
-            let module = self.shaders.get("tonemap.wgsl");
-            let encode = if format.is_srgb() { 0.0 } else { 1.0 };
-            let constants = [("TONEMAPPER", tonemapper.constant()), ("ENCODE_SRGB", encode)];
-            let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("tonemap"),
-                layout: Some(&self.tonemap_pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &constants,
-                        ..Default::default()
-                    },
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &constants,
-                        ..Default::default()
-                    },
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+            let p = self.create_tonemap(device, &mut None, key)?;
             self.tonemap.insert(key, p);
         }
-        &self.tonemap[&key]
+        Ok(&self.tonemap[&key])
     }
 
     /// The pipeline that writes one mip level of a texture of `format` from the level above.
-    pub fn mipmap(&mut self, device: &wgpu::Device, format: wgpu::TextureFormat) -> &wgpu::RenderPipeline {
+    pub fn mipmap(
+        &mut self,
+        device: &wgpu::Device,
+        format: wgpu::TextureFormat,
+    ) -> Result<&wgpu::RenderPipeline, ShaderError> {
         if !self.mipmap.contains_key(&format) {
-            let module = self.shaders.get("mipmap.wgsl");
-            let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("mipmap"),
-                layout: Some(&self.mipmap_pipeline_layout),
+            let p = self.create_mipmap(device, &mut None, format)?;
+            self.mipmap.insert(format, p);
+        }
+        Ok(&self.mipmap[&format])
+    }
+
+    /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use them;
+    /// on any error keeps everything as it was and returns the error.
+    pub fn reload(&mut self, device: &wgpu::Device, files: &[String]) -> Result<ReloadReport, ShaderError> {
+        let mut candidate = Some(self.shaders.reloaded()?);
+        let lib = candidate.as_ref().expect("just built");
+        let forward_hit = lib.depends_on("forward.wgsl", files);
+        let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
+        let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
+        let mut forward = Vec::new();
+        let mut tonemap = Vec::new();
+        let mut mipmap = Vec::new();
+        if forward_hit {
+            for key in self.forward.keys().copied().collect::<Vec<_>>() {
+                forward.push((key, self.create_forward(device, &mut candidate, key)?));
+            }
+        }
+        if tonemap_hit {
+            for key in self.tonemap.keys().copied().collect::<Vec<_>>() {
+                tonemap.push((key, self.create_tonemap(device, &mut candidate, key)?));
+            }
+        }
+        if mipmap_hit {
+            for key in self.mipmap.keys().copied().collect::<Vec<_>>() {
+                mipmap.push((key, self.create_mipmap(device, &mut candidate, key)?));
+            }
+        }
+        let total = self.forward.len() + self.tonemap.len() + self.mipmap.len();
+        let rebuilt = forward.len() + tonemap.len() + mipmap.len();
+        self.shaders = candidate.expect("still there");
+        self.forward.extend(forward);
+        self.tonemap.extend(tonemap);
+        self.mipmap.extend(mipmap);
+        self.generation += 1;
+        Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
+    }
+
+    /// Compiles with `candidate` if given, else with the current library.
+    fn library<'a>(&'a mut self, candidate: &'a mut Option<ShaderLibrary>) -> &'a mut ShaderLibrary {
+        match candidate {
+            Some(c) => c,
+            None => &mut self.shaders,
+        }
+    }
+
+    fn create_forward(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        key: PipelineKey,
+    ) -> Result<wgpu::RenderPipeline, ShaderError> {
+        let module = self.library(candidate).create_module(device, "forward.wgsl", &key.shader_defs())?;
+        let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
+        let label = format!("forward {key:?}");
+        self.compiled += 1;
+        checked_pipeline(device, "forward.wgsl", || {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(&label),
+                layout: Some(&self.forward_layout),
                 vertex: wgpu::VertexState {
-                    module,
+                    module: &module,
                     entry_point: Some("vs_main"),
                     compilation_options: Default::default(),
-                    buffers: &[],
+                    buffers: &[Some(GpuVertex::layout())],
                 },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
+                primitive: wgpu::PrimitiveState {
+                    topology: match key.topology {
+                        TopologyKey::Triangles => wgpu::PrimitiveTopology::TriangleList,
+                        TopologyKey::Lines => wgpu::PrimitiveTopology::LineList,
+                        TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
+                    },
+                    strip_index_format: None,
+                    front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
+                    cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
+                    unclipped_depth: false,
+                    polygon_mode: wgpu::PolygonMode::Fill,
+                    conservative: false,
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: key.depth_format.0,
+                    // Blended surfaces are sorted back to front and must not hide what lies
+                    // behind them in later draws.
+                    depth_write_enabled: Some(key.alpha != AlphaKey::Blend),
+                    // Reverse-Z: nearer is greater.
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                multisample: wgpu::MultisampleState {
+                    count: key.sample_count,
+                    mask: !0,
+                    alpha_to_coverage_enabled: false,
+                },
                 fragment: Some(wgpu::FragmentState {
-                    module,
+                    module: &module,
                     entry_point: Some("fs_main"),
                     compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: None,
+                        format: key.color_format.0,
+                        blend,
                         write_mask: wgpu::ColorWrites::ALL,
                     })],
                 }),
                 multiview_mask: None,
                 cache: None,
-            });
-            self.mipmap.insert(format, p);
-        }
-        &self.mipmap[&format]
+            })
+        })
     }
+
+    fn create_tonemap(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        (tonemapper, format): (Tonemapper, wgpu::TextureFormat),
+    ) -> Result<wgpu::RenderPipeline, ShaderError> {
+        let defs = ShaderDefs::default()
+            .with("TONEMAP_NEUTRAL", tonemapper == Tonemapper::Neutral)
+            .with("TONEMAP_ACES", tonemapper == Tonemapper::Aces)
+            .with("ENCODE_SRGB", !format.is_srgb());
+        let module = self.library(candidate).create_module(device, "tonemap.wgsl", &defs)?;
+        self.compiled += 1;
+        checked_pipeline(device, "tonemap.wgsl", || {
+            fullscreen_pipeline(device, &self.tonemap_pipeline_layout, &module, format, "tonemap")
+        })
+    }
+
+    fn create_mipmap(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        format: wgpu::TextureFormat,
+    ) -> Result<wgpu::RenderPipeline, ShaderError> {
+        let module = self.library(candidate).create_module(device, "mipmap.wgsl", &ShaderDefs::default())?;
+        self.compiled += 1;
+        checked_pipeline(device, "mipmap.wgsl", || {
+            fullscreen_pipeline(device, &self.mipmap_pipeline_layout, &module, format, "mipmap")
+        })
+    }
+}
+
+fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    format: wgpu::TextureFormat,
+    label: &str,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }

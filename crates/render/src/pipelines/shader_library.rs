@@ -1,28 +1,84 @@
-//! The shader library: WGSL sources embedded at compile time from the top-level `shaders/`
-//! folder, validated with naga before any GPU module is created, so a broken shader is reported
-//! as `file:line:column: message` instead of failing inside the driver. Hot reload and
-//! composition (issue #7) will extend this module; the rest of the renderer only asks it for
-//! modules by name.
+//! The shader library: WGSL sources, their composition into modules, and their replacement at
+//! run time.
+//!
+//! - Sources: the files of the top-level `shaders/` folder, embedded at compile time; or the
+//!   same files read from a folder on disk (`--shader-dir`, or the repository's own folder when
+//!   the viewer runs from it), which [`super::shader_watcher`] watches.
+//! - Composition: files that declare `#define_import_path` are composable modules, imported by
+//!   entry files (`forward.wgsl`, `tonemap.wgsl`, `mipmap.wgsl`) with `#import`; `#ifdef`
+//!   switches are resolved per variant ([`ShaderDefs`]) before compilation, so a variant's module
+//!   contains only the code it uses. naga_oil (Bevy's composer, built on naga 30) does both and
+//!   validates the result with naga.
+//! - Errors are `file:line:column: message` against the file the user edited, never against
+//!   composed text.
+//! - A library is immutable once built: a reload builds a candidate library from the new sources
+//!   and the pipeline cache swaps it in only if every affected pipeline compiles with it.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use naga_oil::compose::{
+    ComposableModuleDescriptor, Composer, ComposerError, NagaModuleDescriptor, ShaderDefValue, ShaderLanguage,
+    ShaderType, get_preprocessor_data,
+};
 
 /// The shaders compiled into the binary: (file name, source).
 pub const EMBEDDED: &[(&str, &str)] = &[
+    ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
+    ("brdf.wgsl", include_str!("../../../../shaders/brdf.wgsl")),
+    ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
     ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
     ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
 ];
 
-#[derive(Debug, thiserror::Error)]
+/// The repository's shader folder as seen at compile time; the viewer watches it when it still
+/// exists at run time (running from a checkout).
+pub const REPOSITORY_SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders");
+
+/// The feature switches of one variant: the `#ifdef` names that are defined.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ShaderDefs(pub BTreeSet<&'static str>);
+
+impl ShaderDefs {
+    pub fn with(mut self, def: &'static str, on: bool) -> Self {
+        if on {
+            self.0.insert(def);
+        }
+        self
+    }
+
+    fn to_naga_oil(&self) -> HashMap<String, ShaderDefValue> {
+        self.0.iter().map(|d| (d.to_string(), ShaderDefValue::Bool(true))).collect()
+    }
+}
+
+impl fmt::Display for ShaderDefs {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let defs: Vec<&str> = self.0.iter().copied().collect();
+        write!(f, "[{}]", defs.join(", "))
+    }
+}
+
+/// A shader that failed to load, compose, validate or compile.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{file}:{line}:{column}: {message}")]
 pub struct ShaderError {
     pub file: String,
+    /// 1-based; 0 when the problem has no position (a missing file).
     pub line: u32,
     pub column: u32,
     pub message: String,
 }
 
-/// Parses and validates WGSL with naga; errors carry the first label's position.
+impl ShaderError {
+    pub fn whole_file(file: &str, message: impl Into<String>) -> Self {
+        Self { file: file.to_owned(), line: 0, column: 0, message: message.into() }
+    }
+}
+
+/// Parses and validates a standalone WGSL source with naga (no imports).
 pub fn validate(file: &str, source: &str) -> Result<naga::Module, ShaderError> {
     let located = |message: String, loc: Option<naga::SourceLocation>| ShaderError {
         file: file.to_owned(),
@@ -41,40 +97,251 @@ pub fn validate(file: &str, source: &str) -> Result<naga::Module, ShaderError> {
     Ok(module)
 }
 
+/// Turns naga_oil's report (a codespan diagnostic) into `file:line:column: message`.
+fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -> ShaderError {
+    let report = e.emit_to_string(composer);
+    let message = report
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("error: "))
+        .map_or_else(|| e.inner.to_string(), str::to_owned);
+    // codespan marks the primary location as "┌─ path:line:column".
+    let location = report.lines().find_map(|l| l.trim().strip_prefix("┌─ ")).and_then(|loc| {
+        let mut parts = loc.rsplitn(3, ':');
+        let column = parts.next()?.trim().parse().ok()?;
+        let line = parts.next()?.trim().parse().ok()?;
+        Some((parts.next()?.to_owned(), line, column))
+    });
+    let notes: Vec<&str> = report.lines().filter_map(|l| l.trim().strip_prefix("= ")).collect();
+    let message = if notes.is_empty() { message } else { format!("{message} ({})", notes.join("; ")) };
+    match location {
+        Some((file, line, column)) => ShaderError { file, line, column, message },
+        None => ShaderError::whole_file(fallback_file, message),
+    }
+}
+
+/// Sources and their composer. Cheap to rebuild: a handful of files.
 pub struct ShaderLibrary {
-    modules: HashMap<&'static str, wgpu::ShaderModule>,
+    dir: Option<PathBuf>,
+    sources: BTreeMap<String, String>,
+    /// Module path (`penumbra::brdf`) to the file declaring it.
+    module_files: HashMap<String, String>,
+    /// File to the module paths it imports.
+    imports: HashMap<String, Vec<String>>,
+    composer: Composer,
 }
 
 impl ShaderLibrary {
-    pub fn new(device: &wgpu::Device) -> Result<Self, ShaderError> {
-        let mut modules = HashMap::new();
-        for &(file, source) in EMBEDDED {
-            validate(file, source)?;
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(file),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            modules.insert(file, module);
-        }
-        Ok(Self { modules })
+    /// The embedded shaders.
+    pub fn embedded() -> Result<Self, ShaderError> {
+        let sources = EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
+        Self::from_sources(None, sources)
     }
 
-    pub fn get(&self, file: &str) -> &wgpu::ShaderModule {
-        self.modules.get(file).unwrap_or_else(|| panic!("{file} is not an embedded shader"))
+    /// Every `*.wgsl` in `dir`; files missing there are taken from the embedded set.
+    pub fn from_dir(dir: &Path) -> Result<Self, ShaderError> {
+        let mut sources: BTreeMap<String, String> =
+            EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
+        let entries = std::fs::read_dir(dir)
+            .map_err(|e| ShaderError::whole_file(&dir.display().to_string(), format!("cannot read the folder: {e}")))?;
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
+                && let Some(name) = path.file_name().and_then(|n| n.to_str())
+            {
+                sources.insert(name.to_owned(), read_source(&path)?);
+            }
+        }
+        Self::from_sources(Some(dir.to_path_buf()), sources)
     }
+
+    fn from_sources(dir: Option<PathBuf>, sources: BTreeMap<String, String>) -> Result<Self, ShaderError> {
+        let mut module_files = HashMap::new();
+        let mut imports = HashMap::new();
+        for (file, source) in &sources {
+            let (name, file_imports, _) = get_preprocessor_data(source);
+            if let Some(name) = name {
+                module_files.insert(name, file.clone());
+            }
+            imports.insert(file.clone(), file_imports.into_iter().map(|i| i.import).collect::<Vec<_>>());
+        }
+        let mut composer = Composer::default();
+        // naga_oil wants every import registered before its importers: add in dependency order.
+        let mut pending: Vec<&String> = module_files.values().collect();
+        pending.sort();
+        while !pending.is_empty() {
+            let ready = pending.iter().position(|file| {
+                imports[*file].iter().all(|m| composer.contains_module(m) || !module_files.contains_key(m))
+            });
+            let Some(i) = ready else {
+                return Err(ShaderError::whole_file(pending[0], "import cycle between shader modules"));
+            };
+            let file = pending.remove(i);
+            let added = composer
+                .add_composable_module(ComposableModuleDescriptor {
+                    source: &sources[file],
+                    file_path: file,
+                    language: ShaderLanguage::Wgsl,
+                    as_name: None,
+                    additional_imports: &[],
+                    shader_defs: HashMap::new(),
+                })
+                .map(|_| ());
+            if let Err(e) = added {
+                return Err(composer_error(&e, &composer, file));
+            }
+        }
+        Ok(Self { dir, sources, module_files, imports, composer })
+    }
+
+    pub fn dir(&self) -> Option<&Path> {
+        self.dir.as_deref()
+    }
+
+    pub fn source(&self, file: &str) -> Option<&str> {
+        self.sources.get(file).map(String::as_str)
+    }
+
+    /// The shaders of `dir`; if they do not compose, the embedded ones (still bound to `dir`, so
+    /// the next reload reads the folder again) and the error.
+    pub fn for_dir(dir: &Path) -> (Self, Option<ShaderError>) {
+        match Self::from_dir(dir) {
+            Ok(lib) => (lib, None),
+            Err(e) => {
+                let mut lib = Self::embedded().expect("embedded shaders compose (tested)");
+                lib.dir = Some(dir.to_path_buf());
+                (lib, Some(e))
+            }
+        }
+    }
+
+    /// A new library read afresh from the folder. The whole folder is read, not only the files
+    /// that changed: a library is consistent, and a folder is a handful of small files.
+    pub fn reloaded(&self) -> Result<Self, ShaderError> {
+        let dir =
+            self.dir.as_ref().ok_or_else(|| ShaderError::whole_file("shaders", "no shader folder to reload from"))?;
+        Self::from_dir(dir)
+    }
+
+    /// Whether `entry` (transitively) includes any of `files`, itself included.
+    pub fn depends_on(&self, entry: &str, files: &[String]) -> bool {
+        let mut seen = HashSet::new();
+        let mut stack = vec![entry.to_owned()];
+        while let Some(f) = stack.pop() {
+            if files.contains(&f) {
+                return true;
+            }
+            if seen.insert(f.clone()) {
+                for m in self.imports.get(&f).into_iter().flatten() {
+                    if let Some(dep) = self.module_files.get(m) {
+                        stack.push(dep.clone());
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Composes and validates `entry` with `defs` into a naga module.
+    pub fn compose(&mut self, entry: &str, defs: &ShaderDefs) -> Result<naga::Module, ShaderError> {
+        let source = self.sources.get(entry).ok_or_else(|| ShaderError::whole_file(entry, "no such shader"))?;
+        if source.trim().is_empty() {
+            return Err(ShaderError::whole_file(entry, "the file is empty"));
+        }
+        self.composer
+            .make_naga_module(NagaModuleDescriptor {
+                source,
+                file_path: entry,
+                shader_type: ShaderType::Wgsl,
+                shader_defs: defs.to_naga_oil(),
+                additional_imports: &[],
+            })
+            .map_err(|e| composer_error(&e, &self.composer, entry))
+    }
+
+    /// Composes `entry` and creates the GPU module, catching validation errors wgpu would
+    /// otherwise raise as an uncaptured error.
+    pub fn create_module(
+        &mut self,
+        device: &wgpu::Device,
+        entry: &str,
+        defs: &ShaderDefs,
+    ) -> Result<wgpu::ShaderModule, ShaderError> {
+        let module = self.compose(entry, defs)?;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let label = format!("{entry} {defs}");
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(&label),
+            source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(module)),
+        });
+        match pollster::block_on(scope.pop()) {
+            None => Ok(shader),
+            Some(e) => Err(ShaderError::whole_file(entry, e.to_string())),
+        }
+    }
+}
+
+/// Reads a shader file. An empty file (editors often truncate before writing) or a missing one
+/// (deleted, or mid-rename) is an error like any other, reported until the file is whole again.
+fn read_source(path: &Path) -> Result<String, ShaderError> {
+    let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let source =
+        std::fs::read_to_string(path).map_err(|e| ShaderError::whole_file(&name, format!("cannot read: {e}")))?;
+    if source.trim().is_empty() {
+        return Err(ShaderError::whole_file(&name, "the file is empty"));
+    }
+    Ok(source)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn defs(list: &[&'static str]) -> ShaderDefs {
+        ShaderDefs(list.iter().copied().collect())
+    }
+
     #[test]
-    fn every_embedded_shader_validates() {
-        for &(file, source) in EMBEDDED {
-            if let Err(e) = validate(file, source) {
-                panic!("{e}");
-            }
+    fn every_entry_composes_in_every_variant_family() {
+        let mut lib = ShaderLibrary::embedded().unwrap();
+        let all = [
+            "ALPHA_MASK",
+            "UNLIT",
+            "BASE_COLOR_TEXTURE",
+            "METALLIC_ROUGHNESS_TEXTURE",
+            "NORMAL_MAP",
+            "OCCLUSION_TEXTURE",
+            "EMISSIVE_TEXTURE",
+            "LOCAL_LIGHTS",
+        ];
+        lib.compose("forward.wgsl", &defs(&[])).unwrap();
+        lib.compose("forward.wgsl", &defs(&all)).unwrap();
+        lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
+        for t in [&["TONEMAP_NEUTRAL"][..], &["TONEMAP_ACES", "ENCODE_SRGB"], &[]] {
+            lib.compose("tonemap.wgsl", &defs(t)).unwrap();
         }
+        lib.compose("mipmap.wgsl", &defs(&[])).unwrap();
+    }
+
+    #[test]
+    fn variants_leave_out_code_they_do_not_use() {
+        let mut lib = ShaderLibrary::embedded().unwrap();
+        let samples = |m: &naga::Module| {
+            m.entry_points
+                .iter()
+                .flat_map(|ep| ep.function.expressions.iter())
+                .filter(|(_, e)| matches!(e, naga::Expression::ImageSample { .. }))
+                .count()
+        };
+        assert_eq!(samples(&lib.compose("forward.wgsl", &defs(&[])).unwrap()), 0);
+        assert_eq!(samples(&lib.compose("forward.wgsl", &defs(&["BASE_COLOR_TEXTURE"])).unwrap()), 1);
+        let all = defs(&[
+            "BASE_COLOR_TEXTURE",
+            "METALLIC_ROUGHNESS_TEXTURE",
+            "NORMAL_MAP",
+            "OCCLUSION_TEXTURE",
+            "EMISSIVE_TEXTURE",
+        ]);
+        assert_eq!(samples(&lib.compose("forward.wgsl", &all).unwrap()), 5);
     }
 
     #[test]
@@ -82,5 +349,43 @@ mod tests {
         let err = validate("broken.wgsl", "fn main() {\n  let x = ;\n}").unwrap_err();
         assert_eq!((err.file.as_str(), err.line), ("broken.wgsl", 2), "{err}");
         assert!(err.column > 0);
+    }
+
+    #[test]
+    fn composed_errors_point_into_the_edited_file() {
+        let dir = std::env::temp_dir().join(format!("penumbra-shaderlib-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for (f, s) in EMBEDDED {
+            std::fs::write(dir.join(f), s).unwrap();
+        }
+        let brdf = EMBEDDED.iter().find(|(f, _)| *f == "brdf.wgsl").unwrap().1;
+        let line = brdf.lines().position(|l| l.starts_with("fn d_ggx")).unwrap() + 2;
+        let broken = brdf.replacen("let alpha_sq = alpha * alpha;", "let alpha_sq = alpha * ;", 1);
+        assert_ne!(broken, brdf, "the test's edit must apply");
+        std::fs::write(dir.join("brdf.wgsl"), broken).unwrap();
+        // Registering a module defers parsing; composing an entry that imports it fails.
+        let err = match ShaderLibrary::from_dir(&dir) {
+            Err(e) => e,
+            Ok(mut lib) => match lib.compose("forward.wgsl", &defs(&[])) {
+                Err(e) => e,
+                Ok(_) => panic!("the broken module must not compose"),
+            },
+        };
+        assert_eq!(err.file, "brdf.wgsl", "{err}");
+        assert_eq!(err.line as usize, line, "{err}");
+        assert!(err.column > 0, "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn dependencies_are_transitive() {
+        let lib = ShaderLibrary::embedded().unwrap();
+        let f = |s: &str| vec![s.to_owned()];
+        assert!(lib.depends_on("forward.wgsl", &f("common.wgsl")));
+        assert!(lib.depends_on("forward.wgsl", &f("brdf.wgsl")));
+        assert!(lib.depends_on("tonemap.wgsl", &f("common.wgsl")));
+        assert!(!lib.depends_on("tonemap.wgsl", &f("brdf.wgsl")));
+        assert!(!lib.depends_on("mipmap.wgsl", &f("lights.wgsl")));
     }
 }

@@ -13,6 +13,7 @@ use penumbra_engine::material::{AlphaMode, StandardMaterial};
 
 use super::buffer::GrowableBuffer;
 use super::textures::TextureCache;
+use crate::pipelines::pipeline_cache::TextureSet;
 use crate::world::RenderScene;
 
 /// Which of `StandardMaterial::textures()` hold colour (sRGB): base colour and emissive.
@@ -57,6 +58,8 @@ pub struct MaterialEntry {
     pub alpha: AlphaKey,
     pub unlit: bool,
     pub double_sided: bool,
+    /// Which slots have a texture: they select the shader variant.
+    pub textures: TextureSet,
 }
 
 pub struct MaterialTable {
@@ -190,6 +193,14 @@ impl MaterialTable {
                 alpha,
                 unlit: material.unlit,
                 double_sided: material.double_sided,
+                textures: TextureSet(
+                    material
+                        .textures()
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, t)| t.is_some())
+                        .fold(0, |bits, (i, _)| bits | 1 << i),
+                ),
             },
         );
         true

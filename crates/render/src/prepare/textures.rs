@@ -205,7 +205,13 @@ impl TextureCache {
                     wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.mip_sampler) },
                 ],
             });
-            let pipeline = pipelines.mipmap(device, format);
+            let pipeline = match pipelines.mipmap(device, format) {
+                Ok(p) => p,
+                Err(e) => {
+                    tracing::error!("mip generation skipped for {}: {e}", image.label);
+                    break;
+                }
+            };
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("mipmap"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {

@@ -1,0 +1,98 @@
+// glTF 2.0's BRDF (spec appendix B): GGX microfacets with height-correlated Smith visibility and
+// Schlick Fresnel, Lambert diffuse, and the metal/dielectric mix; plus the response to uniform
+// ambient light with multiple scattering.
+#define_import_path penumbra::brdf
+
+#import penumbra::common::{PI, safe_normalize}
+
+// Filament's clamp: below 0.045 perceptual roughness, GGX's D overflows f16 and aliases badly.
+const MIN_PERCEPTUAL_ROUGHNESS: f32 = 0.045;
+// Dielectric reflectance at normal incidence, glTF 2.0 (IOR 1.5).
+const DIELECTRIC_F0: vec3<f32> = vec3<f32>(0.04);
+
+struct Surface {
+    base_color: vec3<f32>,
+    metallic: f32,
+    // base_color · (1 − metallic): the Lambertian lobe of the dielectric half of glTF's mix.
+    diffuse_color: vec3<f32>,
+    // Specular reflectance at normal incidence, mixed: 0.04 (dielectric) to base_color (metal).
+    f0_color: vec3<f32>,
+    perceptual_roughness: f32,
+    alpha: f32,
+    n: vec3<f32>,
+    v: vec3<f32>,
+    n_dot_v: f32,
+    occlusion: f32,
+};
+
+// GGX / Trowbridge-Reitz normal distribution.
+fn d_ggx(n_dot_h: f32, alpha: f32) -> f32 {
+    let alpha_sq = alpha * alpha;
+    let f = n_dot_h * n_dot_h * (alpha_sq - 1.0) + 1.0;
+    return alpha_sq / (PI * f * f);
+}
+
+// Height-correlated Smith visibility, V = G / (4 N·L N·V) (Heitz 2014).
+fn v_smith_ggx_correlated(n_dot_v: f32, n_dot_l: f32, alpha: f32) -> f32 {
+    let alpha_sq = alpha * alpha;
+    let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - alpha_sq) + alpha_sq);
+    let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - alpha_sq) + alpha_sq);
+    return 0.5 / max(gv + gl, 1e-7);
+}
+
+fn f_schlick(f0_color: vec3<f32>, v_dot_h: f32) -> vec3<f32> {
+    let x = 1.0 - v_dot_h;
+    let x_sq = x * x;
+    return f0_color + (vec3<f32>(1.0) - f0_color) * (x_sq * x_sq * x);
+}
+
+// Split-sum scale and bias (A, B) for ∫ f_spec cosθ under uniform light, by Karis's analytic fit
+// ("Physically Based Shading on Mobile", 2014). Issue #10 replaces it with a GPU-computed table.
+fn env_brdf_approx(n_dot_v: f32, perceptual_roughness: f32) -> vec2<f32> {
+    let c_a = vec4<f32>(-1.0, -0.0275, -0.572, 0.022);
+    let c_b = vec4<f32>(1.0, 0.0425, 1.04, -0.04);
+    let r = perceptual_roughness * c_a + c_b;
+    let a_term = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
+    return vec2<f32>(-1.04, 1.04) * a_term + r.zw;
+}
+
+// Directional albedo of the specular lobe, single plus multiple scattering: E = FssEss + Fms·Ems
+// (Fdez-Agüera 2019, "A Multiple-Scattering Microfacet Model for Real-Time Image-based
+// Lighting"), with (A, B) = `env_brdf_approx`. For f0_color = 1 it is exactly 1.
+fn specular_albedo(f0_color: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
+    let fss_ess = f0_color * ab.x + ab.y;
+    let ems = 1.0 - (ab.x + ab.y);
+    let f_avg = f0_color + (vec3<f32>(1.0) - f0_color) / 21.0;
+    return fss_ess + ems * fss_ess * f_avg / (vec3<f32>(1.0) - ems * f_avg);
+}
+
+// Light from a uniform environment of radiance `l`. As glTF defines the material, this is
+// mix(dielectric, metal, metallic): the dielectric's diffuse lobe gets what its specular lobe
+// leaves, so a white surface returns exactly `l` whatever its roughness or metalness, which the
+// white-furnace test checks.
+fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let ab = env_brdf_approx(s.n_dot_v, s.perceptual_roughness);
+    let dielectric_specular = specular_albedo(DIELECTRIC_F0, ab);
+    let metal_specular = specular_albedo(s.base_color, ab);
+    let specular = mix(dielectric_specular, metal_specular, s.metallic);
+    let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
+    return (specular + diffuse) * l * s.occlusion;
+}
+
+// Radiance reflected towards the eye from light arriving along `l` with illuminance `e`
+// (measured perpendicular to the light): BRDF · E · N·L, where the dielectric's diffuse lobe is
+// weighted by 1 − F(0.04). Schlick's F is linear in f0_color, so the specular lobes of glTF's mix
+// combine into F(f0_color mixed).
+fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(s.n, l);
+    if n_dot_l <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let h = safe_normalize(l + s.v, s.n);
+    let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
+    let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
+    let f = f_schlick(s.f0_color, v_dot_h);
+    let spec = f * (d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
+    let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
+    return (diffuse + spec) * e * n_dot_l;
+}

@@ -1,0 +1,72 @@
+// The packed light (mirrors `GpuLight` in prepare/lights.rs) and how each kind lights a surface.
+#define_import_path penumbra::lights
+
+#import penumbra::brdf::{Surface, ambient, direct}
+
+const LIGHT_DIRECTIONAL: u32 = 0u;
+const LIGHT_POINT: u32 = 1u;
+const LIGHT_SPOT: u32 = 2u;
+const LIGHT_AMBIENT: u32 = 3u;
+
+struct Light {
+    position: vec3<f32>,
+    kind: u32,
+    // Direction the light shines (spot, directional), world space, unit length.
+    direction: vec3<f32>,
+    // Influence radius; 0 means unbounded.
+    range: f32,
+    // Linear colour times intensity (cd, lux, or cd/m² for ambient).
+    color: vec3<f32>,
+    spot_scale: f32,
+    spot_offset: f32,
+    _pad_a: f32,
+    _pad_b: f32,
+    _pad_c: f32,
+};
+
+// glTF KHR_lights_punctual range window: (1 − (d/r)⁴)² clamped; 1 when unbounded.
+fn range_window(dist2: f32, range: f32) -> f32 {
+    if range <= 0.0 {
+        return 1.0;
+    }
+    let x = dist2 / (range * range);
+    let w = clamp(1.0 - x * x, 0.0, 1.0);
+    return w * w;
+}
+
+// Light reaching the eye from `light` off the surface at `rel_pos` (camera-relative), with the
+// camera at `camera_position` in world space.
+fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: vec3<f32>) -> vec3<f32> {
+    switch light.kind {
+        case LIGHT_DIRECTIONAL: {
+            return direct(s, -light.direction, light.color);
+        }
+        case LIGHT_AMBIENT: {
+            return ambient(s, light.color);
+        }
+        default: {
+#ifdef LOCAL_LIGHTS
+            let to_light = (light.position - camera_position) - rel_pos;
+            // Only guards the division: any fixed physical floor (1 mm, 1 cm as some engines use)
+            // would break scenes modelled at small scales, so the floor sits just above f32's
+            // smallest normal number. A light touching the surface saturates the pixel, and the
+            // output clamp keeps it finite.
+            let dist2 = max(dot(to_light, to_light), 1e-30);
+            let l = to_light * inverseSqrt(dist2);
+            var atten = range_window(dist2, light.range) / dist2;
+            if light.kind == LIGHT_SPOT {
+                let cd = dot(light.direction, -l);
+                let a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
+                atten *= a * a;
+            }
+            if atten <= 0.0 {
+                return vec3<f32>(0.0);
+            }
+            return direct(s, l, light.color * atten);
+#else
+            // Compiled without point and spot lights: the scene has none.
+            return vec3<f32>(0.0);
+#endif
+        }
+    }
+}
