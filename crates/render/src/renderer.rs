@@ -313,10 +313,16 @@ impl Renderer {
 
     /// Re-reads the shader folder because `files` changed, rebuilding the pipelines that use them.
     pub fn reload_shaders(&mut self, files: &[String]) -> Result<ReloadReport, ShaderError> {
+        let start = Instant::now();
         let result = self.pipelines.reload(&self.ctx.device, files);
         match &result {
             Ok(report) => {
-                tracing::info!("shaders reloaded ({}): {} pipelines rebuilt", files.join(", "), report.rebuilt);
+                tracing::info!(
+                    "shaders reloaded ({}): {} pipelines rebuilt in {:.1} ms",
+                    files.join(", "),
+                    report.rebuilt,
+                    start.elapsed().as_secs_f64() * 1e3
+                );
                 self.shader_error = None;
             }
             Err(e) => {

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use penumbra_render::Tonemapper;
 use penumbra_render::headless::CameraChoice;
+use penumbra_render::{RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
 #[command(name = "penumbra", version, about = "A real-time glTF renderer and viewer")]
@@ -47,6 +47,10 @@ pub struct LookArgs {
     /// Exposure as EV100 (default: the camera's, EV100 −0.263, which maps radiance 1 to 1).
     #[arg(long, allow_negative_numbers = true)]
     pub exposure: Option<f32>,
+    /// Read WGSL from this folder instead of the embedded shaders (`view` also watches it and
+    /// reloads on change; by default `view` watches the repository's shaders/ when it exists).
+    #[arg(long, value_name = "DIR")]
+    pub shader_dir: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -101,6 +105,11 @@ pub struct BenchArgs {
     pub frames: u32,
     #[arg(long, default_value_t = 5)]
     pub warmup: u32,
+    /// Instead of frame times, measure hot-reload latency: make N edits to a copy of
+    /// forward.wgsl while rendering and time each from the file write to the first frame
+    /// finished with the new shader.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub shader_edits: u32,
     #[command(flatten)]
     pub look: LookArgs,
     #[command(flatten)]
@@ -147,4 +156,20 @@ fn parse_camera(s: &str) -> Result<CameraChoice, String> {
     s.parse()
         .map(CameraChoice::Gltf)
         .map_err(|_| format!("{s:?} is neither `auto`, `orbit:YAW:PITCH` nor a camera index"))
+}
+
+impl LookArgs {
+    /// Render settings from the flags, range-checked with the flag named in the error.
+    /// `watch_default` is the folder to use (and watch) when `--shader-dir` is not given.
+    pub fn render_settings(&self, watch: bool, default_dir: Option<PathBuf>) -> anyhow::Result<RenderSettings> {
+        let shaders = match self.shader_dir.clone().or(default_dir) {
+            Some(dir) if !dir.is_dir() => anyhow::bail!("--shader-dir {}: not a folder", dir.display()),
+            Some(dir) => ShaderSource::Folder { dir, watch },
+            None => ShaderSource::Embedded,
+        };
+        let settings =
+            RenderSettings { msaa: self.msaa, tonemapper: self.tonemap.into(), shaders, ..Default::default() };
+        settings.validate().map_err(|e| anyhow::anyhow!("--msaa: {e}"))?;
+        Ok(settings)
+    }
 }

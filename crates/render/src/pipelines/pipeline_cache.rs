@@ -313,7 +313,7 @@ impl PipelineCache {
     /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use them;
     /// on any error keeps everything as it was and returns the error.
     pub fn reload(&mut self, device: &wgpu::Device, files: &[String]) -> Result<ReloadReport, ShaderError> {
-        let mut candidate = Some(self.shaders.reloaded()?);
+        let mut candidate = Some(self.shaders.reloaded(files)?);
         let lib = candidate.as_ref().expect("just built");
         let forward_hit = lib.depends_on("forward.wgsl", files);
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);

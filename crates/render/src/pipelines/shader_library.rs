@@ -111,7 +111,9 @@ fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -
         let line = parts.next()?.trim().parse().ok()?;
         Some((parts.next()?.to_owned(), line, column))
     });
-    let notes: Vec<&str> = report.lines().filter_map(|l| l.trim().strip_prefix("= ")).collect();
+    // naga often repeats the headline as a note; keep only notes that add something.
+    let notes: Vec<&str> =
+        report.lines().filter_map(|l| l.trim().strip_prefix("= ")).filter(|n| *n != message).collect();
     let message = if notes.is_empty() { message } else { format!("{message} ({})", notes.join("; ")) };
     match location {
         Some((file, line, column)) => ShaderError { file, line, column, message },
@@ -214,11 +216,16 @@ impl ShaderLibrary {
         }
     }
 
-    /// A new library read afresh from the folder. The whole folder is read, not only the files
-    /// that changed: a library is consistent, and a folder is a handful of small files.
-    pub fn reloaded(&self) -> Result<Self, ShaderError> {
+    /// A new library read afresh from the folder after `changed` files changed. The whole
+    /// folder is read, not only those files: a library is consistent, and a folder is a handful
+    /// of small files. A changed file that is gone (deleted, or mid-rename) is an error, not a
+    /// silent return to the embedded version.
+    pub fn reloaded(&self, changed: &[String]) -> Result<Self, ShaderError> {
         let dir =
             self.dir.as_ref().ok_or_else(|| ShaderError::whole_file("shaders", "no shader folder to reload from"))?;
+        for file in changed {
+            read_source(&dir.join(file))?;
+        }
         Self::from_dir(dir)
     }
 

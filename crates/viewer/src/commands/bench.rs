@@ -38,13 +38,10 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
-    let settings = RenderSettings {
-        msaa: args.look.msaa,
-        tonemapper: args.look.tonemap.into(),
-        gpu_timing: true,
-        ..Default::default()
-    };
-    settings.validate().map_err(|e| anyhow!("--msaa: {e}"))?;
+    if args.shader_edits > 0 {
+        return super::bench_reload::run(&args);
+    }
+    let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
     let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
     shot.validate()?;
     if args.frames == 0 {

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow};
 use penumbra_render::headless::{ShotSettings, render_frames, stage_scene};
-use penumbra_render::{AdapterRequest, GpuContext, RenderSettings, Renderer};
+use penumbra_render::{AdapterRequest, GpuContext, Renderer};
 
 use crate::cli::RenderArgs;
 use crate::scene;
@@ -14,8 +14,7 @@ use crate::scene;
 pub fn run(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
-    let settings = RenderSettings { msaa: args.look.msaa, tonemapper: args.look.tonemap.into(), ..Default::default() };
-    settings.validate().map_err(|e| anyhow!("--msaa: {e}"))?;
+    let settings = args.look.render_settings(false, None)?;
     let shot = ShotSettings { size: args.size, camera: args.camera, exposure_ev100: args.look.exposure };
     shot.validate()?;
     let gpu = std::thread::spawn(move || -> Result<Renderer> {

@@ -6,6 +6,7 @@
 //! reconfigure the surface at the window's physical size; a 0×0 (minimised) window skips frames.
 
 mod orbit;
+mod overlay;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -29,6 +30,7 @@ use winit::window::{Window, WindowId};
 use crate::cli::ViewArgs;
 use crate::scene;
 use orbit::{OrbitCamera, OrbitState};
+use overlay::Overlay;
 
 pub fn run(args: ViewArgs) -> Result<()> {
     #[cfg(all(unix, not(target_os = "macos")))]
@@ -38,8 +40,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
              For a headless screenshot use `penumbra render SCENE --out shot.png`"
         );
     }
-    let settings = RenderSettings { msaa: args.look.msaa, tonemapper: args.look.tonemap.into(), ..Default::default() };
-    settings.validate().map_err(|e| anyhow!("--msaa: {e}"))?;
+    // Running from a checkout: watch its shaders so edits show up live.
+    let repository = std::path::Path::new(penumbra_render::pipelines::shader_library::REPOSITORY_SHADER_DIR);
+    let settings = args.look.render_settings(true, repository.is_dir().then(|| repository.to_path_buf()))?;
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let event_loop = EventLoop::new().map_err(|e| {
         anyhow!("cannot open a window ({e}). For a headless screenshot use `penumbra render SCENE --out shot.png`")
@@ -78,6 +81,7 @@ struct Running {
     home: OrbitState,
     input: Input,
     last_frame: Instant,
+    overlay: Overlay,
 }
 
 impl Viewer {
@@ -112,7 +116,8 @@ impl Viewer {
             desired_maximum_frame_latency: 2,
             alpha_mode: caps.alpha_modes[0],
             color_space: wgpu::SurfaceColorSpace::Auto,
-            view_formats: vec![],
+            // egui blends in gamma space, so it draws through a non-sRGB view of the same image.
+            view_formats: vec![format.remove_srgb_suffix()],
         };
         surface.configure(&ctx.device, &config);
 
@@ -161,6 +166,7 @@ impl Viewer {
         state: OrbitState,
         ctx: GpuContext,
     ) -> Result<Running> {
+        let overlay = Overlay::new(&window, &ctx.device, config.format.remove_srgb_suffix());
         app.insert_resource(Renderer::new(ctx, self.settings.clone())?);
         app.insert_resource(RenderOutput::External);
         Ok(Running {
@@ -179,6 +185,7 @@ impl Viewer {
                 modifiers: ModifiersState::empty(),
             },
             last_frame: Instant::now(),
+            overlay,
         })
     }
 }
@@ -232,12 +239,20 @@ impl Running {
             _ => return, // timeout, occluded, validation: try again next frame
         };
         let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let ui_view = texture.texture.create_view(&wgpu::TextureViewDescriptor {
+            format: Some(self.config.format.remove_srgb_suffix()),
+            ..Default::default()
+        });
         let size = (self.config.width, self.config.height);
         let format = self.config.format;
+        let window = self.window.clone();
+        let overlay = &mut self.overlay;
         self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
             let scene = world.resource::<RenderScene>();
             renderer.render(scene, &view, format, size);
-            renderer.context().queue.present(texture);
+            let ctx = renderer.context().clone();
+            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, renderer.shader_error());
+            ctx.queue.present(texture);
         });
     }
 }
@@ -261,6 +276,9 @@ impl ApplicationHandler for Viewer {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(r) = self.running.as_mut() else { return };
+        if r.overlay.on_window_event(&r.window, &event) {
+            return;
+        }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {

@@ -1,0 +1,87 @@
+//! `penumbra bench --shader-edits N`: hot-reload latency. Copies the shaders to a temporary
+//! folder, renders the scene continuously with that folder watched, and every 400 ms rewrites
+//! forward.wgsl with a different constant (so no driver cache can serve the new pipeline). Each
+//! edit is timed from just before the file write to the end of the first frame drawn with the new
+//! shader (GPU work included). Prints median and maximum.
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, anyhow, bail};
+use penumbra_render::headless::{ShotSettings, stage_scene};
+use penumbra_render::pipelines::shader_library::EMBEDDED;
+use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, Renderer, ShaderSource};
+
+use crate::cli::BenchArgs;
+use crate::scene;
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("penumbra-reload-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    for (file, source) in EMBEDDED {
+        std::fs::write(dir.join(file), source)?;
+    }
+    let original = EMBEDDED.iter().find(|(f, _)| *f == "forward.wgsl").map(|(_, s)| *s).expect("embedded");
+    let anchor = "var out = color * view.exposure;";
+    if !original.contains(anchor) {
+        bail!("forward.wgsl no longer contains `{anchor}`; update the reload benchmark's edit");
+    }
+    let mut settings = args.look.render_settings(true, None)?;
+    settings.shaders = ShaderSource::Folder { dir: dir.clone(), watch: true };
+    let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
+    let adapter = ctx.describe();
+    let renderer = Renderer::new(ctx, settings.clone())?;
+    let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
+    let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
+    let (mut app, size) = stage_scene(&scene, &shot)?;
+    app.insert_resource(renderer);
+    app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
+    let frame = |app: &mut penumbra_engine::App| {
+        app.update();
+        let r = app.world.resource::<Renderer>();
+        let _ = r.context().device.poll(wgpu::PollType::wait_indefinitely());
+        r.stats().shader_generation
+    };
+    frame(&mut app);
+
+    // Each edit a new constant, different from every earlier run's too (the driver's on-disk
+    // cache outlives the process): the new pipeline cannot come from any cache. Steps of 1e-7
+    // stay distinct in f32 near 1.
+    let nonce =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs() % 50_000) * 20;
+    let mut latencies = Vec::new();
+    for edit in 1..=args.shader_edits {
+        let k = 1.0 - (nonce + edit as u64) as f64 * 1e-7;
+        let source = original.replacen(anchor, &format!("var out = color * view.exposure * {k:.7};"), 1);
+        let before = frame(&mut app);
+        let start = Instant::now();
+        std::fs::write(dir.join("forward.wgsl"), source)?;
+        loop {
+            if frame(&mut app) > before {
+                break;
+            }
+            if let Some(e) = app.world.resource::<Renderer>().shader_error() {
+                bail!("edit {edit} did not compile: {e}");
+            }
+            if start.elapsed() > Duration::from_secs(30) {
+                return Err(anyhow!("edit {edit}: no reload within 30 s"));
+            }
+        }
+        latencies.push(start.elapsed().as_secs_f64() * 1e3);
+        std::thread::sleep(Duration::from_millis(400));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut sorted = latencies.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    println!("adapter   {adapter}");
+    println!(
+        "scene     {}",
+        args.path.as_ref().map_or("<embedded>/DamagedHelmet.glb".into(), |p| p.display().to_string())
+    );
+    println!("settings  {}x{}, MSAA {}, {} edits of forward.wgsl", size.0, size.1, settings.msaa, latencies.len());
+    println!();
+    println!("| measure | median | max |");
+    println!("|---|---:|---:|");
+    println!("| file write to first frame with the new shader (ms) | {median:.1} | {:.1} |", sorted[sorted.len() - 1]);
+    Ok(())
+}

@@ -1,0 +1,180 @@
+//! Hot reload of WGSL from a shader folder, driven through the file watcher as an editor would:
+//! a broken shader is reported with its line and the last good pipelines keep drawing; a fixed
+//! one is used at once; empty files, rename-over saves and deletions are errors until the file is
+//! whole; an edit to an imported module rebuilds exactly the pipelines that import it.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use penumbra::prelude::*;
+use penumbra::render::pipelines::shader_library::EMBEDDED;
+use penumbra::render::{RenderSettings, Renderer, ShaderSource};
+
+mod common;
+use common::{brightness, render_app, scene_app, scratch_dir, spawn_mesh};
+
+const SIZE: (u32, u32) = (48, 48);
+
+fn shader_folder(name: &str) -> PathBuf {
+    let dir = scratch_dir(name);
+    for (file, source) in EMBEDDED {
+        std::fs::write(dir.join(file), source).unwrap();
+    }
+    dir
+}
+
+/// A lit white quad filling the middle of the frame, rendered with shaders from `dir`.
+fn app_with_shaders(dir: &Path) -> App {
+    let mut app = scene_app();
+    let mut quad = Mesh::plane(2.0);
+    for p in &mut quad.positions {
+        *p = Vec3::new(p.x, -p.z, 0.0);
+    }
+    quad.normals = vec![Vec3::Z; 4];
+    spawn_mesh(&mut app, quad, StandardMaterial::from_color(Vec4::ONE, 1.0), Transform::IDENTITY);
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.8 });
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 3.0)));
+    let settings = RenderSettings {
+        msaa: 1,
+        shaders: ShaderSource::Folder { dir: dir.to_path_buf(), watch: true },
+        ..Default::default()
+    };
+    app.insert_resource(Renderer::new(common::gpu(), settings).unwrap());
+    app
+}
+
+fn renderer(app: &App) -> &Renderer {
+    app.world.resource::<Renderer>()
+}
+
+/// Renders frames until `done` holds (the watcher settles within tens of milliseconds).
+fn render_until(app: &mut App, what: &str, done: impl Fn(&Renderer) -> bool) -> Vec<u8> {
+    let start = Instant::now();
+    loop {
+        let px = render_app(app, SIZE, RenderSettings::default());
+        if done(renderer(app)) {
+            return px;
+        }
+        assert!(start.elapsed() < Duration::from_secs(10), "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+fn generation(r: &Renderer) -> u64 {
+    r.stats().shader_generation
+}
+
+fn forward(dir: &Path) -> String {
+    std::fs::read_to_string(dir.join("forward.wgsl")).unwrap()
+}
+
+/// forward.wgsl with its output scaled by `k` (0 makes the quad black).
+fn scaled_output(source: &str, k: &str) -> String {
+    let edited =
+        source.replacen("var out = color * view.exposure;", &format!("var out = color * view.exposure * {k};"), 1);
+    assert_ne!(edited, source, "the test's edit must apply");
+    edited
+}
+
+#[test]
+fn a_broken_shader_keeps_the_last_good_image_and_a_fixed_one_is_used() {
+    let dir = shader_folder("reload-broken");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&good, SIZE.0, 24, 24) > 150.0);
+    let original = forward(&dir);
+
+    // A syntax error on a known line.
+    let line = original.lines().position(|l| l.contains("var out = color * view.exposure;")).unwrap() + 1;
+    let broken = original.replacen("var out = color * view.exposure;", "var out = color * ;", 1);
+    std::fs::write(dir.join("forward.wgsl"), &broken).unwrap();
+    let px = render_until(&mut app, "the error", |r| r.shader_error().is_some());
+    let err = renderer(&app).shader_error().unwrap().clone();
+    assert_eq!((err.file.as_str(), err.line as usize), ("forward.wgsl", line), "{err}");
+    assert!(err.to_string().starts_with(&format!("forward.wgsl:{line}:")), "{err}");
+    assert_eq!(px, good, "frames keep the last good pipelines");
+
+    // Fixed, with a visible change: the new shader is used and the error clears.
+    let g = generation(renderer(&app));
+    std::fs::write(dir.join("forward.wgsl"), scaled_output(&original, "0.0")).unwrap();
+    let px = render_until(&mut app, "the fix", |r| generation(r) > g);
+    assert!(renderer(&app).shader_error().is_none(), "the error clears once fixed");
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "the edited shader (output × 0) is in use");
+}
+
+#[test]
+fn empty_renamed_and_deleted_files_are_errors_until_the_file_is_whole() {
+    let dir = shader_folder("reload-editors");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let original = forward(&dir);
+    let path = dir.join("forward.wgsl");
+
+    // Truncate-then-write, seen half way: an empty file.
+    std::fs::write(&path, "").unwrap();
+    let px = render_until(&mut app, "the empty-file error", |r| r.shader_error().is_some());
+    assert!(renderer(&app).shader_error().unwrap().message.contains("empty"));
+    assert_eq!(px, good);
+    let g = generation(renderer(&app));
+    std::fs::write(&path, scaled_output(&original, "0.5")).unwrap();
+    render_until(&mut app, "the completed file", |r| generation(r) > g && r.shader_error().is_none());
+
+    // Write a temporary file and rename it over the original.
+    let g = generation(renderer(&app));
+    let tmp = dir.join(".forward.wgsl.swp");
+    std::fs::write(&tmp, scaled_output(&original, "0.0")).unwrap();
+    std::fs::rename(&tmp, &path).unwrap();
+    let px = render_until(&mut app, "the renamed file", |r| generation(r) > g);
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0);
+
+    // Delete, then restore.
+    std::fs::remove_file(&path).unwrap();
+    let px = render_until(&mut app, "the deletion error", |r| r.shader_error().is_some());
+    assert!(
+        renderer(&app).shader_error().unwrap().message.contains("cannot read"),
+        "{}",
+        renderer(&app).shader_error().unwrap()
+    );
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "still the last good shader");
+    let g = generation(renderer(&app));
+    std::fs::write(&path, &original).unwrap();
+    let px = render_until(&mut app, "the restored file", |r| generation(r) > g && r.shader_error().is_none());
+    assert_eq!(px, good, "restored shader, restored image");
+}
+
+#[test]
+fn an_imported_module_rebuilds_exactly_its_dependents() {
+    let dir = shader_folder("reload-imports");
+    let mut app = app_with_shaders(&dir);
+    render_app(&mut app, SIZE, RenderSettings::default());
+    let forward_pipelines = renderer(&app).forward_pipeline_keys().len();
+    assert!(forward_pipelines >= 1);
+
+    // brdf.wgsl is imported by forward.wgsl only (through lights.wgsl too), not by tonemap.wgsl.
+    let brdf = std::fs::read_to_string(dir.join("brdf.wgsl")).unwrap();
+    std::fs::write(dir.join("brdf.wgsl"), format!("{brdf}\n// edited\n")).unwrap();
+    let report = app.world.resource_mut::<Renderer>().reload_shaders(&["brdf.wgsl".to_owned()]).unwrap();
+    assert_eq!(report.rebuilt, forward_pipelines, "every forward pipeline imports brdf.wgsl");
+    assert!(report.untouched >= 1, "the tonemap pipeline does not import it and is left alone");
+
+    // common.wgsl is imported by both.
+    let common = std::fs::read_to_string(dir.join("common.wgsl")).unwrap();
+    std::fs::write(dir.join("common.wgsl"), format!("{common}\n// edited\n")).unwrap();
+    let report = app.world.resource_mut::<Renderer>().reload_shaders(&["common.wgsl".to_owned()]).unwrap();
+    assert_eq!(report.untouched, 0, "every pipeline imports common.wgsl");
+}
+
+#[test]
+fn a_scene_without_normal_maps_or_local_lights_compiles_neither() {
+    let dir = shader_folder("variants");
+    let mut app = app_with_shaders(&dir);
+    render_app(&mut app, SIZE, RenderSettings::default());
+    for key in renderer(&app).forward_pipeline_keys() {
+        let defs = key.shader_defs();
+        assert!(!defs.0.contains("NORMAL_MAP") && !defs.0.contains("LOCAL_LIGHTS"), "{defs}");
+    }
+    // A point light appears: pipelines with the local-light code are compiled for it.
+    app.world.spawn((PointLight { intensity: 5.0, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 1.0)));
+    render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(renderer(&app).forward_pipeline_keys().iter().any(|k| k.shader_defs().0.contains("LOCAL_LIGHTS")));
+}
