@@ -1,5 +1,6 @@
-// Forward PBR: glTF metallic-roughness shading of every draw, lit by every light in the light
-// buffer (a plain loop until clustering lands, issue #3).
+// Forward PBR: glTF metallic-roughness shading of every draw. Global lights (directional,
+// ambient) light every fragment; local lights (point, spot) are found through the fragment's
+// cluster list (CLUSTERED_LIGHTS), or, in the brute-force reference variants, by walking them all.
 //
 // Spaces: `world` is scene space; `rel` is world translated so the camera sits at the origin
 // (positions far from the origin keep their precision, see vs_main); `clip` is reverse-Z.
@@ -7,11 +8,17 @@
 //
 // Variants (shader defs, set per pipeline by pipeline_cache.rs from what each draw uses; code a
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
-// METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS.
+// METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS
+// (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference), and the debug
+// view DEBUG_CLUSTER_HEAT.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
-#import penumbra::lights::{Light, shade_light}
+#import penumbra::light_data::Light
+#import penumbra::lights::shade_light
+#ifdef CLUSTERED_LIGHTS
+#import penumbra::clusters::{ClusterGrid, fragment_cluster}
+#endif
 
 struct View {
     clip_from_rel: mat4x4<f32>,
@@ -20,10 +27,11 @@ struct View {
     // Direction the camera looks, for orthographic views (all view rays parallel).
     camera_forward: vec3<f32>,
     is_orthographic: u32,
-    light_count: u32,
+    // Slots 0 .. global_light_count of `lights` are global; local lights follow.
+    global_light_count: u32,
+    local_light_count: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 };
 
 struct Instance {
@@ -60,6 +68,12 @@ struct Material {
 @group(0) @binding(2) var<storage, read> draw_slots: array<u32>;
 @group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
+#ifdef CLUSTERED_LIGHTS
+@group(0) @binding(5) var<uniform> grid: ClusterGrid;
+// Per cluster (offset, count) into cluster_lights, which holds light slots.
+@group(0) @binding(6) var<storage, read> cluster_ranges: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
+#endif
 
 @group(1) @binding(0) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(1) var base_color_sampler: sampler;
@@ -162,6 +176,35 @@ fn slot_coord(mat: Material, slot: u32, sets: UvSets) -> TexCoord {
     return TexCoord(linear * uv + vec2<f32>(r0.z, r1.z), linear * dx, linear * dy);
 }
 
+// Distance along the view direction.
+fn view_depth(rel: vec3<f32>) -> f32 {
+    return dot(rel, view.camera_forward);
+}
+
+#ifdef DEBUG_CLUSTER_HEAT
+// Lights in the fragment's cluster: black for none, then blue, green, yellow, red, white at 256
+// and beyond (log scale).
+fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
+    var n = 0u;
+#ifdef CLUSTERED_LIGHTS
+    n = cluster_ranges[fragment_cluster(grid, frag_xy, view_depth(rel))].y;
+#endif
+    if n == 0u {
+        return vec3<f32>(0.0);
+    }
+    let t = clamp(log2(f32(n)) / 8.0, 0.0, 1.0) * 4.0;
+    let stops = array<vec3<f32>, 5>(
+        vec3<f32>(0.0, 0.1, 0.8),
+        vec3<f32>(0.0, 0.7, 0.2),
+        vec3<f32>(0.9, 0.8, 0.0),
+        vec3<f32>(0.9, 0.1, 0.0),
+        vec3<f32>(1.0, 1.0, 1.0)
+    );
+    let k = min(u32(t), 3u);
+    return mix(stops[k], stops[k + 1u], t - f32(k));
+}
+#endif
+
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
     let mat = materials[in.material];
@@ -238,9 +281,22 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
 #endif
 
     var color = vec3<f32>(0.0);
-    for (var i = 0u; i < view.light_count; i++) {
+    for (var i = 0u; i < view.global_light_count; i++) {
         color += shade_light(s, lights[i], in.rel_position, view.camera_position);
     }
+#ifdef LOCAL_LIGHTS
+#ifdef CLUSTERED_LIGHTS
+    let range = cluster_ranges[fragment_cluster(grid, in.clip_position.xy, view_depth(in.rel_position))];
+    for (var i = 0u; i < range.y; i++) {
+        color += shade_light(s, lights[cluster_lights[range.x + i]], in.rel_position, view.camera_position);
+    }
+#else
+    let local_end = view.global_light_count + view.local_light_count;
+    for (var i = view.global_light_count; i < local_end; i++) {
+        color += shade_light(s, lights[i], in.rel_position, view.camera_position);
+    }
+#endif
+#endif
     var emissive = mat.emissive;
 #ifdef EMISSIVE_TEXTURE
     let emc = slot_coord(mat, 4u, sets);
@@ -250,6 +306,9 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
 #endif
 
     var out = color * view.exposure;
+#ifdef DEBUG_CLUSTER_HEAT
+    out = cluster_heat(in.clip_position.xy, in.rel_position);
+#endif
     // No NaN or Inf may reach the render target: a NaN fails every comparison, so it becomes 0.
     out = select(vec3<f32>(0.0), clamp(out, vec3<f32>(0.0), vec3<f32>(F16_MAX)), out == out);
     let alpha = clamp(base.a, 0.0, 1.0);

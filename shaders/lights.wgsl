@@ -1,37 +1,20 @@
-// The packed light (mirrors `GpuLight` in prepare/lights.rs) and how each kind lights a surface.
+// How each kind of light lights a surface.
 #define_import_path penumbra::lights
 
 #import penumbra::brdf::{Surface, ambient, direct}
+#import penumbra::light_data::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_AMBIENT}
 
-const LIGHT_DIRECTIONAL: u32 = 0u;
-const LIGHT_POINT: u32 = 1u;
-const LIGHT_SPOT: u32 = 2u;
-const LIGHT_AMBIENT: u32 = 3u;
-
-struct Light {
-    position: vec3<f32>,
-    kind: u32,
-    // Direction the light shines (spot, directional), world space, unit length.
-    direction: vec3<f32>,
-    // Influence radius; 0 means unbounded.
-    range: f32,
-    // Linear colour times intensity (cd, lux, or cd/m² for ambient).
-    color: vec3<f32>,
-    spot_scale: f32,
-    spot_offset: f32,
-    _pad_a: f32,
-    _pad_b: f32,
-    _pad_c: f32,
-};
-
-// glTF KHR_lights_punctual range window: (1 − (d/r)⁴)² clamped; 1 when unbounded.
+// glTF KHR_lights_punctual's range window: (1 − (d/r)⁴)² clamped. The store gives every local
+// light a range (glTF's, or where it falls below the visible cutoff), so the window always
+// applies, except in the UNBOUNDED_LIGHTS reference variant that measures its error.
 fn range_window(dist2: f32, range: f32) -> f32 {
-    if range <= 0.0 {
-        return 1.0;
-    }
+#ifdef UNBOUNDED_LIGHTS
+    return 1.0;
+#else
     let x = dist2 / (range * range);
     let w = clamp(1.0 - x * x, 0.0, 1.0);
     return w * w;
+#endif
 }
 
 // Light reaching the eye from `light` off the surface at `rel_pos` (camera-relative), with the

@@ -16,6 +16,7 @@ pub mod material;
 pub mod mesh;
 pub mod parallel;
 pub mod primitives;
+pub mod scenes;
 pub mod time;
 
 use bevy_ecs::schedule::IntoScheduleConfigs;

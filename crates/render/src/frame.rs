@@ -1,11 +1,14 @@
 //! The frame plan: which passes run this frame, in what order, and why. A pass the scene does
-//! not need is not encoded at all (no empty passes): today that is the transparent phase; the
-//! cluster binning (#3) and shadow (#4) passes join the plan with their own conditions.
+//! not need is not encoded at all (no empty passes): cluster binning runs only with local lights
+//! to bin, the transparent phase only with blended draws; the shadow passes (#4) will join with
+//! their own conditions.
 
 use std::fmt;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Pass {
+    /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
+    ClusterBin,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
     /// Alpha-blended draws, back to front, in the same render pass as `Opaque`.
@@ -20,11 +23,16 @@ pub struct FramePlan {
 }
 
 impl FramePlan {
-    pub fn new(has_opaque: bool, has_blend: bool) -> Self {
-        let mut passes = vec![(
+    /// `binned_lights`: local lights the forward pass will find through clusters.
+    pub fn new(binned_lights: u32, has_opaque: bool, has_blend: bool) -> Self {
+        let mut passes = Vec::new();
+        if binned_lights > 0 && (has_opaque || has_blend) {
+            passes.push((Pass::ClusterBin, "local lights to bin and draws to light"));
+        }
+        passes.push((
             Pass::Opaque,
             if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
-        )];
+        ));
         if has_blend {
             passes.push((Pass::Transparent, "blended draws exist"));
         }
@@ -52,8 +60,16 @@ mod tests {
 
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!FramePlan::new(true, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(true, true).runs(Pass::Transparent));
-        assert!(FramePlan::new(false, false).runs(Pass::Tonemap));
+        assert!(!FramePlan::new(0, true, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, true, true).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, false, false).runs(Pass::Tonemap));
+    }
+
+    #[test]
+    fn cluster_binning_only_with_local_lights_and_something_to_light() {
+        assert!(!FramePlan::new(0, true, true).runs(Pass::ClusterBin));
+        assert!(FramePlan::new(3, true, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(3, false, false).runs(Pass::ClusterBin));
+        assert_eq!(FramePlan::new(3, true, false).passes[0].0, Pass::ClusterBin, "binning precedes the forward pass");
     }
 }

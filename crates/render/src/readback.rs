@@ -53,6 +53,35 @@ pub fn read_texture(
     Ok(out)
 }
 
+/// Copies `size` bytes of `source` (which needs `COPY_SRC`) back to the CPU, blocking.
+pub fn read_buffer(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    source: &wgpu::Buffer,
+    size: u64,
+) -> Result<Vec<u8>, ReadbackError> {
+    let size = size.next_multiple_of(4).max(4);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("buffer readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+    encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size.min(source.size()));
+    queue.submit([encoder.finish()]);
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| ReadbackError::Poll(e.to_string()))?;
+    rx.recv().map_err(|e| ReadbackError::Map(e.to_string()))?.map_err(|e| ReadbackError::Map(e.to_string()))?;
+    let data = slice.get_mapped_range().map_err(|e| ReadbackError::Map(format!("{e:?}")))?.to_vec();
+    buffer.unmap();
+    Ok(data)
+}
+
 /// IEEE 754 binary16 to f32 (handles subnormals, infinities and NaN).
 pub fn f16_to_f32(h: u16) -> f32 {
     let sign = ((h >> 15) as u32) << 31;

@@ -2,9 +2,9 @@
 //!
 //! `render` runs prepare (retained updates driven by extraction's change lists), builds the
 //! frame plan, and encodes the passes. Owners: the mesh pool, texture cache, material table,
-//! instance buffer and light buffer each own their GPU buffers; the pipeline cache owns the
-//! pipelines and layouts; this module owns only the view uniform, the draw-slot list and the
-//! batches that index into it.
+//! instance buffer and light store each own their GPU buffers, the cluster binner its grid and
+//! lists; the pipeline cache owns the pipelines and layouts; this module owns only the view
+//! uniform, the draw-slot list and the batches that index into it.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -19,22 +19,24 @@ use penumbra_engine::mesh::Mesh;
 
 use crate::context::GpuContext;
 use crate::frame::{FramePlan, Pass};
+use crate::passes::clusters::grid::ClusterConfig;
+use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs};
 use crate::passes::tonemap;
-use crate::pipelines::pipeline_cache::{FormatKey, PipelineCache, PipelineKey, Tonemapper};
+use crate::pipelines::pipeline_cache::{DebugView, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper};
 use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::pipelines::shader_watcher::ShaderWatcher;
 use crate::prepare::buffer::GrowableBuffer;
 use crate::prepare::instances::{GpuInstance, InstanceBuffer};
-use crate::prepare::lights::LightBuffer;
+use crate::prepare::light_store::{DEFAULT_CUTOFF, LightStore};
 use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS};
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
 use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT};
 use crate::timing::{FrameTimings, GpuTimer};
-use crate::world::{LightKind, RenderScene};
+use crate::world::RenderScene;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {
@@ -47,6 +49,27 @@ pub struct RenderSettings {
     pub gpu_timing: bool,
     /// Where the shaders come from.
     pub shaders: ShaderSource,
+    /// The froxel grid local lights are binned into.
+    pub clusters: ClusterConfig,
+    /// How fragments find local lights (clusters, or the brute-force references).
+    pub light_walk: LightWalk,
+    /// Display-referred luminance (after exposure) below which a local light without a glTF
+    /// `range` stops: its range is where it would light a facing white surface this bright.
+    pub light_cutoff: f32,
+    pub debug_view: DebugView,
+}
+
+/// How fragments find the local (point and spot) lights that reach them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LightWalk {
+    /// Through the fragment's cluster list: the normal path.
+    #[default]
+    Clustered,
+    /// Every local light for every fragment (windowed by range): the reference that clustered
+    /// rendering must equal.
+    AllLights,
+    /// Every local light with no range window: the reference for the window's error.
+    AllUnbounded,
 }
 
 /// Where the renderer's WGSL comes from.
@@ -69,6 +92,10 @@ impl Default for RenderSettings {
             clear_color: [0.02, 0.02, 0.025],
             gpu_timing: false,
             shaders: ShaderSource::Embedded,
+            clusters: ClusterConfig::default(),
+            light_walk: LightWalk::Clustered,
+            light_cutoff: DEFAULT_CUTOFF,
+            debug_view: DebugView::None,
         }
     }
 }
@@ -77,12 +104,20 @@ impl Default for RenderSettings {
 pub enum SettingsError {
     #[error("MSAA sample count {0} is not supported (use 1 or 4)")]
     Msaa(u32),
+    #[error("{0}")]
+    Clusters(String),
+    #[error("light cutoff {0} must be a positive finite luminance")]
+    LightCutoff(f32),
 }
 
 impl RenderSettings {
     pub fn validate(&self) -> Result<(), SettingsError> {
         if !matches!(self.msaa, 1 | 4) {
             return Err(SettingsError::Msaa(self.msaa));
+        }
+        self.clusters.validate().map_err(SettingsError::Clusters)?;
+        if !(self.light_cutoff > 0.0 && self.light_cutoff.is_finite()) {
+            return Err(SettingsError::LightCutoff(self.light_cutoff));
         }
         Ok(())
     }
@@ -95,7 +130,15 @@ pub struct FrameStats {
     pub draw_calls: u32,
     pub instances: u32,
     pub primitives: u64,
+    /// Lights in the store (global + local).
     pub lights: u32,
+    /// Of which local (point and spot), binned into clusters when binning runs.
+    pub local_lights: u32,
+    /// Upper bound of the cluster lists' total length that sized the index buffer (0 without
+    /// binning), and the CPU time spent computing it this frame (0 when cached).
+    pub cluster_index_bound: u64,
+    pub cluster_bound_ms: f64,
+    pub light_bytes_uploaded: u64,
     pub instance_bytes_uploaded: u64,
     pub cpu_ms: f64,
     /// GPU time per pass of the newest frame the GPU has finished (timing enabled only).
@@ -133,8 +176,9 @@ struct GpuView {
     exposure: f32,
     camera_forward: [f32; 3],
     is_orthographic: u32,
-    light_count: u32,
-    _pad: [u32; 3],
+    global_light_count: u32,
+    local_light_count: u32,
+    _pad: [u32; 2],
 }
 
 /// What the renderer last knew about a drawable entity.
@@ -174,7 +218,8 @@ pub struct Renderer {
     textures: TextureCache,
     materials: MaterialTable,
     instances: InstanceBuffer,
-    lights: LightBuffer,
+    lights: LightStore,
+    clusters: ClusterBinner,
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
     view_bind_group: Option<wgpu::BindGroup>,
@@ -200,8 +245,10 @@ pub struct Renderer {
     shader_watcher: Option<ShaderWatcher>,
     /// The newest shader problem; cleared by the next successful reload.
     shader_error: Option<ShaderError>,
-    /// Whether the scene has point or spot lights (part of every pipeline key).
-    local_lights: bool,
+    /// How this frame's pipelines find local lights (part of every pipeline key).
+    local_lights: LocalLights,
+    /// The last binning refusal, reported once until it changes.
+    binning_error: Option<BinningTooLarge>,
 }
 
 impl Renderer {
@@ -236,7 +283,8 @@ impl Renderer {
             textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx)),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
-            lights: LightBuffer::new(device),
+            lights: LightStore::new(),
+            clusters: ClusterBinner::new(device),
             draw_slots: GrowableBuffer::new(device, "draw slots", wgpu::BufferUsages::STORAGE, 4096 * 4),
             view_buffer,
             pipelines,
@@ -260,7 +308,8 @@ impl Renderer {
             last_submission: None,
             shader_watcher,
             shader_error,
-            local_lights: false,
+            local_lights: LocalLights::None,
+            binning_error: None,
             settings,
             ctx,
         })
@@ -283,8 +332,8 @@ impl Renderer {
         if !settings.gpu_timing {
             self.timer = None;
         }
-        // The sample count is part of every batch's pipeline key.
-        if settings.msaa != self.settings.msaa {
+        // The sample count and debug view are part of every batch's pipeline key.
+        if settings.msaa != self.settings.msaa || settings.debug_view != self.settings.debug_view {
             self.batches_dirty = true;
         }
         self.settings = settings;
@@ -304,6 +353,16 @@ impl Renderer {
     /// The shader library in use.
     pub fn shaders(&self) -> &ShaderLibrary {
         self.pipelines.shaders()
+    }
+
+    /// The light store (what the GPU's light buffer holds).
+    pub fn light_store(&self) -> &LightStore {
+        &self.lights
+    }
+
+    /// The cluster binner (this frame's grid, its lists for tests).
+    pub fn cluster_binner(&self) -> &ClusterBinner {
+        &self.clusters
     }
 
     /// Keys (with their shader variants) of the forward pipelines compiled so far.
@@ -430,12 +489,10 @@ impl Renderer {
             self.targets = Some(FrameTargets::new(&device, &self.pipelines.tonemap_layout, size, self.settings.msaa));
         }
 
-        let local_lights = scene.lights.iter().any(|l| matches!(l.kind, LightKind::Point | LightKind::Spot { .. }));
-        if local_lights != self.local_lights {
-            self.local_lights = local_lights;
-            self.batches_dirty = true;
-        }
-        self.apply_draw_changes(scene);
+        let in_step = self.last_scene_frame.is_some_and(|f| f + 1 == scene.frame);
+        self.last_scene_frame = Some(scene.frame);
+        let mut rebind = self.prepare_lights(scene, in_step, size);
+        self.apply_draw_changes(scene, in_step);
         let t = Instant::now();
         self.prepare_materials(scene, &mut encoder);
         tracing::debug!("materials and textures prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
@@ -451,7 +508,7 @@ impl Renderer {
         let mut slots = std::mem::take(&mut self.opaque_slots);
         let opaque_len = slots.len();
         slots.extend(blend_batches.iter().map(|(_, slot)| *slot));
-        let mut rebind = self.draw_slots.reserve(&device, (slots.len().max(1) * 4) as u64);
+        rebind |= self.draw_slots.reserve(&device, (slots.len().max(1) * 4) as u64);
         if !slots.is_empty() {
             queue.write_buffer(self.draw_slots.buffer(), 0, bytemuck::cast_slice(&slots));
         }
@@ -459,7 +516,6 @@ impl Renderer {
         self.opaque_slots = slots;
         rebind |= self.instances.upload(&device, &queue);
         rebind |= self.materials.upload(&device, &queue);
-        rebind |= self.lights.upload(&device, &queue, &scene.lights);
         self.write_view(scene, &queue, size);
         if rebind || self.view_bind_group.is_none() {
             self.view_bind_group = Some(self.create_view_bind_group(&device));
@@ -470,10 +526,15 @@ impl Renderer {
         for (i, (batch, _)) in blend_batches.iter().enumerate() {
             batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
         }
-        let plan = FramePlan::new(!self.opaque_batches.is_empty(), !blend_batches.is_empty());
+        let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
+        let plan = FramePlan::new(binned, !self.opaque_batches.is_empty(), !blend_batches.is_empty());
 
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
+        }
+        let mut cluster_error = None;
+        if plan.runs(Pass::ClusterBin) {
+            cluster_error = self.clusters.encode(&mut encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
         }
         let targets = self.targets.as_ref().expect("made above");
         let [r, g, b] = self.settings.clear_color;
@@ -504,7 +565,7 @@ impl Renderer {
             tonemap::Output { view: output, format: output_format },
             self.timer.as_mut(),
         );
-        if let Some(e) = forward_error.or(tonemap_result.err())
+        if let Some(e) = cluster_error.or(forward_error).or(tonemap_result.err())
             && self.shader_error.as_ref() != Some(&e)
         {
             tracing::error!("{e}");
@@ -534,6 +595,10 @@ impl Renderer {
             instances: counts.instances,
             primitives: counts.primitives,
             lights: self.lights.count(),
+            local_lights: self.lights.local_count(),
+            cluster_index_bound: if plan.runs(Pass::ClusterBin) { self.clusters.index_bound() } else { 0 },
+            cluster_bound_ms: self.clusters.bound_ms,
+            light_bytes_uploaded: self.lights.last_upload_bytes,
             instance_bytes_uploaded: self.instances.last_upload_bytes,
             cpu_ms,
             gpu: self.timer.as_ref().and_then(|t| t.latest().cloned()),
@@ -544,9 +609,57 @@ impl Renderer {
         };
     }
 
-    fn apply_draw_changes(&mut self, scene: &RenderScene) {
-        let in_step = self.last_scene_frame.is_some_and(|f| f + 1 == scene.frame);
-        self.last_scene_frame = Some(scene.frame);
+    /// Syncs and uploads the light store, chooses how fragments find local lights, and prepares
+    /// the cluster grid when binning runs. Returns whether the view bind group must be rebuilt.
+    fn prepare_lights(&mut self, scene: &RenderScene, in_step: bool, size: (u32, u32)) -> bool {
+        let device = self.ctx.device.clone();
+        let exposure = scene.view.map_or(1.0, |v| v.exposure);
+        self.lights.sync(scene, in_step, exposure, self.settings.light_cutoff);
+        let mut rebind = self.lights.upload(&device, &self.ctx.queue);
+        if rebind {
+            self.clusters.light_buffer_replaced();
+        }
+        let mut walk = match (self.lights.local_count(), self.settings.light_walk) {
+            (0, _) => LocalLights::None,
+            (_, LightWalk::Clustered) => LocalLights::Clustered,
+            (_, LightWalk::AllLights) => LocalLights::All,
+            (_, LightWalk::AllUnbounded) => LocalLights::AllUnbounded,
+        };
+        // Without a camera nothing is seen; the brute-force walk needs no grid.
+        if walk == LocalLights::Clustered && scene.view.is_none() {
+            walk = LocalLights::All;
+        }
+        if let (LocalLights::Clustered, Some(view)) = (walk, scene.view) {
+            let prepared = self.clusters.prepare(
+                &self.ctx,
+                &self.pipelines,
+                &view,
+                size,
+                self.settings.clusters,
+                &mut self.lights,
+            );
+            match prepared {
+                Ok(grew) => {
+                    rebind |= grew;
+                    self.binning_error = None;
+                }
+                Err(e) => {
+                    if self.binning_error.as_ref() != Some(&e) {
+                        tracing::error!("{e}");
+                        self.binning_error = Some(e);
+                    }
+                    walk = LocalLights::All;
+                }
+            }
+        }
+        if walk != self.local_lights {
+            self.local_lights = walk;
+            self.batches_dirty = true;
+        }
+        rebind
+    }
+
+    fn apply_draw_changes(&mut self, scene: &RenderScene, in_step: bool) {
         if !in_step {
             // Missed change lists: diff against the full draw set instead.
             let gone: Vec<Entity> = self.draws.keys().filter(|e| !scene.draws.contains_key(e)).copied().collect();
@@ -708,6 +821,7 @@ impl Renderer {
             alpha: m.alpha,
             textures: m.textures,
             local_lights: self.local_lights,
+            debug: self.settings.debug_view,
             topology: entry.topology.into(),
             cull_back_faces: !m.double_sided,
             front_face_cw: d.mirrored,
@@ -789,11 +903,12 @@ impl Renderer {
                     exposure: view.exposure,
                     camera_forward: (rotation * Vec3::NEG_Z).normalize().to_array(),
                     is_orthographic: matches!(view.projection, Projection::Orthographic { .. }) as u32,
-                    light_count: self.lights.count(),
-                    _pad: [0; 3],
+                    global_light_count: self.lights.global_count(),
+                    local_light_count: self.lights.local_count(),
+                    _pad: [0; 2],
                 }
             }
-            None => GpuView { light_count: 0, ..GpuView::zeroed() },
+            None => GpuView::zeroed(),
         };
         queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&gpu));
     }
@@ -811,6 +926,9 @@ impl Renderer {
                 buf(2, self.draw_slots.buffer()),
                 buf(3, self.materials.buffer()),
                 buf(4, self.lights.buffer()),
+                buf(5, self.clusters.grid_buffer()),
+                buf(6, self.clusters.ranges()),
+                buf(7, self.clusters.indices()),
             ],
         })
     }

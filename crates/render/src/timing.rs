@@ -102,6 +102,16 @@ impl GpuTimer {
         })
     }
 
+    /// Timestamp writes for a compute pass named `label` in the current frame.
+    pub fn compute_pass(&mut self, label: &'static str) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let w = self.pass(label)?;
+        Some(wgpu::ComputePassTimestampWrites {
+            query_set: w.query_set,
+            beginning_of_pass_write_index: w.beginning_of_pass_write_index,
+            end_of_pass_write_index: w.end_of_pass_write_index,
+        })
+    }
+
     /// Encodes the resolve and copy of the current frame's timestamps.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         let Some(slot) = self.current.map(|i| &self.slots[i]) else { return };

@@ -45,6 +45,18 @@ pub enum LightKind {
     Ambient,
 }
 
+/// Which light a store entry is: an entity's light component, or one of the default lights.
+/// An entity carrying two light components (a point and a spot light) is two lights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum LightKey {
+    Directional(Entity),
+    Point(Entity),
+    Spot(Entity),
+    Ambient(Entity),
+    /// `RenderScene::default_lights[i]`.
+    Default(u8),
+}
+
 /// One light in world space with its intensity folded into `color` (cd, lux or cd/m²).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExtractedLight {
@@ -75,9 +87,14 @@ pub struct RenderScene {
     pub changed_draws: Vec<Entity>,
     /// Entities removed from `draws` this frame.
     pub removed_draws: Vec<Entity>,
-    pub lights: Vec<ExtractedLight>,
-    /// True when the scene has no lights and `lights` holds the default key + ambient pair.
-    pub default_lighting: bool,
+    /// Every visible light with finite parameters, retained across frames like `draws`.
+    pub lights: HashMap<LightKey, ExtractedLight>,
+    /// Lights inserted or changed this frame.
+    pub changed_lights: Vec<LightKey>,
+    /// Lights removed (despawned, hidden, or given up for bad values) this frame.
+    pub removed_lights: Vec<LightKey>,
+    /// The default key and ambient lights, when the scene has no light entities at all.
+    pub default_lights: Vec<ExtractedLight>,
     pub meshes: HashMap<Handle<Mesh>, Snapshot<Mesh>>,
     pub materials: HashMap<Handle<StandardMaterial>, Snapshot<StandardMaterial>>,
     pub images: HashMap<Handle<Image>, Snapshot<Image>>,

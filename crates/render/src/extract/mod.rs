@@ -3,8 +3,9 @@
 //!
 //! - view: the active camera with the highest `order` (re-extracted every frame: one entity);
 //! - draws: change-detected; an unchanged entity costs nothing;
-//! - lights: re-extracted only when a light changed, appeared or vanished; with none at all, the
-//!   default key light and ambient term are added (see [`default_lighting`]);
+//! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
+//!   or infinite values are refused with a warning; with no light entity at all, the default
+//!   key light and ambient term fill `default_lights` (see [`default_lighting`]);
 //! - assets: versions compared against the last snapshot; only changed assets are re-shared.
 
 use bevy_ecs::prelude::*;
@@ -18,7 +19,7 @@ use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
 
-use crate::world::{DrawItem, ExtractedLight, ExtractedView, LightKind, RenderScene, Snapshot};
+use crate::world::{DrawItem, ExtractedLight, ExtractedView, LightKey, LightKind, RenderScene, Snapshot};
 
 /// Systems in the order they run.
 pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, ()> {
@@ -109,15 +110,8 @@ pub mod default_lighting {
     pub const AMBIENT_RADIANCE: f32 = 0.25;
 }
 
-/// A light's own data, placement or visibility changed.
-type LightChanged = Or<(
-    Changed<DirectionalLight>,
-    Changed<PointLight>,
-    Changed<SpotLight>,
-    Changed<AmbientLight>,
-    Changed<GlobalTransform>,
-    Changed<InheritedVisibility>,
-)>;
+/// Placement or visibility changed (each light type adds its own component's change).
+type Moved = Or<(Changed<GlobalTransform>, Changed<InheritedVisibility>)>;
 type IsLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>, With<AmbientLight>)>;
 
 /// Lights of every type removed (or despawned) since the last extraction.
@@ -129,87 +123,158 @@ struct RemovedLights<'w, 's> {
     ambient: RemovedComponents<'w, 's, AmbientLight>,
 }
 
-impl RemovedLights<'_, '_> {
-    fn count(&mut self) -> usize {
-        self.directional.read().count()
-            + self.point.read().count()
-            + self.spot.read().count()
-            + self.ambient.read().count()
+#[derive(bevy_ecs::system::SystemParam)]
+struct ChangedLights<'w, 's> {
+    directional: Query<
+        'w,
+        's,
+        (Entity, &'static DirectionalLight, &'static GlobalTransform, &'static InheritedVisibility),
+        Or<(Changed<DirectionalLight>, Moved)>,
+    >,
+    point: Query<
+        'w,
+        's,
+        (Entity, &'static PointLight, &'static GlobalTransform, &'static InheritedVisibility),
+        Or<(Changed<PointLight>, Moved)>,
+    >,
+    spot: Query<
+        'w,
+        's,
+        (Entity, &'static SpotLight, &'static GlobalTransform, &'static InheritedVisibility),
+        Or<(Changed<SpotLight>, Moved)>,
+    >,
+    ambient: Query<
+        'w,
+        's,
+        (Entity, &'static AmbientLight, &'static InheritedVisibility),
+        Or<(Changed<AmbientLight>, Changed<InheritedVisibility>)>,
+    >,
+}
+
+/// A light as extracted, or `None` when it should not light anything (hidden). Non-finite
+/// values are refused here, so no NaN reaches the light store or the cluster bins.
+fn directional_light(l: &DirectionalLight, t: &GlobalTransform) -> ExtractedLight {
+    ExtractedLight {
+        kind: LightKind::Directional,
+        color: l.color * l.illuminance,
+        position: Vec3::ZERO,
+        direction: t.forward(),
+        range: None,
     }
 }
 
+fn point_light(l: &PointLight, t: &GlobalTransform) -> ExtractedLight {
+    ExtractedLight {
+        kind: LightKind::Point,
+        color: l.color * l.intensity,
+        position: t.translation(),
+        direction: Vec3::NEG_Z,
+        range: l.range,
+    }
+}
+
+fn spot_light(l: &SpotLight, t: &GlobalTransform) -> ExtractedLight {
+    ExtractedLight {
+        kind: LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle },
+        color: l.color * l.intensity,
+        position: t.translation(),
+        direction: t.forward(),
+        range: l.range,
+    }
+}
+
+fn ambient_light(l: &AmbientLight) -> ExtractedLight {
+    ExtractedLight {
+        kind: LightKind::Ambient,
+        color: l.color * l.intensity,
+        position: Vec3::ZERO,
+        direction: Vec3::NEG_Z,
+        range: None,
+    }
+}
+
+fn is_finite(l: &ExtractedLight) -> bool {
+    let angles = match l.kind {
+        LightKind::Spot { inner_cone_angle, outer_cone_angle } => {
+            inner_cone_angle.is_finite() && outer_cone_angle.is_finite()
+        }
+        _ => true,
+    };
+    l.color.is_finite()
+        && l.position.is_finite()
+        && l.direction.is_finite()
+        && l.range.is_none_or(f32::is_finite)
+        && angles
+}
+
 fn extract_lights(
-    directional: Query<(&DirectionalLight, &GlobalTransform, &InheritedVisibility)>,
-    point: Query<(&PointLight, &GlobalTransform, &InheritedVisibility)>,
-    spot: Query<(&SpotLight, &GlobalTransform, &InheritedVisibility)>,
-    ambient: Query<(&AmbientLight, &InheritedVisibility)>,
-    changed: Query<(), (LightChanged, IsLight)>,
+    changed: ChangedLights,
+    any_light: Query<(), IsLight>,
     mut removed: RemovedLights,
+    mut warned: Local<std::collections::HashSet<LightKey>>,
     mut scene: ResMut<RenderScene>,
 ) {
-    let removed = removed.count();
-    // The default key light follows the camera, so it must be refreshed whenever the view moves.
-    if removed == 0 && changed.is_empty() && !scene.default_lighting && !scene.lights.is_empty() {
-        return;
+    let scene = &mut *scene;
+    scene.changed_lights.clear();
+    scene.removed_lights.clear();
+    let mut set = |key: LightKey, light: Option<ExtractedLight>| match light {
+        Some(l) if is_finite(&l) => {
+            scene.lights.insert(key, l);
+            scene.changed_lights.push(key);
+        }
+        other => {
+            if other.is_some() && warned.insert(key) {
+                tracing::warn!(
+                    "{key:?} has a NaN or infinite colour, intensity, position, direction, range or cone angle; it lights nothing until fixed"
+                );
+            }
+            if scene.lights.remove(&key).is_some() {
+                scene.removed_lights.push(key);
+            }
+        }
+    };
+    for (e, l, t, v) in &changed.directional {
+        set(LightKey::Directional(e), v.0.then(|| directional_light(l, t)));
     }
-    let mut lights = Vec::new();
-    for (l, t, v) in &directional {
-        if v.0 {
-            lights.push(ExtractedLight {
-                kind: LightKind::Directional,
-                color: l.color * l.illuminance,
-                position: Vec3::ZERO,
-                direction: t.forward(),
-                range: None,
-            });
+    for (e, l, t, v) in &changed.point {
+        set(LightKey::Point(e), v.0.then(|| point_light(l, t)));
+    }
+    for (e, l, t, v) in &changed.spot {
+        set(LightKey::Spot(e), v.0.then(|| spot_light(l, t)));
+    }
+    for (e, l, v) in &changed.ambient {
+        set(LightKey::Ambient(e), v.0.then(|| ambient_light(l)));
+    }
+    // A component removed and inserted again within the frame shows up in both lists; the
+    // changed query already re-extracted it, so only keys no longer present are dropped.
+    let gone: Vec<LightKey> = removed
+        .directional
+        .read()
+        .filter(|e| !changed.directional.contains(*e))
+        .map(LightKey::Directional)
+        .chain(removed.point.read().filter(|e| !changed.point.contains(*e)).map(LightKey::Point))
+        .chain(removed.spot.read().filter(|e| !changed.spot.contains(*e)).map(LightKey::Spot))
+        .chain(removed.ambient.read().filter(|e| !changed.ambient.contains(*e)).map(LightKey::Ambient))
+        .collect();
+    for key in gone {
+        if scene.lights.remove(&key).is_some() {
+            scene.removed_lights.push(key);
         }
     }
-    for (l, t, v) in &point {
-        if v.0 {
-            lights.push(ExtractedLight {
-                kind: LightKind::Point,
-                color: l.color * l.intensity,
-                position: t.translation(),
-                direction: Vec3::NEG_Z,
-                range: l.range,
-            });
-        }
-    }
-    for (l, t, v) in &spot {
-        if v.0 {
-            lights.push(ExtractedLight {
-                kind: LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle },
-                color: l.color * l.intensity,
-                position: t.translation(),
-                direction: t.forward(),
-                range: l.range,
-            });
-        }
-    }
-    for (l, v) in &ambient {
-        if v.0 {
-            lights.push(ExtractedLight {
-                kind: LightKind::Ambient,
-                color: l.color * l.intensity,
-                position: Vec3::ZERO,
-                direction: Vec3::NEG_Z,
-                range: None,
-            });
-        }
-    }
-    let authored = directional.iter().len() + point.iter().len() + spot.iter().len() + ambient.iter().len();
-    scene.default_lighting = authored == 0;
-    if scene.default_lighting {
+
+    // The default key light follows the camera; it is two values, rebuilt every frame.
+    scene.default_lights.clear();
+    if any_light.is_empty() {
         let view_rotation =
             scene.view.map_or(glam::Quat::IDENTITY, |v| v.world_from_view.to_scale_rotation_translation().1);
-        lights.push(ExtractedLight {
+        scene.default_lights.push(ExtractedLight {
             kind: LightKind::Directional,
             color: Vec3::splat(default_lighting::KEY_ILLUMINANCE),
             position: Vec3::ZERO,
             direction: (view_rotation * default_lighting::KEY_DIRECTION_VIEW).normalize(),
             range: None,
         });
-        lights.push(ExtractedLight {
+        scene.default_lights.push(ExtractedLight {
             kind: LightKind::Ambient,
             color: Vec3::splat(default_lighting::AMBIENT_RADIANCE),
             position: Vec3::ZERO,
@@ -217,7 +282,6 @@ fn extract_lights(
             range: None,
         });
     }
-    scene.lights = lights;
 }
 
 fn sync_assets<T: Send + Sync + 'static>(

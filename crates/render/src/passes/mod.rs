@@ -1,3 +1,4 @@
 //! Passes: each encodes GPU work from what prepare made. Nothing here reads the ECS.
+pub mod clusters;
 pub mod forward;
 pub mod tonemap;

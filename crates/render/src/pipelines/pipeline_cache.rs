@@ -43,8 +43,9 @@ pub struct PipelineKey {
     pub unlit: bool,
     pub alpha: AlphaKey,
     pub textures: TextureSet,
-    /// The scene has point or spot lights (else their code is left out).
-    pub local_lights: bool,
+    /// How (and whether) point and spot lights are found; without any, their code is left out.
+    pub local_lights: LocalLights,
+    pub debug: DebugView,
     pub topology: TopologyKey,
     /// Double-sided materials draw both faces.
     pub cull_back_faces: bool,
@@ -70,7 +71,56 @@ impl PipelineKey {
             .with("NORMAL_MAP", lit && t.has(TextureSet::NORMAL))
             .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
             .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
-            .with("LOCAL_LIGHTS", lit && self.local_lights)
+            .with("LOCAL_LIGHTS", lit && self.local_lights != LocalLights::None)
+            .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)
+            .with("UNBOUNDED_LIGHTS", lit && self.local_lights == LocalLights::AllUnbounded)
+            .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
+    }
+}
+
+/// How the forward shader walks point and spot lights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub enum LocalLights {
+    /// The scene has none: no local-light code at all.
+    #[default]
+    None,
+    /// Each fragment walks its cluster's list (the normal path).
+    Clustered,
+    /// Each fragment walks every local light, windowed by range: the brute-force reference the
+    /// clustered path must equal.
+    All,
+    /// Every local light with no range window (inverse square to infinity): the reference for
+    /// the error the window introduces.
+    AllUnbounded,
+}
+
+/// Debug views replacing the shaded colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub enum DebugView {
+    #[default]
+    None,
+    /// Lights in each fragment's cluster as a heat map (black 0, then blue → green → yellow →
+    /// red → white on a log scale up to 256 and beyond).
+    ClusterHeat,
+}
+
+/// The entry points of `cluster_bin.wgsl`, in the order they run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ClusterEntry {
+    Count,
+    PrefixSum,
+    Fill,
+    Sort,
+}
+
+impl ClusterEntry {
+    fn name(self) -> &'static str {
+        match self {
+            ClusterEntry::Count => "count_lights",
+            ClusterEntry::PrefixSum => "prefix_sum",
+            ClusterEntry::Fill => "fill_lists",
+            ClusterEntry::Sort => "sort_lists",
+        }
     }
 }
 
@@ -132,12 +182,15 @@ pub struct PipelineCache {
     pub material_layout: wgpu::BindGroupLayout,
     pub tonemap_layout: wgpu::BindGroupLayout,
     pub mipmap_layout: wgpu::BindGroupLayout,
+    pub cluster_layout: wgpu::BindGroupLayout,
+    cluster_pipeline_layout: wgpu::PipelineLayout,
     forward_layout: wgpu::PipelineLayout,
     tonemap_pipeline_layout: wgpu::PipelineLayout,
     mipmap_pipeline_layout: wgpu::PipelineLayout,
     forward: HashMap<PipelineKey, wgpu::RenderPipeline>,
     tonemap: HashMap<(Tonemapper, wgpu::TextureFormat), wgpu::RenderPipeline>,
     mipmap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    cluster: HashMap<ClusterEntry, wgpu::ComputePipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -145,14 +198,18 @@ pub struct PipelineCache {
 }
 
 fn storage(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    buffer_entry(binding, visibility, wgpu::BufferBindingType::Storage { read_only: true })
+}
+
+fn buffer_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    ty: wgpu::BufferBindingType,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
         count: None,
     }
 }
@@ -214,6 +271,21 @@ impl PipelineCache {
                 storage(2, wgpu::ShaderStages::VERTEX),
                 storage(3, wgpu::ShaderStages::FRAGMENT),
                 storage(4, wgpu::ShaderStages::FRAGMENT),
+                buffer_entry(5, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
+                storage(6, wgpu::ShaderStages::FRAGMENT),
+                storage(7, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let read_write = wgpu::BufferBindingType::Storage { read_only: false };
+        let cluster_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cluster binning"),
+            entries: &[
+                buffer_entry(0, compute, wgpu::BufferBindingType::Uniform),
+                storage(1, compute),
+                buffer_entry(2, compute, read_write),
+                buffer_entry(3, compute, read_write),
+                buffer_entry(4, compute, read_write),
             ],
         });
         let material_entries: Vec<_> = (0..5u32).flat_map(|i| [texture(2 * i, true), sampler(2 * i + 1)]).collect();
@@ -239,7 +311,11 @@ impl PipelineCache {
         let forward_layout = layout("forward", &[Some(&view_layout), Some(&material_layout)]);
         let tonemap_pipeline_layout = layout("tonemap", &[Some(&tonemap_layout)]);
         let mipmap_pipeline_layout = layout("mipmap", &[Some(&mipmap_layout)]);
+        let cluster_pipeline_layout = layout("cluster binning", &[Some(&cluster_layout)]);
         Self {
+            cluster_layout,
+            cluster_pipeline_layout,
+            cluster: HashMap::new(),
             shaders,
             view_layout,
             material_layout,
@@ -310,6 +386,23 @@ impl PipelineCache {
         Ok(&self.mipmap[&format])
     }
 
+    /// A cluster-binning compute pipeline, compiling it on first use.
+    pub fn cluster(
+        &mut self,
+        device: &wgpu::Device,
+        entry: ClusterEntry,
+    ) -> Result<&wgpu::ComputePipeline, ShaderError> {
+        if !self.cluster.contains_key(&entry) {
+            let p = self.create_cluster(device, &mut None, entry)?;
+            self.cluster.insert(entry, p);
+        }
+        Ok(&self.cluster[&entry])
+    }
+
+    pub fn cluster_cached(&self, entry: ClusterEntry) -> Option<&wgpu::ComputePipeline> {
+        self.cluster.get(&entry)
+    }
+
     /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use them;
     /// on any error keeps everything as it was and returns the error.
     pub fn reload(&mut self, device: &wgpu::Device, files: &[String]) -> Result<ReloadReport, ShaderError> {
@@ -318,6 +411,7 @@ impl PipelineCache {
         let forward_hit = lib.depends_on("forward.wgsl", files);
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
         let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
+        let cluster_hit = lib.depends_on("cluster_bin.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -336,12 +430,19 @@ impl PipelineCache {
                 mipmap.push((key, self.create_mipmap(device, &mut candidate, key)?));
             }
         }
-        let total = self.forward.len() + self.tonemap.len() + self.mipmap.len();
-        let rebuilt = forward.len() + tonemap.len() + mipmap.len();
+        let mut cluster = Vec::new();
+        if cluster_hit {
+            for key in self.cluster.keys().copied().collect::<Vec<_>>() {
+                cluster.push((key, self.create_cluster(device, &mut candidate, key)?));
+            }
+        }
+        let total = self.forward.len() + self.tonemap.len() + self.mipmap.len() + self.cluster.len();
+        let rebuilt = forward.len() + tonemap.len() + mipmap.len() + cluster.len();
         self.shaders = candidate.expect("still there");
         self.forward.extend(forward);
         self.tonemap.extend(tonemap);
         self.mipmap.extend(mipmap);
+        self.cluster.extend(cluster);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }
@@ -446,6 +547,31 @@ impl PipelineCache {
         checked_pipeline(device, "mipmap.wgsl", || {
             fullscreen_pipeline(device, &self.mipmap_pipeline_layout, &module, format, "mipmap")
         })
+    }
+}
+
+impl PipelineCache {
+    fn create_cluster(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        entry: ClusterEntry,
+    ) -> Result<wgpu::ComputePipeline, ShaderError> {
+        let module = self.library(candidate).create_module(device, "cluster_bin.wgsl", &ShaderDefs::default())?;
+        self.compiled += 1;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry.name()),
+            layout: Some(&self.cluster_pipeline_layout),
+            module: &module,
+            entry_point: Some(entry.name()),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        match pollster::block_on(scope.pop()) {
+            None => Ok(pipeline),
+            Some(e) => Err(ShaderError::whole_file("cluster_bin.wgsl", e.to_string())),
+        }
     }
 }
 

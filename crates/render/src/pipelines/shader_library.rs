@@ -27,7 +27,10 @@ use naga_oil::compose::{
 pub const EMBEDDED: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     ("brdf.wgsl", include_str!("../../../../shaders/brdf.wgsl")),
+    ("light_data.wgsl", include_str!("../../../../shaders/light_data.wgsl")),
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
+    ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
+    ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
     ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
     ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),

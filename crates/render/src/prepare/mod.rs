@@ -2,7 +2,7 @@
 //! uploaded and re-uploads only what extraction reports as changed.
 pub mod buffer;
 pub mod instances;
-pub mod lights;
+pub mod light_store;
 pub mod materials;
 pub mod mesh_pool;
 pub mod textures;

@@ -1,0 +1,131 @@
+//! Procedural scenes built exactly as `notes/bench-scenes.md` defines them (positions, counts,
+//! random sequence, camera), so benchmark figures can be set beside other engines' on the same
+//! scenes. Benchmarks and tests spawn them into a world that has the asset stores
+//! ([`crate::CorePlugin`]).
+
+use bevy_ecs::world::World;
+use glam::{Vec3, Vec4};
+
+use crate::assets::Assets;
+use crate::components::{AmbientLight, Camera, Exposure, Mesh3d, MeshMaterial3d, PointLight, Projection, Transform};
+use crate::material::StandardMaterial;
+use crate::mesh::Mesh;
+
+/// SplitMix64 (Steele, Lea and Flood 2014), the generator the benchmark scenes are defined with.
+#[derive(Debug, Clone)]
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [a, b) with 24 bits of resolution.
+    pub fn uniform(&mut self, a: f32, b: f32) -> f32 {
+        a + (b - a) * ((self.next_u64() >> 40) as f32 / (1u64 << 24) as f32)
+    }
+}
+
+/// sRGB-encoded component to linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+fn srgb(r: f32, g: f32, b: f32) -> Vec4 {
+    Vec4::new(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), 1.0)
+}
+
+/// HSL (hue in degrees) to sRGB-encoded RGB.
+pub fn hsl_to_srgb(hue: f32, saturation: f32, lightness: f32) -> Vec3 {
+    let c = (1.0 - (2.0 * lightness - 1.0).abs()) * saturation;
+    let h = hue.rem_euclid(360.0) / 60.0;
+    let x = c * (1.0 - (h % 2.0 - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = lightness - c / 2.0;
+    Vec3::new(r + m, g + m, b + m)
+}
+
+/// EV100 of the benchmark scenes' camera (Bevy's default exposure, which they were defined with).
+pub const BENCH_EV100: f32 = 9.7;
+
+/// The seed of the many-lights scene's light sequence.
+pub const MANY_LIGHTS_SEED: u64 = 0x5EED_0000_0000_0001;
+
+/// **many-lights**: a 200 × 200 ground plane, 36 spheres, `count` point lights of 20 000 lm
+/// scattered over the ground at heights 0.5–3 m with `range` (the scene's is 3 m; `None`
+/// derives each range from the intensity), ambient 60 cd/m², and the camera at (0, 160, 160)
+/// looking at (0, 0, 25). Returns the light entities in spawn order.
+pub fn spawn_many_lights(world: &mut World, count: usize, range: Option<f32>) -> Vec<bevy_ecs::entity::Entity> {
+    let plane = world.resource_mut::<Assets<Mesh>>().add(Mesh::plane(200.0));
+    let sphere = world.resource_mut::<Assets<Mesh>>().add(Mesh::uv_sphere(2.0, 32, 18));
+    let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+    let ground = materials.add(StandardMaterial::from_color(srgb(0.7, 0.7, 0.7), 0.8));
+    let ball = materials.add(StandardMaterial::from_color(srgb(0.9, 0.9, 0.9), 0.3));
+    world.spawn((Mesh3d(plane), MeshMaterial3d(ground), Transform::default()));
+    for i in 0..6 {
+        for j in 0..6 {
+            let at = Vec3::new(-75.0 + 30.0 * i as f32, 2.0, -75.0 + 30.0 * j as f32);
+            world.spawn((Mesh3d(sphere), MeshMaterial3d(ball), Transform::from_translation(at)));
+        }
+    }
+    let mut rng = SplitMix64(MANY_LIGHTS_SEED);
+    // 20 000 lm spread evenly over the sphere: lm / 4π candela.
+    let intensity = 20_000.0 / (4.0 * std::f32::consts::PI);
+    let lights = (0..count)
+        .map(|_| {
+            let x = rng.uniform(-100.0, 100.0);
+            let z = rng.uniform(-100.0, 100.0);
+            let y = rng.uniform(0.5, 3.0);
+            let hue = rng.uniform(0.0, 360.0);
+            let c = hsl_to_srgb(hue, 1.0, 0.5);
+            let color = Vec3::new(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z));
+            world
+                .spawn((
+                    PointLight { color, intensity, range, shadows: false },
+                    Transform::from_translation(Vec3::new(x, y, z)),
+                ))
+                .id()
+        })
+        .collect();
+    world.spawn(AmbientLight { color: Vec3::ONE, intensity: 60.0 });
+    world.spawn((
+        Camera {
+            projection: Projection::Perspective { yfov: 45f32.to_radians(), znear: 0.1, aspect_ratio: None },
+            exposure: Exposure { ev100: BENCH_EV100 },
+            ..Default::default()
+        },
+        Transform::from_xyz(0.0, 160.0, 160.0).looking_at(Vec3::new(0.0, 0.0, 25.0), Vec3::Y),
+    ));
+    lights
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn splitmix_matches_the_reference_sequence() {
+        // The first outputs of SplitMix64 seeded with 0 (Vigna's reference implementation).
+        let mut r = SplitMix64(0);
+        assert_eq!(r.next_u64(), 0xE220_A839_7B1D_CDAF);
+        assert_eq!(r.next_u64(), 0x6E78_9E6A_A1B9_65F4);
+    }
+
+    #[test]
+    fn hsl_primaries() {
+        assert_eq!(hsl_to_srgb(0.0, 1.0, 0.5), Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(hsl_to_srgb(120.0, 1.0, 0.5), Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(hsl_to_srgb(240.0, 1.0, 0.5), Vec3::new(0.0, 0.0, 1.0));
+    }
+}

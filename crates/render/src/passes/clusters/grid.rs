@@ -1,0 +1,300 @@
+//! The froxel grid on the CPU: built from the view each frame, packed for the GPU
+//! (`GpuClusterGrid`, mirrored by `struct ClusterGrid` in `shaders/clusters.wgsl`), and the CPU
+//! twin of the binning walk in `shaders/cluster_bin.wgsl` (a light's bounds, its candidate box,
+//! the per-cluster test). The twin serves the reference binner the tests compare against and
+//! the upper bound that sizes the index buffer.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, UVec3, Vec2, Vec3};
+use penumbra_engine::components::Projection;
+
+use crate::prepare::light_store::{GpuLight, KIND_SPOT, LightBounds};
+use crate::world::ExtractedView;
+
+/// Froxel grid resolution: tiles across and down the screen, and depth slices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClusterConfig {
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub slices: u32,
+}
+
+impl Default for ClusterConfig {
+    /// 16 × 16 tiles × 32 slices = 8192 clusters.
+    fn default() -> Self {
+        Self { tiles_x: 16, tiles_y: 16, slices: 32 }
+    }
+}
+
+/// The most clusters a grid may have: the prefix sum runs in one workgroup of 256 threads,
+/// each scanning its share serially, which stays fast up to about this size.
+pub const MAX_CLUSTERS: u32 = 1 << 20;
+
+impl ClusterConfig {
+    pub fn count(&self) -> u32 {
+        self.tiles_x * self.tiles_y * self.slices
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("tiles across", self.tiles_x), ("tiles down", self.tiles_y), ("depth slices", self.slices)] {
+            if !(1..=1024).contains(&v) {
+                return Err(format!("cluster {name} {v} is out of range (1 to 1024)"));
+            }
+        }
+        if self.count() > MAX_CLUSTERS {
+            return Err(format!("{} clusters is more than the {MAX_CLUSTERS} supported", self.count()));
+        }
+        Ok(())
+    }
+}
+
+/// Mirrors `struct ClusterGrid` in `shaders/clusters.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuClusterGrid {
+    pub view_x: [f32; 4],
+    pub view_y: [f32; 4],
+    pub view_z: [f32; 4],
+    pub camera_position: [f32; 3],
+    pub near: f32,
+    pub dims: [u32; 3],
+    pub is_orthographic: u32,
+    pub proj_scale: [f32; 2],
+    pub far: f32,
+    pub slice_scale: f32,
+    pub viewport: [f32; 2],
+    pub light_first: u32,
+    pub light_count: u32,
+}
+
+/// One frame's grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClusterGrid {
+    /// Rotation from camera-relative world space to view space.
+    pub view_from_rel: Mat3,
+    pub camera_position: Vec3,
+    pub dims: UVec3,
+    pub orthographic: bool,
+    pub proj_scale: Vec2,
+    pub near: f32,
+    pub far: f32,
+    pub slice_scale: f32,
+    pub viewport: Vec2,
+}
+
+/// A light's influence in (x, y, d) view coordinates, d = −z_view (in front is positive).
+#[derive(Debug, Clone, Copy)]
+pub struct Bounds {
+    pub center: Vec3,
+    pub radius: f32,
+    pub spot: Option<(Vec3, f32, f32)>,
+}
+
+/// Inclusive cluster box; empty when any `hi < lo`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClusterBox {
+    pub lo: [i32; 3],
+    pub hi: [i32; 3],
+}
+
+impl ClusterBox {
+    pub fn len(&self) -> u64 {
+        (0..3).map(|a| (self.hi[a] - self.lo[a] + 1).max(0) as u64).product()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl ClusterGrid {
+    /// The grid for `view` rendered at `viewport` pixels. Perspective slices end at the far
+    /// side of the local lights' bounds (nothing beyond needs lists); orthographic ones at zfar.
+    pub fn new(view: &ExtractedView, viewport: (u32, u32), config: ClusterConfig, bounds: Option<LightBounds>) -> Self {
+        let rotation = Mat3::from(view.world_from_view.matrix3);
+        let camera_position = Vec3::from(view.world_from_view.translation);
+        let forward = (rotation * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
+        let aspect = viewport.0.max(1) as f32 / viewport.1.max(1) as f32;
+        let clip = view.projection.clip_from_view(aspect);
+        let near = view.projection.znear().max(f32::MIN_POSITIVE);
+        let (orthographic, far) = match view.projection {
+            Projection::Orthographic { zfar, .. } => (true, zfar.max(near * (1.0 + 1e-3))),
+            Projection::Perspective { .. } => {
+                let far = bounds.map_or(near * 2.0, |b| {
+                    let rel_min = b.min - camera_position;
+                    let rel_max = b.max - camera_position;
+                    // The farthest corner along the view direction.
+                    let corner = Vec3::select(forward.cmpge(Vec3::ZERO), rel_max, rel_min);
+                    corner.dot(forward)
+                });
+                (false, if far.is_finite() { far.max(near * 2.0) } else { f32::MAX / 4.0 })
+            }
+        };
+        let slices = config.slices as f32;
+        let slice_scale = if orthographic { slices / (far - near) } else { slices / (far / near).log2() };
+        Self {
+            view_from_rel: rotation.transpose(),
+            camera_position,
+            dims: UVec3::new(config.tiles_x, config.tiles_y, config.slices),
+            orthographic,
+            proj_scale: Vec2::new(clip.x_axis.x, clip.y_axis.y),
+            near,
+            far,
+            slice_scale,
+            viewport: Vec2::new(viewport.0.max(1) as f32, viewport.1.max(1) as f32),
+        }
+    }
+
+    pub fn cluster_count(&self) -> u32 {
+        self.dims.x * self.dims.y * self.dims.z
+    }
+
+    pub fn to_gpu(&self, light_first: u32, light_count: u32) -> GpuClusterGrid {
+        let r = self.view_from_rel;
+        let row = |i: usize| [r.col(0)[i], r.col(1)[i], r.col(2)[i], 0.0];
+        GpuClusterGrid {
+            view_x: row(0),
+            view_y: row(1),
+            view_z: row(2),
+            camera_position: self.camera_position.to_array(),
+            near: self.near,
+            dims: self.dims.to_array(),
+            is_orthographic: self.orthographic as u32,
+            proj_scale: self.proj_scale.to_array(),
+            far: self.far,
+            slice_scale: self.slice_scale,
+            viewport: self.viewport.to_array(),
+            light_first,
+            light_count,
+        }
+    }
+
+    pub fn cluster_id(&self, c: UVec3) -> u32 {
+        (c.z * self.dims.y + c.y) * self.dims.x + c.x
+    }
+
+    pub fn slice_depth(&self, k: u32) -> f32 {
+        if self.orthographic {
+            self.near + k as f32 / self.slice_scale
+        } else {
+            self.near * (k as f32 / self.slice_scale).exp2()
+        }
+    }
+
+    pub fn slice_of(&self, d: f32) -> i32 {
+        let s = if self.orthographic {
+            ((d - self.near) * self.slice_scale).floor()
+        } else {
+            ((d.max(1e-30) / self.near).log2() * self.slice_scale).floor()
+        };
+        s.clamp(i32::MIN as f32, i32::MAX as f32) as i32
+    }
+
+    fn view_coords(&self, v: Vec3) -> Vec3 {
+        let r = self.view_from_rel;
+        let (x, y, z) = (r.row(0), r.row(1), r.row(2));
+        Vec3::new(x.dot(v), y.dot(v), -z.dot(v))
+    }
+
+    pub fn light_bounds(&self, light: &GpuLight) -> Bounds {
+        let center = self.view_coords(Vec3::from(light.position) - self.camera_position);
+        let radius = light.range + 1e-5 * (center.length() + light.range);
+        let spot = (light.kind == KIND_SPOT).then(|| {
+            let axis = self.view_coords(Vec3::from(light.direction));
+            let cos_outer = (-light.spot_offset / light.spot_scale).clamp(0.0, 1.0);
+            (axis, cos_outer, (1.0 - cos_outer * cos_outer).max(0.0).sqrt())
+        });
+        Bounds { center, radius, spot }
+    }
+
+    /// Tiles covered along one axis, with `slack` extra tiles each side (the GPU walk uses 1).
+    fn tile_span(&self, c: f32, d: f32, r: f32, scale: f32, tiles: u32, slack: i32) -> (i32, i32) {
+        let (mut lo, mut hi) = (-1.0f32, 1.0f32);
+        if self.orthographic {
+            lo = (c - r) * scale;
+            hi = (c + r) * scale;
+        } else if d > r {
+            let root = r * (c * c + d * d - r * r).sqrt();
+            let den = d * d - r * r;
+            lo = (c * d - root) / den * scale;
+            hi = (c * d + root) / den * scale;
+        }
+        let t = tiles as f32;
+        // NaN (from an overflowing light) clamps to -2 and so covers the screen: conservative.
+        let first = ((lo.clamp(-2.0, 2.0) + 1.0) * 0.5 * t).floor() as i32 - slack;
+        let last = ((hi.clamp(-2.0, 2.0) + 1.0) * 0.5 * t).floor() as i32 + slack;
+        (first.max(0), last.min(tiles as i32 - 1))
+    }
+
+    pub fn candidate_box(&self, b: &Bounds, slack: i32) -> ClusterBox {
+        let (d, r) = (b.center.z, b.radius);
+        let sx = self.tile_span(b.center.x, d, r, self.proj_scale.x, self.dims.x, slack);
+        let sy = self.tile_span(b.center.y, d, r, self.proj_scale.y, self.dims.y, slack);
+        let rows = self.dims.y as i32 - 1;
+        let k_first = self.slice_of((d - r).max(self.near)).saturating_sub(slack);
+        let k_last = self.slice_of(d + r).saturating_add(slack);
+        let mut hi = [sx.1, rows - sy.0, k_last.min(self.dims.z as i32 - 1)];
+        if d + r < self.near || r.is_nan() || b.radius <= 0.0 {
+            hi[2] = -1;
+        }
+        ClusterBox { lo: [sx.0, rows - sy.1, k_first.max(0)], hi }
+    }
+
+    /// The per-cluster test of the GPU walk: sphere against the froxel's bounding box, and for
+    /// spots the cone against the froxel's bounding sphere.
+    pub fn touches(&self, b: &Bounds, c: UVec3) -> bool {
+        let d_near = self.slice_depth(c.z);
+        let d_far = self.slice_depth(c.z + 1);
+        let t = self.dims.truncate().as_vec2();
+        let ndc_x = Vec2::new(-1.0 + 2.0 * c.x as f32 / t.x, -1.0 + 2.0 * (c.x + 1) as f32 / t.x);
+        let ndc_y = Vec2::new(1.0 - 2.0 * (c.y + 1) as f32 / t.y, 1.0 - 2.0 * c.y as f32 / t.y);
+        let (lo, hi) = if self.orthographic {
+            (
+                Vec3::new(ndc_x.x / self.proj_scale.x, ndc_y.x / self.proj_scale.y, d_near),
+                Vec3::new(ndc_x.y / self.proj_scale.x, ndc_y.y / self.proj_scale.y, d_far),
+            )
+        } else {
+            let sx = ndc_x / self.proj_scale.x;
+            let sy = ndc_y / self.proj_scale.y;
+            (
+                Vec3::new((sx.x * d_near).min(sx.x * d_far), (sy.x * d_near).min(sy.x * d_far), d_near),
+                Vec3::new((sx.y * d_near).max(sx.y * d_far), (sy.y * d_near).max(sy.y * d_far), d_far),
+            )
+        };
+        let nearest = b.center.clamp(lo, hi);
+        let off = b.center - nearest;
+        if off.dot(off) > b.radius * b.radius {
+            return false;
+        }
+        if let Some((axis, cos_outer, sin_outer)) = b.spot {
+            let sphere_center = 0.5 * (lo + hi);
+            let sphere_radius = 0.5 * (hi - lo).length();
+            let v = sphere_center - b.center;
+            let along = v.dot(axis);
+            let across = (v.dot(v) - along * along).max(0.0).sqrt();
+            let gap = cos_outer * across - along * sin_outer;
+            if gap > sphere_radius || along > sphere_radius + b.radius || along < -sphere_radius {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// An upper bound of the total list length the GPU can produce for `lights`: each light's
+    /// candidate box with one more tile and slice of slack than the GPU walk uses, so rounding
+    /// differences between CPU and GPU cannot make the GPU exceed it.
+    pub fn index_bound(&self, lights: &[GpuLight]) -> u64 {
+        let cap = self.cluster_count() as u64;
+        let bound = |ls: &[GpuLight]| -> u64 {
+            ls.iter()
+                .filter(|l| l.range > 0.0)
+                .map(|l| self.candidate_box(&self.light_bounds(l), 2).len().min(cap))
+                .sum()
+        };
+        if lights.len() < 20_000 {
+            return bound(lights);
+        }
+        let chunks: Vec<&[GpuLight]> = lights.chunks(lights.len().div_ceil(8)).collect();
+        penumbra_engine::parallel::parallel_map(&chunks, |c| bound(c)).into_iter().sum()
+    }
+}

@@ -1,0 +1,222 @@
+//! The cluster binner: the one owner of the froxel grid's GPU buffers and of the binning passes.
+//!
+//! Each frame with local lights: `prepare` builds the grid from the view and the light store's
+//! bounds, sizes the index buffer by a CPU upper bound of the total list length (cached while
+//! neither the view nor the lights change), and writes the grid uniform; `encode` records
+//! clear → count → prefix sum → fill → sort (see `shaders/cluster_bin.wgsl`). The forward pass
+//! then reads `grid`, `ranges` (offset, count per cluster) and `indices` (light slots).
+//!
+//! A scene without local lights calls neither: the buffers stay as created (a few bytes) and
+//! are bound only to satisfy the layout; the shader variant without `LOCAL_LIGHTS` never reads
+//! them.
+
+pub mod grid;
+pub mod reference;
+
+use grid::{ClusterConfig, ClusterGrid, GpuClusterGrid};
+
+use crate::context::GpuContext;
+use crate::pipelines::pipeline_cache::{ClusterEntry, PipelineCache};
+use crate::pipelines::shader_library::ShaderError;
+use crate::prepare::buffer::GrowableBuffer;
+use crate::prepare::light_store::LightStore;
+use crate::readback::{self, ReadbackError};
+use crate::timing::GpuTimer;
+use crate::world::ExtractedView;
+
+/// Why binning cannot be exact this frame (the renderer then lights every fragment with every
+/// local light instead, and says so).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "cluster lists would need up to {needed} MiB, more than this device's storage-buffer limit of {limit} MiB; \
+     shading every fragment with every light this frame (slow but exact); use fewer clusters or smaller light ranges"
+)]
+pub struct BinningTooLarge {
+    pub needed: u64,
+    pub limit: u64,
+}
+
+pub struct ClusterBinner {
+    grid_buffer: wgpu::Buffer,
+    /// Per-cluster light counts, then (after the prefix sum) write cursors.
+    counts: GrowableBuffer,
+    /// Per-cluster (offset, count) into `indices`.
+    ranges: GrowableBuffer,
+    indices: GrowableBuffer,
+    bind_group: Option<wgpu::BindGroup>,
+    grid: Option<ClusterGrid>,
+    light_count: u32,
+    /// (grid, light generation) the cached bound was computed for.
+    bound_key: Option<(ClusterGrid, u64)>,
+    bound: u64,
+    /// Time the last bound computation took (0 when cached).
+    pub bound_ms: f64,
+}
+
+impl ClusterBinner {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let storage = wgpu::BufferUsages::STORAGE;
+        Self {
+            grid_buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("cluster grid"),
+                size: std::mem::size_of::<GpuClusterGrid>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            counts: GrowableBuffer::new(device, "cluster counts", storage, 256),
+            ranges: GrowableBuffer::new(device, "cluster ranges", storage | wgpu::BufferUsages::COPY_SRC, 256),
+            indices: GrowableBuffer::new(device, "cluster indices", storage | wgpu::BufferUsages::COPY_SRC, 256),
+            bind_group: None,
+            grid: None,
+            light_count: 0,
+            bound_key: None,
+            bound: 0,
+            bound_ms: 0.0,
+        }
+    }
+
+    pub fn grid_buffer(&self) -> &wgpu::Buffer {
+        &self.grid_buffer
+    }
+
+    pub fn ranges(&self) -> &wgpu::Buffer {
+        self.ranges.buffer()
+    }
+
+    pub fn indices(&self) -> &wgpu::Buffer {
+        self.indices.buffer()
+    }
+
+    /// This frame's grid (after `prepare`).
+    pub fn grid(&self) -> Option<&ClusterGrid> {
+        self.grid.as_ref()
+    }
+
+    /// The CPU bound on the total list length that sized the index buffer.
+    pub fn index_bound(&self) -> u64 {
+        self.bound
+    }
+
+    /// Sets up this frame's grid and buffers. Returns whether buffers were replaced (the
+    /// forward bind group must be rebuilt), or an error when exact lists cannot fit the device.
+    pub fn prepare(
+        &mut self,
+        ctx: &GpuContext,
+        pipelines: &PipelineCache,
+        view: &ExtractedView,
+        viewport: (u32, u32),
+        config: ClusterConfig,
+        store: &mut LightStore,
+    ) -> Result<bool, BinningTooLarge> {
+        let (device, queue) = (&ctx.device, &ctx.queue);
+        let grid = ClusterGrid::new(view, viewport, config, store.local_bounds());
+        let key = (grid, store.local_generation);
+        self.bound_ms = 0.0;
+        if self.bound_key != Some(key) {
+            let t = std::time::Instant::now();
+            self.bound = grid.index_bound(store.local_lights());
+            self.bound_key = Some(key);
+            self.bound_ms = t.elapsed().as_secs_f64() * 1e3;
+        }
+        let limit = device.limits().max_storage_buffer_binding_size;
+        let index_bytes = (self.bound.max(1) * 4).next_multiple_of(256);
+        if index_bytes > limit {
+            return Err(BinningTooLarge { needed: index_bytes >> 20, limit: limit >> 20 });
+        }
+        let clusters = grid.cluster_count() as u64;
+        let mut grew = self.counts.reserve(device, clusters * 4);
+        grew |= self.ranges.reserve(device, clusters * 8);
+        grew |= self.indices.reserve(device, index_bytes);
+        self.light_count = store.local_count();
+        let gpu = grid.to_gpu(store.global_count(), self.light_count);
+        queue.write_buffer(&self.grid_buffer, 0, bytemuck::bytes_of(&gpu));
+        self.grid = Some(grid);
+        if grew || self.bind_group.is_none() {
+            self.bind_group = Some(self.create_bind_group(device, pipelines, store));
+        }
+        Ok(grew)
+    }
+
+    /// The binning bind group also holds the light buffer: call when the store's buffer grew.
+    pub fn light_buffer_replaced(&mut self) {
+        self.bind_group = None;
+    }
+
+    fn create_bind_group(
+        &self,
+        device: &wgpu::Device,
+        pipelines: &PipelineCache,
+        store: &LightStore,
+    ) -> wgpu::BindGroup {
+        fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+            wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+        }
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cluster binning"),
+            layout: &pipelines.cluster_layout,
+            entries: &[
+                entry(0, &self.grid_buffer),
+                entry(1, store.buffer()),
+                entry(2, self.counts.buffer()),
+                entry(3, self.ranges.buffer()),
+                entry(4, self.indices.buffer()),
+            ],
+        })
+    }
+
+    /// Reads the last binned frame's lists back (blocking; for tests and benchmarks): each
+    /// cluster's light slots in list order.
+    pub fn read_lists(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<Vec<u32>>, ReadbackError> {
+        let Some(grid) = &self.grid else { return Ok(Vec::new()) };
+        let clusters = grid.cluster_count() as u64;
+        let words = |bytes: Vec<u8>| -> Vec<u32> { bytemuck::pod_collect_to_vec(&bytes) };
+        let ranges = words(readback::read_buffer(device, queue, self.ranges.buffer(), clusters * 8)?);
+        let total = ranges.chunks_exact(2).map(|r| r[0] as u64 + r[1] as u64).max().unwrap_or(0);
+        let indices = words(readback::read_buffer(device, queue, self.indices.buffer(), total * 4)?);
+        Ok(ranges
+            .chunks_exact(2)
+            .map(|r| indices.get(r[0] as usize..(r[0] + r[1]) as usize).map_or_else(Vec::new, <[u32]>::to_vec))
+            .collect())
+    }
+
+    /// Records the binning passes (after `prepare`).
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), ShaderError> {
+        let (Some(grid), Some(bind_group)) = (&self.grid, &self.bind_group) else { return Ok(()) };
+        let entries = [ClusterEntry::Count, ClusterEntry::PrefixSum, ClusterEntry::Fill, ClusterEntry::Sort];
+        for e in entries {
+            pipelines.cluster(device, e)?;
+        }
+        let clusters = grid.cluster_count();
+        encoder.clear_buffer(self.counts.buffer(), 0, Some(clusters as u64 * 4));
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("cluster binning"),
+            timestamp_writes: timer.and_then(|t| t.compute_pass("clusters")),
+        });
+        pass.set_bind_group(0, bind_group, &[]);
+        let light_groups = self.light_count.div_ceil(64);
+        for (entry, groups) in [
+            (ClusterEntry::Count, light_groups),
+            (ClusterEntry::PrefixSum, 1),
+            (ClusterEntry::Fill, light_groups),
+            (ClusterEntry::Sort, clusters.div_ceil(64)),
+        ] {
+            let pipeline = pipelines.cluster_cached(entry).expect("created above");
+            pass.set_pipeline(pipeline);
+            dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
+        }
+        Ok(())
+    }
+}
+
+/// Dispatches at least `groups` workgroups of 64, spilling into y past the per-dimension limit
+/// (the shaders flatten the id and skip the surplus).
+fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, limit: u32) {
+    let x = groups.clamp(1, limit.max(1));
+    pass.dispatch_workgroups(x, groups.div_ceil(x).max(1), 1);
+}

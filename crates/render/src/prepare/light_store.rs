@@ -1,0 +1,478 @@
+//! The light store: the one owner of the light storage buffer. Every extracted light (and the
+//! default lights of a scene without any) is packed into one `array<Light>` with no fixed count.
+//!
+//! Layout: `[global lights | local lights]`. Global lights (directional, ambient) light every
+//! fragment and are walked in full; local lights (point, spot) are binned into clusters and
+//! walked through the cluster lists. Each section is dense: removal moves the section's last
+//! light into the hole (one slot rewritten). Extraction's change lists drive `sync`; `upload`
+//! then writes only the slots that changed, merged into runs. A change in the number of global
+//! lights shifts every local slot, so it re-uploads the lot (rare: a directional light added).
+//!
+//! Ranges: a local light's influence ends at glTF's `range` when given, else where a white
+//! Lambertian surface facing it would be lit to less than `cutoff` after exposure (see
+//! [`influence_range`]); the shader windows the falloff smoothly to zero there. Since the
+//! computed range depends on exposure, a change of exposure repacks every light.
+
+use std::collections::HashMap;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use super::buffer::GrowableBuffer;
+use crate::world::{ExtractedLight, LightKey, LightKind, RenderScene};
+
+/// Mirrors `struct Light` in `shaders/light_data.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    pub position: [f32; 3],
+    pub kind: u32,
+    pub direction: [f32; 3],
+    /// Influence radius of local lights (> 0); 0 for global lights and for local lights that
+    /// light nothing (zero intensity), which the binner skips.
+    pub range: f32,
+    pub color: [f32; 3],
+    pub spot_scale: f32,
+    pub spot_offset: f32,
+    pub _pad: [f32; 3],
+}
+
+pub const KIND_DIRECTIONAL: u32 = 0;
+pub const KIND_POINT: u32 = 1;
+pub const KIND_SPOT: u32 = 2;
+pub const KIND_AMBIENT: u32 = 3;
+
+/// Display-referred luminance below which a light's contribution is cut off, by default:
+/// 1/4096 of white, about a quarter of the smallest step of an 8-bit sRGB output near black.
+pub const DEFAULT_CUTOFF: f32 = 1.0 / 4096.0;
+
+/// Whether `kind` is binned into clusters (else it lights every fragment).
+pub fn is_local(kind: &LightKind) -> bool {
+    matches!(kind, LightKind::Point | LightKind::Spot { .. })
+}
+
+/// The distance at which a local light stops: glTF's `range` when given (and positive), else
+/// the distance where the light, after `exposure`, would make a white Lambertian surface facing
+/// it reflect `cutoff` (display-referred luminance): `L = k·I/(π·d²)`, so `d = √(k·I/(π·cutoff))`
+/// for the brightest channel `I` (cd) and exposure scale `k`.
+pub fn influence_range(light: &ExtractedLight, exposure: f32, cutoff: f32) -> f32 {
+    let intensity = light.color.max_element().max(0.0);
+    if intensity <= 0.0 {
+        return 0.0;
+    }
+    match light.range {
+        Some(r) if r > 0.0 && r.is_finite() => r,
+        _ => (exposure * intensity / (std::f32::consts::PI * cutoff)).sqrt().min(f32::MAX),
+    }
+}
+
+pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32) -> GpuLight {
+    let (kind, spot_scale, spot_offset) = match light.kind {
+        LightKind::Directional => (KIND_DIRECTIONAL, 0.0, 0.0),
+        LightKind::Point => (KIND_POINT, 0.0, 0.0),
+        LightKind::Ambient => (KIND_AMBIENT, 0.0, 0.0),
+        LightKind::Spot { inner_cone_angle, outer_cone_angle } => {
+            // KHR_lights_punctual's smooth cone falloff as scale/offset of cos(angle); the
+            // 0.001 floor keeps inner == outer from dividing by zero (a hard-edged cone). The
+            // outer angle is clamped to π/2, the most glTF allows (the binner's cone test
+            // needs it).
+            let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
+            let cos_outer = outer.cos();
+            let cos_inner = inner_cone_angle.clamp(0.0, outer).cos();
+            let scale = 1.0 / (cos_inner - cos_outer).max(0.001);
+            (KIND_SPOT, scale, -cos_outer * scale)
+        }
+    };
+    let range = if is_local(&light.kind) { influence_range(light, exposure, cutoff) } else { 0.0 };
+    GpuLight {
+        position: light.position.to_array(),
+        kind,
+        direction: light.direction.normalize_or(Vec3::NEG_Z).to_array(),
+        range,
+        color: light.color.max(Vec3::ZERO).to_array(),
+        spot_scale,
+        spot_offset,
+        _pad: [0.0; 3],
+    }
+}
+
+/// One dense section of the buffer.
+#[derive(Default)]
+struct Section {
+    keys: Vec<LightKey>,
+    extracted: Vec<ExtractedLight>,
+    packed: Vec<GpuLight>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Which {
+    Global,
+    Local,
+}
+
+/// World-space bounds of every local light's sphere of influence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightBounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+pub struct LightStore {
+    /// Created by the first `upload` (the CPU side works without a device, for tests).
+    buffer: Option<GrowableBuffer>,
+    global: Section,
+    local: Section,
+    index: HashMap<LightKey, (Which, u32)>,
+    /// Slots to upload, as (section, index in section).
+    dirty: Vec<(Which, u32)>,
+    /// Upload everything (layout shifted, buffer grew, exposure changed).
+    full: bool,
+    exposure: f32,
+    cutoff: f32,
+    bounds: Option<LightBounds>,
+    bounds_stale: bool,
+    /// Incremented whenever any local light changes: cached cluster bounds key on it.
+    pub local_generation: u64,
+    /// Bytes written by the last `upload`.
+    pub last_upload_bytes: u64,
+}
+
+impl Default for LightStore {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl LightStore {
+    pub fn new() -> Self {
+        Self {
+            buffer: None,
+            global: Section::default(),
+            local: Section::default(),
+            index: HashMap::new(),
+            dirty: Vec::new(),
+            full: true,
+            exposure: 1.0,
+            cutoff: DEFAULT_CUTOFF,
+            bounds: None,
+            bounds_stale: false,
+            local_generation: 0,
+            last_upload_bytes: 0,
+        }
+    }
+
+    /// The storage buffer; exists once `upload` has run.
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        self.buffer.as_ref().expect("LightStore::upload runs before the buffer is bound").buffer()
+    }
+
+    pub fn global_count(&self) -> u32 {
+        self.global.keys.len() as u32
+    }
+
+    pub fn local_count(&self) -> u32 {
+        self.local.keys.len() as u32
+    }
+
+    pub fn count(&self) -> u32 {
+        self.global_count() + self.local_count()
+    }
+
+    /// The packed local lights, in buffer order (slot `global_count() + i`).
+    pub fn local_lights(&self) -> &[GpuLight] {
+        &self.local.packed
+    }
+
+    /// Every packed light in buffer order.
+    pub fn packed(&self) -> Vec<GpuLight> {
+        self.global.packed.iter().chain(&self.local.packed).copied().collect()
+    }
+
+    /// Bounds of the local lights' spheres of influence (None without local lights).
+    pub fn local_bounds(&mut self) -> Option<LightBounds> {
+        if self.bounds_stale {
+            self.bounds_stale = false;
+            self.bounds = self.local.packed.iter().filter(|l| l.range > 0.0).fold(None, |b, l| {
+                let p = Vec3::from(l.position);
+                let (lo, hi) = (p - l.range, p + l.range);
+                Some(match b {
+                    None => LightBounds { min: lo, max: hi },
+                    Some(b) => LightBounds { min: b.min.min(lo), max: b.max.max(hi) },
+                })
+            });
+        }
+        self.bounds
+    }
+
+    /// Applies this frame's light changes. `in_step` is false when the renderer missed an
+    /// extraction: then the store is rebuilt from the full light set.
+    pub fn sync(&mut self, scene: &RenderScene, in_step: bool, exposure: f32, cutoff: f32) {
+        if exposure != self.exposure || cutoff != self.cutoff {
+            self.exposure = exposure;
+            self.cutoff = cutoff;
+            self.repack_all();
+        }
+        if !in_step {
+            let stale: Vec<LightKey> = self.index.keys().filter(|k| !scene.lights.contains_key(k)).copied().collect();
+            for key in stale {
+                self.remove(key);
+            }
+            let mut all: Vec<(&LightKey, &ExtractedLight)> = scene.lights.iter().collect();
+            // Deterministic slot order whatever the hash map's order.
+            all.sort_by_key(|(k, _)| **k);
+            for (key, light) in all {
+                self.upsert(*key, light);
+            }
+        } else {
+            for key in &scene.removed_lights {
+                self.remove(*key);
+            }
+            for key in &scene.changed_lights {
+                match scene.lights.get(key) {
+                    Some(light) => self.upsert(*key, light),
+                    None => self.remove(*key),
+                }
+            }
+        }
+        for i in 0..=u8::MAX {
+            let key = LightKey::Default(i);
+            match scene.default_lights.get(i as usize) {
+                Some(light) => self.upsert(key, light),
+                None if self.index.contains_key(&key) => self.remove(key),
+                None => break,
+            }
+        }
+    }
+
+    fn section(&mut self, which: Which) -> &mut Section {
+        match which {
+            Which::Global => &mut self.global,
+            Which::Local => &mut self.local,
+        }
+    }
+
+    fn repack_all(&mut self) {
+        let (exposure, cutoff) = (self.exposure, self.cutoff);
+        for s in [&mut self.global, &mut self.local] {
+            for (packed, light) in s.packed.iter_mut().zip(&s.extracted) {
+                *packed = pack(light, exposure, cutoff);
+            }
+        }
+        self.full = true;
+        self.bounds_stale = true;
+        self.local_generation += 1;
+    }
+
+    fn upsert(&mut self, key: LightKey, light: &ExtractedLight) {
+        let which = if is_local(&light.kind) { Which::Local } else { Which::Global };
+        match self.index.get(&key).copied() {
+            Some((w, i)) if w == which => {
+                let (exposure, cutoff) = (self.exposure, self.cutoff);
+                let s = self.section(which);
+                if s.extracted[i as usize] == *light {
+                    return;
+                }
+                s.extracted[i as usize] = *light;
+                s.packed[i as usize] = pack(light, exposure, cutoff);
+                self.dirty.push((which, i));
+            }
+            Some(_) => {
+                // Changed type across sections (an entity's light swapped for another kind).
+                self.remove(key);
+                self.insert(key, which, light);
+            }
+            None => self.insert(key, which, light),
+        }
+        if which == Which::Local {
+            self.bounds_stale = true;
+            self.local_generation += 1;
+        }
+    }
+
+    fn insert(&mut self, key: LightKey, which: Which, light: &ExtractedLight) {
+        let packed = pack(light, self.exposure, self.cutoff);
+        let s = self.section(which);
+        let i = s.keys.len() as u32;
+        s.keys.push(key);
+        s.extracted.push(*light);
+        s.packed.push(packed);
+        self.index.insert(key, (which, i));
+        self.dirty.push((which, i));
+        if which == Which::Global {
+            self.full = true;
+        }
+    }
+
+    fn remove(&mut self, key: LightKey) {
+        let Some((which, i)) = self.index.remove(&key) else { return };
+        let s = self.section(which);
+        s.keys.swap_remove(i as usize);
+        s.extracted.swap_remove(i as usize);
+        s.packed.swap_remove(i as usize);
+        let moved = s.keys.get(i as usize).copied();
+        if let Some(moved) = moved {
+            self.index.insert(moved, (which, i));
+            self.dirty.push((which, i));
+        }
+        match which {
+            Which::Global => self.full = true,
+            Which::Local => {
+                self.bounds_stale = true;
+                self.local_generation += 1;
+            }
+        }
+    }
+
+    /// Writes what changed since the last upload; returns true when the buffer was replaced
+    /// (bind groups holding it must be rebuilt).
+    pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> bool {
+        const SIZE: u64 = std::mem::size_of::<GpuLight>() as u64;
+        let total = self.count() as u64 * SIZE;
+        let created = self.buffer.is_none();
+        let buffer = self
+            .buffer
+            .get_or_insert_with(|| GrowableBuffer::new(device, "lights", wgpu::BufferUsages::STORAGE, 64 * SIZE));
+        let grew = buffer.reserve(device, total.max(SIZE)) || created;
+        let buffer = buffer.buffer().clone();
+        self.last_upload_bytes = 0;
+        if grew || self.full {
+            let all = self.packed();
+            if !all.is_empty() {
+                queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&all));
+            }
+            self.last_upload_bytes = total;
+        } else if !self.dirty.is_empty() {
+            let global = self.global_count();
+            let mut slots: Vec<u32> = self
+                .dirty
+                .iter()
+                .filter_map(|&(w, i)| {
+                    let len = if w == Which::Global { self.global.keys.len() } else { self.local.keys.len() };
+                    // A slot past the end was vacated by a removal; nothing reads it.
+                    ((i as usize) < len).then_some(if w == Which::Global { i } else { global + i })
+                })
+                .collect();
+            slots.sort_unstable();
+            slots.dedup();
+            let all_local = &self.local.packed;
+            let light_at = |slot: u32| {
+                if slot < global { self.global.packed[slot as usize] } else { all_local[(slot - global) as usize] }
+            };
+            // Merge into runs; a gap of a few slots is cheaper to rewrite than to split on.
+            let mut run: Vec<GpuLight> = Vec::new();
+            let mut run_start = 0u32;
+            let mut flush = |start: u32, run: &mut Vec<GpuLight>| {
+                if !run.is_empty() {
+                    queue.write_buffer(&buffer, start as u64 * SIZE, bytemuck::cast_slice(run));
+                    self.last_upload_bytes += run.len() as u64 * SIZE;
+                    run.clear();
+                }
+            };
+            for slot in slots {
+                let next = run_start + run.len() as u32;
+                if !run.is_empty() && slot > next + 4 {
+                    flush(run_start, &mut run);
+                }
+                if run.is_empty() {
+                    run_start = slot;
+                }
+                for s in run_start + run.len() as u32..=slot {
+                    run.push(light_at(s));
+                }
+            }
+            flush(run_start, &mut run);
+        }
+        self.dirty.clear();
+        self.full = false;
+        grew
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bevy_ecs::entity::Entity;
+
+    fn light(kind: LightKind) -> ExtractedLight {
+        ExtractedLight { kind, color: Vec3::ONE, position: Vec3::ZERO, direction: Vec3::NEG_Z, range: None }
+    }
+
+    #[test]
+    fn every_light_kind_packs_its_own_discriminant() {
+        let kinds = [
+            (LightKind::Directional, KIND_DIRECTIONAL),
+            (LightKind::Point, KIND_POINT),
+            (LightKind::Spot { inner_cone_angle: 0.1, outer_cone_angle: 0.5 }, KIND_SPOT),
+            (LightKind::Ambient, KIND_AMBIENT),
+        ];
+        let mut seen = std::collections::HashSet::new();
+        for (k, want) in kinds {
+            assert_eq!(pack(&light(k), 1.0, DEFAULT_CUTOFF).kind, want, "{k:?}");
+            assert!(seen.insert(want), "{k:?} shares a discriminant");
+        }
+        assert_eq!(std::mem::size_of::<GpuLight>(), 64);
+    }
+
+    #[test]
+    fn spot_falloff_is_one_inside_and_zero_outside() {
+        let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.2, outer_cone_angle: 0.4 }), 1.0, DEFAULT_CUTOFF);
+        let at = |angle: f32| (angle.cos() * g.spot_scale + g.spot_offset).clamp(0.0, 1.0);
+        assert!((at(0.1) - 1.0).abs() < 1e-5);
+        assert!(at(0.41) == 0.0);
+        let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.4, outer_cone_angle: 0.4 }), 1.0, DEFAULT_CUTOFF);
+        assert!(g.spot_scale.is_finite());
+    }
+
+    #[test]
+    fn computed_range_is_where_the_light_falls_to_the_cutoff() {
+        let mut l = light(LightKind::Point);
+        l.color = Vec3::new(100.0, 50.0, 10.0);
+        let r = influence_range(&l, 0.5, 0.001);
+        // A white surface facing the light at distance r: k·I/(π r²) = cutoff.
+        let luminance = 0.5 * 100.0 / (std::f32::consts::PI * r * r);
+        assert!((luminance - 0.001).abs() < 1e-6, "{luminance}");
+        l.range = Some(3.0);
+        assert_eq!(influence_range(&l, 0.5, 0.001), 3.0);
+        l.color = Vec3::ZERO;
+        assert_eq!(influence_range(&l, 0.5, 0.001), 0.0, "a dark light has no influence");
+        l.range = None;
+        l.color = Vec3::splat(f32::MAX);
+        assert!(influence_range(&l, 1e30, 1e-30).is_finite());
+    }
+
+    fn scene_with(lights: &[(LightKey, ExtractedLight)]) -> RenderScene {
+        let mut scene = RenderScene::default();
+        for (k, l) in lights {
+            scene.lights.insert(*k, *l);
+            scene.changed_lights.push(*k);
+        }
+        scene
+    }
+
+    #[test]
+    fn sections_stay_dense_and_keyed_through_removals() {
+        let e = |i: u32| Entity::from_raw_u32(i).expect("valid index");
+        let mut store = LightStore::new();
+        let mut lights = Vec::new();
+        for i in 0..5 {
+            let mut l = light(LightKind::Point);
+            l.position = Vec3::splat(i as f32);
+            lights.push((LightKey::Point(e(i)), l));
+        }
+        lights.push((LightKey::Directional(e(9)), light(LightKind::Directional)));
+        let scene = scene_with(&lights);
+        store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
+        assert_eq!((store.global_count(), store.local_count()), (1, 5));
+        let mut scene = RenderScene { lights: scene.lights, ..Default::default() };
+        scene.lights.remove(&LightKey::Point(e(1)));
+        scene.removed_lights.push(LightKey::Point(e(1)));
+        store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
+        assert_eq!(store.local_count(), 4);
+        // The last light moved into the hole; every key still finds its own light.
+        for (key, &(w, i)) in &store.index {
+            let s = if w == Which::Global { &store.global } else { &store.local };
+            assert_eq!(s.keys[i as usize], *key);
+            assert_eq!(s.extracted[i as usize], scene.lights[key]);
+        }
+    }
+}

@@ -1,0 +1,257 @@
+// Cluster binning: every frame, on the GPU, each local light is assigned to every froxel its
+// influence volume touches. Four passes over one dispatch each:
+//
+//   count_lights  one invocation per light: atomically count the light in each cluster it touches
+//   prefix_sum    one workgroup: exclusive scan of the counts into (offset, count) ranges, and the
+//                 counts turned into write cursors
+//   fill_lists    one invocation per light: the same walk, writing its index at its cluster's cursor
+//   sort_lists    one invocation per cluster: sort its list, so lighting sums in a fixed order and
+//                 frames are deterministic whatever order the atomics ran in
+//
+// The index buffer is sized on the CPU by an upper bound of the total (the sum of each light's
+// candidate box, see passes/clusters/grid.rs), so lists never overflow, on the first frame too.
+// The walk is mirrored exactly by the CPU reference binner (passes/clusters/reference.rs).
+
+#import penumbra::light_data::{Light, LIGHT_SPOT}
+#import penumbra::clusters::{ClusterGrid, slice_depth, slice_of, cluster_id}
+
+@group(0) @binding(0) var<uniform> grid: ClusterGrid;
+@group(0) @binding(1) var<storage, read> lights: array<Light>;
+@group(0) @binding(2) var<storage, read_write> counts: array<atomic<u32>>;
+@group(0) @binding(3) var<storage, read_write> ranges: array<vec2<u32>>;
+@group(0) @binding(4) var<storage, read_write> indices: array<u32>;
+
+// A light's sphere (and cone) of influence in (x, y, d) view coordinates.
+struct Bounds {
+    center: vec3<f32>,
+    radius: f32,
+    is_spot: bool,
+    axis: vec3<f32>,
+    cos_outer: f32,
+    sin_outer: f32,
+};
+
+fn light_bounds(light: Light) -> Bounds {
+    let rel = light.position - grid.camera_position;
+    let v = vec3<f32>(dot(grid.view_x.xyz, rel), dot(grid.view_y.xyz, rel), -dot(grid.view_z.xyz, rel));
+    var b: Bounds;
+    b.center = v;
+    // Padding covers rounding between the fragment's cluster lookup and these bounds.
+    b.radius = light.range + 1e-5 * (length(v) + light.range);
+    b.is_spot = light.kind == LIGHT_SPOT;
+    let a = light.direction;
+    b.axis = vec3<f32>(dot(grid.view_x.xyz, a), dot(grid.view_y.xyz, a), -dot(grid.view_z.xyz, a));
+    b.cos_outer = clamp(-light.spot_offset / light.spot_scale, 0.0, 1.0);
+    b.sin_outer = sqrt(max(1.0 - b.cos_outer * b.cos_outer, 0.0));
+    return b;
+}
+
+// Tiles covered along one screen axis by a sphere at lateral offset c and depth d: the tangent
+// lines from the eye bound the projected circle exactly. `scale` maps view slope to NDC.
+fn tile_span(c: f32, d: f32, r: f32, scale: f32, tiles: u32) -> vec2<i32> {
+    var lo = -1.0;
+    var hi = 1.0;
+    if grid.is_orthographic != 0u {
+        lo = (c - r) * scale;
+        hi = (c + r) * scale;
+    } else if d > r {
+        let root = r * sqrt(c * c + d * d - r * r);
+        let den = d * d - r * r;
+        lo = (c * d - root) / den * scale;
+        hi = (c * d + root) / den * scale;
+    }
+    let t = f32(tiles);
+    // One tile of slack each side: the per-cluster test below decides.
+    let first = i32(floor((clamp(lo, -2.0, 2.0) + 1.0) * 0.5 * t)) - 1;
+    let last = i32(floor((clamp(hi, -2.0, 2.0) + 1.0) * 0.5 * t)) + 1;
+    return vec2<i32>(max(first, 0), min(last, i32(tiles) - 1));
+}
+
+// Candidate box of clusters, inclusive: lo.xyz .. hi.xyz; empty when any hi < lo.
+struct ClusterBox {
+    lo: vec3<i32>,
+    hi: vec3<i32>,
+};
+
+fn candidate_box(b: Bounds) -> ClusterBox {
+    var box: ClusterBox;
+    let d = b.center.z;
+    let r = b.radius;
+    let sx = tile_span(b.center.x, d, r, grid.proj_scale.x, grid.dims.x);
+    // Tile rows count down from the top of the screen, NDC y counts up.
+    let sy = tile_span(b.center.y, d, r, grid.proj_scale.y, grid.dims.y);
+    let rows = i32(grid.dims.y) - 1;
+    let k_first = slice_of(grid, max(d - r, grid.near)) - 1;
+    let k_last = slice_of(grid, d + r) + 1;
+    box.lo = vec3<i32>(sx.x, rows - sy.y, max(k_first, 0));
+    box.hi = vec3<i32>(sx.y, rows - sy.x, min(k_last, i32(grid.dims.z) - 1));
+    if d + r < grid.near || b.radius <= 0.0 {
+        box.hi.z = -1;
+    }
+    return box;
+}
+
+// Whether the light's influence touches cluster (i, j, k): its sphere against the froxel's
+// bounding box, and for spots the cone against the froxel's bounding sphere (Wronski 2017).
+fn touches(b: Bounds, c: vec3<u32>) -> bool {
+    let d_near = slice_depth(grid, c.z);
+    let d_far = slice_depth(grid, c.z + 1u);
+    let t = vec2<f32>(grid.dims.xy);
+    let ndc_x = vec2<f32>(-1.0 + 2.0 * f32(c.x) / t.x, -1.0 + 2.0 * f32(c.x + 1u) / t.x);
+    let ndc_y = vec2<f32>(1.0 - 2.0 * f32(c.y + 1u) / t.y, 1.0 - 2.0 * f32(c.y) / t.y);
+    var lo: vec3<f32>;
+    var hi: vec3<f32>;
+    if grid.is_orthographic != 0u {
+        lo = vec3<f32>(ndc_x.x / grid.proj_scale.x, ndc_y.x / grid.proj_scale.y, d_near);
+        hi = vec3<f32>(ndc_x.y / grid.proj_scale.x, ndc_y.y / grid.proj_scale.y, d_far);
+    } else {
+        let sx = ndc_x / grid.proj_scale.x;
+        let sy = ndc_y / grid.proj_scale.y;
+        lo = vec3<f32>(min(sx.x * d_near, sx.x * d_far), min(sy.x * d_near, sy.x * d_far), d_near);
+        hi = vec3<f32>(max(sx.y * d_near, sx.y * d_far), max(sy.y * d_near, sy.y * d_far), d_far);
+    }
+    let nearest = clamp(b.center, lo, hi);
+    let off = b.center - nearest;
+    if dot(off, off) > b.radius * b.radius {
+        return false;
+    }
+    if b.is_spot {
+        let sphere_center = 0.5 * (lo + hi);
+        let sphere_radius = 0.5 * length(hi - lo);
+        let v = sphere_center - b.center;
+        let along = dot(v, b.axis);
+        let across = sqrt(max(dot(v, v) - along * along, 0.0));
+        let gap = b.cos_outer * across - along * b.sin_outer;
+        if gap > sphere_radius || along > sphere_radius + b.radius || along < -sphere_radius {
+            return false;
+        }
+    }
+    return true;
+}
+
+@compute @workgroup_size(64)
+fn count_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let id = flat_id(gid, groups);
+    if id >= grid.light_count {
+        return;
+    }
+    let b = light_bounds(lights[grid.light_first + id]);
+    let box = candidate_box(b);
+    for (var k = box.lo.z; k <= box.hi.z; k++) {
+        for (var j = box.lo.y; j <= box.hi.y; j++) {
+            for (var i = box.lo.x; i <= box.hi.x; i++) {
+                let c = vec3<u32>(u32(i), u32(j), u32(k));
+                if touches(b, c) {
+                    atomicAdd(&counts[cluster_id(grid, c)], 1u);
+                }
+            }
+        }
+    }
+}
+
+// Large dispatches spill into y (a dimension holds at most 65 535 workgroups).
+fn flat_id(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
+}
+
+const SCAN_THREADS: u32 = 256u;
+var<workgroup> partial: array<u32, SCAN_THREADS>;
+
+@compute @workgroup_size(256)
+fn prefix_sum(@builtin(local_invocation_index) t: u32) {
+    let total = grid.dims.x * grid.dims.y * grid.dims.z;
+    let per = (total + SCAN_THREADS - 1u) / SCAN_THREADS;
+    let first = min(t * per, total);
+    let end = min(first + per, total);
+    var sum = 0u;
+    for (var c = first; c < end; c++) {
+        sum += atomicLoad(&counts[c]);
+    }
+    partial[t] = sum;
+    workgroupBarrier();
+    // Hillis-Steele inclusive scan over the per-thread sums.
+    for (var step = 1u; step < SCAN_THREADS; step <<= 1u) {
+        var add = 0u;
+        if t >= step {
+            add = partial[t - step];
+        }
+        workgroupBarrier();
+        partial[t] += add;
+        workgroupBarrier();
+    }
+    var offset = partial[t] - sum;
+    for (var c = first; c < end; c++) {
+        let n = atomicLoad(&counts[c]);
+        ranges[c] = vec2<u32>(offset, n);
+        atomicStore(&counts[c], offset);
+        offset += n;
+    }
+}
+
+@compute @workgroup_size(64)
+fn fill_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let id = flat_id(gid, groups);
+    if id >= grid.light_count {
+        return;
+    }
+    let slot = grid.light_first + id;
+    let b = light_bounds(lights[slot]);
+    let box = candidate_box(b);
+    for (var k = box.lo.z; k <= box.hi.z; k++) {
+        for (var j = box.lo.y; j <= box.hi.y; j++) {
+            for (var i = box.lo.x; i <= box.hi.x; i++) {
+                let c = vec3<u32>(u32(i), u32(j), u32(k));
+                if touches(b, c) {
+                    indices[atomicAdd(&counts[cluster_id(grid, c)], 1u)] = slot;
+                }
+            }
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn sort_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let id = flat_id(gid, groups);
+    let total = grid.dims.x * grid.dims.y * grid.dims.z;
+    if id >= total {
+        return;
+    }
+    let range = ranges[id];
+    let base = range.x;
+    let n = range.y;
+    // Shell sort (Ciura's gaps, then ×2.25): short lists sort in a few passes, the rare long one
+    // (thousands of lights crowded into one cluster) without quadratic cost.
+    var gaps = array<u32, 8>(1u, 4u, 10u, 23u, 57u, 132u, 301u, 701u);
+    var g = 1750u;
+    while g < n {
+        g = g * 9u / 4u;
+    }
+    loop {
+        g = g * 4u / 9u;
+        var gap = g;
+        if gap <= 701u {
+            break;
+        }
+        for (var i = gap; i < n; i++) {
+            let v = indices[base + i];
+            var j = i;
+            while j >= gap && indices[base + j - gap] > v {
+                indices[base + j] = indices[base + j - gap];
+                j -= gap;
+            }
+            indices[base + j] = v;
+        }
+    }
+    for (var gi = 7; gi >= 0; gi--) {
+        let gap = gaps[gi];
+        for (var i = gap; i < n; i++) {
+            let v = indices[base + i];
+            var j = i;
+            while j >= gap && indices[base + j - gap] > v {
+                indices[base + j] = indices[base + j - gap];
+                j -= gap;
+            }
+            indices[base + j] = v;
+        }
+    }
+}

@@ -1,0 +1,341 @@
+//! Lights and cluster binning on the GPU: the GPU's cluster lists against the CPU reference
+//! binner, clustered renders against brute-force renders, analytic irradiance of point and spot
+//! lights read back from the HDR target, change-only uploads, and the frame plan leaving binning
+//! out when there is nothing to bin.
+
+use penumbra::engine::scenes::{SplitMix64, spawn_many_lights};
+use penumbra::prelude::*;
+use penumbra::render::frame::Pass;
+use penumbra::render::passes::clusters::reference;
+use penumbra::render::pipelines::pipeline_cache::LocalLights;
+use penumbra::render::renderer::LightWalk;
+use penumbra::render::{RenderSettings, Renderer};
+
+mod common;
+use common::{flip_mean, hdr_of, render_app, scene_app, spawn_mesh};
+
+fn settings(walk: LightWalk) -> RenderSettings {
+    RenderSettings { msaa: 1, light_walk: walk, ..Default::default() }
+}
+
+/// The GPU's lists of the last frame against the CPU reference. Rounding may legitimately
+/// differ between the two for a light within rounding of a cluster boundary, so the reference
+/// is run with every range 0.01% smaller and larger: the GPU's lists must lie between the two,
+/// and on scenes where the two agree (no light that close to a boundary) equal them exactly.
+/// Returns (clusters holding a light, total list entries).
+fn assert_lists_match_reference(app: &App, what: &str) -> (usize, usize) {
+    let renderer = app.world.resource::<Renderer>();
+    let ctx = renderer.context();
+    let gpu = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let grid = renderer.cluster_binner().grid().expect("binning ran");
+    let store = renderer.light_store();
+    let first = store.global_count();
+    let inner = reference::bin_scaled(grid, store.local_lights(), first, 0.9999);
+    let outer = reference::bin_scaled(grid, store.local_lights(), first, 1.0001);
+    let exact = reference::bin(grid, store.local_lights(), first);
+    assert_eq!(gpu.len(), exact.len(), "{what}: cluster count");
+    let mut borderline = 0;
+    for (c, list) in gpu.iter().enumerate() {
+        let mut sorted = list.clone();
+        sorted.sort_unstable();
+        assert_eq!(&sorted, list, "{what}: cluster {c}'s list is not sorted");
+        if inner[c] == outer[c] {
+            assert_eq!(list, &exact[c], "{what}: cluster {c} differs from the CPU reference");
+        } else {
+            borderline += 1;
+            assert!(inner[c].iter().all(|l| list.contains(l)), "{what}: cluster {c} misses a light");
+            assert!(list.iter().all(|l| outer[c].contains(l)), "{what}: cluster {c} has a stray light");
+        }
+    }
+    assert!(borderline * 100 <= gpu.len(), "{what}: {borderline} borderline clusters");
+    (gpu.iter().filter(|l| !l.is_empty()).count(), gpu.iter().map(Vec::len).sum())
+}
+
+fn floor(app: &mut App, size: f32) {
+    spawn_mesh(app, Mesh::plane(size), StandardMaterial::from_color(Vec4::splat(0.8), 0.6), Transform::default());
+}
+
+fn camera(app: &mut App, eye: Vec3, target: Vec3, projection: Projection) {
+    app.world.spawn((
+        Camera { projection, ..Default::default() },
+        Transform::from_translation(eye).looking_at(target, Vec3::Y),
+    ));
+}
+
+fn perspective() -> Projection {
+    Projection::Perspective { yfov: 50f32.to_radians(), znear: 0.1, aspect_ratio: None }
+}
+
+#[test]
+fn gpu_lists_equal_the_cpu_reference_in_a_stadium_of_1000_lights() {
+    let mut app = scene_app();
+    spawn_many_lights(&mut app.world, 1000, Some(3.0));
+    render_app(&mut app, (160, 90), settings(LightWalk::Clustered));
+    let (occupied, entries) = assert_lists_match_reference(&app, "stadium");
+    assert!(occupied > 50 && entries >= occupied, "{occupied} clusters hold {entries} entries");
+}
+
+#[test]
+fn gpu_lists_equal_the_cpu_reference_for_awkward_lights() {
+    let mut app = scene_app();
+    floor(&mut app, 40.0);
+    let eye = Vec3::new(0.0, 2.0, 8.0);
+    let mut rng = SplitMix64(7);
+    let spawn_point = |app: &mut App, at: Vec3, range: f32| {
+        app.world.spawn((
+            PointLight { intensity: 5.0, range: Some(range), ..Default::default() },
+            Transform::from_translation(at),
+        ));
+    };
+    // Containing the camera, just in front of the near plane, behind the camera, and far.
+    spawn_point(&mut app, eye + Vec3::new(0.1, 0.0, -0.05), 1.5);
+    spawn_point(&mut app, eye + Vec3::new(0.0, 0.0, -0.2), 0.15);
+    spawn_point(&mut app, eye + Vec3::new(0.0, 0.0, 3.0), 1.0);
+    spawn_point(&mut app, Vec3::new(3.0, 0.5, -30.0), 4.0);
+    // A crowd of small lights straddling many cluster boundaries.
+    for _ in 0..300 {
+        let at = Vec3::new(rng.uniform(-10.0, 10.0), rng.uniform(0.0, 3.0), rng.uniform(-20.0, 6.0));
+        spawn_point(&mut app, at, rng.uniform(0.05, 2.0));
+    }
+    // Spots aimed every way, some at the camera.
+    for i in 0..60 {
+        let at = Vec3::new(rng.uniform(-8.0, 8.0), rng.uniform(0.5, 3.0), rng.uniform(-15.0, 4.0));
+        let target =
+            if i % 5 == 0 { eye } else { at + Vec3::new(rng.uniform(-1.0, 1.0), -1.0, rng.uniform(-1.0, 1.0)) };
+        app.world.spawn((
+            SpotLight {
+                intensity: 20.0,
+                range: Some(rng.uniform(1.0, 6.0)),
+                inner_cone_angle: 0.1,
+                outer_cone_angle: rng.uniform(0.15, 1.5),
+                ..Default::default()
+            },
+            Transform::from_translation(at).looking_at(target, Vec3::Y),
+        ));
+    }
+    camera(&mut app, eye, Vec3::new(0.0, 0.5, 0.0), perspective());
+    render_app(&mut app, (128, 96), settings(LightWalk::Clustered));
+    assert_lists_match_reference(&app, "perspective");
+
+    // The same lights through an orthographic camera (linear slices, box-shaped froxels).
+    let mut cams = app.world.query::<&mut Camera>();
+    for mut c in cams.iter_mut(&mut app.world) {
+        c.projection = Projection::Orthographic { xmag: None, ymag: 6.0, znear: 0.1, zfar: 60.0 };
+    }
+    render_app(&mut app, (128, 96), settings(LightWalk::Clustered));
+    assert_lists_match_reference(&app, "orthographic");
+}
+
+/// Renders `app` with each light walk and returns the images.
+fn walks(app: &mut App, size: (u32, u32)) -> (Vec<u8>, Vec<u8>) {
+    app.world.remove_resource::<Renderer>();
+    let clustered = render_app(app, size, settings(LightWalk::Clustered));
+    app.world.remove_resource::<Renderer>();
+    let brute = render_app(app, size, settings(LightWalk::AllLights));
+    (clustered, brute)
+}
+
+#[test]
+fn clustered_render_equals_brute_force_for_1000_lights_in_a_stadium() {
+    let mut app = scene_app();
+    spawn_many_lights(&mut app.world, 1000, Some(3.0));
+    let size = (192, 108);
+    let (clustered, brute) = walks(&mut app, size);
+    let e = flip_mean(&clustered, &brute, size.0, size.1);
+    assert!(e <= 0.01, "FLIP mean {e} between clustered and brute-force renders");
+    // And the lights do light the scene: the image is not the unlit floor.
+    let lit = clustered.chunks_exact(4).filter(|p| p[0].max(p[1]).max(p[2]) > 60).count();
+    assert!(lit > 200, "only {lit} brightly lit pixels");
+    // Lists are sorted after the atomic fill, so the sum order, and the image, never vary.
+    app.world.remove_resource::<Renderer>();
+    let again = render_app(&mut app, size, settings(LightWalk::Clustered));
+    assert!(again == clustered, "a second clustered render differs");
+}
+
+#[test]
+fn clustered_render_equals_brute_force_for_10000_lights_in_one_cluster() {
+    let mut app = scene_app();
+    floor(&mut app, 10.0);
+    let mut rng = SplitMix64(11);
+    // Ten thousand dim lights within 2 cm of one point on the floor: one cluster's list holds
+    // all of them, and every one must be there.
+    for _ in 0..10_000 {
+        let at = Vec3::new(rng.uniform(-0.02, 0.02), rng.uniform(0.1, 0.14), rng.uniform(-0.02, 0.02));
+        let hue = rng.uniform(0.0, 1.0);
+        app.world.spawn((
+            PointLight {
+                color: Vec3::new(hue, 1.0 - hue, 0.5),
+                intensity: 0.0004,
+                range: Some(1.5),
+                ..Default::default()
+            },
+            Transform::from_translation(at),
+        ));
+    }
+    camera(&mut app, Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, perspective());
+    let size = (96, 96);
+    let (clustered, brute) = walks(&mut app, size);
+    let e = flip_mean(&clustered, &brute, size.0, size.1);
+    assert!(e <= 0.01, "FLIP mean {e} between clustered and brute-force renders");
+    let renderer = app.world.resource::<Renderer>();
+    assert_eq!(renderer.stats().local_lights, 10_000);
+}
+
+/// The white, fully rough floor's radiance under a light arriving along `l` with illuminance
+/// `e` (perpendicular to the light), seen from straight above: glTF's BRDF written out.
+fn floor_radiance(l: Vec3, e: f32) -> f32 {
+    let n = Vec3::Y;
+    let v = Vec3::Y;
+    let n_dot_l = n.dot(l);
+    if n_dot_l <= 0.0 {
+        return 0.0;
+    }
+    let h = (l + v).normalize();
+    let v_dot_h = v.dot(h).clamp(0.0, 1.0);
+    let fresnel = 0.04 + 0.96 * (1.0 - v_dot_h).powi(5);
+    let pi = std::f32::consts::PI;
+    // α = 1: D = 1/π; height-correlated Smith V = 0.5 / (N·L + N·V).
+    let spec = fresnel * (1.0 / pi) * (0.5 / (n_dot_l + 1.0));
+    let diffuse = (1.0 - fresnel) / pi;
+    (diffuse + spec) * e * n_dot_l
+}
+
+/// An orthographic camera looking straight down at a white floor, `half` metres each side of
+/// the centre, rendering `size`² pixels: returns the world position at the centre of pixel (x, y).
+fn top_down(app: &mut App, half: f32) -> impl Fn(u32, u32, u32) -> Vec3 + use<> {
+    spawn_mesh(app, Mesh::plane(4.0 * half), StandardMaterial::from_color(Vec4::ONE, 1.0), Transform::default());
+    app.world.spawn((
+        Camera {
+            projection: Projection::Orthographic { xmag: Some(half), ymag: half, znear: 0.1, zfar: 100.0 },
+            // HDR values are then radiance itself.
+            exposure: Exposure::unit(),
+            ..Default::default()
+        },
+        Transform::from_xyz(0.0, 10.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
+    ));
+    move |x, y, size| {
+        let u = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+        let v = (y as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+        // Looking down with −Z up on screen: screen x is world +X, screen y down is world +Z.
+        Vec3::new(u * half, 0.0, v * half)
+    }
+}
+
+#[test]
+fn point_light_irradiance_follows_the_inverse_square_law() {
+    let mut app = scene_app();
+    let pixel_world = top_down(&mut app, 2.0);
+    let light_at = Vec3::new(0.3, 1.0, -0.2);
+    let intensity = 2.0;
+    app.world.spawn((PointLight { intensity, ..Default::default() }, Transform::from_translation(light_at)));
+    let size = 64;
+    render_app(&mut app, (size, size), settings(LightWalk::Clustered));
+    let hdr = hdr_of(&app);
+    let mut checked = 0;
+    for (x, y) in [(32, 32), (40, 20), (10, 50), (60, 5), (5, 60), (20, 36)] {
+        let p = pixel_world(x, y, size);
+        let to_light = light_at - p;
+        let d2 = to_light.length_squared();
+        let l = to_light / d2.sqrt();
+        // E = I / d² perpendicular to the light; the BRDF applies cos θ = N·L.
+        let expected = floor_radiance(l, intensity / d2);
+        let got = hdr[(y * size + x) as usize][1];
+        assert!(
+            (got - expected).abs() <= 0.02 * expected,
+            "pixel ({x}, {y}) at {p}: radiance {got}, expected {expected} (I cos θ / d² with d² = {d2})"
+        );
+        checked += 1;
+    }
+    assert_eq!(checked, 6);
+}
+
+#[test]
+fn spot_light_is_full_inside_its_inner_cone_and_dark_outside_its_outer_cone() {
+    let mut app = scene_app();
+    let pixel_world = top_down(&mut app, 1.0);
+    let light_at = Vec3::new(0.0, 1.0, 0.0);
+    let (inner, outer) = (0.3f32, 0.6f32);
+    app.world.spawn((
+        SpotLight { intensity: 3.0, inner_cone_angle: inner, outer_cone_angle: outer, ..Default::default() },
+        Transform::from_translation(light_at).looking_at(Vec3::ZERO, Vec3::NEG_Z),
+    ));
+    let size = 64;
+    render_app(&mut app, (size, size), settings(LightWalk::Clustered));
+    let hdr = hdr_of(&app);
+    let (mut inside, mut outside) = (0, 0);
+    for y in 0..size {
+        for x in 0..size {
+            let p = pixel_world(x, y, size);
+            let to_light = light_at - p;
+            let angle = (-to_light).normalize().dot(Vec3::NEG_Y).clamp(-1.0, 1.0).acos();
+            let got = hdr[(y * size + x) as usize][1];
+            if angle < inner - 0.02 {
+                let d2 = to_light.length_squared();
+                let expected = floor_radiance(to_light / d2.sqrt(), 3.0 / d2);
+                assert!((got - expected).abs() <= 0.02 * expected, "inside the inner cone at {p}: {got} vs {expected}");
+                inside += 1;
+            } else if angle > outer + 0.02 {
+                assert_eq!(got, 0.0, "outside the outer cone at {p}");
+                outside += 1;
+            }
+        }
+    }
+    assert!(inside > 100 && outside > 100, "{inside} pixels inside, {outside} outside");
+}
+
+#[test]
+fn binning_runs_only_with_local_lights() {
+    let mut app = scene_app();
+    floor(&mut app, 10.0);
+    app.world.spawn((DirectionalLight::default(), Transform::default().looking_at(Vec3::NEG_Y, Vec3::Z)));
+    camera(&mut app, Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, perspective());
+    render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
+    let r = app.world.resource::<Renderer>();
+    assert!(!r.stats().plan.runs(Pass::ClusterBin), "plan:\n{}", r.stats().plan);
+    assert!(r.forward_pipeline_keys().iter().all(|k| k.local_lights == LocalLights::None));
+
+    app.world.spawn((PointLight::default(), Transform::from_xyz(0.0, 1.0, 0.0)));
+    render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
+    let r = app.world.resource::<Renderer>();
+    assert!(r.stats().plan.runs(Pass::ClusterBin), "plan:\n{}", r.stats().plan);
+}
+
+#[test]
+fn only_changed_lights_are_uploaded() {
+    let mut app = scene_app();
+    let lights = spawn_many_lights(&mut app.world, 500, Some(3.0));
+    let size = (64, 36);
+    render_app(&mut app, size, settings(LightWalk::Clustered));
+    let stats = |app: &App| app.world.resource::<Renderer>().stats().clone();
+    assert_eq!(stats(&app).light_bytes_uploaded, 501 * 64, "first frame uploads every light");
+    render_app(&mut app, size, settings(LightWalk::Clustered));
+    assert_eq!(stats(&app).light_bytes_uploaded, 0, "nothing changed");
+    app.world.get_mut::<Transform>(lights[123]).unwrap().translation.y += 0.5;
+    render_app(&mut app, size, settings(LightWalk::Clustered));
+    assert_eq!(stats(&app).light_bytes_uploaded, 64, "one light moved");
+    app.world.despawn(lights[7]);
+    render_app(&mut app, size, settings(LightWalk::Clustered));
+    assert_eq!(stats(&app).local_lights, 499);
+    assert_eq!(stats(&app).light_bytes_uploaded, 64, "the last light moved into the hole");
+    assert_lists_match_reference(&app, "after a removal");
+}
+
+#[test]
+fn a_light_with_nan_is_refused_and_the_others_keep_lighting() {
+    let mut app = scene_app();
+    let _ = top_down(&mut app, 2.0);
+    app.world.spawn((PointLight { intensity: 2.0, ..Default::default() }, Transform::from_xyz(0.0, 1.0, 0.0)));
+    let bad = app
+        .world
+        .spawn((PointLight { intensity: f32::NAN, ..Default::default() }, Transform::from_xyz(0.5, 1.0, 0.0)))
+        .id();
+    render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
+    let r = app.world.resource::<Renderer>();
+    assert_eq!(r.stats().local_lights, 1, "the NaN light is not stored");
+    let hdr = hdr_of(&app);
+    assert!(hdr.iter().all(|p| p.iter().all(|c| c.is_finite())));
+    assert!(hdr[16 * 32 + 16][1] > 0.0, "the good light still lights the floor");
+    app.world.get_mut::<PointLight>(bad).unwrap().intensity = 1.0;
+    render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
+    assert_eq!(app.world.resource::<Renderer>().stats().local_lights, 2, "fixed, it comes back");
+}
