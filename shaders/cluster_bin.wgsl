@@ -209,49 +209,98 @@ fn fill_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
 }
 
-@compute @workgroup_size(64)
-fn sort_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let id = flat_id(gid, groups);
+// Lists up to this long are sorted in workgroup memory by one workgroup (bitonic); longer
+// ones (thousands of lights in one cluster) by one invocation in place (shell sort).
+const SORT_CAPACITY: u32 = 2048u;
+const SORT_THREADS: u32 = 256u;
+var<workgroup> sort_keys: array<u32, SORT_CAPACITY>;
+var<workgroup> sort_count: u32;
+
+// One workgroup per cluster.
+@compute @workgroup_size(256)
+fn sort_lists(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) t: u32,
+) {
+    let cluster = wg.x + wg.y * groups.x;
     let total = grid.dims.x * grid.dims.y * grid.dims.z;
-    if id >= total {
+    if cluster >= total {
         return;
     }
-    let range = ranges[id];
-    let base = range.x;
-    let n = range.y;
-    // Shell sort (Ciura's gaps, then ×2.25): short lists sort in a few passes, the rare long one
-    // (thousands of lights crowded into one cluster) without quadratic cost.
-    var gaps = array<u32, 8>(1u, 4u, 10u, 23u, 57u, 132u, 301u, 701u);
-    var g = 1750u;
-    while g < n {
-        g = g * 9u / 4u;
+    let base = ranges[cluster].x;
+    if t == 0u {
+        sort_count = ranges[cluster].y;
     }
+    // Broadcast so that every barrier below sits in uniform control flow.
+    let n = workgroupUniformLoad(&sort_count);
+    if n <= 1u {
+        return;
+    }
+    if n > SORT_CAPACITY {
+        if t == 0u {
+            shell_sort(base, n);
+        }
+        return;
+    }
+    var size = 2u;
+    while size < n {
+        size <<= 1u;
+    }
+    for (var i = t; i < size; i += SORT_THREADS) {
+        sort_keys[i] = select(0xffffffffu, indices[base + i], i < n);
+    }
+    workgroupBarrier();
+    for (var k = 2u; k <= size; k <<= 1u) {
+        for (var j = k >> 1u; j > 0u; j >>= 1u) {
+            for (var i = t; i < size; i += SORT_THREADS) {
+                let partner = i ^ j;
+                if partner > i {
+                    let a = sort_keys[i];
+                    let b = sort_keys[partner];
+                    if (a > b) == ((i & k) == 0u) {
+                        sort_keys[i] = b;
+                        sort_keys[partner] = a;
+                    }
+                }
+            }
+            workgroupBarrier();
+        }
+    }
+    for (var i = t; i < n; i += SORT_THREADS) {
+        indices[base + i] = sort_keys[i];
+    }
+}
+
+// In-place shell sort of indices[base .. base + n] (Ciura's gaps, extended by ×2.25).
+fn shell_sort(base: u32, n: u32) {
+    var gap = 701u;
+    while gap * 9u / 4u < n {
+        gap = gap * 9u / 4u;
+    }
+    let small = array<u32, 8>(1u, 4u, 10u, 23u, 57u, 132u, 301u, 701u);
+    var next_small = 7;
     loop {
-        g = g * 4u / 9u;
-        var gap = g;
-        if gap <= 701u {
+        for (var i = gap; i < n; i++) {
+            let v = indices[base + i];
+            var j = i;
+            while j >= gap && indices[base + j - gap] > v {
+                indices[base + j] = indices[base + j - gap];
+                j -= gap;
+            }
+            indices[base + j] = v;
+        }
+        if gap == 1u {
             break;
         }
-        for (var i = gap; i < n; i++) {
-            let v = indices[base + i];
-            var j = i;
-            while j >= gap && indices[base + j - gap] > v {
-                indices[base + j] = indices[base + j - gap];
-                j -= gap;
+        if gap > 701u {
+            gap = max(gap * 4u / 9u, 701u);
+            if gap == 701u {
+                next_small = 6;
             }
-            indices[base + j] = v;
-        }
-    }
-    for (var gi = 7; gi >= 0; gi--) {
-        let gap = gaps[gi];
-        for (var i = gap; i < n; i++) {
-            let v = indices[base + i];
-            var j = i;
-            while j >= gap && indices[base + j - gap] > v {
-                indices[base + j] = indices[base + j - gap];
-                j -= gap;
-            }
-            indices[base + j] = v;
+        } else {
+            gap = small[next_small];
+            next_small -= 1;
         }
     }
 }

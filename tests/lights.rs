@@ -7,7 +7,7 @@ use penumbra::engine::scenes::{SplitMix64, spawn_many_lights};
 use penumbra::prelude::*;
 use penumbra::render::frame::Pass;
 use penumbra::render::passes::clusters::reference;
-use penumbra::render::pipelines::pipeline_cache::LocalLights;
+use penumbra::render::pipelines::pipeline_cache::{DebugView, LocalLights};
 use penumbra::render::renderer::LightWalk;
 use penumbra::render::{RenderSettings, Renderer};
 
@@ -338,4 +338,68 @@ fn a_light_with_nan_is_refused_and_the_others_keep_lighting() {
     app.world.get_mut::<PointLight>(bad).unwrap().intensity = 1.0;
     render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
     assert_eq!(app.world.resource::<Renderer>().stats().local_lights, 2, "fixed, it comes back");
+}
+
+fn golden_shot(app: &mut App, size: (u32, u32), settings: RenderSettings) -> common::Shot {
+    let rgba8 = render_app(app, size, settings);
+    common::Shot { width: size.0, height: size.1, rgba8 }
+}
+
+#[test]
+fn golden_1000_point_lights() {
+    let mut app = scene_app();
+    spawn_many_lights(&mut app.world, 1000, Some(3.0));
+    let shot = golden_shot(&mut app, (256, 144), RenderSettings { msaa: 4, ..Default::default() });
+    common::check_golden("lights_1000_points", &shot, common::Tolerance::default());
+}
+
+#[test]
+fn golden_cluster_heat_view() {
+    let mut app = scene_app();
+    spawn_many_lights(&mut app.world, 1000, Some(3.0));
+    let settings = RenderSettings { msaa: 1, debug_view: DebugView::ClusterHeat, ..Default::default() };
+    let shot = golden_shot(&mut app, (256, 144), settings);
+    // Where the ground has no light the heat view is black; under lights it is coloured.
+    let black = shot.rgba8.chunks_exact(4).filter(|p| p[0] == 0 && p[1] == 0 && p[2] == 0).count();
+    let total = shot.rgba8.len() / 4;
+    let _ = (black, total);
+    common::check_golden("lights_cluster_heat", &shot, common::Tolerance::default());
+}
+
+/// One light of every type over a floor with a few spheres.
+#[test]
+fn golden_every_light_type() {
+    let mut app = scene_app();
+    floor(&mut app, 12.0);
+    for (i, metallic) in [0.0f32, 1.0].into_iter().enumerate() {
+        let m = StandardMaterial {
+            base_color: Vec4::new(0.8, 0.8, 0.8, 1.0),
+            metallic,
+            roughness: 0.35,
+            ..Default::default()
+        };
+        spawn_mesh(&mut app, Mesh::uv_sphere(0.6, 32, 16), m, Transform::from_xyz(i as f32 * 2.0 - 1.0, 0.6, 0.0));
+    }
+    app.world.spawn((
+        DirectionalLight { color: Vec3::new(1.0, 0.95, 0.9), illuminance: 0.6, ..Default::default() },
+        Transform::default().looking_at(Vec3::new(-0.3, -1.0, -0.4), Vec3::Y),
+    ));
+    app.world.spawn((
+        PointLight { color: Vec3::new(1.0, 0.3, 0.2), intensity: 4.0, ..Default::default() },
+        Transform::from_xyz(-2.5, 1.2, 1.0),
+    ));
+    app.world.spawn((
+        SpotLight {
+            color: Vec3::new(0.2, 0.5, 1.0),
+            intensity: 12.0,
+            inner_cone_angle: 0.25,
+            outer_cone_angle: 0.45,
+            ..Default::default()
+        },
+        Transform::from_xyz(2.0, 3.0, 2.0).looking_at(Vec3::new(1.0, 0.0, 0.0), Vec3::Y),
+    ));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.05 });
+    camera(&mut app, Vec3::new(0.0, 3.0, 6.0), Vec3::new(0.0, 0.5, 0.0), perspective());
+    let shot = golden_shot(&mut app, (256, 160), RenderSettings { msaa: 4, ..Default::default() });
+    common::check_golden("lights_every_type", &shot, common::Tolerance::default());
 }

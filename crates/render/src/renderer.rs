@@ -165,6 +165,9 @@ pub struct MemoryStats {
     pub textures: u64,
     pub instances: u64,
     pub targets: u64,
+    pub lights: u64,
+    /// Cluster grid, counts, ranges and index lists.
+    pub clusters: u64,
 }
 
 /// Mirrors `struct View` in `shaders/forward.wgsl`.
@@ -430,6 +433,8 @@ impl Renderer {
             textures: self.textures.gpu_bytes(),
             instances: self.instances.buffer().size(),
             targets: self.targets.as_ref().map_or(0, |t| t.bytes()),
+            lights: self.lights.gpu_bytes(),
+            clusters: self.clusters.gpu_bytes(),
         }
     }
 

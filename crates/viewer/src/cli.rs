@@ -5,6 +5,9 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use penumbra_render::headless::CameraChoice;
+use penumbra_render::passes::clusters::grid::ClusterConfig;
+use penumbra_render::pipelines::pipeline_cache::DebugView;
+use penumbra_render::renderer::{LightWalk, SettingsError};
 use penumbra_render::{RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
@@ -51,6 +54,39 @@ pub struct LookArgs {
     /// reloads on change; by default `view` watches the repository's shaders/ when it exists).
     #[arg(long, value_name = "DIR")]
     pub shader_dir: Option<PathBuf>,
+    /// Show a debug view instead of the shaded image: `clusters` colours each pixel by the
+    /// number of lights in its cluster (black none, blue, green, yellow, red, white ≥ 256).
+    #[arg(long, value_enum, default_value_t = DebugViewArg::None)]
+    pub debug_view: DebugViewArg,
+    /// How fragments find point and spot lights: through their cluster (the normal path), or
+    /// every light (`all`, the brute-force reference; `unbounded` also drops the range window).
+    #[arg(long, value_enum, default_value_t = LightWalkArg::Clustered)]
+    pub light_walk: LightWalkArg,
+    /// Cluster grid: tiles across x tiles down x depth slices.
+    #[arg(long, value_parser = parse_clusters, default_value = "16x16x32", value_name = "XxYxZ")]
+    pub clusters: ClusterConfig,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DebugViewArg {
+    None,
+    Clusters,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightWalkArg {
+    Clustered,
+    All,
+    Unbounded,
+}
+
+fn parse_clusters(s: &str) -> Result<ClusterConfig, String> {
+    let parts: Vec<&str> = s.split(['x', 'X']).collect();
+    let [x, y, z] = parts.as_slice() else { return Err(format!("{s:?} is not XxYxZ (for example 16x16x32)")) };
+    let n = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("{v:?} in {s:?} is not a whole number"));
+    let config = ClusterConfig { tiles_x: n(x)?, tiles_y: n(y)?, slices: n(z)? };
+    config.validate()?;
+    Ok(config)
 }
 
 #[derive(Args, Debug)]
@@ -110,6 +146,16 @@ pub struct BenchArgs {
     /// finished with the new shader.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub shader_edits: u32,
+    /// For the built-in `many-lights` scene: the light counts to run, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000", value_name = "N,N,...")]
+    pub lights: Vec<usize>,
+    /// For `many-lights`: each light's range in metres, or `auto` (from its intensity).
+    #[arg(long, default_value = "3", value_parser = parse_range, value_name = "METRES|auto")]
+    pub light_range: LightRange,
+    /// For `many-lights`: the size at which the range window's image error is measured (the
+    /// unbounded reference walks every light for every pixel).
+    #[arg(long, value_parser = parse_size, default_value = "480x270")]
+    pub error_size: (u32, u32),
     #[command(flatten)]
     pub look: LookArgs,
     #[command(flatten)]
@@ -131,6 +177,21 @@ impl From<TonemapArg> for Tonemapper {
             TonemapArg::None => Tonemapper::None,
         }
     }
+}
+
+/// A light range from the command line: metres, or derived from intensity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightRange(pub Option<f32>);
+
+fn parse_range(s: &str) -> Result<LightRange, String> {
+    if s == "auto" {
+        return Ok(LightRange(None));
+    }
+    s.parse::<f32>()
+        .ok()
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .map(|r| LightRange(Some(r)))
+        .ok_or_else(|| format!("{s:?} is neither `auto` nor a positive distance in metres"))
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -167,9 +228,30 @@ impl LookArgs {
             Some(dir) => ShaderSource::Folder { dir, watch },
             None => ShaderSource::Embedded,
         };
-        let settings =
-            RenderSettings { msaa: self.msaa, tonemapper: self.tonemap.into(), shaders, ..Default::default() };
-        settings.validate().map_err(|e| anyhow::anyhow!("--msaa: {e}"))?;
+        let settings = RenderSettings {
+            msaa: self.msaa,
+            tonemapper: self.tonemap.into(),
+            shaders,
+            clusters: self.clusters,
+            light_walk: match self.light_walk {
+                LightWalkArg::Clustered => LightWalk::Clustered,
+                LightWalkArg::All => LightWalk::AllLights,
+                LightWalkArg::Unbounded => LightWalk::AllUnbounded,
+            },
+            debug_view: match self.debug_view {
+                DebugViewArg::None => DebugView::None,
+                DebugViewArg::Clusters => DebugView::ClusterHeat,
+            },
+            ..Default::default()
+        };
+        settings.validate().map_err(|e| {
+            let flag = match e {
+                SettingsError::Msaa(_) => "--msaa",
+                SettingsError::Clusters(_) => "--clusters",
+                SettingsError::LightCutoff(_) => "light cutoff",
+            };
+            anyhow::anyhow!("{flag}: {e}")
+        })?;
         Ok(settings)
     }
 }

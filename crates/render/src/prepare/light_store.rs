@@ -178,6 +178,10 @@ impl LightStore {
         self.global_count() + self.local_count()
     }
 
+    pub fn gpu_bytes(&self) -> u64 {
+        self.buffer.as_ref().map_or(0, GrowableBuffer::capacity)
+    }
+
     /// The packed local lights, in buffer order (slot `global_count() + i`).
     pub fn local_lights(&self) -> &[GpuLight] {
         &self.local.packed

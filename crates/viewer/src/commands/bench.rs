@@ -16,7 +16,11 @@ use crate::cli::BenchArgs;
 use crate::scene;
 
 /// Keeps at most `max` frames in flight by waiting for the oldest submission.
-fn bound_frames_in_flight(app: &mut penumbra_engine::App, in_flight: &mut VecDeque<wgpu::SubmissionIndex>, max: usize) {
+pub fn bound_frames_in_flight(
+    app: &mut penumbra_engine::App,
+    in_flight: &mut VecDeque<wgpu::SubmissionIndex>,
+    max: usize,
+) {
     let renderer = app.world.resource::<Renderer>();
     if let Some(s) = renderer.last_submission() {
         in_flight.push_back(s.clone());
@@ -30,7 +34,69 @@ fn bound_frames_in_flight(app: &mut penumbra_engine::App, in_flight: &mut VecDeq
     }
 }
 
-fn percentile(sorted: &[f64], p: f64) -> f64 {
+/// Per-frame timings over the timed frames, each sorted ascending.
+pub struct FrameTimes {
+    pub wall: Vec<f64>,
+    pub cpu: Vec<f64>,
+    /// `app.update()` on this thread: extraction, prepare and encode (not the GPU wait).
+    pub update: Vec<f64>,
+    pub gpu_total: Vec<f64>,
+    pub passes: Vec<(&'static str, Vec<f64>)>,
+}
+
+impl FrameTimes {
+    pub fn pass(&self, label: &str) -> Option<&[f64]> {
+        self.passes.iter().find(|(l, _)| *l == label).map(|(_, v)| v.as_slice())
+    }
+}
+
+/// Runs `warmup` unpipelined frames, then `frames` pipelined ones (at most two in flight).
+pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> FrameTimes {
+    for _ in 0..warmup {
+        app.update();
+        bound_frames_in_flight(app, &mut VecDeque::new(), 0);
+    }
+    let mut in_flight = VecDeque::new();
+    let mut wall = Vec::new();
+    let mut cpu = Vec::new();
+    let mut update = Vec::new();
+    let mut gpu_total = Vec::new();
+    let mut passes: Vec<(&'static str, Vec<f64>)> = Vec::new();
+    let mut last_gpu_frame = 0;
+    let mut record_gpu = |stats: &penumbra_render::FrameStats, gpu_total: &mut Vec<f64>| {
+        let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) else { return };
+        last_gpu_frame = t.frame;
+        gpu_total.push(t.passes.iter().map(|(_, ms)| ms).sum());
+        for (label, ms) in &t.passes {
+            match passes.iter_mut().find(|(l, _)| l == label) {
+                Some((_, v)) => v.push(*ms),
+                None => passes.push((label, vec![*ms])),
+            }
+        }
+    };
+    let mut last = Instant::now();
+    for _ in 0..frames {
+        let t = Instant::now();
+        app.update();
+        update.push(t.elapsed().as_secs_f64() * 1e3);
+        bound_frames_in_flight(app, &mut in_flight, 2);
+        let now = Instant::now();
+        wall.push((now - last).as_secs_f64() * 1e3);
+        last = now;
+        let stats = app.world.resource::<Renderer>().stats().clone();
+        cpu.push(stats.cpu_ms);
+        record_gpu(&stats, &mut gpu_total);
+    }
+    app.world.resource_mut::<Renderer>().finish();
+    let stats = app.world.resource::<Renderer>().stats().clone();
+    record_gpu(&stats, &mut gpu_total);
+    for v in [&mut wall, &mut cpu, &mut update, &mut gpu_total].into_iter().chain(passes.iter_mut().map(|(_, v)| v)) {
+        v.sort_by(f64::total_cmp);
+    }
+    FrameTimes { wall, cpu, update, gpu_total, passes }
+}
+
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
     }
@@ -40,6 +106,9 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 pub fn run(args: BenchArgs) -> Result<()> {
     if args.shader_edits > 0 {
         return super::bench_reload::run(&args);
+    }
+    if args.path.as_deref().is_some_and(|p| p == std::path::Path::new("many-lights") && !p.exists()) {
+        return super::bench_lights::run(&args);
     }
     let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
     let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
@@ -62,44 +131,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
     app.world.resource::<Renderer>().read_headless().map_err(|e| anyhow!("{e}"))?;
     let first_frame_ms = start.elapsed().as_secs_f64() * 1e3;
 
-    for _ in 0..args.warmup {
-        app.update();
-        bound_frames_in_flight(&mut app, &mut VecDeque::new(), 0);
-    }
-    let mut in_flight = VecDeque::new();
-    let mut wall = Vec::new();
-    let mut cpu = Vec::new();
-    let mut gpu_total = Vec::new();
-    let mut passes: Vec<(&'static str, Vec<f64>)> = Vec::new();
-    let mut last_gpu_frame = 0;
-    let mut record_gpu = |stats: &penumbra_render::FrameStats, gpu_total: &mut Vec<f64>| {
-        let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) else { return };
-        last_gpu_frame = t.frame;
-        gpu_total.push(t.passes.iter().map(|(_, ms)| ms).sum());
-        for (label, ms) in &t.passes {
-            match passes.iter_mut().find(|(l, _)| l == label) {
-                Some((_, v)) => v.push(*ms),
-                None => passes.push((label, vec![*ms])),
-            }
-        }
-    };
-    let mut last = Instant::now();
-    for _ in 0..args.frames {
-        app.update();
-        bound_frames_in_flight(&mut app, &mut in_flight, 2);
-        let now = Instant::now();
-        wall.push((now - last).as_secs_f64() * 1e3);
-        last = now;
-        let stats = app.world.resource::<Renderer>().stats().clone();
-        cpu.push(stats.cpu_ms);
-        record_gpu(&stats, &mut gpu_total);
-    }
-    app.world.resource_mut::<Renderer>().finish();
-    let stats = app.world.resource::<Renderer>().stats().clone();
-    record_gpu(&stats, &mut gpu_total);
-    for v in [&mut wall, &mut cpu, &mut gpu_total].into_iter().chain(passes.iter_mut().map(|(_, v)| v)) {
-        v.sort_by(f64::total_cmp);
-    }
+    let t = time_frames(&mut app, args.warmup, args.frames);
+    let (wall, cpu, gpu_total, passes) = (t.wall, t.cpu, t.gpu_total, t.passes);
     let renderer = app.world.resource::<Renderer>();
     let stats = renderer.stats();
     let mem = renderer.memory();

@@ -1,4 +1,5 @@
 //! Headless subcommands.
 pub mod bench;
+pub mod bench_lights;
 pub mod bench_reload;
 pub mod render;

@@ -49,8 +49,10 @@ pub struct ClusterBinner {
     /// (grid, light generation) the cached bound was computed for.
     bound_key: Option<(ClusterGrid, u64)>,
     bound: u64,
-    /// Time the last bound computation took (0 when cached).
+    /// CPU time computing the bound this frame (0 when cached).
     pub bound_ms: f64,
+    /// CPU time of the last computation of the bound.
+    pub last_bound_ms: f64,
 }
 
 impl ClusterBinner {
@@ -72,6 +74,7 @@ impl ClusterBinner {
             bound_key: None,
             bound: 0,
             bound_ms: 0.0,
+            last_bound_ms: 0.0,
         }
     }
 
@@ -85,6 +88,10 @@ impl ClusterBinner {
 
     pub fn indices(&self) -> &wgpu::Buffer {
         self.indices.buffer()
+    }
+
+    pub fn gpu_bytes(&self) -> u64 {
+        self.grid_buffer.size() + self.counts.capacity() + self.ranges.capacity() + self.indices.capacity()
     }
 
     /// This frame's grid (after `prepare`).
@@ -117,6 +124,7 @@ impl ClusterBinner {
             self.bound = grid.index_bound(store.local_lights());
             self.bound_key = Some(key);
             self.bound_ms = t.elapsed().as_secs_f64() * 1e3;
+            self.last_bound_ms = self.bound_ms;
         }
         let limit = device.limits().max_storage_buffer_binding_size;
         let index_bytes = (self.bound.max(1) * 4).next_multiple_of(256);
@@ -204,7 +212,8 @@ impl ClusterBinner {
             (ClusterEntry::Count, light_groups),
             (ClusterEntry::PrefixSum, 1),
             (ClusterEntry::Fill, light_groups),
-            (ClusterEntry::Sort, clusters.div_ceil(64)),
+            // One workgroup per cluster.
+            (ClusterEntry::Sort, clusters),
         ] {
             let pipeline = pipelines.cluster_cached(entry).expect("created above");
             pass.set_pipeline(pipeline);

@@ -1,0 +1,158 @@
+//! `penumbra bench many-lights`: the many-lights scene of `notes/bench-scenes.md` at each light
+//! count in `--lights`. Per count: GPU time of the binning passes and of shading, CPU time per
+//! frame, light and cluster statistics, and the image error of the range window (FLIP mean of
+//! the clustered image against the same frame with unbounded lights, at `--error-size`).
+
+use anyhow::{Result, anyhow};
+use penumbra_engine::scenes::{BENCH_EV100, spawn_many_lights};
+use penumbra_render::renderer::LightWalk;
+use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
+
+use super::bench::{percentile, time_frames};
+use crate::cli::BenchArgs;
+
+struct Row {
+    lights: usize,
+    clusters_ms: Option<f64>,
+    forward_ms: Option<f64>,
+    gpu_ms: Option<f64>,
+    wall_ms: f64,
+    update_ms: f64,
+    cpu_ms: f64,
+    bound_ms: f64,
+    mean_per_cluster: f64,
+    mean_per_occupied: f64,
+    max_per_cluster: usize,
+    lights_mib: f64,
+    clusters_mib: f64,
+    window_flip: f32,
+}
+
+fn app_with(
+    ctx: &GpuContext,
+    settings: RenderSettings,
+    lights: usize,
+    range: Option<f32>,
+    size: (u32, u32),
+) -> Result<penumbra_engine::App> {
+    let mut app = penumbra_engine::App::new();
+    app.add_plugins(penumbra_engine::CorePlugin).add_plugins(RenderPlugin);
+    spawn_many_lights(&mut app.world, lights, range);
+    app.insert_resource(Renderer::new(ctx.clone(), settings)?);
+    app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
+    Ok(app)
+}
+
+fn one_frame(
+    ctx: &GpuContext,
+    settings: RenderSettings,
+    lights: usize,
+    range: Option<f32>,
+    size: (u32, u32),
+) -> Result<Vec<u8>> {
+    let mut app = app_with(ctx, settings, lights, range, size)?;
+    app.update();
+    app.world.resource::<Renderer>().read_headless().map_err(|e| anyhow!("{e}"))
+}
+
+fn flip_mean(a: &[u8], b: &[u8], (w, h): (u32, u32)) -> f32 {
+    let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
+    let reference = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(a));
+    let test = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(b));
+    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    nv_flip::FlipPool::from_image(&error).mean()
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    if args.frames == 0 {
+        return Err(anyhow!("--frames must be at least 1"));
+    }
+    if args.lights.is_empty() {
+        return Err(anyhow!("--lights: give at least one count"));
+    }
+    let base = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
+    let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
+    let range = args.light_range.0;
+    let mut rows = Vec::new();
+    for &n in &args.lights {
+        let mut app = app_with(&ctx, base.clone(), n, range, args.size)?;
+        let t = time_frames(&mut app, args.warmup, args.frames);
+        let renderer = app.world.resource::<Renderer>();
+        let lists = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).map_err(|e| anyhow!("{e}"))?;
+        let total: usize = lists.iter().map(Vec::len).sum();
+        let occupied = lists.iter().filter(|l| !l.is_empty()).count();
+        let mem = renderer.memory();
+        // The window's error: same frame, every light unbounded (brute force), smaller size.
+        let small = RenderSettings { gpu_timing: false, ..base.clone() };
+        let windowed = one_frame(&ctx, small.clone(), n, range, args.error_size)?;
+        let unbounded = one_frame(
+            &ctx,
+            RenderSettings { light_walk: LightWalk::AllUnbounded, ..small },
+            n,
+            range,
+            args.error_size,
+        )?;
+        let median = |v: Option<&[f64]>| v.filter(|v| !v.is_empty()).map(|v| percentile(v, 0.5));
+        rows.push(Row {
+            lights: n,
+            clusters_ms: median(t.pass("clusters")),
+            forward_ms: median(t.pass("forward")),
+            gpu_ms: median(Some(&t.gpu_total)),
+            wall_ms: percentile(&t.wall, 0.5),
+            update_ms: percentile(&t.update, 0.5),
+            cpu_ms: percentile(&t.cpu, 0.5),
+            bound_ms: renderer.cluster_binner().last_bound_ms,
+            mean_per_cluster: total as f64 / lists.len().max(1) as f64,
+            mean_per_occupied: total as f64 / occupied.max(1) as f64,
+            max_per_cluster: lists.iter().map(Vec::len).max().unwrap_or(0),
+            lights_mib: mem.lights as f64 / 1048576.0,
+            clusters_mib: mem.clusters as f64 / 1048576.0,
+            window_flip: flip_mean(&unbounded, &windowed, args.error_size),
+        });
+    }
+    let ms = |v: Option<f64>| v.map_or("n/a".to_owned(), |v| format!("{v:.3}"));
+    println!("adapter   {}", ctx.describe());
+    println!(
+        "scene     many-lights (notes/bench-scenes.md): 200 m ground, 36 spheres, point lights of 20 000 lm, range {}",
+        range.map_or("auto (from intensity, cutoff 1/4096)".to_owned(), |r| format!("{r} m"))
+    );
+    println!(
+        "settings  {}x{}, MSAA {}, clusters {}x{}x{}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, ambient 60 cd/m², {} warm-up + {} timed frames; window error at {}x{}",
+        args.size.0,
+        args.size.1,
+        base.msaa,
+        base.clusters.tiles_x,
+        base.clusters.tiles_y,
+        base.clusters.slices,
+        base.tonemapper,
+        args.warmup,
+        args.frames,
+        args.error_size.0,
+        args.error_size.1
+    );
+    println!();
+    println!(
+        "| lights | GPU binning (ms) | GPU shading (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
+            r.lights,
+            ms(r.clusters_ms),
+            ms(r.forward_ms),
+            ms(r.gpu_ms),
+            r.wall_ms,
+            r.update_ms,
+            r.cpu_ms,
+            r.bound_ms,
+            r.mean_per_cluster,
+            r.mean_per_occupied,
+            r.max_per_cluster,
+            r.lights_mib,
+            r.clusters_mib,
+            r.window_flip
+        );
+    }
+    Ok(())
+}
