@@ -209,14 +209,24 @@ fn fill_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
 }
 
-// Lists up to this long are sorted in workgroup memory by one workgroup (bitonic); longer
-// ones (thousands of lights in one cluster) by one invocation in place (shell sort).
+// One workgroup sorts one cluster's list with a bitonic network in which every comparator
+// puts the smaller value at the lower index (each merge begins by comparing mirrored
+// positions, i ^ (k − 1)). Positions past the list's end act as +∞ and are never touched, so
+// any length sorts in place. Lists up to SORT_CAPACITY are sorted in workgroup memory; longer
+// ones (thousands of lights in one cluster) directly in the index buffer.
 const SORT_CAPACITY: u32 = 2048u;
 const SORT_THREADS: u32 = 256u;
 var<workgroup> sort_keys: array<u32, SORT_CAPACITY>;
 var<workgroup> sort_count: u32;
 
-// One workgroup per cluster.
+// The partner of position i at merge size k and step j, or an index ≥ n when there is none.
+fn sort_partner(i: u32, k: u32, j: u32) -> u32 {
+    if j == k >> 1u {
+        return i ^ (k - 1u);
+    }
+    return i ^ j;
+}
+
 @compute @workgroup_size(256)
 fn sort_lists(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -237,70 +247,50 @@ fn sort_lists(
     if n <= 1u {
         return;
     }
-    if n > SORT_CAPACITY {
-        if t == 0u {
-            shell_sort(base, n);
-        }
-        return;
-    }
     var size = 2u;
     while size < n {
         size <<= 1u;
     }
-    for (var i = t; i < size; i += SORT_THREADS) {
-        sort_keys[i] = select(0xffffffffu, indices[base + i], i < n);
+    if n <= SORT_CAPACITY {
+        for (var i = t; i < n; i += SORT_THREADS) {
+            sort_keys[i] = indices[base + i];
+        }
+        workgroupBarrier();
+        for (var k = 2u; k <= size; k <<= 1u) {
+            for (var j = k >> 1u; j > 0u; j >>= 1u) {
+                for (var i = t; i < n; i += SORT_THREADS) {
+                    let p = sort_partner(i, k, j);
+                    if p > i && p < n {
+                        let a = sort_keys[i];
+                        let b = sort_keys[p];
+                        if a > b {
+                            sort_keys[i] = b;
+                            sort_keys[p] = a;
+                        }
+                    }
+                }
+                workgroupBarrier();
+            }
+        }
+        for (var i = t; i < n; i += SORT_THREADS) {
+            indices[base + i] = sort_keys[i];
+        }
+        return;
     }
-    workgroupBarrier();
     for (var k = 2u; k <= size; k <<= 1u) {
         for (var j = k >> 1u; j > 0u; j >>= 1u) {
-            for (var i = t; i < size; i += SORT_THREADS) {
-                let partner = i ^ j;
-                if partner > i {
-                    let a = sort_keys[i];
-                    let b = sort_keys[partner];
-                    if (a > b) == ((i & k) == 0u) {
-                        sort_keys[i] = b;
-                        sort_keys[partner] = a;
+            for (var i = t; i < n; i += SORT_THREADS) {
+                let p = sort_partner(i, k, j);
+                if p > i && p < n {
+                    let a = indices[base + i];
+                    let b = indices[base + p];
+                    if a > b {
+                        indices[base + i] = b;
+                        indices[base + p] = a;
                     }
                 }
             }
-            workgroupBarrier();
-        }
-    }
-    for (var i = t; i < n; i += SORT_THREADS) {
-        indices[base + i] = sort_keys[i];
-    }
-}
-
-// In-place shell sort of indices[base .. base + n] (Ciura's gaps, extended by ×2.25).
-fn shell_sort(base: u32, n: u32) {
-    var gap = 701u;
-    while gap * 9u / 4u < n {
-        gap = gap * 9u / 4u;
-    }
-    let small = array<u32, 8>(1u, 4u, 10u, 23u, 57u, 132u, 301u, 701u);
-    var next_small = 7;
-    loop {
-        for (var i = gap; i < n; i++) {
-            let v = indices[base + i];
-            var j = i;
-            while j >= gap && indices[base + j - gap] > v {
-                indices[base + j] = indices[base + j - gap];
-                j -= gap;
-            }
-            indices[base + j] = v;
-        }
-        if gap == 1u {
-            break;
-        }
-        if gap > 701u {
-            gap = max(gap * 4u / 9u, 701u);
-            if gap == 701u {
-                next_small = 6;
-            }
-        } else {
-            gap = small[next_small];
-            next_small -= 1;
+            storageBarrier();
         }
     }
 }
