@@ -14,13 +14,17 @@ use std::time::{Duration, Instant};
 use notify::{RecursiveMode, Watcher};
 
 /// Quiet time before a changed file is reloaded: longer than the gap between an editor's write
-/// steps (a few milliseconds), short enough to stay well inside the 100 ms edit-to-frame budget.
-pub const DEBOUNCE: Duration = Duration::from_millis(25);
+/// steps (a few milliseconds), short enough to leave most of the 100 ms edit-to-frame budget to
+/// compilation. Should a slow save outlast it, the half-written file is reported as an error and
+/// its next event reloads it whole.
+pub const DEBOUNCE: Duration = Duration::from_millis(15);
 
 pub struct ShaderWatcher {
     _watcher: notify::RecommendedWatcher,
     // A Mutex only to make the watcher Sync (the renderer is an ECS resource); one thread polls.
-    events: Mutex<Receiver<notify::Result<notify::Event>>>,
+    // Each event with the time it arrived, so the quiet time counts from the write itself and
+    // not from whenever the frame loop next polled.
+    events: Mutex<Receiver<(Instant, notify::Result<notify::Event>)>>,
     pending: HashMap<String, Instant>,
     dir: PathBuf,
 }
@@ -29,7 +33,7 @@ impl ShaderWatcher {
     pub fn new(dir: &Path) -> notify::Result<Self> {
         let (tx, events) = channel();
         let mut watcher = notify::recommended_watcher(move |e| {
-            let _ = tx.send(e);
+            let _ = tx.send((Instant::now(), e));
         })?;
         watcher.watch(dir, RecursiveMode::NonRecursive)?;
         Ok(Self { _watcher: watcher, events: Mutex::new(events), pending: HashMap::new(), dir: dir.to_path_buf() })
@@ -43,7 +47,7 @@ impl ShaderWatcher {
     pub fn poll(&mut self) -> Vec<String> {
         let now = Instant::now();
         let events = self.events.get_mut().unwrap_or_else(|poisoned| poisoned.into_inner());
-        while let Ok(event) = events.try_recv() {
+        while let Ok((arrived, event)) = events.try_recv() {
             let Ok(event) = event else { continue };
             if matches!(event.kind, notify::EventKind::Access(_)) {
                 continue;
@@ -52,7 +56,8 @@ impl ShaderWatcher {
                 if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
                     && let Some(name) = path.file_name().and_then(|n| n.to_str())
                 {
-                    self.pending.insert(name.to_owned(), now);
+                    let last = self.pending.entry(name.to_owned()).or_insert(arrived);
+                    *last = (*last).max(arrived);
                 }
             }
         }
