@@ -236,6 +236,15 @@ fn sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// Logs (debug) how long the driver took to create a pipeline, when dropped.
+struct PipelineTiming(std::time::Instant);
+
+impl Drop for PipelineTiming {
+    fn drop(&mut self) {
+        tracing::debug!("render pipeline created in {:.1} ms", self.0.elapsed().as_secs_f64() * 1e3);
+    }
+}
+
 /// Creates a pipeline inside a validation error scope, so a shader that composes but does not
 /// fit the pipeline (a renamed entry point, a changed binding) is an error, not a crash.
 fn checked_pipeline(
@@ -406,7 +415,9 @@ impl PipelineCache {
     /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use them;
     /// on any error keeps everything as it was and returns the error.
     pub fn reload(&mut self, device: &wgpu::Device, files: &[String]) -> Result<ReloadReport, ShaderError> {
+        let start = std::time::Instant::now();
         let mut candidate = Some(self.shaders.reloaded(files)?);
+        tracing::debug!("candidate shader library built in {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
         let lib = candidate.as_ref().expect("just built");
         let forward_hit = lib.depends_on("forward.wgsl", files);
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
@@ -465,6 +476,7 @@ impl PipelineCache {
         let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
         let label = format!("forward {key:?}");
         self.compiled += 1;
+        let _timing = PipelineTiming(std::time::Instant::now());
         checked_pipeline(device, "forward.wgsl", || {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(&label),

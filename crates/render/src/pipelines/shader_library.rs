@@ -276,13 +276,20 @@ impl ShaderLibrary {
         entry: &str,
         defs: &ShaderDefs,
     ) -> Result<wgpu::ShaderModule, ShaderError> {
+        let start = std::time::Instant::now();
         let module = self.compose(entry, defs)?;
+        let composed = start.elapsed();
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let label = format!("{entry} {defs}");
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(&label),
             source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(module)),
         });
+        tracing::debug!(
+            "{label}: composed and validated in {:.1} ms, shader module created in {:.1} ms",
+            composed.as_secs_f64() * 1e3,
+            (start.elapsed() - composed).as_secs_f64() * 1e3
+        );
         match pollster::block_on(scope.pop()) {
             None => Ok(shader),
             Some(e) => Err(ShaderError::whole_file(entry, e.to_string())),
