@@ -65,7 +65,7 @@ pub struct ExtractedLight {
     pub position: Vec3,
     /// Direction the light travels (unit), for directional and spot lights.
     pub direction: Vec3,
-    /// `None`: unbounded (inverse-square only).
+    /// glTF's `range`; `None` lets the light store derive one from the intensity.
     pub range: Option<f32>,
 }
 
