@@ -36,8 +36,9 @@ fn light_bounds(light: Light) -> Bounds {
     let v = vec3<f32>(dot(grid.view_x.xyz, rel), dot(grid.view_y.xyz, rel), -dot(grid.view_z.xyz, rel));
     var b: Bounds;
     b.center = v;
-    // Padding covers rounding between the fragment's cluster lookup and these bounds.
-    b.radius = light.range + 1e-5 * (length(v) + light.range);
+    // Padding covers rounding between the fragment's cluster lookup and these bounds. A light
+    // of range 0 lights nothing and is not binned (its box comes out empty).
+    b.radius = select(light.range + 1e-5 * (length(v) + light.range), 0.0, !(light.range > 0.0));
     b.is_spot = light.kind == LIGHT_SPOT;
     let a = light.direction;
     b.axis = vec3<f32>(dot(grid.view_x.xyz, a), dot(grid.view_y.xyz, a), -dot(grid.view_z.xyz, a));
@@ -61,9 +62,12 @@ fn tile_span(c: f32, d: f32, r: f32, scale: f32, tiles: u32) -> vec2<i32> {
         hi = (c * d + root) / den * scale;
     }
     let t = f32(tiles);
+    // NaN (a light so far off that c² or d² overflows) covers the whole screen: conservative.
+    lo = select(-2.0, min(lo, 2.0), lo >= -2.0);
+    hi = select(2.0, max(hi, -2.0), hi <= 2.0);
     // One tile of slack each side: the per-cluster test below decides.
-    let first = i32(floor((clamp(lo, -2.0, 2.0) + 1.0) * 0.5 * t)) - 1;
-    let last = i32(floor((clamp(hi, -2.0, 2.0) + 1.0) * 0.5 * t)) + 1;
+    let first = i32(floor((lo + 1.0) * 0.5 * t)) - 1;
+    let last = i32(floor((hi + 1.0) * 0.5 * t)) + 1;
     return vec2<i32>(max(first, 0), min(last, i32(tiles) - 1));
 }
 
@@ -82,7 +86,8 @@ fn candidate_box(b: Bounds) -> ClusterBox {
     let sy = tile_span(b.center.y, d, r, grid.proj_scale.y, grid.dims.y);
     let rows = i32(grid.dims.y) - 1;
     let k_first = slice_of(grid, max(d - r, grid.near)) - 1;
-    let k_last = slice_of(grid, d + r) + 1;
+    // Clamped before adding so that a huge range cannot wrap past i32's maximum.
+    let k_last = min(slice_of(grid, d + r), i32(grid.dims.z)) + 1;
     box.lo = vec3<i32>(sx.x, rows - sy.y, max(k_first, 0));
     box.hi = vec3<i32>(sx.y, rows - sy.x, min(k_last, i32(grid.dims.z) - 1));
     if d + r < grid.near || b.radius <= 0.0 {

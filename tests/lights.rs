@@ -408,3 +408,42 @@ fn golden_every_light_type() {
     let shot = golden_shot(&mut app, (256, 160), RenderSettings { msaa: 4, ..Default::default() });
     common::check_golden("lights_every_type", &shot, common::Tolerance::default());
 }
+
+/// Lights of zero intensity have no range and must not be binned: the index buffer is sized for
+/// binned lights only, so binning them would write past its end.
+#[test]
+fn dark_lights_are_not_binned() {
+    let mut app = scene_app();
+    floor(&mut app, 30.0);
+    app.world.spawn((
+        PointLight { intensity: 3.0, range: Some(5.0), ..Default::default() },
+        Transform::from_xyz(0.0, 1.0, -4.0),
+    ));
+    let mut rng = SplitMix64(3);
+    for _ in 0..2000 {
+        let at = Vec3::new(rng.uniform(-5.0, 5.0), rng.uniform(0.2, 3.0), rng.uniform(-12.0, 2.0));
+        app.world.spawn((PointLight { intensity: 0.0, ..Default::default() }, Transform::from_translation(at)));
+    }
+    camera(&mut app, Vec3::new(0.0, 2.0, 4.0), Vec3::new(0.0, 0.5, -4.0), perspective());
+    render_app(&mut app, (96, 64), settings(LightWalk::Clustered));
+    let (_, entries) = assert_lists_match_reference(&app, "dark lights");
+    let bound = app.world.resource::<Renderer>().stats().cluster_index_bound;
+    assert!(entries as u64 <= bound, "{entries} list entries exceed the bound {bound}");
+    assert!(entries > 0, "the bright light is binned");
+}
+
+/// A range far beyond the slice range (1e10 m, a common way to write "unbounded") must neither
+/// overflow the slice arithmetic nor drop the light, with an orthographic camera's linear slices.
+#[test]
+fn a_huge_range_is_binned_in_an_orthographic_view() {
+    let mut app = scene_app();
+    let _ = top_down(&mut app, 2.0);
+    app.world.spawn((
+        PointLight { intensity: 2.0, range: Some(1e10), ..Default::default() },
+        Transform::from_xyz(0.0, 1.0, 0.0),
+    ));
+    render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
+    assert_lists_match_reference(&app, "huge range, orthographic");
+    let hdr = hdr_of(&app);
+    assert!(hdr[16 * 32 + 16][1] > 0.1, "the light lights the floor: {:?}", hdr[16 * 32 + 16]);
+}

@@ -198,7 +198,8 @@ impl ClusterGrid {
 
     pub fn light_bounds(&self, light: &GpuLight) -> Bounds {
         let center = self.view_coords(Vec3::from(light.position) - self.camera_position);
-        let radius = light.range + 1e-5 * (center.length() + light.range);
+        // A light of range 0 lights nothing and is not binned (its box comes out empty).
+        let radius = if light.range > 0.0 { light.range + 1e-5 * (center.length() + light.range) } else { 0.0 };
         let spot = (light.kind == KIND_SPOT).then(|| {
             let axis = self.view_coords(Vec3::from(light.direction));
             let cos_outer = (-light.spot_offset / light.spot_scale).clamp(0.0, 1.0);
@@ -220,9 +221,11 @@ impl ClusterGrid {
             hi = (c * d + root) / den * scale;
         }
         let t = tiles as f32;
-        // NaN (from an overflowing light) clamps to -2 and so covers the screen: conservative.
-        let first = ((lo.clamp(-2.0, 2.0) + 1.0) * 0.5 * t).floor() as i32 - slack;
-        let last = ((hi.clamp(-2.0, 2.0) + 1.0) * 0.5 * t).floor() as i32 + slack;
+        // NaN (a light so far off that c² or d² overflows) covers the whole screen: conservative.
+        let lo = if lo >= -2.0 { lo.min(2.0) } else { -2.0 };
+        let hi = if hi <= 2.0 { hi.max(-2.0) } else { 2.0 };
+        let first = ((lo + 1.0) * 0.5 * t).floor() as i32 - slack;
+        let last = ((hi + 1.0) * 0.5 * t).floor() as i32 + slack;
         (first.max(0), last.min(tiles as i32 - 1))
     }
 
@@ -232,7 +235,8 @@ impl ClusterGrid {
         let sy = self.tile_span(b.center.y, d, r, self.proj_scale.y, self.dims.y, slack);
         let rows = self.dims.y as i32 - 1;
         let k_first = self.slice_of((d - r).max(self.near)).saturating_sub(slack);
-        let k_last = self.slice_of(d + r).saturating_add(slack);
+        // Clamped before adding so that a huge range cannot overflow (as on the GPU).
+        let k_last = self.slice_of(d + r).min(self.dims.z as i32) + slack;
         let mut hi = [sx.1, rows - sy.0, k_last.min(self.dims.z as i32 - 1)];
         if d + r < self.near || r.is_nan() || b.radius <= 0.0 {
             hi[2] = -1;
