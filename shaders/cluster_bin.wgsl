@@ -134,24 +134,33 @@ fn touches(b: Bounds, c: vec3<u32>) -> bool {
     return true;
 }
 
-@compute @workgroup_size(64)
-fn count_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let id = flat_id(gid, groups);
+// Walks light `id`'s candidate clusters: counts it into each it touches, or (`fill`) writes its
+// slot at each one's cursor. Both passes must visit exactly the same clusters.
+fn bin_light(id: u32, fill: bool) {
     if id >= grid.light_count {
         return;
     }
-    let b = light_bounds(lights[grid.light_first + id]);
+    let slot = grid.light_first + id;
+    let b = light_bounds(lights[slot]);
     let box = candidate_box(b);
     for (var k = box.lo.z; k <= box.hi.z; k++) {
         for (var j = box.lo.y; j <= box.hi.y; j++) {
             for (var i = box.lo.x; i <= box.hi.x; i++) {
                 let c = vec3<u32>(u32(i), u32(j), u32(k));
                 if touches(b, c) {
-                    atomicAdd(&counts[cluster_id(grid, c)], 1u);
+                    let at = atomicAdd(&counts[cluster_id(grid, c)], 1u);
+                    if fill {
+                        indices[at] = slot;
+                    }
                 }
             }
         }
     }
+}
+
+@compute @workgroup_size(64)
+fn count_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    bin_light(flat_id(gid, groups), false);
 }
 
 // Large dispatches spill into y (a dimension holds at most 65 535 workgroups).
@@ -195,23 +204,7 @@ fn prefix_sum(@builtin(local_invocation_index) t: u32) {
 
 @compute @workgroup_size(64)
 fn fill_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let id = flat_id(gid, groups);
-    if id >= grid.light_count {
-        return;
-    }
-    let slot = grid.light_first + id;
-    let b = light_bounds(lights[slot]);
-    let box = candidate_box(b);
-    for (var k = box.lo.z; k <= box.hi.z; k++) {
-        for (var j = box.lo.y; j <= box.hi.y; j++) {
-            for (var i = box.lo.x; i <= box.hi.x; i++) {
-                let c = vec3<u32>(u32(i), u32(j), u32(k));
-                if touches(b, c) {
-                    indices[atomicAdd(&counts[cluster_id(grid, c)], 1u)] = slot;
-                }
-            }
-        }
-    }
+    bin_light(flat_id(gid, groups), true);
 }
 
 // One workgroup sorts one cluster's list with a bitonic network in which every comparator

@@ -176,10 +176,12 @@ fn slot_coord(mat: Material, slot: u32, sets: UvSets) -> TexCoord {
     return TexCoord(linear * uv + vec2<f32>(r0.z, r1.z), linear * dx, linear * dy);
 }
 
+#ifdef CLUSTERED_LIGHTS
 // Distance along the view direction.
 fn view_depth(rel: vec3<f32>) -> f32 {
     return dot(rel, view.camera_forward);
 }
+#endif
 
 #ifdef DEBUG_CLUSTER_HEAT
 // Lights in the fragment's cluster: black for none, then blue, green, yellow, red, white at 256

@@ -35,6 +35,21 @@ pub fn read_texture(
         },
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
+    let data = submit_and_map(device, queue, encoder, &buffer)?;
+    let mut out = Vec::with_capacity((unpadded * h) as usize);
+    for row in data.chunks_exact(padded as usize) {
+        out.extend_from_slice(&row[..unpadded as usize]);
+    }
+    Ok(out)
+}
+
+/// Submits `encoder` (which copies into `buffer`), waits, and returns the buffer's bytes.
+fn submit_and_map(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    encoder: wgpu::CommandEncoder,
+    buffer: &wgpu::Buffer,
+) -> Result<Vec<u8>, ReadbackError> {
     queue.submit([encoder.finish()]);
     let slice = buffer.slice(..);
     let (tx, rx) = std::sync::mpsc::channel();
@@ -43,14 +58,9 @@ pub fn read_texture(
     });
     device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| ReadbackError::Poll(e.to_string()))?;
     rx.recv().map_err(|e| ReadbackError::Map(e.to_string()))?.map_err(|e| ReadbackError::Map(e.to_string()))?;
-    let data = slice.get_mapped_range().map_err(|e| ReadbackError::Map(format!("{e:?}")))?;
-    let mut out = Vec::with_capacity((unpadded * h) as usize);
-    for row in data.chunks_exact(padded as usize) {
-        out.extend_from_slice(&row[..unpadded as usize]);
-    }
-    drop(data);
+    let data = slice.get_mapped_range().map_err(|e| ReadbackError::Map(format!("{e:?}")))?.to_vec();
     buffer.unmap();
-    Ok(out)
+    Ok(data)
 }
 
 /// Copies `size` bytes of `source` (which needs `COPY_SRC`) back to the CPU, blocking.
@@ -69,17 +79,7 @@ pub fn read_buffer(
     });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
     encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size.min(source.size()));
-    queue.submit([encoder.finish()]);
-    let slice = buffer.slice(..);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| ReadbackError::Poll(e.to_string()))?;
-    rx.recv().map_err(|e| ReadbackError::Map(e.to_string()))?.map_err(|e| ReadbackError::Map(e.to_string()))?;
-    let data = slice.get_mapped_range().map_err(|e| ReadbackError::Map(format!("{e:?}")))?.to_vec();
-    buffer.unmap();
-    Ok(data)
+    submit_and_map(device, queue, encoder, &buffer)
 }
 
 /// IEEE 754 binary16 to f32 (handles subnormals, infinities and NaN).

@@ -135,9 +135,8 @@ pub struct FrameStats {
     /// Of which local (point and spot), binned into clusters when binning runs.
     pub local_lights: u32,
     /// Upper bound of the cluster lists' total length that sized the index buffer (0 without
-    /// binning), and the CPU time spent computing it this frame (0 when cached).
+    /// binning).
     pub cluster_index_bound: u64,
-    pub cluster_bound_ms: f64,
     pub light_bytes_uploaded: u64,
     pub instance_bytes_uploaded: u64,
     pub cpu_ms: f64,
@@ -602,7 +601,6 @@ impl Renderer {
             lights: self.lights.count(),
             local_lights: self.lights.local_count(),
             cluster_index_bound: if plan.runs(Pass::ClusterBin) { self.clusters.index_bound() } else { 0 },
-            cluster_bound_ms: self.clusters.bound_ms,
             light_bytes_uploaded: self.lights.last_upload_bytes,
             instance_bytes_uploaded: self.instances.last_upload_bytes,
             cpu_ms,

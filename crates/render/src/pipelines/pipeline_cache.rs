@@ -247,11 +247,7 @@ impl Drop for PipelineTiming {
 
 /// Creates a pipeline inside a validation error scope, so a shader that composes but does not
 /// fit the pipeline (a renamed entry point, a changed binding) is an error, not a crash.
-fn checked_pipeline(
-    device: &wgpu::Device,
-    file: &str,
-    create: impl FnOnce() -> wgpu::RenderPipeline,
-) -> Result<wgpu::RenderPipeline, ShaderError> {
+fn checked_pipeline<P>(device: &wgpu::Device, file: &str, create: impl FnOnce() -> P) -> Result<P, ShaderError> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let pipeline = create();
     match pollster::block_on(scope.pop()) {
@@ -571,19 +567,16 @@ impl PipelineCache {
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
         let module = self.library(candidate).create_module(device, "cluster_bin.wgsl", &ShaderDefs::default())?;
         self.compiled += 1;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry.name()),
-            layout: Some(&self.cluster_pipeline_layout),
-            module: &module,
-            entry_point: Some(entry.name()),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        match pollster::block_on(scope.pop()) {
-            None => Ok(pipeline),
-            Some(e) => Err(ShaderError::whole_file("cluster_bin.wgsl", e.to_string())),
-        }
+        checked_pipeline(device, "cluster_bin.wgsl", || {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry.name()),
+                layout: Some(&self.cluster_pipeline_layout),
+                module: &module,
+                entry_point: Some(entry.name()),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
     }
 }
 

@@ -49,9 +49,7 @@ pub struct ClusterBinner {
     /// (grid, light generation) the cached bound was computed for.
     bound_key: Option<(ClusterGrid, u64)>,
     bound: u64,
-    /// CPU time computing the bound this frame (0 when cached).
-    pub bound_ms: f64,
-    /// CPU time of the last computation of the bound.
+    /// CPU time of the last computation of the bound (it is cached while view and lights hold).
     pub last_bound_ms: f64,
 }
 
@@ -73,7 +71,6 @@ impl ClusterBinner {
             light_count: 0,
             bound_key: None,
             bound: 0,
-            bound_ms: 0.0,
             last_bound_ms: 0.0,
         }
     }
@@ -118,13 +115,11 @@ impl ClusterBinner {
         let (device, queue) = (&ctx.device, &ctx.queue);
         let grid = ClusterGrid::new(view, viewport, config, store.local_bounds());
         let key = (grid, store.local_generation);
-        self.bound_ms = 0.0;
         if self.bound_key != Some(key) {
             let t = std::time::Instant::now();
             self.bound = grid.index_bound(store.local_lights());
             self.bound_key = Some(key);
-            self.bound_ms = t.elapsed().as_secs_f64() * 1e3;
-            self.last_bound_ms = self.bound_ms;
+            self.last_bound_ms = t.elapsed().as_secs_f64() * 1e3;
         }
         let limit = device.limits().max_storage_buffer_binding_size;
         let index_bytes = (self.bound.max(1) * 4).next_multiple_of(256);
