@@ -96,3 +96,25 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
 }
+
+// The two lobes of `direct` apart, for lights whose diffuse and specular parts are seen in
+// different directions (sphere and tube lights). The diffuse BRDF without N·L (the caller's
+// irradiance includes it):
+fn diffuse_brdf(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let h = safe_normalize(l + s.v, s.n);
+    let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
+    return (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
+}
+
+// The specular BRDF times N·L, towards `l`.
+fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(s.n, l);
+    if n_dot_l <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let h = safe_normalize(l + s.v, s.n);
+    let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
+    let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
+    let d_v = d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
+    return f_schlick(s.f0_color, v_dot_h) * (d_v * n_dot_l);
+}

@@ -12,7 +12,7 @@
 // candidate box, see passes/clusters/grid.rs), so lists never overflow, on the first frame too.
 // The walk is mirrored exactly by the CPU reference binner (passes/clusters/reference.rs).
 
-#import penumbra::light_data::{Light, LIGHT_SPOT}
+#import penumbra::light_data::{Light, LIGHT_SPOT, LIGHT_RECT, LIGHT_DISK}
 #import penumbra::clusters::{ClusterGrid, slice_depth, slice_of, cluster_id}
 
 @group(0) @binding(0) var<uniform> grid: ClusterGrid;
@@ -39,10 +39,12 @@ fn light_bounds(light: Light) -> Bounds {
     // Padding covers rounding between the fragment's cluster lookup and these bounds. A light
     // of range 0 lights nothing and is not binned (its box comes out empty).
     b.radius = select(light.range + 1e-5 * (length(v) + light.range), 0.0, !(light.range > 0.0));
-    b.is_spot = light.kind == LIGHT_SPOT;
+    // A spot reaches only into its cone; a one-sided rect or disk only in front of its plane:
+    // the cone of half-angle π/2 from its centre.
+    b.is_spot = light.kind == LIGHT_SPOT || light.kind == LIGHT_RECT || light.kind == LIGHT_DISK;
     let a = light.direction;
     b.axis = vec3<f32>(dot(grid.view_x.xyz, a), dot(grid.view_y.xyz, a), -dot(grid.view_z.xyz, a));
-    b.cos_outer = clamp(-light.spot_offset / light.spot_scale, 0.0, 1.0);
+    b.cos_outer = select(0.0, clamp(-light.shape.x / light.size, 0.0, 1.0), light.kind == LIGHT_SPOT);
     b.sin_outer = sqrt(max(1.0 - b.cos_outer * b.cos_outer, 0.0));
     return b;
 }
@@ -97,7 +99,8 @@ fn candidate_box(b: Bounds) -> ClusterBox {
 }
 
 // Whether the light's influence touches cluster (i, j, k): its sphere against the froxel's
-// bounding box, and for spots the cone against the froxel's bounding sphere (Wronski 2017).
+// bounding box, and for cones (spots; rects and disks, π/2) the cone against the froxel's
+// bounding sphere (Wronski 2017).
 fn touches(b: Bounds, c: vec3<u32>) -> bool {
     let d_near = slice_depth(grid, c.z);
     let d_far = slice_depth(grid, c.z + 1u);

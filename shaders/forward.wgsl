@@ -1,5 +1,5 @@
 // Forward PBR: glTF metallic-roughness shading of every draw. Global lights (directional,
-// ambient) light every fragment; local lights (point, spot) are found through the fragment's
+// ambient) light every fragment; local lights (every other kind) are found through the fragment's
 // cluster list (CLUSTERED_LIGHTS), or, in the brute-force reference variants, by walking them all.
 //
 // Spaces: `world` is scene space; `rel` is world translated so the camera sits at the origin
@@ -9,7 +9,8 @@
 // Variants (shader defs, set per pipeline by pipeline_cache.rs from what each draw uses; code a
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS
-// (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference), and the debug
+// (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
+// and LTC_LIGHTS add the code of lights with a size when the scene has them), and the debug
 // view DEBUG_CLUSTER_HEAT.
 
 #import penumbra::common::{F16_MAX, safe_normalize}

@@ -6,19 +6,38 @@ const LIGHT_DIRECTIONAL: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
 const LIGHT_SPOT: u32 = 2u;
 const LIGHT_AMBIENT: u32 = 3u;
+const LIGHT_SPHERE: u32 = 4u;
+const LIGHT_TUBE: u32 = 5u;
+const LIGHT_RECT: u32 = 6u;
+const LIGHT_DISK: u32 = 7u;
 
 struct Light {
     position: vec3<f32>,
     kind: u32,
-    // Direction the light shines (spot, directional), world space, unit length.
+    // Direction the light shines (spot, directional, rect, disk) or a tube's axis; unit length.
     direction: vec3<f32>,
-    // Influence radius of a local light (> 0; 0: lights nothing). 0 for global lights.
+    // Radius around `position` bounding everything a local light reaches: its influence range
+    // plus its own extent (> 0; 0: lights nothing). 0 for global lights.
     range: f32,
-    // Linear colour times intensity (cd, lux, or cd/m² for ambient).
+    // Linear colour times intensity (cd, lux, or cd/m² for ambient, rect and disk lights).
     color: vec3<f32>,
-    spot_scale: f32,
-    spot_offset: f32,
-    _pad_a: f32,
-    _pad_b: f32,
-    _pad_c: f32,
+    // Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width.
+    size: f32,
+    // Spot: (cone falloff offset, -, -, -). Tube: (half length, -, -, -). Rect: (unit width
+    // axis, half height). Disk: (unit axis in its plane, -).
+    shape: vec4<f32>,
 };
+
+// glTF KHR_lights_punctual's range window: (1 − (d/r)⁴)² clamped, at squared distance `dist2`
+// from the light (from its nearest point, for lights with a size). The store gives every local
+// light a range (glTF's, or where it falls below the visible cutoff), so the window always
+// applies, except in the UNBOUNDED_LIGHTS reference variant that measures its error.
+fn range_window(dist2: f32, range: f32) -> f32 {
+#ifdef UNBOUNDED_LIGHTS
+    return 1.0;
+#else
+    let x = dist2 / (range * range);
+    let w = clamp(1.0 - x * x, 0.0, 1.0);
+    return w * w;
+#endif
+}

@@ -2,25 +2,20 @@
 #define_import_path penumbra::lights
 
 #import penumbra::brdf::{Surface, ambient, direct}
-#import penumbra::light_data::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_AMBIENT}
-
-// glTF KHR_lights_punctual's range window: (1 − (d/r)⁴)² clamped. The store gives every local
-// light a range (glTF's, or where it falls below the visible cutoff), so the window always
-// applies, except in the UNBOUNDED_LIGHTS reference variant that measures its error.
-fn range_window(dist2: f32, range: f32) -> f32 {
-#ifdef UNBOUNDED_LIGHTS
-    return 1.0;
-#else
-    let x = dist2 / (range * range);
-    let w = clamp(1.0 - x * x, 0.0, 1.0);
-    return w * w;
+#import penumbra::light_data::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_AMBIENT, LIGHT_SPHERE, LIGHT_TUBE, LIGHT_RECT, range_window}
+#ifdef SPHERE_TUBE_LIGHTS
+#import penumbra::area_lights::{sphere_light, tube_light}
 #endif
-}
+#ifdef LTC_LIGHTS
+#import penumbra::ltc::ltc_light
+#endif
 
 // Light reaching the eye from `light` off the surface at `rel_pos` (camera-relative), with the
-// camera at `camera_position` in world space. Every kind reduces to a direction and an
-// illuminance for one shared call of `direct` (one inlined BRDF keeps the shader small, which
-// matters for compile time on hot reload).
+// camera at `camera_position` in world space. Directional, point and spot lights reduce to a
+// direction and an illuminance for one shared call of `direct` (one inlined BRDF keeps the
+// shader small, which matters for compile time on hot reload); lights with a size have their
+// own integrals, compiled in only when the scene has such lights (SPHERE_TUBE_LIGHTS,
+// LTC_LIGHTS).
 fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: vec3<f32>) -> vec3<f32> {
     if light.kind == LIGHT_AMBIENT {
         return ambient(s, light.color);
@@ -30,6 +25,19 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
 #ifdef LOCAL_LIGHTS
     if light.kind != LIGHT_DIRECTIONAL {
         let to_light = (light.position - camera_position) - rel_pos;
+#ifdef SPHERE_TUBE_LIGHTS
+        if light.kind == LIGHT_SPHERE {
+            return sphere_light(s, light, to_light);
+        }
+        if light.kind == LIGHT_TUBE {
+            return tube_light(s, light, to_light);
+        }
+#endif
+#ifdef LTC_LIGHTS
+        if light.kind >= LIGHT_RECT {
+            return ltc_light(s, light, to_light);
+        }
+#endif
         // Only guards the division: any fixed physical floor (1 mm, 1 cm as some engines use)
         // would break scenes modelled at small scales, so the floor sits just above f32's
         // smallest normal number. A light touching the surface saturates the pixel, and the
@@ -38,8 +46,9 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
         l = to_light * inverseSqrt(dist2);
         var atten = range_window(dist2, light.range) / dist2;
         if light.kind == LIGHT_SPOT {
+            // Cone falloff as scale (size) and offset (shape.x) of cos(angle).
             let cd = dot(light.direction, -l);
-            let a = clamp(cd * light.spot_scale + light.spot_offset, 0.0, 1.0);
+            let a = clamp(cd * light.size + light.shape.x, 0.0, 1.0);
             atten *= a * a;
         }
         if atten <= 0.0 {
@@ -48,7 +57,7 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
         e *= atten;
     }
 #else
-    // Compiled without point and spot lights: the scene has none.
+    // Compiled without local lights: the scene has none.
     if light.kind != LIGHT_DIRECTIONAL {
         return vec3<f32>(0.0);
     }

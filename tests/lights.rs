@@ -12,7 +12,7 @@ use penumbra::render::renderer::LightWalk;
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
-use common::{flip_mean, hdr_of, render_app, scene_app, spawn_mesh};
+use common::{flip_mean, floor_radiance, hdr_of, render_app, scene_app, spawn_mesh, top_down};
 
 fn settings(walk: LightWalk) -> RenderSettings {
     RenderSettings { msaa: 1, light_walk: walk, ..Default::default() }
@@ -114,6 +114,25 @@ fn gpu_lists_equal_the_cpu_reference_for_awkward_lights() {
             Transform::from_translation(at).looking_at(target, Vec3::Y),
         ));
     }
+    // Lights with a size, facing every way (rects and disks only light their front side), one
+    // rect containing the camera.
+    for i in 0..40 {
+        let at = Vec3::new(rng.uniform(-8.0, 8.0), rng.uniform(0.2, 3.0), rng.uniform(-15.0, 4.0));
+        let target = at + Vec3::new(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
+        let t = Transform::from_translation(at).looking_at(target, Vec3::Y);
+        let range = Some(rng.uniform(0.5, 4.0));
+        let size = rng.uniform(0.1, 2.0);
+        match i % 4 {
+            0 => app.world.spawn((SphereLight { radius: size, range, ..Default::default() }, t)),
+            1 => app.world.spawn((TubeLight { length: 2.0 * size, radius: 0.05, range, ..Default::default() }, t)),
+            2 => app.world.spawn((RectLight { width: size, height: 0.5 * size, range, ..Default::default() }, t)),
+            _ => app.world.spawn((DiskLight { radius: size, range, ..Default::default() }, t)),
+        };
+    }
+    app.world.spawn((
+        RectLight { width: 3.0, height: 2.0, range: Some(2.0), ..Default::default() },
+        Transform::from_translation(eye + Vec3::new(0.0, 0.0, 0.5)),
+    ));
     camera(&mut app, eye, Vec3::new(0.0, 0.5, 0.0), perspective());
     render_app(&mut app, (128, 96), settings(LightWalk::Clustered));
     assert_lists_match_reference(&app, "perspective");
@@ -184,46 +203,6 @@ fn clustered_render_equals_brute_force_for_10000_lights_in_one_cluster() {
     // Lists longer than the workgroup-memory sort are sorted in place in the index buffer.
     let (_, entries) = assert_lists_match_reference(&app, "10 000 lights in one cluster");
     assert!(entries >= 10_000, "{entries} entries");
-}
-
-/// The white, fully rough floor's radiance under a light arriving along `l` with illuminance
-/// `e` (perpendicular to the light), seen from straight above: glTF's BRDF written out.
-fn floor_radiance(l: Vec3, e: f32) -> f32 {
-    let n = Vec3::Y;
-    let v = Vec3::Y;
-    let n_dot_l = n.dot(l);
-    if n_dot_l <= 0.0 {
-        return 0.0;
-    }
-    let h = (l + v).normalize();
-    let v_dot_h = v.dot(h).clamp(0.0, 1.0);
-    let fresnel = 0.04 + 0.96 * (1.0 - v_dot_h).powi(5);
-    let pi = std::f32::consts::PI;
-    // α = 1: D = 1/π; height-correlated Smith V = 0.5 / (N·L + N·V).
-    let spec = fresnel * (1.0 / pi) * (0.5 / (n_dot_l + 1.0));
-    let diffuse = (1.0 - fresnel) / pi;
-    (diffuse + spec) * e * n_dot_l
-}
-
-/// An orthographic camera looking straight down at a white floor, `half` metres each side of
-/// the centre, rendering `size`² pixels: returns the world position at the centre of pixel (x, y).
-fn top_down(app: &mut App, half: f32) -> impl Fn(u32, u32, u32) -> Vec3 + use<> {
-    spawn_mesh(app, Mesh::plane(4.0 * half), StandardMaterial::from_color(Vec4::ONE, 1.0), Transform::default());
-    app.world.spawn((
-        Camera {
-            projection: Projection::Orthographic { xmag: Some(half), ymag: half, znear: 0.1, zfar: 100.0 },
-            // HDR values are then radiance itself.
-            exposure: Exposure::unit(),
-            ..Default::default()
-        },
-        Transform::from_xyz(0.0, 10.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
-    ));
-    move |x, y, size| {
-        let u = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
-        let v = (y as f32 + 0.5) / size as f32 * 2.0 - 1.0;
-        // Looking down with −Z up on screen: screen x is world +X, screen y down is world +Z.
-        Vec3::new(u * half, 0.0, v * half)
-    }
 }
 
 #[test]
@@ -404,6 +383,22 @@ fn golden_every_light_type() {
         Transform::from_xyz(2.0, 3.0, 2.0).looking_at(Vec3::new(1.0, 0.0, 0.0), Vec3::Y),
     ));
     app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.05 });
+    app.world.spawn((
+        SphereLight { color: Vec3::new(0.3, 1.0, 0.4), intensity: 2.0, radius: 0.2, ..Default::default() },
+        Transform::from_xyz(0.0, 1.7, -1.2),
+    ));
+    app.world.spawn((
+        TubeLight { color: Vec3::new(1.0, 0.8, 0.5), intensity: 1.0, length: 2.5, radius: 0.03, ..Default::default() },
+        Transform::from_xyz(0.0, 0.2, 1.5),
+    ));
+    app.world.spawn((
+        RectLight { color: Vec3::new(0.8, 0.4, 1.0), luminance: 2.5, width: 1.2, height: 0.8, ..Default::default() },
+        Transform::from_xyz(-3.0, 1.3, -1.2).looking_at(Vec3::new(-1.0, 0.4, 0.0), Vec3::Y),
+    ));
+    app.world.spawn((
+        DiskLight { color: Vec3::new(1.0, 1.0, 0.6), luminance: 3.0, radius: 0.35, ..Default::default() },
+        Transform::from_xyz(2.8, 2.0, -1.2).looking_at(Vec3::new(1.0, 0.4, 0.0), Vec3::Y),
+    ));
     camera(&mut app, Vec3::new(0.0, 3.0, 6.0), Vec3::new(0.0, 0.5, 0.0), perspective());
     let shot = golden_shot(&mut app, (256, 160), RenderSettings { msaa: 4, ..Default::default() });
     common::check_golden("lights_every_type", &shot, common::Tolerance::default());

@@ -182,3 +182,43 @@ pub fn assert_finite_hdr(hdr: &[[f32; 4]], what: &str) {
         }
     }
 }
+
+/// The white, fully rough floor's radiance under a light arriving along `l` with illuminance
+/// `e` (perpendicular to the light), seen from straight above: glTF's BRDF written out.
+pub fn floor_radiance(l: Vec3, e: f32) -> f32 {
+    let n = Vec3::Y;
+    let v = Vec3::Y;
+    let n_dot_l = n.dot(l);
+    if n_dot_l <= 0.0 {
+        return 0.0;
+    }
+    let h = (l + v).normalize();
+    let v_dot_h = v.dot(h).clamp(0.0, 1.0);
+    let fresnel = 0.04 + 0.96 * (1.0 - v_dot_h).powi(5);
+    let pi = std::f32::consts::PI;
+    // α = 1: D = 1/π; height-correlated Smith V = 0.5 / (N·L + N·V).
+    let spec = fresnel * (1.0 / pi) * (0.5 / (n_dot_l + 1.0));
+    let diffuse = (1.0 - fresnel) / pi;
+    (diffuse + spec) * e * n_dot_l
+}
+
+/// An orthographic camera looking straight down at a white floor, `half` metres each side of
+/// the centre, rendering `size`² pixels: returns the world position at the centre of pixel (x, y).
+pub fn top_down(app: &mut App, half: f32) -> impl Fn(u32, u32, u32) -> Vec3 + use<> {
+    spawn_mesh(app, Mesh::plane(4.0 * half), StandardMaterial::from_color(Vec4::ONE, 1.0), Transform::default());
+    app.world.spawn((
+        Camera {
+            projection: Projection::Orthographic { xmag: Some(half), ymag: half, znear: 0.1, zfar: 100.0 },
+            // HDR values are then radiance itself.
+            exposure: Exposure::unit(),
+            ..Default::default()
+        },
+        Transform::from_xyz(0.0, 10.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
+    ));
+    move |x, y, size| {
+        let u = (x as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+        let v = (y as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+        // Looking down with −Z up on screen: screen x is world +X, screen y down is world +Z.
+        Vec3::new(u * half, 0.0, v * half)
+    }
+}

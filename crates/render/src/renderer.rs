@@ -29,7 +29,7 @@ use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::pipelines::shader_watcher::ShaderWatcher;
 use crate::prepare::buffer::GrowableBuffer;
 use crate::prepare::instances::{GpuInstance, InstanceBuffer};
-use crate::prepare::light_store::{DEFAULT_CUTOFF, LightStore};
+use crate::prepare::light_store::{DEFAULT_CUTOFF, LightShapes, LightStore};
 use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS};
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::prepare::textures::{TextureCache, TextureRequest};
@@ -59,7 +59,7 @@ pub struct RenderSettings {
     pub debug_view: DebugView,
 }
 
-/// How fragments find the local (point and spot) lights that reach them.
+/// How fragments find the local lights (every kind but directional and ambient) that reach them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LightWalk {
     /// Through the fragment's cluster list: the normal path.
@@ -132,7 +132,7 @@ pub struct FrameStats {
     pub primitives: u64,
     /// Lights in the store (global + local).
     pub lights: u32,
-    /// Of which local (point and spot), binned into clusters when binning runs.
+    /// Of which local (every kind but directional and ambient), binned into clusters when binning runs.
     pub local_lights: u32,
     /// Upper bound of the cluster lists' total length that sized the index buffer (0 without
     /// binning).
@@ -249,6 +249,7 @@ pub struct Renderer {
     shader_error: Option<ShaderError>,
     /// How this frame's pipelines find local lights (part of every pipeline key).
     local_lights: LocalLights,
+    light_shapes: LightShapes,
     /// The last binning refusal, reported once until it changes.
     binning_error: Option<BinningTooLarge>,
 }
@@ -311,6 +312,7 @@ impl Renderer {
             shader_watcher,
             shader_error,
             local_lights: LocalLights::None,
+            light_shapes: LightShapes::default(),
             binning_error: None,
             settings,
             ctx,
@@ -655,8 +657,10 @@ impl Renderer {
                 }
             }
         }
-        if walk != self.local_lights {
+        let shapes = self.lights.shapes();
+        if walk != self.local_lights || shapes != self.light_shapes {
             self.local_lights = walk;
+            self.light_shapes = shapes;
             self.batches_dirty = true;
         }
         rebind
@@ -824,6 +828,7 @@ impl Renderer {
             alpha: m.alpha,
             textures: m.textures,
             local_lights: self.local_lights,
+            light_shapes: self.light_shapes,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
             cull_back_faces: !m.double_sided,
@@ -932,6 +937,7 @@ impl Renderer {
                 buf(5, self.clusters.grid_buffer()),
                 buf(6, self.clusters.ranges()),
                 buf(7, self.clusters.indices()),
+                buf(8, self.lights.ltc_buffer()),
             ],
         })
     }

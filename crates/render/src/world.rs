@@ -41,8 +41,27 @@ pub struct DrawItem {
 pub enum LightKind {
     Directional,
     Point,
-    Spot { inner_cone_angle: f32, outer_cone_angle: f32 },
+    Spot {
+        inner_cone_angle: f32,
+        outer_cone_angle: f32,
+    },
     Ambient,
+    Sphere {
+        radius: f32,
+    },
+    /// Along `ExtractedLight::right`.
+    Tube {
+        length: f32,
+        radius: f32,
+    },
+    /// `width` along `right`, facing `direction`.
+    Rect {
+        width: f32,
+        height: f32,
+    },
+    Disk {
+        radius: f32,
+    },
 }
 
 /// Which light a store entry is: an entity's light component, or one of the default lights.
@@ -53,18 +72,25 @@ pub enum LightKey {
     Point(Entity),
     Spot(Entity),
     Ambient(Entity),
+    Sphere(Entity),
+    Tube(Entity),
+    Rect(Entity),
+    Disk(Entity),
     /// `RenderScene::default_lights[i]`.
     Default(u8),
 }
 
-/// One light in world space with its intensity folded into `color` (cd, lux or cd/m²).
+/// One light in world space with its intensity folded into `color` (cd, lux or cd/m²; for rect
+/// and disk lights the emitting face's luminance).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExtractedLight {
     pub kind: LightKind,
     pub color: Vec3,
     pub position: Vec3,
-    /// Direction the light travels (unit), for directional and spot lights.
+    /// Direction the light travels (unit): the light's local −Z.
     pub direction: Vec3,
+    /// The light's local +X (unit): a tube's axis, a rectangle's width.
+    pub right: Vec3,
     /// glTF's `range`; `None` lets the light store derive one from the intensity.
     pub range: Option<f32>,
 }

@@ -1,6 +1,12 @@
 //! Light components, in the photometric units of glTF's KHR_lights_punctual: directional lights
 //! in lux (lm/m²), point and spot lights in candela (lm/sr). Lights shine down their local −Z.
 //! `AmbientLight` is uniform radiance from every direction, in cd/m² (nits).
+//!
+//! Area lights have a size. `SphereLight` and `TubeLight` take a point light's units (candela,
+//! as seen from afar; a tube broadside), so that shrinking one to nothing leaves the point light
+//! of the same intensity. `RectLight` and `DiskLight` are one-sided emitting surfaces facing
+//! their local −Z, given by their luminance in cd/m². Sizes are in metres and ignore the
+//! transform's scale (a scaled parent does not resize a light).
 
 use bevy_ecs::prelude::*;
 use glam::Vec3;
@@ -80,5 +86,83 @@ pub struct AmbientLight {
 impl Default for AmbientLight {
     fn default() -> Self {
         Self { color: Vec3::ONE, intensity: 1.0 }
+    }
+}
+
+/// A glowing ball of `radius` metres: lights like a point light from outside, with the broad,
+/// round highlight of its size.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[require(Transform, Visibility)]
+pub struct SphereLight {
+    pub color: Vec3,
+    /// Candela, as a point light of the same intensity.
+    pub intensity: f32,
+    /// Metres.
+    pub radius: f32,
+    pub range: Option<f32>,
+    pub shadows: bool,
+}
+
+impl Default for SphereLight {
+    fn default() -> Self {
+        Self { color: Vec3::ONE, intensity: 1.0, radius: 0.05, range: None, shadows: true }
+    }
+}
+
+/// A glowing capsule (a fluorescent tube) along the light's local X axis: `length` metres
+/// between the centres of its round ends, `radius` metres thick.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[require(Transform, Visibility)]
+pub struct TubeLight {
+    pub color: Vec3,
+    /// Candela, seen broadside from afar (spread evenly along the length).
+    pub intensity: f32,
+    pub length: f32,
+    pub radius: f32,
+    pub range: Option<f32>,
+    pub shadows: bool,
+}
+
+impl Default for TubeLight {
+    fn default() -> Self {
+        Self { color: Vec3::ONE, intensity: 1.0, length: 1.0, radius: 0.02, range: None, shadows: true }
+    }
+}
+
+/// A one-sided emitting rectangle centred on the entity, `width` along local X and `height`
+/// along local Y, shining down local −Z (a softbox, a window, a panel light).
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[require(Transform, Visibility)]
+pub struct RectLight {
+    pub color: Vec3,
+    /// cd/m² of the emitting face.
+    pub luminance: f32,
+    pub width: f32,
+    pub height: f32,
+    pub range: Option<f32>,
+    pub shadows: bool,
+}
+
+impl Default for RectLight {
+    fn default() -> Self {
+        Self { color: Vec3::ONE, luminance: 1.0, width: 1.0, height: 1.0, range: None, shadows: true }
+    }
+}
+
+/// A one-sided emitting disk of `radius` metres in the local XY plane, shining down local −Z.
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[require(Transform, Visibility)]
+pub struct DiskLight {
+    pub color: Vec3,
+    /// cd/m² of the emitting face.
+    pub luminance: f32,
+    pub radius: f32,
+    pub range: Option<f32>,
+    pub shadows: bool,
+}
+
+impl Default for DiskLight {
+    fn default() -> Self {
+        Self { color: Vec3::ONE, luminance: 1.0, radius: 0.5, range: None, shadows: true }
     }
 }

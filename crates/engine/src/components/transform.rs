@@ -98,6 +98,10 @@ impl GlobalTransform {
     pub fn forward(&self) -> Vec3 {
         self.0.matrix3.mul_vec3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Z)
     }
+    /// Local +X in world space, normalised.
+    pub fn right(&self) -> Vec3 {
+        self.0.matrix3.mul_vec3(Vec3::X).normalize_or(Vec3::X)
+    }
     /// Whether the transform mirrors space (negative determinant), which flips triangle winding.
     pub fn is_mirrored(&self) -> bool {
         self.0.matrix3.determinant() < 0.0

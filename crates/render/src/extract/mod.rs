@@ -12,8 +12,8 @@ use bevy_ecs::prelude::*;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::assets::Assets;
 use penumbra_engine::components::{
-    AmbientLight, Camera, DirectionalLight, GlobalTransform, InheritedVisibility, Mesh3d, MeshMaterial3d, PointLight,
-    SpotLight,
+    AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, InheritedVisibility, Mesh3d, MeshMaterial3d,
+    PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
@@ -112,7 +112,16 @@ pub mod default_lighting {
 
 /// Placement or visibility changed (each light type adds its own component's change).
 type Moved = Or<(Changed<GlobalTransform>, Changed<InheritedVisibility>)>;
-type IsLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>, With<AmbientLight>)>;
+type IsLight = Or<(
+    With<DirectionalLight>,
+    With<PointLight>,
+    With<SpotLight>,
+    With<AmbientLight>,
+    With<SphereLight>,
+    With<TubeLight>,
+    With<RectLight>,
+    With<DiskLight>,
+)>;
 
 /// Lights of every type removed (or despawned) since the last extraction.
 #[derive(bevy_ecs::system::SystemParam)]
@@ -121,28 +130,29 @@ struct RemovedLights<'w, 's> {
     point: RemovedComponents<'w, 's, PointLight>,
     spot: RemovedComponents<'w, 's, SpotLight>,
     ambient: RemovedComponents<'w, 's, AmbientLight>,
+    sphere: RemovedComponents<'w, 's, SphereLight>,
+    tube: RemovedComponents<'w, 's, TubeLight>,
+    rect: RemovedComponents<'w, 's, RectLight>,
+    disk: RemovedComponents<'w, 's, DiskLight>,
 }
+
+/// A placed light of type `L` whose component or placement changed.
+type ChangedPlaced<'w, 's, L> = Query<
+    'w,
+    's,
+    (Entity, &'static L, &'static GlobalTransform, &'static InheritedVisibility),
+    Or<(Changed<L>, Moved)>,
+>;
 
 #[derive(bevy_ecs::system::SystemParam)]
 struct ChangedLights<'w, 's> {
-    directional: Query<
-        'w,
-        's,
-        (Entity, &'static DirectionalLight, &'static GlobalTransform, &'static InheritedVisibility),
-        Or<(Changed<DirectionalLight>, Moved)>,
-    >,
-    point: Query<
-        'w,
-        's,
-        (Entity, &'static PointLight, &'static GlobalTransform, &'static InheritedVisibility),
-        Or<(Changed<PointLight>, Moved)>,
-    >,
-    spot: Query<
-        'w,
-        's,
-        (Entity, &'static SpotLight, &'static GlobalTransform, &'static InheritedVisibility),
-        Or<(Changed<SpotLight>, Moved)>,
-    >,
+    directional: ChangedPlaced<'w, 's, DirectionalLight>,
+    point: ChangedPlaced<'w, 's, PointLight>,
+    spot: ChangedPlaced<'w, 's, SpotLight>,
+    sphere: ChangedPlaced<'w, 's, SphereLight>,
+    tube: ChangedPlaced<'w, 's, TubeLight>,
+    rect: ChangedPlaced<'w, 's, RectLight>,
+    disk: ChangedPlaced<'w, 's, DiskLight>,
     ambient: Query<
         'w,
         's,
@@ -153,58 +163,61 @@ struct ChangedLights<'w, 's> {
 
 /// A light as extracted, or `None` when it should not light anything (hidden). Non-finite
 /// values are refused here, so no NaN reaches the light store or the cluster bins.
+fn placed(kind: LightKind, color: Vec3, t: &GlobalTransform, range: Option<f32>) -> ExtractedLight {
+    ExtractedLight { kind, color, position: t.translation(), direction: t.forward(), right: t.right(), range }
+}
+
+fn unplaced(kind: LightKind, color: Vec3, direction: Vec3) -> ExtractedLight {
+    ExtractedLight { kind, color, position: Vec3::ZERO, direction, right: Vec3::X, range: None }
+}
+
 fn directional_light(l: &DirectionalLight, t: &GlobalTransform) -> ExtractedLight {
-    ExtractedLight {
-        kind: LightKind::Directional,
-        color: l.color * l.illuminance,
-        position: Vec3::ZERO,
-        direction: t.forward(),
-        range: None,
-    }
+    unplaced(LightKind::Directional, l.color * l.illuminance, t.forward())
 }
 
 fn point_light(l: &PointLight, t: &GlobalTransform) -> ExtractedLight {
-    ExtractedLight {
-        kind: LightKind::Point,
-        color: l.color * l.intensity,
-        position: t.translation(),
-        direction: Vec3::NEG_Z,
-        range: l.range,
-    }
+    placed(LightKind::Point, l.color * l.intensity, t, l.range)
 }
 
 fn spot_light(l: &SpotLight, t: &GlobalTransform) -> ExtractedLight {
-    ExtractedLight {
-        kind: LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle },
-        color: l.color * l.intensity,
-        position: t.translation(),
-        direction: t.forward(),
-        range: l.range,
-    }
+    let kind = LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle };
+    placed(kind, l.color * l.intensity, t, l.range)
 }
 
 fn ambient_light(l: &AmbientLight) -> ExtractedLight {
-    ExtractedLight {
-        kind: LightKind::Ambient,
-        color: l.color * l.intensity,
-        position: Vec3::ZERO,
-        direction: Vec3::NEG_Z,
-        range: None,
-    }
+    unplaced(LightKind::Ambient, l.color * l.intensity, Vec3::NEG_Z)
+}
+
+fn sphere_light(l: &SphereLight, t: &GlobalTransform) -> ExtractedLight {
+    placed(LightKind::Sphere { radius: l.radius }, l.color * l.intensity, t, l.range)
+}
+
+fn tube_light(l: &TubeLight, t: &GlobalTransform) -> ExtractedLight {
+    placed(LightKind::Tube { length: l.length, radius: l.radius }, l.color * l.intensity, t, l.range)
+}
+
+fn rect_light(l: &RectLight, t: &GlobalTransform) -> ExtractedLight {
+    placed(LightKind::Rect { width: l.width, height: l.height }, l.color * l.luminance, t, l.range)
+}
+
+fn disk_light(l: &DiskLight, t: &GlobalTransform) -> ExtractedLight {
+    placed(LightKind::Disk { radius: l.radius }, l.color * l.luminance, t, l.range)
 }
 
 fn is_finite(l: &ExtractedLight) -> bool {
-    let angles = match l.kind {
-        LightKind::Spot { inner_cone_angle, outer_cone_angle } => {
-            inner_cone_angle.is_finite() && outer_cone_angle.is_finite()
-        }
-        _ => true,
+    let shape = match l.kind {
+        LightKind::Spot { inner_cone_angle: a, outer_cone_angle: b }
+        | LightKind::Tube { length: a, radius: b }
+        | LightKind::Rect { width: a, height: b } => a.is_finite() && b.is_finite(),
+        LightKind::Sphere { radius } | LightKind::Disk { radius } => radius.is_finite(),
+        LightKind::Directional | LightKind::Point | LightKind::Ambient => true,
     };
     l.color.is_finite()
         && l.position.is_finite()
         && l.direction.is_finite()
+        && l.right.is_finite()
         && l.range.is_none_or(f32::is_finite)
-        && angles
+        && shape
 }
 
 fn extract_lights(
@@ -225,7 +238,7 @@ fn extract_lights(
         other => {
             if other.is_some() && warned.insert(key) {
                 tracing::warn!(
-                    "{key:?} has a NaN or infinite colour, intensity, position, direction, range or cone angle; it lights nothing until fixed"
+                    "{key:?} has a NaN or infinite colour, intensity, position, direction, range, size or cone angle; it lights nothing until fixed"
                 );
             }
             if scene.lights.remove(&key).is_some() {
@@ -245,6 +258,18 @@ fn extract_lights(
     for (e, l, v) in &changed.ambient {
         set(LightKey::Ambient(e), v.0.then(|| ambient_light(l)));
     }
+    for (e, l, t, v) in &changed.sphere {
+        set(LightKey::Sphere(e), v.0.then(|| sphere_light(l, t)));
+    }
+    for (e, l, t, v) in &changed.tube {
+        set(LightKey::Tube(e), v.0.then(|| tube_light(l, t)));
+    }
+    for (e, l, t, v) in &changed.rect {
+        set(LightKey::Rect(e), v.0.then(|| rect_light(l, t)));
+    }
+    for (e, l, t, v) in &changed.disk {
+        set(LightKey::Disk(e), v.0.then(|| disk_light(l, t)));
+    }
     // A component removed and inserted again within the frame shows up in both lists; the
     // changed query already re-extracted it, so only keys no longer present are dropped.
     let gone: Vec<LightKey> = removed
@@ -255,6 +280,10 @@ fn extract_lights(
         .chain(removed.point.read().filter(|e| !changed.point.contains(*e)).map(LightKey::Point))
         .chain(removed.spot.read().filter(|e| !changed.spot.contains(*e)).map(LightKey::Spot))
         .chain(removed.ambient.read().filter(|e| !changed.ambient.contains(*e)).map(LightKey::Ambient))
+        .chain(removed.sphere.read().filter(|e| !changed.sphere.contains(*e)).map(LightKey::Sphere))
+        .chain(removed.tube.read().filter(|e| !changed.tube.contains(*e)).map(LightKey::Tube))
+        .chain(removed.rect.read().filter(|e| !changed.rect.contains(*e)).map(LightKey::Rect))
+        .chain(removed.disk.read().filter(|e| !changed.disk.contains(*e)).map(LightKey::Disk))
         .collect();
     for key in gone {
         if scene.lights.remove(&key).is_some() {
@@ -267,20 +296,16 @@ fn extract_lights(
     if any_light.is_empty() {
         let view_rotation =
             scene.view.map_or(glam::Quat::IDENTITY, |v| v.world_from_view.to_scale_rotation_translation().1);
-        scene.default_lights.push(ExtractedLight {
-            kind: LightKind::Directional,
-            color: Vec3::splat(default_lighting::KEY_ILLUMINANCE),
-            position: Vec3::ZERO,
-            direction: (view_rotation * default_lighting::KEY_DIRECTION_VIEW).normalize(),
-            range: None,
-        });
-        scene.default_lights.push(ExtractedLight {
-            kind: LightKind::Ambient,
-            color: Vec3::splat(default_lighting::AMBIENT_RADIANCE),
-            position: Vec3::ZERO,
-            direction: Vec3::NEG_Z,
-            range: None,
-        });
+        scene.default_lights.push(unplaced(
+            LightKind::Directional,
+            Vec3::splat(default_lighting::KEY_ILLUMINANCE),
+            (view_rotation * default_lighting::KEY_DIRECTION_VIEW).normalize(),
+        ));
+        scene.default_lights.push(unplaced(
+            LightKind::Ambient,
+            Vec3::splat(default_lighting::AMBIENT_RADIANCE),
+            Vec3::NEG_Z,
+        ));
     }
 }
 

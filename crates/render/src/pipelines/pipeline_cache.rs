@@ -18,6 +18,7 @@ use std::collections::HashMap;
 use penumbra_engine::mesh::Topology;
 
 use super::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
+use crate::prepare::light_store::LightShapes;
 use crate::prepare::materials::AlphaKey;
 use crate::prepare::mesh_pool::GpuVertex;
 
@@ -43,8 +44,10 @@ pub struct PipelineKey {
     pub unlit: bool,
     pub alpha: AlphaKey,
     pub textures: TextureSet,
-    /// How (and whether) point and spot lights are found; without any, their code is left out.
+    /// How (and whether) local lights are found; without any, their code is left out.
     pub local_lights: LocalLights,
+    /// Which lights with a size need their shading code.
+    pub light_shapes: LightShapes,
     pub debug: DebugView,
     pub topology: TopologyKey,
     /// Double-sided materials draw both faces.
@@ -61,6 +64,7 @@ impl PipelineKey {
     pub fn shader_defs(&self) -> ShaderDefs {
         let t = self.textures;
         let lit = !self.unlit;
+        let local = lit && self.local_lights != LocalLights::None;
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -74,11 +78,13 @@ impl PipelineKey {
             .with("LOCAL_LIGHTS", lit && self.local_lights != LocalLights::None)
             .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)
             .with("UNBOUNDED_LIGHTS", lit && self.local_lights == LocalLights::AllUnbounded)
+            .with("SPHERE_TUBE_LIGHTS", local && self.light_shapes.sphere_tube)
+            .with("LTC_LIGHTS", local && self.light_shapes.ltc)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
     }
 }
 
-/// How the forward shader walks point and spot lights.
+/// How the forward shader walks local lights (every kind but directional and ambient).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub enum LocalLights {
     /// The scene has none: no local-light code at all.
@@ -279,6 +285,7 @@ impl PipelineCache {
                 buffer_entry(5, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
                 storage(6, wgpu::ShaderStages::FRAGMENT),
                 storage(7, wgpu::ShaderStages::FRAGMENT),
+                storage(8, wgpu::ShaderStages::FRAGMENT),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;

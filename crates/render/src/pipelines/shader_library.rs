@@ -28,6 +28,8 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     ("brdf.wgsl", include_str!("../../../../shaders/brdf.wgsl")),
     ("light_data.wgsl", include_str!("../../../../shaders/light_data.wgsl")),
+    ("area_lights.wgsl", include_str!("../../../../shaders/area_lights.wgsl")),
+    ("ltc.wgsl", include_str!("../../../../shaders/ltc.wgsl")),
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),

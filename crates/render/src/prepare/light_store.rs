@@ -2,7 +2,7 @@
 //! default lights of a scene without any) is packed into one `array<Light>` with no fixed count.
 //!
 //! Layout: `[global lights | local lights]`. Global lights (directional, ambient) light every
-//! fragment and are walked in full; local lights (point, spot) are binned into clusters and
+//! fragment and are walked in full; local lights (every other kind) are binned into clusters and
 //! walked through the cluster lists. Each section is dense: removal moves the section's last
 //! light into the hole (one slot rewritten). Extraction's change lists drive `sync`; `upload`
 //! then writes only the slots that changed, merged into runs. A change in the number of global
@@ -21,26 +21,35 @@ use glam::Vec3;
 use super::buffer::GrowableBuffer;
 use crate::world::{ExtractedLight, LightKey, LightKind, RenderScene};
 
-/// Mirrors `struct Light` in `shaders/light_data.wgsl`.
+/// Mirrors `struct Light` in `shaders/light_data.wgsl`. `size` and `shape` mean what each kind
+/// needs (see [`pack`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
     pub position: [f32; 3],
     pub kind: u32,
+    /// Unit direction the light shines (spot, directional, rect, disk) or a tube's axis.
     pub direction: [f32; 3],
-    /// Influence radius of local lights (> 0); 0 for global lights and for local lights that
-    /// light nothing (zero intensity), which the binner skips.
+    /// Radius around `position` bounding everything a local light reaches (> 0): its influence
+    /// range plus its own extent. 0 for global lights and for local lights that light nothing
+    /// (zero intensity or area), which the binner skips.
     pub range: f32,
     pub color: [f32; 3],
-    pub spot_scale: f32,
-    pub spot_offset: f32,
-    pub _pad: [f32; 3],
+    /// Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width.
+    pub size: f32,
+    /// Spot: (cone falloff offset, 0, 0, 0). Tube: (half length, 0, 0, 0). Rect: (unit width
+    /// axis, half height). Disk: (unit axis in its plane, 0).
+    pub shape: [f32; 4],
 }
 
 pub const KIND_DIRECTIONAL: u32 = 0;
 pub const KIND_POINT: u32 = 1;
 pub const KIND_SPOT: u32 = 2;
 pub const KIND_AMBIENT: u32 = 3;
+pub const KIND_SPHERE: u32 = 4;
+pub const KIND_TUBE: u32 = 5;
+pub const KIND_RECT: u32 = 6;
+pub const KIND_DISK: u32 = 7;
 
 /// Display-referred luminance below which a light's contribution is cut off, by default:
 /// 1/4096 of white, about a quarter of the smallest step of an 8-bit sRGB output near black.
@@ -48,15 +57,28 @@ pub const DEFAULT_CUTOFF: f32 = 1.0 / 4096.0;
 
 /// Whether `kind` is binned into clusters (else it lights every fragment).
 pub fn is_local(kind: &LightKind) -> bool {
-    matches!(kind, LightKind::Point | LightKind::Spot { .. })
+    !matches!(kind, LightKind::Directional | LightKind::Ambient)
 }
 
-/// The distance at which a local light stops: glTF's `range` when given (and positive), else
-/// the distance where the light, after `exposure`, would make a white Lambertian surface facing
-/// it reflect `cutoff` (display-referred luminance): `L = k·I/(π·d²)`, so `d = √(k·I/(π·cutoff))`
-/// for the brightest channel `I` (cd) and exposure scale `k`.
+/// Luminous intensity (cd) of the brightest channel, as seen from afar along the light's
+/// brightest direction: a rect or disk light's luminance times its area.
+fn peak_intensity(light: &ExtractedLight) -> f32 {
+    let area = match light.kind {
+        LightKind::Rect { width, height } => width.max(0.0) * height.max(0.0),
+        LightKind::Disk { radius } => std::f32::consts::PI * radius.max(0.0).powi(2),
+        _ => 1.0,
+    };
+    (light.color.max_element().max(0.0) * area).min(f32::MAX)
+}
+
+/// The distance, from the nearest point of the light, at which a local light stops: glTF's
+/// `range` when given (and positive), else the distance where the light, after `exposure`,
+/// would make a white Lambertian surface facing it reflect `cutoff` (display-referred
+/// luminance): `L = k·I/(π·d²)`, so `d = √(k·I/(π·cutoff))` for the brightest channel's
+/// intensity `I` (cd) and exposure scale `k`. For area lights `I` is the peak intensity, and
+/// since no point of an emitter of area A is nearer than d, `L·A/d²` bounds its irradiance too.
 pub fn influence_range(light: &ExtractedLight, exposure: f32, cutoff: f32) -> f32 {
-    let intensity = light.color.max_element().max(0.0);
+    let intensity = peak_intensity(light);
     if intensity <= 0.0 {
         return 0.0;
     }
@@ -66,11 +88,36 @@ pub fn influence_range(light: &ExtractedLight, exposure: f32, cutoff: f32) -> f3
     }
 }
 
+/// How far the light itself extends from its `position`: what the bounding radius adds to the
+/// influence range (and what the shader subtracts again to window by distance to the light).
+pub fn extent(kind: &LightKind) -> f32 {
+    match *kind {
+        LightKind::Tube { length, .. } => 0.5 * length.max(0.0),
+        LightKind::Rect { width, height } => 0.5 * width.max(0.0).hypot(height.max(0.0)),
+        LightKind::Disk { radius } => radius.max(0.0),
+        _ => 0.0,
+    }
+}
+
 pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32) -> GpuLight {
-    let (kind, spot_scale, spot_offset) = match light.kind {
-        LightKind::Directional => (KIND_DIRECTIONAL, 0.0, 0.0),
-        LightKind::Point => (KIND_POINT, 0.0, 0.0),
-        LightKind::Ambient => (KIND_AMBIENT, 0.0, 0.0),
+    let direction = light.direction.normalize_or(Vec3::NEG_Z);
+    // The in-plane axis of rects and disks, made exactly perpendicular to the normal (a sheared
+    // transform may not give perpendicular axes).
+    let across =
+        (light.right - direction * light.right.dot(direction)).normalize_or(direction.any_orthonormal_vector());
+    let mut g = GpuLight {
+        position: light.position.to_array(),
+        kind: 0,
+        direction: direction.to_array(),
+        range: 0.0,
+        color: light.color.max(Vec3::ZERO).to_array(),
+        size: 0.0,
+        shape: [0.0; 4],
+    };
+    match light.kind {
+        LightKind::Directional => g.kind = KIND_DIRECTIONAL,
+        LightKind::Point => g.kind = KIND_POINT,
+        LightKind::Ambient => g.kind = KIND_AMBIENT,
         LightKind::Spot { inner_cone_angle, outer_cone_angle } => {
             // KHR_lights_punctual's smooth cone falloff as scale/offset of cos(angle); the
             // 0.001 floor keeps inner == outer from dividing by zero (a hard-edged cone). The
@@ -80,20 +127,38 @@ pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32) -> GpuLight {
             let cos_outer = outer.cos();
             let cos_inner = inner_cone_angle.clamp(0.0, outer).cos();
             let scale = 1.0 / (cos_inner - cos_outer).max(0.001);
-            (KIND_SPOT, scale, -cos_outer * scale)
+            g.kind = KIND_SPOT;
+            g.size = scale;
+            g.shape[0] = -cos_outer * scale;
         }
-    };
-    let range = if is_local(&light.kind) { influence_range(light, exposure, cutoff) } else { 0.0 };
-    GpuLight {
-        position: light.position.to_array(),
-        kind,
-        direction: light.direction.normalize_or(Vec3::NEG_Z).to_array(),
-        range,
-        color: light.color.max(Vec3::ZERO).to_array(),
-        spot_scale,
-        spot_offset,
-        _pad: [0.0; 3],
+        LightKind::Sphere { radius } => {
+            g.kind = KIND_SPHERE;
+            g.size = radius.max(0.0);
+        }
+        LightKind::Tube { length, radius } => {
+            g.kind = KIND_TUBE;
+            g.direction = light.right.normalize_or(Vec3::X).to_array();
+            g.size = radius.max(0.0);
+            g.shape[0] = 0.5 * length.max(0.0);
+        }
+        LightKind::Rect { width, height } => {
+            g.kind = KIND_RECT;
+            g.size = 0.5 * width.max(0.0);
+            g.shape = across.extend(0.5 * height.max(0.0)).to_array();
+        }
+        LightKind::Disk { radius } => {
+            g.kind = KIND_DISK;
+            g.size = radius.max(0.0);
+            g.shape = across.extend(0.0).to_array();
+        }
     }
+    if is_local(&light.kind) {
+        let reach = influence_range(light, exposure, cutoff);
+        if reach > 0.0 {
+            g.range = (reach + extent(&light.kind)).min(f32::MAX);
+        }
+    }
+    g
 }
 
 /// One dense section of the buffer.
@@ -135,6 +200,28 @@ pub struct LightStore {
     pub local_generation: u64,
     /// Bytes written by the last `upload`.
     pub last_upload_bytes: u64,
+    /// Lights of each kind (indexed by `GpuLight::kind`): which shading code the scene needs.
+    kind_counts: [u32; KIND_COUNT],
+    /// The LTC fit, uploaded with the first rect or disk light; until then a 16-byte stand-in
+    /// fills its binding (no shader variant without those lights reads it).
+    ltc_table: Option<wgpu::Buffer>,
+    ltc_placeholder: Option<wgpu::Buffer>,
+}
+
+/// Number of light kinds (discriminants `0..KIND_COUNT`).
+pub const KIND_COUNT: usize = 8;
+
+/// The fitted LTC tables for GGX (see `shaders/ltc.wgsl` and `assets/ltc/README.md`): 64×64
+/// cells of M⁻¹ as 4 f32, then 64×64 cells of (magnitude, Fresnel) as 2 f32, little-endian.
+const LTC_TABLE: &[u8] = include_bytes!("../../../../assets/ltc/ggx_ltc_64x64.bin");
+
+/// Which kinds of lights with a size the scene has: each brings its own shader code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct LightShapes {
+    /// Sphere or tube lights (representative point).
+    pub sphere_tube: bool,
+    /// Rect or disk lights (linearly transformed cosines).
+    pub ltc: bool,
 }
 
 impl Default for LightStore {
@@ -158,6 +245,30 @@ impl LightStore {
             bounds_stale: false,
             local_generation: 0,
             last_upload_bytes: 0,
+            kind_counts: [0; KIND_COUNT],
+            ltc_table: None,
+            ltc_placeholder: None,
+        }
+    }
+
+    /// The kinds of lights with a size present now.
+    pub fn shapes(&self) -> LightShapes {
+        let c = &self.kind_counts;
+        LightShapes {
+            sphere_tube: c[KIND_SPHERE as usize] + c[KIND_TUBE as usize] > 0,
+            ltc: c[KIND_RECT as usize] + c[KIND_DISK as usize] > 0,
+        }
+    }
+
+    /// The buffer behind `ltc_table` in the shaders (a stand-in until a rect or disk light
+    /// needs the real one). Exists once `upload` has run.
+    pub fn ltc_buffer(&self) -> &wgpu::Buffer {
+        self.ltc_table.as_ref().or(self.ltc_placeholder.as_ref()).expect("LightStore::upload runs before binding")
+    }
+
+    fn count_kind(&mut self, kind: u32, delta: i32) {
+        if let Some(c) = self.kind_counts.get_mut(kind as usize) {
+            *c = c.saturating_add_signed(delta);
         }
     }
 
@@ -179,7 +290,7 @@ impl LightStore {
     }
 
     pub fn gpu_bytes(&self) -> u64 {
-        self.buffer.as_ref().map_or(0, GrowableBuffer::capacity)
+        self.buffer.as_ref().map_or(0, GrowableBuffer::capacity) + self.ltc_table.as_ref().map_or(0, wgpu::Buffer::size)
     }
 
     /// The packed local lights, in buffer order (slot `global_count() + i`).
@@ -276,8 +387,11 @@ impl LightStore {
                 if s.extracted[i as usize] == *light {
                     return;
                 }
+                let packed = pack(light, exposure, cutoff);
+                let old_kind = std::mem::replace(&mut s.packed[i as usize], packed).kind;
                 s.extracted[i as usize] = *light;
-                s.packed[i as usize] = pack(light, exposure, cutoff);
+                self.count_kind(old_kind, -1);
+                self.count_kind(packed.kind, 1);
                 self.dirty.push((which, i));
             }
             Some(_) => {
@@ -295,6 +409,7 @@ impl LightStore {
 
     fn insert(&mut self, key: LightKey, which: Which, light: &ExtractedLight) {
         let packed = pack(light, self.exposure, self.cutoff);
+        self.count_kind(packed.kind, 1);
         let s = self.section(which);
         let i = s.keys.len() as u32;
         s.keys.push(key);
@@ -312,12 +427,13 @@ impl LightStore {
         let s = self.section(which);
         s.keys.swap_remove(i as usize);
         s.extracted.swap_remove(i as usize);
-        s.packed.swap_remove(i as usize);
+        let removed_kind = s.packed.swap_remove(i as usize).kind;
         let moved = s.keys.get(i as usize).copied();
         if let Some(moved) = moved {
             self.index.insert(moved, (which, i));
             self.dirty.push((which, i));
         }
+        self.count_kind(removed_kind, -1);
         match which {
             Which::Global => self.full = true,
             Which::Local => {
@@ -327,8 +443,8 @@ impl LightStore {
         }
     }
 
-    /// Writes what changed since the last upload; returns true when the buffer was replaced
-    /// (bind groups holding it must be rebuilt).
+    /// Writes what changed since the last upload; returns true when a buffer was replaced or
+    /// created (bind groups holding it must be rebuilt).
     pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> bool {
         const SIZE: u64 = std::mem::size_of::<GpuLight>() as u64;
         let total = self.count() as u64 * SIZE;
@@ -337,7 +453,27 @@ impl LightStore {
             .buffer
             .get_or_insert_with(|| GrowableBuffer::new(device, "lights", wgpu::BufferUsages::STORAGE, 64 * SIZE));
         let grew = buffer.reserve(device, total.max(SIZE)) || created;
+        let mut ltc_created = false;
         let buffer = buffer.buffer().clone();
+        if self.ltc_placeholder.is_none() {
+            self.ltc_placeholder = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ltc table stand-in"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }));
+        }
+        if self.shapes().ltc && self.ltc_table.is_none() {
+            let table = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ltc table"),
+                size: LTC_TABLE.len() as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            queue.write_buffer(&table, 0, LTC_TABLE);
+            self.ltc_table = Some(table);
+            ltc_created = true;
+        }
         self.last_upload_bytes = 0;
         if grew || self.full {
             let all = self.packed();
@@ -388,7 +524,7 @@ impl LightStore {
         }
         self.dirty.clear();
         self.full = false;
-        grew
+        grew || ltc_created
     }
 }
 
@@ -398,7 +534,14 @@ mod tests {
     use bevy_ecs::entity::Entity;
 
     fn light(kind: LightKind) -> ExtractedLight {
-        ExtractedLight { kind, color: Vec3::ONE, position: Vec3::ZERO, direction: Vec3::NEG_Z, range: None }
+        ExtractedLight {
+            kind,
+            color: Vec3::ONE,
+            position: Vec3::ZERO,
+            direction: Vec3::NEG_Z,
+            right: Vec3::X,
+            range: None,
+        }
     }
 
     #[test]
@@ -408,6 +551,10 @@ mod tests {
             (LightKind::Point, KIND_POINT),
             (LightKind::Spot { inner_cone_angle: 0.1, outer_cone_angle: 0.5 }, KIND_SPOT),
             (LightKind::Ambient, KIND_AMBIENT),
+            (LightKind::Sphere { radius: 0.1 }, KIND_SPHERE),
+            (LightKind::Tube { length: 1.0, radius: 0.1 }, KIND_TUBE),
+            (LightKind::Rect { width: 1.0, height: 0.5 }, KIND_RECT),
+            (LightKind::Disk { radius: 0.3 }, KIND_DISK),
         ];
         let mut seen = std::collections::HashSet::new();
         for (k, want) in kinds {
@@ -420,11 +567,11 @@ mod tests {
     #[test]
     fn spot_falloff_is_one_inside_and_zero_outside() {
         let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.2, outer_cone_angle: 0.4 }), 1.0, DEFAULT_CUTOFF);
-        let at = |angle: f32| (angle.cos() * g.spot_scale + g.spot_offset).clamp(0.0, 1.0);
+        let at = |angle: f32| (angle.cos() * g.size + g.shape[0]).clamp(0.0, 1.0);
         assert!((at(0.1) - 1.0).abs() < 1e-5);
         assert!(at(0.41) == 0.0);
         let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.4, outer_cone_angle: 0.4 }), 1.0, DEFAULT_CUTOFF);
-        assert!(g.spot_scale.is_finite());
+        assert!(g.size.is_finite());
     }
 
     #[test]
@@ -442,6 +589,31 @@ mod tests {
         l.range = None;
         l.color = Vec3::splat(f32::MAX);
         assert!(influence_range(&l, 1e30, 1e-30).is_finite());
+    }
+
+    #[test]
+    fn area_lights_are_bounded_by_their_reach_plus_their_extent() {
+        let mut rect = light(LightKind::Rect { width: 2.0, height: 1.0 });
+        rect.range = Some(3.0);
+        // A sheared transform's axes: the packed width axis is made perpendicular to the normal.
+        rect.right = Vec3::new(1.0, 0.0, 0.5);
+        let g = pack(&rect, 1.0, DEFAULT_CUTOFF);
+        assert!((g.range - (3.0 + 0.5 * 5f32.sqrt())).abs() < 1e-5, "{}", g.range);
+        let axis = Vec3::new(g.shape[0], g.shape[1], g.shape[2]);
+        assert!(axis.dot(Vec3::from(g.direction)).abs() < 1e-6 && (axis.length() - 1.0).abs() < 1e-6);
+        assert_eq!((g.size, g.shape[3]), (1.0, 0.5));
+        // Computed reach: a rect of luminance L and area A reaches as far as a point light of
+        // intensity L·A.
+        let mut point = light(LightKind::Point);
+        point.color = Vec3::splat(2.0);
+        rect.range = None;
+        assert!((influence_range(&rect, 1.0, 1e-3) - influence_range(&point, 1.0, 1e-3)).abs() < 1e-3);
+        let tube = pack(&light(LightKind::Tube { length: 4.0, radius: 0.1 }), 1.0, DEFAULT_CUTOFF);
+        let sphere = pack(&light(LightKind::Sphere { radius: 0.1 }), 1.0, DEFAULT_CUTOFF);
+        assert!((tube.range - sphere.range - 2.0).abs() < 1e-4);
+        // No area, no light: not binned.
+        assert_eq!(pack(&light(LightKind::Rect { width: 0.0, height: 1.0 }), 1.0, DEFAULT_CUTOFF).range, 0.0);
+        assert_eq!(pack(&light(LightKind::Disk { radius: -1.0 }), 1.0, DEFAULT_CUTOFF).range, 0.0);
     }
 
     fn scene_with(lights: &[(LightKey, ExtractedLight)]) -> RenderScene {

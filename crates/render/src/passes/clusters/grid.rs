@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, UVec3, Vec2, Vec3};
 use penumbra_engine::components::Projection;
 
-use crate::prepare::light_store::{GpuLight, KIND_SPOT, LightBounds};
+use crate::prepare::light_store::{GpuLight, KIND_DISK, KIND_RECT, KIND_SPOT, LightBounds};
 use crate::world::ExtractedView;
 
 /// Froxel grid resolution: tiles across and down the screen, and depth slices.
@@ -87,6 +87,7 @@ pub struct ClusterGrid {
 pub struct Bounds {
     pub center: Vec3,
     pub radius: f32,
+    /// The cone the light reaches into, as (axis, cos, sin of its half-angle).
     pub spot: Option<(Vec3, f32, f32)>,
 }
 
@@ -200,9 +201,15 @@ impl ClusterGrid {
         let center = self.view_coords(Vec3::from(light.position) - self.camera_position);
         // A light of range 0 lights nothing and is not binned (its box comes out empty).
         let radius = if light.range > 0.0 { light.range + 1e-5 * (center.length() + light.range) } else { 0.0 };
-        let spot = (light.kind == KIND_SPOT).then(|| {
+        // A spot reaches only into its cone; a one-sided rect or disk only in front of its
+        // plane: the cone of half-angle π/2 from its centre.
+        let cos_outer = match light.kind {
+            KIND_SPOT => Some((-light.shape[0] / light.size).clamp(0.0, 1.0)),
+            KIND_RECT | KIND_DISK => Some(0.0),
+            _ => None,
+        };
+        let spot = cos_outer.map(|cos_outer| {
             let axis = self.view_coords(Vec3::from(light.direction));
-            let cos_outer = (-light.spot_offset / light.spot_scale).clamp(0.0, 1.0);
             (axis, cos_outer, (1.0 - cos_outer * cos_outer).max(0.0).sqrt())
         });
         Bounds { center, radius, spot }
@@ -245,7 +252,7 @@ impl ClusterGrid {
     }
 
     /// The per-cluster test of the GPU walk: sphere against the froxel's bounding box, and for
-    /// spots the cone against the froxel's bounding sphere.
+    /// spots, rects and disks the cone against the froxel's bounding sphere.
     pub fn touches(&self, b: &Bounds, c: UVec3) -> bool {
         let d_near = self.slice_depth(c.z);
         let d_far = self.slice_depth(c.z + 1);

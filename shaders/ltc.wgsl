@@ -1,0 +1,186 @@
+// Rect and disk lights by linearly transformed cosines (Heitz, Dupuy, Hill and Neubelt,
+// "Real-Time Polygonal-Light Shading with Linearly Transformed Cosines", SIGGRAPH 2016).
+//
+// The GGX lobe times N·L, for a given roughness and view angle, is approximated by a clamped
+// cosine distribution transformed by a 3×3 matrix M. Integrating it over a polygon is then
+// integrating a cosine over the polygon transformed by M⁻¹, which has a closed form: the sum
+// over its edges of θ·(n · unit normal of the edge's plane), after clipping to the upper
+// hemisphere. Diffuse light is the same integral with M = I (exact up to the Lambertian BRDF).
+//
+// The fitted M⁻¹ (4 entries per cell) and the lobe's magnitude and Fresnel terms (2 per cell)
+// come from the authors' published fit (github.com/selfshadow/ltc_code, fit/results), as
+// distributed with three.js r111; see assets/ltc/README.md. 64 × 64 cells over
+// (perceptual roughness, √(1 − N·V)), bilinearly interpolated here.
+//
+// Disks are integrated as the regular 16-gon of the same area (the polygon's error against the
+// exact disk on the axis is in the tests, well under 1%).
+#define_import_path penumbra::ltc
+
+#import penumbra::common::{PI, safe_normalize}
+#import penumbra::brdf::{Surface, DIELECTRIC_F0, f_schlick}
+#import penumbra::light_data::{Light, LIGHT_DISK, range_window}
+
+const LTC_SIZE: u32 = 64u;
+const DISK_SIDES: u32 = 16u;
+
+struct LtcTable {
+    // (m00, m02, m20, m22) of M⁻¹, normalised so that m11 = 1.
+    inverse_m: array<vec4<f32>, 4096>,
+    // (magnitude, Fresnel weight) of the GGX lobe.
+    magnitude: array<vec2<f32>, 4096>,
+};
+
+@group(0) @binding(8) var<storage, read> ltc_table: LtcTable;
+
+struct LtcCell {
+    inverse_m: vec4<f32>,
+    magnitude: vec2<f32>,
+};
+
+// Bilinear lookup; `uv` in [0, 1]² spans the table's cell centres.
+fn ltc_lookup(uv: vec2<f32>) -> LtcCell {
+    let p = clamp(uv, vec2<f32>(0.0), vec2<f32>(1.0)) * f32(LTC_SIZE - 1u);
+    let lo = min(vec2<u32>(floor(p)), vec2<u32>(LTC_SIZE - 2u));
+    let f = p - vec2<f32>(lo);
+    let i = lo.y * LTC_SIZE + lo.x;
+    let j = i + LTC_SIZE;
+    var c: LtcCell;
+    c.inverse_m = mix(
+        mix(ltc_table.inverse_m[i], ltc_table.inverse_m[i + 1u], f.x),
+        mix(ltc_table.inverse_m[j], ltc_table.inverse_m[j + 1u], f.x),
+        f.y
+    );
+    c.magnitude = mix(
+        mix(ltc_table.magnitude[i], ltc_table.magnitude[i + 1u], f.x),
+        mix(ltc_table.magnitude[j], ltc_table.magnitude[j + 1u], f.x),
+        f.y
+    );
+    return c;
+}
+
+// θ · (n · unit normal of the plane through a and b), n = +z: one edge's share of the cosine
+// integral. atan2 keeps θ accurate for nearly parallel vertices, where acos loses it.
+fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    let na = normalize(a);
+    let nb = normalize(b);
+    let c = cross(na, nb);
+    let sin_theta = length(c);
+    let theta = atan2(sin_theta, dot(na, nb));
+    return c.z * select(theta / sin_theta, 1.0, sin_theta < 1e-7);
+}
+
+// ∫ cos θ dω over the polygon `v[0..count]` (seen from the origin, clipped to z ≥ 0), which is
+// π times its form factor. Vertices need not be normalised.
+fn clipped_cos_integral(v: ptr<function, array<vec3<f32>, 16>>, count: u32) -> f32 {
+    var sum = 0.0;
+    var exit_point = vec3<f32>(0.0);
+    var entry_point = vec3<f32>(0.0);
+    var crossings = 0u;
+    var a = (*v)[count - 1u];
+    for (var i = 0u; i < count; i++) {
+        let b = (*v)[i];
+        let a_up = a.z > 0.0;
+        let b_up = b.z > 0.0;
+        if a_up && b_up {
+            sum += edge_integral(a, b);
+        } else if a_up != b_up {
+            var c = a + (b - a) * (a.z / (a.z - b.z));
+            c.z = 0.0;
+            if a_up {
+                sum += edge_integral(a, c);
+                exit_point = c;
+            } else {
+                sum += edge_integral(c, b);
+                entry_point = c;
+            }
+            crossings += 1u;
+        }
+        a = b;
+    }
+    // The clipped polygon closes along the horizon from where it left to where it came back.
+    if crossings == 2u {
+        sum += edge_integral(exit_point, entry_point);
+    }
+    // Winding depends on which side the polygon is seen from; the caller has already kept only
+    // the lit side.
+    return 0.5 * abs(sum);
+}
+
+// The light's outline, relative to the surface, as `count` corners.
+fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 16>>) -> u32 {
+    let across = light.shape.xyz;
+    let up = cross(light.direction, across);
+    if light.kind == LIGHT_DISK {
+        // The regular 16-gon of the disk's area: circumradius r·√(2π / (n·sin(2π/n))).
+        let r = light.size * 1.0129890;
+        for (var i = 0u; i < DISK_SIDES; i++) {
+            let angle = f32(i) * (2.0 * PI / f32(DISK_SIDES));
+            (*v)[i] = to_light + r * (cos(angle) * across + sin(angle) * up);
+        }
+        return DISK_SIDES;
+    }
+    let x = across * light.size;
+    let y = up * light.shape.w;
+    (*v)[0] = to_light + x + y;
+    (*v)[1] = to_light - x + y;
+    (*v)[2] = to_light - x - y;
+    (*v)[3] = to_light + x - y;
+    return 4u;
+}
+
+// Squared distance from the surface to the nearest point of the light (`to_light` points from
+// the surface to the light's centre).
+fn nearest_dist2(light: Light, to_light: vec3<f32>) -> f32 {
+    let q = -to_light;
+    let across = light.shape.xyz;
+    let up = cross(light.direction, across);
+    var in_plane: vec3<f32>;
+    if light.kind == LIGHT_DISK {
+        let planar = q - light.direction * dot(q, light.direction);
+        let len = length(planar);
+        in_plane = planar * min(1.0, light.size / max(len, 1e-30));
+    } else {
+        in_plane = across * clamp(dot(q, across), -light.size, light.size)
+            + up * clamp(dot(q, up), -light.shape.w, light.shape.w);
+    }
+    let off = q - in_plane;
+    return dot(off, off);
+}
+
+fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
+    // One-sided: only what lies in front of the emitting face is lit.
+    if dot(light.direction, to_light) >= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let extent = select(length(vec2<f32>(light.size, light.shape.w)), light.size, light.kind == LIGHT_DISK);
+    let window = range_window(nearest_dist2(light, to_light), light.range - extent);
+    if window <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    // Shading frame: z along the normal, x in the plane of normal and view (the fit's frame).
+    let tan_x = safe_normalize(s.v - s.n * dot(s.v, s.n), cross(s.n, select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(s.n.x) > 0.9)));
+    let tan_y = cross(s.n, tan_x);
+    let to_frame = transpose(mat3x3<f32>(tan_x, tan_y, s.n));
+
+    var corners: array<vec3<f32>, 16>;
+    let count = outline(light, to_light, &corners);
+    var in_frame: array<vec3<f32>, 16>;
+    for (var i = 0u; i < count; i++) {
+        in_frame[i] = to_frame * corners[i];
+    }
+    let diffuse_integral = clipped_cos_integral(&in_frame, count);
+
+    let cell = ltc_lookup(vec2<f32>(s.perceptual_roughness, sqrt(1.0 - clamp(s.n_dot_v, 0.0, 1.0))));
+    let m = cell.inverse_m;
+    let inverse_m = mat3x3<f32>(vec3<f32>(m.x, 0.0, m.y), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(m.z, 0.0, m.w));
+    for (var i = 0u; i < count; i++) {
+        in_frame[i] = inverse_m * in_frame[i];
+    }
+    // The transformed cosine is normalised (it integrates to π over the hemisphere); the fit's
+    // magnitude restores the lobe's albedo, split into F0 and 1 − F0 shares (Schlick).
+    let specular_integral = clipped_cos_integral(&in_frame, count) / PI;
+    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(1.0) - s.f0_color) * cell.magnitude.y) * specular_integral;
+    // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
+    let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, s.n_dot_v)) * s.diffuse_color / PI * diffuse_integral;
+    return (diffuse + specular) * light.color * window;
+}
