@@ -59,19 +59,45 @@ fn ltc_lookup(uv: vec2<f32>) -> LtcCell {
 }
 
 // θ · (n · unit normal of the plane through a and b), n = +z: one edge's share of the cosine
-// integral. atan2 keeps θ accurate for nearly parallel vertices, where acos loses it.
+// integral. The cross product of a with the edge b − a (rather than of the two unit vectors)
+// keeps small or distant lights precise, and atan2 keeps θ accurate for nearly parallel
+// vertices, where acos loses it.
 fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
-    let na = normalize(a);
-    let nb = normalize(b);
-    let c = cross(na, nb);
+    let norms = length(a) * length(b);
+    let c = cross(a, b - a) / norms;
     let sin_theta = length(c);
-    let theta = atan2(sin_theta, dot(na, nb));
+    let theta = atan2(sin_theta, dot(a, b) / norms);
     return c.z * select(theta / sin_theta, 1.0, sin_theta < 1e-7);
+}
+
+// Cuts the convex polygon `src[0..count]` to the upper hemisphere z ≥ 0 (Sutherland–Hodgman
+// against one plane through the origin) into `dst`; returns its vertex count (≤ count + 1).
+fn clip_to_horizon(src: ptr<function, array<vec3<f32>, 17>>, count: u32, dst: ptr<function, array<vec3<f32>, 17>>) -> u32 {
+    var n = 0u;
+    var a = (*src)[count - 1u];
+    for (var i = 0u; i < count; i++) {
+        let b = (*src)[i];
+        if (a.z > 0.0) != (b.z > 0.0) {
+            var c = a + (b - a) * (a.z / (a.z - b.z));
+            c.z = 0.0;
+            (*dst)[n] = c;
+            n += 1u;
+        }
+        if b.z > 0.0 {
+            (*dst)[n] = b;
+            n += 1u;
+        }
+        a = b;
+    }
+    return n;
 }
 
 // ∫ cos θ dω over the polygon `v[0..count]` (seen from the origin, clipped to z ≥ 0), which is
 // π times its form factor. Vertices need not be normalised.
-fn clipped_cos_integral(v: ptr<function, array<vec3<f32>, 16>>, count: u32) -> f32 {
+fn clipped_cos_integral(v: ptr<function, array<vec3<f32>, 17>>, count: u32) -> f32 {
+    if count < 3u {
+        return 0.0;
+    }
     var sum = 0.0;
     var exit_point = vec3<f32>(0.0);
     var entry_point = vec3<f32>(0.0);
@@ -107,12 +133,12 @@ fn clipped_cos_integral(v: ptr<function, array<vec3<f32>, 16>>, count: u32) -> f
 }
 
 // The light's outline, relative to the surface, as `count` corners.
-fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 16>>) -> u32 {
+fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 17>>) -> u32 {
     let across = light.shape.xyz;
     let up = cross(light.direction, across);
     if light.kind == LIGHT_DISK {
         // The regular 16-gon of the disk's area: circumradius r·√(2π / (n·sin(2π/n))).
-        let r = light.size * 1.0129890;
+        let r = light.size * 1.0130016;
         for (var i = 0u; i < DISK_SIDES; i++) {
             let angle = f32(i) * (2.0 * PI / f32(DISK_SIDES));
             (*v)[i] = to_light + r * (cos(angle) * across + sin(angle) * up);
@@ -157,16 +183,29 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     if window <= 0.0 {
         return vec3<f32>(0.0);
     }
-    // Shading frame: z along the normal, x in the plane of normal and view (the fit's frame).
-    let tan_x = safe_normalize(s.v - s.n * dot(s.v, s.n), cross(s.n, select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(s.n.x) > 0.9)));
+    // Shading frame: z along the normal, x in the plane of normal and view (the fit's frame);
+    // any x when the view is along the normal (the lobe is isotropic there).
+    let along_view = s.v - s.n * dot(s.v, s.n);
+    var tan_x: vec3<f32>;
+    if dot(along_view, along_view) < 1e-8 {
+        tan_x = normalize(cross(s.n, select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(s.n.x) > 0.9)));
+    } else {
+        tan_x = normalize(along_view - s.n * dot(along_view, s.n));
+    }
     let tan_y = cross(s.n, tan_x);
     let to_frame = transpose(mat3x3<f32>(tan_x, tan_y, s.n));
 
-    var corners: array<vec3<f32>, 16>;
-    let count = outline(light, to_light, &corners);
-    var in_frame: array<vec3<f32>, 16>;
-    for (var i = 0u; i < count; i++) {
-        in_frame[i] = to_frame * corners[i];
+    var corners: array<vec3<f32>, 17>;
+    let outline_count = outline(light, to_light, &corners);
+    for (var i = 0u; i < outline_count; i++) {
+        corners[i] = to_frame * corners[i];
+    }
+    // Cut at the surface's horizon first: the transformed cosine of a grazing view reaches
+    // below it, and what lies below must not be reflected.
+    var in_frame: array<vec3<f32>, 17>;
+    let count = clip_to_horizon(&corners, outline_count, &in_frame);
+    if count < 3u {
+        return vec3<f32>(0.0);
     }
     let diffuse_integral = clipped_cos_integral(&in_frame, count);
 
