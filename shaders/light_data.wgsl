@@ -10,6 +10,7 @@ const LIGHT_SPHERE: u32 = 4u;
 const LIGHT_TUBE: u32 = 5u;
 const LIGHT_RECT: u32 = 6u;
 const LIGHT_DISK: u32 = 7u;
+const LIGHT_IES: u32 = 8u;
 
 struct Light {
     position: vec3<f32>,
@@ -21,10 +22,12 @@ struct Light {
     range: f32,
     // Linear colour times intensity (cd, lux, or cd/m² for ambient, rect and disk lights).
     color: vec3<f32>,
-    // Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width.
+    // Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width. IES: bits of the
+    // profile's first index in `ies_profiles`.
     size: f32,
     // Spot: (cone falloff offset, -, -, -). Tube: (half length, -, -, -). Rect: (unit width
-    // axis, half height). Disk: (unit axis in its plane, -).
+    // axis, half height). Disk: (unit axis in its plane, -). IES: (unit C = 0° axis, bits of
+    // rows << 16 | columns).
     shape: vec4<f32>,
 };
 

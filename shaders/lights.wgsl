@@ -2,12 +2,15 @@
 #define_import_path penumbra::lights
 
 #import penumbra::brdf::{Surface, ambient, direct}
-#import penumbra::light_data::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_AMBIENT, LIGHT_SPHERE, LIGHT_TUBE, LIGHT_RECT, range_window}
+#import penumbra::light_data::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_AMBIENT, LIGHT_SPHERE, LIGHT_TUBE, LIGHT_RECT, LIGHT_DISK, LIGHT_IES, range_window}
 #ifdef SPHERE_TUBE_LIGHTS
 #import penumbra::area_lights::{sphere_light, tube_light}
 #endif
 #ifdef LTC_LIGHTS
 #import penumbra::ltc::ltc_light
+#endif
+#ifdef IES_LIGHTS
+#import penumbra::ies::ies_share
 #endif
 
 // Light reaching the eye from `light` off the surface at `rel_pos` (camera-relative), with the
@@ -15,7 +18,7 @@
 // direction and an illuminance for one shared call of `direct` (one inlined BRDF keeps the
 // shader small, which matters for compile time on hot reload); lights with a size have their
 // own integrals, compiled in only when the scene has such lights (SPHERE_TUBE_LIGHTS,
-// LTC_LIGHTS).
+// LTC_LIGHTS); IES lights are point lights with a profile (IES_LIGHTS).
 fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: vec3<f32>) -> vec3<f32> {
     if light.kind == LIGHT_AMBIENT {
         return ambient(s, light.color);
@@ -34,7 +37,7 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
         }
 #endif
 #ifdef LTC_LIGHTS
-        if light.kind >= LIGHT_RECT {
+        if light.kind == LIGHT_RECT || light.kind == LIGHT_DISK {
             return ltc_light(s, light, to_light);
         }
 #endif
@@ -51,6 +54,11 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
             let a = clamp(cd * light.size + light.shape.x, 0.0, 1.0);
             atten *= a * a;
         }
+#ifdef IES_LIGHTS
+        if light.kind == LIGHT_IES {
+            atten *= ies_share(light, -l);
+        }
+#endif
         if atten <= 0.0 {
             return vec3<f32>(0.0);
         }

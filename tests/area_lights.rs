@@ -8,7 +8,7 @@ use penumbra::prelude::*;
 use penumbra::render::RenderSettings;
 use penumbra::render::Renderer;
 use penumbra::render::prepare::light_store::{
-    KIND_AMBIENT, KIND_DIRECTIONAL, KIND_DISK, KIND_POINT, KIND_RECT, KIND_SPHERE, KIND_SPOT, KIND_TUBE,
+    KIND_AMBIENT, KIND_DIRECTIONAL, KIND_DISK, KIND_IES, KIND_POINT, KIND_RECT, KIND_SPHERE, KIND_SPOT, KIND_TUBE,
 };
 
 mod common;
@@ -219,7 +219,7 @@ fn tube_light_irradiance_matches_the_line_integral_also_when_cut_by_the_horizon(
 fn every_light_kind_packs_its_own_type_and_lights_the_floor() {
     let above = Transform::from_xyz(0.0, 0.8, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
     type Spawn = fn(&mut World, Transform);
-    let kinds: [(&str, u32, Spawn); 8] = [
+    let kinds: [(&str, u32, Spawn); 9] = [
         ("directional", KIND_DIRECTIONAL, |w, t| {
             w.spawn((DirectionalLight::default(), t));
         }),
@@ -244,6 +244,11 @@ fn every_light_kind_packs_its_own_type_and_lights_the_floor() {
         ("disk", KIND_DISK, |w, t| {
             w.spawn((DiskLight::default(), t));
         }),
+        ("ies", KIND_IES, |w, t| {
+            let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 0\n0 45 90\n0\n2 1 0\n";
+            let profile = w.resource_mut::<Assets<IesProfile>>().add(IesProfile::parse(text, "t.ies").unwrap());
+            w.spawn((IesLight::new(profile), t));
+        }),
     ];
     let mut seen = std::collections::HashSet::new();
     for (name, kind, spawn) in kinds {
@@ -262,6 +267,7 @@ fn every_light_kind_packs_its_own_type_and_lights_the_floor() {
         let shapes = renderer.light_store().shapes();
         assert_eq!(shapes.sphere_tube, matches!(kind, KIND_SPHERE | KIND_TUBE), "{name}");
         assert_eq!(shapes.ltc, matches!(kind, KIND_RECT | KIND_DISK), "{name}");
+        assert_eq!(shapes.ies, kind == KIND_IES, "{name}");
         assert!(renderer.forward_pipeline_keys().iter().all(|k| k.light_shapes == shapes), "{name}");
     }
 }

@@ -399,6 +399,23 @@ fn golden_every_light_type() {
         DiskLight { color: Vec3::new(1.0, 1.0, 0.6), luminance: 3.0, radius: 0.35, ..Default::default() },
         Transform::from_xyz(2.8, 2.0, -1.2).looking_at(Vec3::new(1.0, 0.4, 0.0), Vec3::Y),
     ));
+    // A street-light-like profile throwing forward (C = 0°, local +X) from the front right.
+    let vertical: Vec<f32> = (0..=9).map(|i| i as f32 * 10.0).collect();
+    let horizontal: Vec<f32> = (0..=4).map(|i| i as f32 * 45.0).collect();
+    let candela: Vec<f32> = horizontal
+        .iter()
+        .flat_map(|c| {
+            vertical
+                .iter()
+                .map(move |g| 8.0 * (1.0 + 1.5 * c.to_radians().cos() * g.to_radians().sin()) * g.to_radians().cos())
+        })
+        .collect();
+    let profile = common::add_ies_profile(&mut app, &vertical, &horizontal, &candela);
+    app.world.spawn((
+        IesLight { color: Vec3::new(1.0, 0.9, 0.7), ..IesLight::new(profile) },
+        Transform::from_xyz(2.6, 1.4, 2.4)
+            .with_rotation(Quat::from_rotation_y(2.4) * Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
+    ));
     camera(&mut app, Vec3::new(0.0, 3.0, 6.0), Vec3::new(0.0, 0.5, 0.0), perspective());
     let shot = golden_shot(&mut app, (256, 160), RenderSettings { msaa: 4, ..Default::default() });
     common::check_golden("lights_every_type", &shot, common::Tolerance::default());

@@ -222,3 +222,19 @@ pub fn top_down(app: &mut App, half: f32) -> impl Fn(u32, u32, u32) -> Vec3 + us
         Vec3::new(u * half, 0.0, v * half)
     }
 }
+
+/// An IES LM-63-2002 type C profile: `candela[h * vertical.len() + v]` at the given angles
+/// (degrees), added to the app's assets.
+pub fn add_ies_profile(app: &mut App, vertical: &[f32], horizontal: &[f32], candela: &[f32]) -> Handle<IesProfile> {
+    let join = |xs: &[f32]| xs.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ");
+    let text = format!(
+        "IESNA:LM-63-2002\n[TEST] written by the test\nTILT=NONE\n1 -1 1 {} {} 1 2 0 0 0\n1 1 0\n{}\n{}\n{}\n",
+        vertical.len(),
+        horizontal.len(),
+        join(vertical),
+        join(horizontal),
+        join(candela)
+    );
+    let profile = IesProfile::parse(&text, "test.ies").unwrap();
+    app.world.resource_mut::<Assets<IesProfile>>().add(profile)
+}

@@ -10,6 +10,7 @@ pub mod assets;
 pub mod bounds;
 pub mod components;
 pub mod framing;
+pub mod ies;
 pub mod image;
 pub mod import;
 pub mod material;
@@ -33,6 +34,7 @@ impl Plugin for CorePlugin {
         app.init_resource::<Assets<mesh::Mesh>>()
             .init_resource::<Assets<material::StandardMaterial>>()
             .init_resource::<Assets<image::Image>>()
+            .init_resource::<Assets<ies::IesProfile>>()
             .add_systems(
                 PostUpdate,
                 (components::transform::propagate_transforms, components::visibility::propagate_visibility).chain(),
@@ -46,6 +48,7 @@ pub mod prelude {
     pub use crate::assets::{Assets, Handle};
     pub use crate::bounds::Aabb;
     pub use crate::components::*;
+    pub use crate::ies::IesProfile;
     pub use crate::image::Image;
     pub use crate::import::{ImportError, ImportOptions, load_scene};
     pub use crate::material::{AlphaMode, StandardMaterial, TextureRef};

@@ -938,6 +938,7 @@ impl Renderer {
                 buf(6, self.clusters.ranges()),
                 buf(7, self.clusters.indices()),
                 buf(8, self.lights.ltc_buffer()),
+                buf(9, self.lights.ies_buffer()),
             ],
         })
     }

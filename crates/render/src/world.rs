@@ -14,6 +14,7 @@ use bevy_ecs::resource::Resource;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::Handle;
 use penumbra_engine::components::Projection;
+use penumbra_engine::ies::IesProfile;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
@@ -62,6 +63,11 @@ pub enum LightKind {
     Disk {
         radius: f32,
     },
+    /// A point light shaped by a photometric profile; its nadir is `direction`, its C = 0°
+    /// plane passes through `right`.
+    Ies {
+        profile: Handle<IesProfile>,
+    },
 }
 
 /// Which light a store entry is: an entity's light component, or one of the default lights.
@@ -76,12 +82,14 @@ pub enum LightKey {
     Tube(Entity),
     Rect(Entity),
     Disk(Entity),
+    Ies(Entity),
     /// `RenderScene::default_lights[i]`.
     Default(u8),
 }
 
 /// One light in world space with its intensity folded into `color` (cd, lux or cd/m²; for rect
-/// and disk lights the emitting face's luminance).
+/// and disk lights the emitting face's luminance; for IES lights a factor on the profile's
+/// candela).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExtractedLight {
     pub kind: LightKind,
@@ -124,4 +132,5 @@ pub struct RenderScene {
     pub meshes: HashMap<Handle<Mesh>, Snapshot<Mesh>>,
     pub materials: HashMap<Handle<StandardMaterial>, Snapshot<StandardMaterial>>,
     pub images: HashMap<Handle<Image>, Snapshot<Image>>,
+    pub ies_profiles: HashMap<Handle<IesProfile>, Snapshot<IesProfile>>,
 }

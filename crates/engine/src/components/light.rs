@@ -7,9 +7,16 @@
 //! of the same intensity. `RectLight` and `DiskLight` are one-sided emitting surfaces facing
 //! their local −Z, given by their luminance in cd/m². Sizes are in metres and ignore the
 //! transform's scale (a scaled parent does not resize a light).
+//!
+//! `IesLight` is a point light whose intensity in each direction comes from a measured
+//! luminaire's IES LM-63 profile (candela, as the file gives them), turned with the entity:
+//! the profile's nadir along local −Z, its C = 0° plane through local +X.
 
 use bevy_ecs::prelude::*;
 use glam::Vec3;
+
+use crate::assets::Handle;
+use crate::ies::IesProfile;
 
 use super::transform::Transform;
 use super::visibility::Visibility;
@@ -164,5 +171,25 @@ pub struct DiskLight {
 impl Default for DiskLight {
     fn default() -> Self {
         Self { color: Vec3::ONE, luminance: 1.0, radius: 0.5, range: None, shadows: true }
+    }
+}
+
+/// A point light shaped by a measured luminaire's photometric profile (see [`crate::ies`]).
+#[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[require(Transform, Visibility)]
+pub struct IesLight {
+    pub profile: Handle<IesProfile>,
+    /// Linear RGB tint (the profile says how much light, not its colour).
+    pub color: Vec3,
+    /// Multiplies the profile's candela (1: as measured).
+    pub scale: f32,
+    pub range: Option<f32>,
+    pub shadows: bool,
+}
+
+impl IesLight {
+    /// White, as measured.
+    pub fn new(profile: Handle<IesProfile>) -> Self {
+        Self { profile, color: Vec3::ONE, scale: 1.0, range: None, shadows: true }
     }
 }

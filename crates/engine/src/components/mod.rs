@@ -11,7 +11,9 @@ pub mod visibility;
 pub use bevy_ecs::hierarchy::{ChildOf, Children};
 pub use bevy_ecs::name::Name;
 pub use camera::{Camera, Exposure, Projection};
-pub use light::{AmbientLight, DirectionalLight, DiskLight, PointLight, RectLight, SphereLight, SpotLight, TubeLight};
+pub use light::{
+    AmbientLight, DirectionalLight, DiskLight, IesLight, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
+};
 pub use mesh::{Mesh3d, MeshMaterial3d};
 pub use transform::{GlobalTransform, Transform};
 pub use visibility::{InheritedVisibility, Visibility};

@@ -12,9 +12,10 @@ use bevy_ecs::prelude::*;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::assets::Assets;
 use penumbra_engine::components::{
-    AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, InheritedVisibility, Mesh3d, MeshMaterial3d,
-    PointLight, RectLight, SphereLight, SpotLight, TubeLight,
+    AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, IesLight, InheritedVisibility, Mesh3d,
+    MeshMaterial3d, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
+use penumbra_engine::ies::IesProfile;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
@@ -121,6 +122,7 @@ type IsLight = Or<(
     With<TubeLight>,
     With<RectLight>,
     With<DiskLight>,
+    With<IesLight>,
 )>;
 
 /// Lights of every type removed (or despawned) since the last extraction.
@@ -134,6 +136,7 @@ struct RemovedLights<'w, 's> {
     tube: RemovedComponents<'w, 's, TubeLight>,
     rect: RemovedComponents<'w, 's, RectLight>,
     disk: RemovedComponents<'w, 's, DiskLight>,
+    ies: RemovedComponents<'w, 's, IesLight>,
 }
 
 /// A placed light of type `L` whose component or placement changed.
@@ -153,6 +156,7 @@ struct ChangedLights<'w, 's> {
     tube: ChangedPlaced<'w, 's, TubeLight>,
     rect: ChangedPlaced<'w, 's, RectLight>,
     disk: ChangedPlaced<'w, 's, DiskLight>,
+    ies: ChangedPlaced<'w, 's, IesLight>,
     ambient: Query<
         'w,
         's,
@@ -204,13 +208,17 @@ fn disk_light(l: &DiskLight, t: &GlobalTransform) -> ExtractedLight {
     placed(LightKind::Disk { radius: l.radius }, l.color * l.luminance, t, l.range)
 }
 
+fn ies_light(l: &IesLight, t: &GlobalTransform) -> ExtractedLight {
+    placed(LightKind::Ies { profile: l.profile }, l.color * l.scale, t, l.range)
+}
+
 fn is_finite(l: &ExtractedLight) -> bool {
     let shape = match l.kind {
         LightKind::Spot { inner_cone_angle: a, outer_cone_angle: b }
         | LightKind::Tube { length: a, radius: b }
         | LightKind::Rect { width: a, height: b } => a.is_finite() && b.is_finite(),
         LightKind::Sphere { radius } | LightKind::Disk { radius } => radius.is_finite(),
-        LightKind::Directional | LightKind::Point | LightKind::Ambient => true,
+        LightKind::Directional | LightKind::Point | LightKind::Ambient | LightKind::Ies { .. } => true,
     };
     l.color.is_finite()
         && l.position.is_finite()
@@ -270,6 +278,9 @@ fn extract_lights(
     for (e, l, t, v) in &changed.disk {
         set(LightKey::Disk(e), v.0.then(|| disk_light(l, t)));
     }
+    for (e, l, t, v) in &changed.ies {
+        set(LightKey::Ies(e), v.0.then(|| ies_light(l, t)));
+    }
     // A component removed and inserted again within the frame shows up in both lists; the
     // changed query already re-extracted it, so only keys no longer present are dropped.
     let gone: Vec<LightKey> = removed
@@ -284,6 +295,7 @@ fn extract_lights(
         .chain(removed.tube.read().filter(|e| !changed.tube.contains(*e)).map(LightKey::Tube))
         .chain(removed.rect.read().filter(|e| !changed.rect.contains(*e)).map(LightKey::Rect))
         .chain(removed.disk.read().filter(|e| !changed.disk.contains(*e)).map(LightKey::Disk))
+        .chain(removed.ies.read().filter(|e| !changed.ies.contains(*e)).map(LightKey::Ies))
         .collect();
     for key in gone {
         if scene.lights.remove(&key).is_some() {
@@ -327,10 +339,12 @@ fn extract_assets(
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<StandardMaterial>>,
     images: Res<Assets<Image>>,
+    ies_profiles: Res<Assets<IesProfile>>,
     mut scene: ResMut<RenderScene>,
 ) {
     let scene = &mut *scene;
     sync_assets(&meshes, &mut scene.meshes);
     sync_assets(&materials, &mut scene.materials);
     sync_assets(&images, &mut scene.images);
+    sync_assets(&ies_profiles, &mut scene.ies_profiles);
 }

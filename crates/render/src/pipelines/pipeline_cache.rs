@@ -80,6 +80,7 @@ impl PipelineKey {
             .with("UNBOUNDED_LIGHTS", lit && self.local_lights == LocalLights::AllUnbounded)
             .with("SPHERE_TUBE_LIGHTS", local && self.light_shapes.sphere_tube)
             .with("LTC_LIGHTS", local && self.light_shapes.ltc)
+            .with("IES_LIGHTS", local && self.light_shapes.ies)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
     }
 }
@@ -286,6 +287,7 @@ impl PipelineCache {
                 storage(6, wgpu::ShaderStages::FRAGMENT),
                 storage(7, wgpu::ShaderStages::FRAGMENT),
                 storage(8, wgpu::ShaderStages::FRAGMENT),
+                storage(9, wgpu::ShaderStages::FRAGMENT),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;

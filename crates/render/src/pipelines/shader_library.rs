@@ -30,6 +30,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("light_data.wgsl", include_str!("../../../../shaders/light_data.wgsl")),
     ("area_lights.wgsl", include_str!("../../../../shaders/area_lights.wgsl")),
     ("ltc.wgsl", include_str!("../../../../shaders/ltc.wgsl")),
+    ("ies.wgsl", include_str!("../../../../shaders/ies.wgsl")),
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),

@@ -12,6 +12,9 @@
 //! Lambertian surface facing it would be lit to less than `cutoff` after exposure (see
 //! [`influence_range`]); the shader windows the falloff smoothly to zero there. Since the
 //! computed range depends on exposure, a change of exposure repacks every light.
+//!
+//! IES-profiled lights carry the slot of their profile in the store's [`ProfileTable`] (see
+//! `ies_profiles.rs`); when the table is rebuilt, they are repacked.
 
 use std::collections::HashMap;
 
@@ -19,6 +22,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffer::GrowableBuffer;
+use super::ies_profiles::ProfileTable;
 use crate::world::{ExtractedLight, LightKey, LightKind, RenderScene};
 
 /// Mirrors `struct Light` in `shaders/light_data.wgsl`. `size` and `shape` mean what each kind
@@ -35,10 +39,12 @@ pub struct GpuLight {
     /// (zero intensity or area), which the binner skips.
     pub range: f32,
     pub color: [f32; 3],
-    /// Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width.
+    /// Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width. IES: the bits
+    /// of the profile's first index in the profile buffer (a u32).
     pub size: f32,
     /// Spot: (cone falloff offset, 0, 0, 0). Tube: (half length, 0, 0, 0). Rect: (unit width
-    /// axis, half height). Disk: (unit axis in its plane, 0).
+    /// axis, half height). Disk: (unit axis in its plane, 0). IES: (unit C = 0° axis, bits of
+    /// the u32 `rows << 16 | columns` of the profile's grid).
     pub shape: [f32; 4],
 }
 
@@ -50,6 +56,7 @@ pub const KIND_SPHERE: u32 = 4;
 pub const KIND_TUBE: u32 = 5;
 pub const KIND_RECT: u32 = 6;
 pub const KIND_DISK: u32 = 7;
+pub const KIND_IES: u32 = 8;
 
 /// Display-referred luminance below which a light's contribution is cut off, by default:
 /// 1/4096 of white, about a quarter of the smallest step of an 8-bit sRGB output near black.
@@ -99,7 +106,9 @@ pub fn extent(kind: &LightKind) -> f32 {
     }
 }
 
-pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32) -> GpuLight {
+/// Packs a light for the GPU. `profiles` places IES lights' profiles; an IES light whose
+/// profile is not in the table packs dark (range 0), so nothing bins or shades it.
+pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32, profiles: &ProfileTable) -> GpuLight {
     let direction = light.direction.normalize_or(Vec3::NEG_Z);
     // The in-plane axis of rects and disks, made exactly perpendicular to the normal (a sheared
     // transform may not give perpendicular axes).
@@ -151,9 +160,22 @@ pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32) -> GpuLight {
             g.size = radius.max(0.0);
             g.shape = across.extend(0.0).to_array();
         }
+        LightKind::Ies { profile } => {
+            g.kind = KIND_IES;
+            match profiles.slot(profile) {
+                Some(slot) => {
+                    // The shader reads the profile as a share of its peak.
+                    g.color = (light.color.max(Vec3::ZERO) * slot.peak).min(Vec3::splat(f32::MAX)).to_array();
+                    g.size = f32::from_bits(slot.offset);
+                    g.shape = across.extend(f32::from_bits(slot.rows << 16 | slot.columns)).to_array();
+                }
+                None => g.color = [0.0; 3],
+            }
+        }
     }
     if is_local(&light.kind) {
-        let reach = influence_range(light, exposure, cutoff);
+        // The packed colour: an IES light's includes its profile's peak.
+        let reach = influence_range(&ExtractedLight { color: Vec3::from(g.color), ..*light }, exposure, cutoff);
         if reach > 0.0 {
             g.range = (reach + extent(&light.kind)).min(f32::MAX);
         }
@@ -205,11 +227,13 @@ pub struct LightStore {
     /// The LTC fit, uploaded with the first rect or disk light; until then a 16-byte stand-in
     /// fills its binding (no shader variant without those lights reads it).
     ltc_table: Option<wgpu::Buffer>,
-    ltc_placeholder: Option<wgpu::Buffer>,
+    /// Stands in for the LTC and IES buffers while the scene needs neither.
+    placeholder: Option<wgpu::Buffer>,
+    profiles: ProfileTable,
 }
 
 /// Number of light kinds (discriminants `0..KIND_COUNT`).
-pub const KIND_COUNT: usize = 8;
+pub const KIND_COUNT: usize = 9;
 
 /// The fitted LTC tables for GGX (see `shaders/ltc.wgsl` and `assets/ltc/README.md`): 64×64
 /// cells of M⁻¹ as 4 f32, then 64×64 cells of (magnitude, Fresnel) as 2 f32, little-endian.
@@ -222,6 +246,8 @@ pub struct LightShapes {
     pub sphere_tube: bool,
     /// Rect or disk lights (linearly transformed cosines).
     pub ltc: bool,
+    /// IES-profiled lights.
+    pub ies: bool,
 }
 
 impl Default for LightStore {
@@ -247,7 +273,8 @@ impl LightStore {
             last_upload_bytes: 0,
             kind_counts: [0; KIND_COUNT],
             ltc_table: None,
-            ltc_placeholder: None,
+            placeholder: None,
+            profiles: ProfileTable::default(),
         }
     }
 
@@ -257,13 +284,20 @@ impl LightStore {
         LightShapes {
             sphere_tube: c[KIND_SPHERE as usize] + c[KIND_TUBE as usize] > 0,
             ltc: c[KIND_RECT as usize] + c[KIND_DISK as usize] > 0,
+            ies: c[KIND_IES as usize] > 0,
         }
     }
 
     /// The buffer behind `ltc_table` in the shaders (a stand-in until a rect or disk light
     /// needs the real one). Exists once `upload` has run.
     pub fn ltc_buffer(&self) -> &wgpu::Buffer {
-        self.ltc_table.as_ref().or(self.ltc_placeholder.as_ref()).expect("LightStore::upload runs before binding")
+        self.ltc_table.as_ref().or(self.placeholder.as_ref()).expect("LightStore::upload runs before binding")
+    }
+
+    /// The buffer behind `ies_profiles` in the shaders (a stand-in while no light uses one).
+    /// Exists once `upload` has run.
+    pub fn ies_buffer(&self) -> &wgpu::Buffer {
+        self.profiles.buffer().or(self.placeholder.as_ref()).expect("LightStore::upload runs before binding")
     }
 
     fn count_kind(&mut self, kind: u32, delta: i32) {
@@ -290,7 +324,9 @@ impl LightStore {
     }
 
     pub fn gpu_bytes(&self) -> u64 {
-        self.buffer.as_ref().map_or(0, GrowableBuffer::capacity) + self.ltc_table.as_ref().map_or(0, wgpu::Buffer::size)
+        self.buffer.as_ref().map_or(0, GrowableBuffer::capacity)
+            + self.ltc_table.as_ref().map_or(0, wgpu::Buffer::size)
+            + self.profiles.gpu_bytes()
     }
 
     /// The packed local lights, in buffer order (slot `global_count() + i`).
@@ -357,6 +393,29 @@ impl LightStore {
                 None => break,
             }
         }
+        if self.profiles.sync(&scene.ies_profiles) {
+            self.repack_profiled();
+        }
+    }
+
+    /// Repacks the IES lights after their profiles moved in the table.
+    fn repack_profiled(&mut self) {
+        let (exposure, cutoff) = (self.exposure, self.cutoff);
+        for (i, light) in self.local.extracted.iter().enumerate() {
+            if matches!(light.kind, LightKind::Ies { .. }) {
+                self.local.packed[i] = pack(light, exposure, cutoff, &self.profiles);
+                self.dirty.push((Which::Local, i as u32));
+            }
+        }
+        self.bounds_stale = true;
+        self.local_generation += 1;
+    }
+
+    /// Keeps the profile table's count of lights per profile.
+    fn count_profile_user(&mut self, light: &ExtractedLight, delta: i32) {
+        if let LightKind::Ies { profile } = light.kind {
+            if delta > 0 { self.profiles.add_user(profile) } else { self.profiles.remove_user(profile) }
+        }
     }
 
     fn section(&mut self, which: Which) -> &mut Section {
@@ -370,7 +429,7 @@ impl LightStore {
         let (exposure, cutoff) = (self.exposure, self.cutoff);
         for s in [&mut self.global, &mut self.local] {
             for (packed, light) in s.packed.iter_mut().zip(&s.extracted) {
-                *packed = pack(light, exposure, cutoff);
+                *packed = pack(light, exposure, cutoff, &self.profiles);
             }
         }
         self.full = true;
@@ -382,12 +441,14 @@ impl LightStore {
         let which = if is_local(&light.kind) { Which::Local } else { Which::Global };
         match self.index.get(&key).copied() {
             Some((w, i)) if w == which => {
-                let (exposure, cutoff) = (self.exposure, self.cutoff);
-                let s = self.section(which);
-                if s.extracted[i as usize] == *light {
+                let old = self.section(which).extracted[i as usize];
+                if old == *light {
                     return;
                 }
-                let packed = pack(light, exposure, cutoff);
+                self.count_profile_user(&old, -1);
+                self.count_profile_user(light, 1);
+                let packed = pack(light, self.exposure, self.cutoff, &self.profiles);
+                let s = self.section(which);
                 let old_kind = std::mem::replace(&mut s.packed[i as usize], packed).kind;
                 s.extracted[i as usize] = *light;
                 self.count_kind(old_kind, -1);
@@ -408,7 +469,8 @@ impl LightStore {
     }
 
     fn insert(&mut self, key: LightKey, which: Which, light: &ExtractedLight) {
-        let packed = pack(light, self.exposure, self.cutoff);
+        self.count_profile_user(light, 1);
+        let packed = pack(light, self.exposure, self.cutoff, &self.profiles);
         self.count_kind(packed.kind, 1);
         let s = self.section(which);
         let i = s.keys.len() as u32;
@@ -426,9 +488,10 @@ impl LightStore {
         let Some((which, i)) = self.index.remove(&key) else { return };
         let s = self.section(which);
         s.keys.swap_remove(i as usize);
-        s.extracted.swap_remove(i as usize);
+        let removed = s.extracted.swap_remove(i as usize);
         let removed_kind = s.packed.swap_remove(i as usize).kind;
         let moved = s.keys.get(i as usize).copied();
+        self.count_profile_user(&removed, -1);
         if let Some(moved) = moved {
             self.index.insert(moved, (which, i));
             self.dirty.push((which, i));
@@ -455,9 +518,9 @@ impl LightStore {
         let grew = buffer.reserve(device, total.max(SIZE)) || created;
         let mut ltc_created = false;
         let buffer = buffer.buffer().clone();
-        if self.ltc_placeholder.is_none() {
-            self.ltc_placeholder = Some(device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("ltc table stand-in"),
+        if self.placeholder.is_none() {
+            self.placeholder = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ltc table and ies profiles stand-in"),
                 size: 16,
                 usage: wgpu::BufferUsages::STORAGE,
                 mapped_at_creation: false,
@@ -474,6 +537,7 @@ impl LightStore {
             self.ltc_table = Some(table);
             ltc_created = true;
         }
+        let profiles_moved = self.profiles.upload(device, queue);
         self.last_upload_bytes = 0;
         if grew || self.full {
             let all = self.packed();
@@ -524,7 +588,7 @@ impl LightStore {
         }
         self.dirty.clear();
         self.full = false;
-        grew || ltc_created
+        grew || ltc_created || profiles_moved
     }
 }
 
@@ -544,6 +608,11 @@ mod tests {
         }
     }
 
+    fn test_profile() -> penumbra_engine::ies::IesProfile {
+        let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 0\n0 45 90\n0\n400 200 0\n";
+        penumbra_engine::ies::IesProfile::parse(text, "test.ies").expect("valid")
+    }
+
     #[test]
     fn every_light_kind_packs_its_own_discriminant() {
         let kinds = [
@@ -555,22 +624,79 @@ mod tests {
             (LightKind::Tube { length: 1.0, radius: 0.1 }, KIND_TUBE),
             (LightKind::Rect { width: 1.0, height: 0.5 }, KIND_RECT),
             (LightKind::Disk { radius: 0.3 }, KIND_DISK),
+            (LightKind::Ies { profile: penumbra_engine::Assets::new().add(test_profile()) }, KIND_IES),
         ];
         let mut seen = std::collections::HashSet::new();
         for (k, want) in kinds {
-            assert_eq!(pack(&light(k), 1.0, DEFAULT_CUTOFF).kind, want, "{k:?}");
+            assert_eq!(pack(&light(k), 1.0, DEFAULT_CUTOFF, &ProfileTable::default()).kind, want, "{k:?}");
             assert!(seen.insert(want), "{k:?} shares a discriminant");
         }
+        assert_eq!(seen.len(), KIND_COUNT);
         assert_eq!(std::mem::size_of::<GpuLight>(), 64);
     }
 
     #[test]
+    fn ies_lights_find_their_profile_and_are_repacked_when_it_moves() {
+        let mut assets = penumbra_engine::Assets::new();
+        let a = assets.add(test_profile());
+        let e = |i: u32| Entity::from_raw_u32(i).expect("valid index");
+        let mut ies = light(LightKind::Ies { profile: a });
+        ies.color = Vec3::splat(0.5);
+        ies.range = Some(2.0);
+        let mut scene = scene_with(&[(LightKey::Ies(e(1)), ies)]);
+        let mut store = LightStore::new();
+        // The profile is not extracted yet: the light packs dark and is not binned.
+        store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
+        assert_eq!((store.local_lights()[0].range, store.local_lights()[0].color), (0.0, [0.0; 3]));
+        let snapshot = |v: u64| crate::world::Snapshot { version: v, data: std::sync::Arc::new(test_profile()) };
+        scene.ies_profiles.insert(a, snapshot(1));
+        scene.changed_lights.clear();
+        store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
+        let g = store.local_lights()[0];
+        assert_eq!((g.kind, g.range, g.color), (KIND_IES, 2.0, [200.0; 3]), "peak 400 cd × 0.5");
+        let slot = store.profiles.slot(a).expect("in the table");
+        assert_eq!((g.size.to_bits(), g.shape[3].to_bits()), (slot.offset, slot.rows << 16 | slot.columns));
+        assert_eq!((slot.rows, slot.columns), (5, 1), "45° steps, one plane");
+        // A second profile rebuilds the table; each light finds its own.
+        let b = assets.add(test_profile());
+        scene.ies_profiles.insert(b, snapshot(2));
+        let mut other = ies;
+        other.kind = LightKind::Ies { profile: b };
+        scene.lights.insert(LightKey::Ies(e(2)), other);
+        scene.changed_lights = vec![LightKey::Ies(e(2))];
+        store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
+        for (g, h) in store.local_lights().iter().zip([a, b]) {
+            assert_eq!(g.size.to_bits(), store.profiles.slot(h).expect("in the table").offset);
+        }
+        assert_ne!(store.profiles.slot(a), store.profiles.slot(b));
+        // Removing the lights releases the profiles.
+        scene.changed_lights.clear();
+        for k in [LightKey::Ies(e(1)), LightKey::Ies(e(2))] {
+            scene.lights.remove(&k);
+            scene.removed_lights.push(k);
+        }
+        store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
+        assert!(!store.profiles.in_use() && store.profiles.slot(a).is_none());
+        assert!(!store.shapes().ies);
+    }
+
+    #[test]
     fn spot_falloff_is_one_inside_and_zero_outside() {
-        let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.2, outer_cone_angle: 0.4 }), 1.0, DEFAULT_CUTOFF);
+        let g = pack(
+            &light(LightKind::Spot { inner_cone_angle: 0.2, outer_cone_angle: 0.4 }),
+            1.0,
+            DEFAULT_CUTOFF,
+            &ProfileTable::default(),
+        );
         let at = |angle: f32| (angle.cos() * g.size + g.shape[0]).clamp(0.0, 1.0);
         assert!((at(0.1) - 1.0).abs() < 1e-5);
         assert!(at(0.41) == 0.0);
-        let g = pack(&light(LightKind::Spot { inner_cone_angle: 0.4, outer_cone_angle: 0.4 }), 1.0, DEFAULT_CUTOFF);
+        let g = pack(
+            &light(LightKind::Spot { inner_cone_angle: 0.4, outer_cone_angle: 0.4 }),
+            1.0,
+            DEFAULT_CUTOFF,
+            &ProfileTable::default(),
+        );
         assert!(g.size.is_finite());
     }
 
@@ -597,7 +723,7 @@ mod tests {
         rect.range = Some(3.0);
         // A sheared transform's axes: the packed width axis is made perpendicular to the normal.
         rect.right = Vec3::new(1.0, 0.0, 0.5);
-        let g = pack(&rect, 1.0, DEFAULT_CUTOFF);
+        let g = pack(&rect, 1.0, DEFAULT_CUTOFF, &ProfileTable::default());
         assert!((g.range - (3.0 + 0.5 * 5f32.sqrt())).abs() < 1e-5, "{}", g.range);
         let axis = Vec3::new(g.shape[0], g.shape[1], g.shape[2]);
         assert!(axis.dot(Vec3::from(g.direction)).abs() < 1e-6 && (axis.length() - 1.0).abs() < 1e-6);
@@ -608,12 +734,20 @@ mod tests {
         point.color = Vec3::splat(2.0);
         rect.range = None;
         assert!((influence_range(&rect, 1.0, 1e-3) - influence_range(&point, 1.0, 1e-3)).abs() < 1e-3);
-        let tube = pack(&light(LightKind::Tube { length: 4.0, radius: 0.1 }), 1.0, DEFAULT_CUTOFF);
-        let sphere = pack(&light(LightKind::Sphere { radius: 0.1 }), 1.0, DEFAULT_CUTOFF);
+        let tube =
+            pack(&light(LightKind::Tube { length: 4.0, radius: 0.1 }), 1.0, DEFAULT_CUTOFF, &ProfileTable::default());
+        let sphere = pack(&light(LightKind::Sphere { radius: 0.1 }), 1.0, DEFAULT_CUTOFF, &ProfileTable::default());
         assert!((tube.range - sphere.range - 2.0).abs() < 1e-4);
         // No area, no light: not binned.
-        assert_eq!(pack(&light(LightKind::Rect { width: 0.0, height: 1.0 }), 1.0, DEFAULT_CUTOFF).range, 0.0);
-        assert_eq!(pack(&light(LightKind::Disk { radius: -1.0 }), 1.0, DEFAULT_CUTOFF).range, 0.0);
+        assert_eq!(
+            pack(&light(LightKind::Rect { width: 0.0, height: 1.0 }), 1.0, DEFAULT_CUTOFF, &ProfileTable::default())
+                .range,
+            0.0
+        );
+        assert_eq!(
+            pack(&light(LightKind::Disk { radius: -1.0 }), 1.0, DEFAULT_CUTOFF, &ProfileTable::default()).range,
+            0.0
+        );
     }
 
     fn scene_with(lights: &[(LightKey, ExtractedLight)]) -> RenderScene {
