@@ -71,8 +71,15 @@ fn tube_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     if window <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let end_a = to_light - axis * half_len;
-    let end_b = to_light + axis * half_len;
+    // The tube is a capsule, not its axis: where an end comes within `radius` of the surface's
+    // plane (or below it), the part of the capsule the surface still sees is up to `radius`
+    // above the axis, so that end is raised toward there. Without this a tube lying in a floor
+    // (its axis in the plane) would leave the floor dark, and rounding would flip pixels
+    // between dark and lit; far from the surface nothing moves.
+    let axis_a = to_light - axis * half_len;
+    let axis_b = to_light + axis * half_len;
+    let end_a = axis_a + s.n * clamp(radius - dot(s.n, axis_a), 0.0, radius);
+    let end_b = axis_b + s.n * clamp(radius - dot(s.n, axis_b), 0.0, radius);
 
     // Only the part of the segment above the horizon lights the surface: cut the rest off.
     let h_a = dot(s.n, end_a);

@@ -174,3 +174,44 @@ fn a_mesh_removed_and_reinserted_in_one_frame_stays_drawn() {
     let px = render_app(&mut app, SIZE, settings());
     assert!(brightness(&px, SIZE.0, 32, 32) > 150.0, "the re-inserted mesh vanished");
 }
+
+/// An entity that loses its placement (GlobalTransform) or visibility (InheritedVisibility)
+/// while keeping its mesh or light stops drawing or lighting, and comes back when the component
+/// does, also when it is removed and added back within one frame.
+#[test]
+fn losing_placement_or_visibility_removes_draws_and_lights() {
+    let mut app = scene_app();
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    let mesh = spawn_mesh(&mut app, facing_quad(), white(), Transform::IDENTITY);
+    let light = app
+        .world
+        .spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 2.0)))
+        .id();
+    let ambient = app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.2 }).id();
+    let counts = |app: &App| {
+        let r = app.world.resource::<Renderer>();
+        (r.stats().draw_calls, r.light_store().count())
+    };
+    render_app(&mut app, SIZE, settings());
+    assert_eq!(counts(&app), (1, 2));
+    let placed = *app.world.get::<GlobalTransform>(light).unwrap();
+    let drawn = *app.world.get::<GlobalTransform>(mesh).unwrap();
+    app.world.entity_mut(light).remove::<GlobalTransform>();
+    app.world.entity_mut(mesh).remove::<InheritedVisibility>();
+    app.world.entity_mut(ambient).remove::<InheritedVisibility>();
+    render_app(&mut app, SIZE, settings());
+    assert_eq!(counts(&app), (0, 0), "unplaced light, hidden mesh and hidden ambient light are gone");
+    app.world.entity_mut(light).insert(placed);
+    app.world.entity_mut(mesh).insert(InheritedVisibility(true));
+    app.world.entity_mut(ambient).insert(InheritedVisibility(true));
+    render_app(&mut app, SIZE, settings());
+    assert_eq!(counts(&app), (1, 2), "back when the components are");
+    // Removed and added back within one frame: still there.
+    app.world.entity_mut(mesh).remove::<GlobalTransform>();
+    app.world.entity_mut(mesh).insert(drawn);
+    app.world.entity_mut(light).remove::<GlobalTransform>();
+    app.world.entity_mut(light).insert(placed);
+    let px = render_app(&mut app, SIZE, settings());
+    assert_eq!(counts(&app), (1, 2));
+    assert!(brightness(&px, SIZE.0, 32, 32) > 50.0, "the quad is drawn and lit");
+}

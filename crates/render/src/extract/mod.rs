@@ -2,7 +2,8 @@
 //! `PostUpdate` and writes [`RenderScene`]; it makes no GPU calls.
 //!
 //! - view: the active camera with the highest `order` (re-extracted every frame: one entity);
-//! - draws: change-detected; an unchanged entity costs nothing;
+//! - draws: change-detected; an unchanged entity costs nothing; losing its mesh, placement
+//!   (GlobalTransform) or visibility (InheritedVisibility) component removes it, as for lights;
 //! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
 //!   or infinite values are refused with a warning; with no light entity at all, the default
 //!   key light and ambient term fill `default_lights` (see [`default_lighting`]);
@@ -58,9 +59,18 @@ fn extract_draws(
     all: Query<(&GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility)>,
     mut removed_meshes: RemovedComponents<Mesh3d>,
     mut removed_materials: RemovedComponents<MeshMaterial3d>,
+    mut removed_transforms: RemovedComponents<GlobalTransform>,
+    mut removed_visibility: RemovedComponents<InheritedVisibility>,
     mut scene: ResMut<RenderScene>,
 ) {
     let scene = &mut *scene;
+    // Losing its placement or visibility makes a mesh undrawable as surely as losing the mesh.
+    // Handled first: a component removed and added back this frame is re-extracted below.
+    for entity in removed_transforms.read().chain(removed_visibility.read()).collect::<Vec<_>>() {
+        if scene.draws.remove(&entity).is_some() {
+            scene.removed_draws.push(entity);
+        }
+    }
     for (entity, transform, mesh, material, visibility) in &changed {
         let item = DrawItem {
             world_from_local: transform.0,
@@ -137,6 +147,23 @@ struct RemovedLights<'w, 's> {
     rect: RemovedComponents<'w, 's, RectLight>,
     disk: RemovedComponents<'w, 's, DiskLight>,
     ies: RemovedComponents<'w, 's, IesLight>,
+    /// Losing its placement or visibility unplaces a light as surely as losing the light.
+    transform: RemovedComponents<'w, 's, GlobalTransform>,
+    visibility: RemovedComponents<'w, 's, InheritedVisibility>,
+}
+
+/// The keys an entity's lights may have, but for ambient light (which has no placement).
+fn placed_light_keys(e: Entity) -> [LightKey; 8] {
+    [
+        LightKey::Directional(e),
+        LightKey::Point(e),
+        LightKey::Spot(e),
+        LightKey::Sphere(e),
+        LightKey::Tube(e),
+        LightKey::Rect(e),
+        LightKey::Disk(e),
+        LightKey::Ies(e),
+    ]
 }
 
 /// A placed light of type `L` whose component or placement changed.
@@ -238,6 +265,14 @@ fn extract_lights(
     let scene = &mut *scene;
     scene.changed_lights.clear();
     scene.removed_lights.clear();
+    // First, since a component removed and added back this frame is re-extracted below.
+    let lost_placement = removed.transform.read().flat_map(placed_light_keys);
+    let hidden = removed.visibility.read().flat_map(|e| placed_light_keys(e).into_iter().chain([LightKey::Ambient(e)]));
+    for key in lost_placement.chain(hidden).collect::<Vec<_>>() {
+        if scene.lights.remove(&key).is_some() {
+            scene.removed_lights.push(key);
+        }
+    }
     let mut set = |key: LightKey, light: Option<ExtractedLight>| match light {
         Some(l) if is_finite(&l) => {
             scene.lights.insert(key, l);
