@@ -11,29 +11,20 @@
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), and the debug
-// view DEBUG_CLUSTER_HEAT.
+// view DEBUG_CLUSTER_HEAT. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
+// (deferred_lights.wgsl) instead, from the surface each fragment also writes out.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
+#import penumbra::view::{View, eye_direction}
+#ifdef DEFERRED_LOCAL_LIGHTS
+#import penumbra::gbuffer::encode_surface
+#endif
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
 #import penumbra::light_data::Light
 #import penumbra::lights::shade_light
 #ifdef CLUSTERED_LIGHTS
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
 #endif
-
-struct View {
-    clip_from_rel: mat4x4<f32>,
-    camera_position: vec3<f32>,
-    exposure: f32,
-    // Direction the camera looks, for orthographic views (all view rays parallel).
-    camera_forward: vec3<f32>,
-    is_orthographic: u32,
-    // Slots 0 .. global_light_count of `lights` are global; local lights follow.
-    global_light_count: u32,
-    local_light_count: u32,
-    _pad0: u32,
-    _pad1: u32,
-};
 
 struct Instance {
     // Rows of world_from_local (3×4 affine, translation in .w).
@@ -208,8 +199,18 @@ fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
 }
 #endif
 
+struct FragmentOut {
+    @location(0) color: vec4<f32>,
+#ifdef DEFERRED_LOCAL_LIGHTS
+    // The surface for the local-light pass (see gbuffer.wgsl); all zero for unlit surfaces.
+    @location(1) surface_color: vec4<f32>,
+    @location(2) surface_shape: vec4<u32>,
+#endif
+};
+
 @fragment
-fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> FragmentOut {
+    var frag: FragmentOut;
     let mat = materials[in.material];
     let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
     var base = mat.base_color * in.color;
@@ -227,7 +228,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
 #ifdef UNLIT
     let color = base.rgb;
 #else
-    let v = select(safe_normalize(-in.rel_position, vec3<f32>(0.0, 0.0, 1.0)), -view.camera_forward, view.is_orthographic != 0u);
+    let v = eye_direction(view, in.rel_position);
     var n = safe_normalize(in.normal, v);
     let double_sided_back = (mat.flags & MATERIAL_DOUBLE_SIDED) != 0u && !front_facing;
 #ifdef NORMAL_MAP
@@ -283,6 +284,12 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
     s.occlusion = 1.0 + mat.occlusion_strength * (ao.r - 1.0);
 #endif
 
+#ifdef DEFERRED_LOCAL_LIGHTS
+    let surface = encode_surface(s);
+    frag.surface_color = surface.color;
+    frag.surface_shape = surface.shape;
+#endif
+
     var color = vec3<f32>(0.0);
     for (var i = 0u; i < view.global_light_count; i++) {
         color += shade_light(s, lights[i], in.rel_position, view.camera_position);
@@ -313,12 +320,20 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
     out = cluster_heat(in.clip_position.xy, in.rel_position);
 #endif
     // No NaN or Inf may reach the render target: a NaN fails every comparison, so it becomes 0.
-    out = select(vec3<f32>(0.0), clamp(out, vec3<f32>(0.0), vec3<f32>(F16_MAX)), out == out);
+    // With deferred local lights their pass adds up to as much again, so each half stays below
+    // half of f16's range and the sum cannot overflow to Inf.
+#ifdef DEFERRED_LOCAL_LIGHTS
+    let limit = 0.5 * F16_MAX;
+#else
+    let limit = F16_MAX;
+#endif
+    out = select(vec3<f32>(0.0), clamp(out, vec3<f32>(0.0), vec3<f32>(limit)), out == out);
     let alpha = clamp(base.a, 0.0, 1.0);
 #ifdef ALPHA_BLEND
     // Premultiplied alpha: the blend state is (ONE, ONE_MINUS_SRC_ALPHA).
-    return vec4<f32>(out * alpha, alpha);
+    frag.color = vec4<f32>(out * alpha, alpha);
 #else
-    return vec4<f32>(out, 1.0);
+    frag.color = vec4<f32>(out, 1.0);
 #endif
+    return frag;
 }

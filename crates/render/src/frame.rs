@@ -11,7 +11,11 @@ pub enum Pass {
     ClusterBin,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
-    /// Alpha-blended draws, back to front, in the same render pass as `Opaque`.
+    /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`), then a render
+    /// pass that adds them to the frame and holds the `Transparent` phase.
+    DeferredLights,
+    /// Alpha-blended draws, back to front, in the same render pass as `Opaque` (or, with
+    /// deferred lights, as their composite).
     Transparent,
     /// HDR to display: exposure is already applied; tonemap and sRGB-encode into the output.
     Tonemap,
@@ -23,8 +27,9 @@ pub struct FramePlan {
 }
 
 impl FramePlan {
-    /// `binned_lights`: local lights the forward pass will find through clusters.
-    pub fn new(binned_lights: u32, has_opaque: bool, has_blend: bool) -> Self {
+    /// `binned_lights`: local lights the forward pass will find through clusters; `deferred`:
+    /// a compute pass shades them for opaque surfaces.
+    pub fn new(binned_lights: u32, has_opaque: bool, has_blend: bool, deferred: bool) -> Self {
         let mut passes = Vec::new();
         if binned_lights > 0 && (has_opaque || has_blend) {
             passes.push((Pass::ClusterBin, "local lights to bin and draws to light"));
@@ -33,6 +38,9 @@ impl FramePlan {
             Pass::Opaque,
             if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
         ));
+        if deferred {
+            passes.push((Pass::DeferredLights, "local lights shaded in compute (--light-walk compute)"));
+        }
         if has_blend {
             passes.push((Pass::Transparent, "blended draws exist"));
         }
@@ -60,16 +68,28 @@ mod tests {
 
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!FramePlan::new(0, true, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, true, true).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, false, false).runs(Pass::Tonemap));
+        assert!(!FramePlan::new(0, true, false, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, true, true, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, false, false, false).runs(Pass::Tonemap));
     }
 
     #[test]
     fn cluster_binning_only_with_local_lights_and_something_to_light() {
-        assert!(!FramePlan::new(0, true, true).runs(Pass::ClusterBin));
-        assert!(FramePlan::new(3, true, false).runs(Pass::ClusterBin));
-        assert!(!FramePlan::new(3, false, false).runs(Pass::ClusterBin));
-        assert_eq!(FramePlan::new(3, true, false).passes[0].0, Pass::ClusterBin, "binning precedes the forward pass");
+        assert!(!FramePlan::new(0, true, true, false).runs(Pass::ClusterBin));
+        assert!(FramePlan::new(3, true, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(3, false, false, false).runs(Pass::ClusterBin));
+        assert_eq!(
+            FramePlan::new(3, true, false, false).passes[0].0,
+            Pass::ClusterBin,
+            "binning precedes the forward pass"
+        );
+    }
+
+    #[test]
+    fn deferred_lights_only_when_asked_for_between_opaque_and_blended_draws() {
+        assert!(!FramePlan::new(3, true, true, false).runs(Pass::DeferredLights));
+        let plan = FramePlan::new(3, true, true, true);
+        let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::ClusterBin, Pass::Opaque, Pass::DeferredLights, Pass::Transparent, Pass::Tonemap]);
     }
 }

@@ -21,9 +21,12 @@ use crate::context::GpuContext;
 use crate::frame::{FramePlan, Pass};
 use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
+use crate::passes::deferred_lights::{self, GpuDeferredParams};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs};
 use crate::passes::tonemap;
-use crate::pipelines::pipeline_cache::{DebugView, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper};
+use crate::pipelines::pipeline_cache::{
+    DebugView, DeferredKey, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper,
+};
 use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::pipelines::shader_watcher::ShaderWatcher;
@@ -70,6 +73,11 @@ pub enum LightWalk {
     AllLights,
     /// Every local light with no range window: the reference for the window's error.
     AllUnbounded,
+    /// Through the cluster lists, by a compute pass over the opaque surfaces the forward pass
+    /// wrote out (blended surfaces still walk their lists in the fragment shader). The same
+    /// image as `Clustered`; much faster where fragment shaders run on few units (see
+    /// `shaders/deferred_lights.wgsl`).
+    ClusteredCompute,
 }
 
 /// Where the renderer's WGSL comes from.
@@ -250,6 +258,9 @@ pub struct Renderer {
     /// How this frame's pipelines find local lights (part of every pipeline key).
     local_lights: LocalLights,
     light_shapes: LightShapes,
+    /// Opaque surfaces get their local lights from the deferred-lights compute pass.
+    deferred_lights: bool,
+    deferred_params: wgpu::Buffer,
     /// The last binning refusal, reported once until it changes.
     binning_error: Option<BinningTooLarge>,
 }
@@ -313,6 +324,8 @@ impl Renderer {
             shader_error,
             local_lights: LocalLights::None,
             light_shapes: LightShapes::default(),
+            deferred_lights: false,
+            deferred_params: deferred_lights::params_buffer(&ctx.device),
             binning_error: None,
             settings,
             ctx,
@@ -491,13 +504,15 @@ impl Renderer {
         let queue = self.ctx.queue.clone();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
 
-        if self.targets.as_ref().is_none_or(|t| t.size != size || t.samples != self.settings.msaa) {
-            self.targets = Some(FrameTargets::new(&device, &self.pipelines.tonemap_layout, size, self.settings.msaa));
-        }
-
         let in_step = self.last_scene_frame.is_some_and(|f| f + 1 == scene.frame);
         self.last_scene_frame = Some(scene.frame);
         let mut rebind = self.prepare_lights(scene, in_step, size);
+        if self.targets.as_ref().is_none_or(|t| {
+            t.size != size || t.samples != self.settings.msaa || t.deferred.is_some() != self.deferred_lights
+        }) {
+            let params = self.deferred_lights.then_some(&self.deferred_params);
+            self.targets = Some(FrameTargets::new(&device, &self.pipelines, size, self.settings.msaa, params));
+        }
         self.apply_draw_changes(scene, in_step);
         let t = Instant::now();
         self.prepare_materials(scene, &mut encoder);
@@ -533,7 +548,8 @@ impl Renderer {
             batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
         }
         let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
-        let plan = FramePlan::new(binned, !self.opaque_batches.is_empty(), !blend_batches.is_empty());
+        let plan =
+            FramePlan::new(binned, !self.opaque_batches.is_empty(), !blend_batches.is_empty(), self.deferred_lights);
 
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
@@ -544,24 +560,55 @@ impl Renderer {
         }
         let targets = self.targets.as_ref().expect("made above");
         let [r, g, b] = self.settings.clear_color;
-        let (counts, forward_error) = if plan.runs(Pass::Opaque) {
+        let view_bind_group = self.view_bind_group.as_ref().expect("made above");
+        let inputs = ForwardInputs {
+            targets,
+            view_bind_group,
+            mesh_pool: &self.mesh_pool,
+            materials: &self.materials,
+            clear_color: wgpu::Color { r, g, b, a: 1.0 },
+        };
+        let opaque_count = self.opaque_batches.len();
+        let (mut counts, mut forward_error) = if plan.runs(Pass::Opaque) {
             forward::encode(
                 &mut encoder,
                 &device,
                 &mut self.pipelines,
-                ForwardInputs {
-                    targets,
-                    view_bind_group: self.view_bind_group.as_ref().expect("made above"),
-                    mesh_pool: &self.mesh_pool,
-                    materials: &self.materials,
-                    clear_color: wgpu::Color { r, g, b, a: 1.0 },
-                },
+                &inputs,
                 &batches,
+                opaque_count,
                 self.timer.as_mut(),
             )
         } else {
             (DrawCounts::default(), None)
         };
+        if plan.runs(Pass::DeferredLights) {
+            let key = DeferredKey { multisampled: targets.samples > 1, light_shapes: self.light_shapes };
+            if let Err(e) = deferred_lights::encode(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                targets,
+                view_bind_group,
+                key,
+                self.timer.as_mut(),
+            ) {
+                forward_error = Some(e);
+            }
+            let (after, error) = forward::encode_after_deferred(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                &inputs,
+                &batches,
+                opaque_count,
+                self.timer.as_mut(),
+            );
+            counts.draw_calls += after.draw_calls;
+            counts.instances += after.instances;
+            counts.primitives += after.primitives;
+            forward_error = forward_error.or(error);
+        }
         let tonemap_result = tonemap::encode(
             &mut encoder,
             &device,
@@ -626,7 +673,7 @@ impl Renderer {
         }
         let mut walk = match (self.lights.local_count(), self.settings.light_walk) {
             (0, _) => LocalLights::None,
-            (_, LightWalk::Clustered) => LocalLights::Clustered,
+            (_, LightWalk::Clustered | LightWalk::ClusteredCompute) => LocalLights::Clustered,
             (_, LightWalk::AllLights) => LocalLights::All,
             (_, LightWalk::AllUnbounded) => LocalLights::AllUnbounded,
         };
@@ -658,9 +705,14 @@ impl Renderer {
             }
         }
         let shapes = self.lights.shapes();
-        if walk != self.local_lights || shapes != self.light_shapes {
+        // The heat view colours fragments by their cluster, which only the forward shader does.
+        let deferred = walk == LocalLights::Clustered
+            && self.settings.light_walk == LightWalk::ClusteredCompute
+            && self.settings.debug_view == DebugView::None;
+        if walk != self.local_lights || shapes != self.light_shapes || deferred != self.deferred_lights {
             self.local_lights = walk;
             self.light_shapes = shapes;
+            self.deferred_lights = deferred;
             self.batches_dirty = true;
         }
         rebind
@@ -827,7 +879,12 @@ impl Renderer {
             unlit: m.unlit,
             alpha: m.alpha,
             textures: m.textures,
-            local_lights: self.local_lights,
+            // Blended surfaces are not in the surface targets: they walk their own lists.
+            local_lights: if self.deferred_lights && m.alpha != AlphaKey::Blend {
+                LocalLights::Deferred
+            } else {
+                self.local_lights
+            },
             light_shapes: self.light_shapes,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
@@ -905,6 +962,10 @@ impl Renderer {
                 let rotation = glam::Mat3::from(view.world_from_view.matrix3);
                 let view_from_rel = Mat4::from_mat3(rotation.transpose());
                 let clip_from_rel = view.projection.clip_from_view(aspect) * view_from_rel;
+                if self.deferred_lights {
+                    let params = GpuDeferredParams::new(clip_from_rel, size);
+                    queue.write_buffer(&self.deferred_params, 0, bytemuck::bytes_of(&params));
+                }
                 GpuView {
                     clip_from_rel: clip_from_rel.to_cols_array_2d(),
                     camera_position: Vec3::from(view.world_from_view.translation).to_array(),

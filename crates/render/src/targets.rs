@@ -1,6 +1,10 @@
 //! Frame targets: the linear HDR colour target (`Rgba16Float`), its MSAA twin when multisampling,
-//! and the reverse-Z depth target (`Depth32Float`, cleared to 0). Recreated only when the size or
-//! sample count changes.
+//! and the reverse-Z depth target (`Depth32Float`, cleared to 0); with deferred local lights also
+//! the surface targets opaque fragments write, and the local light the compute pass writes (see
+//! `passes/deferred_lights.rs`). Recreated only when the size, the sample count or whether lights
+//! are deferred changes.
+
+use crate::pipelines::pipeline_cache::{LOCAL_LIGHT_FORMAT, PipelineCache, SURFACE_COLOR_FORMAT, SURFACE_SHAPE_FORMAT};
 
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -14,10 +18,33 @@ pub struct FrameTargets {
     pub hdr_msaa_view: Option<wgpu::TextureView>,
     pub depth_view: wgpu::TextureView,
     pub tonemap_bind_group: wgpu::BindGroup,
+    pub deferred: Option<DeferredTargets>,
+}
+
+fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
+}
+
+/// What deferred local lights add: the surface each opaque sample holds, and the local light
+/// per pixel, bound for the compute pass and for the composite.
+pub struct DeferredTargets {
+    pub surface_color_view: wgpu::TextureView,
+    pub surface_shape_view: wgpu::TextureView,
+    /// Group 1 of the deferred-lights compute pass.
+    pub compute_bind_group: wgpu::BindGroup,
+    /// Group 0 of the composite.
+    pub composite_bind_group: wgpu::BindGroup,
 }
 
 impl FrameTargets {
-    pub fn new(device: &wgpu::Device, tonemap_layout: &wgpu::BindGroupLayout, size: (u32, u32), samples: u32) -> Self {
+    /// `deferred_params`: the deferred-lights pass's uniform when lights are deferred.
+    pub fn new(
+        device: &wgpu::Device,
+        pipelines: &PipelineCache,
+        size: (u32, u32),
+        samples: u32,
+        deferred_params: Option<&wgpu::Buffer>,
+    ) -> Self {
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -41,13 +68,39 @@ impl FrameTargets {
         let hdr_view = hdr.create_view(&Default::default());
         let hdr_msaa_view =
             (samples > 1).then(|| tex("hdr colour msaa", HDR_FORMAT, samples, attach).create_view(&Default::default()));
-        let depth_view = tex("depth", DEPTH_FORMAT, samples, attach).create_view(&Default::default());
+        let sampled = wgpu::TextureUsages::TEXTURE_BINDING;
+        let depth_usage = if deferred_params.is_some() { attach | sampled } else { attach };
+        let depth_view = tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default());
         let tonemap_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tonemap input"),
-            layout: tonemap_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&hdr_view) }],
+            layout: &pipelines.tonemap_layout,
+            entries: &[view_entry(0, &hdr_view)],
         });
-        Self { size, samples, hdr, hdr_view, hdr_msaa_view, depth_view, tonemap_bind_group }
+        let deferred = deferred_params.map(|params| {
+            let view = |t: wgpu::Texture| t.create_view(&Default::default());
+            let surface_color_view = view(tex("surface colour", SURFACE_COLOR_FORMAT, samples, attach | sampled));
+            let surface_shape_view = view(tex("surface shape", SURFACE_SHAPE_FORMAT, samples, attach | sampled));
+            let local_light_view =
+                view(tex("local light", LOCAL_LIGHT_FORMAT, 1, wgpu::TextureUsages::STORAGE_BINDING | sampled));
+            let compute_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("deferred lights"),
+                layout: &pipelines.deferred_layouts[(samples > 1) as usize],
+                entries: &[
+                    view_entry(0, &surface_color_view),
+                    view_entry(1, &surface_shape_view),
+                    view_entry(2, &depth_view),
+                    view_entry(3, &local_light_view),
+                    wgpu::BindGroupEntry { binding: 4, resource: params.as_entire_binding() },
+                ],
+            });
+            let composite_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("deferred composite"),
+                layout: &pipelines.composite_layout,
+                entries: &[view_entry(0, &local_light_view)],
+            });
+            DeferredTargets { surface_color_view, surface_shape_view, compute_bind_group, composite_bind_group }
+        });
+        Self { size, samples, hdr, hdr_view, hdr_msaa_view, depth_view, tonemap_bind_group, deferred }
     }
 
     /// Where the forward pass draws, and what it resolves into.
@@ -60,7 +113,9 @@ impl FrameTargets {
 
     pub fn bytes(&self) -> u64 {
         let px = self.size.0 as u64 * self.size.1 as u64;
-        // HDR 8 B + depth 4 B per sample, plus the single-sampled resolve target.
-        px * (8 + 12 * self.samples as u64) + if self.samples > 1 { px * 8 } else { 0 }
+        // HDR 8 B + depth 4 B per sample, plus the single-sampled resolve target; deferred
+        // lights add 16 B of surface per sample and 8 B of local light per pixel.
+        let deferred = if self.deferred.is_some() { px * (16 * self.samples as u64 + 8) } else { 0 };
+        px * (8 + 12 * self.samples as u64) + if self.samples > 1 { px * 8 } else { 0 } + deferred
     }
 }

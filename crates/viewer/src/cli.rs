@@ -58,8 +58,10 @@ pub struct LookArgs {
     /// number of lights in its cluster (black none, blue, green, yellow, red, white ≥ 256).
     #[arg(long, value_enum, default_value_t = DebugViewArg::None)]
     pub debug_view: DebugViewArg,
-    /// How fragments find point and spot lights: through their cluster (the normal path), or
-    /// every light (`all`, the brute-force reference; `unbounded` also drops the range window).
+    /// How fragments find local lights: through their cluster (the normal path), through their
+    /// cluster in a compute pass over opaque surfaces (`compute`: the same image, faster where
+    /// fragment shaders run on few units), or every light (`all`, the brute-force reference;
+    /// `unbounded` also drops the range window).
     #[arg(long, value_enum, default_value_t = LightWalkArg::Clustered)]
     pub light_walk: LightWalkArg,
     /// Cluster grid: tiles across x tiles down x depth slices.
@@ -76,6 +78,8 @@ pub enum DebugViewArg {
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightWalkArg {
     Clustered,
+    /// Clusters walked by a compute pass for opaque surfaces (deferred local lights).
+    Compute,
     All,
     Unbounded,
 }
@@ -235,6 +239,7 @@ impl LookArgs {
             clusters: self.clusters,
             light_walk: match self.light_walk {
                 LightWalkArg::Clustered => LightWalk::Clustered,
+                LightWalkArg::Compute => LightWalk::ClusteredCompute,
                 LightWalkArg::All => LightWalk::AllLights,
                 LightWalkArg::Unbounded => LightWalk::AllUnbounded,
             },

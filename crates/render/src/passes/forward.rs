@@ -1,5 +1,8 @@
 //! Forward pass: every batch as one instanced draw. Opaque and masked batches first (sorted by
 //! pipeline, material and mesh so state changes are minimal), then blended draws back to front.
+//! With deferred local lights the pass splits around the deferred-lights compute pass: opaque
+//! batches (also writing their surface), then the composite of the local light and the blended
+//! batches.
 
 use penumbra_engine::Handle;
 use penumbra_engine::mesh::Mesh;
@@ -39,45 +42,128 @@ pub struct ForwardInputs<'a> {
 
 /// Encodes the pass. A batch whose pipeline cannot be compiled (a broken shader folder at
 /// start-up) is skipped and its error returned; everything else still draws.
+///
+/// With deferred local lights (`targets.deferred`), the pass stops after the first
+/// `opaque_count` batches, keeping colour, depth and the surface targets for the
+/// deferred-lights pass; [`encode_after_deferred`] then adds its light and draws the rest.
 pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
     pipelines: &mut PipelineCache,
-    inputs: ForwardInputs,
+    inputs: &ForwardInputs,
     batches: &[Batch],
+    opaque_count: usize,
     timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
+    let error = compile(device, pipelines, batches);
     let (color, resolve) = inputs.targets.color_attachment();
-    // Multisampled colour need not be stored once resolved.
-    let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
-    // Pipelines are created before the pass borrows the cache immutably.
-    let mut error = None;
-    for b in batches {
-        if let Err(e) = pipelines.forward(device, b.key) {
-            error = Some(e);
-        }
+    let split = inputs.targets.deferred.as_ref();
+    // Multisampled colour need not be stored once resolved (unless a later pass goes on).
+    let store = if resolve.is_some() && split.is_none() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
+    let clear_surface = |view| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+        })
+    };
+    let mut attachments = vec![Some(wgpu::RenderPassColorAttachment {
+        view: color,
+        depth_slice: None,
+        resolve_target: if split.is_some() { None } else { resolve },
+        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(inputs.clear_color), store },
+    })];
+    if let Some(d) = split {
+        attachments.push(clear_surface(&d.surface_color_view));
+        attachments.push(clear_surface(&d.surface_shape_view));
     }
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("forward"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: color,
-            depth_slice: None,
-            resolve_target: resolve,
-            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(inputs.clear_color), store },
-        })],
+        color_attachments: &attachments,
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: &inputs.targets.depth_view,
             // Reverse-Z: the far plane is 0.
-            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(0.0),
+                store: if split.is_some() { wgpu::StoreOp::Store } else { wgpu::StoreOp::Discard },
+            }),
             stencil_ops: None,
         }),
         timestamp_writes: timer.and_then(|t| t.pass("forward")),
         occlusion_query_set: None,
         multiview_mask: None,
     });
+    let drawn = if split.is_some() { &batches[..opaque_count.min(batches.len())] } else { batches };
+    (draw(&mut pass, pipelines, inputs, drawn), error)
+}
+
+/// After the deferred-lights pass: adds its light to the frame, then draws the blended batches
+/// (`batches[opaque_count..]`) over it, and resolves.
+pub fn encode_after_deferred(
+    encoder: &mut wgpu::CommandEncoder,
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    inputs: &ForwardInputs,
+    batches: &[Batch],
+    opaque_count: usize,
+    timer: Option<&mut GpuTimer>,
+) -> (DrawCounts, Option<ShaderError>) {
+    let targets = inputs.targets;
+    let Some(deferred) = targets.deferred.as_ref() else { return (DrawCounts::default(), None) };
+    let blended = &batches[opaque_count.min(batches.len())..];
+    let mut error = compile(device, pipelines, blended);
+    if let Err(e) = pipelines.composite(device, targets.samples, crate::targets::DEPTH_FORMAT) {
+        error = Some(e);
+    }
+    let (color, resolve) = targets.color_attachment();
+    let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("deferred composite and blended draws"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: resolve,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Load, store },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: &targets.depth_view,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Discard }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: timer.and_then(|t| t.pass("composite")),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    if let Some(composite) = pipelines.composite_cached(targets.samples, crate::targets::DEPTH_FORMAT) {
+        pass.set_pipeline(composite);
+        pass.set_bind_group(0, &deferred.composite_bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    (draw(&mut pass, pipelines, inputs, blended), error)
+}
+
+/// Creates the batches' pipelines before a pass borrows the cache immutably; returns the last
+/// error.
+fn compile(device: &wgpu::Device, pipelines: &mut PipelineCache, batches: &[Batch]) -> Option<ShaderError> {
+    let mut error = None;
+    for b in batches {
+        if let Err(e) = pipelines.forward(device, b.key) {
+            error = Some(e);
+        }
+    }
+    error
+}
+
+fn draw(
+    pass: &mut wgpu::RenderPass<'_>,
+    pipelines: &PipelineCache,
+    inputs: &ForwardInputs,
+    batches: &[Batch],
+) -> DrawCounts {
     let mut counts = DrawCounts::default();
     if batches.is_empty() {
-        return (counts, error);
+        return counts;
     }
     pass.set_bind_group(0, inputs.view_bind_group, &[]);
     pass.set_vertex_buffer(0, inputs.mesh_pool.vertex_buffer().slice(..));
@@ -112,5 +198,5 @@ pub fn encode(
         };
         counts.primitives += (entry.element_count() / per_primitive) as u64 * b.count as u64;
     }
-    (counts, error)
+    counts
 }

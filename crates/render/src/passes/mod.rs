@@ -1,4 +1,5 @@
 //! Passes: each encodes GPU work from what prepare made. Nothing here reads the ECS.
 pub mod clusters;
+pub mod deferred_lights;
 pub mod forward;
 pub mod tonemap;

@@ -64,7 +64,8 @@ impl PipelineKey {
     pub fn shader_defs(&self) -> ShaderDefs {
         let t = self.textures;
         let lit = !self.unlit;
-        let local = lit && self.local_lights != LocalLights::None;
+        // Deferred: the compute pass shades local lights; fragments only hand it their surface.
+        let local = lit && !matches!(self.local_lights, LocalLights::None | LocalLights::Deferred);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -75,7 +76,8 @@ impl PipelineKey {
             .with("NORMAL_MAP", lit && t.has(TextureSet::NORMAL))
             .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
             .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
-            .with("LOCAL_LIGHTS", lit && self.local_lights != LocalLights::None)
+            .with("LOCAL_LIGHTS", local)
+            .with("DEFERRED_LOCAL_LIGHTS", self.local_lights == LocalLights::Deferred)
             .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)
             .with("UNBOUNDED_LIGHTS", lit && self.local_lights == LocalLights::AllUnbounded)
             .with("SPHERE_TUBE_LIGHTS", local && self.light_shapes.sphere_tube)
@@ -99,7 +101,25 @@ pub enum LocalLights {
     /// Every local light with no range window (inverse square to infinity): the reference for
     /// the error the window introduces.
     AllUnbounded,
+    /// Opaque fragments write their surface to extra targets and a compute pass walks the
+    /// cluster lists (`deferred_lights.wgsl`); blended draws keep `Clustered`.
+    Deferred,
 }
+
+/// Selects a deferred-lights compute pipeline: the frame's sample count and the kinds of lights
+/// with a size it must shade.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct DeferredKey {
+    pub multisampled: bool,
+    pub light_shapes: LightShapes,
+}
+
+/// Formats of the surface targets opaque fragments write for the deferred-lights pass (see
+/// `gbuffer.wgsl`).
+pub const SURFACE_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const SURFACE_SHAPE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Uint;
+/// What the deferred-lights pass writes and the composite adds.
+pub const LOCAL_LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// Debug views replacing the shaded colour.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
@@ -198,6 +218,14 @@ pub struct PipelineCache {
     tonemap: HashMap<(Tonemapper, wgpu::TextureFormat), wgpu::RenderPipeline>,
     mipmap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     cluster: HashMap<ClusterEntry, wgpu::ComputePipeline>,
+    /// Inputs of the deferred-lights pass, single-sampled and multisampled.
+    pub deferred_layouts: [wgpu::BindGroupLayout; 2],
+    deferred_pipeline_layouts: [wgpu::PipelineLayout; 2],
+    pub composite_layout: wgpu::BindGroupLayout,
+    composite_pipeline_layout: wgpu::PipelineLayout,
+    deferred: HashMap<DeferredKey, wgpu::ComputePipeline>,
+    /// Keyed by sample count and depth format.
+    composite: HashMap<(u32, FormatKey), wgpu::RenderPipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -265,7 +293,9 @@ fn checked_pipeline<P>(device: &wgpu::Device, file: &str, create: impl FnOnce() 
 
 impl PipelineCache {
     pub fn new(device: &wgpu::Device, shaders: ShaderLibrary) -> Self {
-        let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        // What the deferred-lights compute pass reads as well.
+        let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("view"),
             entries: &[
@@ -282,12 +312,12 @@ impl PipelineCache {
                 storage(1, wgpu::ShaderStages::VERTEX),
                 storage(2, wgpu::ShaderStages::VERTEX),
                 storage(3, wgpu::ShaderStages::FRAGMENT),
-                storage(4, wgpu::ShaderStages::FRAGMENT),
-                buffer_entry(5, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
-                storage(6, wgpu::ShaderStages::FRAGMENT),
-                storage(7, wgpu::ShaderStages::FRAGMENT),
-                storage(8, wgpu::ShaderStages::FRAGMENT),
-                storage(9, wgpu::ShaderStages::FRAGMENT),
+                storage(4, lit),
+                buffer_entry(5, lit, wgpu::BufferBindingType::Uniform),
+                storage(6, lit),
+                storage(7, lit),
+                storage(8, lit),
+                storage(9, lit),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;
@@ -326,7 +356,51 @@ impl PipelineCache {
         let tonemap_pipeline_layout = layout("tonemap", &[Some(&tonemap_layout)]);
         let mipmap_pipeline_layout = layout("mipmap", &[Some(&mipmap_layout)]);
         let cluster_pipeline_layout = layout("cluster binning", &[Some(&cluster_layout)]);
+        let deferred_layouts = [false, true].map(|multisampled| {
+            let surface = |binding, sample_type| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: compute,
+                ty: wgpu::BindingType::Texture {
+                    sample_type,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled,
+                },
+                count: None,
+            };
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(if multisampled { "deferred lights (msaa)" } else { "deferred lights" }),
+                entries: &[
+                    surface(0, wgpu::TextureSampleType::Float { filterable: false }),
+                    surface(1, wgpu::TextureSampleType::Uint),
+                    surface(2, wgpu::TextureSampleType::Depth),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 3,
+                        visibility: compute,
+                        ty: wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: LOCAL_LIGHT_FORMAT,
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                        },
+                        count: None,
+                    },
+                    buffer_entry(4, compute, wgpu::BufferBindingType::Uniform),
+                ],
+            })
+        });
+        let deferred_pipeline_layouts =
+            [0, 1].map(|i| layout("deferred lights", &[Some(&view_layout), Some(&deferred_layouts[i])]));
+        let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("deferred composite"),
+            entries: &[texture(0, false)],
+        });
+        let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
         Self {
+            deferred_layouts,
+            deferred_pipeline_layouts,
+            composite_layout,
+            composite_pipeline_layout,
+            deferred: HashMap::new(),
+            composite: HashMap::new(),
             cluster_layout,
             cluster_pipeline_layout,
             cluster: HashMap::new(),
@@ -417,6 +491,39 @@ impl PipelineCache {
         self.cluster.get(&entry)
     }
 
+    /// The deferred-lights compute pipeline for `key`, compiling it on first use.
+    pub fn deferred(&mut self, device: &wgpu::Device, key: DeferredKey) -> Result<&wgpu::ComputePipeline, ShaderError> {
+        if !self.deferred.contains_key(&key) {
+            let p = self.create_deferred(device, &mut None, key)?;
+            self.deferred.insert(key, p);
+        }
+        Ok(&self.deferred[&key])
+    }
+
+    pub fn composite_cached(&self, samples: u32, depth_format: wgpu::TextureFormat) -> Option<&wgpu::RenderPipeline> {
+        self.composite.get(&(samples, FormatKey(depth_format)))
+    }
+
+    pub fn deferred_cached(&self, key: &DeferredKey) -> Option<&wgpu::ComputePipeline> {
+        self.deferred.get(key)
+    }
+
+    /// The pipeline adding deferred local lights into a frame of `samples` samples whose pass
+    /// has a depth attachment of `depth_format`.
+    pub fn composite(
+        &mut self,
+        device: &wgpu::Device,
+        samples: u32,
+        depth_format: wgpu::TextureFormat,
+    ) -> Result<&wgpu::RenderPipeline, ShaderError> {
+        let key = (samples, FormatKey(depth_format));
+        if !self.composite.contains_key(&key) {
+            let p = self.create_composite(device, &mut None, key)?;
+            self.composite.insert(key, p);
+        }
+        Ok(&self.composite[&key])
+    }
+
     /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use them;
     /// on any error keeps everything as it was and returns the error.
     pub fn reload(&mut self, device: &wgpu::Device, files: &[String]) -> Result<ReloadReport, ShaderError> {
@@ -428,6 +535,8 @@ impl PipelineCache {
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
         let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
         let cluster_hit = lib.depends_on("cluster_bin.wgsl", files);
+        let deferred_hit = lib.depends_on("deferred_lights.wgsl", files);
+        let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -452,13 +561,32 @@ impl PipelineCache {
                 cluster.push((key, self.create_cluster(device, &mut candidate, key)?));
             }
         }
-        let total = self.forward.len() + self.tonemap.len() + self.mipmap.len() + self.cluster.len();
-        let rebuilt = forward.len() + tonemap.len() + mipmap.len() + cluster.len();
+        let mut deferred = Vec::new();
+        if deferred_hit {
+            for key in self.deferred.keys().copied().collect::<Vec<_>>() {
+                deferred.push((key, self.create_deferred(device, &mut candidate, key)?));
+            }
+        }
+        let mut composite = Vec::new();
+        if composite_hit {
+            for key in self.composite.keys().copied().collect::<Vec<_>>() {
+                composite.push((key, self.create_composite(device, &mut candidate, key)?));
+            }
+        }
+        let total = self.forward.len()
+            + self.tonemap.len()
+            + self.mipmap.len()
+            + self.cluster.len()
+            + self.deferred.len()
+            + self.composite.len();
+        let rebuilt = forward.len() + tonemap.len() + mipmap.len() + cluster.len() + deferred.len() + composite.len();
         self.shaders = candidate.expect("still there");
         self.forward.extend(forward);
         self.tonemap.extend(tonemap);
         self.mipmap.extend(mipmap);
         self.cluster.extend(cluster);
+        self.deferred.extend(deferred);
+        self.composite.extend(composite);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }
@@ -480,6 +608,14 @@ impl PipelineCache {
         let module = self.library(candidate).create_module(device, "forward.wgsl", &key.shader_defs())?;
         let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
         let label = format!("forward {key:?}");
+        let color =
+            Some(wgpu::ColorTargetState { format: key.color_format.0, blend, write_mask: wgpu::ColorWrites::ALL });
+        let surface = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        let targets = if key.local_lights == LocalLights::Deferred {
+            vec![color, surface(SURFACE_COLOR_FORMAT), surface(SURFACE_SHAPE_FORMAT)]
+        } else {
+            vec![color]
+        };
         self.compiled += 1;
         let _timing = PipelineTiming(std::time::Instant::now());
         checked_pipeline(device, "forward.wgsl", || {
@@ -524,11 +660,7 @@ impl PipelineCache {
                     module: &module,
                     entry_point: Some("fs_main"),
                     compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: key.color_format.0,
-                        blend,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
+                    targets: &targets,
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -568,6 +700,91 @@ impl PipelineCache {
 }
 
 impl PipelineCache {
+    fn create_deferred(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        key: DeferredKey,
+    ) -> Result<wgpu::ComputePipeline, ShaderError> {
+        let defs = ShaderDefs::default()
+            .with("MULTISAMPLED", key.multisampled)
+            .with("LOCAL_LIGHTS", true)
+            .with("CLUSTERED_LIGHTS", true)
+            .with("SPHERE_TUBE_LIGHTS", key.light_shapes.sphere_tube)
+            .with("LTC_LIGHTS", key.light_shapes.ltc)
+            .with("IES_LIGHTS", key.light_shapes.ies);
+        let module = self.library(candidate).create_module(device, "deferred_lights.wgsl", &defs)?;
+        self.compiled += 1;
+        let layout = &self.deferred_pipeline_layouts[key.multisampled as usize];
+        checked_pipeline(device, "deferred_lights.wgsl", || {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("deferred lights"),
+                layout: Some(layout),
+                module: &module,
+                entry_point: Some("shade_local_lights"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
+    }
+
+    fn create_composite(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        (samples, depth_format): (u32, FormatKey),
+    ) -> Result<wgpu::RenderPipeline, ShaderError> {
+        let module =
+            self.library(candidate).create_module(device, "deferred_composite.wgsl", &ShaderDefs::default())?;
+        self.compiled += 1;
+        // Adds radiance; leaves alpha as it is.
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let keep = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::Zero,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        checked_pipeline(device, "deferred_composite.wgsl", || {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("deferred composite"),
+                layout: Some(&self.composite_pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                // The pass keeps the opaque depth for the blended draws after it; the composite
+                // neither tests nor writes it.
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: depth_format.0,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::Always),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                multisample: wgpu::MultisampleState { count: samples, mask: !0, alpha_to_coverage_enabled: false },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: crate::targets::HDR_FORMAT,
+                        blend: Some(wgpu::BlendState { color: add, alpha: keep }),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })
+    }
+
     fn create_cluster(
         &mut self,
         device: &wgpu::Device,

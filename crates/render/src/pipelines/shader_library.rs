@@ -27,6 +27,8 @@ use naga_oil::compose::{
 pub const EMBEDDED: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     ("brdf.wgsl", include_str!("../../../../shaders/brdf.wgsl")),
+    ("view.wgsl", include_str!("../../../../shaders/view.wgsl")),
+    ("gbuffer.wgsl", include_str!("../../../../shaders/gbuffer.wgsl")),
     ("light_data.wgsl", include_str!("../../../../shaders/light_data.wgsl")),
     ("area_lights.wgsl", include_str!("../../../../shaders/area_lights.wgsl")),
     ("ltc.wgsl", include_str!("../../../../shaders/ltc.wgsl")),
@@ -35,6 +37,8 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
+    ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
+    ("deferred_composite.wgsl", include_str!("../../../../shaders/deferred_composite.wgsl")),
     ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
     ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
 ];

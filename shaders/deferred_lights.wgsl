@@ -1,0 +1,123 @@
+// Deferred local lights: a compute pass that shades every local light (all kinds but
+// directional and ambient) for the opaque surfaces the forward pass drew, reading the surface
+// each fragment wrote (gbuffer.wgsl) and walking its cluster's list, and writes the exposed
+// radiance per pixel for deferred_composite.wgsl to add into the frame before blended draws.
+//
+// Why compute: on GPUs with few graphics-capable units (NVIDIA's H100 runs fragment shaders on
+// 2 of its 66 TPCs) the light loop runs many times faster in compute than in fragment shaders;
+// fragments then only write the surface.
+//
+// Multisampling (MULTISAMPLED): where all samples of a pixel hold the same surface, it is
+// shaded once, at the mean of the samples' positions (the pixel centre on that surface, as the
+// forward shader would shade it); elsewhere each sample is shaded and the mean written, which
+// is what resolving the samples would give. Variants follow the forward shader's light kinds:
+// SPHERE_TUBE_LIGHTS, LTC_LIGHTS, IES_LIGHTS.
+
+#import penumbra::common::{F16_MAX}
+#import penumbra::view::{View, eye_direction}
+#import penumbra::light_data::Light
+#import penumbra::lights::shade_light
+#import penumbra::clusters::{ClusterGrid, fragment_cluster}
+#import penumbra::gbuffer::decode_surface
+
+struct DeferredParams {
+    // Inverse of view.clip_from_rel: clip-space sample positions back to camera-relative ones.
+    rel_from_clip: mat4x4<f32>,
+    viewport: vec2<f32>,
+    _pad: vec2<f32>,
+};
+
+@group(0) @binding(0) var<uniform> view: View;
+@group(0) @binding(4) var<storage, read> lights: array<Light>;
+@group(0) @binding(5) var<uniform> grid: ClusterGrid;
+@group(0) @binding(6) var<storage, read> cluster_ranges: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
+
+#ifdef MULTISAMPLED
+@group(1) @binding(0) var surface_color: texture_multisampled_2d<f32>;
+@group(1) @binding(1) var surface_shape: texture_multisampled_2d<u32>;
+@group(1) @binding(2) var depth: texture_depth_multisampled_2d;
+const SAMPLES: u32 = 4u;
+#else
+@group(1) @binding(0) var surface_color: texture_2d<f32>;
+@group(1) @binding(1) var surface_shape: texture_2d<u32>;
+@group(1) @binding(2) var depth: texture_depth_2d;
+const SAMPLES: u32 = 1u;
+#endif
+@group(1) @binding(3) var local_light: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(4) var<uniform> params: DeferredParams;
+
+// Where sample i sits in its pixel: the standard 4× pattern (Vulkan, D3D and Metal share it),
+// or the centre.
+fn sample_offset(i: u32) -> vec2<f32> {
+#ifdef MULTISAMPLED
+    let pattern = array<vec2<f32>, 4>(
+        vec2<f32>(0.375, 0.125),
+        vec2<f32>(0.875, 0.375),
+        vec2<f32>(0.125, 0.625),
+        vec2<f32>(0.625, 0.875)
+    );
+    return pattern[i];
+#else
+    return vec2<f32>(0.5);
+#endif
+}
+
+// The camera-relative position seen at framebuffer position `xy` with depth `d`.
+fn position_at(xy: vec2<f32>, d: f32) -> vec3<f32> {
+    let ndc = vec2<f32>(xy.x / params.viewport.x * 2.0 - 1.0, 1.0 - xy.y / params.viewport.y * 2.0);
+    let h = params.rel_from_clip * vec4<f32>(ndc, d, 1.0);
+    return h.xyz / h.w;
+}
+
+// Local light leaving the surface at `rel` toward the eye; `frag_xy` picks the cluster.
+fn shade_at(rel: vec3<f32>, frag_xy: vec2<f32>, color: vec4<f32>, shape: vec4<u32>) -> vec3<f32> {
+    let s = decode_surface(color, shape, eye_direction(view, rel));
+    let range = cluster_ranges[fragment_cluster(grid, frag_xy, dot(rel, view.camera_forward))];
+    var total = vec3<f32>(0.0);
+    for (var i = 0u; i < range.y; i++) {
+        total += shade_light(s, lights[cluster_lights[range.x + i]], rel, view.camera_position);
+    }
+    return total;
+}
+
+@compute @workgroup_size(8, 8)
+fn shade_local_lights(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= u32(params.viewport.x) || id.y >= u32(params.viewport.y) {
+        return;
+    }
+    let px = vec2<i32>(id.xy);
+    let corner = vec2<f32>(id.xy);
+    let centre = corner + 0.5;
+    let color = textureLoad(surface_color, px, 0);
+    let shape = textureLoad(surface_shape, px, 0);
+    var one_surface = true;
+    for (var i = 1u; i < SAMPLES; i++) {
+        one_surface = one_surface && all(textureLoad(surface_color, px, i) == color)
+            && all(textureLoad(surface_shape, px, i) == shape);
+    }
+    var total = vec3<f32>(0.0);
+    if one_surface {
+        if shape.w != 0u {
+            var rel = vec3<f32>(0.0);
+            for (var i = 0u; i < SAMPLES; i++) {
+                rel += position_at(corner + sample_offset(i), textureLoad(depth, px, i));
+            }
+            total = shade_at(rel / f32(SAMPLES), centre, color, shape);
+        }
+    } else {
+        for (var i = 0u; i < SAMPLES; i++) {
+            let sample_shape = textureLoad(surface_shape, px, i);
+            if sample_shape.w != 0u {
+                let rel = position_at(corner + sample_offset(i), textureLoad(depth, px, i));
+                total += shade_at(rel, centre, textureLoad(surface_color, px, i), sample_shape);
+            }
+        }
+        total /= f32(SAMPLES);
+    }
+    var out = total * view.exposure;
+    // As in forward.wgsl: no NaN, and half of f16's range, so the sum with the forward pass's
+    // half stays finite.
+    out = select(vec3<f32>(0.0), clamp(out, vec3<f32>(0.0), vec3<f32>(0.5 * F16_MAX)), out == out);
+    textureStore(local_light, px, vec4<f32>(out, 0.0));
+}
