@@ -15,6 +15,8 @@ struct Row {
     lights: usize,
     clusters_ms: Option<f64>,
     forward_ms: Option<f64>,
+    /// The deferred-lights compute pass and its composite (`--light-walk compute`).
+    deferred_ms: Option<f64>,
     gpu_ms: Option<f64>,
     wall_ms: f64,
     update_ms: f64,
@@ -97,6 +99,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             lights: n,
             clusters_ms: median(t.pass("clusters")),
             forward_ms: median(t.pass("forward")),
+            deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
             gpu_ms: median(Some(&t.gpu_total)),
             wall_ms: percentile(&t.wall, 0.5),
             update_ms: percentile(&t.update, 0.5),
@@ -117,10 +120,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         range.map_or("auto (from intensity, cutoff 1/4096)".to_owned(), |r| format!("{r} m"))
     );
     println!(
-        "settings  {}x{}, MSAA {}, clusters {}x{}x{}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, ambient 60 cd/m², {} warm-up + {} timed frames; window error at {}x{}",
+        "settings  {}x{}, MSAA {}, light walk {:?}, clusters {}x{}x{}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, ambient 60 cd/m², {} warm-up + {} timed frames; window error at {}x{}",
         args.size.0,
         args.size.1,
         base.msaa,
+        base.light_walk,
         base.clusters.tiles_x,
         base.clusters.tiles_y,
         base.clusters.slices,
@@ -132,15 +136,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | GPU binning (ms) | GPU shading (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | GPU binning (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
+            "| {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
             r.lights,
             ms(r.clusters_ms),
             ms(r.forward_ms),
+            ms(r.deferred_ms),
             ms(r.gpu_ms),
             r.wall_ms,
             r.update_ms,
