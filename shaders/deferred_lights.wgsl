@@ -76,7 +76,14 @@ fn shade_at(rel: vec3<f32>, frag_xy: vec2<f32>, color: vec4<f32>, shape: vec4<u3
     let range = cluster_ranges[fragment_cluster(grid, frag_xy, dot(rel, view.camera_forward))];
     var total = vec3<f32>(0.0);
     for (var i = 0u; i < range.y; i++) {
-        total += shade_light(s, lights[cluster_lights[range.x + i]], rel, view.camera_position);
+        let slot = cluster_lights[range.x + i];
+        // As in forward.wgsl: skip lights whose bounding sphere misses, reading only it.
+        let to_light = (lights[slot].position - view.camera_position) - rel;
+        let reach = lights[slot].range;
+        if dot(to_light, to_light) >= reach * reach {
+            continue;
+        }
+        total += shade_light(s, lights[slot], rel, view.camera_position);
     }
     return total;
 }
