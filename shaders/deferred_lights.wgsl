@@ -33,6 +33,7 @@ struct DeferredParams {
 @group(0) @binding(6) var<storage, read> cluster_ranges: array<vec2<u32>>;
 @group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
 
+// The forward pass's colour, whose alpha holds the surface's roughness (see gbuffer.wgsl).
 #ifdef MULTISAMPLED
 @group(1) @binding(0) var surface_color: texture_multisampled_2d<f32>;
 @group(1) @binding(1) var surface_shape: texture_multisampled_2d<u32>;
@@ -71,8 +72,8 @@ fn position_at(xy: vec2<f32>, d: f32) -> vec3<f32> {
 }
 
 // Local light leaving the surface at `rel` toward the eye; `frag_xy` picks the cluster.
-fn shade_at(rel: vec3<f32>, frag_xy: vec2<f32>, color: vec4<f32>, shape: vec4<u32>) -> vec3<f32> {
-    let s = decode_surface(color, shape, eye_direction(view, rel));
+fn shade_at(rel: vec3<f32>, frag_xy: vec2<f32>, roughness: f32, shape: vec4<u32>) -> vec3<f32> {
+    let s = decode_surface(roughness, shape, eye_direction(view, rel));
     let range = cluster_ranges[fragment_cluster(grid, frag_xy, dot(rel, view.camera_forward))];
     var total = vec3<f32>(0.0);
     for (var i = 0u; i < range.y; i++) {
@@ -96,28 +97,29 @@ fn shade_local_lights(@builtin(global_invocation_id) id: vec3<u32>) {
     let px = vec2<i32>(id.xy);
     let corner = vec2<f32>(id.xy);
     let centre = corner + 0.5;
-    let color = textureLoad(surface_color, px, 0);
+    let roughness = textureLoad(surface_color, px, 0).a;
     let shape = textureLoad(surface_shape, px, 0);
     var one_surface = true;
     for (var i = 1u; i < SAMPLES; i++) {
-        one_surface = one_surface && all(textureLoad(surface_color, px, i) == color)
+        one_surface = one_surface && textureLoad(surface_color, px, i).a == roughness
             && all(textureLoad(surface_shape, px, i) == shape);
     }
     var total = vec3<f32>(0.0);
     if one_surface {
-        if shape.w != 0u {
+        // Roughness is never below 0.045 on a lit surface; 0 marks unlit ones and background.
+        if roughness > 0.0 {
             var rel = vec3<f32>(0.0);
             for (var i = 0u; i < SAMPLES; i++) {
                 rel += position_at(corner + sample_offset(i), textureLoad(depth, px, i));
             }
-            total = shade_at(rel / f32(SAMPLES), centre, color, shape);
+            total = shade_at(rel / f32(SAMPLES), centre, roughness, shape);
         }
     } else {
         for (var i = 0u; i < SAMPLES; i++) {
-            let sample_shape = textureLoad(surface_shape, px, i);
-            if sample_shape.w != 0u {
+            let sample_roughness = textureLoad(surface_color, px, i).a;
+            if sample_roughness > 0.0 {
                 let rel = position_at(corner + sample_offset(i), textureLoad(depth, px, i));
-                total += shade_at(rel, centre, textureLoad(surface_color, px, i), sample_shape);
+                total += shade_at(rel, centre, sample_roughness, textureLoad(surface_shape, px, i));
             }
         }
         total /= f32(SAMPLES);

@@ -202,15 +202,18 @@ fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
 struct FragmentOut {
     @location(0) color: vec4<f32>,
 #ifdef DEFERRED_LOCAL_LIGHTS
-    // The surface for the local-light pass (see gbuffer.wgsl); all zero for unlit surfaces.
-    @location(1) surface_color: vec4<f32>,
-    @location(2) surface_shape: vec4<u32>,
+    // The surface for the local-light pass (see gbuffer.wgsl, which also puts roughness in
+    // `color`'s alpha); all zero for unlit surfaces.
+    @location(1) surface_shape: vec4<u32>,
 #endif
 };
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> FragmentOut {
     var frag: FragmentOut;
+    // What the colour's alpha carries for deferred local lights (see gbuffer.wgsl): stays 0
+    // for unlit surfaces.
+    var surface_alpha = 0.0;
     let mat = materials[in.material];
     let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
     var base = mat.base_color * in.color;
@@ -285,9 +288,8 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #endif
 
 #ifdef DEFERRED_LOCAL_LIGHTS
-    let surface = encode_surface(s);
-    frag.surface_color = surface.color;
-    frag.surface_shape = surface.shape;
+    frag.surface_shape = encode_surface(s);
+    surface_alpha = s.perceptual_roughness;
 #endif
 
     var color = vec3<f32>(0.0);
@@ -342,7 +344,11 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     // Premultiplied alpha: the blend state is (ONE, ONE_MINUS_SRC_ALPHA).
     frag.color = vec4<f32>(out * alpha, alpha);
 #else
+#ifdef DEFERRED_LOCAL_LIGHTS
+    frag.color = vec4<f32>(out, surface_alpha);
+#else
     frag.color = vec4<f32>(out, 1.0);
+#endif
 #endif
     return frag;
 }

@@ -4,7 +4,7 @@
 //! `passes/deferred_lights.rs`). Recreated only when the size, the sample count or whether lights
 //! are deferred changes.
 
-use crate::pipelines::pipeline_cache::{LOCAL_LIGHT_FORMAT, PipelineCache, SURFACE_COLOR_FORMAT, SURFACE_SHAPE_FORMAT};
+use crate::pipelines::pipeline_cache::{LOCAL_LIGHT_FORMAT, PipelineCache, SURFACE_SHAPE_FORMAT};
 
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -25,10 +25,10 @@ fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_
     wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
 }
 
-/// What deferred local lights add: the surface each opaque sample holds, and the local light
-/// per pixel, bound for the compute pass and for the composite.
+/// What deferred local lights add: the surface each opaque sample holds (with roughness in the
+/// colour's alpha), and the local light per pixel, bound for the compute pass and for the
+/// composite.
 pub struct DeferredTargets {
-    pub surface_color_view: wgpu::TextureView,
     pub surface_shape_view: wgpu::TextureView,
     /// Group 1 of the deferred-lights compute pass.
     pub compute_bind_group: wgpu::BindGroup,
@@ -66,9 +66,11 @@ impl FrameTargets {
             attach | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
         );
         let hdr_view = hdr.create_view(&Default::default());
-        let hdr_msaa_view =
-            (samples > 1).then(|| tex("hdr colour msaa", HDR_FORMAT, samples, attach).create_view(&Default::default()));
         let sampled = wgpu::TextureUsages::TEXTURE_BINDING;
+        // The deferred-lights pass reads the colour's alpha.
+        let msaa_usage = if deferred_params.is_some() { attach | sampled } else { attach };
+        let hdr_msaa_view = (samples > 1)
+            .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
         let depth_usage = if deferred_params.is_some() { attach | sampled } else { attach };
         let depth_view = tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default());
         let tonemap_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -78,7 +80,6 @@ impl FrameTargets {
         });
         let deferred = deferred_params.map(|params| {
             let view = |t: wgpu::Texture| t.create_view(&Default::default());
-            let surface_color_view = view(tex("surface colour", SURFACE_COLOR_FORMAT, samples, attach | sampled));
             let surface_shape_view = view(tex("surface shape", SURFACE_SHAPE_FORMAT, samples, attach | sampled));
             let local_light_view =
                 view(tex("local light", LOCAL_LIGHT_FORMAT, 1, wgpu::TextureUsages::STORAGE_BINDING | sampled));
@@ -86,7 +87,7 @@ impl FrameTargets {
                 label: Some("deferred lights"),
                 layout: &pipelines.deferred_layouts[(samples > 1) as usize],
                 entries: &[
-                    view_entry(0, &surface_color_view),
+                    view_entry(0, hdr_msaa_view.as_ref().unwrap_or(&hdr_view)),
                     view_entry(1, &surface_shape_view),
                     view_entry(2, &depth_view),
                     view_entry(3, &local_light_view),
@@ -98,7 +99,7 @@ impl FrameTargets {
                 layout: &pipelines.composite_layout,
                 entries: &[view_entry(0, &local_light_view)],
             });
-            DeferredTargets { surface_color_view, surface_shape_view, compute_bind_group, composite_bind_group }
+            DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
         });
         Self { size, samples, hdr, hdr_view, hdr_msaa_view, depth_view, tonemap_bind_group, deferred }
     }
@@ -114,8 +115,8 @@ impl FrameTargets {
     pub fn bytes(&self) -> u64 {
         let px = self.size.0 as u64 * self.size.1 as u64;
         // HDR 8 B + depth 4 B per sample, plus the single-sampled resolve target; deferred
-        // lights add 16 B of surface per sample and 8 B of local light per pixel.
-        let deferred = if self.deferred.is_some() { px * (16 * self.samples as u64 + 8) } else { 0 };
+        // lights add 8 B of surface per sample and 8 B of local light per pixel.
+        let deferred = if self.deferred.is_some() { px * (8 * self.samples as u64 + 8) } else { 0 };
         px * (8 + 12 * self.samples as u64) + if self.samples > 1 { px * 8 } else { 0 } + deferred
     }
 }

@@ -68,14 +68,15 @@ pub fn encode(
             ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
         })
     };
+    // With deferred lights the colour's alpha carries roughness, 0 for the background.
+    let clear = wgpu::Color { a: if split.is_some() { 0.0 } else { inputs.clear_color.a }, ..inputs.clear_color };
     let mut attachments = vec![Some(wgpu::RenderPassColorAttachment {
         view: color,
         depth_slice: None,
         resolve_target: if split.is_some() { None } else { resolve },
-        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(inputs.clear_color), store },
+        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store },
     })];
     if let Some(d) = split {
-        attachments.push(clear_surface(&d.surface_color_view));
         attachments.push(clear_surface(&d.surface_shape_view));
     }
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

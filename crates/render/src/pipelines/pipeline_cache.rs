@@ -114,9 +114,8 @@ pub struct DeferredKey {
     pub light_shapes: LightShapes,
 }
 
-/// Formats of the surface targets opaque fragments write for the deferred-lights pass (see
-/// `gbuffer.wgsl`).
-pub const SURFACE_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of the surface target opaque fragments write for the deferred-lights pass, beside
+/// roughness in the colour's alpha (see `gbuffer.wgsl`).
 pub const SURFACE_SHAPE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Uint;
 /// What the deferred-lights pass writes and the composite adds.
 pub const LOCAL_LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -612,7 +611,7 @@ impl PipelineCache {
             Some(wgpu::ColorTargetState { format: key.color_format.0, blend, write_mask: wgpu::ColorWrites::ALL });
         let surface = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
         let targets = if key.local_lights == LocalLights::Deferred {
-            vec![color, surface(SURFACE_COLOR_FORMAT), surface(SURFACE_SHAPE_FORMAT)]
+            vec![color, surface(SURFACE_SHAPE_FORMAT)]
         } else {
             vec![color]
         };
