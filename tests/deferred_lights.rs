@@ -129,3 +129,26 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
     assert!(keys.iter().any(|k| k.alpha == AlphaKey::Blend && k.local_lights == LocalLights::Clustered));
     assert!(keys.iter().filter(|k| k.alpha != AlphaKey::Blend).all(|k| k.local_lights == LocalLights::Deferred));
 }
+
+/// `LightWalk::Auto` (the default) keeps short cluster lists in the fragment shader and moves
+/// long ones to the compute pass, and back when the lights thin out.
+#[test]
+fn the_automatic_walk_moves_long_lists_to_compute_and_back() {
+    let settings = RenderSettings { msaa: 1, ..Default::default() };
+    assert_eq!(settings.light_walk, LightWalk::Auto);
+    let runs_compute = |app: &App| app.world.resource::<Renderer>().stats().plan.runs(Pass::DeferredLights);
+    let mut app = scene_app();
+    spawn_many_lights(&mut app.world, 1000, Some(3.0));
+    render_app(&mut app, (96, 54), settings.clone());
+    assert!(!runs_compute(&app), "1000 lights over the stadium: short lists, fragment shader");
+    let mut app = scene_app();
+    let lights = spawn_many_lights(&mut app.world, 10_000, Some(3.0));
+    render_app(&mut app, (96, 54), settings.clone());
+    assert!(runs_compute(&app), "10 000 lights: long lists, compute");
+    for e in &lights[..9_500] {
+        app.world.despawn(*e);
+    }
+    render_app(&mut app, (96, 54), settings);
+    assert!(!runs_compute(&app), "500 lights left: back to the fragment shader");
+    assert_eq!(app.world.resource::<Renderer>().shader_error(), None);
+}

@@ -58,11 +58,12 @@ pub struct LookArgs {
     /// number of lights in its cluster (black none, blue, green, yellow, red, white ≥ 256).
     #[arg(long, value_enum, default_value_t = DebugViewArg::None)]
     pub debug_view: DebugViewArg,
-    /// How fragments find local lights: through their cluster (the normal path), through their
-    /// cluster in a compute pass over opaque surfaces (`compute`: the same image, faster where
-    /// fragment shaders run on few units), or every light (`all`, the brute-force reference;
-    /// `unbounded` also drops the range window).
-    #[arg(long, value_enum, default_value_t = LightWalkArg::Clustered)]
+    /// How fragments find local lights: through their cluster, in the fragment shader
+    /// (`clustered`) or in a compute pass over opaque surfaces (`compute`: the same image, faster
+    /// with long lists and where fragment shaders run on few units), `auto` choosing by the
+    /// lists' length; or every light (`all`, the brute-force reference; `unbounded` also drops
+    /// the range window).
+    #[arg(long, value_enum, default_value_t = LightWalkArg::Auto)]
     pub light_walk: LightWalkArg,
     /// Cluster grid: tiles across x tiles down x depth slices.
     #[arg(long, value_parser = parse_clusters, default_value = "16x16x32", value_name = "XxYxZ")]
@@ -77,6 +78,8 @@ pub enum DebugViewArg {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightWalkArg {
+    /// Clusters, in fragments while lists are short and in compute once they grow long.
+    Auto,
     Clustered,
     /// Clusters walked by a compute pass for opaque surfaces (deferred local lights).
     Compute,
@@ -238,6 +241,7 @@ impl LookArgs {
             shaders,
             clusters: self.clusters,
             light_walk: match self.light_walk {
+                LightWalkArg::Auto => LightWalk::Auto,
                 LightWalkArg::Clustered => LightWalk::Clustered,
                 LightWalkArg::Compute => LightWalk::ClusteredCompute,
                 LightWalkArg::All => LightWalk::AllLights,

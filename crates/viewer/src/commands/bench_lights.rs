@@ -17,6 +17,8 @@ struct Row {
     forward_ms: Option<f64>,
     /// The deferred-lights compute pass and its composite (`--light-walk compute`).
     deferred_ms: Option<f64>,
+    /// Whether local lights were shaded in compute (`auto` decides per scene).
+    compute: bool,
     gpu_ms: Option<f64>,
     wall_ms: f64,
     update_ms: f64,
@@ -99,6 +101,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             lights: n,
             clusters_ms: median(t.pass("clusters")),
             forward_ms: median(t.pass("forward")),
+            compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
             gpu_ms: median(Some(&t.gpu_total)),
             wall_ms: percentile(&t.wall, 0.5),
@@ -136,13 +139,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | GPU binning (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
+            "| {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
             r.lights,
+            if r.compute { "compute" } else { "fragments" },
             ms(r.clusters_ms),
             ms(r.forward_ms),
             ms(r.deferred_ms),
