@@ -54,6 +54,8 @@ pub enum ImportErrorKind {
         #[source]
         source: MeshError,
     },
+    #[error("IES profile {index} ({uri}): {reason}")]
+    IesProfile { index: usize, uri: String, reason: String },
     #[error("node hierarchy: {0}")]
     Hierarchy(String),
     #[error("scene {index} does not exist (the file has {count})")]

@@ -8,6 +8,7 @@
 //! nodes into entities under one [`SceneRoot`], infallibly.
 
 mod accessor;
+mod ies_lights;
 mod images;
 mod materials;
 mod primitive;
@@ -21,9 +22,10 @@ use glam::{Mat4, Vec3};
 
 use crate::assets::{Assets, Handle};
 use crate::components::{
-    Camera, DirectionalLight, Exposure, Mesh3d, MeshMaterial3d, Name, PointLight, Projection, SpotLight, Transform,
-    Visibility,
+    Camera, DirectionalLight, Exposure, IesLight, Mesh3d, MeshMaterial3d, Name, PointLight, Projection, SpotLight,
+    Transform, Visibility,
 };
+use crate::ies::IesProfile;
 use crate::image::Image;
 use crate::import::{ImportError, ImportErrorKind};
 use crate::material::{StandardMaterial, TextureRef};
@@ -33,6 +35,7 @@ use materials::MaterialDesc;
 /// Extensions Penumbra implements. A file that lists any other in `extensionsRequired` is refused.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
+    "EXT_lights_ies",
     "KHR_materials_emissive_strength",
     "KHR_materials_unlit",
     "KHR_texture_transform",
@@ -102,6 +105,7 @@ struct NodeDesc {
     mesh: Option<usize>,
     camera: Option<usize>,
     light: Option<usize>,
+    ies_light: Option<ies_lights::IesLightDesc>,
 }
 
 #[derive(Debug, Clone)]
@@ -120,6 +124,8 @@ pub struct GltfScene {
     nodes: Vec<NodeDesc>,
     cameras: Vec<(String, Projection, Option<f32>)>,
     lights: Vec<LightDesc>,
+    /// EXT_lights_ies profiles.
+    ies_profiles: Vec<Arc<IesProfile>>,
     /// Root nodes of the scene to spawn.
     roots: Vec<usize>,
     scene_index: Option<usize>,
@@ -152,6 +158,11 @@ impl GltfScene {
         world.init_resource::<Assets<Image>>();
         world.init_resource::<Assets<StandardMaterial>>();
         world.init_resource::<Assets<Mesh>>();
+        world.init_resource::<Assets<IesProfile>>();
+        let ies_handles: Vec<Handle<IesProfile>> = {
+            let mut profiles = world.resource_mut::<Assets<IesProfile>>();
+            self.ies_profiles.iter().map(|p| profiles.add_arc(p.clone())).collect()
+        };
         let image_handles: Vec<Option<Handle<Image>>> = {
             let mut images = world.resource_mut::<Assets<Image>>();
             // Shared, not copied: a textured model's images are tens of megabytes.
@@ -174,7 +185,13 @@ impl GltfScene {
         let name = self.path.file_name().map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
         let root =
             world.spawn((SceneRoot { source: self.path.clone(), scene: self.scene_index }, Name::new(name))).id();
-        let ctx = SpawnCtx { scene: self, meshes: &mesh_handles, materials: &material_handles, default_material };
+        let ctx = SpawnCtx {
+            scene: self,
+            meshes: &mesh_handles,
+            materials: &material_handles,
+            default_material,
+            ies_profiles: &ies_handles,
+        };
         let mut stack: Vec<(usize, Entity)> = self.roots.iter().rev().map(|&n| (n, root)).collect();
         while let Some((node, parent)) = stack.pop() {
             let e = ctx.spawn_node(world, node, parent);
@@ -189,6 +206,7 @@ struct SpawnCtx<'a> {
     meshes: &'a [Vec<(Handle<Mesh>, Option<usize>)>],
     materials: &'a [Handle<StandardMaterial>],
     default_material: Handle<StandardMaterial>,
+    ies_profiles: &'a [Handle<IesProfile>],
 }
 
 impl SpawnCtx<'_> {
@@ -208,6 +226,15 @@ impl SpawnCtx<'_> {
                 LightDesc::Point(p) => e.insert(*p),
                 LightDesc::Spot(s) => e.insert(*s),
             };
+        }
+        if let Some(l) = desc.ies_light {
+            e.insert(IesLight {
+                profile: self.ies_profiles[l.profile],
+                color: l.color,
+                scale: l.multiplier,
+                range: None,
+                shadows: true,
+            });
         }
         let id = e.id();
         if let Some(m) = desc.mesh {
@@ -297,6 +324,10 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     }
 
     let images = decode_images(&document, &materials, &buffers, base_dir, path, options)?;
+    let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options)?;
+    let ies_node_lights: Vec<Option<ies_lights::IesLightDesc>> =
+        document.nodes().map(|n| ies_lights::node_light(&n, ies_profiles.len())).collect::<Result<_, _>>()?;
     let nodes = document
         .nodes()
         .map(|n| NodeDesc {
@@ -316,6 +347,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             mesh: n.mesh().map(|m| m.index()),
             camera: n.camera().map(|c| c.index()),
             light: n.light().map(|l| l.index()),
+            ies_light: ies_node_lights[n.index()],
         })
         .collect();
     let cameras = document
@@ -375,6 +407,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         nodes,
         cameras,
         lights,
+        ies_profiles,
         roots,
         scene_index: options.scene.or_else(|| document.default_scene().map(|s| s.index())),
         warnings,
