@@ -2,4 +2,5 @@
 pub mod clusters;
 pub mod deferred_lights;
 pub mod forward;
+pub mod shadows;
 pub mod tonemap;
