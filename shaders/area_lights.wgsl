@@ -116,8 +116,10 @@ fn tube_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     // ∫ dI/d² is, per unit of intensity, atan2(h·ℓ, h² + s_a·s_b) / (h·ℓ) for a segment of length
     // ℓ with ends at s_a, s_b along it and h from it. The smaller of the two keeps rough surfaces
     // from reflecting more than the tube emits.
-    let s_a = dot(a, axis);
-    let s_b = dot(b, axis);
+    // Along the kept segment itself: raising its ends near a surface may tilt it off the axis.
+    let line_axis = select(axis, seg / kept_len, kept_len > 1e-20);
+    let s_a = dot(a, line_axis);
+    let s_b = dot(b, line_axis);
     let h2 = max(dot(a, a) - s_a * s_a, 0.0);
     let denom = h2 + s_a * s_b;
     let y = sqrt(h2) * (s_b - s_a);

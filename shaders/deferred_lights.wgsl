@@ -18,7 +18,7 @@
 #import penumbra::light_data::Light
 #import penumbra::lights::shade_light
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
-#import penumbra::gbuffer::decode_surface
+#import penumbra::gbuffer::{decode_surface, oct_decode}
 
 struct DeferredParams {
     // Inverse of view.clip_from_rel: clip-space sample positions back to camera-relative ones.
@@ -89,6 +89,19 @@ fn shade_at(rel: vec3<f32>, frag_xy: vec2<f32>, roughness: f32, shape: vec4<u32>
     return total;
 }
 
+// Each covered sample shaded where it lies, and the mean: what resolving the samples gives.
+fn shade_samples(px: vec2<i32>, corner: vec2<f32>, centre: vec2<f32>) -> vec3<f32> {
+    var total = vec3<f32>(0.0);
+    for (var i = 0u; i < SAMPLES; i++) {
+        let sample_roughness = textureLoad(surface_color, px, i).a;
+        if sample_roughness > 0.0 {
+            let rel = position_at(corner + sample_offset(i), textureLoad(depth, px, i));
+            total += shade_at(rel, centre, sample_roughness, textureLoad(surface_shape, px, i));
+        }
+    }
+    return total / f32(SAMPLES);
+}
+
 @compute @workgroup_size(8, 8)
 fn shade_local_lights(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= u32(params.viewport.x) || id.y >= u32(params.viewport.y) {
@@ -105,24 +118,31 @@ fn shade_local_lights(@builtin(global_invocation_id) id: vec3<u32>) {
             && all(textureLoad(surface_shape, px, i) == shape);
     }
     var total = vec3<f32>(0.0);
-    if one_surface {
-        // Roughness is never below 0.045 on a lit surface; 0 marks unlit ones and background.
-        if roughness > 0.0 {
-            var rel = vec3<f32>(0.0);
-            for (var i = 0u; i < SAMPLES; i++) {
-                rel += position_at(corner + sample_offset(i), textureLoad(depth, px, i));
-            }
-            total = shade_at(rel / f32(SAMPLES), centre, roughness, shape);
-        }
-    } else {
+    // Roughness is never below 0.045 on a lit surface; 0 marks unlit ones and the background.
+    if one_surface && roughness > 0.0 {
+        var positions: array<vec3<f32>, 4>;
+        var rel = vec3<f32>(0.0);
         for (var i = 0u; i < SAMPLES; i++) {
-            let sample_roughness = textureLoad(surface_color, px, i).a;
-            if sample_roughness > 0.0 {
-                let rel = position_at(corner + sample_offset(i), textureLoad(depth, px, i));
-                total += shade_at(rel, centre, sample_roughness, textureLoad(surface_shape, px, i));
-            }
+            positions[i] = position_at(corner + sample_offset(i), textureLoad(depth, px, i));
+            rel += positions[i];
         }
-        total /= f32(SAMPLES);
+        rel /= f32(SAMPLES);
+        // Equal values may still be two surfaces (parallel faces of one material at different
+        // depths, a step): the samples must also lie in the surface's plane, within a thousandth
+        // of their distance. A curved or normal-mapped surface that fails this is shaded per
+        // sample, which is exact, only slower.
+        let n = oct_decode(vec2<f32>(shape.xy) / 65535.0);
+        var off_plane = 0.0;
+        for (var i = 0u; i < SAMPLES; i++) {
+            off_plane = max(off_plane, abs(dot(n, positions[i] - rel)));
+        }
+        if off_plane <= 1e-3 * length(rel) {
+            total = shade_at(rel, centre, roughness, shape);
+        } else {
+            total = shade_samples(px, corner, centre);
+        }
+    } else if !one_surface {
+        total = shade_samples(px, corner, centre);
     }
     var out = total * view.exposure;
     // As in forward.wgsl: no NaN, and half of f16's range, so the sum with the forward pass's

@@ -15,10 +15,11 @@
 // bilinear in (γ, C), which reproduces the file's own bilinear interpolation exactly where the
 // grid holds the file's angles (it does for files on common angle steps).
 fn ies_share(light: Light, dir: vec3<f32>) -> f32 {
-    let first = bitcast<u32>(light.size);
-    let dims = bitcast<u32>(light.shape.w);
-    let rows = max(dims >> 16u, 2u);
-    let columns = max(dims & 0xffffu, 1u);
+    // Whole numbers stored as f32 values (see GpuLight in light_store.rs).
+    let first = u32(light.size + 0.5);
+    let dims = u32(light.shape.w + 0.5);
+    let rows = max(dims / 4096u, 2u);
+    let columns = max(dims % 4096u, 1u);
     // C turns counter-clockwise seen from above (from −direction): from the C = 0° axis
     // toward up × axis.
     let c_zero = light.shape.xyz;

@@ -22,12 +22,12 @@ struct Light {
     range: f32,
     // Linear colour times intensity (cd, lux, or cd/m² for ambient, rect and disk lights).
     color: vec3<f32>,
-    // Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width. IES: bits of the
-    // profile's first index in `ies_profiles`.
+    // Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width. IES: the
+    // profile's first index in `ies_profiles` (a whole number).
     size: f32,
     // Spot: (cone falloff offset, -, -, -). Tube: (half length, -, -, -). Rect: (unit width
-    // axis, half height). Disk: (unit axis in its plane, -). IES: (unit C = 0° axis, bits of
-    // rows << 16 | columns).
+    // axis, half height). Disk: (unit axis in its plane, -). IES: (unit C = 0° axis,
+    // rows · 4096 + columns).
     shape: vec4<f32>,
 };
 

@@ -232,6 +232,8 @@ impl IesProfile {
     /// Parses LM-63 text; `label` names the source in errors (`lamp.ies:12: …`).
     pub fn parse(text: &str, label: &str) -> Result<Self, IesError> {
         let err = |line: Option<usize>, message: String| IesError { file: label.to_string(), line, message };
+        // A byte-order mark would hide the format line (and misread a 2019 file as 1986's).
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let lines: Vec<(usize, &str)> = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).collect();
         let first = lines.iter().find(|(_, l)| !l.is_empty()).map_or("", |(_, l)| *l);
         let upper = first.to_ascii_uppercase();
@@ -536,8 +538,12 @@ mod tests {
         let p = IesProfile::parse(text, "old.ies").unwrap();
         assert_eq!(p.format, IesFormat::Lm63_1986);
         assert_eq!(p.candela, vec![25.0, 25.0]);
-        let text = "IES:LM-63-2019\nTILT=NONE\n1 1000 1 2 1 1 1 0 0 0\n0.5 1 10\n0 90\n0\n100 100\n";
+        let text = "IES:LM-63-2019\nTILT=NONE\n1 1000 1 2 1 1 1 0 0 0\n0.5 1.1 10\n0 90\n0\n100 100\n";
         assert_eq!(IesProfile::parse(text, "new.ies").unwrap().candela, vec![50.0, 50.0]);
+        // The same after a UTF-8 byte-order mark: still 2019's (the 1.1 is the file generation
+        // type, not a factor).
+        let p = IesProfile::parse(&format!("\u{feff}{text}"), "bom.ies").unwrap();
+        assert_eq!((p.format, p.candela), (IesFormat::Lm63_2019, vec![50.0, 50.0]));
     }
 
     #[test]

@@ -11,8 +11,9 @@ pub enum Pass {
     ClusterBin,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
-    /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`), then a render
-    /// pass that adds them to the frame and holds the `Transparent` phase.
+    /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`, or `Auto` with
+    /// long cluster lists), then a render pass that adds them to the frame and holds the
+    /// `Transparent` phase.
     DeferredLights,
     /// Alpha-blended draws, back to front, in the same render pass as `Opaque` (or, with
     /// deferred lights, as their composite).
@@ -39,7 +40,10 @@ impl FramePlan {
             if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
         ));
         if deferred {
-            passes.push((Pass::DeferredLights, "local lights shaded in compute (--light-walk compute)"));
+            passes.push((
+                Pass::DeferredLights,
+                "local lights shaded in compute (long cluster lists, or --light-walk compute)",
+            ));
         }
         if has_blend {
             passes.push((Pass::Transparent, "blended draws exist"));

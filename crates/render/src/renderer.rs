@@ -492,7 +492,8 @@ impl Renderer {
         readback::read_texture(&self.ctx.device, &self.ctx.queue, texture, 4)
     }
 
-    /// The last frame's linear HDR colour (exposed, before tonemapping) as RGBA f32.
+    /// The last frame's linear HDR colour (exposed, before tonemapping) as RGBA f32. Alpha is
+    /// not opacity: with deferred local lights it held surface roughness (see gbuffer.wgsl).
     pub fn read_hdr(&self) -> Result<Vec<[f32; 4]>, ReadbackError> {
         let targets = self.targets.as_ref().ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
         let bytes = readback::read_texture(&self.ctx.device, &self.ctx.queue, &targets.hdr, 8)?;
@@ -597,6 +598,9 @@ impl Renderer {
         };
         if plan.runs(Pass::DeferredLights) {
             let key = DeferredKey { multisampled: targets.samples > 1, light_shapes: self.light_shapes };
+            // Without its pipeline the pass does not run, and the composite must not add what an
+            // earlier frame left in its output.
+            let mut computed = true;
             if let Err(e) = deferred_lights::encode(
                 &mut encoder,
                 &device,
@@ -607,6 +611,7 @@ impl Renderer {
                 self.timer.as_mut(),
             ) {
                 forward_error = Some(e);
+                computed = false;
             }
             let (after, error) = forward::encode_after_deferred(
                 &mut encoder,
@@ -615,6 +620,7 @@ impl Renderer {
                 &inputs,
                 &batches,
                 opaque_count,
+                computed,
                 self.timer.as_mut(),
             );
             counts.draw_calls += after.draw_calls;

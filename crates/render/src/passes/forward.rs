@@ -99,8 +99,9 @@ pub fn encode(
     (draw(&mut pass, pipelines, inputs, drawn), error)
 }
 
-/// After the deferred-lights pass: adds its light to the frame, then draws the blended batches
-/// (`batches[opaque_count..]`) over it, and resolves.
+/// After the deferred-lights pass: adds its light to the frame (when `add_local_light`: the pass
+/// ran), then draws the blended batches (`batches[opaque_count..]`) over it, and resolves.
+#[allow(clippy::too_many_arguments)]
 pub fn encode_after_deferred(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
@@ -108,6 +109,7 @@ pub fn encode_after_deferred(
     inputs: &ForwardInputs,
     batches: &[Batch],
     opaque_count: usize,
+    add_local_light: bool,
     timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
     let targets = inputs.targets;
@@ -136,7 +138,9 @@ pub fn encode_after_deferred(
         occlusion_query_set: None,
         multiview_mask: None,
     });
-    if let Some(composite) = pipelines.composite_cached(targets.samples, crate::targets::DEPTH_FORMAT) {
+    if add_local_light
+        && let Some(composite) = pipelines.composite_cached(targets.samples, crate::targets::DEPTH_FORMAT)
+    {
         pass.set_pipeline(composite);
         pass.set_bind_group(0, &deferred.composite_bind_group, &[]);
         pass.draw(0..3, 0..1);

@@ -16,6 +16,13 @@ use penumbra_engine::ies::IesProfile;
 
 use crate::world::Snapshot;
 
+/// A light packs its profile's grid size as `rows · IES_DIMS_BASE + columns` (columns stay
+/// below it: at most 1440, for 0.25° planes).
+pub const IES_DIMS_BASE: u32 = 4096;
+/// Values the table may hold: lights carry offsets into it as f32, exact below 2²⁴ (64 MiB of
+/// profiles, some 600 profiles at 1° × 2.5°).
+pub const MAX_VALUES: usize = 1 << 24;
+
 /// Where one profile's grid sits in the buffer.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProfileSlot {
@@ -97,6 +104,13 @@ impl ProfileTable {
         for (handle, version) in wanted {
             self.missing.remove(&handle);
             let grid = assets[&handle].data.grid();
+            if self.data.len() + grid.values.len() > MAX_VALUES {
+                tracing::error!(
+                    "IES profiles in use exceed {MAX_VALUES} values; {handle:?} ({}) is left out and its lights give no light",
+                    assets[&handle].data.label
+                );
+                continue;
+            }
             let slot =
                 ProfileSlot { offset: self.data.len() as u32, rows: grid.rows, columns: grid.columns, peak: grid.peak };
             self.data.extend_from_slice(&grid.values);

@@ -22,7 +22,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffer::GrowableBuffer;
-use super::ies_profiles::ProfileTable;
+use super::ies_profiles::{IES_DIMS_BASE, ProfileTable};
 use crate::world::{ExtractedLight, LightKey, LightKind, RenderScene};
 
 /// Mirrors `struct Light` in `shaders/light_data.wgsl`. `size` and `shape` mean what each kind
@@ -39,12 +39,12 @@ pub struct GpuLight {
     /// (zero intensity or area), which the binner skips.
     pub range: f32,
     pub color: [f32; 3],
-    /// Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width. IES: the bits
-    /// of the profile's first index in the profile buffer (a u32).
+    /// Spot: cone falloff scale. Sphere, tube, disk: radius. Rect: half width. IES: the
+    /// profile's first index in the profile buffer, as a whole number.
     pub size: f32,
     /// Spot: (cone falloff offset, 0, 0, 0). Tube: (half length, 0, 0, 0). Rect: (unit width
-    /// axis, half height). Disk: (unit axis in its plane, 0). IES: (unit C = 0° axis, bits of
-    /// the u32 `rows << 16 | columns` of the profile's grid).
+    /// axis, half height). Disk: (unit axis in its plane, 0). IES: (unit C = 0° axis,
+    /// `rows · 4096 + columns` of the profile's grid as a whole number).
     pub shape: [f32; 4],
 }
 
@@ -166,8 +166,11 @@ pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32, profiles: &Profi
                 Some(slot) => {
                     // The shader reads the profile as a share of its peak.
                     g.color = (light.color.max(Vec3::ZERO) * slot.peak).min(Vec3::splat(f32::MAX)).to_array();
-                    g.size = f32::from_bits(slot.offset);
-                    g.shape = across.extend(f32::from_bits(slot.rows << 16 | slot.columns)).to_array();
+                    // Whole numbers below 2²⁴ (the table keeps them there), exact in f32: stored
+                    // as values rather than bit patterns, which would be denormal floats that
+                    // some drivers flush to zero.
+                    g.size = slot.offset as f32;
+                    g.shape = across.extend((slot.rows * IES_DIMS_BASE + slot.columns) as f32).to_array();
                 }
                 None => g.color = [0.0; 3],
             }
@@ -655,7 +658,7 @@ mod tests {
         let g = store.local_lights()[0];
         assert_eq!((g.kind, g.range, g.color), (KIND_IES, 2.0, [200.0; 3]), "peak 400 cd × 0.5");
         let slot = store.profiles.slot(a).expect("in the table");
-        assert_eq!((g.size.to_bits(), g.shape[3].to_bits()), (slot.offset, slot.rows << 16 | slot.columns));
+        assert_eq!((g.size, g.shape[3]), (slot.offset as f32, (slot.rows * 4096 + slot.columns) as f32));
         assert_eq!((slot.rows, slot.columns), (5, 1), "45° steps, one plane");
         // A second profile rebuilds the table; each light finds its own.
         let b = assets.add(test_profile());
@@ -666,7 +669,7 @@ mod tests {
         scene.changed_lights = vec![LightKey::Ies(e(2))];
         store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
         for (g, h) in store.local_lights().iter().zip([a, b]) {
-            assert_eq!(g.size.to_bits(), store.profiles.slot(h).expect("in the table").offset);
+            assert_eq!(g.size, store.profiles.slot(h).expect("in the table").offset as f32);
         }
         assert_ne!(store.profiles.slot(a), store.profiles.slot(b));
         // Removing the lights releases the profiles.

@@ -16,10 +16,13 @@ use penumbra_engine::components::Projection;
 /// `lambda` of the way from the uniform split to the logarithmic one.
 pub fn practical_splits(near: f32, far: f32, count: u32, lambda: f32) -> Vec<f32> {
     let (n, f) = (near as f64, far as f64);
+    // The logarithmic term needs a near plane above 0 (glTF allows an orthographic znear of 0):
+    // it starts from a millionth of the range instead.
+    let log_near = n.max(f * 1e-6);
     let mut splits: Vec<f32> = (0..=count)
         .map(|i| {
             let t = i as f64 / count as f64;
-            let log = n * (f / n).powf(t);
+            let log = log_near * (f / log_near).powf(t);
             let uniform = n + (f - n) * t;
             (lambda as f64 * log + (1.0 - lambda as f64) * uniform) as f32
         })
@@ -40,7 +43,7 @@ pub struct Cascade {
     /// View depths the cascade covers.
     pub near: f32,
     pub far: f32,
-    /// World-space size of one shadow-map texel.
+    /// World-space size of one shadow-map texel (the map spans `resolution` of them).
     pub texel_size: f64,
     /// Radius of the sphere bounding the cascade's slice of the view frustum.
     pub radius: f64,
@@ -116,18 +119,22 @@ pub fn fit_cascade(
     let light_from_world = light_rotation(direction.as_dvec3());
     // Snap the sphere's centre, in the light's frame, to whole texels on all three axes: across
     // the map so that edges move by whole texels, and in depth so that the depth mapping does
-    // not change either while the camera moves less than a texel.
-    let texel = 2.0 * radius / resolution as f64;
+    // not change either while the camera moves less than a texel. The snapped centre is up to
+    // half a texel off the true one, so the map reaches half a texel past the sphere on every
+    // side: `resolution` texels of 2r / (resolution − 1) each.
+    let texel = 2.0 * radius / (resolution.max(2) - 1) as f64;
+    let half_extent = radius + 0.5 * texel;
     let c = light_from_world.transform_point3(centre);
     let snapped = (c / texel).round() * texel;
     // The light's eye sits above the sphere (toward the light) by the caster reach.
-    let depth_range = 2.0 * radius + caster_reach.max(0.0) as f64;
-    let eye_in_light = DVec3::new(snapped.x, snapped.y, snapped.z + radius + caster_reach.max(0.0) as f64);
+    let reach = caster_reach.max(0.0) as f64;
+    let depth_range = 2.0 * half_extent + reach;
+    let eye_in_light = DVec3::new(snapped.x, snapped.y, snapped.z + half_extent + reach);
     let view_from_world = DMat4::from_translation(-eye_in_light) * light_from_world;
-    // Reverse-Z orthographic: depth 1 at the light's eye, 0 at the far side of the sphere.
+    // Reverse-Z orthographic: depth 1 at the light's eye, 0 past the far side of the sphere.
     let clip_from_view = DMat4::from_cols(
-        DVec4::new(1.0 / radius, 0.0, 0.0, 0.0),
-        DVec4::new(0.0, 1.0 / radius, 0.0, 0.0),
+        DVec4::new(1.0 / half_extent, 0.0, 0.0, 0.0),
+        DVec4::new(0.0, 1.0 / half_extent, 0.0, 0.0),
         DVec4::new(0.0, 0.0, 1.0 / depth_range, 0.0),
         DVec4::new(0.0, 0.0, 1.0, 1.0),
     );
@@ -182,13 +189,25 @@ mod tests {
         let mixed = practical_splits(0.1, 100.0, 4, 0.85);
         assert!(mixed.windows(2).all(|w| w[0] < w[1]), "{mixed:?}");
         assert_eq!((mixed[0], mixed[4]), (0.1, 100.0));
+        // An orthographic camera may have its near plane at 0.
+        let from_zero = practical_splits(0.0, 100.0, 4, 0.85);
+        assert!(from_zero.iter().all(|s| s.is_finite()) && from_zero.windows(2).all(|w| w[0] < w[1]), "{from_zero:?}");
     }
 
     #[test]
     fn every_slice_corner_lies_inside_its_cascade() {
-        let camera = camera_at(DVec3::new(3.0, 2.0, 5.0), DQuat::from_rotation_y(0.7) * DQuat::from_rotation_x(-0.3));
+        // Many placements, so that snapping rounds every way.
+        for i in 0..64 {
+            let f = i as f64;
+            let eye = DVec3::new(3.0 + 0.37 * f, 2.0 + 0.11 * f, 5.0 - 0.23 * f);
+            let rotation = DQuat::from_rotation_y(0.7 + 0.5 * f) * DQuat::from_rotation_x(-0.3 - 0.02 * f);
+            corners_inside(&camera_at(eye, rotation));
+        }
+    }
+
+    fn corners_inside(camera: &CascadeCamera) {
         let settings = ShadowSettings::default();
-        let cascades = fit_cascades(&camera, sun(), &settings, 50.0);
+        let cascades = fit_cascades(camera, sun(), &settings, 50.0);
         assert_eq!(cascades.len(), 4);
         let t = (25f64.to_radians()).tan();
         for c in &cascades {
