@@ -215,3 +215,52 @@ fn losing_placement_or_visibility_removes_draws_and_lights() {
     assert_eq!(counts(&app), (1, 2));
     assert!(brightness(&px, SIZE.0, 32, 32) > 50.0, "the quad is drawn and lit");
 }
+
+/// The built-in shapes (UV and ico spheres, cuboid, cylinder, cone, capsule, torus, plane) with a
+/// checker texture, lit from the upper left: a golden that shows their normals (smooth shading,
+/// sharp cap edges) and UVs (squares of even size, seams lined up).
+#[test]
+fn golden_primitives() {
+    let mut app = scene_app();
+    let checker: Vec<u8> = (0..64 * 64)
+        .flat_map(|i| {
+            let (x, y) = (i % 64, i / 64);
+            if (x / 8 + y / 8) % 2 == 0 { [230, 230, 230, 255] } else { [40, 90, 200, 255] }
+        })
+        .collect();
+    let image = app.world.resource_mut::<Assets<Image>>().add(Image {
+        width: 64,
+        height: 64,
+        rgba8: checker,
+        label: "checker".into(),
+    });
+    let material =
+        StandardMaterial { base_color_texture: Some(TextureRef::new(image)), roughness: 0.5, ..Default::default() };
+    let shapes = [
+        Mesh::uv_sphere(0.5, 24, 12),
+        Mesh::ico_sphere(0.5, 2),
+        Mesh::cuboid(Vec3::splat(0.8)),
+        Mesh::cylinder(0.4, 0.9, 24),
+        Mesh::cone(0.45, 0.9, 24),
+        Mesh::capsule(0.3, 0.5, 24, 6),
+        Mesh::torus(0.4, 0.15, 32, 12),
+        Mesh::plane(0.9),
+    ];
+    for (i, mesh) in shapes.into_iter().enumerate() {
+        let (x, y) = ((i % 4) as f32 * 1.3 - 1.95, if i < 4 { 0.7 } else { -0.7 });
+        spawn_mesh(
+            &mut app,
+            mesh,
+            material.clone(),
+            Transform::from_xyz(x, y, 0.0).with_rotation(Quat::from_rotation_x(0.5)),
+        );
+    }
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 6.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    app.world.spawn((
+        DirectionalLight { illuminance: 3.0, ..Default::default() },
+        Transform::default().looking_at(Vec3::new(0.5, -0.6, -0.6), Vec3::Y),
+    ));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
+    let rgba8 = render_app(&mut app, (256, 128), settings());
+    common::check_golden("primitives", &common::Shot { width: 256, height: 128, rgba8 }, common::Tolerance::default());
+}
