@@ -61,6 +61,19 @@ fn rect_axis_irradiance(lum: f32, w: f32, height: f32, h: f32) -> f32 {
     2.0 * lum * (x / sx * (y / sx).atan() + y / sy * (x / sy).atan())
 }
 
+/// The floor's radiance at `p` from `points` sharing `intensity` candela, each isotropic: a
+/// line light's reference when the points lie along it.
+fn points_radiance(p: Vec3, points: &[Vec3], intensity: f32) -> f32 {
+    let each = intensity / points.len() as f32;
+    points
+        .iter()
+        .map(|&q| {
+            let d = q - p;
+            floor_radiance(d.normalize(), each / d.length_squared())
+        })
+        .sum()
+}
+
 fn assert_close(got: f32, want: f32, tol: f32, what: &str) {
     assert!(want > 0.0, "{what}: the reference is dark");
     assert!(
@@ -198,13 +211,7 @@ fn tube_light_irradiance_matches_the_line_integral_also_when_cut_by_the_horizon(
             (0..n).map(|i| center + axis * (((i as f32 + 0.5) / n as f32 - 0.5) * length)).collect();
         for (x, y) in [(32, 10), (12, 50), (50, 44), (60, 20)] {
             let p = pixel_world(x, y, SIZE);
-            let expected: f32 = samples
-                .iter()
-                .map(|&q| {
-                    let d = q - p;
-                    floor_radiance(d.normalize(), intensity / n as f32 / d.length_squared())
-                })
-                .sum();
+            let expected = points_radiance(p, &samples, intensity);
             // 2% as for the other lights, 3% with the tube cut by the horizon: there the point of
             // the tube nearest a rough surface's reflected ray can sit on the horizon, which
             // loses most of the specular share (about 2% of the light at these angles; the
@@ -285,9 +292,10 @@ fn a_tube_lying_in_the_floor_lights_it_like_one_resting_on_it() {
     // Off the pixel grid's symmetry, so that pixels land at uneven distances.
     let center = Vec3::new(0.013, 0.0, 0.0071);
     let mut images = Vec::new();
+    let mut pixel_world = None;
     for height in [0.0, radius] {
         let mut app = scene_app();
-        let _ = top_down(&mut app, 1.0);
+        pixel_world = Some(top_down(&mut app, 1.0));
         app.world.spawn((
             TubeLight { intensity, length, radius, ..Default::default() },
             Transform::from_translation(center + Vec3::Y * height).with_rotation(rotation),
@@ -297,18 +305,14 @@ fn a_tube_lying_in_the_floor_lights_it_like_one_resting_on_it() {
         common::assert_finite_hdr(&hdr, "tube on the floor");
         images.push(hdr);
     }
-    let pixel_world = |x: u32, y: u32| {
-        let u = (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0;
-        let v = (y as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0;
-        Vec3::new(u, 0.0, v)
-    };
+    let pixel_world = pixel_world.expect("rendered");
     let n = 2000;
     let top: Vec<Vec3> =
         (0..n).map(|i| center + Vec3::Y * radius + axis * (((i as f32 + 0.5) / n as f32 - 0.5) * length)).collect();
     let mut checked = 0;
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let p = pixel_world(x, y);
+            let p = pixel_world(x, y, SIZE);
             let along = (p - center).dot(axis);
             let off = ((p - center) - axis * along).length();
             if along.abs() > 0.45 || !(0.04..=0.6).contains(&off) {
@@ -318,13 +322,7 @@ fn a_tube_lying_in_the_floor_lights_it_like_one_resting_on_it() {
             assert!(in_floor > 0.0, "pixel ({x}, {y}) {off:.3} m from the tube is dark");
             assert_close(in_floor, resting, 0.01, &format!("in the floor vs resting, pixel ({x}, {y})"));
             if off > 0.1 {
-                let expected: f32 = top
-                    .iter()
-                    .map(|&q| {
-                        let d = q - p;
-                        floor_radiance(d.normalize(), intensity / n as f32 / d.length_squared())
-                    })
-                    .sum();
+                let expected = points_radiance(p, &top, intensity);
                 assert_close(resting, expected, 0.03, &format!("resting, pixel ({x}, {y}), {off:.2} m off"));
                 checked += 1;
             }

@@ -623,9 +623,7 @@ impl Renderer {
                 computed,
                 self.timer.as_mut(),
             );
-            counts.draw_calls += after.draw_calls;
-            counts.instances += after.instances;
-            counts.primitives += after.primitives;
+            counts += after;
             forward_error = forward_error.or(error);
         }
         let tonemap_result = tonemap::encode(

@@ -54,8 +54,7 @@ pub fn encode(
     timer: Option<&mut GpuTimer>,
 ) -> Result<(), ShaderError> {
     let Some(deferred) = targets.deferred.as_ref() else { return Ok(()) };
-    pipelines.deferred(device, key)?;
-    let pipeline = pipelines.deferred_cached(&key).expect("compiled above");
+    let pipeline = pipelines.deferred(device, key)?;
     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some("deferred lights"),
         timestamp_writes: timer.and_then(|t| t.compute_pass("deferred lights")),

@@ -32,6 +32,14 @@ pub struct DrawCounts {
     pub primitives: u64,
 }
 
+impl std::ops::AddAssign for DrawCounts {
+    fn add_assign(&mut self, other: Self) {
+        self.draw_calls += other.draw_calls;
+        self.instances += other.instances;
+        self.primitives += other.primitives;
+    }
+}
+
 pub struct ForwardInputs<'a> {
     pub targets: &'a FrameTargets,
     pub view_bind_group: &'a wgpu::BindGroup,

@@ -503,10 +503,6 @@ impl PipelineCache {
         self.composite.get(&(samples, FormatKey(depth_format)))
     }
 
-    pub fn deferred_cached(&self, key: &DeferredKey) -> Option<&wgpu::ComputePipeline> {
-        self.deferred.get(key)
-    }
-
     /// The pipeline adding deferred local lights into a frame of `samples` samples whose pass
     /// has a depth attachment of `depth_format`.
     pub fn composite(

@@ -66,11 +66,6 @@ impl ProfileTable {
         }
     }
 
-    /// Whether any light uses a profile (the scene needs the IES shader code).
-    pub fn in_use(&self) -> bool {
-        !self.users.is_empty()
-    }
-
     /// Bytes the table holds on the GPU.
     pub fn gpu_bytes(&self) -> u64 {
         self.buffer.as_ref().map_or(0, wgpu::Buffer::size)

@@ -679,7 +679,7 @@ mod tests {
             scene.removed_lights.push(k);
         }
         store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
-        assert!(!store.profiles.in_use() && store.profiles.slot(a).is_none());
+        assert!(store.profiles.slot(a).is_none() && store.profiles.slot(b).is_none());
         assert!(!store.shapes().ies);
     }
 
