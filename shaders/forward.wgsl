@@ -10,7 +10,8 @@
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
-// and LTC_LIGHTS add the code of lights with a size when the scene has them), and the debug
+// and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
+// (directional lights read their cascaded shadow maps, shadows.wgsl), and the debug
 // view DEBUG_CLUSTER_HEAT. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
 // (deferred_lights.wgsl) instead, from the surface each fragment also writes out.
 
@@ -21,39 +22,15 @@
 #endif
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
 #import penumbra::light_data::Light
+#import penumbra::draw_data::{Instance, Material, MATERIAL_DOUBLE_SIDED, UvSets, slot_coord, place_vertex}
 #import penumbra::lights::shade_light
+#ifdef SHADOWS
+#import penumbra::light_data::LIGHT_DIRECTIONAL
+#import penumbra::shadows::directional_shadow
+#endif
 #ifdef CLUSTERED_LIGHTS
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
 #endif
-
-struct Instance {
-    // Rows of world_from_local (3×4 affine, translation in .w).
-    row0: vec4<f32>,
-    row1: vec4<f32>,
-    row2: vec4<f32>,
-    material: u32,
-    flags: u32,
-    _pad0: u32,
-    _pad1: u32,
-};
-
-const MATERIAL_DOUBLE_SIDED: u32 = 2u;
-
-struct Material {
-    base_color: vec4<f32>,
-    emissive: vec3<f32>,
-    alpha_cutoff: f32,
-    metallic: f32,
-    roughness: f32,
-    normal_scale: f32,
-    occlusion_strength: f32,
-    flags: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-    // Per texture slot two rows of the 2×3 UV transform; row 0's .w is the UV set.
-    uv: array<vec4<f32>, 10>,
-};
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> instances: array<Instance>;
@@ -102,70 +79,20 @@ struct VertexOut {
 @vertex
 fn vs_main(in: VertexIn) -> VertexOut {
     let inst = instances[draw_slots[in.instance_index]];
-    let m0 = inst.row0.xyz;
-    let m1 = inst.row1.xyz;
-    let m2 = inst.row2.xyz;
-    // Camera-relative translation: both terms are f32 values; for geometry near the camera they
-    // are within a factor of two of each other, so the subtraction is exact (Sterbenz lemma) and
-    // nearby geometry keeps full precision however far from the origin the scene sits.
-    let t_rel = vec3<f32>(inst.row0.w, inst.row1.w, inst.row2.w) - view.camera_position;
-    let p = in.position;
-    let rel = vec3<f32>(dot(m0, p), dot(m1, p), dot(m2, p)) + t_rel;
-
-    // Normals transform by the cofactor matrix (inverse transpose times det): correct under
-    // non-uniform scale and shear; the sign of det keeps them outward under mirroring.
-    let c0 = vec3<f32>(m0.x, m1.x, m2.x);
-    let c1 = vec3<f32>(m0.y, m1.y, m2.y);
-    let c2 = vec3<f32>(m0.z, m1.z, m2.z);
-    let det = dot(c0, cross(c1, c2));
-    let s = select(1.0, -1.0, det < 0.0);
-    let cof = mat3x3<f32>(cross(c1, c2), cross(c2, c0), cross(c0, c1)) * s;
-    let linear = mat3x3<f32>(c0, c1, c2);
+    let placed = place_vertex(inst, in.position, view.camera_position);
 
     var out: VertexOut;
-    out.clip_position = view.clip_from_rel * vec4<f32>(rel, 1.0);
-    out.rel_position = rel;
+    out.clip_position = view.clip_from_rel * vec4<f32>(placed.rel, 1.0);
+    out.rel_position = placed.rel;
     // Normalised here: the cofactor scales normals by the square of the object's scale, which for
     // a 1e-4 scale model would be 1e-8 before interpolation.
-    out.normal = safe_normalize(cof * in.normal, vec3<f32>(0.0));
-    out.tangent = vec4<f32>(safe_normalize(linear * in.tangent.xyz, vec3<f32>(0.0)), in.tangent.w * s);
+    out.normal = safe_normalize(placed.cofactor * in.normal, vec3<f32>(0.0));
+    out.tangent = vec4<f32>(safe_normalize(placed.linear * in.tangent.xyz, vec3<f32>(0.0)), in.tangent.w * placed.mirror);
     out.uv0 = in.uv0;
     out.uv1 = in.uv1;
     out.color = in.color;
     out.material = inst.material;
     return out;
-}
-
-// A texture coordinate with its screen-space gradients.
-struct TexCoord {
-    uv: vec2<f32>,
-    ddx: vec2<f32>,
-    ddy: vec2<f32>,
-};
-
-// Raw UV sets and their gradients, taken once in uniform control flow.
-struct UvSets {
-    uv0: vec2<f32>,
-    uv1: vec2<f32>,
-    uv0_ddx: vec2<f32>,
-    uv0_ddy: vec2<f32>,
-    uv1_ddx: vec2<f32>,
-    uv1_ddy: vec2<f32>,
-};
-
-// The texture coordinate of material texture `slot` (KHR_texture_transform applied). Gradients
-// are transformed from the raw UV gradients rather than taken from the transformed UVs, because
-// the transform is read from a storage buffer and some drivers (llvmpipe) do not execute loads in
-// helper invocations: derivatives of loaded values are garbage at triangle edges there.
-fn slot_coord(mat: Material, slot: u32, sets: UvSets) -> TexCoord {
-    let r0 = mat.uv[slot * 2u];
-    let r1 = mat.uv[slot * 2u + 1u];
-    let second = r0.w > 0.5;
-    let uv = select(sets.uv0, sets.uv1, second);
-    let dx = select(sets.uv0_ddx, sets.uv1_ddx, second);
-    let dy = select(sets.uv0_ddy, sets.uv1_ddy, second);
-    let linear = mat2x2<f32>(vec2<f32>(r0.x, r1.x), vec2<f32>(r0.y, r1.y));
-    return TexCoord(linear * uv + vec2<f32>(r0.z, r1.z), linear * dx, linear * dy);
 }
 
 #ifdef CLUSTERED_LIGHTS
@@ -293,8 +220,21 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #endif
 
     var color = vec3<f32>(0.0);
+#ifdef SHADOWS
+    // The interpolated vertex normal, not the normal-mapped one: the receiver offset must follow
+    // the surface the shadow map saw.
+    let geometric_n = safe_normalize(select(in.normal, -in.normal, double_sided_back), n);
+#endif
     for (var i = 0u; i < view.global_light_count; i++) {
-        color += shade_light(s, lights[i], in.rel_position, view.camera_position);
+        var lit = shade_light(s, lights[i], in.rel_position, view.camera_position);
+#ifdef SHADOWS
+        if lights[i].kind == LIGHT_DIRECTIONAL && any(lit > vec3<f32>(0.0)) {
+            let n_dot_l = dot(geometric_n, -lights[i].direction);
+            let depth = dot(in.rel_position, view.camera_forward);
+            lit *= directional_shadow(i, in.rel_position, geometric_n, n_dot_l, depth, in.clip_position.xy);
+        }
+#endif
+        color += lit;
     }
 #ifdef LOCAL_LIGHTS
 #ifdef CLUSTERED_LIGHTS

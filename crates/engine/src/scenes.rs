@@ -7,7 +7,9 @@ use bevy_ecs::world::World;
 use glam::{Vec3, Vec4};
 
 use crate::assets::Assets;
-use crate::components::{AmbientLight, Camera, Exposure, Mesh3d, MeshMaterial3d, PointLight, Projection, Transform};
+use crate::components::{
+    AmbientLight, Camera, DirectionalLight, Exposure, Mesh3d, MeshMaterial3d, PointLight, Projection, Transform,
+};
 use crate::material::StandardMaterial;
 use crate::mesh::Mesh;
 
@@ -108,6 +110,59 @@ pub fn spawn_many_lights(world: &mut World, count: usize, range: Option<f32>) ->
         Transform::from_xyz(0.0, 160.0, 160.0).looking_at(Vec3::new(0.0, 0.0, 25.0), Vec3::Y),
     ));
     lights
+}
+
+/// The seed of the shadows scene's object sequence.
+pub const SHADOWS_SEED: u64 = 0x5EED_0000_0000_0002;
+
+/// **shadows** (Penumbra's own; `penumbra bench shadows`): a 200 × 200 ground plane with 400
+/// casters on a 20 × 20 grid 2.5 m apart around the origin (boxes 0.5–3 m tall and spheres of
+/// radius 0.3–0.9 m, alternating, jittered by SplitMix64 from [`SHADOWS_SEED`]), a sun of 4 lux
+/// at 35° elevation from azimuth 240° (shadows on, the sun's angular radius), ambient 0.3 cd/m²,
+/// and the camera at (0, 5, 28) looking at (0, 0, 0) (45° vertical field of view, exposure 1),
+/// so that the view runs from casters at the near plane to the horizon through every cascade.
+pub fn spawn_shadows_scene(world: &mut World) {
+    let plane = world.resource_mut::<Assets<Mesh>>().add(Mesh::plane(200.0));
+    let cube = world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let sphere = world.resource_mut::<Assets<Mesh>>().add(Mesh::uv_sphere(1.0, 32, 16));
+    let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+    let ground = materials.add(StandardMaterial::from_color(srgb(0.7, 0.7, 0.7), 0.9));
+    let paint = [srgb(0.8, 0.3, 0.2), srgb(0.3, 0.6, 0.8), srgb(0.85, 0.8, 0.6)]
+        .map(|c| materials.add(StandardMaterial::from_color(c, 0.5)));
+    world.spawn((Mesh3d(plane), MeshMaterial3d(ground), Transform::default()));
+    let mut rng = SplitMix64(SHADOWS_SEED);
+    for i in 0..20 {
+        for j in 0..20 {
+            let x = -23.75 + 2.5 * i as f32 + rng.uniform(-0.5, 0.5);
+            let z = -23.75 + 2.5 * j as f32 + rng.uniform(-0.5, 0.5);
+            let material = MeshMaterial3d(paint[(i + j) % 3]);
+            if (i + j) % 2 == 0 {
+                let h = rng.uniform(0.5, 3.0);
+                let w = rng.uniform(0.4, 1.2);
+                let t = Transform::from_xyz(x, 0.5 * h, z).with_scale(Vec3::new(w, h, w));
+                world.spawn((Mesh3d(cube), material, t));
+            } else {
+                let r = rng.uniform(0.3, 0.9);
+                let t = Transform::from_xyz(x, r, z).with_scale(Vec3::splat(r));
+                world.spawn((Mesh3d(sphere), material, t));
+            }
+        }
+    }
+    let (elevation, azimuth) = (35f32.to_radians(), 240f32.to_radians());
+    let towards_sun = Vec3::new(elevation.cos() * azimuth.sin(), elevation.sin(), elevation.cos() * azimuth.cos());
+    world.spawn((
+        DirectionalLight { illuminance: 4.0, ..Default::default() },
+        Transform::from_translation(towards_sun).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
+    world.spawn((
+        Camera {
+            projection: Projection::Perspective { yfov: 45f32.to_radians(), znear: 0.1, aspect_ratio: None },
+            exposure: Exposure::unit(),
+            ..Default::default()
+        },
+        Transform::from_xyz(0.0, 5.0, 28.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The frame plan: which passes run this frame, in what order, and why. A pass the scene does
 //! not need is not encoded at all (no empty passes): cluster binning runs only with local lights
-//! to bin, the transparent phase only with blended draws; the shadow passes (#4) will join with
-//! their own conditions.
+//! to bin, the transparent phase only with blended draws, shadow maps only for layers a shadowed
+//! light's casters reach within sight (the shadow orchestrator decides which).
 
 use std::fmt;
 
@@ -9,6 +9,8 @@ use std::fmt;
 pub enum Pass {
     /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
     ClusterBin,
+    /// Depth-only passes of shadow casters into the shadow atlas, one per rendered layer.
+    Shadows,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
     /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`, or `Auto` with
@@ -30,10 +32,14 @@ pub struct FramePlan {
 impl FramePlan {
     /// `binned_lights`: local lights the forward pass will find through clusters; `deferred`:
     /// a compute pass shades them for opaque surfaces.
-    pub fn new(binned_lights: u32, has_opaque: bool, has_blend: bool, deferred: bool) -> Self {
+    /// `shadow_layers`: shadow-map layers the orchestrator will render.
+    pub fn new(binned_lights: u32, shadow_layers: usize, has_opaque: bool, has_blend: bool, deferred: bool) -> Self {
         let mut passes = Vec::new();
         if binned_lights > 0 && (has_opaque || has_blend) {
             passes.push((Pass::ClusterBin, "local lights to bin and draws to light"));
+        }
+        if shadow_layers > 0 {
+            passes.push((Pass::Shadows, "a shadowed light's casters reach what the camera sees"));
         }
         passes.push((
             Pass::Opaque,
@@ -72,27 +78,35 @@ mod tests {
 
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!FramePlan::new(0, true, false, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, true, true, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, false, false, false).runs(Pass::Tonemap));
+        assert!(!FramePlan::new(0, 0, true, false, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, 0, true, true, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, 0, false, false, false).runs(Pass::Tonemap));
     }
 
     #[test]
     fn cluster_binning_only_with_local_lights_and_something_to_light() {
-        assert!(!FramePlan::new(0, true, true, false).runs(Pass::ClusterBin));
-        assert!(FramePlan::new(3, true, false, false).runs(Pass::ClusterBin));
-        assert!(!FramePlan::new(3, false, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(0, 0, true, true, false).runs(Pass::ClusterBin));
+        assert!(FramePlan::new(3, 0, true, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(3, 0, false, false, false).runs(Pass::ClusterBin));
         assert_eq!(
-            FramePlan::new(3, true, false, false).passes[0].0,
+            FramePlan::new(3, 0, true, false, false).passes[0].0,
             Pass::ClusterBin,
             "binning precedes the forward pass"
         );
     }
 
     #[test]
+    fn shadow_passes_only_with_layers_to_render_and_before_the_forward_pass() {
+        assert!(!FramePlan::new(3, 0, true, false, false).runs(Pass::Shadows));
+        let plan = FramePlan::new(3, 2, true, false, false);
+        let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
+    }
+
+    #[test]
     fn deferred_lights_only_when_asked_for_between_opaque_and_blended_draws() {
-        assert!(!FramePlan::new(3, true, true, false).runs(Pass::DeferredLights));
-        let plan = FramePlan::new(3, true, true, true);
+        assert!(!FramePlan::new(3, 0, true, true, false).runs(Pass::DeferredLights));
+        let plan = FramePlan::new(3, 0, true, true, true);
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Opaque, Pass::DeferredLights, Pass::Transparent, Pass::Tonemap]);
     }

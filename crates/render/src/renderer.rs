@@ -14,6 +14,7 @@ use bevy_ecs::resource::Resource;
 use bytemuck::{Pod, Zeroable};
 use glam::{Affine3A, Mat4, Vec3};
 use penumbra_engine::Handle;
+use penumbra_engine::bounds::Aabb;
 use penumbra_engine::components::Projection;
 use penumbra_engine::mesh::Mesh;
 
@@ -23,6 +24,8 @@ use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
 use crate::passes::deferred_lights::{self, GpuDeferredParams};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs};
+use crate::passes::shadows::orchestrator::{DirectionalCandidate, SceneBounds, ShadowOrchestrator};
+use crate::passes::shadows::{ShadowSettings, ShadowSettingsError};
 use crate::passes::tonemap;
 use crate::pipelines::pipeline_cache::{
     DebugView, DeferredKey, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper,
@@ -60,6 +63,8 @@ pub struct RenderSettings {
     /// `range` stops: its range is where it would light a facing white surface this bright.
     pub light_cutoff: f32,
     pub debug_view: DebugView,
+    /// Shadow maps of directional lights.
+    pub shadows: ShadowSettings,
 }
 
 /// How fragments find the local lights (every kind but directional and ambient) that reach them.
@@ -117,6 +122,7 @@ impl Default for RenderSettings {
             light_walk: LightWalk::Auto,
             light_cutoff: DEFAULT_CUTOFF,
             debug_view: DebugView::None,
+            shadows: ShadowSettings::default(),
         }
     }
 }
@@ -129,6 +135,8 @@ pub enum SettingsError {
     Clusters(String),
     #[error("light cutoff {0} must be a positive finite luminance")]
     LightCutoff(f32),
+    #[error(transparent)]
+    Shadows(#[from] ShadowSettingsError),
 }
 
 impl RenderSettings {
@@ -140,6 +148,7 @@ impl RenderSettings {
         if !(self.light_cutoff > 0.0 && self.light_cutoff.is_finite()) {
             return Err(SettingsError::LightCutoff(self.light_cutoff));
         }
+        self.shadows.validate()?;
         Ok(())
     }
 }
@@ -188,6 +197,8 @@ pub struct MemoryStats {
     pub lights: u64,
     /// Cluster grid, counts, ranges and index lists.
     pub clusters: u64,
+    /// The shadow atlas (0 while no light casts).
+    pub shadows: u64,
 }
 
 /// Mirrors `struct View` in `shaders/forward.wgsl`.
@@ -243,6 +254,9 @@ pub struct Renderer {
     instances: InstanceBuffer,
     lights: LightStore,
     clusters: ClusterBinner,
+    shadows: ShadowOrchestrator,
+    /// Forward pipelines read shadow maps (part of every pipeline key).
+    shadows_active: bool,
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
     view_bind_group: Option<wgpu::BindGroup>,
@@ -312,6 +326,8 @@ impl Renderer {
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),
             clusters: ClusterBinner::new(device),
+            shadows: ShadowOrchestrator::new(device),
+            shadows_active: false,
             draw_slots: GrowableBuffer::new(device, "draw slots", wgpu::BufferUsages::STORAGE, 4096 * 4),
             view_buffer,
             pipelines,
@@ -395,6 +411,12 @@ impl Renderer {
         &self.clusters
     }
 
+    /// What the shadow orchestrator decided for the last frame: shadowed lights, their
+    /// cascades, which layers were rendered.
+    pub fn shadow_frame(&self) -> &crate::passes::shadows::orchestrator::ShadowFrame {
+        self.shadows.frame()
+    }
+
     /// Keys (with their shader variants) of the forward pipelines compiled so far.
     pub fn forward_pipeline_keys(&self) -> Vec<PipelineKey> {
         self.pipelines.forward_keys().copied().collect()
@@ -462,6 +484,7 @@ impl Renderer {
             targets: self.targets.as_ref().map_or(0, |t| t.bytes()),
             lights: self.lights.gpu_bytes(),
             clusters: self.clusters.gpu_bytes(),
+            shadows: self.shadows.gpu_bytes(),
         }
     }
 
@@ -534,6 +557,7 @@ impl Renderer {
         let t = Instant::now();
         self.prepare_meshes(scene);
         tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+        rebind |= self.prepare_shadows(scene, size);
         if self.batches_dirty {
             self.rebuild_batches();
         }
@@ -562,8 +586,14 @@ impl Renderer {
             batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
         }
         let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
-        let plan =
-            FramePlan::new(binned, !self.opaque_batches.is_empty(), !blend_batches.is_empty(), self.deferred_lights);
+        let shadow_layers = self.shadows.frame().rendered_layers();
+        let plan = FramePlan::new(
+            binned,
+            shadow_layers,
+            !self.opaque_batches.is_empty(),
+            !blend_batches.is_empty(),
+            self.deferred_lights,
+        );
 
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
@@ -571,6 +601,20 @@ impl Renderer {
         let mut cluster_error = None;
         if plan.runs(Pass::ClusterBin) {
             cluster_error = self.clusters.encode(&mut encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
+        }
+        let mut shadow_error = None;
+        if plan.runs(Pass::Shadows) {
+            shadow_error = self.shadows.encode(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                &self.settings.shadows,
+                &self.mesh_pool,
+                &self.materials,
+                [self.instances.buffer(), self.draw_slots.buffer(), self.materials.buffer()],
+                &self.opaque_batches,
+                self.timer.as_mut(),
+            );
         }
         let targets = self.targets.as_ref().expect("made above");
         let [r, g, b] = self.settings.clear_color;
@@ -635,7 +679,7 @@ impl Renderer {
             tonemap::Output { view: output, format: output_format },
             self.timer.as_mut(),
         );
-        if let Some(e) = cluster_error.or(forward_error).or(tonemap_result.err())
+        if let Some(e) = cluster_error.or(shadow_error).or(forward_error).or(tonemap_result.err())
             && self.shader_error.as_ref() != Some(&e)
         {
             tracing::error!("{e}");
@@ -742,6 +786,53 @@ impl Renderer {
             self.batches_dirty = true;
         }
         rebind
+    }
+
+    /// Fits this frame's shadow cascades to the camera, the shadowed directional lights and the
+    /// bounds of what is drawn. Returns whether the view bind group must be rebuilt (the atlas
+    /// was allocated or released).
+    fn prepare_shadows(&mut self, scene: &RenderScene, size: (u32, u32)) -> bool {
+        let candidates: Vec<DirectionalCandidate> = self
+            .lights
+            .global_lights()
+            .filter(|(_, _, l)| l.shadows)
+            .map(|(slot, key, light)| DirectionalCandidate { key, slot, light: *light })
+            .collect();
+        let bounds = if candidates.is_empty() {
+            SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY }
+        } else {
+            self.scene_bounds()
+        };
+        let aspect = size.0.max(1) as f32 / size.1.max(1) as f32;
+        let view = scene.view.as_ref().map(|v| (v, aspect));
+        let rebind =
+            self.shadows.prepare(&self.ctx.device, &self.ctx.queue, &self.settings.shadows, view, &candidates, &bounds);
+        let active = self.shadows.active();
+        if active != self.shadows_active {
+            self.shadows_active = active;
+            self.batches_dirty = true;
+        }
+        rebind
+    }
+
+    /// World bounds of the visible draws, and of those among them that cast shadows (opaque and
+    /// masked triangles). A pass over every draw: retained bounds belong with GPU culling (#5).
+    fn scene_bounds(&self) -> SceneBounds {
+        let mut bounds = SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY };
+        for d in self.draws.values().filter(|d| d.visible) {
+            let Some(entry) = self.mesh_ids.get(&d.mesh).and_then(|id| self.mesh_pool.entry(*id)) else { continue };
+            let world = entry.aabb.transformed(&d.world_from_local);
+            if world.is_empty() || !world.min.is_finite() || !world.max.is_finite() {
+                continue;
+            }
+            bounds.receivers = bounds.receivers.union(&world);
+            let casts = entry.topology == penumbra_engine::mesh::Topology::TriangleList
+                && self.materials.get(&d.material).is_some_and(|m| m.alpha != AlphaKey::Blend);
+            if casts {
+                bounds.casters = bounds.casters.union(&world);
+            }
+        }
+        bounds
     }
 
     fn apply_draw_changes(&mut self, scene: &RenderScene, in_step: bool) {
@@ -912,6 +1003,7 @@ impl Renderer {
                 self.local_lights
             },
             light_shapes: self.light_shapes,
+            shadows: self.shadows_active,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
             cull_back_faces: !m.double_sided,
@@ -1026,6 +1118,12 @@ impl Renderer {
                 buf(7, self.clusters.indices()),
                 buf(8, self.lights.ltc_buffer()),
                 buf(9, self.lights.ies_buffer()),
+                buf(10, self.shadows.uniform()),
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
+                },
+                wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::Sampler(self.shadows.sampler()) },
             ],
         })
     }

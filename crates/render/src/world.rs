@@ -40,7 +40,10 @@ pub struct DrawItem {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LightKind {
-    Directional,
+    Directional {
+        /// Radians; the size of the light's disk for soft shadows.
+        angular_radius: f32,
+    },
     Point,
     Spot {
         inner_cone_angle: f32,
@@ -101,6 +104,8 @@ pub struct ExtractedLight {
     pub right: Vec3,
     /// glTF's `range`; `None` lets the light store derive one from the intensity.
     pub range: Option<f32>,
+    /// Whether the light casts shadows (the shadow orchestrator decides which get maps).
+    pub shadows: bool,
 }
 
 /// An asset as of the version extraction saw.

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use penumbra_render::headless::CameraChoice;
 use penumbra_render::passes::clusters::grid::ClusterConfig;
+use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
 use penumbra_render::renderer::{LightWalk, SettingsError};
 use penumbra_render::{RenderSettings, ShaderSource, Tonemapper};
@@ -68,6 +69,25 @@ pub struct LookArgs {
     /// Cluster grid: tiles across x tiles down x depth slices.
     #[arg(long, value_parser = parse_clusters, default_value = "16x16x32", value_name = "XxYxZ")]
     pub clusters: ClusterConfig,
+    /// Texels across each layer of the shadow atlas (one layer per cascade), 16 to 16384.
+    #[arg(long, default_value_t = ShadowSettings::default().atlas_size, value_name = "TEXELS")]
+    pub shadow_atlas: u32,
+    /// Cascades per shadowed directional light, 1 to 4.
+    #[arg(long, default_value_t = ShadowSettings::default().cascades)]
+    pub cascades: u32,
+    /// Distance from the camera beyond which nothing is shadowed, in metres.
+    #[arg(long, default_value_t = ShadowSettings::default().max_distance, value_name = "METRES")]
+    pub shadow_distance: f32,
+    /// Shadow filtering: `pcf` (fixed soft edge) or `pcss` (penumbrae widen with distance from
+    /// the caster, from the light's angular size).
+    #[arg(long, value_enum, default_value_t = ShadowFilterArg::Pcf)]
+    pub shadow_filter: ShadowFilterArg,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowFilterArg {
+    Pcf,
+    Pcss,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -251,13 +271,29 @@ impl LookArgs {
                 DebugViewArg::None => DebugView::None,
                 DebugViewArg::Clusters => DebugView::ClusterHeat,
             },
+            shadows: ShadowSettings {
+                atlas_size: self.shadow_atlas,
+                cascades: self.cascades,
+                max_distance: self.shadow_distance,
+                filter: match self.shadow_filter {
+                    ShadowFilterArg::Pcf => ShadowFilter::Pcf,
+                    ShadowFilterArg::Pcss => ShadowFilter::Pcss,
+                },
+                ..Default::default()
+            },
             ..Default::default()
         };
         settings.validate().map_err(|e| {
-            let flag = match e {
+            let flag = match &e {
                 SettingsError::Msaa(_) => "--msaa",
                 SettingsError::Clusters(_) => "--clusters",
                 SettingsError::LightCutoff(_) => "light cutoff",
+                SettingsError::Shadows(s) => match s.name {
+                    "atlas_size" => "--shadow-atlas",
+                    "cascades" => "--cascades",
+                    "max_distance" => "--shadow-distance",
+                    _ => "shadow settings",
+                },
             };
             anyhow::anyhow!("{flag}: {e}")
         })?;

@@ -29,11 +29,17 @@ pub struct DirectionalLight {
     /// Lux.
     pub illuminance: f32,
     pub shadows: bool,
+    /// Angular radius of the light's disk, in radians: how soft its shadows' penumbrae are
+    /// with PCSS filtering (the sun's, about 0.27°, by default).
+    pub angular_radius: f32,
 }
+
+/// The sun's angular radius seen from the Earth (0.266°), in radians.
+pub const SUN_ANGULAR_RADIUS: f32 = 0.004_65;
 
 impl Default for DirectionalLight {
     fn default() -> Self {
-        Self { color: Vec3::ONE, illuminance: 1.0, shadows: true }
+        Self { color: Vec3::ONE, illuminance: 1.0, shadows: true, angular_radius: SUN_ANGULAR_RADIUS }
     }
 }
 

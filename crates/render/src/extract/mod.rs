@@ -194,49 +194,50 @@ struct ChangedLights<'w, 's> {
 
 /// A light as extracted, or `None` when it should not light anything (hidden). Non-finite
 /// values are refused here, so no NaN reaches the light store or the cluster bins.
-fn placed(kind: LightKind, color: Vec3, t: &GlobalTransform, range: Option<f32>) -> ExtractedLight {
-    ExtractedLight { kind, color, position: t.translation(), direction: t.forward(), right: t.right(), range }
+fn placed(kind: LightKind, color: Vec3, t: &GlobalTransform, range: Option<f32>, shadows: bool) -> ExtractedLight {
+    ExtractedLight { kind, color, position: t.translation(), direction: t.forward(), right: t.right(), range, shadows }
 }
 
-fn unplaced(kind: LightKind, color: Vec3, direction: Vec3) -> ExtractedLight {
-    ExtractedLight { kind, color, position: Vec3::ZERO, direction, right: Vec3::X, range: None }
+fn unplaced(kind: LightKind, color: Vec3, direction: Vec3, shadows: bool) -> ExtractedLight {
+    ExtractedLight { kind, color, position: Vec3::ZERO, direction, right: Vec3::X, range: None, shadows }
 }
 
 fn directional_light(l: &DirectionalLight, t: &GlobalTransform) -> ExtractedLight {
-    unplaced(LightKind::Directional, l.color * l.illuminance, t.forward())
+    let kind = LightKind::Directional { angular_radius: l.angular_radius };
+    unplaced(kind, l.color * l.illuminance, t.forward(), l.shadows)
 }
 
 fn point_light(l: &PointLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Point, l.color * l.intensity, t, l.range)
+    placed(LightKind::Point, l.color * l.intensity, t, l.range, l.shadows)
 }
 
 fn spot_light(l: &SpotLight, t: &GlobalTransform) -> ExtractedLight {
     let kind = LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle };
-    placed(kind, l.color * l.intensity, t, l.range)
+    placed(kind, l.color * l.intensity, t, l.range, l.shadows)
 }
 
 fn ambient_light(l: &AmbientLight) -> ExtractedLight {
-    unplaced(LightKind::Ambient, l.color * l.intensity, Vec3::NEG_Z)
+    unplaced(LightKind::Ambient, l.color * l.intensity, Vec3::NEG_Z, false)
 }
 
 fn sphere_light(l: &SphereLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Sphere { radius: l.radius }, l.color * l.intensity, t, l.range)
+    placed(LightKind::Sphere { radius: l.radius }, l.color * l.intensity, t, l.range, l.shadows)
 }
 
 fn tube_light(l: &TubeLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Tube { length: l.length, radius: l.radius }, l.color * l.intensity, t, l.range)
+    placed(LightKind::Tube { length: l.length, radius: l.radius }, l.color * l.intensity, t, l.range, l.shadows)
 }
 
 fn rect_light(l: &RectLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Rect { width: l.width, height: l.height }, l.color * l.luminance, t, l.range)
+    placed(LightKind::Rect { width: l.width, height: l.height }, l.color * l.luminance, t, l.range, l.shadows)
 }
 
 fn disk_light(l: &DiskLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Disk { radius: l.radius }, l.color * l.luminance, t, l.range)
+    placed(LightKind::Disk { radius: l.radius }, l.color * l.luminance, t, l.range, l.shadows)
 }
 
 fn ies_light(l: &IesLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Ies { profile: l.profile }, l.color * l.scale, t, l.range)
+    placed(LightKind::Ies { profile: l.profile }, l.color * l.scale, t, l.range, l.shadows)
 }
 
 fn is_finite(l: &ExtractedLight) -> bool {
@@ -245,7 +246,8 @@ fn is_finite(l: &ExtractedLight) -> bool {
         | LightKind::Tube { length: a, radius: b }
         | LightKind::Rect { width: a, height: b } => a.is_finite() && b.is_finite(),
         LightKind::Sphere { radius } | LightKind::Disk { radius } => radius.is_finite(),
-        LightKind::Directional | LightKind::Point | LightKind::Ambient | LightKind::Ies { .. } => true,
+        LightKind::Directional { angular_radius } => angular_radius.is_finite(),
+        LightKind::Point | LightKind::Ambient | LightKind::Ies { .. } => true,
     };
     l.color.is_finite()
         && l.position.is_finite()
@@ -344,14 +346,18 @@ fn extract_lights(
         let view_rotation =
             scene.view.map_or(glam::Quat::IDENTITY, |v| v.world_from_view.to_scale_rotation_translation().1);
         scene.default_lights.push(unplaced(
-            LightKind::Directional,
+            LightKind::Directional { angular_radius: 0.0 },
             Vec3::splat(default_lighting::KEY_ILLUMINANCE),
             (view_rotation * default_lighting::KEY_DIRECTION_VIEW).normalize(),
+            // A viewer's headlight: it turns with the camera, so its shadows would slide
+            // over the model as the user orbits; like the Khronos viewer's, it casts none.
+            false,
         ));
         scene.default_lights.push(unplaced(
             LightKind::Ambient,
             Vec3::splat(default_lighting::AMBIENT_RADIANCE),
             Vec3::NEG_Z,
+            false,
         ));
     }
 }

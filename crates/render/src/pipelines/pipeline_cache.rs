@@ -15,6 +15,9 @@
 
 use std::collections::HashMap;
 
+mod casters;
+pub use casters::CasterKey;
+
 use penumbra_engine::mesh::Topology;
 
 use super::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
@@ -48,6 +51,8 @@ pub struct PipelineKey {
     pub local_lights: LocalLights,
     /// Which lights with a size need their shading code.
     pub light_shapes: LightShapes,
+    /// Directional lights cast shadows this frame: the shadow-map lookups are compiled in.
+    pub shadows: bool,
     pub debug: DebugView,
     pub topology: TopologyKey,
     /// Double-sided materials draw both faces.
@@ -83,6 +88,7 @@ impl PipelineKey {
             .with("SPHERE_TUBE_LIGHTS", local && self.light_shapes.sphere_tube)
             .with("LTC_LIGHTS", local && self.light_shapes.ltc)
             .with("IES_LIGHTS", local && self.light_shapes.ies)
+            .with("SHADOWS", lit && self.shadows)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
     }
 }
@@ -225,6 +231,10 @@ pub struct PipelineCache {
     deferred: HashMap<DeferredKey, wgpu::ComputePipeline>,
     /// Keyed by sample count and depth format.
     composite: HashMap<(u32, FormatKey), wgpu::RenderPipeline>,
+    pub caster_layout: wgpu::BindGroupLayout,
+    /// Opaque casters (caster group only) and masked ones (with the material group).
+    caster_pipeline_layouts: [wgpu::PipelineLayout; 2],
+    caster: HashMap<CasterKey, wgpu::RenderPipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -317,6 +327,24 @@ impl PipelineCache {
                 storage(7, lit),
                 storage(8, lit),
                 storage(9, lit),
+                // Shadows (shaders/shadows.wgsl): the uniform, the atlas, the comparison sampler.
+                buffer_entry(10, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 11,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 12,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;
@@ -393,7 +421,15 @@ impl PipelineCache {
             entries: &[texture(0, false)],
         });
         let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
+        let caster_layout = casters::caster_layout(device);
+        let caster_pipeline_layouts = [
+            layout("shadow casters", &[Some(&caster_layout)]),
+            layout("masked shadow casters", &[Some(&caster_layout), Some(&material_layout)]),
+        ];
         Self {
+            caster_layout,
+            caster_pipeline_layouts,
+            caster: HashMap::new(),
             deferred_layouts,
             deferred_pipeline_layouts,
             composite_layout,
@@ -532,6 +568,7 @@ impl PipelineCache {
         let cluster_hit = lib.depends_on("cluster_bin.wgsl", files);
         let deferred_hit = lib.depends_on("deferred_lights.wgsl", files);
         let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
+        let caster_hit = lib.depends_on("shadow_caster.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -568,13 +605,26 @@ impl PipelineCache {
                 composite.push((key, self.create_composite(device, &mut candidate, key)?));
             }
         }
-        let total = self.forward.len()
+        let mut caster = Vec::new();
+        if caster_hit {
+            for key in self.caster.keys().copied().collect::<Vec<_>>() {
+                caster.push((key, self.create_caster(device, &mut candidate, key)?));
+            }
+        }
+        let total = self.caster.len()
+            + self.forward.len()
             + self.tonemap.len()
             + self.mipmap.len()
             + self.cluster.len()
             + self.deferred.len()
             + self.composite.len();
-        let rebuilt = forward.len() + tonemap.len() + mipmap.len() + cluster.len() + deferred.len() + composite.len();
+        let rebuilt = caster.len()
+            + forward.len()
+            + tonemap.len()
+            + mipmap.len()
+            + cluster.len()
+            + deferred.len()
+            + composite.len();
         self.shaders = candidate.expect("still there");
         self.forward.extend(forward);
         self.tonemap.extend(tonemap);
@@ -582,6 +632,7 @@ impl PipelineCache {
         self.cluster.extend(cluster);
         self.deferred.extend(deferred);
         self.composite.extend(composite);
+        self.caster.extend(caster);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }

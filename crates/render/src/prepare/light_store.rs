@@ -64,7 +64,7 @@ pub const DEFAULT_CUTOFF: f32 = 1.0 / 4096.0;
 
 /// Whether `kind` is binned into clusters (else it lights every fragment).
 pub fn is_local(kind: &LightKind) -> bool {
-    !matches!(kind, LightKind::Directional | LightKind::Ambient)
+    !matches!(kind, LightKind::Directional { .. } | LightKind::Ambient)
 }
 
 /// Luminous intensity (cd) of the brightest channel, as seen from afar along the light's
@@ -124,7 +124,7 @@ pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32, profiles: &Profi
         shape: [0.0; 4],
     };
     match light.kind {
-        LightKind::Directional => g.kind = KIND_DIRECTIONAL,
+        LightKind::Directional { .. } => g.kind = KIND_DIRECTIONAL,
         LightKind::Point => g.kind = KIND_POINT,
         LightKind::Ambient => g.kind = KIND_AMBIENT,
         LightKind::Spot { inner_cone_angle, outer_cone_angle } => {
@@ -330,6 +330,11 @@ impl LightStore {
         self.buffer.as_ref().map_or(0, GrowableBuffer::capacity)
             + self.ltc_table.as_ref().map_or(0, wgpu::Buffer::size)
             + self.profiles.gpu_bytes()
+    }
+
+    /// The global lights (directional, ambient) with their slots, in buffer order.
+    pub fn global_lights(&self) -> impl Iterator<Item = (u32, LightKey, &ExtractedLight)> {
+        self.global.keys.iter().zip(&self.global.extracted).enumerate().map(|(i, (k, l))| (i as u32, *k, l))
     }
 
     /// The packed local lights, in buffer order (slot `global_count() + i`).
@@ -608,6 +613,7 @@ mod tests {
             direction: Vec3::NEG_Z,
             right: Vec3::X,
             range: None,
+            shadows: false,
         }
     }
 
@@ -619,7 +625,7 @@ mod tests {
     #[test]
     fn every_light_kind_packs_its_own_discriminant() {
         let kinds = [
-            (LightKind::Directional, KIND_DIRECTIONAL),
+            (LightKind::Directional { angular_radius: 0.0 }, KIND_DIRECTIONAL),
             (LightKind::Point, KIND_POINT),
             (LightKind::Spot { inner_cone_angle: 0.1, outer_cone_angle: 0.5 }, KIND_SPOT),
             (LightKind::Ambient, KIND_AMBIENT),
@@ -772,7 +778,7 @@ mod tests {
             l.position = Vec3::splat(i as f32);
             lights.push((LightKey::Point(e(i)), l));
         }
-        lights.push((LightKey::Directional(e(9)), light(LightKind::Directional)));
+        lights.push((LightKey::Directional(e(9)), light(LightKind::Directional { angular_radius: 0.0 })));
         let scene = scene_with(&lights);
         store.sync(&scene, true, 1.0, DEFAULT_CUTOFF);
         assert_eq!((store.global_count(), store.local_count()), (1, 5));

@@ -59,7 +59,7 @@ fn one_frame(
     app.world.resource::<Renderer>().read_headless().map_err(|e| anyhow!("{e}"))
 }
 
-fn flip_mean(a: &[u8], b: &[u8], (w, h): (u32, u32)) -> f32 {
+pub fn flip_mean(a: &[u8], b: &[u8], (w, h): (u32, u32)) -> f32 {
     let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
     let reference = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(a));
     let test = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(b));

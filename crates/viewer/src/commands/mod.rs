@@ -2,4 +2,5 @@
 pub mod bench;
 pub mod bench_lights;
 pub mod bench_reload;
+pub mod bench_shadows;
 pub mod render;

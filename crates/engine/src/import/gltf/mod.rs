@@ -377,7 +377,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             let color = Vec3::from(l.color());
             match l.kind() {
                 gltf::khr_lights_punctual::Kind::Directional => {
-                    LightDesc::Directional(DirectionalLight { color, illuminance: l.intensity(), shadows: true })
+                    LightDesc::Directional(DirectionalLight { color, illuminance: l.intensity(), ..Default::default() })
                 }
                 gltf::khr_lights_punctual::Kind::Point => {
                     LightDesc::Point(PointLight { color, intensity: l.intensity(), range: l.range(), shadows: true })

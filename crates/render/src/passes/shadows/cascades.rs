@@ -143,6 +143,17 @@ pub fn fit_cascade(
     Cascade { clip_from_world, clip_from_rel, near, far, texel_size: texel, radius }
 }
 
+/// The view depths bounding the camera's cascades, from its near plane to `max_distance`.
+pub fn cascade_splits(camera: &CascadeCamera, settings: &super::ShadowSettings) -> Vec<f32> {
+    let near = camera.projection.znear();
+    let far = match camera.projection {
+        Projection::Orthographic { zfar, .. } => zfar.min(settings.max_distance),
+        Projection::Perspective { .. } => settings.max_distance,
+    }
+    .max(near * 1.0001);
+    practical_splits(near, far, settings.cascades, settings.split_lambda)
+}
+
 /// Every cascade for the camera, from its near plane to `max_distance`.
 pub fn fit_cascades(
     camera: &CascadeCamera,
@@ -150,14 +161,52 @@ pub fn fit_cascades(
     settings: &super::ShadowSettings,
     caster_reach: f32,
 ) -> Vec<Cascade> {
-    let near = camera.projection.znear();
-    let far = match camera.projection {
-        Projection::Orthographic { zfar, .. } => zfar.min(settings.max_distance),
-        Projection::Perspective { .. } => settings.max_distance,
-    }
-    .max(near * 1.0001);
-    let splits = practical_splits(near, far, settings.cascades, settings.split_lambda);
+    let splits = cascade_splits(camera, settings);
     splits.windows(2).map(|w| fit_cascade(camera, w[0], w[1], direction, settings.atlas_size, caster_reach)).collect()
+}
+
+/// How far above the top of the sphere bounding the slice `near..far` (toward the light) the
+/// map must reach so that the highest caster, `caster_top` (the largest `dot(p, −direction)` of
+/// any caster point, world space), still lands in it: 0 when every caster lies below the top,
+/// else rounded up to a power of two times `texel`, so that a moving camera changes it (and with
+/// it the depth mapping) only when it crosses a doubling, never by a little every frame.
+pub fn caster_reach(
+    camera: &CascadeCamera,
+    near: f32,
+    far: f32,
+    direction: Vec3,
+    resolution: u32,
+    caster_top: f64,
+) -> f32 {
+    let (centre_depth, radius) = slice_sphere(&camera.projection, camera.aspect as f64, near as f64, far as f64);
+    let view_dir = camera.world_from_view.matrix3.mul_vec3(DVec3::NEG_Z).normalize();
+    let centre = camera.world_from_view.translation + view_dir * centre_depth;
+    let towards_light = -direction.as_dvec3().normalize();
+    let texel = 2.0 * radius / (resolution.max(2) - 1) as f64;
+    let needed = caster_top - (centre.dot(towards_light) + radius);
+    if needed.is_nan() || needed <= 0.0 || texel <= 0.0 {
+        return 0.0;
+    }
+    // One texel more keeps a caster exactly at the top off the clip plane.
+    let texels = (needed / texel + 1.0).max(1.0);
+    (texel * texels.log2().ceil().exp2()).min(f32::MAX as f64) as f32
+}
+
+/// [`fit_cascades`] with each cascade reaching up to the highest caster (see [`caster_reach`]).
+pub fn fit_cascades_to_casters(
+    camera: &CascadeCamera,
+    direction: Vec3,
+    settings: &super::ShadowSettings,
+    caster_top: f64,
+) -> Vec<Cascade> {
+    let splits = cascade_splits(camera, settings);
+    splits
+        .windows(2)
+        .map(|w| {
+            let reach = caster_reach(camera, w[0], w[1], direction, settings.atlas_size, caster_top);
+            fit_cascade(camera, w[0], w[1], direction, settings.atlas_size, reach)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -289,6 +338,28 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_map_reaches_up_to_the_highest_caster_and_no_further() {
+        let camera = camera_at(DVec3::new(1.0, 2.0, 3.0), DQuat::from_rotation_y(0.4));
+        let settings = ShadowSettings::default();
+        let towards_light = -sun().as_dvec3().normalize();
+        // A caster 200 m from the camera toward the light, far above every cascade's sphere.
+        let caster = camera.world_from_view.translation + towards_light * 200.0;
+        let fitted = fit_cascades_to_casters(&camera, sun(), &settings, caster.dot(towards_light));
+        for c in &fitted {
+            let z = c.clip_from_world.project_point3(caster).z;
+            assert!((0.0..1.0).contains(&z), "the caster lands in the map at depth {z}");
+        }
+        // Reach comes in doublings of the texel: a caster a little lower gives the same maps.
+        let lower = caster - towards_light * 0.01 * fitted[3].texel_size;
+        assert_eq!(fitted, fit_cascades_to_casters(&camera, sun(), &settings, lower.dot(towards_light)));
+        // With every caster below the spheres' tops the maps reach no further.
+        assert_eq!(
+            fit_cascades_to_casters(&camera, sun(), &settings, f64::MIN),
+            fit_cascades(&camera, sun(), &settings, 0.0)
+        );
     }
 
     #[test]

@@ -1,10 +1,30 @@
-//! Shadows (issue #4). The shadow orchestrator will be the one module that emits shadow passes,
-//! owning cascade state, the atlas, budgets and the round-robin of local-light shadows. What is
-//! here so far is its first piece: the settings and the cascade fit for directional lights
-//! ([`cascades`]), CPU-only and unit-tested; the atlas, the depth passes and the sampling in
-//! the shaders come next.
+//! Shadows. The shadow orchestrator ([`orchestrator`]) is the one module that emits shadow
+//! passes: it owns the cascade state, the atlas and the caster passes. [`cascades`] fits the
+//! cascades of directional lights (CPU, f64, texel-snapped); `shaders/shadow_caster.wgsl`
+//! renders casters into the atlas and `shaders/shadows.wgsl` reads it while shading.
+//!
+//! Data flow per frame: the renderer hands the orchestrator the camera, the shadowed
+//! directional lights from the light store (with their slots) and the bounds of casters and
+//! receivers; the orchestrator fits cascades, decides which layers need rendering (a cascade
+//! no caster reaches, or that lies beyond everything visible, is skipped), writes the shadow
+//! uniform, and encodes one depth pass per rendered layer before the forward pass samples them.
+//!
+//! Spot and point lights do not cast shadows yet (issue #4 continues).
 
 pub mod cascades;
+pub mod orchestrator;
+
+/// How shadow maps are filtered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum ShadowFilter {
+    /// Percentage-closer filtering over a fixed 4×4-texel footprint (3×3 bilinear
+    /// comparisons): soft edges one texel wide, the same everywhere.
+    #[default]
+    Pcf,
+    /// Percentage-closer soft shadows: a blocker search, then a kernel as wide as the penumbra
+    /// the light's angular size casts from the blockers' distance (contact-hardening).
+    Pcss,
+}
 
 /// Shadow quality and extent for directional lights.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,11 +37,30 @@ pub struct ShadowSettings {
     pub max_distance: f32,
     /// Width and height of each cascade's layer of the atlas, in texels.
     pub atlas_size: u32,
+    pub filter: ShadowFilter,
+    /// Casters' depth bias, in multiples of their depth slope across one texel (raster state).
+    pub slope_bias: f32,
+    /// Receivers' offset along their geometric normal, in texels of the cascade they read.
+    pub normal_bias: f32,
+    /// Fraction of each cascade's depth range over which it blends into the next.
+    pub cascade_blend: f32,
+    /// PCSS: the widest blocker search and filter kernel, in texels.
+    pub max_penumbra_texels: f32,
 }
 
 impl Default for ShadowSettings {
     fn default() -> Self {
-        Self { cascades: 4, split_lambda: 0.85, max_distance: 100.0, atlas_size: 4096 }
+        Self {
+            cascades: 4,
+            split_lambda: 0.85,
+            max_distance: 100.0,
+            atlas_size: 4096,
+            filter: ShadowFilter::Pcf,
+            slope_bias: 2.0,
+            normal_bias: 1.5,
+            cascade_blend: 0.1,
+            max_penumbra_texels: 24.0,
+        }
     }
 }
 
@@ -50,6 +89,18 @@ impl ShadowSettings {
         }
         if !(16..=16384).contains(&self.atlas_size) {
             return err("atlas_size", &self.atlas_size, "16 to 16384 texels");
+        }
+        if !(0.0..=16.0).contains(&self.slope_bias) {
+            return err("slope_bias", &self.slope_bias, "between 0 and 16");
+        }
+        if !(0.0..=16.0).contains(&self.normal_bias) {
+            return err("normal_bias", &self.normal_bias, "between 0 and 16 texels");
+        }
+        if !(0.0..=0.5).contains(&self.cascade_blend) {
+            return err("cascade_blend", &self.cascade_blend, "between 0 and 0.5");
+        }
+        if !(1.0..=64.0).contains(&self.max_penumbra_texels) {
+            return err("max_penumbra_texels", &self.max_penumbra_texels, "between 1 and 64 texels");
         }
         Ok(())
     }

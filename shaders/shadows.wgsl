@@ -1,0 +1,178 @@
+// Directional-light shadows, read from the cascaded shadow maps the shadow orchestrator renders
+// (crates/render/src/passes/shadows/): each cascade is one layer of a Depth32Float array atlas,
+// reverse-Z (1 nearest the light), holding the depth of the nearest caster.
+//
+// A fragment picks its cascade by view depth and blends into the next one over the last
+// `blend` of the cascade's depth range, so no seam shows where cascades meet; past the last
+// cascade (the maximum shadow distance) shadows fade out the same way. Acne is kept away by two
+// biases that scale with the map, never a fixed depth offset: the casters' slope-scaled depth
+// bias (raster state), and here a receiver offset along the geometric normal of `normal_bias`
+// texels of the cascade, scaled by the sine of the angle to the light (a surface facing the
+// light has no depth slope to hide). Filtering: PCF (3×3 bilinear comparisons spanning 4×4
+// texels) or PCSS (a blocker search, then a comparison kernel as wide as the penumbra the
+// light's angular size casts from the blockers' distance; Fernando 2005).
+#define_import_path penumbra::shadows
+
+struct ShadowCascade {
+    // Light clip space (x, y in −1..1; depth 1 at the light's side) from camera-relative positions.
+    clip_from_rel: mat4x4<f32>,
+    // View depth where the cascade ends.
+    far: f32,
+    // World size of one texel of the cascade's layer.
+    texel_size: f32,
+    // World distance along the light from depth 1 to depth 0.
+    depth_range: f32,
+    // 1 when the layer was rendered this frame; 0 when no caster reaches the cascade (lit).
+    rendered: u32,
+};
+
+struct DirectionalShadow {
+    // The light's slot in `lights`.
+    light_slot: u32,
+    first_cascade: u32,
+    // Tangent of the light's angular radius (PCSS).
+    angular_tan: f32,
+    _pad: u32,
+};
+
+const MAX_SHADOW_CASCADES: u32 = 16u;
+const MAX_SHADOWED_DIRECTIONAL: u32 = 4u;
+const FILTER_PCF: u32 = 0u;
+const FILTER_PCSS: u32 = 1u;
+
+struct Shadows {
+    cascades: array<ShadowCascade, MAX_SHADOW_CASCADES>,
+    lights: array<DirectionalShadow, MAX_SHADOWED_DIRECTIONAL>,
+    light_count: u32,
+    cascade_count: u32,
+    normal_bias: f32,
+    blend: f32,
+    // Texels across a layer.
+    atlas_size: f32,
+    filter_mode: u32,
+    // PCSS: the widest kernel, in texels.
+    max_kernel: f32,
+    _pad: u32,
+};
+
+@group(0) @binding(10) var<uniform> shadows: Shadows;
+@group(0) @binding(11) var shadow_atlas: texture_depth_2d_array;
+@group(0) @binding(12) var shadow_sampler: sampler_comparison;
+
+// Taps of a Vogel (golden-angle spiral) disk of unit radius, turned by `angle`.
+fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {
+    let r = sqrt((f32(i) + 0.5) / f32(count));
+    let theta = f32(i) * 2.399963 + angle;
+    return r * vec2<f32>(cos(theta), sin(theta));
+}
+
+// Fraction of the layer's texels around `uv` nearer the light than `depth`, sampled over a disk
+// of `radius` texels (at least the 4×4 texels of 3×3 bilinear comparisons).
+fn pcf(layer: u32, uv: vec2<f32>, depth: f32, radius: f32, angle: f32) -> f32 {
+    let texel = 1.0 / shadows.atlas_size;
+    var sum = 0.0;
+    if radius <= 1.5 {
+        for (var y = -1; y <= 1; y++) {
+            for (var x = -1; x <= 1; x++) {
+                let at = uv + vec2<f32>(f32(x), f32(y)) * texel;
+                sum += textureSampleCompareLevel(shadow_atlas, shadow_sampler, at, layer, depth);
+            }
+        }
+        return sum / 9.0;
+    }
+    let taps = 16u;
+    for (var i = 0u; i < taps; i++) {
+        let at = uv + vogel_tap(i, taps, angle) * (radius * texel);
+        sum += textureSampleCompareLevel(shadow_atlas, shadow_sampler, at, layer, depth);
+    }
+    return sum / f32(taps);
+}
+
+// PCSS kernel radius in texels: blockers (texels nearer the light than the receiver) within the
+// widest penumbra the light could cast are averaged; the penumbra spans 2·tan(radius)·distance
+// from them. No blocker: 0 (lit, nothing to filter).
+fn pcss_radius(layer: u32, uv: vec2<f32>, depth: f32, cascade: ShadowCascade, angular_tan: f32, angle: f32) -> f32 {
+    let size = vec2<f32>(textureDimensions(shadow_atlas));
+    let search = shadows.max_kernel;
+    var blockers = 0.0;
+    var blocker_depth = 0.0;
+    let taps = 16u;
+    for (var i = 0u; i < taps; i++) {
+        let at = uv + vogel_tap(i, taps, angle) * (search / shadows.atlas_size);
+        let texel = vec2<i32>(clamp(at * size, vec2<f32>(0.0), size - 1.0));
+        let d = textureLoad(shadow_atlas, texel, layer, 0);
+        if d > depth {
+            blockers += 1.0;
+            blocker_depth += d;
+        }
+    }
+    if blockers == 0.0 {
+        return 0.0;
+    }
+    let distance = (blocker_depth / blockers - depth) * cascade.depth_range;
+    // Half the penumbra's width, in texels.
+    return clamp(distance * angular_tan / cascade.texel_size, 1.0, search);
+}
+
+// How much of the light reaches a receiver through cascade `c` (1 lit, 0 shadowed).
+fn cascade_visibility(c: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32, angular_tan: f32, angle: f32) -> f32 {
+    let cascade = shadows.cascades[c];
+    if cascade.rendered == 0u {
+        return 1.0;
+    }
+    let sin_l = sqrt(max(1.0 - n_dot_l * n_dot_l, 0.0));
+    let offset = normal * (cascade.texel_size * shadows.normal_bias * sin_l);
+    let clip = cascade.clip_from_rel * vec4<f32>(rel + offset, 1.0);
+    let uv = clip.xy * vec2<f32>(0.5, -0.5) + 0.5;
+    // Above the map's top (casters clamped there never shadow what lies above them) or off it.
+    if clip.z > 1.0 || any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
+        return 1.0;
+    }
+    var radius = 1.0;
+    if shadows.filter_mode == FILTER_PCSS {
+        radius = pcss_radius(c, uv, clip.z, cascade, angular_tan, angle);
+        if radius == 0.0 {
+            return 1.0;
+        }
+    }
+    return pcf(c, uv, clip.z, radius, angle);
+}
+
+// Visibility of directional light `slot` at `rel` (camera-relative) with geometric normal
+// `normal`, `view_depth` along the camera's view direction. Lights without a shadow map: 1.
+// `frag_xy` turns the PCSS sampling disk from pixel to pixel (interleaved gradient noise), which
+// trades banding for fine, stable noise.
+fn directional_shadow(slot: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32, view_depth: f32, frag_xy: vec2<f32>) -> f32 {
+    var entry = shadows.light_count;
+    for (var i = 0u; i < shadows.light_count; i++) {
+        if shadows.lights[i].light_slot == slot {
+            entry = i;
+        }
+    }
+    if entry == shadows.light_count {
+        return 1.0;
+    }
+    let light = shadows.lights[entry];
+    let count = shadows.cascade_count;
+    var c = 0u;
+    while c < count && view_depth >= shadows.cascades[light.first_cascade + c].far {
+        c++;
+    }
+    if c == count {
+        return 1.0;
+    }
+    let angle = 6.2831853 * fract(52.982919 * fract(dot(frag_xy, vec2<f32>(0.06711056, 0.00583715))));
+    let first = light.first_cascade;
+    var visibility = cascade_visibility(first + c, rel, normal, n_dot_l, light.angular_tan, angle);
+    let near = select(0.0, shadows.cascades[first + c - 1u].far, c > 0u);
+    let far = shadows.cascades[first + c].far;
+    let t = (far - view_depth) / max((far - near) * shadows.blend, 1e-30);
+    if t < 1.0 {
+        var next = 1.0;
+        if c + 1u < count {
+            next = cascade_visibility(first + c + 1u, rel, normal, n_dot_l, light.angular_tan, angle);
+        }
+        visibility = mix(next, visibility, t);
+    }
+    return visibility;
+}
