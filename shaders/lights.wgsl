@@ -12,6 +12,10 @@
 #ifdef IES_LIGHTS
 #import penumbra::ies::ies_share
 #endif
+#ifdef LOCAL_SHADOWS
+#import penumbra::light_data::LIGHT_POINT
+#import penumbra::shadows::local_shadow
+#endif
 
 // Light reaching the eye from `light` off the surface at `rel_pos` (camera-relative), with the
 // camera at `camera_position` in world space. Directional, point and spot lights reduce to a
@@ -57,6 +61,12 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
 #ifdef IES_LIGHTS
         if light.kind == LIGHT_IES {
             atten *= ies_share(light, -l);
+        }
+#endif
+#ifdef LOCAL_SHADOWS
+        // shape.w: the light's first layer in the local shadow atlas + 1 (0: none).
+        if (light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT) && light.shape.w > 0.5 && atten > 0.0 {
+            atten *= local_shadow(light, rel_pos, s.n, to_light);
         }
 #endif
         if atten <= 0.0 {

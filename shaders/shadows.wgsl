@@ -11,7 +11,15 @@
 // light has no depth slope to hide). Filtering: PCF (3×3 bilinear comparisons spanning 4×4
 // texels) or PCSS (a blocker search, then a comparison kernel as wide as the penumbra the
 // light's angular size casts from the blockers' distance; Fernando 2005).
+//
+// Local lights (LOCAL_SHADOWS): spot lights read one perspective map, point lights (and wide
+// spots) the cube face their direction falls on, from layers of a second atlas (see
+// passes/shadows/local.rs); reverse-Z with an infinite far plane, filtered by 3×3 bilinear
+// comparisons. Their receiver offset scales with the texel's size at the receiver's distance.
+// Punctual lights cast hard-edged shadows, so PCSS does not apply to them.
 #define_import_path penumbra::shadows
+
+#import penumbra::light_data::Light
 
 struct ShadowCascade {
     // Light clip space (x, y in −1..1; depth 1 at the light's side) from camera-relative positions.
@@ -55,9 +63,23 @@ struct Shadows {
     _pad: u32,
 };
 
+struct LocalShadow {
+    // Light clip space (reverse-Z, infinite far) from camera-relative positions.
+    clip_from_rel: mat4x4<f32>,
+    // World size of a texel per metre from the light.
+    texel_scale: f32,
+    // 1 once rendered for the light as it is (0: not yet, read as lit).
+    valid: u32,
+    // 1: a spot light's map; 6: cube faces +X, −X, +Y, −Y, +Z, −Z from this layer on.
+    faces: u32,
+    _pad: u32,
+};
+
 @group(0) @binding(10) var<uniform> shadows: Shadows;
 @group(0) @binding(11) var shadow_atlas: texture_depth_2d_array;
 @group(0) @binding(12) var shadow_sampler: sampler_comparison;
+@group(0) @binding(13) var<storage, read> local_shadows: array<LocalShadow>;
+@group(0) @binding(14) var local_atlas: texture_depth_2d_array;
 
 // Taps of a Vogel (golden-angle spiral) disk of unit radius, turned by `angle`.
 fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {
@@ -175,4 +197,47 @@ fn directional_shadow(slot: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32
         visibility = mix(next, visibility, t);
     }
     return visibility;
+}
+
+// Visibility of local light `light` (point or spot with a map) at `rel`, with surface normal
+// `normal` and `to_light` from the surface to the light.
+fn local_shadow(light: Light, rel: vec3<f32>, normal: vec3<f32>, to_light: vec3<f32>) -> f32 {
+    var layer = u32(light.shape.w) - 1u;
+    if local_shadows[layer].faces == 6u {
+        let d = -to_light;
+        let a = abs(d);
+        var face = 4u + select(1u, 0u, d.z > 0.0);
+        if a.x >= a.y && a.x >= a.z {
+            face = select(1u, 0u, d.x > 0.0);
+        } else if a.y >= a.z {
+            face = 2u + select(1u, 0u, d.y > 0.0);
+        }
+        layer += face;
+    }
+    let info = local_shadows[layer];
+    if info.valid == 0u {
+        return 1.0;
+    }
+    let dist = length(to_light);
+    let n_dot_l = dot(normal, to_light) / max(dist, 1e-30);
+    let sin_l = sqrt(max(1.0 - n_dot_l * n_dot_l, 0.0));
+    let offset = normal * (dist * info.texel_scale * shadows.normal_bias * sin_l);
+    let clip = info.clip_from_rel * vec4<f32>(rel + offset, 1.0);
+    if clip.w <= 0.0 {
+        return 1.0;
+    }
+    let ndc = clip.xyz / clip.w;
+    let uv = ndc.xy * vec2<f32>(0.5, -0.5) + 0.5;
+    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
+        return 1.0;
+    }
+    let texel = 1.0 / vec2<f32>(textureDimensions(local_atlas));
+    var sum = 0.0;
+    for (var y = -1; y <= 1; y++) {
+        for (var x = -1; x <= 1; x++) {
+            let at = uv + vec2<f32>(f32(x), f32(y)) * texel;
+            sum += textureSampleCompareLevel(local_atlas, shadow_sampler, at, layer, ndc.z);
+        }
+    }
+    return sum / 9.0;
 }

@@ -314,3 +314,185 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     assert!(!renderer.stats().plan.runs(Pass::Shadows), "{}", renderer.stats().plan);
     assert_eq!(renderer.memory().shadows, 0);
 }
+
+/// Where a point light at `light` throws the shadow of the box `min..max` onto the floor (y = 0):
+/// whether the floor point `p` lies inside the projected box (the hull of its corners' shadows),
+/// and how far from the hull's edge (positive inside), in metres.
+fn shadow_depth_inside(light: Vec3, min: Vec3, max: Vec3, p: Vec3) -> f32 {
+    let mut pts: Vec<Vec2> = Vec::new();
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        );
+        let k = light.y / (light.y - c.y);
+        let f = light + (c - light) * k;
+        pts.push(Vec2::new(f.x, f.z));
+    }
+    // Convex hull (gift wrapping), counter-clockwise.
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    let cross = |o: Vec2, a: Vec2, b: Vec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<Vec2> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &Vec2>> =
+            if pass == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
+        for &q in iter {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    let q = Vec2::new(p.x, p.z);
+    let mut depth = f32::MAX;
+    for i in 0..hull.len() {
+        let (a, b) = (hull[i], hull[(i + 1) % hull.len()]);
+        let edge = (b - a).normalize();
+        // Signed distance to the edge's line, positive on the inner (left) side.
+        depth = depth.min(edge.perp_dot(q - a));
+    }
+    depth
+}
+
+/// Test 5: a 1 m slab at 1.5 m between a local light at 3 m and the floor darkens the region
+/// the slab's silhouette projects to, and nothing else. Seen from straight above at 64 px/m;
+/// pixels within 3 px (4.7 cm) of the silhouette's edge are not judged: the 3×3 bilinear filter
+/// reaches 2 texels (about 1.4 cm at this distance with 1024² maps), the receiver's normal
+/// offset shifts up to 1.5 texels (1 cm), and a pixel spans 1.6 cm. Pixels where the slab itself
+/// is seen are skipped too. For a point light the shadow crosses cube faces (−Y and −X).
+#[test]
+fn spot_and_point_lights_shadow_exactly_their_silhouette() {
+    let size = 256;
+    let light_at = Vec3::new(1.2, 3.0, 0.4);
+    let (min, max) = (Vec3::new(-0.5, 1.49, -0.5), Vec3::new(0.5, 1.51, 0.5));
+    for spot in [true, false] {
+        let mut app = scene_app();
+        let world_at = top_down(&mut app, 2.0);
+        spawn_mesh(&mut app, Mesh::cuboid(max - min), grey(0.5), Transform::from_translation(0.5 * (min + max)));
+        let place = Transform::from_translation(light_at).looking_at(light_at + Vec3::NEG_Y, Vec3::Z);
+        let light = if spot {
+            app.world
+                .spawn((
+                    SpotLight {
+                        intensity: 20.0,
+                        range: Some(20.0),
+                        inner_cone_angle: 55f32.to_radians(),
+                        outer_cone_angle: 60f32.to_radians(),
+                        ..Default::default()
+                    },
+                    place,
+                ))
+                .id()
+        } else {
+            app.world.spawn((PointLight { intensity: 20.0, range: Some(20.0), ..Default::default() }, place)).id()
+        };
+        let what = if spot { "spot light" } else { "point light" };
+        let px = render(&mut app, (size, size), atlas(512));
+        let frame = app.world.resource::<Renderer>().shadow_frame().clone();
+        assert_eq!(frame.local.first_layers.len(), 1, "{what}: one shadowed light");
+        assert_eq!(frame.local.render.len(), if spot { 1 } else { 6 }, "{what}: its layers render");
+        assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
+        // The same frame without the light's shadows.
+        if spot {
+            app.world.get_mut::<SpotLight>(light).unwrap().shadows = false;
+        } else {
+            app.world.get_mut::<PointLight>(light).unwrap().shadows = false;
+        }
+        let plain = render(&mut app, (size, size), atlas(512));
+        assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
+        let tolerance = 3.0 * 4.0 / size as f32;
+        let (mut wrong, mut judged_dark, mut judged_lit) = (0, 0, 0);
+        for y in 0..size {
+            for x in 0..size {
+                let p = world_at(x, y, size);
+                let on_slab = p.x.abs() < 0.5 + tolerance && p.z.abs() < 0.5 + tolerance;
+                let depth = shadow_depth_inside(light_at, min, max, p);
+                if on_slab || depth.abs() < tolerance {
+                    continue;
+                }
+                let (s, l) = (brightness(&px, size, x, y), brightness(&plain, size, x, y));
+                if depth > 0.0 {
+                    judged_dark += 1;
+                    wrong += (s > 0.1 * l + 1.0) as u32;
+                } else {
+                    judged_lit += 1;
+                    wrong += ((s - l).abs() > 1.0) as u32;
+                }
+            }
+        }
+        eprintln!("{what}: {judged_dark} pixels in shadow, {judged_lit} lit, {wrong} wrong");
+        save(if spot { "spot" } else { "point" }, &px, (size, size));
+        assert!(judged_dark > 5000 && judged_lit > 20000, "{what}: {judged_dark} dark, {judged_lit} lit judged");
+        assert_eq!(wrong, 0, "{what}: pixels shadowed where they should not be, or lit in the shadow");
+    }
+}
+
+fn check_golden(app: &mut App, name: &str, size: (u32, u32), shadows: ShadowSettings) {
+    app.world.remove_resource::<Renderer>();
+    let settings = RenderSettings { msaa: 4, shadows, ..Default::default() };
+    let rgba8 = render_app(app, size, settings);
+    assert_eq!(app.world.resource::<Renderer>().shader_error(), None);
+    common::check_golden(name, &common::Shot { width: size.0, height: size.1, rgba8 }, common::Tolerance::default());
+}
+
+/// Golden: a "night club" — 200 coloured point lights over a floor with pillars and balls, four
+/// of them casting cube shadows, under a dim moon with cascades.
+#[test]
+fn golden_night_club() {
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(30.0), grey(0.6), Transform::default());
+    let mut rng = penumbra::engine::scenes::SplitMix64(7);
+    for i in 0..12 {
+        let (x, z) = (rng.uniform(-8.0, 8.0), rng.uniform(-8.0, 4.0));
+        let t = if i % 2 == 0 {
+            Transform::from_xyz(x, 1.25, z).with_scale(Vec3::new(0.4, 2.5, 0.4))
+        } else {
+            Transform::from_xyz(x, 0.5, z).with_scale(Vec3::splat(0.5))
+        };
+        let mesh = if i % 2 == 0 { Mesh::cuboid(Vec3::ONE) } else { Mesh::uv_sphere(1.0, 24, 12) };
+        spawn_mesh(&mut app, mesh, grey(0.7), t);
+    }
+    for i in 0..200 {
+        let hue = rng.uniform(0.0, 360.0);
+        let c = penumbra::engine::scenes::hsl_to_srgb(hue, 1.0, 0.5);
+        let at = Vec3::new(rng.uniform(-10.0, 10.0), rng.uniform(0.3, 2.5), rng.uniform(-10.0, 6.0));
+        let shadows = i % 50 == 0;
+        let intensity = if shadows { 6.0 } else { 0.6 };
+        app.world.spawn((
+            PointLight {
+                color: c.map(penumbra::engine::scenes::srgb_to_linear),
+                intensity,
+                range: Some(if shadows { 8.0 } else { 2.5 }),
+                shadows,
+            },
+            Transform::from_translation(at),
+        ));
+    }
+    let moon = DirectionalLight { color: Vec3::new(0.6, 0.7, 1.0), illuminance: 0.15, ..Default::default() };
+    app.world.spawn((moon, sun(40.0, 200.0)));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(0.0, 5.0, 12.0).looking_at(Vec3::new(0.0, 0.0, -1.0), Vec3::Y)));
+    let small = ShadowSettings { atlas_size: 1024, local_map_size: 256, ..Default::default() };
+    check_golden(&mut app, "shadows_night_club", (256, 160), small);
+    let frame = app.world.resource::<Renderer>().shadow_frame().clone();
+    assert_eq!(frame.local.first_layers.len(), 4, "four cube-shadowed lights");
+    assert!(frame.rendered.iter().any(|r| *r), "the moon's cascades");
+}
+
+/// Golden: DamagedHelmet on a ground plane under a shadowed sun (PCSS).
+#[test]
+fn golden_damaged_helmet_under_the_sun() {
+    let mut app = scene_app();
+    let path = common::asset("DamagedHelmet/DamagedHelmet.glb");
+    load_scene(&mut app.world, &path, &ImportOptions::default()).unwrap();
+    spawn_mesh(&mut app, Mesh::plane(10.0), grey(0.7), Transform::from_xyz(0.0, -1.0, 0.0));
+    app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, sun(50.0, 35.0)));
+    app.world.spawn(AmbientLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 0.15 });
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(1.2, 1.2, 4.0).looking_at(Vec3::new(0.0, -0.3, 0.0), Vec3::Y)));
+    let pcss = ShadowSettings { atlas_size: 1024, filter: ShadowFilter::Pcss, ..Default::default() };
+    check_golden(&mut app, "shadows_damaged_helmet", (256, 192), pcss);
+}

@@ -24,6 +24,7 @@ use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
 use crate::passes::deferred_lights::{self, GpuDeferredParams};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs};
+use crate::passes::shadows::local::LocalCandidate;
 use crate::passes::shadows::orchestrator::{DirectionalCandidate, SceneBounds, ShadowOrchestrator};
 use crate::passes::shadows::{ShadowSettings, ShadowSettingsError};
 use crate::passes::tonemap;
@@ -255,8 +256,13 @@ pub struct Renderer {
     lights: LightStore,
     clusters: ClusterBinner,
     shadows: ShadowOrchestrator,
-    /// Forward pipelines read shadow maps (part of every pipeline key).
+    /// Forward pipelines read directional shadow maps (part of every pipeline key).
     shadows_active: bool,
+    /// Local lights read shadow maps (part of every pipeline key).
+    local_shadows_active: bool,
+    /// Incremented whenever a caster may have changed (draws, batches, materials): local
+    /// shadow maps re-render only then or when their light changes.
+    caster_generation: u64,
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
     view_bind_group: Option<wgpu::BindGroup>,
@@ -328,6 +334,8 @@ impl Renderer {
             clusters: ClusterBinner::new(device),
             shadows: ShadowOrchestrator::new(device),
             shadows_active: false,
+            local_shadows_active: false,
+            caster_generation: 0,
             draw_slots: GrowableBuffer::new(device, "draw slots", wgpu::BufferUsages::STORAGE, 4096 * 4),
             view_buffer,
             pipelines,
@@ -557,6 +565,10 @@ impl Renderer {
         let t = Instant::now();
         self.prepare_meshes(scene);
         tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+        if self.materials.is_dirty() {
+            // A masked caster's cutoff may have changed.
+            self.caster_generation += 1;
+        }
         rebind |= self.prepare_shadows(scene, size);
         if self.batches_dirty {
             self.rebuild_batches();
@@ -641,7 +653,11 @@ impl Renderer {
             (DrawCounts::default(), None)
         };
         if plan.runs(Pass::DeferredLights) {
-            let key = DeferredKey { multisampled: targets.samples > 1, light_shapes: self.light_shapes };
+            let key = DeferredKey {
+                multisampled: targets.samples > 1,
+                light_shapes: self.light_shapes,
+                local_shadows: self.local_shadows_active,
+            };
             // Without its pipeline the pass does not run, and the composite must not add what an
             // earlier frame left in its output.
             let mut computed = true;
@@ -798,18 +814,39 @@ impl Renderer {
             .filter(|(_, _, l)| l.shadows)
             .map(|(slot, key, light)| DirectionalCandidate { key, slot, light: *light })
             .collect();
-        let bounds = if candidates.is_empty() {
+        let local_candidates: Vec<LocalCandidate> = self
+            .lights
+            .local_entries()
+            .filter(|(_, _, l, _)| l.shadows)
+            .map(|(_, key, light, packed)| LocalCandidate { key, light: *light, reach: packed.range })
+            .collect();
+        let bounds = if candidates.is_empty() && local_candidates.is_empty() {
             SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY }
         } else {
             self.scene_bounds()
         };
         let aspect = size.0.max(1) as f32 / size.1.max(1) as f32;
         let view = scene.view.as_ref().map(|v| (v, aspect));
-        let rebind =
-            self.shadows.prepare(&self.ctx.device, &self.ctx.queue, &self.settings.shadows, view, &candidates, &bounds);
-        let active = self.shadows.active();
-        if active != self.shadows_active {
+        let mut rebind = self.shadows.prepare(
+            &self.ctx.device,
+            &self.ctx.queue,
+            &self.settings.shadows,
+            view,
+            &candidates,
+            &local_candidates,
+            &bounds,
+            self.caster_generation,
+        );
+        // Local lights carry their first shadow layer; the store uploads what that changed.
+        if self.lights.set_shadow_layers(self.shadows.frame().local.first_layers.clone()) {
+            let earlier = self.lights.last_upload_bytes;
+            rebind |= self.lights.upload(&self.ctx.device, &self.ctx.queue);
+            self.lights.last_upload_bytes += earlier;
+        }
+        let (active, local) = (self.shadows.active(), self.shadows.local_active());
+        if (active, local) != (self.shadows_active, self.local_shadows_active) {
             self.shadows_active = active;
+            self.local_shadows_active = local;
             self.batches_dirty = true;
         }
         rebind
@@ -847,6 +884,9 @@ impl Renderer {
     }
 
     fn apply_changes(&mut self, scene: &RenderScene, removed: &[Entity], changed: &[Entity]) {
+        if !removed.is_empty() || !changed.is_empty() {
+            self.caster_generation += 1;
+        }
         for entity in removed {
             if let Some(old) = self.draws.remove(entity) {
                 self.instances.remove(*entity);
@@ -1004,6 +1044,7 @@ impl Renderer {
             },
             light_shapes: self.light_shapes,
             shadows: self.shadows_active,
+            local_shadows: self.local_shadows_active,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
             cull_back_faces: !m.double_sided,
@@ -1017,6 +1058,7 @@ impl Renderer {
     /// Sorts visible opaque and masked draws into instanced batches; collects blended draws.
     fn rebuild_batches(&mut self) {
         self.batches_dirty = false;
+        self.caster_generation += 1;
         let mut items: Vec<(PipelineKey, MaterialKey, MeshId, Handle<Mesh>, u32)> = Vec::new();
         self.blend_entities.clear();
         for (entity, d) in &self.draws {
@@ -1124,6 +1166,11 @@ impl Renderer {
                     resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
                 },
                 wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::Sampler(self.shadows.sampler()) },
+                buf(13, self.shadows.local_buffer()),
+                wgpu::BindGroupEntry {
+                    binding: 14,
+                    resource: wgpu::BindingResource::TextureView(self.shadows.local_atlas_view()),
+                },
             ],
         })
     }

@@ -39,7 +39,8 @@ pub struct GpuTimer {
 }
 
 impl GpuTimer {
-    pub const MAX_PASSES: u32 = 16;
+    // Room for four cascades and a few dozen local shadow maps beside the main passes.
+    pub const MAX_PASSES: u32 = 64;
     /// Frames whose timings can be outstanding at once.
     pub const RING: usize = 4;
 
@@ -147,14 +148,15 @@ impl GpuTimer {
                     let n = slot.labels.len() * 2;
                     if let Ok(data) = slot.readback.slice(0..n as u64 * 8).get_mapped_range() {
                         let ticks: &[u64] = bytemuck::cast_slice(&data);
-                        let passes = slot
-                            .labels
-                            .iter()
-                            .enumerate()
-                            .map(|(i, l)| {
-                                (*l, ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * self.period_ns / 1e6)
-                            })
-                            .collect();
+                        // Passes sharing a label (the local shadow maps) are summed into one.
+                        let mut passes: Vec<(&'static str, f64)> = Vec::new();
+                        for (i, l) in slot.labels.iter().enumerate() {
+                            let ms = ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * self.period_ns / 1e6;
+                            match passes.iter_mut().find(|(p, _)| p == l) {
+                                Some((_, sum)) => *sum += ms,
+                                None => passes.push((l, ms)),
+                            }
+                        }
                         if self.latest.as_ref().is_none_or(|t| t.frame < slot.frame) {
                             self.latest = Some(FrameTimings { frame: slot.frame, passes });
                         }

@@ -53,6 +53,8 @@ pub struct PipelineKey {
     pub light_shapes: LightShapes,
     /// Directional lights cast shadows this frame: the shadow-map lookups are compiled in.
     pub shadows: bool,
+    /// Some local light reads a shadow map this frame.
+    pub local_shadows: bool,
     pub debug: DebugView,
     pub topology: TopologyKey,
     /// Double-sided materials draw both faces.
@@ -89,6 +91,7 @@ impl PipelineKey {
             .with("LTC_LIGHTS", local && self.light_shapes.ltc)
             .with("IES_LIGHTS", local && self.light_shapes.ies)
             .with("SHADOWS", lit && self.shadows)
+            .with("LOCAL_SHADOWS", local && self.local_shadows)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
     }
 }
@@ -118,6 +121,8 @@ pub enum LocalLights {
 pub struct DeferredKey {
     pub multisampled: bool,
     pub light_shapes: LightShapes,
+    /// Some local light reads a shadow map.
+    pub local_shadows: bool,
 }
 
 /// Format of the surface target opaque fragments write for the deferred-lights pass, beside
@@ -328,10 +333,10 @@ impl PipelineCache {
                 storage(8, lit),
                 storage(9, lit),
                 // Shadows (shaders/shadows.wgsl): the uniform, the atlas, the comparison sampler.
-                buffer_entry(10, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
+                buffer_entry(10, lit, wgpu::BufferBindingType::Uniform),
                 wgpu::BindGroupLayoutEntry {
                     binding: 11,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    visibility: lit,
                     ty: wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Depth,
                         view_dimension: wgpu::TextureViewDimension::D2Array,
@@ -341,8 +346,20 @@ impl PipelineCache {
                 },
                 wgpu::BindGroupLayoutEntry {
                     binding: 12,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    visibility: lit,
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
+                // Local lights' shadows: one entry per layer, and the layers.
+                storage(13, lit),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 14,
+                    visibility: lit,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
                     count: None,
                 },
             ],
@@ -758,7 +775,8 @@ impl PipelineCache {
             .with("CLUSTERED_LIGHTS", true)
             .with("SPHERE_TUBE_LIGHTS", key.light_shapes.sphere_tube)
             .with("LTC_LIGHTS", key.light_shapes.ltc)
-            .with("IES_LIGHTS", key.light_shapes.ies);
+            .with("IES_LIGHTS", key.light_shapes.ies)
+            .with("LOCAL_SHADOWS", key.local_shadows);
         let module = self.library(candidate).create_module(device, "deferred_lights.wgsl", &defs)?;
         self.compiled += 1;
         let layout = &self.deferred_pipeline_layouts[key.multisampled as usize];

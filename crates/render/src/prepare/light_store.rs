@@ -233,6 +233,8 @@ pub struct LightStore {
     /// Stands in for the LTC and IES buffers while the scene needs neither.
     placeholder: Option<wgpu::Buffer>,
     profiles: ProfileTable,
+    /// First layer of each shadowed local light's maps in the local shadow atlas.
+    shadow_layers: HashMap<LightKey, u32>,
 }
 
 /// Number of light kinds (discriminants `0..KIND_COUNT`).
@@ -278,7 +280,46 @@ impl LightStore {
             ltc_table: None,
             placeholder: None,
             profiles: ProfileTable::default(),
+            shadow_layers: HashMap::new(),
         }
+    }
+
+    /// Which local lights read shadow maps, from which first layer of the local shadow atlas:
+    /// packed as `shape.w` = layer + 1 (0: unshadowed), which point and spot lights leave free.
+    /// Repacks only the lights whose layer changed; returns whether any did.
+    pub fn set_shadow_layers(&mut self, layers: HashMap<LightKey, u32>) -> bool {
+        if layers == self.shadow_layers {
+            return false;
+        }
+        let old = std::mem::replace(&mut self.shadow_layers, layers);
+        let keys: Vec<LightKey> = old.keys().chain(self.shadow_layers.keys()).copied().collect();
+        for key in keys {
+            if old.get(&key) == self.shadow_layers.get(&key) {
+                continue;
+            }
+            if let Some(&(which, i)) = self.index.get(&key) {
+                let value = self.shadow_value(&key);
+                self.section(which).packed[i as usize].shape[3] = value;
+                self.dirty.push((which, i));
+            }
+        }
+        true
+    }
+
+    fn shadow_value(&self, key: &LightKey) -> f32 {
+        self.shadow_layers.get(key).map_or(0.0, |l| (l + 1) as f32)
+    }
+
+    /// The local lights with their slots, in buffer order.
+    pub fn local_entries(&self) -> impl Iterator<Item = (u32, LightKey, &ExtractedLight, &GpuLight)> {
+        let first = self.global_count();
+        self.local
+            .keys
+            .iter()
+            .zip(&self.local.extracted)
+            .zip(&self.local.packed)
+            .enumerate()
+            .map(move |(i, ((k, l), p))| (first + i as u32, *k, l, p))
     }
 
     /// The kinds of lights with a size present now.
@@ -436,8 +477,9 @@ impl LightStore {
     fn repack_all(&mut self) {
         let (exposure, cutoff) = (self.exposure, self.cutoff);
         for s in [&mut self.global, &mut self.local] {
-            for (packed, light) in s.packed.iter_mut().zip(&s.extracted) {
+            for ((packed, light), key) in s.packed.iter_mut().zip(&s.extracted).zip(&s.keys) {
                 *packed = pack(light, exposure, cutoff, &self.profiles);
+                packed.shape[3] += self.shadow_layers.get(key).map_or(0.0, |l| (l + 1) as f32);
             }
         }
         self.full = true;
@@ -455,7 +497,8 @@ impl LightStore {
                 }
                 self.count_profile_user(&old, -1);
                 self.count_profile_user(light, 1);
-                let packed = pack(light, self.exposure, self.cutoff, &self.profiles);
+                let mut packed = pack(light, self.exposure, self.cutoff, &self.profiles);
+                packed.shape[3] += self.shadow_value(&key);
                 let s = self.section(which);
                 let old_kind = std::mem::replace(&mut s.packed[i as usize], packed).kind;
                 s.extracted[i as usize] = *light;
@@ -478,7 +521,8 @@ impl LightStore {
 
     fn insert(&mut self, key: LightKey, which: Which, light: &ExtractedLight) {
         self.count_profile_user(light, 1);
-        let packed = pack(light, self.exposure, self.cutoff, &self.profiles);
+        let mut packed = pack(light, self.exposure, self.cutoff, &self.profiles);
+        packed.shape[3] += self.shadow_value(&key);
         self.count_kind(packed.kind, 1);
         let s = self.section(which);
         let i = s.keys.len() as u32;

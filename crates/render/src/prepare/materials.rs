@@ -221,6 +221,11 @@ impl MaterialTable {
     }
 
     /// Uploads the packed table if anything changed; returns true if the buffer was replaced.
+    /// Whether material data changed since the last upload.
+    pub fn is_dirty(&self) -> bool {
+        self.dirty
+    }
+
     pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> bool {
         if !self.dirty {
             return false;

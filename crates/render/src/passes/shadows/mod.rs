@@ -9,9 +9,12 @@
 //! no caster reaches, or that lies beyond everything visible, is skipped), writes the shadow
 //! uniform, and encodes one depth pass per rendered layer before the forward pass samples them.
 //!
-//! Spot and point lights do not cast shadows yet (issue #4 continues).
+//! Local lights ([`local`]): spot lights get a perspective map, point lights (and spot lights
+//! wider than 60°) six cube faces, each a layer of a second atlas, allocated to the lights that
+//! matter most on screen and re-rendered within a per-frame budget.
 
 pub mod cascades;
+pub mod local;
 pub mod orchestrator;
 
 /// How shadow maps are filtered.
@@ -46,6 +49,16 @@ pub struct ShadowSettings {
     pub cascade_blend: f32,
     /// PCSS: the widest blocker search and filter kernel, in texels.
     pub max_penumbra_texels: f32,
+    /// Texels across each layer of the local-light shadow atlas (a spot light's map, one face
+    /// of a point light's cube).
+    pub local_map_size: u32,
+    /// Layers of the local-light atlas: how many spot lights (one layer each) and point lights
+    /// (six) can have shadow maps at once. Shadowed lights beyond it light unshadowed, the
+    /// least visible first.
+    pub local_layers: u32,
+    /// Local-light layers re-rendered per frame at most: maps whose light or casters changed
+    /// wait their turn beyond it (the most visible first, then the longest waiting).
+    pub local_updates: u32,
 }
 
 impl Default for ShadowSettings {
@@ -60,6 +73,9 @@ impl Default for ShadowSettings {
             normal_bias: 1.5,
             cascade_blend: 0.1,
             max_penumbra_texels: 24.0,
+            local_map_size: 1024,
+            local_layers: 24,
+            local_updates: 12,
         }
     }
 }
@@ -98,6 +114,15 @@ impl ShadowSettings {
         }
         if !(0.0..=0.5).contains(&self.cascade_blend) {
             return err("cascade_blend", &self.cascade_blend, "between 0 and 0.5");
+        }
+        if !(16..=8192).contains(&self.local_map_size) {
+            return err("local_map_size", &self.local_map_size, "16 to 8192 texels");
+        }
+        if !(1..=256).contains(&self.local_layers) {
+            return err("local_layers", &self.local_layers, "1 to 256");
+        }
+        if !(1..=256).contains(&self.local_updates) {
+            return err("local_updates", &self.local_updates, "1 to 256 layers per frame");
         }
         if !(1.0..=64.0).contains(&self.max_penumbra_texels) {
             return err("max_penumbra_texels", &self.max_penumbra_texels, "between 1 and 64 texels");

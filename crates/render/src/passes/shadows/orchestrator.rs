@@ -1,19 +1,22 @@
-//! The shadow orchestrator: the one owner of shadow passes. It owns the atlas (a `Depth32Float`
-//! 2D array, one layer per cascade), the shadow uniform the forward shader reads
+//! The shadow orchestrator: the one owner of shadow passes. It owns the atlases (`Depth32Float`
+//! 2D arrays: one layer per cascade of the directional lights, and one per spot map or cube face
+//! of the local lights), the shadow uniform and local-shadow table the shaders read
 //! (`shaders/shadows.wgsl`), the per-layer caster views, and the decision of what to render.
 //!
 //! Per frame, [`ShadowOrchestrator::prepare`] takes the camera, the light store's shadowed
-//! directional lights and the bounds of casters and receivers, and produces the frame's
-//! [`ShadowFrame`]: which lights get cascades (the brightest [`MAX_SHADOWED_DIRECTIONAL`]), each
-//! cascade's fitted projection, and which cascades need their layer rendered. A scene with no
-//! shadowed light, no caster or no camera gets no pass, and the atlas is released (a 1×1
-//! stand-in fills the binding). [`ShadowOrchestrator::encode`] then draws the caster batches
-//! into each rendered layer.
+//! lights and the bounds of casters and receivers, and produces the frame's [`ShadowFrame`]:
+//! which directional lights get cascades (the brightest [`MAX_SHADOWED_DIRECTIONAL`]), each
+//! cascade's fitted projection and whether its layer needs rendering, and (through
+//! [`super::local`]) which local lights hold maps and which maps re-render within the budget. A
+//! scene with no shadowed light, no caster or no camera gets no pass, and the atlases are
+//! released (a 1×1 stand-in fills the bindings). [`ShadowOrchestrator::encode`] then draws the
+//! caster batches into each layer to render.
 
 use glam::{DAffine3, DMat4, DVec3, Vec3};
 use penumbra_engine::bounds::Aabb;
 
 use super::cascades::{self, Cascade, CascadeCamera};
+use super::local::{LocalCandidate, LocalFrame, LocalShadows};
 use super::{ShadowFilter, ShadowSettings};
 use crate::passes::forward::Batch;
 use crate::pipelines::pipeline_cache::{CasterKey, PipelineCache, TopologyKey};
@@ -89,6 +92,17 @@ struct GpuShadows {
     _pad: u32,
 }
 
+/// Mirrors `LocalShadow` in `shaders/shadows.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuLocalShadow {
+    clip_from_rel: [[f32; 4]; 4],
+    texel_scale: f32,
+    valid: u32,
+    faces: u32,
+    _pad: u32,
+}
+
 /// Mirrors `CasterView` in `shaders/shadow_caster.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -131,12 +145,14 @@ pub struct ShadowFrame {
     pub cascades: Vec<Cascade>,
     /// Per layer: rendered this frame (else no caster reaches it, or nothing visible lies in it).
     pub rendered: Vec<bool>,
+    /// Spot and point lights' maps.
+    pub local: LocalFrame,
 }
 
 impl ShadowFrame {
-    /// Layers rendered this frame.
+    /// Layers rendered this frame, directional and local.
     pub fn rendered_layers(&self) -> usize {
-        self.rendered.iter().filter(|r| **r).count()
+        self.rendered.iter().filter(|r| **r).count() + self.local.render.len()
     }
 }
 
@@ -188,8 +204,14 @@ impl Atlas {
 
 pub struct ShadowOrchestrator {
     uniform: wgpu::Buffer,
+    /// Cascades' views first (`MAX_CASCADES`), then the local layers'.
     caster_views: wgpu::Buffer,
     atlas: Option<Atlas>,
+    local: LocalShadows,
+    /// The local lights' layers (allocated while any local light has a map).
+    local_atlas: Option<Atlas>,
+    /// `array<LocalShadow>`, one per local layer.
+    local_buffer: wgpu::Buffer,
     /// Fills the atlas binding while no light casts (nothing samples it then).
     placeholder: Atlas,
     sampler: wgpu::Sampler,
@@ -210,13 +232,11 @@ impl ShadowOrchestrator {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            caster_views: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("shadow caster views"),
-                size: CASTER_VIEW_STRIDE * MAX_CASCADES as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
+            caster_views: caster_views_buffer(device, 0),
             atlas: None,
+            local: LocalShadows::default(),
+            local_atlas: None,
+            local_buffer: local_buffer(device, 1),
             placeholder: Atlas::new(device, 1, 1),
             // Reverse-Z: a receiver is lit where its depth is at least the nearest caster's.
             sampler: device.create_sampler(&wgpu::SamplerDescriptor {
@@ -234,9 +254,22 @@ impl ShadowOrchestrator {
         }
     }
 
-    /// Whether any caster pass runs this frame.
+    /// Whether directional lights read cascades this frame.
     pub fn active(&self) -> bool {
         self.frame.rendered.iter().any(|r| *r)
+    }
+
+    /// Whether any local light reads a shadow map this frame.
+    pub fn local_active(&self) -> bool {
+        !self.frame.local.first_layers.is_empty()
+    }
+
+    pub fn local_atlas_view(&self) -> &wgpu::TextureView {
+        &self.local_atlas.as_ref().unwrap_or(&self.placeholder).array_view
+    }
+
+    pub fn local_buffer(&self) -> &wgpu::Buffer {
+        &self.local_buffer
     }
 
     pub fn frame(&self) -> &ShadowFrame {
@@ -257,11 +290,14 @@ impl ShadowOrchestrator {
     }
 
     pub fn gpu_bytes(&self) -> u64 {
-        self.atlas.as_ref().map_or(0, Atlas::bytes)
+        self.atlas.as_ref().map_or(0, Atlas::bytes) + self.local_atlas.as_ref().map_or(0, Atlas::bytes)
     }
 
-    /// Decides this frame's shadows and writes the uniform. Returns whether the atlas was
-    /// (re)allocated or released, so that bind groups holding it must be rebuilt.
+    /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
+    /// whenever any caster may have (local maps are re-rendered only then, or when their light
+    /// changes). Returns whether an atlas or buffer was (re)allocated or released, so that bind
+    /// groups holding it must be rebuilt.
+    #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -269,22 +305,51 @@ impl ShadowOrchestrator {
         settings: &ShadowSettings,
         view: Option<(&ExtractedView, f32)>,
         candidates: &[DirectionalCandidate],
+        local_candidates: &[LocalCandidate],
         bounds: &SceneBounds,
+        caster_generation: u64,
     ) -> bool {
+        let seen = !bounds.casters.is_empty() && !bounds.receivers.is_empty();
         self.frame = match view {
-            Some((view, aspect)) if !bounds.casters.is_empty() && !bounds.receivers.is_empty() => {
-                self.plan(settings, view, aspect, candidates, bounds)
-            }
+            Some((view, aspect)) if seen => self.plan(settings, view, aspect, candidates, bounds),
             _ => ShadowFrame::default(),
         };
+        let camera_position = view.map_or(Vec3::ZERO, |(v, _)| Vec3::from(v.world_from_view.translation));
+        if view.is_some() && seen {
+            self.frame.local =
+                self.local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+        } else {
+            // Nothing to shadow: forget the maps, so they render afresh when casters return.
+            self.local = LocalShadows::default();
+        }
         let layers = self.frame.cascades.len() as u32;
         let needs = self.active().then_some((settings.atlas_size, layers));
         let has = self.atlas.as_ref().map(|a| (a.size, a.layers()));
-        let changed = needs != has;
+        let mut changed = needs != has;
         if changed {
             self.atlas = needs.map(|(size, layers)| Atlas::new(device, size, layers));
         }
-        let camera_position = view.map_or(Vec3::ZERO, |(v, _)| Vec3::from(v.world_from_view.translation));
+        let local_needs = self.local_active().then_some((settings.local_map_size, settings.local_layers));
+        let local_has = self.local_atlas.as_ref().map(|a| (a.size, a.layers()));
+        if local_needs != local_has {
+            changed = true;
+            self.local_atlas = local_needs.map(|(size, layers)| Atlas::new(device, size, layers));
+            if local_has.is_some() {
+                // The layers' contents are gone: every map renders again.
+                self.local = LocalShadows::default();
+                self.frame.local =
+                    self.local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+            }
+        }
+        let local_layers = settings.local_layers as u64;
+        if self.local_buffer.size() < local_layers * std::mem::size_of::<GpuLocalShadow>() as u64 {
+            self.local_buffer = local_buffer(device, local_layers);
+            changed = true;
+        }
+        if self.caster_views.size() < CASTER_VIEW_STRIDE * (MAX_CASCADES as u64 + local_layers) {
+            self.caster_views = caster_views_buffer(device, local_layers);
+            self.caster_bind_group = None;
+        }
         self.write(queue, settings, candidates, camera_position);
         changed
     }
@@ -395,13 +460,38 @@ impl ShadowOrchestrator {
         };
         gpu.max_kernel = settings.max_penumbra_texels;
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&gpu));
+        let caster_view = |clip_from_rel: &glam::Mat4| GpuCasterView {
+            clip_from_rel: clip_from_rel.to_cols_array_2d(),
+            camera_position: camera_position.to_array(),
+            _pad: 0.0,
+        };
         for (i, c) in frame.cascades.iter().enumerate() {
-            let v = GpuCasterView {
-                clip_from_rel: c.clip_from_rel.to_cols_array_2d(),
-                camera_position: camera_position.to_array(),
-                _pad: 0.0,
-            };
+            let v = caster_view(&c.clip_from_rel);
             queue.write_buffer(&self.caster_views, i as u64 * CASTER_VIEW_STRIDE, bytemuck::bytes_of(&v));
+        }
+        if self.local_active() {
+            let layers: Vec<GpuLocalShadow> = frame
+                .local
+                .layers
+                .iter()
+                .map(|l| match l {
+                    Some(l) => GpuLocalShadow {
+                        clip_from_rel: l.clip_from_rel.to_cols_array_2d(),
+                        texel_scale: l.texel_scale,
+                        valid: l.valid as u32,
+                        faces: l.faces,
+                        _pad: 0,
+                    },
+                    None => bytemuck::Zeroable::zeroed(),
+                })
+                .collect();
+            queue.write_buffer(&self.local_buffer, 0, bytemuck::cast_slice(&layers));
+            for &layer in &frame.local.render {
+                if let Some(l) = &frame.local.layers[layer as usize] {
+                    let offset = (MAX_CASCADES as u64 + layer as u64) * CASTER_VIEW_STRIDE;
+                    queue.write_buffer(&self.caster_views, offset, bytemuck::bytes_of(&caster_view(&l.clip_from_rel)));
+                }
+            }
         }
     }
 
@@ -421,7 +511,9 @@ impl ShadowOrchestrator {
         batches: &[Batch],
         mut timer: Option<&mut GpuTimer>,
     ) -> Option<ShaderError> {
-        let atlas = self.atlas.as_ref()?;
+        if self.atlas.is_none() && self.local_atlas.is_none() {
+            return None;
+        }
         let casters: Vec<(&Batch, CasterKey)> = batches
             .iter()
             .filter(|b| b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend)
@@ -456,11 +548,21 @@ impl ShadowOrchestrator {
             self.caster_bind_group = Some((group, buffers.map(Clone::clone)));
         }
         let group = &self.caster_bind_group.as_ref().expect("made above").0;
-        for (layer, view) in atlas.layer_views.iter().enumerate() {
-            if !self.frame.rendered[layer] {
-                continue;
+        // (atlas layer view, caster view index, timing label) of every pass this frame.
+        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str)> = Vec::new();
+        if let Some(atlas) = &self.atlas {
+            for (layer, view) in atlas.layer_views.iter().enumerate() {
+                if self.frame.rendered[layer] {
+                    passes.push((view, layer as u64, LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)]));
+                }
             }
-            let label = LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)];
+        }
+        if let Some(atlas) = &self.local_atlas {
+            for &layer in &self.frame.local.render {
+                passes.push((&atlas.layer_views[layer as usize], MAX_CASCADES as u64 + layer as u64, "shadow local"));
+            }
+        }
+        for (view, index, label) in passes {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some(label),
                 color_attachments: &[],
@@ -474,7 +576,7 @@ impl ShadowOrchestrator {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, group, &[(layer as u64 * CASTER_VIEW_STRIDE) as u32]);
+            pass.set_bind_group(0, group, &[(index * CASTER_VIEW_STRIDE) as u32]);
             pass.set_vertex_buffer(0, mesh_pool.vertex_buffer().slice(..));
             pass.set_index_buffer(mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
             let mut bound = None;
@@ -498,6 +600,24 @@ impl ShadowOrchestrator {
         }
         error
     }
+}
+
+fn caster_views_buffer(device: &wgpu::Device, local_layers: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("shadow caster views"),
+        size: CASTER_VIEW_STRIDE * (MAX_CASCADES as u64 + local_layers),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn local_buffer(device: &wgpu::Device, layers: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("local shadows"),
+        size: layers.max(1) * std::mem::size_of::<GpuLocalShadow>() as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
 
 fn caster_key(b: &Batch, settings: &ShadowSettings) -> CasterKey {
