@@ -128,6 +128,10 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
     let keys: Vec<_> = renderer.forward_pipeline_keys();
     assert!(keys.iter().any(|k| k.alpha == AlphaKey::Blend && k.local_lights == LocalLights::Clustered));
     assert!(keys.iter().filter(|k| k.alpha != AlphaKey::Blend).all(|k| k.local_lights == LocalLights::Deferred));
+    // The point and spot light cast shadows (on by default): the compute pass read their maps
+    // and still equals the fragment path.
+    assert_eq!(renderer.shadow_frame().local.first_layers.len(), 2);
+    assert!(keys.iter().all(|k| k.local_shadows));
 }
 
 /// `LightWalk::Auto` (the default) keeps short cluster lists in the fragment shader and moves
