@@ -93,8 +93,9 @@ pub enum LightWalk {
 /// (`ClusterBinner::index_bound`, which runs about 20 times the lists' real mean length on the
 /// many-lights scene) exceeds this many entries per cluster. Measured on an H100 at 1920×1080
 /// MSAA 4 (`penumbra bench many-lights`, README): 1000 lights (bound 13 per cluster) render in
-/// 4.8 ms in fragments and 7.6 ms in compute, 10 000 (bound 131) in 22.0 and 8.7 ms; the paths
-/// cross near a bound of 30 (mean real lists of about 1.3 lights).
+/// 4.8 ms in fragments and 5.8 ms in compute, 10 000 (bound 131) in 22.0 and 6.9 ms; the paths
+/// cross between those bounds (the threshold was set where they crossed when compute cost
+/// 7.6 ms at 1000 lights).
 pub const AUTO_COMPUTE_ENTER: f64 = 32.0;
 /// Below this bound per cluster, `LightWalk::Auto` goes back to the fragment shader.
 pub const AUTO_COMPUTE_LEAVE: f64 = 16.0;
