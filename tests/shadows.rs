@@ -496,3 +496,37 @@ fn golden_damaged_helmet_under_the_sun() {
     let pcss = ShadowSettings { atlas_size: 1024, filter: ShadowFilter::Pcss, ..Default::default() };
     check_golden(&mut app, "shadows_damaged_helmet", (256, 192), pcss);
 }
+
+/// A still camera over a still scene draws its shadow maps once: later frames skip the shadow
+/// passes and show the same image; moving a caster or the camera draws them again.
+#[test]
+fn shadow_maps_are_drawn_again_only_when_something_moves() {
+    let size = (96, 64);
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(20.0), grey(0.8), Transform::default());
+    let cube = spawn_mesh(&mut app, Mesh::cuboid(Vec3::ONE), grey(0.5), Transform::from_xyz(0.0, 0.5, 0.0));
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(45.0, 30.0)));
+    app.world.spawn((
+        PointLight { intensity: 5.0, range: Some(6.0), ..Default::default() },
+        Transform::from_xyz(1.5, 2.0, 1.0),
+    ));
+    let camera =
+        app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 3.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y))).id();
+    let first = render(&mut app, size, atlas(512));
+    let drawn = |app: &App| app.world.resource::<Renderer>().shadow_frame().rendered_layers();
+    assert!(drawn(&app) > 6, "cascades and the cube map drawn on the first frame");
+    app.update();
+    let second = app.world.resource::<Renderer>().read_headless().unwrap();
+    assert_eq!(drawn(&app), 0, "nothing moved: no shadow pass");
+    assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
+    assert_eq!(first, second, "the kept maps give the same image");
+    app.world.get_mut::<Transform>(cube).unwrap().translation.x += 0.3;
+    app.update();
+    let frame = app.world.resource::<Renderer>().shadow_frame().clone();
+    assert!(frame.redraw.iter().any(|r| *r) && frame.local.render.len() == 6, "a caster moved: every map redrawn");
+    app.world.get_mut::<Transform>(camera).unwrap().translation.x += 1.0;
+    app.update();
+    let frame = app.world.resource::<Renderer>().shadow_frame().clone();
+    assert!(frame.redraw.iter().any(|r| *r), "the camera moved: its cascades follow");
+    assert!(frame.local.render.is_empty(), "a point light's map does not depend on the camera");
+}

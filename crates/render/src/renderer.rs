@@ -570,6 +570,11 @@ impl Renderer {
             // A masked caster's cutoff may have changed.
             self.caster_generation += 1;
         }
+        // Batches first, so that caster changes count in this frame's shadow decisions; again if
+        // shadows switched on or off (new pipeline keys, the same casters).
+        if self.batches_dirty {
+            self.rebuild_batches();
+        }
         rebind |= self.prepare_shadows(scene, size);
         if self.batches_dirty {
             self.rebuild_batches();
@@ -1059,7 +1064,7 @@ impl Renderer {
     /// Sorts visible opaque and masked draws into instanced batches; collects blended draws.
     fn rebuild_batches(&mut self) {
         self.batches_dirty = false;
-        self.caster_generation += 1;
+        let casters_before = self.caster_signature();
         let mut items: Vec<(PipelineKey, MaterialKey, MeshId, Handle<Mesh>, u32)> = Vec::new();
         self.blend_entities.clear();
         for (entity, d) in &self.draws {
@@ -1088,6 +1093,18 @@ impl Renderer {
                 _ => self.opaque_batches.push(Batch { key, material, mesh, mesh_id, first: i, count: 1 }),
             }
         }
+        // New pipeline keys alone (shadows switched on, a debug view) change no caster.
+        if self.caster_signature() != casters_before {
+            self.caster_generation += 1;
+        }
+    }
+
+    /// What the shadow passes draw: each opaque or masked batch's mesh, material, alpha mode
+    /// and instances.
+    fn caster_signature(&self) -> (Vec<(MeshId, MaterialKey, AlphaKey, u32, u32)>, Vec<u32>) {
+        let batches =
+            self.opaque_batches.iter().map(|b| (b.mesh_id, b.material, b.key.alpha, b.first, b.count)).collect();
+        (batches, self.opaque_slots.clone())
     }
 
     /// Blended draws, farthest first (by the centre of their world bounds along the view axis).

@@ -2,7 +2,9 @@
 //! at each shadow atlas size and filter. Per setting: GPU time of each cascade's caster pass and
 //! of the forward pass (timestamp queries), CPU time, the atlas's memory, and the image error
 //! (FLIP mean) against the 4096²/PCSS frame of the same scene; a row without shadows gives the
-//! baseline cost. Then the same scene with four shadowed point lights and four shadowed spot
+//! baseline cost. The camera steps sideways by 25 cm every frame (back and forth), so that every
+//! cascade is redrawn each frame; a last row holds it still, where the cascades are drawn once
+//! and kept. Then the same scene with four shadowed point lights and four shadowed spot
 //! lights (28 local layers), nudged by a millimetre every frame so that every map re-renders
 //! each frame (a static light's map is rendered once and kept), at each local map size: GPU
 //! time per local shadow layer, against the frame with 2048² local maps.
@@ -11,7 +13,7 @@ use anyhow::{Result, anyhow};
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 use penumbra_engine::Update;
-use penumbra_engine::components::{PointLight, SpotLight, Transform};
+use penumbra_engine::components::{Camera, PointLight, SpotLight, Transform};
 use penumbra_engine::scenes::spawn_shadows_scene;
 use penumbra_render::frame::Pass;
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
@@ -49,6 +51,15 @@ fn nudge_local_lights(
     }
 }
 
+/// Steps the camera 25 cm sideways, left and right on alternate frames.
+fn step_camera(mut cameras: Query<&mut Transform, With<Camera>>, mut frame: Local<u64>) {
+    *frame += 1;
+    let step = if frame.is_multiple_of(2) { 0.25 } else { -0.25 };
+    for mut t in &mut cameras {
+        t.translation.x += step;
+    }
+}
+
 fn spawn_local_lights(world: &mut World) {
     for i in 0..4 {
         let a = i as f32 * std::f32::consts::FRAC_PI_2 + 0.4;
@@ -69,16 +80,22 @@ fn spawn_local_lights(world: &mut World) {
     }
 }
 
+/// The shadows scene; `local` adds the eight shadowed local lights (nudged every frame),
+/// `moving` steps the camera every frame.
 fn app_with(
     ctx: &GpuContext,
     settings: RenderSettings,
     shadows: bool,
     local: bool,
+    moving: bool,
     size: (u32, u32),
 ) -> Result<penumbra_engine::App> {
     let mut app = penumbra_engine::App::new();
     app.add_plugins(penumbra_engine::CorePlugin).add_plugins(RenderPlugin);
     spawn_shadows_scene(&mut app.world);
+    if moving {
+        app.add_systems(Update, step_camera);
+    }
     if local {
         spawn_local_lights(&mut app.world);
         app.add_systems(Update, nudge_local_lights);
@@ -107,10 +124,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
     let limit = ctx.device.limits().max_texture_dimension_2d;
     let reference_settings = ShadowSettings { atlas_size: 4096.min(limit), filter: ShadowFilter::Pcss, ..base.shadows };
+    // Images for the error are first frames of a camera that has not moved.
     let reference = frame(&mut app_with(
         &ctx,
         RenderSettings { gpu_timing: false, shadows: reference_settings, ..base.clone() },
         true,
+        false,
         false,
         args.size,
     )?)?;
@@ -125,23 +144,26 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         },
         true,
         true,
+        false,
         args.size,
     )?)?;
-    let mut cases: Vec<(String, bool, bool, ShadowSettings)> =
-        vec![("no shadows".to_owned(), false, false, base.shadows)];
+    let mut cases: Vec<(String, bool, bool, bool, ShadowSettings)> =
+        vec![("no shadows".to_owned(), false, false, true, base.shadows)];
     for filter in [ShadowFilter::Pcf, ShadowFilter::Pcss] {
         for atlas_size in ATLAS_SIZES.into_iter().filter(|s| *s <= limit) {
             let name = format!("{atlas_size}², {filter:?}");
-            cases.push((name, true, false, ShadowSettings { atlas_size, filter, ..base.shadows }));
+            cases.push((name, true, false, true, ShadowSettings { atlas_size, filter, ..base.shadows }));
         }
     }
     for local_map_size in [512, 1024, 2048].into_iter().filter(|s| *s <= limit) {
         let name = format!("2048² Pcf + 8 local lights at {local_map_size}²");
-        cases.push((name, true, true, ShadowSettings { local_map_size, ..local_base }));
+        cases.push((name, true, true, true, ShadowSettings { local_map_size, ..local_base }));
     }
+    let still = ShadowSettings { atlas_size: 4096.min(limit), ..base.shadows };
+    cases.push((format!("{}², Pcf, still camera", still.atlas_size), true, false, false, still));
     let mut rows = Vec::new();
-    for (setting, on, local, shadows) in cases {
-        let mut app = app_with(&ctx, RenderSettings { shadows, ..base.clone() }, on, local, args.size)?;
+    for (setting, on, local, moving, shadows) in cases {
+        let mut app = app_with(&ctx, RenderSettings { shadows, ..base.clone() }, on, local, moving, args.size)?;
         let t = time_frames(&mut app, args.warmup, args.frames);
         let renderer = app.world.resource::<Renderer>();
         let layers = renderer.shadow_frame().rendered_layers();
@@ -159,7 +181,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let shadows_ms = (!shadow_passes.is_empty()).then(|| shadow_passes.iter().sum::<f64>());
         let atlas_mib = renderer.memory().shadows as f64 / 1048576.0;
         assert_eq!(renderer.stats().plan.runs(Pass::Shadows), layers > 0);
-        let image = frame(&mut app)?;
+        let settings = RenderSettings { gpu_timing: false, shadows, ..base.clone() };
+        let image = frame(&mut app_with(&ctx, settings, on, local, false, args.size)?)?;
         let reference = if local { &local_reference } else { &reference };
         rows.push(Row {
             setting,

@@ -6,7 +6,8 @@
 //! Per frame, [`ShadowOrchestrator::prepare`] takes the camera, the light store's shadowed
 //! lights and the bounds of casters and receivers, and produces the frame's [`ShadowFrame`]:
 //! which directional lights get cascades (the brightest [`MAX_SHADOWED_DIRECTIONAL`]), each
-//! cascade's fitted projection and whether its layer needs rendering, and (through
+//! cascade's fitted projection, whether its layer is in use and whether it must be drawn (a
+//! layer still holding this projection's casters is kept), and (through
 //! [`super::local`]) which local lights hold maps and which maps re-render within the budget. A
 //! scene with no shadowed light, no caster or no camera gets no pass, and the atlases are
 //! released (a 1×1 stand-in fills the bindings). [`ShadowOrchestrator::encode`] then draws the
@@ -143,16 +144,19 @@ pub struct ShadowFrame {
     pub lights: Vec<ShadowedLight>,
     /// Every light's cascades, light after light (index = atlas layer).
     pub cascades: Vec<Cascade>,
-    /// Per layer: rendered this frame (else no caster reaches it, or nothing visible lies in it).
+    /// Per layer: in use this frame (else no caster reaches it, or nothing visible lies in it).
     pub rendered: Vec<bool>,
+    /// Per layer: drawn this frame. A layer in use whose projection and casters are what it
+    /// already holds is not drawn again (a still camera over a still scene costs nothing).
+    pub redraw: Vec<bool>,
     /// Spot and point lights' maps.
     pub local: LocalFrame,
 }
 
 impl ShadowFrame {
-    /// Layers rendered this frame, directional and local.
+    /// Layers drawn this frame, directional and local.
     pub fn rendered_layers(&self) -> usize {
-        self.rendered.iter().filter(|r| **r).count() + self.local.render.len()
+        self.redraw.iter().filter(|r| **r).count() + self.local.render.len()
     }
 }
 
@@ -221,6 +225,10 @@ pub struct ShadowOrchestrator {
     caster_bind_group: Option<(wgpu::BindGroup, [wgpu::Buffer; 3])>,
     /// Lights already warned about for lack of a cascade slot.
     warned_excess: bool,
+    /// What each cascade layer holds: the projection it was drawn with, the caster generation,
+    /// and the settings (bias is raster state).
+    held: Vec<Option<(DMat4, u64)>>,
+    held_settings: Option<ShadowSettings>,
 }
 
 impl ShadowOrchestrator {
@@ -251,6 +259,8 @@ impl ShadowOrchestrator {
             frame: ShadowFrame::default(),
             caster_bind_group: None,
             warned_excess: false,
+            held: Vec::new(),
+            held_settings: None,
         }
     }
 
@@ -329,6 +339,22 @@ impl ShadowOrchestrator {
         if changed {
             self.atlas = needs.map(|(size, layers)| Atlas::new(device, size, layers));
         }
+        // A fresh atlas or other settings: nothing held is valid.
+        if changed || self.held_settings != Some(*settings) {
+            self.held.clear();
+            self.held_settings = Some(*settings);
+        }
+        self.held.resize(layers as usize, None);
+        self.frame.redraw = (0..layers as usize)
+            .map(|i| {
+                let now = (self.frame.cascades[i].clip_from_world, caster_generation);
+                let redraw = self.frame.rendered[i] && self.held[i] != Some(now);
+                if redraw {
+                    self.held[i] = Some(now);
+                }
+                redraw
+            })
+            .collect();
         let local_needs = self.local_active().then_some((settings.local_map_size, settings.local_layers));
         let local_has = self.local_atlas.as_ref().map(|a| (a.size, a.layers()));
         if local_needs != local_has {
@@ -552,7 +578,7 @@ impl ShadowOrchestrator {
         let mut passes: Vec<(&wgpu::TextureView, u64, &'static str)> = Vec::new();
         if let Some(atlas) = &self.atlas {
             for (layer, view) in atlas.layer_views.iter().enumerate() {
-                if self.frame.rendered[layer] {
+                if self.frame.redraw[layer] {
                     passes.push((view, layer as u64, LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)]));
                 }
             }
