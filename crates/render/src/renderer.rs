@@ -264,6 +264,8 @@ pub struct Renderer {
     /// Incremented whenever a caster may have changed (draws, batches, materials): local
     /// shadow maps re-render only then or when their light changes.
     caster_generation: u64,
+    /// `scene_bounds()` as of a caster generation: every draw change moves the generation.
+    bounds_cache: Option<(u64, SceneBounds)>,
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
     view_bind_group: Option<wgpu::BindGroup>,
@@ -337,6 +339,7 @@ impl Renderer {
             shadows_active: false,
             local_shadows_active: false,
             caster_generation: 0,
+            bounds_cache: None,
             draw_slots: GrowableBuffer::new(device, "draw slots", wgpu::BufferUsages::STORAGE, 4096 * 4),
             view_buffer,
             pipelines,
@@ -829,7 +832,14 @@ impl Renderer {
         let bounds = if candidates.is_empty() && local_candidates.is_empty() {
             SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY }
         } else {
-            self.scene_bounds()
+            match self.bounds_cache {
+                Some((generation, bounds)) if generation == self.caster_generation => bounds,
+                _ => {
+                    let bounds = self.scene_bounds();
+                    self.bounds_cache = Some((self.caster_generation, bounds));
+                    bounds
+                }
+            }
         };
         let aspect = size.0.max(1) as f32 / size.1.max(1) as f32;
         let view = scene.view.as_ref().map(|v| (v, aspect));
@@ -859,7 +869,8 @@ impl Renderer {
     }
 
     /// World bounds of the visible draws, and of those among them that cast shadows (opaque and
-    /// masked triangles). A pass over every draw: retained bounds belong with GPU culling (#5).
+    /// masked triangles). A pass over every draw, made only when a draw changed (the caster
+    /// generation moved; see `bounds_cache`).
     fn scene_bounds(&self) -> SceneBounds {
         let mut bounds = SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY };
         for d in self.draws.values().filter(|d| d.visible) {
