@@ -12,7 +12,7 @@
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
 // (directional lights read their cascaded shadow maps, shadows.wgsl), and the debug
-// view DEBUG_CLUSTER_HEAT. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
+// views DEBUG_CLUSTER_HEAT and DEBUG_CASCADES. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
 // (deferred_lights.wgsl) instead, from the surface each fragment also writes out.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
@@ -27,6 +27,9 @@
 #ifdef SHADOWS
 #import penumbra::light_data::LIGHT_DIRECTIONAL
 #import penumbra::shadows::directional_shadow
+#endif
+#ifdef DEBUG_CASCADES
+#import penumbra::shadows::cascade_tint
 #endif
 #ifdef CLUSTERED_LIGHTS
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
@@ -269,6 +272,11 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     var out = color * view.exposure;
 #ifdef DEBUG_CLUSTER_HEAT
     out = cluster_heat(in.clip_position.xy, in.rel_position);
+#endif
+#ifdef DEBUG_CASCADES
+    // Tinted by cascade, shaded by the lit image's luminance so shapes and shadows still read.
+    let luminance = dot(out, vec3<f32>(0.2126, 0.7152, 0.0722));
+    out = cascade_tint(dot(in.rel_position, view.camera_forward)) * (0.25 + 0.75 * clamp(luminance, 0.0, 1.0));
 #endif
     // No NaN or Inf may reach the render target: a NaN fails every comparison, so it becomes 0.
     // With deferred local lights their pass adds up to as much again, so each half stays below

@@ -241,3 +241,25 @@ fn local_shadow(light: Light, rel: vec3<f32>, normal: vec3<f32>, to_light: vec3<
     }
     return sum / 9.0;
 }
+
+// Debug view: a colour for the cascade of the first shadowed directional light holding view
+// depth `view_depth` (red, green, blue, yellow from near to far); grey beyond the last, or when
+// no directional light casts this frame.
+fn cascade_tint(view_depth: f32) -> vec3<f32> {
+    let tints = array<vec3<f32>, 4>(
+        vec3<f32>(1.0, 0.2, 0.2),
+        vec3<f32>(0.2, 1.0, 0.2),
+        vec3<f32>(0.25, 0.4, 1.0),
+        vec3<f32>(1.0, 0.9, 0.15)
+    );
+    if shadows.light_count == 0u {
+        return vec3<f32>(0.5);
+    }
+    let first = shadows.lights[0].first_cascade;
+    for (var c = 0u; c < shadows.cascade_count; c++) {
+        if view_depth < shadows.cascades[first + c].far {
+            return tints[c];
+        }
+    }
+    return vec3<f32>(0.5);
+}

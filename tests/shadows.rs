@@ -530,3 +530,65 @@ fn shadow_maps_are_drawn_again_only_when_something_moves() {
     assert!(frame.redraw.iter().any(|r| *r), "the camera moved: its cascades follow");
     assert!(frame.local.render.is_empty(), "a point light's map does not depend on the camera");
 }
+
+/// The cascade debug view colours each fragment by its cascade: along the screen's centre
+/// column, every floor pixel (more than two rows from a boundary) shows the tint of the cascade
+/// its view depth falls in, and at least three cascades show.
+#[test]
+fn the_cascade_view_colours_fragments_by_their_cascade() {
+    let size = (64u32, 400u32);
+    let (height, pitch) = (1.5f32, 12f32.to_radians());
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(400.0), grey(0.8), Transform::default());
+    spawn_mesh(&mut app, Mesh::cuboid(Vec3::ONE), grey(0.5), Transform::from_xyz(-6.0, 0.5, -8.0));
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 300.0)));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(0.0, height, 0.0).with_rotation(Quat::from_rotation_x(-pitch))));
+    app.world.remove_resource::<Renderer>();
+    let settings = RenderSettings {
+        msaa: 1,
+        debug_view: penumbra::render::pipelines::pipeline_cache::DebugView::Cascades,
+        shadows: atlas(512),
+        ..Default::default()
+    };
+    let px = render_app(&mut app, size, settings);
+    let frame = app.world.resource::<Renderer>().shadow_frame().clone();
+    let fars: Vec<f32> = frame.cascades.iter().map(|c| c.far).collect();
+    let yfov = 45f32.to_radians();
+    let depth_at = |y: f32| {
+        let ndc = 1.0 - 2.0 * (y + 0.5) / size.1 as f32;
+        let dir_y = ndc * (0.5 * yfov).tan() * pitch.cos() - pitch.sin();
+        if dir_y < 0.0 { height / -dir_y } else { f32::INFINITY }
+    };
+    let cascade_of = |d: f32| fars.iter().position(|f| d < *f).unwrap_or(4);
+    // Dominant channels of the tints: red, green, blue, red and green (yellow), grey.
+    let classify = |p: &[u8]| {
+        let (r, g, b) = (p[0] as i32, p[1] as i32, p[2] as i32);
+        match () {
+            _ if r > 2 * b && g > 2 * b && (r - g).abs() < r / 3 => 3,
+            _ if r > 2 * g && r > 2 * b => 0,
+            _ if g > 2 * r && g > 2 * b => 1,
+            _ if b > r + r / 2 && b > g => 2,
+            _ => 4,
+        }
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    let x = size.0 / 2;
+    for y in 0..size.1 {
+        let expected = cascade_of(depth_at(y as f32));
+        if expected == 4
+            || cascade_of(depth_at(y as f32 - 2.0)) != expected
+            || cascade_of(depth_at(y as f32 + 2.0)) != expected
+        {
+            continue;
+        }
+        let k = ((y * size.0 + x) * 4) as usize;
+        let got = classify(&px[k..k + 3]);
+        if got != expected {
+            save("cascade-view", &px, size);
+        }
+        assert_eq!(got, expected, "row {y} at depth {:.2} m: pixel {:?}", depth_at(y as f32), &px[k..k + 3]);
+        seen.insert(got);
+    }
+    assert!(seen.len() >= 3, "cascades seen: {seen:?}");
+}

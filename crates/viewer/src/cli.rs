@@ -56,7 +56,8 @@ pub struct LookArgs {
     #[arg(long, value_name = "DIR")]
     pub shader_dir: Option<PathBuf>,
     /// Show a debug view instead of the shaded image: `clusters` colours each pixel by the
-    /// number of lights in its cluster (black none, blue, green, yellow, red, white ≥ 256).
+    /// number of lights in its cluster (black none, blue, green, yellow, red, white ≥ 256);
+    /// `cascades` by the sun's shadow cascade (red, green, blue, yellow from near to far).
     #[arg(long, value_enum, default_value_t = DebugViewArg::None)]
     pub debug_view: DebugViewArg,
     /// How fragments find local lights: through their cluster, in the fragment shader
@@ -94,6 +95,7 @@ pub enum ShadowFilterArg {
 pub enum DebugViewArg {
     None,
     Clusters,
+    Cascades,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -270,6 +272,7 @@ impl LookArgs {
             debug_view: match self.debug_view {
                 DebugViewArg::None => DebugView::None,
                 DebugViewArg::Clusters => DebugView::ClusterHeat,
+                DebugViewArg::Cascades => DebugView::Cascades,
             },
             shadows: ShadowSettings {
                 atlas_size: self.shadow_atlas,

@@ -93,6 +93,7 @@ impl PipelineKey {
             .with("SHADOWS", lit && self.shadows)
             .with("LOCAL_SHADOWS", local && self.local_shadows)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
+            .with("DEBUG_CASCADES", self.debug == DebugView::Cascades)
     }
 }
 
@@ -139,6 +140,9 @@ pub enum DebugView {
     /// Lights in each fragment's cluster as a heat map (black 0, then blue → green → yellow →
     /// red → white on a log scale up to 256 and beyond).
     ClusterHeat,
+    /// The first shadowed directional light's cascade of each fragment (red, green, blue,
+    /// yellow from near to far; grey beyond them), shaded by the lit image's brightness.
+    Cascades,
 }
 
 /// The entry points of `cluster_bin.wgsl`, in the order they run.

@@ -343,6 +343,11 @@ mod tests {
         lib.compose("forward.wgsl", &defs(&[])).unwrap();
         lib.compose("forward.wgsl", &defs(&all)).unwrap();
         lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
+        let shadowed = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "SHADOWS", "LOCAL_SHADOWS", "DEBUG_CASCADES"];
+        lib.compose("forward.wgsl", &defs(&shadowed)).unwrap();
+        lib.compose("shadow_caster.wgsl", &defs(&[])).unwrap();
+        lib.compose("shadow_caster.wgsl", &defs(&["ALPHA_MASK", "BASE_COLOR_TEXTURE"])).unwrap();
+        lib.compose("deferred_lights.wgsl", &defs(&["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "LOCAL_SHADOWS"])).unwrap();
         for t in [&["TONEMAP_NEUTRAL"][..], &["TONEMAP_ACES", "ENCODE_SRGB"], &[]] {
             lib.compose("tonemap.wgsl", &defs(t)).unwrap();
         }
