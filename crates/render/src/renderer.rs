@@ -440,6 +440,8 @@ impl Renderer {
         let result = self.pipelines.reload(&self.ctx.device, files);
         match &result {
             Ok(report) => {
+                // A changed caster shader may draw other depths: every shadow map is redrawn.
+                self.shadows.invalidate();
                 tracing::info!(
                     "shaders reloaded ({}): {} pipelines rebuilt in {:.1} ms",
                     files.join(", "),

@@ -37,8 +37,12 @@ struct Map {
     key: LightKey,
     first_layer: u32,
     faces: u32,
-    /// (caster generation, light) the layers hold; None until first rendered.
-    holds: Option<(u64, ExtractedLight)>,
+    /// The state the map was last brought up to date for: (caster generation, light, reach).
+    current: Option<(u64, ExtractedLight, f32)>,
+    /// The light and reach the layers were drawn with, which sampling must use until they are
+    /// drawn again (a map waiting for the budget is late, never mismatched); None while they
+    /// hold nothing (never drawn, or no caster within reach): read as lit.
+    drawn: Option<(ExtractedLight, f32)>,
     last_update: u64,
 }
 
@@ -195,7 +199,7 @@ impl LocalShadows {
             }
             let map = match existing {
                 Some(m) if m.first_layer == first => m,
-                _ => Map { key: c.key, first_layer: first, faces: *faces, holds: None, last_update: 0 },
+                _ => Map { key: c.key, first_layer: first, faces: *faces, current: None, drawn: None, last_update: 0 },
             };
             keep.push(map);
         }
@@ -206,7 +210,7 @@ impl LocalShadows {
             .filter(|&i| {
                 let m = &self.maps[i];
                 let c = by_key[&m.key].1;
-                m.holds != Some((caster_generation, c.light))
+                m.current != Some((caster_generation, c.light, c.reach))
             })
             .collect();
         let budget = settings.local_updates;
@@ -232,21 +236,23 @@ impl LocalShadows {
         let size = settings.local_map_size;
         for (i, m) in self.maps.iter_mut().enumerate() {
             let c = by_key[&m.key].1;
-            let render = chosen.contains(&i);
-            if render {
-                m.holds = Some((caster_generation, c.light));
+            // Chosen maps are brought up to date: drawn when a caster is within reach, else
+            // left empty (nothing to shadow), which reads as lit.
+            let render = chosen.contains(&i) && sphere_meets_box(c.light.position, c.reach, casters);
+            if chosen.contains(&i) {
+                m.current = Some((caster_generation, c.light, c.reach));
+                m.drawn = render.then_some((c.light, c.reach));
                 m.last_update = self.frame;
             }
             frame.first_layers.insert(m.key, m.first_layer);
-            // Layers no caster can reach are valid and empty: nothing to render.
-            let reaches = sphere_meets_box(c.light.position, c.reach, casters);
+            let (light, reach) = m.drawn.unwrap_or((c.light, c.reach));
             for (face, (clip_from_rel, texel_scale)) in
-                views(&c.light, c.reach, m.faces, size, camera).into_iter().enumerate()
+                views(&light, reach, m.faces, size, camera).into_iter().enumerate()
             {
                 let layer = m.first_layer + face as u32;
                 frame.layers[layer as usize] =
-                    Some(LayerView { clip_from_rel, texel_scale, faces: m.faces, valid: m.holds.is_some() && reaches });
-                if render && reaches {
+                    Some(LayerView { clip_from_rel, texel_scale, faces: m.faces, valid: m.drawn.is_some() });
+                if render {
                     frame.render.push(layer);
                 }
             }
@@ -258,6 +264,9 @@ impl LocalShadows {
 /// The first run of `count` free layers.
 fn first_fit(used: &[bool], count: u32) -> Option<u32> {
     let count = count as usize;
+    if count > used.len() {
+        return None;
+    }
     (0..=used.len().saturating_sub(count)).find(|&s| used[s..s + count].iter().all(|u| !u)).map(|s| s as u32)
 }
 
@@ -312,6 +321,29 @@ mod tests {
         assert!(again.layers.iter().flatten().all(|l| l.valid));
         // A caster moved: everything is stale again.
         assert_eq!(shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 1).render.len(), 8);
+    }
+
+    #[test]
+    fn a_cube_does_not_fit_in_fewer_than_six_layers_and_a_late_map_keeps_its_old_light() {
+        let settings = ShadowSettings { local_layers: 5, ..Default::default() };
+        let mut shadows = LocalShadows::default();
+        let frame = shadows.plan(&settings, Vec3::ZERO, &[point(1, Vec3::Y)], &everything(), 0);
+        assert_eq!((frame.unshadowed, frame.first_layers.len()), (1, 0));
+        // Budget for one spot map per frame: a moved light waits, read with the light it was
+        // drawn with.
+        let settings = ShadowSettings { local_layers: 4, local_updates: 1, ..Default::default() };
+        let mut shadows = LocalShadows::default();
+        let mut lights = [spot(1, Vec3::new(0.0, 2.0, 0.0)), spot(2, Vec3::new(1.0, 2.0, 0.0))];
+        shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        let before = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        lights[0].light.position.x += 0.5;
+        lights[1].light.position.x += 0.5;
+        let after = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        assert_eq!(after.render.len(), 1);
+        let waiting = (0..2u32).find(|l| !after.render.contains(l)).unwrap() as usize;
+        let (b, a) = (before.layers[waiting].unwrap(), after.layers[waiting].unwrap());
+        assert!(a.valid && a.clip_from_rel == b.clip_from_rel, "the waiting map is read as it was drawn");
     }
 
     #[test]

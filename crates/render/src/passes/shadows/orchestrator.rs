@@ -264,6 +264,13 @@ impl ShadowOrchestrator {
         }
     }
 
+    /// Forgets what every layer holds, so all are drawn again (settings changed, or the caster
+    /// shader changed or failed).
+    pub fn invalidate(&mut self) {
+        self.held.clear();
+        self.local = LocalShadows::default();
+    }
+
     /// Whether directional lights read cascades this frame.
     pub fn active(&self) -> bool {
         self.frame.rendered.iter().any(|r| *r)
@@ -319,6 +326,12 @@ impl ShadowOrchestrator {
         bounds: &SceneBounds,
         caster_generation: u64,
     ) -> bool {
+        // Other settings (bias is raster state, sizes and filters change the maps): nothing held
+        // is valid.
+        if self.held_settings != Some(*settings) {
+            self.invalidate();
+            self.held_settings = Some(*settings);
+        }
         let seen = !bounds.casters.is_empty() && !bounds.receivers.is_empty();
         self.frame = match view {
             Some((view, aspect)) if seen => self.plan(settings, view, aspect, candidates, bounds),
@@ -339,10 +352,9 @@ impl ShadowOrchestrator {
         if changed {
             self.atlas = needs.map(|(size, layers)| Atlas::new(device, size, layers));
         }
-        // A fresh atlas or other settings: nothing held is valid.
-        if changed || self.held_settings != Some(*settings) {
+        // A fresh atlas holds nothing.
+        if changed {
             self.held.clear();
-            self.held_settings = Some(*settings);
         }
         self.held.resize(layers as usize, None);
         self.frame.redraw = (0..layers as usize)
@@ -623,6 +635,10 @@ impl ShadowOrchestrator {
                     None => pass.draw(entry.vertices.clone(), instances),
                 }
             }
+        }
+        if error.is_some() {
+            // Batches whose pipeline failed were left out: draw everything again once fixed.
+            self.invalidate();
         }
         error
     }
