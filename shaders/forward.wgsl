@@ -98,12 +98,10 @@ fn vs_main(in: VertexIn) -> VertexOut {
     return out;
 }
 
-#ifdef CLUSTERED_LIGHTS
 // Distance along the view direction.
 fn view_depth(rel: vec3<f32>) -> f32 {
     return dot(rel, view.camera_forward);
 }
-#endif
 
 #ifdef DEBUG_CLUSTER_HEAT
 // Lights in the fragment's cluster: black for none, then blue, green, yellow, red, white at 256
@@ -233,7 +231,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #ifdef SHADOWS
         if lights[i].kind == LIGHT_DIRECTIONAL && any(lit > vec3<f32>(0.0)) {
             let n_dot_l = dot(geometric_n, -lights[i].direction);
-            let depth = dot(in.rel_position, view.camera_forward);
+            let depth = view_depth(in.rel_position);
             lit *= directional_shadow(i, in.rel_position, geometric_n, n_dot_l, depth, in.clip_position.xy);
         }
 #endif
@@ -276,7 +274,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #ifdef DEBUG_CASCADES
     // Tinted by cascade, shaded by the lit image's luminance so shapes and shadows still read.
     let luminance = dot(out, vec3<f32>(0.2126, 0.7152, 0.0722));
-    out = cascade_tint(dot(in.rel_position, view.camera_forward)) * (0.25 + 0.75 * clamp(luminance, 0.0, 1.0));
+    out = cascade_tint(view_depth(in.rel_position)) * (0.25 + 0.75 * clamp(luminance, 0.0, 1.0));
 #endif
     // No NaN or Inf may reach the render target: a NaN fails every comparison, so it becomes 0.
     // With deferred local lights their pass adds up to as much again, so each half stays below

@@ -280,6 +280,20 @@ fn texture(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// A depth 2D-array texture (the shadow atlases).
+fn depth_array(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Depth,
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 fn sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
@@ -338,16 +352,7 @@ impl PipelineCache {
                 storage(9, lit),
                 // Shadows (shaders/shadows.wgsl): the uniform, the atlas, the comparison sampler.
                 buffer_entry(10, lit, wgpu::BufferBindingType::Uniform),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 11,
-                    visibility: lit,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                depth_array(11, lit),
                 wgpu::BindGroupLayoutEntry {
                     binding: 12,
                     visibility: lit,
@@ -356,16 +361,7 @@ impl PipelineCache {
                 },
                 // Local lights' shadows: one entry per layer, and the layers.
                 storage(13, lit),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 14,
-                    visibility: lit,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                depth_array(14, lit),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;
