@@ -52,6 +52,8 @@ impl Default for App {
 impl App {
     /// An app with `Time` and the three core schedules, and no plugins.
     pub fn new() -> Self {
+        // `par_iter` in user and engine systems runs on bevy's compute pool, one per process.
+        bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
         let mut world = World::new();
         world.init_resource::<Schedules>();
         world.init_resource::<Time>();
@@ -120,13 +122,29 @@ impl App {
 
     /// Runs one frame: tick `Time`, `Startup` on the first call, then every stage in order.
     pub fn update(&mut self) {
+        self.update_with(|_, _| {});
+    }
+
+    /// Runs one frame like [`App::update`] and returns each stage's wall time in ms, in order
+    /// (`Startup` included on the first call). Benchmarks use it to split a frame's CPU time.
+    pub fn update_timed(&mut self) -> Vec<(Interned<dyn ScheduleLabel>, f64)> {
+        let mut times = Vec::new();
+        self.update_with(|label, ms| times.push((label, ms)));
+        times
+    }
+
+    fn update_with(&mut self, mut stage_done: impl FnMut(Interned<dyn ScheduleLabel>, f64)) {
         self.world.resource_mut::<Time>().tick();
         if !self.startup_done {
             self.startup_done = true;
+            let start = std::time::Instant::now();
             self.world.run_schedule(Startup);
+            stage_done(Startup.intern(), start.elapsed().as_secs_f64() * 1e3);
         }
         for label in self.schedule_order.clone() {
+            let start = std::time::Instant::now();
             self.world.run_schedule(label);
+            stage_done(label, start.elapsed().as_secs_f64() * 1e3);
         }
         self.world.clear_trackers();
     }

@@ -165,6 +165,88 @@ pub fn spawn_shadows_scene(world: &mut World) {
     ));
 }
 
+/// How `spawn_many_cubes` places its cubes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CubeLayout {
+    /// A square grid 2 m apart on the ground, seen from above at an angle.
+    Grid,
+    /// A Fibonacci sphere, seen from outside.
+    Sphere,
+}
+
+/// Marks the cubes the many-cubes scene turns every frame (see [`spin_cubes`]).
+#[derive(bevy_ecs::component::Component, Debug, Clone, Copy)]
+pub struct Spinning;
+
+/// **many-cubes**: `count` unit cubes sharing one mesh and one material (sRGB (0.8, 0.55, 0.3),
+/// roughness 0.5), a 10 000 lux sun from (0.3, 1, 0.6) without shadows, ambient 200 cd/m², and
+/// the camera the layout prescribes. The first `ceil(moving·count)` cubes get [`Spinning`].
+/// Returns the cube entities in index order.
+pub fn spawn_many_cubes(
+    world: &mut World,
+    count: usize,
+    layout: CubeLayout,
+    moving: f64,
+) -> Vec<bevy_ecs::entity::Entity> {
+    let cube = world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let paint =
+        world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::from_color(srgb(0.8, 0.55, 0.3), 0.5));
+    let spinning = (moving.clamp(0.0, 1.0) * count as f64).ceil() as usize;
+    // The notes' far planes (6·half + 100) clip nothing: Penumbra's perspective far plane is infinite.
+    let (positions, eye, target): (Vec<Vec3>, Vec3, Vec3) = match layout {
+        CubeLayout::Grid => {
+            let side = (count as f64).sqrt().ceil().max(1.0) as usize;
+            let centre = (side as f32 - 1.0) / 2.0;
+            let at = |i: usize| Vec3::new(2.0 * ((i % side) as f32 - centre), 0.0, 2.0 * ((i / side) as f32 - centre));
+            let half = side as f32;
+            ((0..count).map(at).collect(), Vec3::new(0.0, 1.6 * half, 1.6 * half), Vec3::new(0.0, 0.0, 0.25 * half))
+        }
+        CubeLayout::Sphere => {
+            let n = count.max(1) as f32;
+            let radius = (2.0 * (n / (4.0 * std::f32::consts::PI)).sqrt()).max(2.0);
+            let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+            let at = |i: usize| {
+                let y = 1.0 - 2.0 * (i as f32 + 0.5) / n;
+                let r = (1.0 - y * y).max(0.0).sqrt();
+                let theta = i as f32 * golden;
+                radius * Vec3::new(r * theta.cos(), y, r * theta.sin())
+            };
+            ((0..count).map(at).collect(), Vec3::new(0.0, 0.0, 2.8 * radius), Vec3::ZERO)
+        }
+    };
+    let mut cubes = Vec::with_capacity(count);
+    for (i, p) in positions.into_iter().enumerate() {
+        let mut e = world.spawn((Mesh3d(cube), MeshMaterial3d(paint), Transform::from_translation(p)));
+        if i < spinning {
+            e.insert(Spinning);
+        }
+        cubes.push(e.id());
+    }
+    world.spawn((
+        DirectionalLight { illuminance: 10_000.0, shadows: false, ..Default::default() },
+        Transform::from_xyz(0.3, 1.0, 0.6).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    world.spawn(AmbientLight { color: Vec3::ONE, intensity: 200.0 });
+    world.spawn((
+        Camera {
+            projection: Projection::Perspective { yfov: 45f32.to_radians(), znear: 0.1, aspect_ratio: None },
+            exposure: Exposure { ev100: BENCH_EV100 },
+            ..Default::default()
+        },
+        Transform::from_translation(eye).looking_at(target, Vec3::Y),
+    ));
+    cubes
+}
+
+/// The many-cubes scene's motion: each [`Spinning`] cube turns 0.02 rad about the world Y axis,
+/// then 0.01 rad about its own X axis, every update, on all cores.
+pub fn spin_cubes(mut cubes: bevy_ecs::system::Query<&mut Transform, bevy_ecs::query::With<Spinning>>) {
+    let (yaw, pitch) = (glam::Quat::from_rotation_y(0.02), glam::Quat::from_rotation_x(0.01));
+    cubes.par_iter_mut().for_each(|mut t| {
+        t.rotation = (yaw * t.rotation * pitch).normalize();
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

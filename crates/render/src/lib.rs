@@ -11,6 +11,7 @@
 //! - [`RenderPlugin`] wires extraction and (for headless targets) rendering into the `App`.
 
 pub mod context;
+pub mod entity_table;
 pub mod extract;
 pub mod frame;
 pub mod headless;

@@ -19,6 +19,7 @@ use penumbra_engine::components::Projection;
 use penumbra_engine::mesh::Mesh;
 
 use crate::context::GpuContext;
+use crate::entity_table::{EntityTable, Replaced};
 use crate::frame::{FramePlan, Pass};
 use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
@@ -171,7 +172,12 @@ pub struct FrameStats {
     pub cluster_index_bound: u64,
     pub light_bytes_uploaded: u64,
     pub instance_bytes_uploaded: u64,
+    /// CPU time of the whole frame on this thread up to submission: prepare + encode.
     pub cpu_ms: f64,
+    /// Of `cpu_ms`, syncing the render world's retained state and uploading what changed.
+    pub prepare_ms: f64,
+    /// `queue.submit` alone (outside `cpu_ms`: a driver busy with earlier frames may block it).
+    pub submit_ms: f64,
     /// GPU time per pass of the newest frame the GPU has finished (timing enabled only).
     pub gpu: Option<FrameTimings>,
     pub plan: FramePlan,
@@ -269,7 +275,7 @@ pub struct Renderer {
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
     view_bind_group: Option<wgpu::BindGroup>,
-    draws: HashMap<Entity, DrawState>,
+    draws: EntityTable<DrawState>,
     mesh_users: HashMap<Handle<Mesh>, u32>,
     material_users: HashMap<MaterialKey, u32>,
     mesh_ids: HashMap<Handle<Mesh>, MeshId>,
@@ -277,6 +283,8 @@ pub struct Renderer {
     material_bits: HashMap<MaterialKey, (AlphaKey, bool, bool, TextureSet)>,
     opaque_batches: Vec<Batch>,
     opaque_slots: Vec<u32>,
+    /// `opaque_slots` changed since it was last uploaded.
+    opaque_slots_dirty: bool,
     blend_entities: Vec<Entity>,
     batches_dirty: bool,
     targets: Option<FrameTargets>,
@@ -344,13 +352,14 @@ impl Renderer {
             view_buffer,
             pipelines,
             view_bind_group: None,
-            draws: HashMap::new(),
+            draws: EntityTable::default(),
             mesh_users: HashMap::new(),
             material_users: HashMap::new(),
             mesh_ids: HashMap::new(),
             material_bits: HashMap::new(),
             opaque_batches: Vec::new(),
             opaque_slots: Vec::new(),
+            opaque_slots_dirty: true,
             blend_entities: Vec::new(),
             batches_dirty: true,
             targets: None,
@@ -587,15 +596,18 @@ impl Renderer {
         let blend_batches = self.sort_blended(scene);
 
         // Uploads: draw slots (opaque part only when rebuilt, blended part every frame).
-        let mut slots = std::mem::take(&mut self.opaque_slots);
-        let opaque_len = slots.len();
-        slots.extend(blend_batches.iter().map(|(_, slot)| *slot));
-        rebind |= self.draw_slots.reserve(&device, (slots.len().max(1) * 4) as u64);
-        if !slots.is_empty() {
-            queue.write_buffer(self.draw_slots.buffer(), 0, bytemuck::cast_slice(&slots));
+        let opaque_len = self.opaque_slots.len();
+        let total = opaque_len + blend_batches.len();
+        let grew = self.draw_slots.reserve(&device, (total.max(1) * 4) as u64);
+        rebind |= grew;
+        if (self.opaque_slots_dirty || grew) && opaque_len > 0 {
+            queue.write_buffer(self.draw_slots.buffer(), 0, bytemuck::cast_slice(&self.opaque_slots));
         }
-        slots.truncate(opaque_len);
-        self.opaque_slots = slots;
+        self.opaque_slots_dirty = false;
+        if !blend_batches.is_empty() {
+            let blend_slots: Vec<u32> = blend_batches.iter().map(|(_, slot)| *slot).collect();
+            queue.write_buffer(self.draw_slots.buffer(), opaque_len as u64 * 4, bytemuck::cast_slice(&blend_slots));
+        }
         rebind |= self.instances.upload(&device, &queue);
         rebind |= self.materials.upload(&device, &queue);
         self.write_view(scene, &queue, size);
@@ -618,6 +630,7 @@ impl Renderer {
             self.deferred_lights,
         );
 
+        let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
         }
@@ -719,7 +732,9 @@ impl Renderer {
         // CPU time is our work up to here; submission can block on a software driver busy
         // with the previous frame, which is GPU time, not ours.
         let cpu_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
+        let submit_start = Instant::now();
         self.last_submission = Some(queue.submit([command_buffer]));
+        let submit_ms = submit_start.elapsed().as_secs_f64() * 1e3;
         if let Some(t) = self.timer.as_mut() {
             t.after_submit();
         }
@@ -741,6 +756,8 @@ impl Renderer {
             light_bytes_uploaded: self.lights.last_upload_bytes,
             instance_bytes_uploaded: self.instances.last_upload_bytes,
             cpu_ms,
+            prepare_ms,
+            submit_ms,
             gpu: self.timer.as_ref().and_then(|t| t.latest().cloned()),
             plan,
             pipelines: self.pipelines.forward_pipeline_count(),
@@ -894,8 +911,8 @@ impl Renderer {
     fn apply_draw_changes(&mut self, scene: &RenderScene, in_step: bool) {
         if !in_step {
             // Missed change lists: diff against the full draw set instead.
-            let gone: Vec<Entity> = self.draws.keys().filter(|e| !scene.draws.contains_key(e)).copied().collect();
-            let all: Vec<Entity> = scene.draws.keys().copied().collect();
+            let gone: Vec<Entity> = self.draws.keys().filter(|e| !scene.draws.contains(*e)).collect();
+            let all: Vec<Entity> = scene.draws.keys().collect();
             self.apply_changes(scene, &gone, &all);
         } else {
             self.apply_changes(scene, &scene.removed_draws, &scene.changed_draws);
@@ -907,17 +924,39 @@ impl Renderer {
             self.caster_generation += 1;
         }
         for entity in removed {
-            if let Some(old) = self.draws.remove(entity) {
-                self.instances.remove(*entity);
-                self.release_users(&old);
-                self.batches_dirty = true;
+            if let Some(old) = self.draws.remove(*entity) {
+                self.forget_draw(&old);
             }
         }
-        for entity in changed {
+        // Moves first, in any order; then new and re-keyed draws in entity order, so instance
+        // slots are allocated the same way whatever order extraction listed them in.
+        let mut rekeyed = Vec::new();
+        for &entity in changed {
             let Some(item) = scene.draws.get(entity) else {
                 continue;
             };
             let mirrored = item.world_from_local.matrix3.determinant() < 0.0;
+            if let Some(d) = self.draws.get_mut(entity)
+                && (d.mesh, d.material, d.mirrored, d.visible) == (item.mesh, item.material, mirrored, item.visible)
+            {
+                // Moved only (the common case, animation): one record rewritten, batches kept.
+                let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
+                d.world_from_local = item.world_from_local;
+                self.instances.write(d.slot, GpuInstance::new(&item.world_from_local, material_slot));
+            } else {
+                rekeyed.push(entity);
+            }
+        }
+        rekeyed.sort_unstable();
+        for entity in rekeyed {
+            let Some(item) = scene.draws.get(entity) else {
+                continue;
+            };
+            let mirrored = item.world_from_local.matrix3.determinant() < 0.0;
+            // The material slot is assigned by prepare_materials; slot 0 until then is harmless
+            // because the instance is re-packed there once the slot is known.
+            let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
+            let instance = GpuInstance::new(&item.world_from_local, material_slot);
             let previous = self.draws.get(entity).copied();
             if let Some(old) = &previous
                 && (old.mesh != item.mesh || old.material != item.material)
@@ -928,10 +967,13 @@ impl Renderer {
                 *self.mesh_users.entry(item.mesh).or_default() += 1;
                 *self.material_users.entry(item.material).or_default() += 1;
             }
-            // The material slot is assigned by prepare_materials; slot 0 until then is harmless
-            // because the instance is re-packed below once the slot is known.
-            let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
-            let slot = self.instances.set(*entity, GpuInstance::new(&item.world_from_local, material_slot));
+            let slot = match previous {
+                Some(d) => {
+                    self.instances.write(d.slot, instance);
+                    d.slot
+                }
+                None => self.instances.allocate(instance),
+            };
             let state = DrawState {
                 slot,
                 mesh: item.mesh,
@@ -940,16 +982,19 @@ impl Renderer {
                 visible: item.visible,
                 world_from_local: item.world_from_local,
             };
-            if previous.is_none_or(|o| {
-                o.mesh != state.mesh
-                    || o.material != state.material
-                    || o.mirrored != state.mirrored
-                    || o.visible != state.visible
-            }) {
-                self.batches_dirty = true;
+            self.batches_dirty = true;
+            if let Replaced::Other(_, stale) = self.draws.insert(entity, state) {
+                // Not reported removed (extraction reports reused indices; this is a backstop).
+                self.forget_draw(&stale);
             }
-            self.draws.insert(*entity, state);
         }
+    }
+
+    /// Releases what a draw that is gone held: its instance slot, its mesh and material uses.
+    fn forget_draw(&mut self, old: &DrawState) {
+        self.instances.free(old.slot);
+        self.release_users(old);
+        self.batches_dirty = true;
     }
 
     fn release_users(&mut self, old: &DrawState) {
@@ -1015,10 +1060,9 @@ impl Renderer {
         self.material_bits.retain(|k, _| self.material_users.contains_key(k));
         if new_slots {
             // Instances packed before their material had a slot get the real one now.
-            let entities: Vec<(Entity, DrawState)> = self.draws.iter().map(|(e, d)| (*e, *d)).collect();
-            for (e, d) in entities {
+            for d in self.draws.values() {
                 if let Some(m) = self.materials.get(&d.material) {
-                    self.instances.set(e, GpuInstance::new(&d.world_from_local, m.slot));
+                    self.instances.write(d.slot, GpuInstance::new(&d.world_from_local, m.slot));
                 }
             }
         }
@@ -1080,13 +1124,13 @@ impl Renderer {
         let casters_before = self.caster_signature();
         let mut items: Vec<(PipelineKey, MaterialKey, MeshId, Handle<Mesh>, u32)> = Vec::new();
         self.blend_entities.clear();
-        for (entity, d) in &self.draws {
+        for (entity, d) in self.draws.iter() {
             if !d.visible {
                 continue;
             }
             let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else { continue };
             if key.alpha == AlphaKey::Blend {
-                self.blend_entities.push(*entity);
+                self.blend_entities.push(entity);
             } else {
                 items.push((key, d.material, mesh_id, d.mesh, d.slot));
             }
@@ -1098,6 +1142,7 @@ impl Renderer {
         self.blend_entities.sort_unstable();
         self.opaque_batches.clear();
         self.opaque_slots.clear();
+        self.opaque_slots_dirty = true;
         for (key, material, mesh_id, mesh, slot) in items {
             let i = self.opaque_slots.len() as u32;
             self.opaque_slots.push(slot);
@@ -1129,7 +1174,7 @@ impl Renderer {
         let forward = (view.world_from_view.matrix3 * glam::Vec3A::NEG_Z).normalize_or_zero();
         let mut out: Vec<(f32, Entity, Batch, u32)> = Vec::new();
         for entity in &self.blend_entities {
-            let d = &self.draws[entity];
+            let Some(d) = self.draws.get(*entity) else { continue };
             let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else {
                 continue;
             };

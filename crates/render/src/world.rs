@@ -19,6 +19,8 @@ use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
 
+use crate::entity_table::EntityTable;
+
 /// The camera the frame is rendered from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExtractedView {
@@ -121,7 +123,7 @@ pub struct RenderScene {
     /// late, or skipped a frame) cannot trust the change lists and resynchronises from `draws`.
     pub frame: u64,
     pub view: Option<ExtractedView>,
-    pub draws: HashMap<Entity, DrawItem>,
+    pub draws: EntityTable<DrawItem>,
     /// Entities inserted or changed in `draws` this frame.
     pub changed_draws: Vec<Entity>,
     /// Entities removed from `draws` this frame.

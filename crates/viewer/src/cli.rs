@@ -178,6 +178,16 @@ pub struct BenchArgs {
     /// For the built-in `many-lights` scene: the light counts to run, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000", value_name = "N,N,...")]
     pub lights: Vec<usize>,
+    /// For the built-in `many-cubes` scene: the cube counts to run, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000", value_name = "N,N,...")]
+    pub count: Vec<usize>,
+    /// For `many-cubes`: the fractions of cubes that turn every frame, comma-separated (each in
+    /// 0..=1; `--moving` alone means 1).
+    #[arg(long, value_delimiter = ',', default_value = "0", default_missing_value = "1", num_args = 0..=1, value_parser = parse_fraction, value_name = "F,F,...")]
+    pub moving: Vec<f64>,
+    /// For `many-cubes`: where the cubes stand.
+    #[arg(long, value_enum, default_value = "grid")]
+    pub layout: LayoutArg,
     /// For `many-lights`: each light's range in metres, or `auto` (from its intensity).
     #[arg(long, default_value = "3", value_parser = parse_range, value_name = "METRES|auto")]
     pub light_range: LightRange,
@@ -206,6 +216,19 @@ impl From<TonemapArg> for Tonemapper {
             TonemapArg::None => Tonemapper::None,
         }
     }
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayoutArg {
+    Grid,
+    Sphere,
+}
+
+fn parse_fraction(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|f| (0.0..=1.0).contains(f))
+        .ok_or_else(|| format!("{s:?} is not a fraction between 0 and 1"))
 }
 
 /// A light range from the command line: metres, or derived from intensity.

@@ -1,8 +1,10 @@
 //! `Transform` (local, authored) and `GlobalTransform` (world, derived), and the propagation
 //! system that derives the second from the first down the `ChildOf` hierarchy.
 //!
-//! Propagation runs in `PostUpdate`. It walks from every root; a subtree is recomputed when its
-//! root's `Transform` or parent link changed, or when any ancestor was recomputed, and
+//! Propagation runs in `PostUpdate`. Entities with neither parent nor children are visited only
+//! when their `Transform` changed (in parallel). Hierarchies are walked from every root; a
+//! subtree is recomputed when its root's `Transform` or parent link changed, or when any
+//! ancestor was recomputed, and
 //! `GlobalTransform` is only written when it is recomputed, so change detection downstream
 //! (extraction) sees exactly the entities that moved.
 
@@ -108,26 +110,42 @@ impl GlobalTransform {
     }
 }
 
+/// Parentless, childless entities whose `Transform` changed: most of a large scene.
+type ChangedLeaves<'w, 's> = Query<
+    'w,
+    's,
+    (&'static Transform, &'static mut GlobalTransform),
+    (Changed<Transform>, Without<ChildOf>, Without<Children>),
+>;
+
 /// Derives `GlobalTransform` for every entity with a `Transform`.
 pub fn propagate_transforms(
-    roots: Query<(Entity, Ref<Transform>, Option<&Children>), Without<ChildOf>>,
+    mut globals: ParamSet<(ChangedLeaves, Query<&mut GlobalTransform>)>,
+    roots: Query<(Entity, Ref<Transform>, &Children), Without<ChildOf>>,
+    parentless: Query<&Transform, Without<ChildOf>>,
     nodes: Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
     mut unparented: RemovedComponents<ChildOf>,
-    mut globals: Query<&mut GlobalTransform>,
 ) {
+    // Standalone entities need no walk: only the changed ones are visited, on all cores, so a
+    // still scene of a million objects costs one parallel pass over change ticks.
+    globals.p0().par_iter_mut().for_each(|(transform, mut global)| global.0 = transform.to_affine());
     // An entity that lost its parent is a root whose world transform changed although its
     // `Transform` did not.
     let unparented: std::collections::HashSet<Entity> = unparented.read().collect();
+    let mut globals = globals.p1();
+    for &entity in &unparented {
+        if let (Ok(transform), Ok(mut g)) = (parentless.get(entity), globals.get_mut(entity)) {
+            g.0 = transform.to_affine();
+        }
+    }
     for (entity, transform, children) in &roots {
         let dirty = transform.is_changed() || unparented.contains(&entity);
         let world = transform.to_affine();
         if dirty && let Ok(mut g) = globals.get_mut(entity) {
             g.0 = world;
         }
-        if let Some(children) = children {
-            for &child in children {
-                propagate_recursive(child, world, dirty, &nodes, &mut globals, 0);
-            }
+        for &child in children {
+            propagate_recursive(child, world, dirty, &nodes, &mut globals, 0);
         }
     }
 }

@@ -21,6 +21,7 @@ use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
 
+use crate::entity_table::Replaced;
 use crate::world::{DrawItem, ExtractedLight, ExtractedView, LightKey, LightKind, RenderScene, Snapshot};
 
 /// Systems in the order they run.
@@ -67,7 +68,7 @@ fn extract_draws(
     // Losing its placement or visibility makes a mesh undrawable as surely as losing the mesh.
     // Handled first: a component removed and added back this frame is re-extracted below.
     for entity in removed_transforms.read().chain(removed_visibility.read()).collect::<Vec<_>>() {
-        if scene.draws.remove(&entity).is_some() {
+        if scene.draws.remove(entity).is_some() {
             scene.removed_draws.push(entity);
         }
     }
@@ -78,7 +79,11 @@ fn extract_draws(
             material: material.map(|m| m.0),
             visible: visibility.0,
         };
-        scene.draws.insert(entity, item);
+        // A despawned entity whose index was reused this frame is gone even if its removal
+        // has not been read yet.
+        if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
+            scene.removed_draws.push(old);
+        }
         scene.changed_draws.push(entity);
     }
     for entity in removed_meshes.read() {
@@ -86,22 +91,22 @@ fn extract_draws(
         if all.contains(entity) {
             continue;
         }
-        if scene.draws.remove(&entity).is_some() {
+        if scene.draws.remove(entity).is_some() {
             scene.removed_draws.push(entity);
         }
     }
     // Losing only the material falls back to the default one.
     for entity in removed_materials.read() {
         if let Ok((transform, mesh, material, visibility)) = all.get(entity) {
-            scene.draws.insert(
-                entity,
-                DrawItem {
-                    world_from_local: transform.0,
-                    mesh: mesh.0,
-                    material: material.map(|m| m.0),
-                    visible: visibility.0,
-                },
-            );
+            let item = DrawItem {
+                world_from_local: transform.0,
+                mesh: mesh.0,
+                material: material.map(|m| m.0),
+                visible: visibility.0,
+            };
+            if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
+                scene.removed_draws.push(old);
+            }
             scene.changed_draws.push(entity);
         }
     }

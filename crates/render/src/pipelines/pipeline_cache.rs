@@ -193,6 +193,11 @@ impl PartialOrd for FormatKey {
 }
 impl Ord for FormatKey {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        // Batch sorting compares a draw's key with its neighbour's: nearly always equal, and
+        // then no string is built. Different formats order by name (wgpu gives no other).
+        if self.0 == other.0 {
+            return std::cmp::Ordering::Equal;
+        }
         format!("{:?}", self.0).cmp(&format!("{:?}", other.0))
     }
 }

@@ -1,10 +1,8 @@
 //! The instance buffer: one 64-byte record per drawable entity (world transform, material slot),
-//! retained across frames. Each entity owns a slot for its lifetime; only entities extraction
-//! reports as changed are re-packed, and only the span of slots that changed is uploaded.
+//! retained across frames. Each entity owns a slot for its lifetime (the renderer keeps the slot
+//! in its per-entity state); only entities extraction reports as changed are re-packed, and only
+//! the span of slots that changed is uploaded.
 
-use std::collections::HashMap;
-
-use bevy_ecs::entity::Entity;
 use bytemuck::{Pod, Zeroable};
 use glam::Affine3A;
 
@@ -41,7 +39,6 @@ impl GpuInstance {
 pub struct InstanceBuffer {
     cpu: Vec<GpuInstance>,
     buffer: GrowableBuffer,
-    slots: HashMap<Entity, u32>,
     free: Vec<u32>,
     dirty: Option<(u32, u32)>,
     /// Bytes written by the last `upload` (0 when nothing changed).
@@ -53,7 +50,6 @@ impl InstanceBuffer {
         Self {
             cpu: Vec::new(),
             buffer: GrowableBuffer::new(device, "instances", wgpu::BufferUsages::STORAGE, 1024 * 64),
-            slots: HashMap::new(),
             free: Vec::new(),
             dirty: None,
             last_upload_bytes: 0,
@@ -64,44 +60,38 @@ impl InstanceBuffer {
         self.buffer.buffer()
     }
 
-    pub fn slot(&self, entity: Entity) -> Option<u32> {
-        self.slots.get(&entity).copied()
-    }
-
+    /// Slots in use.
     pub fn len(&self) -> usize {
-        self.slots.len()
+        self.cpu.len() - self.free.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.slots.is_empty()
+        self.len() == 0
     }
 
     fn mark(&mut self, slot: u32) {
         self.dirty = Some(self.dirty.map_or((slot, slot), |(a, b)| (a.min(slot), b.max(slot))));
     }
 
-    /// Writes the entity's record, allocating a slot on first sight. Returns the slot.
-    pub fn set(&mut self, entity: Entity, instance: GpuInstance) -> u32 {
-        let slot = match self.slots.get(&entity) {
-            Some(&s) => s,
-            None => {
-                let s = self.free.pop().unwrap_or_else(|| {
-                    self.cpu.push(GpuInstance::zeroed());
-                    self.cpu.len() as u32 - 1
-                });
-                self.slots.insert(entity, s);
-                s
-            }
-        };
-        self.cpu[slot as usize] = instance;
-        self.mark(slot);
+    /// A slot for a new drawable (a freed one first, so the buffer stays dense), holding
+    /// `instance`.
+    pub fn allocate(&mut self, instance: GpuInstance) -> u32 {
+        let slot = self.free.pop().unwrap_or_else(|| {
+            self.cpu.push(GpuInstance::zeroed());
+            self.cpu.len() as u32 - 1
+        });
+        self.write(slot, instance);
         slot
     }
 
-    pub fn remove(&mut self, entity: Entity) {
-        if let Some(s) = self.slots.remove(&entity) {
-            self.free.push(s);
-        }
+    /// Rewrites a slot's record; uploaded with the next `upload`.
+    pub fn write(&mut self, slot: u32, instance: GpuInstance) {
+        self.cpu[slot as usize] = instance;
+        self.mark(slot);
+    }
+
+    pub fn free(&mut self, slot: u32) {
+        self.free.push(slot);
     }
 
     /// Uploads the changed span; returns true when the buffer was replaced (bind groups stale).

@@ -1,0 +1,160 @@
+//! `penumbra bench many-cubes`: the many-cubes scene of `notes/bench-scenes.md` for each cube
+//! count in `--count` and each moving fraction in `--moving`. Per row, medians over the timed
+//! frames of the CPU time split by stage (main world: user systems and transform propagation;
+//! extract; prepare, encode and submit in the renderer), GPU time from timestamp queries, the
+//! instance bytes uploaded and the draw calls issued. Frames are pipelined (at most two in
+//! flight, no readback), as interactive rendering runs.
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use anyhow::{Result, anyhow};
+use bevy_ecs::schedule::ScheduleLabel;
+use penumbra_engine::scenes::{BENCH_EV100, CubeLayout, spawn_many_cubes, spin_cubes};
+use penumbra_render::{AdapterRequest, Extract, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
+
+use super::bench::{bound_frames_in_flight, percentile};
+use crate::cli::{BenchArgs, LayoutArg};
+
+#[derive(Default)]
+struct Samples {
+    main: Vec<f64>,
+    extract: Vec<f64>,
+    prepare: Vec<f64>,
+    encode: Vec<f64>,
+    submit: Vec<f64>,
+    cpu: Vec<f64>,
+    wall: Vec<f64>,
+    gpu: Vec<f64>,
+    instance_bytes: Vec<f64>,
+}
+
+struct Row {
+    count: usize,
+    moving: f64,
+    median: [f64; 9],
+    draw_calls: u32,
+    instances: u32,
+    instances_mib: f64,
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    if args.frames == 0 {
+        return Err(anyhow!("--frames must be at least 1"));
+    }
+    if args.count.is_empty() || args.moving.is_empty() {
+        return Err(anyhow!("--count and --moving: give at least one value each"));
+    }
+    let layout = match args.layout {
+        LayoutArg::Grid => CubeLayout::Grid,
+        LayoutArg::Sphere => CubeLayout::Sphere,
+    };
+    let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
+    let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
+    let mut rows = Vec::new();
+    for &count in &args.count {
+        for &moving in &args.moving {
+            let mut app = penumbra_engine::App::new();
+            app.add_plugins(penumbra_engine::CorePlugin).add_plugins(RenderPlugin);
+            app.add_systems(penumbra_engine::Update, spin_cubes);
+            spawn_many_cubes(&mut app.world, count, layout, moving);
+            app.insert_resource(Renderer::new(ctx.clone(), settings.clone())?);
+            app.insert_resource(RenderOutput::Headless { width: args.size.0, height: args.size.1 });
+            let s = time_frames(&mut app, args.warmup, args.frames);
+            let renderer = app.world.resource::<Renderer>();
+            let stats = renderer.stats();
+            let med = |v: &[f64]| if v.is_empty() { f64::NAN } else { percentile(v, 0.5) };
+            rows.push(Row {
+                count,
+                moving,
+                median: [
+                    med(&s.main),
+                    med(&s.extract),
+                    med(&s.prepare),
+                    med(&s.encode),
+                    med(&s.submit),
+                    med(&s.cpu),
+                    med(&s.wall),
+                    med(&s.gpu),
+                    med(&s.instance_bytes),
+                ],
+                draw_calls: stats.draw_calls,
+                instances: stats.instances,
+                instances_mib: renderer.memory().instances as f64 / 1048576.0,
+            });
+        }
+    }
+    println!("adapter   {}", ctx.describe());
+    println!(
+        "scene     many-cubes (notes/bench-scenes.md), {:?} layout: one shared 1 m cube mesh and material, a 10 000 lux sun without shadows, ambient 200 cd/m²",
+        layout
+    );
+    println!(
+        "settings  {}x{}, MSAA {}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
+        args.size.0, args.size.1, settings.msaa, settings.tonemapper, args.warmup, args.frames
+    );
+    println!();
+    println!(
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances drawn | GPU MiB instances |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        let [main, extract, prepare, encode, submit, cpu, wall, gpu, bytes] = r.median;
+        let gpu = if gpu.is_nan() { "n/a".to_owned() } else { format!("{gpu:.3}") };
+        println!(
+            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} | {encode:.3} | {submit:.3} | {cpu:.3} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {:.1} |",
+            r.count, r.moving, r.draw_calls, r.instances, r.instances_mib
+        );
+    }
+    Ok(())
+}
+
+/// Warm-up frames unpipelined, then timed frames with at most two in flight; every sample
+/// vector sorted ascending.
+fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samples {
+    for _ in 0..warmup {
+        app.update();
+        bound_frames_in_flight(app, &mut VecDeque::new(), 0);
+    }
+    let (extract, render) = (Extract.intern(), penumbra_render::Render.intern());
+    let mut s = Samples::default();
+    let mut in_flight = VecDeque::new();
+    let mut last_gpu_frame = 0;
+    let mut last = Instant::now();
+    for _ in 0..frames {
+        let stages = app.update_timed();
+        let stage = |label| stages.iter().filter(|(l, _)| *l == label).map(|(_, ms)| ms).sum::<f64>();
+        let main: f64 = stages.iter().filter(|(l, _)| *l != extract && *l != render).map(|(_, ms)| ms).sum();
+        bound_frames_in_flight(app, &mut in_flight, 2);
+        let now = Instant::now();
+        s.wall.push((now - last).as_secs_f64() * 1e3);
+        last = now;
+        let stats = app.world.resource::<Renderer>().stats();
+        s.main.push(main);
+        s.extract.push(stage(extract));
+        s.prepare.push(stats.prepare_ms);
+        s.encode.push(stats.cpu_ms - stats.prepare_ms);
+        s.submit.push(stats.submit_ms);
+        s.cpu.push(main + stage(extract) + stats.cpu_ms + stats.submit_ms);
+        s.instance_bytes.push(stats.instance_bytes_uploaded as f64);
+        if let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
+            last_gpu_frame = t.frame;
+            s.gpu.push(t.passes.iter().map(|(_, ms)| ms).sum());
+        }
+    }
+    app.world.resource_mut::<Renderer>().finish();
+    for v in [
+        &mut s.main,
+        &mut s.extract,
+        &mut s.prepare,
+        &mut s.encode,
+        &mut s.submit,
+        &mut s.cpu,
+        &mut s.wall,
+        &mut s.gpu,
+        &mut s.instance_bytes,
+    ] {
+        v.sort_by(f64::total_cmp);
+    }
+    s
+}
