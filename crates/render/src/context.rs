@@ -28,6 +28,9 @@ pub enum ContextError {
 pub struct Capabilities {
     /// GPU timestamps at pass boundaries (used by stats and `penumbra bench`).
     pub timestamps: bool,
+    /// Indirect draws that honour their first instance, which GPU culling's draws need
+    /// (Vulkan, Metal, DX12; not GL).
+    pub indirect_first_instance: bool,
 }
 
 #[derive(Clone)]
@@ -99,9 +102,14 @@ impl GpuContext {
         let info = adapter.get_info();
         let available = adapter.features();
         let timestamps = available.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let indirect_first_instance = available.contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)
+            && adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION);
         let mut features = wgpu::Features::empty();
         if timestamps {
             features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        if indirect_first_instance {
+            features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
         }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("penumbra"),
@@ -113,7 +121,14 @@ impl GpuContext {
         }))
         .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?;
         tracing::info!("GPU: {} ({:?}, {:?}, driver {})", info.name, info.backend, info.device_type, info.driver_info);
-        Ok(Self { instance, adapter, device, queue, info: Arc::new(info), caps: Capabilities { timestamps } })
+        Ok(Self {
+            instance,
+            adapter,
+            device,
+            queue,
+            info: Arc::new(info),
+            caps: Capabilities { timestamps, indirect_first_instance },
+        })
     }
 
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)".

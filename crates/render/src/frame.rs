@@ -7,6 +7,8 @@ use std::fmt;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Pass {
+    /// Compute: cull opaque and masked draws against the view frustum into indirect draws.
+    Cull,
     /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
     ClusterBin,
     /// Depth-only passes of shadow casters into the shadow atlas, one per rendered layer.
@@ -33,8 +35,19 @@ impl FramePlan {
     /// `binned_lights`: local lights the forward pass will find through clusters; `deferred`:
     /// a compute pass shades them for opaque surfaces.
     /// `shadow_layers`: shadow-map layers the orchestrator will render.
-    pub fn new(binned_lights: u32, shadow_layers: usize, has_opaque: bool, has_blend: bool, deferred: bool) -> Self {
+    /// `culled`: GPU culling runs (on, supported, and opaque draws to cull).
+    pub fn new(
+        binned_lights: u32,
+        shadow_layers: usize,
+        has_opaque: bool,
+        has_blend: bool,
+        deferred: bool,
+        culled: bool,
+    ) -> Self {
         let mut passes = Vec::new();
+        if culled && has_opaque {
+            passes.push((Pass::Cull, "opaque draws to cull (GPU culling on and supported)"));
+        }
         if binned_lights > 0 && (has_opaque || has_blend) {
             passes.push((Pass::ClusterBin, "local lights to bin and draws to light"));
         }
@@ -78,18 +91,18 @@ mod tests {
 
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!FramePlan::new(0, 0, true, false, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, 0, true, true, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, 0, false, false, false).runs(Pass::Tonemap));
+        assert!(!FramePlan::new(0, 0, true, false, false, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, 0, true, true, false, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, 0, false, false, false, false).runs(Pass::Tonemap));
     }
 
     #[test]
     fn cluster_binning_only_with_local_lights_and_something_to_light() {
-        assert!(!FramePlan::new(0, 0, true, true, false).runs(Pass::ClusterBin));
-        assert!(FramePlan::new(3, 0, true, false, false).runs(Pass::ClusterBin));
-        assert!(!FramePlan::new(3, 0, false, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(0, 0, true, true, false, false).runs(Pass::ClusterBin));
+        assert!(FramePlan::new(3, 0, true, false, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(3, 0, false, false, false, false).runs(Pass::ClusterBin));
         assert_eq!(
-            FramePlan::new(3, 0, true, false, false).passes[0].0,
+            FramePlan::new(3, 0, true, false, false, false).passes[0].0,
             Pass::ClusterBin,
             "binning precedes the forward pass"
         );
@@ -97,16 +110,25 @@ mod tests {
 
     #[test]
     fn shadow_passes_only_with_layers_to_render_and_before_the_forward_pass() {
-        assert!(!FramePlan::new(3, 0, true, false, false).runs(Pass::Shadows));
-        let plan = FramePlan::new(3, 2, true, false, false);
+        assert!(!FramePlan::new(3, 0, true, false, false, false).runs(Pass::Shadows));
+        let plan = FramePlan::new(3, 2, true, false, false, false);
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
     }
 
     #[test]
+    fn culling_only_with_opaque_draws_and_first() {
+        assert!(!FramePlan::new(0, 0, false, true, false, true).runs(Pass::Cull));
+        assert!(!FramePlan::new(0, 0, true, false, false, false).runs(Pass::Cull));
+        let plan = FramePlan::new(3, 2, true, false, false, true);
+        let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::Cull, Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
+    }
+
+    #[test]
     fn deferred_lights_only_when_asked_for_between_opaque_and_blended_draws() {
-        assert!(!FramePlan::new(3, 0, true, true, false).runs(Pass::DeferredLights));
-        let plan = FramePlan::new(3, 0, true, true, true);
+        assert!(!FramePlan::new(3, 0, true, true, false, false).runs(Pass::DeferredLights));
+        let plan = FramePlan::new(3, 0, true, true, true, false);
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Opaque, Pass::DeferredLights, Pass::Transparent, Pass::Tonemap]);
     }

@@ -23,8 +23,9 @@ use crate::entity_table::{EntityTable, Replaced};
 use crate::frame::{FramePlan, Pass};
 use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
+use crate::passes::culling::{CullInputs, GpuCulling};
 use crate::passes::deferred_lights::{self, GpuDeferredParams};
-use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs};
+use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs, IndirectDraws};
 use crate::passes::shadows::local::LocalCandidate;
 use crate::passes::shadows::orchestrator::{DirectionalCandidate, SceneBounds, ShadowOrchestrator};
 use crate::passes::shadows::{ShadowSettings, ShadowSettingsError};
@@ -67,6 +68,10 @@ pub struct RenderSettings {
     pub debug_view: DebugView,
     /// Shadow maps of directional lights.
     pub shadows: ShadowSettings,
+    /// Cull opaque and masked draws against the view frustum on the GPU and draw them
+    /// indirectly (see `passes::culling`). Adapters without indirect first-instance draws
+    /// (GL) draw everything whatever this says.
+    pub gpu_culling: bool,
 }
 
 /// How fragments find the local lights (every kind but directional and ambient) that reach them.
@@ -126,6 +131,7 @@ impl Default for RenderSettings {
             light_cutoff: DEFAULT_CUTOFF,
             debug_view: DebugView::None,
             shadows: ShadowSettings::default(),
+            gpu_culling: true,
         }
     }
 }
@@ -285,6 +291,11 @@ pub struct Renderer {
     opaque_slots: Vec<u32>,
     /// `opaque_slots` changed since it was last uploaded.
     opaque_slots_dirty: bool,
+    culling: GpuCulling,
+    /// The batches changed since `culling` last saw them.
+    cull_batches_dirty: bool,
+    /// Whether this frame's opaque draws were culled (the view bind group binds the culled list).
+    culling_active: bool,
     blend_entities: Vec<Entity>,
     batches_dirty: bool,
     targets: Option<FrameTargets>,
@@ -348,7 +359,12 @@ impl Renderer {
             local_shadows_active: false,
             caster_generation: 0,
             bounds_cache: None,
-            draw_slots: GrowableBuffer::new(device, "draw slots", wgpu::BufferUsages::STORAGE, 4096 * 4),
+            draw_slots: GrowableBuffer::new(
+                device,
+                "draw slots",
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                4096 * 4,
+            ),
             view_buffer,
             pipelines,
             view_bind_group: None,
@@ -360,6 +376,9 @@ impl Renderer {
             opaque_batches: Vec::new(),
             opaque_slots: Vec::new(),
             opaque_slots_dirty: true,
+            culling: GpuCulling::new(device),
+            cull_batches_dirty: true,
+            culling_active: false,
             blend_entities: Vec::new(),
             batches_dirty: true,
             targets: None,
@@ -503,12 +522,22 @@ impl Renderer {
         MemoryStats {
             mesh_pool: pool.vertex_capacity_bytes + pool.index_capacity_bytes,
             textures: self.textures.gpu_bytes(),
-            instances: self.instances.buffer().size(),
+            instances: self.instances.buffer().size() + self.draw_slots.capacity() + self.culling.gpu_bytes(),
             targets: self.targets.as_ref().map_or(0, |t| t.bytes()),
             lights: self.lights.gpu_bytes(),
             clusters: self.clusters.gpu_bytes(),
             shadows: self.shadows.gpu_bytes(),
         }
+    }
+
+    /// Instances each opaque batch drew in the last frame after GPU culling, in batch order;
+    /// `None` when the last frame was not culled. Reads back (waits for the GPU): for tests and
+    /// tools, not for frames.
+    pub fn visible_instance_counts(&self) -> Result<Option<Vec<u32>>, ReadbackError> {
+        if !self.culling_active {
+            return Ok(None);
+        }
+        self.culling.read_visible_counts(&self.ctx.device, &self.ctx.queue).map(Some)
     }
 
     /// Renders into the renderer's own offscreen output (`Rgba8UnormSrgb`) of `size`.
@@ -608,6 +637,20 @@ impl Renderer {
             let blend_slots: Vec<u32> = blend_batches.iter().map(|(_, slot)| *slot).collect();
             queue.write_buffer(self.draw_slots.buffer(), opaque_len as u64 * 4, bytemuck::cast_slice(&blend_slots));
         }
+        let culling = self.settings.gpu_culling
+            && self.ctx.caps.indirect_first_instance
+            && !self.opaque_batches.is_empty()
+            && scene.view.is_some();
+        if culling {
+            if self.cull_batches_dirty {
+                rebind |= self.culling.prepare_batches(&device, &queue, &self.opaque_batches, &self.mesh_pool);
+                self.cull_batches_dirty = false;
+            }
+            rebind |= self.culling.reserve(&device, total);
+        }
+        // The view bind group binds the culled list or the full one.
+        rebind |= culling != self.culling_active;
+        self.culling_active = culling;
         rebind |= self.instances.upload(&device, &queue);
         rebind |= self.materials.upload(&device, &queue);
         self.write_view(scene, &queue, size);
@@ -628,6 +671,7 @@ impl Renderer {
             !self.opaque_batches.is_empty(),
             !blend_batches.is_empty(),
             self.deferred_lights,
+            self.culling_active,
         );
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
@@ -637,6 +681,17 @@ impl Renderer {
         let mut cluster_error = None;
         if plan.runs(Pass::ClusterBin) {
             cluster_error = self.clusters.encode(&mut encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
+        }
+        let mut cull_error = None;
+        if plan.runs(Pass::Cull) {
+            let inputs = CullInputs {
+                view: &self.view_buffer,
+                instances: self.instances.buffer(),
+                draw_slots: self.draw_slots.buffer(),
+                blended: opaque_len as u32..total as u32,
+            };
+            cull_error =
+                self.culling.encode(&mut encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut()).err();
         }
         let mut shadow_error = None;
         if plan.runs(Pass::Shadows) {
@@ -661,6 +716,9 @@ impl Renderer {
             mesh_pool: &self.mesh_pool,
             materials: &self.materials,
             clear_color: wgpu::Color { r, g, b, a: 1.0 },
+            indirect: self
+                .culling_active
+                .then(|| IndirectDraws { args: self.culling.args(), batches: self.opaque_batches.len() }),
         };
         let opaque_count = self.opaque_batches.len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::Opaque) {
@@ -719,7 +777,7 @@ impl Renderer {
             tonemap::Output { view: output, format: output_format },
             self.timer.as_mut(),
         );
-        if let Some(e) = cluster_error.or(shadow_error).or(forward_error).or(tonemap_result.err())
+        if let Some(e) = cluster_error.or(cull_error).or(shadow_error).or(forward_error).or(tonemap_result.err())
             && self.shader_error.as_ref() != Some(&e)
         {
             tracing::error!("{e}");
@@ -1143,6 +1201,7 @@ impl Renderer {
         self.opaque_batches.clear();
         self.opaque_slots.clear();
         self.opaque_slots_dirty = true;
+        self.cull_batches_dirty = true;
         for (key, material, mesh_id, mesh, slot) in items {
             let i = self.opaque_slots.len() as u32;
             self.opaque_slots.push(slot);
@@ -1228,7 +1287,7 @@ impl Renderer {
             entries: &[
                 buf(0, &self.view_buffer),
                 buf(1, self.instances.buffer()),
-                buf(2, self.draw_slots.buffer()),
+                buf(2, if self.culling_active { self.culling.visible_slots() } else { self.draw_slots.buffer() }),
                 buf(3, self.materials.buffer()),
                 buf(4, self.lights.buffer()),
                 buf(5, self.clusters.grid_buffer()),

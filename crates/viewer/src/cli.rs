@@ -83,6 +83,10 @@ pub struct LookArgs {
     /// the caster, from the light's angular size).
     #[arg(long, value_enum, default_value_t = ShadowFilterArg::Pcf)]
     pub shadow_filter: ShadowFilterArg,
+    /// Draw every opaque object instead of culling against the view on the GPU (for
+    /// comparison; culling never changes the image).
+    #[arg(long)]
+    pub no_culling: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -307,6 +311,7 @@ impl LookArgs {
                 },
                 ..Default::default()
             },
+            gpu_culling: !self.no_culling,
             ..Default::default()
         };
         settings.validate().map_err(|e| {

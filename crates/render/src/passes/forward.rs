@@ -46,6 +46,15 @@ pub struct ForwardInputs<'a> {
     pub mesh_pool: &'a MeshPool,
     pub materials: &'a MaterialTable,
     pub clear_color: wgpu::Color,
+    /// With GPU culling: the first `batches` batches (the opaque ones) draw from these
+    /// indirect arguments (`culling::ARGS_WORDS` words each, in batch order).
+    pub indirect: Option<IndirectDraws<'a>>,
+}
+
+#[derive(Clone, Copy)]
+pub struct IndirectDraws<'a> {
+    pub args: &'a wgpu::Buffer,
+    pub batches: usize,
 }
 
 /// Encodes the pass. A batch whose pipeline cannot be compiled (a broken shader folder at
@@ -104,7 +113,7 @@ pub fn encode(
         multiview_mask: None,
     });
     let drawn = if split.is_some() { &batches[..opaque_count.min(batches.len())] } else { batches };
-    (draw(&mut pass, pipelines, inputs, drawn), error)
+    (draw(&mut pass, pipelines, inputs, drawn, 0), error)
 }
 
 /// After the deferred-lights pass: adds its light to the frame (when `add_local_light`: the pass
@@ -153,7 +162,7 @@ pub fn encode_after_deferred(
         pass.set_bind_group(0, &deferred.composite_bind_group, &[]);
         pass.draw(0..3, 0..1);
     }
-    (draw(&mut pass, pipelines, inputs, blended), error)
+    (draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len())), error)
 }
 
 /// Creates the batches' pipelines before a pass borrows the cache immutably; returns the last
@@ -168,11 +177,13 @@ fn compile(device: &wgpu::Device, pipelines: &mut PipelineCache, batches: &[Batc
     error
 }
 
+/// Draws `batches`, the part of the frame's batch list that starts at index `start`.
 fn draw(
     pass: &mut wgpu::RenderPass<'_>,
     pipelines: &PipelineCache,
     inputs: &ForwardInputs,
     batches: &[Batch],
+    start: usize,
 ) -> DrawCounts {
     let mut counts = DrawCounts::default();
     if batches.is_empty() {
@@ -183,13 +194,19 @@ fn draw(
     pass.set_index_buffer(inputs.mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
     let mut bound_key = None;
     let mut bound_material = None;
-    for b in batches {
+    let mut i = 0;
+    while i < batches.len() {
+        let b = &batches[i];
         let (Some(entry), Some(material)) = (inputs.mesh_pool.entry(b.mesh_id), inputs.materials.get(&b.material))
         else {
+            i += 1;
             continue;
         };
         if bound_key != Some(b.key) {
-            let Some(pipeline) = pipelines.forward_cached(&b.key) else { continue };
+            let Some(pipeline) = pipelines.forward_cached(&b.key) else {
+                i += 1;
+                continue;
+            };
             pass.set_pipeline(pipeline);
             bound_key = Some(b.key);
         }
@@ -197,19 +214,46 @@ fn draw(
             pass.set_bind_group(1, &material.bind_group, &[]);
             bound_material = Some(b.material);
         }
-        let instances = b.first..b.first + b.count;
-        match &entry.indices {
-            Some(r) => pass.draw_indexed(r.clone(), entry.vertices.start as i32, instances),
-            None => pass.draw(entry.vertices.clone(), instances),
-        }
-        counts.draw_calls += 1;
-        counts.instances += b.count;
         let per_primitive = match b.key.topology {
             crate::pipelines::pipeline_cache::TopologyKey::Triangles => 3,
             crate::pipelines::pipeline_cache::TopologyKey::Lines => 2,
             crate::pipelines::pipeline_cache::TopologyKey::Points => 1,
         };
-        counts.primitives += (entry.element_count() / per_primitive) as u64 * b.count as u64;
+        let culled = inputs.indirect.filter(|d| start + i < d.batches);
+        let mut run = 1;
+        match (culled, &entry.indices) {
+            (Some(d), Some(_)) => {
+                // Consecutive indexed batches with this pipeline and material differ only in
+                // mesh: one multi-draw (the mesh pool shares one vertex and index buffer).
+                while i + run < batches.len()
+                    && start + i + run < d.batches
+                    && batches[i + run].key == b.key
+                    && batches[i + run].material == b.material
+                    && inputs.mesh_pool.entry(batches[i + run].mesh_id).is_some_and(|e| e.indices.is_some())
+                {
+                    run += 1;
+                }
+                let offset = (start + i) as u64 * crate::passes::culling::ARGS_WORDS * 4;
+                if run == 1 {
+                    pass.draw_indexed_indirect(d.args, offset);
+                } else {
+                    pass.multi_draw_indexed_indirect(d.args, offset, run as u32);
+                }
+            }
+            (Some(d), None) => {
+                pass.draw_indirect(d.args, (start + i) as u64 * crate::passes::culling::ARGS_WORDS * 4);
+            }
+            (None, Some(r)) => pass.draw_indexed(r.clone(), entry.vertices.start as i32, b.first..b.first + b.count),
+            (None, None) => pass.draw(entry.vertices.clone(), b.first..b.first + b.count),
+        }
+        counts.draw_calls += 1;
+        // Submitted, before culling (the GPU decides how many of them draw).
+        for b in &batches[i..i + run] {
+            let elements = inputs.mesh_pool.entry(b.mesh_id).map_or(0, |e| e.element_count());
+            counts.instances += b.count;
+            counts.primitives += (elements / per_primitive) as u64 * b.count as u64;
+        }
+        i += run;
     }
     counts
 }

@@ -1,5 +1,6 @@
 //! Passes: each encodes GPU work from what prepare made. Nothing here reads the ECS.
 pub mod clusters;
+pub mod culling;
 pub mod deferred_lights;
 pub mod forward;
 pub mod shadows;

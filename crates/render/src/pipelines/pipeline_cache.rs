@@ -16,6 +16,7 @@
 use std::collections::HashMap;
 
 mod casters;
+mod culling;
 pub use casters::CasterKey;
 
 use penumbra_engine::mesh::Topology;
@@ -249,6 +250,9 @@ pub struct PipelineCache {
     /// Opaque casters (caster group only) and masked ones (with the material group).
     caster_pipeline_layouts: [wgpu::PipelineLayout; 2],
     caster: HashMap<CasterKey, wgpu::RenderPipeline>,
+    pub cull_layout: wgpu::BindGroupLayout,
+    cull_pipeline_layout: wgpu::PipelineLayout,
+    cull: Option<wgpu::ComputePipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -443,12 +447,17 @@ impl PipelineCache {
             entries: &[texture(0, false)],
         });
         let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
+        let cull_layout = culling::cull_layout(device);
+        let cull_pipeline_layout = layout("cull", &[Some(&cull_layout)]);
         let caster_layout = casters::caster_layout(device);
         let caster_pipeline_layouts = [
             layout("shadow casters", &[Some(&caster_layout)]),
             layout("masked shadow casters", &[Some(&caster_layout), Some(&material_layout)]),
         ];
         Self {
+            cull_layout,
+            cull_pipeline_layout,
+            cull: None,
             caster_layout,
             caster_pipeline_layouts,
             caster: HashMap::new(),
@@ -591,6 +600,7 @@ impl PipelineCache {
         let deferred_hit = lib.depends_on("deferred_lights.wgsl", files);
         let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
         let caster_hit = lib.depends_on("shadow_caster.wgsl", files);
+        let cull_hit = lib.depends_on("cull.wgsl", files) && self.cull.is_some();
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -633,14 +643,17 @@ impl PipelineCache {
                 caster.push((key, self.create_caster(device, &mut candidate, key)?));
             }
         }
-        let total = self.caster.len()
+        let cull = if cull_hit { Some(self.create_cull(device, &mut candidate)?) } else { None };
+        let total = self.cull.is_some() as usize
+            + self.caster.len()
             + self.forward.len()
             + self.tonemap.len()
             + self.mipmap.len()
             + self.cluster.len()
             + self.deferred.len()
             + self.composite.len();
-        let rebuilt = caster.len()
+        let rebuilt = cull.is_some() as usize
+            + caster.len()
             + forward.len()
             + tonemap.len()
             + mipmap.len()
@@ -655,6 +668,9 @@ impl PipelineCache {
         self.deferred.extend(deferred);
         self.composite.extend(composite);
         self.caster.extend(caster);
+        if cull.is_some() {
+            self.cull = cull;
+        }
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }

@@ -38,6 +38,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
+    ("cull.wgsl", include_str!("../../../../shaders/cull.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
     ("shadow_caster.wgsl", include_str!("../../../../shaders/shadow_caster.wgsl")),
     ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
@@ -352,6 +353,7 @@ mod tests {
             lib.compose("tonemap.wgsl", &defs(t)).unwrap();
         }
         lib.compose("mipmap.wgsl", &defs(&[])).unwrap();
+        lib.compose("cull.wgsl", &defs(&[])).unwrap();
     }
 
     #[test]

@@ -35,6 +35,8 @@ struct Row {
     median: [f64; 9],
     draw_calls: u32,
     instances: u32,
+    /// After GPU culling, in the last frame (`None`: not culled).
+    visible: Option<u32>,
     instances_mib: f64,
 }
 
@@ -80,6 +82,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 ],
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
+                visible: renderer.visible_instance_counts()?.map(|c| c.iter().sum()),
                 instances_mib: renderer.memory().instances as f64 / 1048576.0,
             });
         }
@@ -90,20 +93,31 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         layout
     );
     println!(
-        "settings  {}x{}, MSAA {}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
-        args.size.0, args.size.1, settings.msaa, settings.tonemapper, args.warmup, args.frames
+        "settings  {}x{}, MSAA {}, GPU culling {}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
+        args.size.0,
+        args.size.1,
+        settings.msaa,
+        if settings.gpu_culling { "on" } else { "off" },
+        settings.tonemapper,
+        args.warmup,
+        args.frames
     );
     println!();
     println!(
-        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances drawn | GPU MiB instances |"
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | GPU MiB instances and draw lists |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let [main, extract, prepare, encode, submit, cpu, wall, gpu, bytes] = r.median;
         let gpu = if gpu.is_nan() { "n/a".to_owned() } else { format!("{gpu:.3}") };
         println!(
-            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} | {encode:.3} | {submit:.3} | {cpu:.3} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {:.1} |",
-            r.count, r.moving, r.draw_calls, r.instances, r.instances_mib
+            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} | {encode:.3} | {submit:.3} | {cpu:.3} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {:.1} |",
+            r.count,
+            r.moving,
+            r.draw_calls,
+            r.instances,
+            r.visible.map_or("not culled".to_owned(), |v| v.to_string()),
+            r.instances_mib
         );
     }
     Ok(())

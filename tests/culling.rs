@@ -1,0 +1,177 @@
+//! GPU frustum culling and instancing change how draws are issued, never what is drawn: a
+//! culled frame equals the same frame drawn without culling (scenes built to stress the test:
+//! objects straddling every frustum plane and the near plane, tiny objects at the edges, objects
+//! behind the camera, far from the origin, and objects moving in and out of view between
+//! frames), and a scene drawn as instanced batches equals it drawn one draw per entity.
+
+use penumbra::prelude::*;
+use penumbra::render::{RenderSettings, Renderer};
+
+mod common;
+use common::{render_app, scene_app};
+
+const SIZE: (u32, u32) = (96, 64);
+
+fn settings(gpu_culling: bool) -> RenderSettings {
+    RenderSettings { msaa: 1, gpu_culling, ..Default::default() }
+}
+
+/// A material per colour index, so neighbours differ in the image.
+fn palette(app: &mut App) -> Vec<Handle<StandardMaterial>> {
+    let colours = [Vec4::new(0.9, 0.2, 0.2, 1.0), Vec4::new(0.2, 0.8, 0.3, 1.0), Vec4::new(0.3, 0.4, 0.9, 1.0)];
+    let mut materials = app.world.resource_mut::<Assets<StandardMaterial>>();
+    colours.into_iter().map(|c| materials.add(StandardMaterial::from_color(c, 0.6))).collect()
+}
+
+/// The stress scene around `origin`, seen from `origin` looking down −Z with a 60° field of
+/// view. Returns the entities and how many of them lie wholly behind the camera.
+fn stress_scene(app: &mut App, origin: Vec3) -> (Vec<Entity>, usize) {
+    let cube = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let sphere = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::uv_sphere(0.5, 12, 8));
+    let paint = palette(app);
+    let mut entities = Vec::new();
+    let mut spawn = |app: &mut App, mesh: Handle<Mesh>, i: usize, t: Transform| {
+        let t = Transform { translation: t.translation + origin, ..t };
+        entities.push(app.world.spawn((Mesh3d(mesh), MeshMaterial3d(paint[i % paint.len()]), t)).id());
+    };
+    // A field of cubes and spheres from behind the camera to far ahead and well beyond the
+    // sides: many straddle the left, right, top and bottom planes.
+    let mut behind = 0;
+    let mut i = 0;
+    for gx in -12i32..=12 {
+        for gz in -30..=6 {
+            let at = Vec3::new(gx as f32 * 1.7, -1.5 + 0.25 * (gx + gz).rem_euclid(5) as f32, gz as f32 * 1.7);
+            let mesh = if (gx + gz) % 2 == 0 { cube } else { sphere };
+            let t = Transform::from_translation(at).with_rotation(Quat::from_rotation_y(0.3 * i as f32));
+            // Bounding radius of either mesh is below 0.9; behind means beyond that.
+            if at.z > 0.9 {
+                behind += 1;
+            }
+            spawn(app, mesh, i, t);
+            i += 1;
+        }
+    }
+    // Tiny cubes on the frustum's side planes at several depths, and one at the near plane.
+    let half = 30f32.to_radians().tan();
+    for (k, d) in [0.5f32, 2.0, 8.0, 30.0].into_iter().enumerate() {
+        let aspect = SIZE.0 as f32 / SIZE.1 as f32;
+        for side in [-1.0, 1.0] {
+            let t = Transform::from_xyz(side * d * half * aspect, 0.1 * k as f32, -d).with_scale(Vec3::splat(0.01 * d));
+            spawn(app, cube, i, t);
+            i += 1;
+            let t = Transform::from_xyz(0.2 * k as f32, side * d * half, -d).with_scale(Vec3::splat(0.01 * d));
+            spawn(app, cube, i, t);
+            i += 1;
+        }
+    }
+    // A large box the near plane cuts through, and one far away and huge.
+    spawn(app, cube, i, Transform::from_xyz(0.8, 0.6, -0.05).with_scale(Vec3::new(0.3, 0.3, 0.3)));
+    spawn(app, sphere, i + 1, Transform::from_xyz(40.0, 20.0, -900.0).with_scale(Vec3::splat(120.0)));
+    app.world.spawn((
+        Camera {
+            projection: Projection::Perspective { yfov: 60f32.to_radians(), znear: 0.1, aspect_ratio: None },
+            ..Default::default()
+        },
+        Transform::from_translation(origin),
+    ));
+    app.world.spawn((
+        DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
+        Transform::from_xyz(0.3, 1.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
+    (entities, behind)
+}
+
+fn visible_total(app: &App) -> Option<u32> {
+    app.world.resource::<Renderer>().visible_instance_counts().unwrap().map(|c| c.iter().sum())
+}
+
+fn check_stress_scene(origin: Vec3) {
+    let mut culled = scene_app();
+    let mut reference = scene_app();
+    let (entities, behind) = stress_scene(&mut culled, origin);
+    stress_scene(&mut reference, origin);
+    let total = entities.len() as u32;
+    for frame in 0..3 {
+        let a = render_app(&mut culled, SIZE, settings(true));
+        let b = render_app(&mut reference, SIZE, settings(false));
+        assert!(a == b, "origin {origin}, frame {frame}: the culled frame differs from the unculled one");
+        let visible = visible_total(&culled).expect("culling ran");
+        assert!(visible > 0, "origin {origin}, frame {frame}: nothing drawn");
+        assert!(
+            visible <= total - behind as u32,
+            "origin {origin}, frame {frame}: {visible} of {total} drawn, but {behind} lie behind the camera"
+        );
+        assert_eq!(visible_total(&reference), None, "culling off draws the full list");
+        // Next frame: everything turns and shifts sideways, so objects cross the side planes.
+        for app in [&mut culled, &mut reference] {
+            for &e in &entities {
+                let mut t = app.world.get_mut::<Transform>(e).unwrap();
+                t.translation.x += 0.9;
+                t.rotation *= Quat::from_rotation_x(0.4);
+            }
+        }
+    }
+}
+
+#[test]
+fn culled_frames_equal_unculled_frames() {
+    check_stress_scene(Vec3::ZERO);
+}
+
+#[test]
+fn culled_frames_equal_unculled_frames_far_from_the_origin() {
+    check_stress_scene(Vec3::new(1.0e5, -3.0e4, 2.0e5));
+}
+
+#[test]
+fn an_object_entering_the_view_is_drawn_in_that_frame() {
+    let mut app = scene_app();
+    let paint = palette(&mut app);
+    let cube = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let mover = app.world.spawn((Mesh3d(cube), MeshMaterial3d(paint[0]), Transform::from_xyz(0.0, 0.0, 5.0))).id();
+    app.world.spawn((Mesh3d(cube), MeshMaterial3d(paint[1]), Transform::from_xyz(3.0, 0.0, -6.0)));
+    app.world.spawn((Camera::default(), Transform::default()));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
+    render_app(&mut app, SIZE, settings(true));
+    assert_eq!(visible_total(&app), Some(1), "the cube behind the camera is culled");
+    app.world.get_mut::<Transform>(mover).unwrap().translation = Vec3::new(0.0, 0.0, -4.0);
+    let frame = render_app(&mut app, SIZE, settings(true));
+    assert_eq!(visible_total(&app), Some(2));
+    let centre = (((SIZE.1 / 2) * SIZE.0 + SIZE.0 / 2) * 4) as usize;
+    assert!(frame[centre] > 100, "the cube that moved into view is drawn: {:?}", &frame[centre..centre + 4]);
+}
+
+#[test]
+fn instanced_batches_equal_one_draw_per_entity() {
+    // The same cubes, once sharing one material (one instanced draw), once each with its own
+    // material of equal values (one draw each).
+    let render = |shared: bool| {
+        let mut app = scene_app();
+        let cube = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+        let one =
+            app.world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::from_color(Vec4::ONE, 0.4));
+        for i in 0..60 {
+            let material = if shared {
+                one
+            } else {
+                app.world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::from_color(Vec4::ONE, 0.4))
+            };
+            let at = Vec3::new((i % 10) as f32 * 1.3 - 6.0, (i / 10) as f32 * 1.3 - 3.5, -12.0 - (i % 7) as f32);
+            let t = Transform::from_translation(at).with_rotation(Quat::from_rotation_y(i as f32 * 0.7));
+            app.world.spawn((Mesh3d(cube), MeshMaterial3d(material), t));
+        }
+        app.world.spawn((Camera::default(), Transform::default()));
+        app.world.spawn((
+            DirectionalLight { illuminance: 2.0, shadows: false, ..Default::default() },
+            Transform::from_xyz(1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+        ));
+        let image = render_app(&mut app, SIZE, settings(true));
+        (image, app.world.resource::<Renderer>().stats().draw_calls)
+    };
+    let (instanced, instanced_draws) = render(true);
+    let (separate, separate_draws) = render(false);
+    assert_eq!(instanced_draws, 1);
+    assert_eq!(separate_draws, 60);
+    assert!(instanced == separate, "instancing changed the image");
+}
