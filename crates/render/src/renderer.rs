@@ -12,7 +12,7 @@ use std::time::Instant;
 use bevy_ecs::entity::Entity;
 use bevy_ecs::resource::Resource;
 use bytemuck::{Pod, Zeroable};
-use glam::{Affine3A, Mat4, Vec3};
+use glam::{Mat4, Vec3};
 use penumbra_engine::Handle;
 use penumbra_engine::bounds::Aabb;
 use penumbra_engine::components::Projection;
@@ -182,6 +182,8 @@ pub struct FrameStats {
     pub cpu_ms: f64,
     /// Of `cpu_ms`, syncing the render world's retained state and uploading what changed.
     pub prepare_ms: f64,
+    /// Of `prepare_ms`, handing changed instance records to wgpu (`queue.write_buffer`).
+    pub instance_upload_ms: f64,
     /// `queue.submit` alone (outside `cpu_ms`: a driver busy with earlier frames may block it).
     pub submit_ms: f64,
     /// GPU time per pass of the newest frame the GPU has finished (timing enabled only).
@@ -237,8 +239,10 @@ struct DrawState {
     material: MaterialKey,
     mirrored: bool,
     visible: bool,
-    world_from_local: Affine3A,
 }
+
+/// Change lists at least this long are packed on all cores.
+const PARALLEL_PACK_MIN: usize = 20_000;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RendererError {
@@ -651,7 +655,9 @@ impl Renderer {
         // The view bind group binds the culled list or the full one.
         rebind |= culling != self.culling_active;
         self.culling_active = culling;
+        let upload_start = Instant::now();
         rebind |= self.instances.upload(&device, &queue);
+        let instance_upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
         rebind |= self.materials.upload(&device, &queue);
         self.write_view(scene, &queue, size);
         if rebind || self.view_bind_group.is_none() {
@@ -815,6 +821,7 @@ impl Renderer {
             instance_bytes_uploaded: self.instances.last_upload_bytes,
             cpu_ms,
             prepare_ms,
+            instance_upload_ms,
             submit_ms,
             gpu: self.timer.as_ref().and_then(|t| t.latest().cloned()),
             plan,
@@ -912,7 +919,7 @@ impl Renderer {
             match self.bounds_cache {
                 Some((generation, bounds)) if generation == self.caster_generation => bounds,
                 _ => {
-                    let bounds = self.scene_bounds();
+                    let bounds = self.scene_bounds(scene);
                     self.bounds_cache = Some((self.caster_generation, bounds));
                     bounds
                 }
@@ -948,11 +955,12 @@ impl Renderer {
     /// World bounds of the visible draws, and of those among them that cast shadows (opaque and
     /// masked triangles). A pass over every draw, made only when a draw changed (the caster
     /// generation moved; see `bounds_cache`).
-    fn scene_bounds(&self) -> SceneBounds {
+    fn scene_bounds(&self, scene: &RenderScene) -> SceneBounds {
         let mut bounds = SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY };
-        for d in self.draws.values().filter(|d| d.visible) {
+        for (entity, d) in self.draws.iter().filter(|(_, d)| d.visible) {
             let Some(entry) = self.mesh_ids.get(&d.mesh).and_then(|id| self.mesh_pool.entry(*id)) else { continue };
-            let world = entry.aabb.transformed(&d.world_from_local);
+            let Some(item) = scene.draws.get(entity) else { continue };
+            let world = entry.aabb.transformed(&item.world_from_local);
             if world.is_empty() || !world.min.is_finite() || !world.max.is_finite() {
                 continue;
             }
@@ -988,22 +996,47 @@ impl Renderer {
         }
         // Moves first, in any order; then new and re-keyed draws in entity order, so instance
         // slots are allocated the same way whatever order extraction listed them in.
+        // Moves write their record straight into their own slot; anything else is listed.
         let mut rekeyed = Vec::new();
-        for &entity in changed {
-            let Some(item) = scene.draws.get(entity) else {
-                continue;
-            };
-            let mirrored = item.world_from_local.matrix3.determinant() < 0.0;
-            if let Some(d) = self.draws.get_mut(entity)
-                && (d.mesh, d.material, d.mirrored, d.visible) == (item.mesh, item.material, mirrored, item.visible)
-            {
-                // Moved only (the common case, animation): one record rewritten, batches kept.
-                let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
-                d.world_from_local = item.world_from_local;
-                self.instances.write(d.slot, GpuInstance::new(&item.world_from_local, material_slot));
-            } else {
-                rekeyed.push(entity);
+        if changed.len() < PARALLEL_PACK_MIN {
+            for &entity in changed {
+                match self.pack_move(scene, entity) {
+                    Some((slot, instance)) => self.instances.write(slot, instance),
+                    None => rekeyed.push(entity),
+                }
             }
+        } else {
+            // Packing a million moved instances is most of a frame's CPU time on one core.
+            let pool = bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
+            let chunk = changed.len().div_ceil(pool.thread_num().max(1) * 4);
+            // pack_move reads the draw and material tables, never the instance records.
+            let writer = self.instances.disjoint_writer();
+            let this = &*self;
+            let parts = pool.scope(|s| {
+                for entities in changed.chunks(chunk) {
+                    let writer = &writer;
+                    s.spawn(async move {
+                        let mut rekeyed = Vec::new();
+                        let (mut lowest, mut highest) = (u32::MAX, 0);
+                        for &entity in entities {
+                            match this.pack_move(scene, entity) {
+                                Some((slot, instance)) => {
+                                    // SAFETY: `changed` lists each entity once (extraction's
+                                    // contract) and every drawn entity owns its own slot.
+                                    unsafe { writer.write(slot, instance) };
+                                    lowest = lowest.min(slot);
+                                    highest = highest.max(slot);
+                                }
+                                None => rekeyed.push(entity),
+                            }
+                        }
+                        writer.wrote_span(lowest, highest);
+                        rekeyed
+                    });
+                }
+            });
+            writer.finish(&mut self.instances);
+            rekeyed = parts.into_iter().flatten().collect();
         }
         rekeyed.sort_unstable();
         for entity in rekeyed {
@@ -1032,20 +1065,26 @@ impl Renderer {
                 }
                 None => self.instances.allocate(instance),
             };
-            let state = DrawState {
-                slot,
-                mesh: item.mesh,
-                material: item.material,
-                mirrored,
-                visible: item.visible,
-                world_from_local: item.world_from_local,
-            };
+            let state = DrawState { slot, mesh: item.mesh, material: item.material, mirrored, visible: item.visible };
             self.batches_dirty = true;
             if let Replaced::Other(_, stale) = self.draws.insert(entity, state) {
                 // Not reported removed (extraction reports reused indices; this is a backstop).
                 self.forget_draw(&stale);
             }
         }
+    }
+
+    /// A changed draw that only moved (the common case, animation): its slot and new record,
+    /// to be written with no other change. Anything else (new, re-keyed, gone) is `None` and
+    /// goes the slow way.
+    fn pack_move(&self, scene: &RenderScene, entity: Entity) -> Option<(u32, GpuInstance)> {
+        let (item, d) = (scene.draws.get(entity)?, self.draws.get(entity)?);
+        let mirrored = item.world_from_local.matrix3.determinant() < 0.0;
+        if (d.mesh, d.material, d.mirrored, d.visible) != (item.mesh, item.material, mirrored, item.visible) {
+            return None;
+        }
+        let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
+        Some((d.slot, GpuInstance::new(&item.world_from_local, material_slot)))
     }
 
     /// Releases what a draw that is gone held: its instance slot, its mesh and material uses.
@@ -1118,9 +1157,9 @@ impl Renderer {
         self.material_bits.retain(|k, _| self.material_users.contains_key(k));
         if new_slots {
             // Instances packed before their material had a slot get the real one now.
-            for d in self.draws.values() {
-                if let Some(m) = self.materials.get(&d.material) {
-                    self.instances.write(d.slot, GpuInstance::new(&d.world_from_local, m.slot));
+            for (entity, d) in self.draws.iter() {
+                if let (Some(m), Some(item)) = (self.materials.get(&d.material), scene.draws.get(entity)) {
+                    self.instances.write(d.slot, GpuInstance::new(&item.world_from_local, m.slot));
                 }
             }
         }
@@ -1237,10 +1276,10 @@ impl Renderer {
             let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else {
                 continue;
             };
-            let Some(entry) = self.mesh_pool.entry(mesh_id) else {
+            let (Some(entry), Some(item)) = (self.mesh_pool.entry(mesh_id), scene.draws.get(*entity)) else {
                 continue;
             };
-            let center = entry.aabb.transformed(&d.world_from_local).center();
+            let center = entry.aabb.transformed(&item.world_from_local).center();
             let depth = (center - eye).dot(forward.into());
             let batch = Batch { key, material: d.material, mesh: d.mesh, mesh_id, first: 0, count: 1 };
             out.push((depth, *entity, batch, d.slot));

@@ -22,17 +22,45 @@ impl Default for InheritedVisibility {
     }
 }
 
+/// Entities with neither parent nor children whose `Visibility` changed: most of a large scene.
+type ChangedStandalone<'w, 's> = Query<
+    'w,
+    's,
+    (&'static Visibility, &'static mut InheritedVisibility),
+    (Changed<Visibility>, Without<ChildOf>, Without<Children>),
+>;
+
+/// Whether a root (or an entity without a parent) is shown.
+fn shown_alone(visibility: &Visibility) -> bool {
+    *visibility != Visibility::Hidden
+}
+
 pub fn propagate_visibility(
-    roots: Query<(Entity, Option<&Children>), (With<Visibility>, Without<ChildOf>)>,
+    mut inherited: ParamSet<(ChangedStandalone, Query<&mut InheritedVisibility>)>,
+    roots: Query<Entity, (With<Visibility>, With<Children>, Without<ChildOf>)>,
     nodes: Query<(Option<Ref<Visibility>>, Option<&Children>)>,
-    changed: Query<(), Or<(Changed<Visibility>, Changed<ChildOf>)>>,
-    mut inherited: Query<&mut InheritedVisibility>,
+    hierarchy_changed: Query<(), (Or<(Changed<Visibility>, Changed<ChildOf>)>, Or<(With<ChildOf>, With<Children>)>)>,
+    parentless: Query<&Visibility, Without<ChildOf>>,
+    mut unparented: RemovedComponents<ChildOf>,
 ) {
-    // Cheap early-out: nothing authored changed, nothing derived can change.
-    if changed.is_empty() {
+    // Standalone entities are their own answer: only the changed ones are visited, on all
+    // cores, so a still scene of a million objects costs one parallel pass over change ticks.
+    inherited.p0().par_iter_mut().for_each(|(visibility, mut derived)| {
+        derived.set_if_neq(InheritedVisibility(shown_alone(visibility)));
+    });
+    let unparented: Vec<Entity> = unparented.read().collect();
+    let mut inherited = inherited.p1();
+    // An entity that lost its parent no longer inherits its parent's hiding.
+    for &entity in &unparented {
+        if let (Ok(visibility), Ok(mut derived)) = (parentless.get(entity), inherited.get_mut(entity)) {
+            derived.set_if_neq(InheritedVisibility(shown_alone(visibility)));
+        }
+    }
+    // Hierarchies: nothing authored changed in any of them, nothing derived can change.
+    if hierarchy_changed.is_empty() && unparented.is_empty() {
         return;
     }
-    for (root, _) in &roots {
+    for root in &roots {
         walk(root, true, &nodes, &mut inherited, 0);
     }
 }
@@ -62,5 +90,45 @@ fn walk(
         for &child in children {
             walk(child, visible, nodes, inherited, depth + 1);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{App, CorePlugin};
+
+    fn shown(app: &App, e: Entity) -> bool {
+        app.world.get::<InheritedVisibility>(e).unwrap().0
+    }
+
+    #[test]
+    fn hiding_reaches_children_and_standalone_entities() {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin);
+        let alone = app.world.spawn(Visibility::Hidden).id();
+        let parent = app.world.spawn(Visibility::Hidden).id();
+        let child = app.world.spawn((Visibility::Inherited, ChildOf(parent))).id();
+        let shown_child = app.world.spawn((Visibility::Visible, ChildOf(parent))).id();
+        app.update();
+        assert!(!shown(&app, alone) && !shown(&app, parent) && !shown(&app, child));
+        assert!(shown(&app, shown_child), "Visible overrides a hidden parent");
+        *app.world.get_mut::<Visibility>(alone).unwrap() = Visibility::Inherited;
+        *app.world.get_mut::<Visibility>(parent).unwrap() = Visibility::Visible;
+        app.update();
+        assert!(shown(&app, alone) && shown(&app, parent) && shown(&app, child));
+    }
+
+    #[test]
+    fn a_child_leaving_a_hidden_parent_shows() {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin);
+        let parent = app.world.spawn(Visibility::Hidden).id();
+        let child = app.world.spawn((Visibility::Inherited, ChildOf(parent))).id();
+        app.update();
+        assert!(!shown(&app, child));
+        app.world.entity_mut(child).remove::<ChildOf>();
+        app.update();
+        assert!(shown(&app, child), "no parent hides it any more");
     }
 }

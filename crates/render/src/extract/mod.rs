@@ -2,7 +2,9 @@
 //! `PostUpdate` and writes [`RenderScene`]; it makes no GPU calls.
 //!
 //! - view: the active camera with the highest `order` (re-extracted every frame: one entity);
-//! - draws: change-detected; an unchanged entity costs nothing; losing its mesh, placement
+//! - draws: change-detected; an unchanged entity costs nothing (beyond bevy's change-tick scan,
+//!   on all cores for large scenes); `changed_draws` lists each entity once, in no particular
+//!   order; losing its mesh, placement
 //!   (GlobalTransform) or visibility (InheritedVisibility) component removes it, as for lights;
 //! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
 //!   or infinite values are refused with a warning; with no light entity at all, the default
@@ -52,41 +54,89 @@ fn extract_view(cameras: Query<(&Camera, &GlobalTransform, &InheritedVisibility)
     }
 }
 
+/// Components of a draw removed (or despawned) since the last extraction.
+#[derive(bevy_ecs::system::SystemParam)]
+struct RemovedDrawParts<'w, 's> {
+    meshes: RemovedComponents<'w, 's, Mesh3d>,
+    materials: RemovedComponents<'w, 's, MeshMaterial3d>,
+    transforms: RemovedComponents<'w, 's, GlobalTransform>,
+    visibility: RemovedComponents<'w, 's, InheritedVisibility>,
+}
+
 fn extract_draws(
     changed: Query<
         (Entity, &GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility),
         Or<(Changed<GlobalTransform>, Changed<Mesh3d>, Changed<MeshMaterial3d>, Changed<InheritedVisibility>)>,
     >,
     all: Query<(&GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility)>,
-    mut removed_meshes: RemovedComponents<Mesh3d>,
-    mut removed_materials: RemovedComponents<MeshMaterial3d>,
-    mut removed_transforms: RemovedComponents<GlobalTransform>,
-    mut removed_visibility: RemovedComponents<InheritedVisibility>,
+    mut removed: RemovedDrawParts,
+    entities: &bevy_ecs::entity::Entities,
     mut scene: ResMut<RenderScene>,
 ) {
     let scene = &mut *scene;
     // Losing its placement or visibility makes a mesh undrawable as surely as losing the mesh.
     // Handled first: a component removed and added back this frame is re-extracted below.
-    for entity in removed_transforms.read().chain(removed_visibility.read()).collect::<Vec<_>>() {
+    for entity in removed.transforms.read().chain(removed.visibility.read()).collect::<Vec<_>>() {
         if scene.draws.remove(entity).is_some() {
             scene.removed_draws.push(entity);
         }
     }
-    for (entity, transform, mesh, material, visibility) in &changed {
+    let item = |(entity, transform, mesh, material, visibility): DrawQueryItem| {
         let item = DrawItem {
             world_from_local: transform.0,
             mesh: mesh.0,
             material: material.map(|m| m.0),
             visible: visibility.0,
         };
-        // A despawned entity whose index was reused this frame is gone even if its removal
-        // has not been read yet.
-        if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
-            scene.removed_draws.push(old);
+        (entity, item)
+    };
+    if scene.draws.len() < PARALLEL_SCAN_MIN {
+        for q in &changed {
+            let (entity, item) = item(q);
+            // A despawned entity whose index was reused this frame is gone even if its removal
+            // has not been read yet.
+            if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
+                scene.removed_draws.push(old);
+            }
+            scene.changed_draws.push(entity);
         }
-        scene.changed_draws.push(entity);
+    } else {
+        // The change-tick scan over every drawable entity runs on all cores, each task filing
+        // what changed straight into the table (each entity at its own index) and listing it.
+        // The order of `changed_draws` is therefore unspecified: the renderer orders what
+        // depends on it.
+        scene.draws.reserve_indices(entities.len() as usize);
+        let lists = std::sync::Mutex::new(Vec::new());
+        let leftovers = {
+            let writer = scene.draws.disjoint_writer();
+            changed.par_iter().for_each_init(
+                || TaskLists { lists: ChangeLists::default(), sink: &lists },
+                |task, q| {
+                    let (entity, item) = item(q);
+                    // SAFETY: a query yields each entity once, and live entities have distinct
+                    // indices.
+                    match unsafe { writer.insert(entity, item) } {
+                        Ok(Replaced::Other(old, _)) => task.lists.displaced.push(old),
+                        Ok(_) => {}
+                        Err(item) => task.lists.beyond.push((entity, item)),
+                    }
+                    task.lists.changed.push(entity);
+                },
+            );
+            lists.into_inner().unwrap_or_else(|e| e.into_inner())
+        };
+        for l in leftovers {
+            scene.changed_draws.extend(l.changed);
+            scene.removed_draws.extend(l.displaced);
+            // Not reachable while `Entities::len` bounds entity indices; kept correct anyway.
+            for (entity, item) in l.beyond {
+                if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
+                    scene.removed_draws.push(old);
+                }
+            }
+        }
     }
-    for entity in removed_meshes.read() {
+    for entity in removed.meshes.read() {
         // Removed and inserted again within the frame: still drawable, already re-extracted.
         if all.contains(entity) {
             continue;
@@ -95,8 +145,13 @@ fn extract_draws(
             scene.removed_draws.push(entity);
         }
     }
-    // Losing only the material falls back to the default one.
-    for entity in removed_materials.read() {
+    // Losing only the material falls back to the default one. An entity the changed query
+    // already saw was extracted without its material and must not be listed twice (the
+    // renderer writes each listed entity's record from one thread).
+    for entity in removed.materials.read() {
+        if changed.contains(entity) {
+            continue;
+        }
         if let Ok((transform, mesh, material, visibility)) = all.get(entity) {
             let item = DrawItem {
                 world_from_local: transform.0,
@@ -108,6 +163,36 @@ fn extract_draws(
                 scene.removed_draws.push(old);
             }
             scene.changed_draws.push(entity);
+        }
+    }
+}
+
+/// Scenes with at least this many draws scan for changes on all cores; below it, starting the
+/// tasks costs more than the scan.
+const PARALLEL_SCAN_MIN: usize = 20_000;
+
+type DrawQueryItem<'a> = (Entity, &'a GlobalTransform, &'a Mesh3d, Option<&'a MeshMaterial3d>, &'a InheritedVisibility);
+
+/// What one parallel extraction task changed.
+#[derive(Default)]
+struct ChangeLists {
+    changed: Vec<Entity>,
+    /// Despawned entities whose index a changed entity now holds.
+    displaced: Vec<Entity>,
+    beyond: Vec<(Entity, DrawItem)>,
+}
+
+/// A task's lists, handed to the shared list when the task ends.
+struct TaskLists<'a> {
+    lists: ChangeLists,
+    sink: &'a std::sync::Mutex<Vec<ChangeLists>>,
+}
+
+impl Drop for TaskLists<'_> {
+    fn drop(&mut self) {
+        let lists = std::mem::take(&mut self.lists);
+        if !lists.changed.is_empty() {
+            self.sink.lock().unwrap_or_else(|e| e.into_inner()).push(lists);
         }
     }
 }

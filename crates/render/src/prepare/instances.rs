@@ -3,6 +3,8 @@
 //! in its per-entity state); only entities extraction reports as changed are re-packed, and only
 //! the span of slots that changed is uploaded.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use bytemuck::{Pod, Zeroable};
 use glam::Affine3A;
 
@@ -90,6 +92,16 @@ impl InstanceBuffer {
         self.mark(slot);
     }
 
+    /// Writes records into existing slots from several threads at once (each slot from one).
+    pub fn disjoint_writer(&mut self) -> SlotWriter {
+        SlotWriter {
+            records: self.cpu.as_mut_ptr(),
+            len: self.cpu.len(),
+            lowest: AtomicU32::new(u32::MAX),
+            highest: AtomicU32::new(0),
+        }
+    }
+
     pub fn free(&mut self, slot: u32) {
         self.free.push(slot);
     }
@@ -107,6 +119,53 @@ impl InstanceBuffer {
         }
         self.dirty = None;
         grew
+    }
+}
+
+/// Parallel writes into an [`InstanceBuffer`]'s records (see [`SlotWriter::write`]); the span
+/// each task reports with [`SlotWriter::wrote_span`] is marked for upload by
+/// [`SlotWriter::finish`].
+pub struct SlotWriter {
+    records: *mut GpuInstance,
+    len: usize,
+    lowest: AtomicU32,
+    highest: AtomicU32,
+}
+
+// SAFETY: each call writes one record, and `write`'s contract keeps calls for the same slot from
+// overlapping; the buffer it points into outlives the writer (see `finish`).
+unsafe impl Sync for SlotWriter {}
+unsafe impl Send for SlotWriter {}
+
+impl SlotWriter {
+    /// Writes one slot's record; slots beyond the buffer are ignored.
+    ///
+    /// # Safety
+    /// No other call for the same slot may run at the same time, and the buffer the writer was
+    /// made from must be neither used nor dropped until `finish`.
+    pub unsafe fn write(&self, slot: u32, instance: GpuInstance) {
+        if (slot as usize) < self.len {
+            // SAFETY: in bounds, and this slot is written by this call alone (the contract).
+            unsafe { self.records.add(slot as usize).write(instance) };
+        }
+    }
+
+    /// Records that slots `lowest..=highest` were written (once per task: shared atomics
+    /// updated per write would serialise the writers).
+    pub fn wrote_span(&self, lowest: u32, highest: u32) {
+        self.lowest.fetch_min(lowest, Ordering::Relaxed);
+        self.highest.fetch_max(highest, Ordering::Relaxed);
+    }
+
+    /// Marks what was written for the next upload. `buffer` must be the one the writer was
+    /// made from.
+    pub fn finish(self, buffer: &mut InstanceBuffer) {
+        debug_assert!(std::ptr::eq(self.records, buffer.cpu.as_mut_ptr()));
+        let (lowest, highest) = (self.lowest.into_inner(), self.highest.into_inner());
+        if lowest <= highest {
+            buffer.mark(lowest);
+            buffer.mark(highest);
+        }
     }
 }
 

@@ -21,18 +21,22 @@ struct Samples {
     main: Vec<f64>,
     extract: Vec<f64>,
     prepare: Vec<f64>,
+    upload: Vec<f64>,
     encode: Vec<f64>,
     submit: Vec<f64>,
     cpu: Vec<f64>,
     wall: Vec<f64>,
     gpu: Vec<f64>,
+    gpu_cull: Vec<f64>,
+    gpu_forward: Vec<f64>,
+    gpu_tonemap: Vec<f64>,
     instance_bytes: Vec<f64>,
 }
 
 struct Row {
     count: usize,
     moving: f64,
-    median: [f64; 9],
+    median: [f64; 13],
     draw_calls: u32,
     instances: u32,
     /// After GPU culling, in the last frame (`None`: not culled).
@@ -79,6 +83,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     med(&s.wall),
                     med(&s.gpu),
                     med(&s.instance_bytes),
+                    med(&s.gpu_cull),
+                    med(&s.gpu_forward),
+                    med(&s.gpu_tonemap),
+                    med(&s.upload),
                 ],
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
@@ -104,14 +112,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | GPU MiB instances and draw lists |"
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / forward / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | GPU MiB instances and draw lists |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
-        let [main, extract, prepare, encode, submit, cpu, wall, gpu, bytes] = r.median;
-        let gpu = if gpu.is_nan() { "n/a".to_owned() } else { format!("{gpu:.3}") };
+        let [main, extract, prepare, encode, submit, cpu, wall, gpu, bytes, cull, forward, tonemap, upload] = r.median;
+        let ms = |v: f64| if v.is_nan() { "-".to_owned() } else { format!("{v:.3}") };
+        let passes = format!("{} / {} / {}", ms(cull), ms(forward), ms(tonemap));
+        let gpu = ms(gpu);
         println!(
-            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} | {encode:.3} | {submit:.3} | {cpu:.3} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {:.1} |",
+            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} ({upload:.3}) | {encode:.3} | {submit:.3} | {cpu:.3} | {passes} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {:.1} |",
             r.count,
             r.moving,
             r.draw_calls,
@@ -147,6 +157,7 @@ fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samp
         s.main.push(main);
         s.extract.push(stage(extract));
         s.prepare.push(stats.prepare_ms);
+        s.upload.push(stats.instance_upload_ms);
         s.encode.push(stats.cpu_ms - stats.prepare_ms);
         s.submit.push(stats.submit_ms);
         s.cpu.push(main + stage(extract) + stats.cpu_ms + stats.submit_ms);
@@ -154,6 +165,13 @@ fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samp
         if let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
             last_gpu_frame = t.frame;
             s.gpu.push(t.passes.iter().map(|(_, ms)| ms).sum());
+            for (label, v) in
+                [("cull", &mut s.gpu_cull), ("forward", &mut s.gpu_forward), ("tonemap", &mut s.gpu_tonemap)]
+            {
+                if let Some((_, ms)) = t.passes.iter().find(|(l, _)| *l == label) {
+                    v.push(*ms);
+                }
+            }
         }
     }
     app.world.resource_mut::<Renderer>().finish();
@@ -167,6 +185,10 @@ fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samp
         &mut s.wall,
         &mut s.gpu,
         &mut s.instance_bytes,
+        &mut s.gpu_cull,
+        &mut s.gpu_forward,
+        &mut s.gpu_tonemap,
+        &mut s.upload,
     ] {
         v.sort_by(f64::total_cmp);
     }
