@@ -2,9 +2,12 @@
 //! culled frame equals the same frame drawn without culling (scenes built to stress the test:
 //! objects straddling every frustum plane and the near plane, tiny objects at the edges, objects
 //! behind the camera, far from the origin, and objects moving in and out of view between
-//! frames), and a scene drawn as instanced batches equals it drawn one draw per entity.
+//! frames), also with occlusion culling, which must moreover leave out what a wall hides and
+//! draw it again in the frame the wall moves away; and a scene drawn as instanced batches
+//! equals it drawn one draw per entity.
 
 use penumbra::prelude::*;
+use penumbra::render::renderer::OcclusionCulling;
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
@@ -86,16 +89,19 @@ fn visible_total(app: &App) -> Option<u32> {
     app.world.resource::<Renderer>().visible_instance_counts().unwrap().map(|c| c.iter().sum())
 }
 
-fn check_stress_scene(origin: Vec3) {
+fn check_stress_scene(origin: Vec3, occlusion: OcclusionCulling) {
     let mut culled = scene_app();
     let mut reference = scene_app();
     let (entities, behind) = stress_scene(&mut culled, origin);
     stress_scene(&mut reference, origin);
     let total = entities.len() as u32;
     for frame in 0..3 {
-        let a = render_app(&mut culled, SIZE, settings(true));
+        let a = render_app(&mut culled, SIZE, RenderSettings { occlusion_culling: occlusion, ..settings(true) });
         let b = render_app(&mut reference, SIZE, settings(false));
-        assert!(a == b, "origin {origin}, frame {frame}: the culled frame differs from the unculled one");
+        assert!(
+            a == b,
+            "origin {origin}, {occlusion:?}, frame {frame}: the culled frame differs from the unculled one"
+        );
         let visible = visible_total(&culled).expect("culling ran");
         assert!(visible > 0, "origin {origin}, frame {frame}: nothing drawn");
         assert!(
@@ -116,12 +122,18 @@ fn check_stress_scene(origin: Vec3) {
 
 #[test]
 fn culled_frames_equal_unculled_frames() {
-    check_stress_scene(Vec3::ZERO);
+    check_stress_scene(Vec3::ZERO, OcclusionCulling::Off);
+}
+
+#[test]
+fn occlusion_culled_frames_equal_unculled_frames() {
+    check_stress_scene(Vec3::ZERO, OcclusionCulling::On);
+    check_stress_scene(Vec3::new(1.0e5, -3.0e4, 2.0e5), OcclusionCulling::On);
 }
 
 #[test]
 fn culled_frames_equal_unculled_frames_far_from_the_origin() {
-    check_stress_scene(Vec3::new(1.0e5, -3.0e4, 2.0e5));
+    check_stress_scene(Vec3::new(1.0e5, -3.0e4, 2.0e5), OcclusionCulling::Off);
 }
 
 #[test]
@@ -174,4 +186,72 @@ fn instanced_batches_equal_one_draw_per_entity() {
     assert_eq!(instanced_draws, 1);
     assert_eq!(separate_draws, 60);
     assert!(instanced == separate, "instancing changed the image");
+}
+
+/// A wall hiding a block of cubes, with a few cubes in front of it; returns the wall.
+fn wall_scene(app: &mut App) -> Entity {
+    let paint = palette(app);
+    let cube = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    // Wide enough to fill the view: the depth pyramid is conservative where background shows.
+    let wall_mesh = Mesh::cuboid(Vec3::new(60.0, 40.0, 0.2));
+    let wall_mesh = app.world.resource_mut::<Assets<Mesh>>().add(wall_mesh);
+    let wall = app.world.spawn((Mesh3d(wall_mesh), MeshMaterial3d(paint[2]), Transform::from_xyz(0.0, 0.0, -6.0))).id();
+    for i in 0..120 {
+        let at = Vec3::new((i % 12) as f32 * 0.8 - 4.4, (i / 12 % 5) as f32 * 0.9 - 1.8, -9.0 - (i / 60) as f32 * 2.0);
+        app.world.spawn((
+            Mesh3d(cube),
+            MeshMaterial3d(paint[i % 2]),
+            Transform::from_translation(at).with_scale(Vec3::splat(0.5)),
+        ));
+    }
+    for i in 0..6 {
+        let at = Vec3::new(i as f32 - 2.5, -1.0, -3.0);
+        app.world.spawn((
+            Mesh3d(cube),
+            MeshMaterial3d(paint[0]),
+            Transform::from_translation(at).with_scale(Vec3::splat(0.4)),
+        ));
+    }
+    app.world.spawn((Camera::default(), Transform::default()));
+    app.world.spawn((
+        DirectionalLight { illuminance: 2.0, shadows: false, ..Default::default() },
+        Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
+    wall
+}
+
+fn occlusion_settings(msaa: u32, occlusion: OcclusionCulling) -> RenderSettings {
+    RenderSettings { msaa, occlusion_culling: occlusion, ..Default::default() }
+}
+
+/// Occlusion culling leaves out the cubes behind the wall from the second frame on, and draws
+/// them in the very frame the wall moves away; every frame equals the frame drawn without it.
+#[test]
+fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
+    for msaa in [1, 4] {
+        let mut culled = scene_app();
+        let mut reference = scene_app();
+        let wall = wall_scene(&mut culled);
+        let reference_wall = wall_scene(&mut reference);
+        let mut counts = Vec::new();
+        for frame in 0..4 {
+            if frame == 3 {
+                // The wall slides out of view: everything behind it shows this frame.
+                for (app, wall) in [(&mut culled, wall), (&mut reference, reference_wall)] {
+                    app.world.get_mut::<Transform>(wall).unwrap().translation.x = 200.0;
+                }
+            }
+            let a = render_app(&mut culled, SIZE, occlusion_settings(msaa, OcclusionCulling::On));
+            let b = render_app(&mut reference, SIZE, occlusion_settings(msaa, OcclusionCulling::Off));
+            assert!(a == b, "MSAA {msaa}, frame {frame}: occlusion culling changed the image");
+            let plan = &culled.world.resource::<Renderer>().stats().plan;
+            assert!(plan.runs(penumbra::render::frame::Pass::OcclusionLate), "MSAA {msaa}: occlusion culling ran");
+            counts.push(visible_total(&culled).expect("culling ran"));
+        }
+        // Frame 0 draws everything in view (it has no history): the wall, 120 cubes behind it
+        // and the 4 of the 6 cubes in front that the view reaches. From frame 1 the hidden
+        // cubes stay out; when the wall goes, they are back in that frame.
+        assert_eq!(counts, [125, 5, 5, 124], "MSAA {msaa}: instances drawn per frame");
+    }
 }

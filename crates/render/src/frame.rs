@@ -15,6 +15,9 @@ pub enum Pass {
     Shadows,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
+    /// Occlusion culling's second half, after `Opaque` drew what was visible last frame: the
+    /// depth pyramid, the late cull, and a second pass drawing what became visible.
+    OcclusionLate,
     /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`, or `Auto` with
     /// long cluster lists), then a render pass that adds them to the frame and holds the
     /// `Transparent` phase.
@@ -35,7 +38,8 @@ impl FramePlan {
     /// `binned_lights`: local lights the forward pass will find through clusters; `deferred`:
     /// a compute pass shades them for opaque surfaces.
     /// `shadow_layers`: shadow-map layers the orchestrator will render.
-    /// `culled`: GPU culling runs (on, supported, and opaque draws to cull).
+    /// `culled`: GPU culling runs (on, supported, and opaque draws to cull); `occlusion`: so
+    /// does occlusion culling.
     pub fn new(
         binned_lights: u32,
         shadow_layers: usize,
@@ -43,6 +47,7 @@ impl FramePlan {
         has_blend: bool,
         deferred: bool,
         culled: bool,
+        occlusion: bool,
     ) -> Self {
         let mut passes = Vec::new();
         if culled && has_opaque {
@@ -58,6 +63,9 @@ impl FramePlan {
             Pass::Opaque,
             if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
         ));
+        if culled && occlusion && has_opaque {
+            passes.push((Pass::OcclusionLate, "occlusion culling (many opaque instances, or asked for)"));
+        }
         if deferred {
             passes.push((
                 Pass::DeferredLights,
@@ -91,18 +99,18 @@ mod tests {
 
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!FramePlan::new(0, 0, true, false, false, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, 0, true, true, false, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, 0, false, false, false, false).runs(Pass::Tonemap));
+        assert!(!FramePlan::new(0, 0, true, false, false, false, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, 0, true, true, false, false, false).runs(Pass::Transparent));
+        assert!(FramePlan::new(0, 0, false, false, false, false, false).runs(Pass::Tonemap));
     }
 
     #[test]
     fn cluster_binning_only_with_local_lights_and_something_to_light() {
-        assert!(!FramePlan::new(0, 0, true, true, false, false).runs(Pass::ClusterBin));
-        assert!(FramePlan::new(3, 0, true, false, false, false).runs(Pass::ClusterBin));
-        assert!(!FramePlan::new(3, 0, false, false, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(0, 0, true, true, false, false, false).runs(Pass::ClusterBin));
+        assert!(FramePlan::new(3, 0, true, false, false, false, false).runs(Pass::ClusterBin));
+        assert!(!FramePlan::new(3, 0, false, false, false, false, false).runs(Pass::ClusterBin));
         assert_eq!(
-            FramePlan::new(3, 0, true, false, false, false).passes[0].0,
+            FramePlan::new(3, 0, true, false, false, false, false).passes[0].0,
             Pass::ClusterBin,
             "binning precedes the forward pass"
         );
@@ -110,25 +118,33 @@ mod tests {
 
     #[test]
     fn shadow_passes_only_with_layers_to_render_and_before_the_forward_pass() {
-        assert!(!FramePlan::new(3, 0, true, false, false, false).runs(Pass::Shadows));
-        let plan = FramePlan::new(3, 2, true, false, false, false);
+        assert!(!FramePlan::new(3, 0, true, false, false, false, false).runs(Pass::Shadows));
+        let plan = FramePlan::new(3, 2, true, false, false, false, false);
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
     }
 
     #[test]
     fn culling_only_with_opaque_draws_and_first() {
-        assert!(!FramePlan::new(0, 0, false, true, false, true).runs(Pass::Cull));
-        assert!(!FramePlan::new(0, 0, true, false, false, false).runs(Pass::Cull));
-        let plan = FramePlan::new(3, 2, true, false, false, true);
+        assert!(!FramePlan::new(0, 0, false, true, false, true, false).runs(Pass::Cull));
+        assert!(!FramePlan::new(0, 0, true, false, false, false, false).runs(Pass::Cull));
+        let plan = FramePlan::new(3, 2, true, false, false, true, false);
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::Cull, Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
     }
 
     #[test]
+    fn occlusion_culling_splits_the_opaque_phase_only_when_culling_runs() {
+        assert!(!FramePlan::new(0, 0, true, false, false, false, true).runs(Pass::OcclusionLate));
+        let plan = FramePlan::new(0, 0, true, true, false, true, true);
+        let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::Cull, Pass::Opaque, Pass::OcclusionLate, Pass::Transparent, Pass::Tonemap]);
+    }
+
+    #[test]
     fn deferred_lights_only_when_asked_for_between_opaque_and_blended_draws() {
-        assert!(!FramePlan::new(3, 0, true, true, false, false).runs(Pass::DeferredLights));
-        let plan = FramePlan::new(3, 0, true, true, true, false);
+        assert!(!FramePlan::new(3, 0, true, true, false, false, false).runs(Pass::DeferredLights));
+        let plan = FramePlan::new(3, 0, true, true, true, false, false);
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Opaque, Pass::DeferredLights, Pass::Transparent, Pass::Tonemap]);
     }

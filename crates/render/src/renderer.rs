@@ -25,7 +25,7 @@ use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
 use crate::passes::culling::{CullInputs, GpuCulling};
 use crate::passes::deferred_lights::{self, GpuDeferredParams};
-use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs, IndirectDraws};
+use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase};
 use crate::passes::shadows::local::LocalCandidate;
 use crate::passes::shadows::orchestrator::{DirectionalCandidate, SceneBounds, ShadowOrchestrator};
 use crate::passes::shadows::{ShadowSettings, ShadowSettingsError};
@@ -72,7 +72,24 @@ pub struct RenderSettings {
     /// indirectly (see `passes::culling`). Adapters without indirect first-instance draws
     /// (GL) draw everything whatever this says.
     pub gpu_culling: bool,
+    /// Occlusion culling on top of GPU culling: two-phase, against a hierarchical depth buffer
+    /// of what this frame drew (see `passes::culling`).
+    pub occlusion_culling: OcclusionCulling,
 }
+
+/// When occlusion culling runs (it needs GPU culling).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OcclusionCulling {
+    Off,
+    On,
+    /// On where it pays: with at least [`OCCLUSION_AUTO_MIN`] opaque instances. Below that, the
+    /// depth pyramid and the second cull and render pass cost more than hidden objects do.
+    #[default]
+    Auto,
+}
+
+/// Opaque instances from which `OcclusionCulling::Auto` culls occluded objects.
+pub const OCCLUSION_AUTO_MIN: usize = 10_000;
 
 /// How fragments find the local lights (every kind but directional and ambient) that reach them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -132,6 +149,7 @@ impl Default for RenderSettings {
             debug_view: DebugView::None,
             shadows: ShadowSettings::default(),
             gpu_culling: true,
+            occlusion_culling: OcclusionCulling::Auto,
         }
     }
 }
@@ -645,12 +663,20 @@ impl Renderer {
             && self.ctx.caps.indirect_first_instance
             && !self.opaque_batches.is_empty()
             && scene.view.is_some();
+        let occlusion = culling
+            && match self.settings.occlusion_culling {
+                OcclusionCulling::Off => false,
+                OcclusionCulling::On => true,
+                OcclusionCulling::Auto => opaque_len >= OCCLUSION_AUTO_MIN,
+            };
         if culling {
             if self.cull_batches_dirty {
-                rebind |= self.culling.prepare_batches(&device, &queue, &self.opaque_batches, &self.mesh_pool);
+                // The late draws' region follows every blended entry there can be.
+                let late_base = (opaque_len + self.blend_entities.len()) as u32;
+                self.culling.prepare_batches(&device, &queue, &self.opaque_batches, &self.mesh_pool, late_base);
                 self.cull_batches_dirty = false;
             }
-            rebind |= self.culling.reserve(&device, total);
+            rebind |= self.culling.prepare_frame(&device, &queue, total, occlusion.then_some(size));
         }
         // The view bind group binds the culled list or the full one.
         rebind |= culling != self.culling_active;
@@ -678,6 +704,7 @@ impl Renderer {
             !blend_batches.is_empty(),
             self.deferred_lights,
             self.culling_active,
+            occlusion,
         );
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
@@ -689,15 +716,17 @@ impl Renderer {
             cluster_error = self.clusters.encode(&mut encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
         }
         let mut cull_error = None;
+        let cull_inputs = CullInputs {
+            view: &self.view_buffer,
+            instances: self.instances.buffer(),
+            draw_slots: self.draw_slots.buffer(),
+            blended: opaque_len as u32..total as u32,
+        };
         if plan.runs(Pass::Cull) {
-            let inputs = CullInputs {
-                view: &self.view_buffer,
-                instances: self.instances.buffer(),
-                draw_slots: self.draw_slots.buffer(),
-                blended: opaque_len as u32..total as u32,
-            };
-            cull_error =
-                self.culling.encode(&mut encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut()).err();
+            cull_error = self
+                .culling
+                .encode(&mut encoder, &device, &mut self.pipelines, &cull_inputs, self.timer.as_mut())
+                .err();
         }
         let mut shadow_error = None;
         if plan.runs(Pass::Shadows) {
@@ -727,7 +756,40 @@ impl Renderer {
                 .then(|| IndirectDraws { args: self.culling.args(), batches: self.opaque_batches.len() }),
         };
         let opaque_count = self.opaque_batches.len();
-        let (mut counts, mut forward_error) = if plan.runs(Pass::Opaque) {
+        let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
+            let (early, early_error) = forward::encode(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                &inputs,
+                &batches,
+                opaque_count,
+                OpaquePhase::Early,
+                self.timer.as_mut(),
+            );
+            let depth = (&targets.depth_view, targets.samples);
+            let late_error = self
+                .culling
+                .encode_late(&mut encoder, &device, &mut self.pipelines, &cull_inputs, depth, self.timer.as_mut())
+                .err();
+            let late_inputs = ForwardInputs {
+                indirect: Some(IndirectDraws { args: self.culling.late_args(), batches: opaque_count }),
+                ..inputs
+            };
+            let (late, error) = forward::encode(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                &late_inputs,
+                &batches,
+                opaque_count,
+                OpaquePhase::Late,
+                self.timer.as_mut(),
+            );
+            // Both passes submit the opaque batches; count them once.
+            let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
+            (counts, late_error.or(early_error).or(error))
+        } else if plan.runs(Pass::Opaque) {
             forward::encode(
                 &mut encoder,
                 &device,
@@ -735,6 +797,7 @@ impl Renderer {
                 &inputs,
                 &batches,
                 opaque_count,
+                OpaquePhase::All,
                 self.timer.as_mut(),
             )
         } else {

@@ -71,7 +71,8 @@ impl FrameTargets {
         let msaa_usage = if deferred_params.is_some() { attach | sampled } else { attach };
         let hdr_msaa_view = (samples > 1)
             .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
-        let depth_usage = if deferred_params.is_some() { attach | sampled } else { attach };
+        // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid.
+        let depth_usage = attach | sampled;
         let depth_view = tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default());
         let tonemap_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tonemap input"),

@@ -8,7 +8,7 @@ use penumbra_render::headless::CameraChoice;
 use penumbra_render::passes::clusters::grid::ClusterConfig;
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
-use penumbra_render::renderer::{LightWalk, SettingsError};
+use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError};
 use penumbra_render::{RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
@@ -87,6 +87,9 @@ pub struct LookArgs {
     /// comparison; culling never changes the image).
     #[arg(long)]
     pub no_culling: bool,
+    /// Occlusion culling (with GPU culling): `auto` runs it with 10 000 opaque instances or more.
+    #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
+    pub occlusion: OcclusionArg,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -223,6 +226,13 @@ impl From<TonemapArg> for Tonemapper {
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OcclusionArg {
+    Auto,
+    On,
+    Off,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LayoutArg {
     Grid,
     Sphere,
@@ -312,6 +322,11 @@ impl LookArgs {
                 ..Default::default()
             },
             gpu_culling: !self.no_culling,
+            occlusion_culling: match self.occlusion {
+                OcclusionArg::Auto => OcclusionCulling::Auto,
+                OcclusionArg::On => OcclusionCulling::On,
+                OcclusionArg::Off => OcclusionCulling::Off,
+            },
             ..Default::default()
         };
         settings.validate().map_err(|e| {

@@ -11,6 +11,14 @@
 //! consecutive indexed batches sharing pipeline and material go out as one
 //! `multi_draw_indexed_indirect`.
 //!
+//! Occlusion culling (two-phase, with a hierarchical depth buffer) splits this: the early
+//! cull keeps only what was visible last frame, the forward pass draws that, [`GpuCulling::
+//! encode_hzb`] reduces its depth into a pyramid (`shaders/hzb.wgsl`), and [`GpuCulling::
+//! encode_late`] tests everything in the frustum against the pyramid, remembers the answer
+//! for the next frame and sends what is visible but was not drawn to a second, late set of
+//! indirect draws (its own arguments, and a region of `visible_slots` after the blended
+//! entries). See `shaders/cull.wgsl` for why nothing visible can be lost.
+//!
 //! No CPU work per draw per frame, and nothing read back. Within a batch, visible instances are
 //! drawn in the order the GPU appended them, which varies: only coplanar, overlapping instances
 //! of one batch could tell (depth ties). Shadow passes keep drawing the full list: a caster
@@ -22,7 +30,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::passes::forward::Batch;
-use crate::pipelines::pipeline_cache::PipelineCache;
+use crate::pipelines::pipeline_cache::{CullPhase, HzbStep, PipelineCache};
 use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::buffer::GrowableBuffer;
 use crate::prepare::mesh_pool::MeshPool;
@@ -43,6 +51,45 @@ struct GpuCullBatch {
     _pad: u32,
 }
 
+/// The hierarchical depth buffer: level 0 is the largest power of two within the frame.
+struct Hzb {
+    frame_size: (u32, u32),
+    full_view: wgpu::TextureView,
+    level_views: Vec<wgpu::TextureView>,
+}
+
+impl Hzb {
+    fn new(device: &wgpu::Device, frame_size: (u32, u32)) -> Self {
+        let floor_pow2 = |v: u32| if v <= 1 { 1 } else { 1u32 << (31 - v.leading_zeros()) };
+        let (w, h) = (floor_pow2(frame_size.0), floor_pow2(frame_size.1));
+        let levels = 32 - w.max(h).leading_zeros();
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("hierarchical depth"),
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            mip_level_count: levels,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let level_views = (0..levels)
+            .map(|level| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    base_mip_level: level,
+                    mip_level_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        Self { frame_size, full_view: texture.create_view(&Default::default()), level_views }
+    }
+
+    fn levels(&self) -> u32 {
+        self.level_views.len() as u32
+    }
+}
+
 /// The buffers the cull pass reads that other owners hold.
 pub struct CullInputs<'a> {
     pub view: &'a wgpu::Buffer,
@@ -57,10 +104,18 @@ pub struct GpuCulling {
     batches: GrowableBuffer,
     args_template: GrowableBuffer,
     args: GrowableBuffer,
+    late_template: GrowableBuffer,
+    late_args: GrowableBuffer,
+    /// One word per draw-list entry: whether it passed the late test last frame.
+    was_visible: GrowableBuffer,
     visible_slots: GrowableBuffer,
     params: wgpu::Buffer,
+    hzb: Option<Hzb>,
     item_count: u32,
     batch_count: u32,
+    late_base: u32,
+    /// Whether the last frame ran the occlusion phases (which arguments hold its counts).
+    occlusion: bool,
 }
 
 impl GpuCulling {
@@ -71,6 +126,9 @@ impl GpuCulling {
             batches: GrowableBuffer::new(device, "cull batches", U::STORAGE, 256),
             args_template: GrowableBuffer::new(device, "indirect args template", U::COPY_SRC, 256),
             args: GrowableBuffer::new(device, "indirect args", U::STORAGE | U::INDIRECT | U::COPY_SRC, 256),
+            late_template: GrowableBuffer::new(device, "late indirect args template", U::COPY_SRC, 256),
+            late_args: GrowableBuffer::new(device, "late indirect args", U::STORAGE | U::INDIRECT | U::COPY_SRC, 256),
+            was_visible: GrowableBuffer::new(device, "visible last frame", U::STORAGE, 256),
             visible_slots: GrowableBuffer::new(device, "visible draw slots", U::STORAGE | U::COPY_SRC, 4096 * 4),
             params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("cull params"),
@@ -78,14 +136,22 @@ impl GpuCulling {
                 usage: U::UNIFORM | U::COPY_DST,
                 mapped_at_creation: false,
             }),
+            hzb: None,
             item_count: 0,
             batch_count: 0,
+            late_base: 0,
+            occlusion: false,
         }
     }
 
     /// The indirect arguments, `ARGS_WORDS` words per opaque batch in batch order.
     pub fn args(&self) -> &wgpu::Buffer {
         self.args.buffer()
+    }
+
+    /// The late draws' indirect arguments (occlusion culling), laid out like `args`.
+    pub fn late_args(&self) -> &wgpu::Buffer {
+        self.late_args.buffer()
     }
 
     /// The draw list as the forward pass reads it: each opaque batch's visible instances at the
@@ -100,17 +166,22 @@ impl GpuCulling {
             + self.args_template.capacity()
             + self.args.capacity()
             + self.visible_slots.capacity()
+            + self.late_template.capacity()
+            + self.late_args.capacity()
+            + self.was_visible.capacity()
     }
 
-    /// After the batches were rebuilt: what the cull pass needs to know about them. Returns
-    /// whether a buffer the forward pass binds was replaced.
+    /// After the batches were rebuilt: what the cull pass needs to know about them.
+    /// `late_base`: where the late draws' region starts in the visible list (after the opaque
+    /// and the most blended entries there can be). Every entry counts as visible last frame.
     pub fn prepare_batches(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         batches: &[Batch],
         mesh_pool: &MeshPool,
-    ) -> bool {
+        late_base: u32,
+    ) {
         let mut item_batch = Vec::new();
         let mut gpu_batches = Vec::with_capacity(batches.len());
         let mut template = Vec::with_capacity(batches.len() * ARGS_WORDS as usize);
@@ -136,26 +207,61 @@ impl GpuCulling {
         self.item_batch.reserve(device, item_batch.len() as u64 * 4);
         self.batches.reserve(device, std::mem::size_of_val(gpu_batches.as_slice()) as u64);
         self.args_template.reserve(device, template.len() as u64 * 4);
-        let grew = self.args.reserve(device, template.len() as u64 * 4);
+        self.args.reserve(device, template.len() as u64 * 4);
+        // The late draws' first instance is in their own region.
+        let mut late = template.clone();
+        for (words, b) in late.chunks_exact_mut(ARGS_WORDS as usize).zip(batches) {
+            let indexed = mesh_pool.entry(b.mesh_id).is_some_and(|e| e.indices.is_some());
+            words[if indexed { 4 } else { 3 }] += late_base;
+        }
+        self.late_base = late_base;
+        self.late_template.reserve(device, late.len() as u64 * 4);
+        self.late_args.reserve(device, late.len() as u64 * 4);
+        self.was_visible.reserve(device, item_batch.len() as u64 * 4);
+        let all_visible = vec![1u32; item_batch.len()];
         for (buffer, bytes) in [
             (&self.item_batch, bytemuck::cast_slice::<u32, u8>(&item_batch)),
             (&self.batches, bytemuck::cast_slice(&gpu_batches)),
             (&self.args_template, bytemuck::cast_slice(&template)),
+            (&self.late_template, bytemuck::cast_slice(&late)),
+            (&self.was_visible, bytemuck::cast_slice(&all_visible)),
         ] {
             if !bytes.is_empty() {
                 queue.write_buffer(buffer.buffer(), 0, bytes);
             }
         }
-        queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&[self.item_count, 0, 0, 0]));
-        grew
     }
 
-    /// Makes room for the whole draw list (opaque and blended entries); returns whether
-    /// `visible_slots` was replaced.
-    pub fn reserve(&mut self, device: &wgpu::Device, draw_list_len: usize) -> bool {
-        self.visible_slots.reserve(device, draw_list_len.max(1) as u64 * 4)
+    /// Every frame: the parameters, the depth pyramid for a frame of `frame_size` when
+    /// `occlusion` runs, and room for the whole visible list (`draw_list_len` entries, plus the
+    /// late region). Returns whether `visible_slots` was replaced.
+    pub fn prepare_frame(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        draw_list_len: usize,
+        occlusion: Option<(u32, u32)>,
+    ) -> bool {
+        self.occlusion = occlusion.is_some();
+        let levels = match occlusion {
+            Some(size) => {
+                if self.hzb.as_ref().is_none_or(|h| h.frame_size != size) {
+                    self.hzb = Some(Hzb::new(device, size));
+                }
+                self.hzb.as_ref().map_or(1, Hzb::levels)
+            }
+            None => {
+                self.hzb = None;
+                1
+            }
+        };
+        queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&[self.item_count, self.late_base, levels, 0]));
+        let late_end = if self.occlusion { self.late_base as usize + self.item_count as usize } else { 0 };
+        self.visible_slots.reserve(device, draw_list_len.max(late_end).max(1) as u64 * 4)
     }
 
+    /// Resets the arguments, copies the blended entries and culls: the whole frustum cull, or
+    /// the early half of occlusion culling when the frame was prepared with it.
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -164,7 +270,8 @@ impl GpuCulling {
         inputs: &CullInputs,
         timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
-        let pipeline = pipelines.cull(device)?.clone();
+        let phase = if self.occlusion { CullPhase::Early } else { CullPhase::Frustum };
+        pipelines.cull(device, phase)?;
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
         if args_bytes > 0 {
             encoder.copy_buffer_to_buffer(self.args_template.buffer(), 0, self.args.buffer(), 0, args_bytes);
@@ -174,37 +281,112 @@ impl GpuCulling {
             let size = inputs.blended.len() as u64 * 4;
             encoder.copy_buffer_to_buffer(inputs.draw_slots, offset, self.visible_slots.buffer(), offset, size);
         }
+        self.dispatch(encoder, device, pipelines, inputs, phase, timer);
+        Ok(())
+    }
+
+    /// Occlusion culling, after the early draws: the depth pyramid from `depth` (the frame's
+    /// depth target, `samples` per pixel), then the late cull.
+    pub fn encode_late(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        inputs: &CullInputs,
+        depth: (&wgpu::TextureView, u32),
+        mut timer: Option<&mut GpuTimer>,
+    ) -> Result<(), ShaderError> {
+        let Some(hzb) = &self.hzb else { return Ok(()) };
+        let first = HzbStep::FromDepth { multisampled: depth.1 > 1 };
+        pipelines.hzb(device, first)?;
+        pipelines.hzb(device, HzbStep::Reduce)?;
+        pipelines.cull(device, CullPhase::Late)?;
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("depth pyramid"),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("depth pyramid")),
+            });
+            for (level, out) in hzb.level_views.iter().enumerate() {
+                let (step, input) =
+                    if level == 0 { (first, depth.0) } else { (HzbStep::Reduce, &hzb.level_views[level - 1]) };
+                let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("depth pyramid level"),
+                    layout: pipelines.hzb_layout(step),
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(input) },
+                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(out) },
+                    ],
+                });
+                let Some(pipeline) = pipelines.hzb_cached(step) else { continue };
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                let size = out.texture().size();
+                let (w, h) = ((size.width >> level).max(1), (size.height >> level).max(1));
+                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            }
+        }
+        let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
+        if args_bytes > 0 {
+            encoder.copy_buffer_to_buffer(self.late_template.buffer(), 0, self.late_args.buffer(), 0, args_bytes);
+        }
+        self.dispatch(encoder, device, pipelines, inputs, CullPhase::Late, timer);
+        Ok(())
+    }
+
+    fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &PipelineCache,
+        inputs: &CullInputs,
+        phase: CullPhase,
+        timer: Option<&mut GpuTimer>,
+    ) {
+        let Some(pipeline) = pipelines.cull_cached(phase) else { return };
         if self.item_count == 0 {
-            return Ok(());
+            return;
         }
         fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
         }
+        let args = if phase == CullPhase::Late { self.late_args.buffer() } else { self.args.buffer() };
+        let mut entries = vec![
+            entry(0, inputs.view),
+            entry(1, inputs.instances),
+            entry(2, inputs.draw_slots),
+            entry(3, self.item_batch.buffer()),
+            entry(4, self.batches.buffer()),
+            entry(5, args),
+            entry(6, self.visible_slots.buffer()),
+            entry(7, &self.params),
+        ];
+        if phase != CullPhase::Frustum {
+            entries.push(entry(8, self.was_visible.buffer()));
+        }
+        if phase == CullPhase::Late
+            && let Some(hzb) = &self.hzb
+        {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 9,
+                resource: wgpu::BindingResource::TextureView(&hzb.full_view),
+            });
+        }
         // Made per frame (microseconds): the inputs belong to other owners and may be replaced.
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull"),
-            layout: &pipelines.cull_layout,
-            entries: &[
-                entry(0, inputs.view),
-                entry(1, inputs.instances),
-                entry(2, inputs.draw_slots),
-                entry(3, self.item_batch.buffer()),
-                entry(4, self.batches.buffer()),
-                entry(5, self.args.buffer()),
-                entry(6, self.visible_slots.buffer()),
-                entry(7, &self.params),
-            ],
+            layout: pipelines.cull_layout(phase),
+            entries: &entries,
         });
+        let label = if phase == CullPhase::Late { "cull late" } else { "cull" };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("cull"),
-            timestamp_writes: timer.and_then(|t| t.compute_pass("cull")),
+            label: Some(label),
+            timestamp_writes: timer.and_then(|t| t.compute_pass(label)),
         });
-        pass.set_pipeline(&pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
         let (x, y) =
             dispatch_grid(self.item_count.div_ceil(WORKGROUP), device.limits().max_compute_workgroups_per_dimension);
         pass.dispatch_workgroups(x, y, 1);
-        Ok(())
     }
 
     /// Instances each opaque batch drew in the last culled frame (reads back; tests and tools).
@@ -212,9 +394,18 @@ impl GpuCulling {
         if self.batch_count == 0 {
             return Ok(Vec::new());
         }
-        let bytes = readback::read_buffer(device, queue, self.args.buffer(), self.batch_count as u64 * ARGS_WORDS * 4)?;
-        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(words.chunks_exact(ARGS_WORDS as usize).map(|w| w[1]).collect())
+        let bytes = self.batch_count as u64 * ARGS_WORDS * 4;
+        let counts = |buffer: &wgpu::Buffer| -> Result<Vec<u32>, ReadbackError> {
+            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, buffer, bytes)?);
+            Ok(words.chunks_exact(ARGS_WORDS as usize).map(|w| w[1]).collect())
+        };
+        let mut drawn = counts(self.args.buffer())?;
+        if self.occlusion {
+            for (d, late) in drawn.iter_mut().zip(counts(self.late_args.buffer())?) {
+                *d += late;
+            }
+        }
+        Ok(drawn)
     }
 }
 

@@ -63,6 +63,19 @@ pub struct IndirectDraws<'a> {
 /// With deferred local lights (`targets.deferred`), the pass stops after the first
 /// `opaque_count` batches, keeping colour, depth and the surface targets for the
 /// deferred-lights pass; [`encode_after_deferred`] then adds its light and draws the rest.
+/// Which part of the opaque phase a forward pass encodes. Occlusion culling splits it in two
+/// render passes around the depth pyramid and the late cull.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OpaquePhase {
+    /// Everything in one pass.
+    All,
+    /// Clears, draws the opaque batches (the early draws) and keeps the targets.
+    Early,
+    /// Loads what `Early` left, draws the opaque batches (the late draws) and goes on as `All`.
+    Late,
+}
+
+#[allow(clippy::too_many_arguments)]
 pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
@@ -70,19 +83,23 @@ pub fn encode(
     inputs: &ForwardInputs,
     batches: &[Batch],
     opaque_count: usize,
+    phase: OpaquePhase,
     timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
     let error = compile(device, pipelines, batches);
     let (color, resolve) = inputs.targets.color_attachment();
     let split = inputs.targets.deferred.as_ref();
+    let (early, late) = (phase == OpaquePhase::Early, phase == OpaquePhase::Late);
     // Multisampled colour need not be stored once resolved (unless a later pass goes on).
-    let store = if resolve.is_some() && split.is_none() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
+    let ends = split.is_none() && !early;
+    let store = if resolve.is_some() && ends { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     let clear_surface = |view| {
+        let load = if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) };
         Some(wgpu::RenderPassColorAttachment {
             view,
             depth_slice: None,
             resolve_target: None,
-            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
         })
     };
     // With deferred lights the colour's alpha carries roughness, 0 for the background.
@@ -90,8 +107,8 @@ pub fn encode(
     let mut attachments = vec![Some(wgpu::RenderPassColorAttachment {
         view: color,
         depth_slice: None,
-        resolve_target: if split.is_some() { None } else { resolve },
-        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store },
+        resolve_target: if ends { resolve } else { None },
+        ops: wgpu::Operations { load: if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(clear) }, store },
     })];
     if let Some(d) = split {
         attachments.push(clear_surface(&d.surface_shape_view));
@@ -103,16 +120,16 @@ pub fn encode(
             view: &inputs.targets.depth_view,
             // Reverse-Z: the far plane is 0.
             depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Clear(0.0),
-                store: if split.is_some() { wgpu::StoreOp::Store } else { wgpu::StoreOp::Discard },
+                load: if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) },
+                store: if ends { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
             }),
             stencil_ops: None,
         }),
-        timestamp_writes: timer.and_then(|t| t.pass("forward")),
+        timestamp_writes: timer.and_then(|t| t.pass(if late { "forward late" } else { "forward" })),
         occlusion_query_set: None,
         multiview_mask: None,
     });
-    let drawn = if split.is_some() { &batches[..opaque_count.min(batches.len())] } else { batches };
+    let drawn = if ends { batches } else { &batches[..opaque_count.min(batches.len())] };
     (draw(&mut pass, pipelines, inputs, drawn, 0), error)
 }
 

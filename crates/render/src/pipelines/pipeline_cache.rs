@@ -18,6 +18,7 @@ use std::collections::HashMap;
 mod casters;
 mod culling;
 pub use casters::CasterKey;
+pub use culling::{CullPhase, HzbStep};
 
 use penumbra_engine::mesh::Topology;
 
@@ -250,9 +251,9 @@ pub struct PipelineCache {
     /// Opaque casters (caster group only) and masked ones (with the material group).
     caster_pipeline_layouts: [wgpu::PipelineLayout; 2],
     caster: HashMap<CasterKey, wgpu::RenderPipeline>,
-    pub cull_layout: wgpu::BindGroupLayout,
-    cull_pipeline_layout: wgpu::PipelineLayout,
-    cull: Option<wgpu::ComputePipeline>,
+    cull_layouts: culling::CullLayouts,
+    cull: HashMap<CullPhase, wgpu::ComputePipeline>,
+    hzb: HashMap<HzbStep, wgpu::ComputePipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -447,17 +448,16 @@ impl PipelineCache {
             entries: &[texture(0, false)],
         });
         let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
-        let cull_layout = culling::cull_layout(device);
-        let cull_pipeline_layout = layout("cull", &[Some(&cull_layout)]);
+        let cull_layouts = culling::cull_layouts(device);
         let caster_layout = casters::caster_layout(device);
         let caster_pipeline_layouts = [
             layout("shadow casters", &[Some(&caster_layout)]),
             layout("masked shadow casters", &[Some(&caster_layout), Some(&material_layout)]),
         ];
         Self {
-            cull_layout,
-            cull_pipeline_layout,
-            cull: None,
+            cull_layouts,
+            cull: HashMap::new(),
+            hzb: HashMap::new(),
             caster_layout,
             caster_pipeline_layouts,
             caster: HashMap::new(),
@@ -600,7 +600,8 @@ impl PipelineCache {
         let deferred_hit = lib.depends_on("deferred_lights.wgsl", files);
         let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
         let caster_hit = lib.depends_on("shadow_caster.wgsl", files);
-        let cull_hit = lib.depends_on("cull.wgsl", files) && self.cull.is_some();
+        let cull_hit = lib.depends_on("cull.wgsl", files);
+        let hzb_hit = lib.depends_on("hzb.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -643,8 +644,20 @@ impl PipelineCache {
                 caster.push((key, self.create_caster(device, &mut candidate, key)?));
             }
         }
-        let cull = if cull_hit { Some(self.create_cull(device, &mut candidate)?) } else { None };
-        let total = self.cull.is_some() as usize
+        let mut cull = Vec::new();
+        if cull_hit {
+            for key in self.cull.keys().copied().collect::<Vec<_>>() {
+                cull.push((key, self.create_cull(device, &mut candidate, key)?));
+            }
+        }
+        let mut hzb = Vec::new();
+        if hzb_hit {
+            for key in self.hzb.keys().copied().collect::<Vec<_>>() {
+                hzb.push((key, self.create_hzb(device, &mut candidate, key)?));
+            }
+        }
+        let total = self.cull.len()
+            + self.hzb.len()
             + self.caster.len()
             + self.forward.len()
             + self.tonemap.len()
@@ -652,7 +665,8 @@ impl PipelineCache {
             + self.cluster.len()
             + self.deferred.len()
             + self.composite.len();
-        let rebuilt = cull.is_some() as usize
+        let rebuilt = cull.len()
+            + hzb.len()
             + caster.len()
             + forward.len()
             + tonemap.len()
@@ -668,9 +682,8 @@ impl PipelineCache {
         self.deferred.extend(deferred);
         self.composite.extend(composite);
         self.caster.extend(caster);
-        if cull.is_some() {
-            self.cull = cull;
-        }
+        self.cull.extend(cull);
+        self.hzb.extend(hzb);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }

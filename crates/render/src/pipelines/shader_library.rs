@@ -39,6 +39,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
     ("cull.wgsl", include_str!("../../../../shaders/cull.wgsl")),
+    ("hzb.wgsl", include_str!("../../../../shaders/hzb.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
     ("shadow_caster.wgsl", include_str!("../../../../shaders/shadow_caster.wgsl")),
     ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
@@ -354,6 +355,11 @@ mod tests {
         }
         lib.compose("mipmap.wgsl", &defs(&[])).unwrap();
         lib.compose("cull.wgsl", &defs(&[])).unwrap();
+        lib.compose("cull.wgsl", &defs(&["OCCLUSION_EARLY"])).unwrap();
+        lib.compose("cull.wgsl", &defs(&["OCCLUSION_LATE"])).unwrap();
+        for d in [&[][..], &["FROM_DEPTH"], &["FROM_DEPTH", "MULTISAMPLED"]] {
+            lib.compose("hzb.wgsl", &defs(d)).unwrap();
+        }
     }
 
     #[test]

@@ -28,6 +28,9 @@ struct Samples {
     wall: Vec<f64>,
     gpu: Vec<f64>,
     gpu_cull: Vec<f64>,
+    gpu_cull_late: Vec<f64>,
+    gpu_hzb: Vec<f64>,
+    gpu_forward_late: Vec<f64>,
     gpu_forward: Vec<f64>,
     gpu_tonemap: Vec<f64>,
     instance_bytes: Vec<f64>,
@@ -36,7 +39,7 @@ struct Samples {
 struct Row {
     count: usize,
     moving: f64,
-    median: [f64; 13],
+    median: [f64; 16],
     draw_calls: u32,
     instances: u32,
     /// After GPU culling, in the last frame (`None`: not culled).
@@ -87,6 +90,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     med(&s.gpu_forward),
                     med(&s.gpu_tonemap),
                     med(&s.upload),
+                    med(&s.gpu_hzb),
+                    med(&s.gpu_cull_late),
+                    med(&s.gpu_forward_late),
                 ],
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
@@ -101,24 +107,50 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         layout
     );
     println!(
-        "settings  {}x{}, MSAA {}, GPU culling {}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
+        "settings  {}x{}, MSAA {}, GPU culling {}, occlusion culling {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
         args.size.0,
         args.size.1,
         settings.msaa,
         if settings.gpu_culling { "on" } else { "off" },
+        settings.occlusion_culling,
         settings.tonemapper,
         args.warmup,
         args.frames
     );
     println!();
     println!(
-        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / forward / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | GPU MiB instances and draw lists |"
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | GPU MiB instances and draw lists |"
     );
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
-        let [main, extract, prepare, encode, submit, cpu, wall, gpu, bytes, cull, forward, tonemap, upload] = r.median;
+        let [
+            main,
+            extract,
+            prepare,
+            encode,
+            submit,
+            cpu,
+            wall,
+            gpu,
+            bytes,
+            cull,
+            forward,
+            tonemap,
+            upload,
+            hzb,
+            cull_late,
+            forward_late,
+        ] = r.median;
         let ms = |v: f64| if v.is_nan() { "-".to_owned() } else { format!("{v:.3}") };
-        let passes = format!("{} / {} / {}", ms(cull), ms(forward), ms(tonemap));
+        let passes = format!(
+            "{} / {} / {} / {} / {} / {}",
+            ms(cull),
+            ms(forward),
+            ms(hzb),
+            ms(cull_late),
+            ms(forward_late),
+            ms(tonemap)
+        );
         let gpu = ms(gpu);
         println!(
             "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} ({upload:.3}) | {encode:.3} | {submit:.3} | {cpu:.3} | {passes} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {:.1} |",
@@ -165,9 +197,14 @@ fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samp
         if let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
             last_gpu_frame = t.frame;
             s.gpu.push(t.passes.iter().map(|(_, ms)| ms).sum());
-            for (label, v) in
-                [("cull", &mut s.gpu_cull), ("forward", &mut s.gpu_forward), ("tonemap", &mut s.gpu_tonemap)]
-            {
+            for (label, v) in [
+                ("cull", &mut s.gpu_cull),
+                ("cull late", &mut s.gpu_cull_late),
+                ("depth pyramid", &mut s.gpu_hzb),
+                ("forward late", &mut s.gpu_forward_late),
+                ("forward", &mut s.gpu_forward),
+                ("tonemap", &mut s.gpu_tonemap),
+            ] {
                 if let Some((_, ms)) = t.passes.iter().find(|(l, _)| *l == label) {
                     v.push(*ms);
                 }
@@ -189,6 +226,9 @@ fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samp
         &mut s.gpu_forward,
         &mut s.gpu_tonemap,
         &mut s.upload,
+        &mut s.gpu_hzb,
+        &mut s.gpu_cull_late,
+        &mut s.gpu_forward_late,
     ] {
         v.sort_by(f64::total_cmp);
     }

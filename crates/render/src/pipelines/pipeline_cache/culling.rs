@@ -1,51 +1,202 @@
-//! The frustum-culling compute pipeline (`shaders/cull.wgsl`): the part of the pipeline cache
-//! that serves `passes::culling`.
+//! The culling compute pipelines: frustum culling (`shaders/cull.wgsl`) in its three phases,
+//! and the hierarchical depth buffer's reductions (`shaders/hzb.wgsl`). The part of the
+//! pipeline cache that serves `passes::culling`.
 
 use super::{PipelineCache, buffer_entry, checked_pipeline, storage};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
-/// The cull pass's bind group layout, in `cull.wgsl`'s binding order: view, instances, draw
-/// list, entry → batch, batches, indirect args (written), visible list (written), params.
-pub(super) fn cull_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+/// Which cull pass: without occlusion culling, or its early or late half.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CullPhase {
+    Frustum,
+    Early,
+    Late,
+}
+
+/// Which reduction of the hierarchical depth buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum HzbStep {
+    /// Level 0 from the frame's depth (single- or multisampled).
+    FromDepth { multisampled: bool },
+    /// A level from the one below it.
+    Reduce,
+}
+
+pub(super) struct CullLayouts {
+    /// Bind group layouts by `CullPhase` (`Frustum`, `Early`, `Late`).
+    pub cull: [wgpu::BindGroupLayout; 3],
+    cull_pipeline: [wgpu::PipelineLayout; 3],
+    /// `FromDepth` single-sampled, multisampled, then `Reduce`.
+    pub hzb: [wgpu::BindGroupLayout; 3],
+    hzb_pipeline: [wgpu::PipelineLayout; 3],
+}
+
+impl CullPhase {
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+impl HzbStep {
+    fn index(self) -> usize {
+        match self {
+            HzbStep::FromDepth { multisampled } => multisampled as usize,
+            HzbStep::Reduce => 2,
+        }
+    }
+}
+
+/// The layouts, in `cull.wgsl`'s binding order: view, instances, draw list, entry → batch,
+/// batches, indirect args (written), visible list (written), params; the early phase adds
+/// last frame's visibility, the late phase rewrites it and reads the depth pyramid.
+pub(super) fn cull_layouts(device: &wgpu::Device) -> CullLayouts {
     let compute = wgpu::ShaderStages::COMPUTE;
     let read_write = wgpu::BufferBindingType::Storage { read_only: false };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("cull"),
-        entries: &[
-            buffer_entry(0, compute, wgpu::BufferBindingType::Uniform),
-            storage(1, compute),
-            storage(2, compute),
-            storage(3, compute),
-            storage(4, compute),
-            buffer_entry(5, compute, read_write),
-            buffer_entry(6, compute, read_write),
-            buffer_entry(7, compute, wgpu::BufferBindingType::Uniform),
+    let mut entries = vec![
+        buffer_entry(0, compute, wgpu::BufferBindingType::Uniform),
+        storage(1, compute),
+        storage(2, compute),
+        storage(3, compute),
+        storage(4, compute),
+        buffer_entry(5, compute, read_write),
+        buffer_entry(6, compute, read_write),
+        buffer_entry(7, compute, wgpu::BufferBindingType::Uniform),
+    ];
+    let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
+    };
+    let frustum = layout("cull", &entries);
+    entries.push(storage(8, compute));
+    let early = layout("cull early", &entries);
+    entries.pop();
+    entries.push(buffer_entry(8, compute, read_write));
+    entries.push(texture_entry(9, wgpu::TextureSampleType::Float { filterable: false }, false));
+    let late = layout("cull late", &entries);
+    let storage_out = wgpu::BindGroupLayoutEntry {
+        binding: 1,
+        visibility: compute,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::R32Float,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    };
+    let hzb = [
+        layout("hzb from depth", &[texture_entry(0, wgpu::TextureSampleType::Depth, false), storage_out]),
+        layout("hzb from msaa depth", &[texture_entry(0, wgpu::TextureSampleType::Depth, true), storage_out]),
+        layout(
+            "hzb reduce",
+            &[texture_entry(0, wgpu::TextureSampleType::Float { filterable: false }, false), storage_out],
+        ),
+    ];
+    let pipeline_layout = |label, group: &wgpu::BindGroupLayout| {
+        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(group)],
+            immediate_size: 0,
+        })
+    };
+    CullLayouts {
+        cull_pipeline: [
+            pipeline_layout("cull", &frustum),
+            pipeline_layout("cull early", &early),
+            pipeline_layout("cull late", &late),
         ],
-    })
+        cull: [frustum, early, late],
+        hzb_pipeline: [
+            pipeline_layout("hzb", &hzb[0]),
+            pipeline_layout("hzb msaa", &hzb[1]),
+            pipeline_layout("hzb reduce", &hzb[2]),
+        ],
+        hzb,
+    }
+}
+
+fn texture_entry(binding: u32, sample_type: wgpu::TextureSampleType, multisampled: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture { sample_type, view_dimension: wgpu::TextureViewDimension::D2, multisampled },
+        count: None,
+    }
 }
 
 impl PipelineCache {
-    /// The cull pipeline, compiled on first use.
-    pub fn cull(&mut self, device: &wgpu::Device) -> Result<&wgpu::ComputePipeline, ShaderError> {
-        if self.cull.is_none() {
-            self.cull = Some(self.create_cull(device, &mut None)?);
+    pub fn cull_layout(&self, phase: CullPhase) -> &wgpu::BindGroupLayout {
+        &self.cull_layouts.cull[phase.index()]
+    }
+
+    pub fn hzb_layout(&self, step: HzbStep) -> &wgpu::BindGroupLayout {
+        &self.cull_layouts.hzb[step.index()]
+    }
+
+    /// The cull pipeline of `phase`, compiled on first use.
+    pub fn cull(&mut self, device: &wgpu::Device, phase: CullPhase) -> Result<&wgpu::ComputePipeline, ShaderError> {
+        if !self.cull.contains_key(&phase) {
+            let p = self.create_cull(device, &mut None, phase)?;
+            self.cull.insert(phase, p);
         }
-        Ok(self.cull.as_ref().expect("just created"))
+        Ok(&self.cull[&phase])
+    }
+
+    pub fn cull_cached(&self, phase: CullPhase) -> Option<&wgpu::ComputePipeline> {
+        self.cull.get(&phase)
+    }
+
+    pub fn hzb_cached(&self, step: HzbStep) -> Option<&wgpu::ComputePipeline> {
+        self.hzb.get(&step)
+    }
+
+    /// The depth-pyramid pipeline of `step`, compiled on first use.
+    pub fn hzb(&mut self, device: &wgpu::Device, step: HzbStep) -> Result<&wgpu::ComputePipeline, ShaderError> {
+        if !self.hzb.contains_key(&step) {
+            let p = self.create_hzb(device, &mut None, step)?;
+            self.hzb.insert(step, p);
+        }
+        Ok(&self.hzb[&step])
     }
 
     pub(super) fn create_cull(
         &mut self,
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
+        phase: CullPhase,
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
-        let module = self.library(candidate).create_module(device, "cull.wgsl", &ShaderDefs::default())?;
+        let defs = ShaderDefs::default()
+            .with("OCCLUSION_EARLY", phase == CullPhase::Early)
+            .with("OCCLUSION_LATE", phase == CullPhase::Late);
+        let module = self.library(candidate).create_module(device, "cull.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "cull.wgsl", || {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("cull"),
-                layout: Some(&self.cull_pipeline_layout),
+                layout: Some(&self.cull_layouts.cull_pipeline[phase.index()]),
                 module: &module,
                 entry_point: Some("cull_instances"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
+    }
+
+    pub(super) fn create_hzb(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        step: HzbStep,
+    ) -> Result<wgpu::ComputePipeline, ShaderError> {
+        let defs = ShaderDefs::default()
+            .with("FROM_DEPTH", step != HzbStep::Reduce)
+            .with("MULTISAMPLED", step == HzbStep::FromDepth { multisampled: true });
+        let module = self.library(candidate).create_module(device, "hzb.wgsl", &defs)?;
+        self.compiled += 1;
+        checked_pipeline(device, "hzb.wgsl", || {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("hzb"),
+                layout: Some(&self.cull_layouts.hzb_pipeline[step.index()]),
+                module: &module,
+                entry_point: Some("reduce"),
                 compilation_options: Default::default(),
                 cache: None,
             })
