@@ -82,8 +82,9 @@ pub struct RenderSettings {
 pub enum OcclusionCulling {
     Off,
     On,
-    /// On where it pays: with at least [`OCCLUSION_AUTO_MIN`] opaque instances. Below that, the
-    /// depth pyramid and the second cull and render pass cost more than hidden objects do.
+    /// On where it pays: with at least [`OCCLUSION_AUTO_MIN`] opaque instances, on a GPU. On
+    /// the H100 the depth pyramid, the late cull and the split render pass cost 0.1-0.2 ms at
+    /// 1920×1080; on a CPU rasteriser (lavapipe) 36 ms, more than hidden objects save there.
     #[default]
     Auto,
 }
@@ -667,7 +668,9 @@ impl Renderer {
             && match self.settings.occlusion_culling {
                 OcclusionCulling::Off => false,
                 OcclusionCulling::On => true,
-                OcclusionCulling::Auto => opaque_len >= OCCLUSION_AUTO_MIN,
+                OcclusionCulling::Auto => {
+                    opaque_len >= OCCLUSION_AUTO_MIN && self.ctx.info.device_type != wgpu::DeviceType::Cpu
+                }
             };
         if culling {
             if self.cull_batches_dirty {

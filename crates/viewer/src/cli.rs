@@ -87,7 +87,8 @@ pub struct LookArgs {
     /// comparison; culling never changes the image).
     #[arg(long)]
     pub no_culling: bool,
-    /// Occlusion culling (with GPU culling): `auto` runs it with 10 000 opaque instances or more.
+    /// Occlusion culling (with GPU culling): `auto` runs it with 10 000 opaque instances or
+    /// more, on a GPU (not on CPU rasterisers such as lavapipe).
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub occlusion: OcclusionArg,
 }
