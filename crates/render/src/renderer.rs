@@ -746,6 +746,8 @@ impl Renderer {
             );
         }
         let targets = self.targets.as_ref().expect("made above");
+        // Handles (reference-counted), so the culling owner stays free to encode between passes.
+        let (early_args, late_args) = (self.culling.args().clone(), self.culling.late_args().clone());
         let [r, g, b] = self.settings.clear_color;
         let view_bind_group = self.view_bind_group.as_ref().expect("made above");
         let inputs = ForwardInputs {
@@ -756,7 +758,7 @@ impl Renderer {
             clear_color: wgpu::Color { r, g, b, a: 1.0 },
             indirect: self
                 .culling_active
-                .then(|| IndirectDraws { args: self.culling.args(), batches: self.opaque_batches.len() }),
+                .then_some(IndirectDraws { args: &early_args, batches: self.opaque_batches.len() }),
         };
         let opaque_count = self.opaque_batches.len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
@@ -775,10 +777,8 @@ impl Renderer {
                 .culling
                 .encode_late(&mut encoder, &device, &mut self.pipelines, &cull_inputs, depth, self.timer.as_mut())
                 .err();
-            let late_inputs = ForwardInputs {
-                indirect: Some(IndirectDraws { args: self.culling.late_args(), batches: opaque_count }),
-                ..inputs
-            };
+            let late_inputs =
+                ForwardInputs { indirect: Some(IndirectDraws { args: &late_args, batches: opaque_count }), ..inputs };
             let (late, error) = forward::encode(
                 &mut encoder,
                 &device,

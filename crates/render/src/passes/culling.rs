@@ -27,6 +27,8 @@
 //! Needs indirect draws with a first instance (`Features::INDIRECT_FIRST_INSTANCE`); without it
 //! (GL, some mobile GPUs) the renderer draws the full list directly, as with culling off.
 
+use std::collections::HashMap;
+
 use bytemuck::{Pod, Zeroable};
 
 use crate::passes::forward::Batch;
@@ -56,6 +58,8 @@ struct Hzb {
     frame_size: (u32, u32),
     full_view: wgpu::TextureView,
     level_views: Vec<wgpu::TextureView>,
+    /// Each level's reduction inputs, for the depth target they were made with.
+    level_groups: Option<(wgpu::TextureView, Vec<wgpu::BindGroup>)>,
 }
 
 impl Hzb {
@@ -82,7 +86,7 @@ impl Hzb {
                 })
             })
             .collect();
-        Self { frame_size, full_view: texture.create_view(&Default::default()), level_views }
+        Self { frame_size, full_view: texture.create_view(&Default::default()), level_views, level_groups: None }
     }
 
     fn levels(&self) -> u32 {
@@ -116,6 +120,9 @@ pub struct GpuCulling {
     late_base: u32,
     /// Whether the last frame ran the occlusion phases (which arguments hold its counts).
     occlusion: bool,
+    /// Bind groups by phase with the resources they were made of: remade only when one of them
+    /// was replaced (no `create_*` per frame on the hot path).
+    groups: HashMap<CullPhase, (Vec<wgpu::Buffer>, Option<wgpu::TextureView>, wgpu::BindGroup)>,
 }
 
 impl GpuCulling {
@@ -141,6 +148,7 @@ impl GpuCulling {
             batch_count: 0,
             late_base: 0,
             occlusion: false,
+            groups: HashMap::new(),
         }
     }
 
@@ -263,7 +271,7 @@ impl GpuCulling {
     /// Resets the arguments, copies the blended entries and culls: the whole frustum cull, or
     /// the early half of occlusion culling when the frame was prepared with it.
     pub fn encode(
-        &self,
+        &mut self,
         encoder: &mut wgpu::CommandEncoder,
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
@@ -288,7 +296,7 @@ impl GpuCulling {
     /// Occlusion culling, after the early draws: the depth pyramid from `depth` (the frame's
     /// depth target, `samples` per pixel), then the late cull.
     pub fn encode_late(
-        &self,
+        &mut self,
         encoder: &mut wgpu::CommandEncoder,
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
@@ -296,30 +304,43 @@ impl GpuCulling {
         depth: (&wgpu::TextureView, u32),
         mut timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
-        let Some(hzb) = &self.hzb else { return Ok(()) };
         let first = HzbStep::FromDepth { multisampled: depth.1 > 1 };
         pipelines.hzb(device, first)?;
         pipelines.hzb(device, HzbStep::Reduce)?;
         pipelines.cull(device, CullPhase::Late)?;
+        let Some(hzb) = &mut self.hzb else { return Ok(()) };
+        if hzb.level_groups.as_ref().is_none_or(|(d, _)| d != depth.0) {
+            let groups = (0..hzb.level_views.len())
+                .map(|level| {
+                    let (step, input) =
+                        if level == 0 { (first, depth.0) } else { (HzbStep::Reduce, &hzb.level_views[level - 1]) };
+                    device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("depth pyramid level"),
+                        layout: pipelines.hzb_layout(step),
+                        entries: &[
+                            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(input) },
+                            wgpu::BindGroupEntry {
+                                binding: 1,
+                                resource: wgpu::BindingResource::TextureView(&hzb.level_views[level]),
+                            },
+                        ],
+                    })
+                })
+                .collect();
+            hzb.level_groups = Some((depth.0.clone(), groups));
+        }
+        let hzb = self.hzb.as_ref().expect("made above");
+        let groups = &hzb.level_groups.as_ref().expect("made above").1;
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("depth pyramid"),
                 timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("depth pyramid")),
             });
-            for (level, out) in hzb.level_views.iter().enumerate() {
-                let (step, input) =
-                    if level == 0 { (first, depth.0) } else { (HzbStep::Reduce, &hzb.level_views[level - 1]) };
-                let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("depth pyramid level"),
-                    layout: pipelines.hzb_layout(step),
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(input) },
-                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(out) },
-                    ],
-                });
+            for (level, (out, bind_group)) in hzb.level_views.iter().zip(groups).enumerate() {
+                let step = if level == 0 { first } else { HzbStep::Reduce };
                 let Some(pipeline) = pipelines.hzb_cached(step) else { continue };
                 pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
+                pass.set_bind_group(0, bind_group, &[]);
                 let size = out.texture().size();
                 let (w, h) = ((size.width >> level).max(1), (size.height >> level).max(1));
                 pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
@@ -334,7 +355,7 @@ impl GpuCulling {
     }
 
     fn dispatch(
-        &self,
+        &mut self,
         encoder: &mut wgpu::CommandEncoder,
         device: &wgpu::Device,
         pipelines: &PipelineCache,
@@ -346,44 +367,47 @@ impl GpuCulling {
         if self.item_count == 0 {
             return;
         }
-        fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
-        }
         let args = if phase == CullPhase::Late { self.late_args.buffer() } else { self.args.buffer() };
-        let mut entries = vec![
-            entry(0, inputs.view),
-            entry(1, inputs.instances),
-            entry(2, inputs.draw_slots),
-            entry(3, self.item_batch.buffer()),
-            entry(4, self.batches.buffer()),
-            entry(5, args),
-            entry(6, self.visible_slots.buffer()),
-            entry(7, &self.params),
+        let mut buffers = vec![
+            inputs.view.clone(),
+            inputs.instances.clone(),
+            inputs.draw_slots.clone(),
+            self.item_batch.buffer().clone(),
+            self.batches.buffer().clone(),
+            args.clone(),
+            self.visible_slots.buffer().clone(),
+            self.params.clone(),
         ];
         if phase != CullPhase::Frustum {
-            entries.push(entry(8, self.was_visible.buffer()));
+            buffers.push(self.was_visible.buffer().clone());
         }
-        if phase == CullPhase::Late
-            && let Some(hzb) = &self.hzb
-        {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 9,
-                resource: wgpu::BindingResource::TextureView(&hzb.full_view),
+        let hzb_view = if phase == CullPhase::Late { self.hzb.as_ref().map(|h| h.full_view.clone()) } else { None };
+        let stale = self.groups.get(&phase).is_none_or(|(b, v, _)| *b != buffers || *v != hzb_view);
+        if stale {
+            // Other owners' buffers (instances, draw list, view) and ours grow by replacement.
+            let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+                .collect();
+            if let Some(view) = &hzb_view {
+                entries.push(wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(view) });
+            }
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("cull"),
+                layout: pipelines.cull_layout(phase),
+                entries: &entries,
             });
+            self.groups.insert(phase, (buffers, hzb_view, group));
         }
-        // Made per frame (microseconds): the inputs belong to other owners and may be replaced.
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cull"),
-            layout: pipelines.cull_layout(phase),
-            entries: &entries,
-        });
+        let bind_group = &self.groups[&phase].2;
         let label = if phase == CullPhase::Late { "cull late" } else { "cull" };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(label),
             timestamp_writes: timer.and_then(|t| t.compute_pass(label)),
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
+        pass.set_bind_group(0, bind_group, &[]);
         let (x, y) =
             dispatch_grid(self.item_count.div_ceil(WORKGROUP), device.limits().max_compute_workgroups_per_dimension);
         pass.dispatch_workgroups(x, y, 1);
