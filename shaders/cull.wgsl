@@ -146,10 +146,15 @@ fn box_occluded(center: vec3<f32>, half_extent: vec3<f32>) -> bool {
             select(-1.0, 1.0, (c & 4u) != 0u),
         );
         let clip = view.clip_from_rel * vec4<f32>(corner, 1.0);
-        if clip.w <= 1e-6 {
+        // Written so that NaN (or an infinite box) keeps the object too.
+        if !(clip.w > 1e-6) {
             return false;
         }
         let ndc = clip.xyz / clip.w;
+        // min and max may drop NaN: a corner that is NaN or infinite keeps the object.
+        if !all(abs(ndc) < vec3<f32>(1e30)) {
+            return false;
+        }
         lo = min(lo, ndc.xy);
         hi = max(hi, ndc.xy);
         // Reverse-Z: the largest depth is the nearest point.

@@ -264,3 +264,21 @@ fn golden_primitives() {
     let rgba8 = render_app(&mut app, (256, 128), settings());
     common::check_golden("primitives", &common::Shot { width: 256, height: 128, rgba8 }, common::Tolerance::default());
 }
+
+/// Extraction lists a changed entity once per frame, however many times a component came and
+/// went since the last one (the renderer writes each listed entity's instance from one thread).
+#[test]
+fn a_changed_entity_is_listed_once_however_often_its_material_went() {
+    let mut app = scene_app();
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(white());
+    let cube = app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::default())).id();
+    app.update();
+    app.world.entity_mut(cube).remove::<MeshMaterial3d>();
+    app.world.entity_mut(cube).insert(MeshMaterial3d(material));
+    app.world.entity_mut(cube).remove::<MeshMaterial3d>();
+    app.update();
+    let scene = app.world.resource::<penumbra::render::RenderScene>();
+    assert_eq!(scene.changed_draws.iter().filter(|e| **e == cube).count(), 1, "{:?}", scene.changed_draws);
+    assert_eq!(scene.draws.get(cube).map(|d| d.material), Some(None), "drawn with the default material");
+}

@@ -260,6 +260,24 @@ struct DrawState {
     visible: bool,
 }
 
+/// A changed draw that only moved (the common case, animation): its slot and new record, to be
+/// written with no other change. Anything else (new, re-keyed, gone) is `None` and goes the slow
+/// way.
+fn pack_move(
+    draws: &EntityTable<DrawState>,
+    materials: &MaterialTable,
+    scene: &RenderScene,
+    entity: Entity,
+) -> Option<(u32, GpuInstance)> {
+    let (item, d) = (scene.draws.get(entity)?, draws.get(entity)?);
+    let mirrored = item.world_from_local.matrix3.determinant() < 0.0;
+    if (d.mesh, d.material, d.mirrored, d.visible) != (item.mesh, item.material, mirrored, item.visible) {
+        return None;
+    }
+    let material_slot = materials.get(&item.material).map_or(0, |m| m.slot);
+    Some((d.slot, GpuInstance::new(&item.world_from_local, material_slot)))
+}
+
 /// Change lists at least this long are packed on all cores.
 const PARALLEL_PACK_MIN: usize = 20_000;
 
@@ -664,7 +682,7 @@ impl Renderer {
             && self.ctx.caps.indirect_first_instance
             && !self.opaque_batches.is_empty()
             && scene.view.is_some();
-        let occlusion = culling
+        let mut occlusion = culling
             && match self.settings.occlusion_culling {
                 OcclusionCulling::Off => false,
                 OcclusionCulling::On => true,
@@ -672,6 +690,15 @@ impl Renderer {
                     opaque_len >= OCCLUSION_AUTO_MIN && self.ctx.info.device_type != wgpu::DeviceType::Cpu
                 }
             };
+        // A culling shader that does not compile (a broken shader folder) leaves this frame to
+        // direct draws of the full list rather than to stale indirect arguments.
+        let mut cull_error = None;
+        let culling = culling && {
+            let ready = GpuCulling::compile(&device, &mut self.pipelines, occlusion, self.settings.msaa);
+            cull_error = ready.err();
+            cull_error.is_none()
+        };
+        occlusion &= culling;
         if culling {
             if self.cull_batches_dirty {
                 // The late draws' region follows every blended entry there can be.
@@ -718,7 +745,6 @@ impl Renderer {
         if plan.runs(Pass::ClusterBin) {
             cluster_error = self.clusters.encode(&mut encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
         }
-        let mut cull_error = None;
         let cull_inputs = CullInputs {
             view: &self.view_buffer,
             instances: self.instances.buffer(),
@@ -1066,7 +1092,7 @@ impl Renderer {
         let mut rekeyed = Vec::new();
         if changed.len() < PARALLEL_PACK_MIN {
             for &entity in changed {
-                match self.pack_move(scene, entity) {
+                match pack_move(&self.draws, &self.materials, scene, entity) {
                     Some((slot, instance)) => self.instances.write(slot, instance),
                     None => rekeyed.push(entity),
                 }
@@ -1075,9 +1101,9 @@ impl Renderer {
             // Packing a million moved instances is most of a frame's CPU time on one core.
             let pool = bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
             let chunk = changed.len().div_ceil(pool.thread_num().max(1) * 4);
-            // pack_move reads the draw and material tables, never the instance records.
+            // The writer borrows the instance records; packing reads the draw and material tables.
             let writer = self.instances.disjoint_writer();
-            let this = &*self;
+            let (draws, materials) = (&self.draws, &self.materials);
             let parts = pool.scope(|s| {
                 for entities in changed.chunks(chunk) {
                     let writer = &writer;
@@ -1085,7 +1111,7 @@ impl Renderer {
                         let mut rekeyed = Vec::new();
                         let (mut lowest, mut highest) = (u32::MAX, 0);
                         for &entity in entities {
-                            match this.pack_move(scene, entity) {
+                            match pack_move(draws, materials, scene, entity) {
                                 Some((slot, instance)) => {
                                     // SAFETY: `changed` lists each entity once (extraction's
                                     // contract) and every drawn entity owns its own slot.
@@ -1101,7 +1127,7 @@ impl Renderer {
                     });
                 }
             });
-            writer.finish(&mut self.instances);
+            drop(writer);
             rekeyed = parts.into_iter().flatten().collect();
         }
         rekeyed.sort_unstable();
@@ -1138,19 +1164,6 @@ impl Renderer {
                 self.forget_draw(&stale);
             }
         }
-    }
-
-    /// A changed draw that only moved (the common case, animation): its slot and new record,
-    /// to be written with no other change. Anything else (new, re-keyed, gone) is `None` and
-    /// goes the slow way.
-    fn pack_move(&self, scene: &RenderScene, entity: Entity) -> Option<(u32, GpuInstance)> {
-        let (item, d) = (scene.draws.get(entity)?, self.draws.get(entity)?);
-        let mirrored = item.world_from_local.matrix3.determinant() < 0.0;
-        if (d.mesh, d.material, d.mirrored, d.visible) != (item.mesh, item.material, mirrored, item.visible) {
-            return None;
-        }
-        let material_slot = self.materials.get(&item.material).map_or(0, |m| m.slot);
-        Some((d.slot, GpuInstance::new(&item.world_from_local, material_slot)))
     }
 
     /// Releases what a draw that is gone held: its instance slot, its mesh and material uses.

@@ -148,8 +148,10 @@ fn extract_draws(
     // Losing only the material falls back to the default one. An entity the changed query
     // already saw was extracted without its material and must not be listed twice (the
     // renderer writes each listed entity's record from one thread).
+    // An entity whose material was removed twice since the last extraction is read twice.
+    let mut refiled = std::collections::HashSet::new();
     for entity in removed.materials.read() {
-        if changed.contains(entity) {
+        if changed.contains(entity) || !refiled.insert(entity) {
             continue;
         }
         if let Ok((transform, mesh, material, visibility)) = all.get(entity) {

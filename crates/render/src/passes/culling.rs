@@ -268,6 +268,24 @@ impl GpuCulling {
         self.visible_slots.reserve(device, draw_list_len.max(late_end).max(1) as u64 * 4)
     }
 
+    /// Compiles the pipelines a frame needs (the frustum cull, or occlusion culling's phases and
+    /// depth-pyramid reductions for `samples` per pixel), so that a failure can be known before
+    /// the frame commits to indirect draws.
+    pub fn compile(
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        occlusion: bool,
+        samples: u32,
+    ) -> Result<(), ShaderError> {
+        if !occlusion {
+            return pipelines.cull(device, CullPhase::Frustum).map(|_| ());
+        }
+        pipelines.cull(device, CullPhase::Early)?;
+        pipelines.cull(device, CullPhase::Late)?;
+        pipelines.hzb(device, HzbStep::FromDepth { multisampled: samples > 1 })?;
+        pipelines.hzb(device, HzbStep::Reduce).map(|_| ())
+    }
+
     /// Resets the arguments, copies the blended entries and culls: the whole frustum cull, or
     /// the early half of occlusion culling when the frame was prepared with it.
     pub fn encode(

@@ -3,6 +3,7 @@
 //! in its per-entity state); only entities extraction reports as changed are re-packed, and only
 //! the span of slots that changed is uploaded.
 
+use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use bytemuck::{Pod, Zeroable};
@@ -92,13 +93,16 @@ impl InstanceBuffer {
         self.mark(slot);
     }
 
-    /// Writes records into existing slots from several threads at once (each slot from one).
-    pub fn disjoint_writer(&mut self) -> SlotWriter {
+    /// Writes records into existing slots from several threads at once (each slot from one);
+    /// the buffer stays borrowed, so no slot can be allocated or freed meanwhile.
+    pub fn disjoint_writer(&mut self) -> SlotWriter<'_> {
         SlotWriter {
             records: self.cpu.as_mut_ptr(),
             len: self.cpu.len(),
             lowest: AtomicU32::new(u32::MAX),
             highest: AtomicU32::new(0),
+            dirty: &mut self.dirty,
+            _records: PhantomData,
         }
     }
 
@@ -123,29 +127,31 @@ impl InstanceBuffer {
 }
 
 /// Parallel writes into an [`InstanceBuffer`]'s records (see [`SlotWriter::write`]); the span
-/// each task reports with [`SlotWriter::wrote_span`] is marked for upload by
-/// [`SlotWriter::finish`].
-pub struct SlotWriter {
+/// each task reports with [`SlotWriter::wrote_span`] is marked for upload when the writer is
+/// dropped.
+pub struct SlotWriter<'a> {
     records: *mut GpuInstance,
     len: usize,
     lowest: AtomicU32,
     highest: AtomicU32,
+    dirty: &'a mut Option<(u32, u32)>,
+    _records: PhantomData<&'a mut [GpuInstance]>,
 }
 
 // SAFETY: each call writes one record, and `write`'s contract keeps calls for the same slot from
-// overlapping; the buffer it points into outlives the writer (see `finish`).
-unsafe impl Sync for SlotWriter {}
-unsafe impl Send for SlotWriter {}
+// overlapping; the records stay borrowed (and in place) for the writer's lifetime.
+unsafe impl Sync for SlotWriter<'_> {}
+unsafe impl Send for SlotWriter<'_> {}
 
-impl SlotWriter {
+impl SlotWriter<'_> {
     /// Writes one slot's record; slots beyond the buffer are ignored.
     ///
     /// # Safety
-    /// No other call for the same slot may run at the same time, and the buffer the writer was
-    /// made from must be neither used nor dropped until `finish`.
+    /// No other call for the same slot may run at the same time.
     pub unsafe fn write(&self, slot: u32, instance: GpuInstance) {
         if (slot as usize) < self.len {
-            // SAFETY: in bounds, and this slot is written by this call alone (the contract).
+            // SAFETY: in bounds, the vector cannot move while borrowed, and this slot is
+            // written by this call alone (the contract).
             unsafe { self.records.add(slot as usize).write(instance) };
         }
     }
@@ -156,15 +162,13 @@ impl SlotWriter {
         self.lowest.fetch_min(lowest, Ordering::Relaxed);
         self.highest.fetch_max(highest, Ordering::Relaxed);
     }
+}
 
-    /// Marks what was written for the next upload. `buffer` must be the one the writer was
-    /// made from.
-    pub fn finish(self, buffer: &mut InstanceBuffer) {
-        debug_assert!(std::ptr::eq(self.records, buffer.cpu.as_mut_ptr()));
-        let (lowest, highest) = (self.lowest.into_inner(), self.highest.into_inner());
+impl Drop for SlotWriter<'_> {
+    fn drop(&mut self) {
+        let (lowest, highest) = (*self.lowest.get_mut(), *self.highest.get_mut());
         if lowest <= highest {
-            buffer.mark(lowest);
-            buffer.mark(highest);
+            *self.dirty = Some(self.dirty.map_or((lowest, highest), |(a, b)| (a.min(lowest), b.max(highest))));
         }
     }
 }
