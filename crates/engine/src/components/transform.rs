@@ -121,7 +121,8 @@ type ChangedLeaves<'w, 's> = Query<
 /// Derives `GlobalTransform` for every entity with a `Transform`.
 pub fn propagate_transforms(
     mut globals: ParamSet<(ChangedLeaves, Query<&mut GlobalTransform>)>,
-    roots: Query<(Entity, Ref<Transform>, &Children), Without<ChildOf>>,
+    // A root without Transform (a bare grouping entity) places its children as the identity.
+    roots: Query<(Entity, Option<Ref<Transform>>, &Children), Without<ChildOf>>,
     parentless: Query<&Transform, Without<ChildOf>>,
     nodes: Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
     mut unparented: RemovedComponents<ChildOf>,
@@ -139,8 +140,8 @@ pub fn propagate_transforms(
         }
     }
     for (entity, transform, children) in &roots {
-        let dirty = transform.is_changed() || unparented.contains(&entity);
-        let world = transform.to_affine();
+        let dirty = transform.as_ref().is_some_and(|t| t.is_changed()) || unparented.contains(&entity);
+        let world = transform.map_or(Affine3A::IDENTITY, |t| t.to_affine());
         if dirty && let Ok(mut g) = globals.get_mut(entity) {
             g.0 = world;
         }
@@ -198,6 +199,20 @@ mod tests {
         app.world.entity_mut(child).remove::<ChildOf>();
         app.update();
         assert_eq!(app.world.get::<GlobalTransform>(child).unwrap().translation(), Vec3::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn children_of_a_root_without_transform_are_placed() {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin);
+        let group = app.world.spawn_empty().id();
+        let child = app.world.spawn((Transform::from_xyz(0.0, 2.0, 0.0), ChildOf(group))).id();
+        let grandchild = app.world.spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(child))).id();
+        app.update();
+        assert_eq!(app.world.get::<GlobalTransform>(grandchild).unwrap().translation(), Vec3::new(1.0, 2.0, 0.0));
+        app.world.get_mut::<Transform>(child).unwrap().translation.y = 3.0;
+        app.update();
+        assert_eq!(app.world.get::<GlobalTransform>(grandchild).unwrap().translation(), Vec3::new(1.0, 3.0, 0.0));
     }
 
     #[test]

@@ -37,7 +37,8 @@ fn shown_alone(visibility: &Visibility) -> bool {
 
 pub fn propagate_visibility(
     mut inherited: ParamSet<(ChangedStandalone, Query<&mut InheritedVisibility>)>,
-    roots: Query<Entity, (With<Visibility>, With<Children>, Without<ChildOf>)>,
+    // A root without Visibility (a bare grouping entity) still passes its children's on.
+    roots: Query<Entity, (With<Children>, Without<ChildOf>)>,
     nodes: Query<(Option<Ref<Visibility>>, Option<&Children>)>,
     hierarchy_changed: Query<(), (Or<(Changed<Visibility>, Changed<ChildOf>)>, Or<(With<ChildOf>, With<Children>)>)>,
     parentless: Query<&Visibility, Without<ChildOf>>,
@@ -117,6 +118,17 @@ mod tests {
         *app.world.get_mut::<Visibility>(parent).unwrap() = Visibility::Visible;
         app.update();
         assert!(shown(&app, alone) && shown(&app, parent) && shown(&app, child));
+    }
+
+    #[test]
+    fn children_of_a_root_without_visibility_are_resolved() {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin);
+        let group = app.world.spawn_empty().id();
+        let hidden = app.world.spawn((Visibility::Hidden, ChildOf(group))).id();
+        let grandchild = app.world.spawn((Visibility::Inherited, ChildOf(hidden))).id();
+        app.update();
+        assert!(!shown(&app, hidden) && !shown(&app, grandchild));
     }
 
     #[test]
