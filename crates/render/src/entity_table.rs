@@ -50,13 +50,6 @@ impl<T> EntityTable<T> {
         }
     }
 
-    pub fn get_mut(&mut self, entity: Entity) -> Option<&mut T> {
-        match self.entries.get_mut(entity.index_u32() as usize) {
-            Some(Some((e, value))) if *e == entity => Some(value),
-            _ => None,
-        }
-    }
-
     pub fn contains(&self, entity: Entity) -> bool {
         self.get(entity).is_some()
     }
@@ -110,10 +103,6 @@ impl<T> EntityTable<T> {
     /// Entries in entity-index order.
     pub fn iter(&self) -> impl Iterator<Item = (Entity, &T)> {
         self.entries.iter().filter_map(|e| e.as_ref().map(|(e, v)| (*e, v)))
-    }
-
-    pub fn values(&self) -> impl Iterator<Item = &T> {
-        self.iter().map(|(_, v)| v)
     }
 
     pub fn keys(&self) -> impl Iterator<Item = Entity> + '_ {

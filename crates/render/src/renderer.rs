@@ -752,10 +752,7 @@ impl Renderer {
             blended: opaque_len as u32..total as u32,
         };
         if plan.runs(Pass::Cull) {
-            cull_error = self
-                .culling
-                .encode(&mut encoder, &device, &mut self.pipelines, &cull_inputs, self.timer.as_mut())
-                .err();
+            self.culling.encode(&mut encoder, &device, &self.pipelines, &cull_inputs, self.timer.as_mut());
         }
         let mut shadow_error = None;
         if plan.runs(Pass::Shadows) {
@@ -799,10 +796,7 @@ impl Renderer {
                 self.timer.as_mut(),
             );
             let depth = (&targets.depth_view, targets.samples);
-            let late_error = self
-                .culling
-                .encode_late(&mut encoder, &device, &mut self.pipelines, &cull_inputs, depth, self.timer.as_mut())
-                .err();
+            self.culling.encode_late(&mut encoder, &device, &self.pipelines, &cull_inputs, depth, self.timer.as_mut());
             let late_inputs =
                 ForwardInputs { indirect: Some(IndirectDraws { args: &late_args, batches: opaque_count }), ..inputs };
             let (late, error) = forward::encode(
@@ -817,7 +811,7 @@ impl Renderer {
             );
             // Both passes submit the opaque batches; count them once.
             let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
-            (counts, late_error.or(early_error).or(error))
+            (counts, early_error.or(error))
         } else if plan.runs(Pass::Opaque) {
             forward::encode(
                 &mut encoder,

@@ -114,6 +114,8 @@ pub struct GpuCulling {
     was_visible: GrowableBuffer,
     visible_slots: GrowableBuffer,
     params: wgpu::Buffer,
+    /// What `params` holds, so that a still frame writes nothing.
+    written_params: Option<[u32; 4]>,
     hzb: Option<Hzb>,
     item_count: u32,
     batch_count: u32,
@@ -143,6 +145,7 @@ impl GpuCulling {
                 usage: U::UNIFORM | U::COPY_DST,
                 mapped_at_creation: false,
             }),
+            written_params: None,
             hzb: None,
             item_count: 0,
             batch_count: 0,
@@ -263,7 +266,11 @@ impl GpuCulling {
                 1
             }
         };
-        queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&[self.item_count, self.late_base, levels, 0]));
+        let params = [self.item_count, self.late_base, levels, 0];
+        if self.written_params != Some(params) {
+            queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&params));
+            self.written_params = Some(params);
+        }
         let late_end = if self.occlusion { self.late_base as usize + self.item_count as usize } else { 0 };
         self.visible_slots.reserve(device, draw_list_len.max(late_end).max(1) as u64 * 4)
     }
@@ -287,17 +294,17 @@ impl GpuCulling {
     }
 
     /// Resets the arguments, copies the blended entries and culls: the whole frustum cull, or
-    /// the early half of occlusion culling when the frame was prepared with it.
+    /// the early half of occlusion culling when the frame was prepared with it. The pipelines
+    /// are the ones [`GpuCulling::compile`] made before the frame chose indirect draws.
     pub fn encode(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
+        pipelines: &PipelineCache,
         inputs: &CullInputs,
         timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
+    ) {
         let phase = if self.occlusion { CullPhase::Early } else { CullPhase::Frustum };
-        pipelines.cull(device, phase)?;
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
         if args_bytes > 0 {
             encoder.copy_buffer_to_buffer(self.args_template.buffer(), 0, self.args.buffer(), 0, args_bytes);
@@ -308,7 +315,6 @@ impl GpuCulling {
             encoder.copy_buffer_to_buffer(inputs.draw_slots, offset, self.visible_slots.buffer(), offset, size);
         }
         self.dispatch(encoder, device, pipelines, inputs, phase, timer);
-        Ok(())
     }
 
     /// Occlusion culling, after the early draws: the depth pyramid from `depth` (the frame's
@@ -317,16 +323,13 @@ impl GpuCulling {
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
+        pipelines: &PipelineCache,
         inputs: &CullInputs,
         depth: (&wgpu::TextureView, u32),
         mut timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
+    ) {
         let first = HzbStep::FromDepth { multisampled: depth.1 > 1 };
-        pipelines.hzb(device, first)?;
-        pipelines.hzb(device, HzbStep::Reduce)?;
-        pipelines.cull(device, CullPhase::Late)?;
-        let Some(hzb) = &mut self.hzb else { return Ok(()) };
+        let Some(hzb) = &mut self.hzb else { return };
         if hzb.level_groups.as_ref().is_none_or(|(d, _)| d != depth.0) {
             let groups = (0..hzb.level_views.len())
                 .map(|level| {
@@ -369,7 +372,6 @@ impl GpuCulling {
             encoder.copy_buffer_to_buffer(self.late_template.buffer(), 0, self.late_args.buffer(), 0, args_bytes);
         }
         self.dispatch(encoder, device, pipelines, inputs, CullPhase::Late, timer);
-        Ok(())
     }
 
     fn dispatch(

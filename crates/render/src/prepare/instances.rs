@@ -63,15 +63,6 @@ impl InstanceBuffer {
         self.buffer.buffer()
     }
 
-    /// Slots in use.
-    pub fn len(&self) -> usize {
-        self.cpu.len() - self.free.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     fn mark(&mut self, slot: u32) {
         self.dirty = Some(self.dirty.map_or((slot, slot), |(a, b)| (a.min(slot), b.max(slot))));
     }

@@ -9,6 +9,7 @@ use std::collections::VecDeque;
 use std::time::Instant;
 
 use anyhow::{Result, anyhow};
+use bevy_ecs::schedule::ScheduleLabel;
 use penumbra_render::headless::{ShotSettings, stage_scene};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderSettings, Renderer};
 
@@ -34,7 +35,7 @@ pub fn bound_frames_in_flight(
     }
 }
 
-/// Per-frame timings over the timed frames, each sorted ascending.
+/// Per-frame timings over the timed frames, in frame order.
 pub struct FrameTimes {
     pub wall: Vec<f64>,
     pub cpu: Vec<f64>,
@@ -42,11 +43,25 @@ pub struct FrameTimes {
     pub update: Vec<f64>,
     pub gpu_total: Vec<f64>,
     pub passes: Vec<(&'static str, Vec<f64>)>,
+    /// The CPU frame split: the main world's stages (user systems, propagation), extraction,
+    /// the renderer's prepare (and of it the instance upload), encode and submit.
+    pub main: Vec<f64>,
+    pub extract: Vec<f64>,
+    pub prepare: Vec<f64>,
+    pub instance_upload: Vec<f64>,
+    pub submit: Vec<f64>,
+    pub instance_bytes: Vec<f64>,
 }
 
 impl FrameTimes {
     pub fn pass(&self, label: &str) -> Option<&[f64]> {
         self.passes.iter().find(|(l, _)| *l == label).map(|(_, v)| v.as_slice())
+    }
+
+    /// Every stage of the CPU frame on this thread: main world, extraction, prepare and encode,
+    /// and submission.
+    pub fn cpu_frame(&self, i: usize) -> f64 {
+        self.main[i] + self.extract[i] + self.cpu[i] + self.submit[i]
     }
 }
 
@@ -62,6 +77,9 @@ pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> 
     let mut update = Vec::new();
     let mut gpu_total = Vec::new();
     let mut passes: Vec<(&'static str, Vec<f64>)> = Vec::new();
+    let (mut main, mut extract, mut prepare, mut instance_upload, mut submit, mut instance_bytes) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (extract_stage, render_stage) = (penumbra_render::Extract.intern(), penumbra_render::Render.intern());
     let mut last_gpu_frame = 0;
     let mut record_gpu = |stats: &penumbra_render::FrameStats, gpu_total: &mut Vec<f64>| {
         let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) else { return };
@@ -77,29 +95,40 @@ pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> 
     let mut last = Instant::now();
     for _ in 0..frames {
         let t = Instant::now();
-        app.update();
+        let stages = app.update_timed();
         update.push(t.elapsed().as_secs_f64() * 1e3);
+        let stage = |pick: &dyn Fn(bool, bool) -> bool| -> f64 {
+            stages.iter().filter(|(l, _)| pick(*l == extract_stage, *l == render_stage)).map(|(_, ms)| ms).sum()
+        };
+        main.push(stage(&|e, r| !e && !r));
+        extract.push(stage(&|e, _| e));
         bound_frames_in_flight(app, &mut in_flight, 2);
         let now = Instant::now();
         wall.push((now - last).as_secs_f64() * 1e3);
         last = now;
         let stats = app.world.resource::<Renderer>().stats().clone();
         cpu.push(stats.cpu_ms);
+        prepare.push(stats.prepare_ms);
+        instance_upload.push(stats.instance_upload_ms);
+        submit.push(stats.submit_ms);
+        instance_bytes.push(stats.instance_bytes_uploaded as f64);
         record_gpu(&stats, &mut gpu_total);
     }
     app.world.resource_mut::<Renderer>().finish();
     let stats = app.world.resource::<Renderer>().stats().clone();
     record_gpu(&stats, &mut gpu_total);
-    for v in [&mut wall, &mut cpu, &mut update, &mut gpu_total].into_iter().chain(passes.iter_mut().map(|(_, v)| v)) {
-        v.sort_by(f64::total_cmp);
-    }
-    FrameTimes { wall, cpu, update, gpu_total, passes }
+    // Unsorted, in frame order, so that samples of one frame can be summed (`cpu_frame`);
+    // `percentile` sorts what it is given.
+    FrameTimes { wall, cpu, update, gpu_total, passes, main, extract, prepare, instance_upload, submit, instance_bytes }
 }
 
-pub fn percentile(sorted: &[f64], p: f64) -> f64 {
-    if sorted.is_empty() {
+/// The `p` quantile (0..=1) of `samples`, in any order; NaN when there are none.
+pub fn percentile(samples: &[f64], p: f64) -> f64 {
+    if samples.is_empty() {
         return f64::NAN;
     }
+    let mut sorted = samples.to_vec();
+    sorted.sort_by(f64::total_cmp);
     sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
 

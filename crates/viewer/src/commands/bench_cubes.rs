@@ -5,36 +5,12 @@
 //! instance bytes uploaded and the draw calls issued. Frames are pipelined (at most two in
 //! flight, no readback), as interactive rendering runs.
 
-use std::collections::VecDeque;
-use std::time::Instant;
-
 use anyhow::{Result, anyhow};
-use bevy_ecs::schedule::ScheduleLabel;
 use penumbra_engine::scenes::{BENCH_EV100, CubeLayout, spawn_many_cubes, spin_cubes};
-use penumbra_render::{AdapterRequest, Extract, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
+use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
-use super::bench::{bound_frames_in_flight, percentile};
+use super::bench::{percentile, time_frames};
 use crate::cli::{BenchArgs, LayoutArg};
-
-#[derive(Default)]
-struct Samples {
-    main: Vec<f64>,
-    extract: Vec<f64>,
-    prepare: Vec<f64>,
-    upload: Vec<f64>,
-    encode: Vec<f64>,
-    submit: Vec<f64>,
-    cpu: Vec<f64>,
-    wall: Vec<f64>,
-    gpu: Vec<f64>,
-    gpu_cull: Vec<f64>,
-    gpu_cull_late: Vec<f64>,
-    gpu_hzb: Vec<f64>,
-    gpu_forward_late: Vec<f64>,
-    gpu_forward: Vec<f64>,
-    gpu_tonemap: Vec<f64>,
-    instance_bytes: Vec<f64>,
-}
 
 struct Row {
     count: usize,
@@ -69,30 +45,33 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             spawn_many_cubes(&mut app.world, count, layout, moving);
             app.insert_resource(Renderer::new(ctx.clone(), settings.clone())?);
             app.insert_resource(RenderOutput::Headless { width: args.size.0, height: args.size.1 });
-            let s = time_frames(&mut app, args.warmup, args.frames);
+            let t = time_frames(&mut app, args.warmup, args.frames);
             let renderer = app.world.resource::<Renderer>();
             let stats = renderer.stats();
-            let med = |v: &[f64]| if v.is_empty() { f64::NAN } else { percentile(v, 0.5) };
+            let med = |v: &[f64]| percentile(v, 0.5);
+            let pass = |label| t.pass(label).map_or(f64::NAN, med);
+            let encode: Vec<f64> = t.cpu.iter().zip(&t.prepare).map(|(c, p)| c - p).collect();
+            let cpu: Vec<f64> = (0..t.cpu.len()).map(|i| t.cpu_frame(i)).collect();
             rows.push(Row {
                 count,
                 moving,
                 median: [
-                    med(&s.main),
-                    med(&s.extract),
-                    med(&s.prepare),
-                    med(&s.encode),
-                    med(&s.submit),
-                    med(&s.cpu),
-                    med(&s.wall),
-                    med(&s.gpu),
-                    med(&s.instance_bytes),
-                    med(&s.gpu_cull),
-                    med(&s.gpu_forward),
-                    med(&s.gpu_tonemap),
-                    med(&s.upload),
-                    med(&s.gpu_hzb),
-                    med(&s.gpu_cull_late),
-                    med(&s.gpu_forward_late),
+                    med(&t.main),
+                    med(&t.extract),
+                    med(&t.prepare),
+                    med(&encode),
+                    med(&t.submit),
+                    med(&cpu),
+                    med(&t.wall),
+                    med(&t.gpu_total),
+                    med(&t.instance_bytes),
+                    pass("cull"),
+                    pass("forward"),
+                    pass("tonemap"),
+                    med(&t.instance_upload),
+                    pass("depth pyramid"),
+                    pass("cull late"),
+                    pass("forward late"),
                 ],
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
@@ -163,74 +142,4 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// Warm-up frames unpipelined, then timed frames with at most two in flight; every sample
-/// vector sorted ascending.
-fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> Samples {
-    for _ in 0..warmup {
-        app.update();
-        bound_frames_in_flight(app, &mut VecDeque::new(), 0);
-    }
-    let (extract, render) = (Extract.intern(), penumbra_render::Render.intern());
-    let mut s = Samples::default();
-    let mut in_flight = VecDeque::new();
-    let mut last_gpu_frame = 0;
-    let mut last = Instant::now();
-    for _ in 0..frames {
-        let stages = app.update_timed();
-        let stage = |label| stages.iter().filter(|(l, _)| *l == label).map(|(_, ms)| ms).sum::<f64>();
-        let main: f64 = stages.iter().filter(|(l, _)| *l != extract && *l != render).map(|(_, ms)| ms).sum();
-        bound_frames_in_flight(app, &mut in_flight, 2);
-        let now = Instant::now();
-        s.wall.push((now - last).as_secs_f64() * 1e3);
-        last = now;
-        let stats = app.world.resource::<Renderer>().stats();
-        s.main.push(main);
-        s.extract.push(stage(extract));
-        s.prepare.push(stats.prepare_ms);
-        s.upload.push(stats.instance_upload_ms);
-        s.encode.push(stats.cpu_ms - stats.prepare_ms);
-        s.submit.push(stats.submit_ms);
-        s.cpu.push(main + stage(extract) + stats.cpu_ms + stats.submit_ms);
-        s.instance_bytes.push(stats.instance_bytes_uploaded as f64);
-        if let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
-            last_gpu_frame = t.frame;
-            s.gpu.push(t.passes.iter().map(|(_, ms)| ms).sum());
-            for (label, v) in [
-                ("cull", &mut s.gpu_cull),
-                ("cull late", &mut s.gpu_cull_late),
-                ("depth pyramid", &mut s.gpu_hzb),
-                ("forward late", &mut s.gpu_forward_late),
-                ("forward", &mut s.gpu_forward),
-                ("tonemap", &mut s.gpu_tonemap),
-            ] {
-                if let Some((_, ms)) = t.passes.iter().find(|(l, _)| *l == label) {
-                    v.push(*ms);
-                }
-            }
-        }
-    }
-    app.world.resource_mut::<Renderer>().finish();
-    for v in [
-        &mut s.main,
-        &mut s.extract,
-        &mut s.prepare,
-        &mut s.encode,
-        &mut s.submit,
-        &mut s.cpu,
-        &mut s.wall,
-        &mut s.gpu,
-        &mut s.instance_bytes,
-        &mut s.gpu_cull,
-        &mut s.gpu_forward,
-        &mut s.gpu_tonemap,
-        &mut s.upload,
-        &mut s.gpu_hzb,
-        &mut s.gpu_cull_late,
-        &mut s.gpu_forward_late,
-    ] {
-        v.sort_by(f64::total_cmp);
-    }
-    s
 }
