@@ -11,7 +11,8 @@
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
-// (directional lights read their cascaded shadow maps, shadows.wgsl), and the debug
+// (directional lights read their cascaded shadow maps, shadows.wgsl), IBL (the environment's
+// light, ibl.wgsl), and the debug
 // views DEBUG_CLUSTER_HEAT and DEBUG_CASCADES. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
 // (deferred_lights.wgsl) instead, from the surface each fragment also writes out.
 
@@ -33,6 +34,9 @@
 #endif
 #ifdef CLUSTERED_LIGHTS
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
+#endif
+#ifdef IBL
+#import penumbra::ibl::environment_light
 #endif
 
 @group(0) @binding(0) var<uniform> view: View;
@@ -237,6 +241,9 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #endif
         color += lit;
     }
+#ifdef IBL
+    color += environment_light(s);
+#endif
 #ifdef LOCAL_LIGHTS
 #ifdef CLUSTERED_LIGHTS
     let range = cluster_ranges[fragment_cluster(grid, in.clip_position.xy, view_depth(in.rel_position))];

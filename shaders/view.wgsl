@@ -16,6 +16,8 @@ struct View {
     local_light_count: u32,
     _pad_a: u32,
     _pad_b: u32,
+    // Inverse of clip_from_rel: the background's view rays.
+    rel_from_clip: mat4x4<f32>,
 };
 
 // Unit direction from a point at `rel` (camera-relative) toward the eye.

@@ -9,6 +9,7 @@ pub mod app;
 pub mod assets;
 pub mod bounds;
 pub mod components;
+pub mod environment;
 pub mod framing;
 pub mod ies;
 pub mod image;
@@ -48,6 +49,7 @@ pub mod prelude {
     pub use crate::assets::{Assets, Handle};
     pub use crate::bounds::Aabb;
     pub use crate::components::*;
+    pub use crate::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
     pub use crate::ies::IesProfile;
     pub use crate::image::Image;
     pub use crate::import::{ImportError, ImportOptions, load_scene};

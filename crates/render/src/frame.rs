@@ -1,12 +1,16 @@
 //! The frame plan: which passes run this frame, in what order, and why. A pass the scene does
 //! not need is not encoded at all (no empty passes): cluster binning runs only with local lights
 //! to bin, the transparent phase only with blended draws, shadow maps only for layers a shadowed
-//! light's casters reach within sight (the shadow orchestrator decides which).
+//! light's casters reach within sight (the shadow orchestrator decides which), environment
+//! prefiltering only when the environment changed, the background only with an environment.
 
 use std::fmt;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Pass {
+    /// Compute: make the environment's maps (source cube, specular levels, irradiance
+    /// harmonics; the split-sum table once).
+    EnvironmentPrefilter,
     /// Compute: cull opaque and masked draws against the view frustum into indirect draws.
     Cull,
     /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
@@ -15,6 +19,9 @@ pub enum Pass {
     Shadows,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
+    /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
+    /// opaque draws (depth test: only where the depth is still the far plane).
+    Background,
     /// Occlusion culling's second half, after `Opaque` drew what was visible last frame: the
     /// depth pyramid, the late cull, and a second pass drawing what became visible.
     OcclusionLate,
@@ -34,22 +41,44 @@ pub struct FramePlan {
     pub passes: Vec<(Pass, &'static str)>,
 }
 
+/// What this frame's scene holds and asks for, as far as the plan is concerned.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SceneNeeds {
+    /// Local lights the forward pass will find through clusters.
+    pub binned_lights: u32,
+    /// Shadow-map layers the orchestrator will render.
+    pub shadow_layers: usize,
+    pub has_opaque: bool,
+    pub has_blend: bool,
+    /// A compute pass shades local lights for opaque surfaces.
+    pub deferred: bool,
+    /// GPU culling runs (on, supported, and opaque draws to cull).
+    pub culled: bool,
+    /// So does occlusion culling.
+    pub occlusion: bool,
+    /// The environment's maps must be (re)made this frame.
+    pub environment_changed: bool,
+    /// The scene has an environment to show behind it.
+    pub background: bool,
+}
+
 impl FramePlan {
-    /// `binned_lights`: local lights the forward pass will find through clusters; `deferred`:
-    /// a compute pass shades them for opaque surfaces.
-    /// `shadow_layers`: shadow-map layers the orchestrator will render.
-    /// `culled`: GPU culling runs (on, supported, and opaque draws to cull); `occlusion`: so
-    /// does occlusion culling.
-    pub fn new(
-        binned_lights: u32,
-        shadow_layers: usize,
-        has_opaque: bool,
-        has_blend: bool,
-        deferred: bool,
-        culled: bool,
-        occlusion: bool,
-    ) -> Self {
+    pub fn new(needs: SceneNeeds) -> Self {
+        let SceneNeeds {
+            binned_lights,
+            shadow_layers,
+            has_opaque,
+            has_blend,
+            deferred,
+            culled,
+            occlusion,
+            environment_changed,
+            background,
+        } = needs;
         let mut passes = Vec::new();
+        if environment_changed {
+            passes.push((Pass::EnvironmentPrefilter, "the environment changed (or is new): its maps are made"));
+        }
         if culled && has_opaque {
             passes.push((Pass::Cull, "opaque draws to cull (GPU culling on and supported)"));
         }
@@ -63,6 +92,9 @@ impl FramePlan {
             Pass::Opaque,
             if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
         ));
+        if background {
+            passes.push((Pass::Background, "the scene has an environment, shown where no surface is"));
+        }
         if culled && occlusion && has_opaque {
             passes.push((Pass::OcclusionLate, "occlusion culling (many opaque instances, or asked for)"));
         }
@@ -97,20 +129,24 @@ impl fmt::Display for FramePlan {
 mod tests {
     use super::*;
 
+    fn plan(needs: SceneNeeds) -> FramePlan {
+        FramePlan::new(needs)
+    }
+
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!FramePlan::new(0, 0, true, false, false, false, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, 0, true, true, false, false, false).runs(Pass::Transparent));
-        assert!(FramePlan::new(0, 0, false, false, false, false, false).runs(Pass::Tonemap));
+        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Transparent));
+        assert!(plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::Transparent));
+        assert!(plan(SceneNeeds { ..Default::default() }).runs(Pass::Tonemap));
     }
 
     #[test]
     fn cluster_binning_only_with_local_lights_and_something_to_light() {
-        assert!(!FramePlan::new(0, 0, true, true, false, false, false).runs(Pass::ClusterBin));
-        assert!(FramePlan::new(3, 0, true, false, false, false, false).runs(Pass::ClusterBin));
-        assert!(!FramePlan::new(3, 0, false, false, false, false, false).runs(Pass::ClusterBin));
+        assert!(!plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::ClusterBin));
+        assert!(plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).runs(Pass::ClusterBin));
+        assert!(!plan(SceneNeeds { binned_lights: 3, ..Default::default() }).runs(Pass::ClusterBin));
         assert_eq!(
-            FramePlan::new(3, 0, true, false, false, false, false).passes[0].0,
+            plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).passes[0].0,
             Pass::ClusterBin,
             "binning precedes the forward pass"
         );
@@ -118,34 +154,69 @@ mod tests {
 
     #[test]
     fn shadow_passes_only_with_layers_to_render_and_before_the_forward_pass() {
-        assert!(!FramePlan::new(3, 0, true, false, false, false, false).runs(Pass::Shadows));
-        let plan = FramePlan::new(3, 2, true, false, false, false, false);
+        assert!(!plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).runs(Pass::Shadows));
+        let plan = plan(SceneNeeds { binned_lights: 3, shadow_layers: 2, has_opaque: true, ..Default::default() });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
     }
 
     #[test]
     fn culling_only_with_opaque_draws_and_first() {
-        assert!(!FramePlan::new(0, 0, false, true, false, true, false).runs(Pass::Cull));
-        assert!(!FramePlan::new(0, 0, true, false, false, false, false).runs(Pass::Cull));
-        let plan = FramePlan::new(3, 2, true, false, false, true, false);
+        assert!(!plan(SceneNeeds { has_blend: true, culled: true, ..Default::default() }).runs(Pass::Cull));
+        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Cull));
+        let plan = plan(SceneNeeds {
+            binned_lights: 3,
+            shadow_layers: 2,
+            has_opaque: true,
+            culled: true,
+            ..Default::default()
+        });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::Cull, Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
     }
 
     #[test]
     fn occlusion_culling_splits_the_opaque_phase_only_when_culling_runs() {
-        assert!(!FramePlan::new(0, 0, true, false, false, false, true).runs(Pass::OcclusionLate));
-        let plan = FramePlan::new(0, 0, true, true, false, true, true);
+        assert!(
+            !plan(SceneNeeds { has_opaque: true, occlusion: true, ..Default::default() }).runs(Pass::OcclusionLate)
+        );
+        let plan =
+            plan(SceneNeeds { has_opaque: true, has_blend: true, culled: true, occlusion: true, ..Default::default() });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::Cull, Pass::Opaque, Pass::OcclusionLate, Pass::Transparent, Pass::Tonemap]);
     }
 
     #[test]
     fn deferred_lights_only_when_asked_for_between_opaque_and_blended_draws() {
-        assert!(!FramePlan::new(3, 0, true, true, false, false, false).runs(Pass::DeferredLights));
-        let plan = FramePlan::new(3, 0, true, true, true, false, false);
+        assert!(
+            !plan(SceneNeeds { binned_lights: 3, has_opaque: true, has_blend: true, ..Default::default() })
+                .runs(Pass::DeferredLights)
+        );
+        let plan = plan(SceneNeeds {
+            binned_lights: 3,
+            has_opaque: true,
+            has_blend: true,
+            deferred: true,
+            ..Default::default()
+        });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Opaque, Pass::DeferredLights, Pass::Transparent, Pass::Tonemap]);
+    }
+
+    #[test]
+    fn environment_prefilter_only_when_it_changed_and_first() {
+        let still = plan(SceneNeeds { has_opaque: true, background: true, ..Default::default() });
+        assert!(!still.runs(Pass::EnvironmentPrefilter));
+        let order: Vec<Pass> = still.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::Opaque, Pass::Background, Pass::Tonemap]);
+        let changed = plan(SceneNeeds {
+            has_opaque: true,
+            environment_changed: true,
+            culled: true,
+            background: true,
+            ..Default::default()
+        });
+        assert_eq!(changed.passes[0].0, Pass::EnvironmentPrefilter);
+        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Background));
     }
 }

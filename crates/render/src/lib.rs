@@ -12,6 +12,7 @@
 
 pub mod context;
 pub mod entity_table;
+pub mod environment;
 pub mod extract;
 pub mod frame;
 pub mod headless;

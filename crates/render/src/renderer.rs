@@ -20,7 +20,8 @@ use penumbra_engine::mesh::Mesh;
 
 use crate::context::GpuContext;
 use crate::entity_table::{EntityTable, Replaced};
-use crate::frame::{FramePlan, Pass};
+use crate::environment::{EnvironmentLighting, EnvironmentSettings};
+use crate::frame::{FramePlan, Pass, SceneNeeds};
 use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
 use crate::passes::culling::{CullInputs, GpuCulling};
@@ -45,7 +46,7 @@ use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
 use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT};
 use crate::timing::{FrameTimings, GpuTimer};
-use crate::world::RenderScene;
+use crate::world::{LightKind, RenderScene};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {
@@ -75,6 +76,8 @@ pub struct RenderSettings {
     /// Occlusion culling on top of GPU culling: two-phase, against a hierarchical depth buffer
     /// of what this frame drew (see `passes::culling`).
     pub occlusion_culling: OcclusionCulling,
+    /// How the scene's `Environment` (if it has one) is prefiltered.
+    pub environment: EnvironmentSettings,
 }
 
 /// When occlusion culling runs (it needs GPU culling).
@@ -151,6 +154,7 @@ impl Default for RenderSettings {
             shadows: ShadowSettings::default(),
             gpu_culling: true,
             occlusion_culling: OcclusionCulling::Auto,
+            environment: EnvironmentSettings::default(),
         }
     }
 }
@@ -165,6 +169,8 @@ pub enum SettingsError {
     LightCutoff(f32),
     #[error(transparent)]
     Shadows(#[from] ShadowSettingsError),
+    #[error("{0}")]
+    Environment(String),
 }
 
 impl RenderSettings {
@@ -177,6 +183,7 @@ impl RenderSettings {
             return Err(SettingsError::LightCutoff(self.light_cutoff));
         }
         self.shadows.validate()?;
+        self.environment.validate().map_err(SettingsError::Environment)?;
         Ok(())
     }
 }
@@ -214,6 +221,8 @@ pub struct FrameStats {
     pub pipelines_compiled: usize,
     /// Shader library generation: incremented by every successful hot reload.
     pub shader_generation: u64,
+    /// Environment prefilter chains run since start-up (one per environment change).
+    pub environment_prefilters: u64,
 }
 
 impl FrameStats {
@@ -234,6 +243,8 @@ pub struct MemoryStats {
     pub clusters: u64,
     /// The shadow atlas (0 while no light casts).
     pub shadows: u64,
+    /// The environment's cubes and split-sum table (0 without an environment).
+    pub environment: u64,
 }
 
 /// Mirrors `struct View` in `shaders/forward.wgsl`.
@@ -248,6 +259,7 @@ struct GpuView {
     global_light_count: u32,
     local_light_count: u32,
     _pad: [u32; 2],
+    rel_from_clip: [[f32; 4]; 4],
 }
 
 /// What the renderer last knew about a drawable entity.
@@ -310,6 +322,9 @@ pub struct Renderer {
     lights: LightStore,
     clusters: ClusterBinner,
     shadows: ShadowOrchestrator,
+    environment: EnvironmentLighting,
+    /// The scene has an environment this frame (part of every pipeline key).
+    ibl_active: bool,
     /// Forward pipelines read directional shadow maps (part of every pipeline key).
     shadows_active: bool,
     /// Local lights read shadow maps (part of every pipeline key).
@@ -396,6 +411,8 @@ impl Renderer {
             lights: LightStore::new(),
             clusters: ClusterBinner::new(device),
             shadows: ShadowOrchestrator::new(device),
+            environment: EnvironmentLighting::new(device),
+            ibl_active: false,
             shadows_active: false,
             local_shadows_active: false,
             caster_generation: 0,
@@ -568,6 +585,7 @@ impl Renderer {
             lights: self.lights.gpu_bytes(),
             clusters: self.clusters.gpu_bytes(),
             shadows: self.shadows.gpu_bytes(),
+            environment: self.environment.bytes(),
         }
     }
 
@@ -637,6 +655,20 @@ impl Renderer {
         let in_step = self.last_scene_frame.is_some_and(|f| f + 1 == scene.frame);
         self.last_scene_frame = Some(scene.frame);
         let mut rebind = self.prepare_lights(scene, in_step, size);
+        let env_frame = self.environment.prepare(
+            &device,
+            &queue,
+            &self.pipelines,
+            &self.settings.environment,
+            scene.environment.as_ref(),
+            sun(scene),
+        );
+        rebind |= env_frame.rebind;
+        if env_frame.active != self.ibl_active {
+            // Every pipeline key changes.
+            self.ibl_active = env_frame.active;
+            self.batches_dirty = true;
+        }
         if self.targets.as_ref().is_none_or(|t| {
             t.size != size || t.samples != self.settings.msaa || t.deferred.is_some() != self.deferred_lights
         }) {
@@ -727,19 +759,25 @@ impl Renderer {
         }
         let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
         let shadow_layers = self.shadows.frame().rendered_layers();
-        let plan = FramePlan::new(
-            binned,
+        let plan = FramePlan::new(SceneNeeds {
+            binned_lights: binned,
             shadow_layers,
-            !self.opaque_batches.is_empty(),
-            !blend_batches.is_empty(),
-            self.deferred_lights,
-            self.culling_active,
+            has_opaque: !self.opaque_batches.is_empty(),
+            has_blend: !blend_batches.is_empty(),
+            deferred: self.deferred_lights,
+            culled: self.culling_active,
             occlusion,
-        );
+            environment_changed: env_frame.prefilter,
+            background: env_frame.active && scene.view.is_some(),
+        });
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
+        }
+        let mut env_error = None;
+        if plan.runs(Pass::EnvironmentPrefilter) {
+            env_error = self.environment.encode(&mut encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
         }
         let mut cluster_error = None;
         if plan.runs(Pass::ClusterBin) {
@@ -782,6 +820,7 @@ impl Renderer {
             indirect: self
                 .culling_active
                 .then_some(IndirectDraws { args: &early_args, batches: self.opaque_batches.len() }),
+            background: plan.runs(Pass::Background),
         };
         let opaque_count = self.opaque_batches.len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
@@ -869,7 +908,8 @@ impl Renderer {
             tonemap::Output { view: output, format: output_format },
             self.timer.as_mut(),
         );
-        if let Some(e) = cluster_error.or(cull_error).or(shadow_error).or(forward_error).or(tonemap_result.err())
+        if let Some(e) =
+            env_error.or(cluster_error).or(cull_error).or(shadow_error).or(forward_error).or(tonemap_result.err())
             && self.shader_error.as_ref() != Some(&e)
         {
             tracing::error!("{e}");
@@ -914,6 +954,7 @@ impl Renderer {
             pipelines: self.pipelines.forward_pipeline_count(),
             pipelines_compiled: self.pipelines.compiled,
             shader_generation: self.pipelines.generation,
+            environment_prefilters: self.environment.prefilters,
         };
     }
 
@@ -1278,6 +1319,7 @@ impl Renderer {
             light_shapes: self.light_shapes,
             shadows: self.shadows_active,
             local_shadows: self.local_shadows_active,
+            ibl: self.ibl_active,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
             cull_back_faces: !m.double_sided,
@@ -1382,6 +1424,7 @@ impl Renderer {
                     global_light_count: self.lights.global_count(),
                     local_light_count: self.lights.local_count(),
                     _pad: [0; 2],
+                    rel_from_clip: clip_from_rel.inverse().to_cols_array_2d(),
                 }
             }
             None => GpuView::zeroed(),
@@ -1418,7 +1461,35 @@ impl Renderer {
                     binding: 14,
                     resource: wgpu::BindingResource::TextureView(self.shadows.local_atlas_view()),
                 },
+                buf(15, self.environment.uniform()),
+                buf(16, self.environment.irradiance_buffer()),
+                wgpu::BindGroupEntry {
+                    binding: 17,
+                    resource: wgpu::BindingResource::TextureView(self.environment.specular_view()),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 18,
+                    resource: wgpu::BindingResource::TextureView(self.environment.lut_view()),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 19,
+                    resource: wgpu::BindingResource::Sampler(self.environment.sampler()),
+                },
             ],
         })
     }
+}
+
+/// The scene's brightest directional light (by luminance) as (direction towards it,
+/// illuminance in lux): the sun the procedural sky is made for. Default lights do not count:
+/// the default key light turns with the camera.
+fn sun(scene: &RenderScene) -> Option<(Vec3, f32)> {
+    let luminance = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    scene
+        .lights
+        .iter()
+        .filter(|(_, l)| matches!(l.kind, LightKind::Directional { .. }))
+        // Ties broken by key, so which light is the sun does not depend on hash order.
+        .max_by(|(ka, a), (kb, b)| luminance(a.color).total_cmp(&luminance(b.color)).then(kb.cmp(ka)))
+        .map(|(_, l)| (-l.direction, luminance(l.color)))
 }

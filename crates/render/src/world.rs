@@ -14,6 +14,7 @@ use bevy_ecs::resource::Resource;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::Handle;
 use penumbra_engine::components::Projection;
+use penumbra_engine::environment::Environment;
 use penumbra_engine::ies::IesProfile;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
@@ -140,4 +141,6 @@ pub struct RenderScene {
     pub materials: HashMap<Handle<StandardMaterial>, Snapshot<StandardMaterial>>,
     pub images: HashMap<Handle<Image>, Snapshot<Image>>,
     pub ies_profiles: HashMap<Handle<IesProfile>, Snapshot<IesProfile>>,
+    /// The main world's `Environment` resource, if it has one (an image is shared, not copied).
+    pub environment: Option<Environment>,
 }

@@ -4,6 +4,8 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
+use penumbra_render::environment::EnvironmentSettings;
 use penumbra_render::headless::CameraChoice;
 use penumbra_render::passes::clusters::grid::ClusterConfig;
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
@@ -91,6 +93,70 @@ pub struct LookArgs {
     /// more, on a GPU (not on CPU rasterisers such as lavapipe).
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub occlusion: OcclusionArg,
+    /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a
+    /// neutral studio gradient when it has none), `sky`, `studio`, `none`, or an
+    /// equirectangular Radiance .hdr or OpenEXR file.
+    #[arg(long, default_value = "auto", value_name = "auto|sky|studio|none|FILE")]
+    pub env: String,
+    /// Multiplies the environment's radiance (light and background).
+    #[arg(long, default_value_t = 1.0, value_name = "FACTOR")]
+    pub env_intensity: f32,
+    /// Turns the environment about the vertical axis, degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "DEGREES")]
+    pub env_rotation: f32,
+    /// Face size of the environment's cube maps (a power of two, 16 to 2048).
+    #[arg(long, default_value_t = EnvironmentSettings::default().cube_size, value_name = "TEXELS")]
+    pub env_size: u32,
+    /// Behind the scene: the environment, the environment `blurred` (as a surface of
+    /// --background-blur roughness reflects it), or the solid clear `color`.
+    #[arg(long, value_enum, default_value_t = BackgroundArg::Environment)]
+    pub background: BackgroundArg,
+    /// Perceptual roughness of the blurred background, 0 to 1.
+    #[arg(long, default_value_t = 0.5, value_name = "ROUGHNESS")]
+    pub background_blur: f32,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackgroundArg {
+    Environment,
+    Blurred,
+    Color,
+}
+
+impl LookArgs {
+    /// The environment these flags ask for (`None` for `--env none`); reads an image file.
+    pub fn environment(&self) -> anyhow::Result<Option<Environment>> {
+        let source = match self.env.as_str() {
+            "none" => return Ok(None),
+            "auto" => EnvironmentSource::Auto,
+            "sky" => EnvironmentSource::Sky(Sky::default()),
+            "studio" => EnvironmentSource::Studio,
+            path => EnvironmentSource::Image(std::sync::Arc::new(
+                EnvironmentImage::load(std::path::Path::new(path)).map_err(|e| anyhow::anyhow!("--env: {e}"))?,
+            )),
+        };
+        let env = Environment {
+            source,
+            intensity: self.env_intensity,
+            rotation: self.env_rotation.to_radians(),
+            background: match self.background {
+                BackgroundArg::Environment => Background::Environment,
+                BackgroundArg::Blurred => Background::Blurred(self.background_blur),
+                BackgroundArg::Color => Background::Color(RenderSettings::default().clear_color.map(|c| c as f32)),
+            },
+        };
+        env.validate().map_err(|e| {
+            let flag = if e.contains("intensity") {
+                "--env-intensity"
+            } else if e.contains("rotation") {
+                "--env-rotation"
+            } else {
+                "--background-blur"
+            };
+            anyhow::anyhow!("{flag}: {e}")
+        })?;
+        Ok(Some(env))
+    }
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -203,6 +269,10 @@ pub struct BenchArgs {
     /// unbounded reference walks every light for every pixel).
     #[arg(long, value_parser = parse_size, default_value = "480x270")]
     pub error_size: (u32, u32),
+    /// With an environment: replace it with a sky whose sun turns 1° a frame, so its maps are
+    /// remade every frame (the environment pass's GPU cost).
+    #[arg(long)]
+    pub env_churn: bool,
     #[command(flatten)]
     pub look: LookArgs,
     #[command(flatten)]
@@ -328,6 +398,7 @@ impl LookArgs {
                 OcclusionArg::On => OcclusionCulling::On,
                 OcclusionArg::Off => OcclusionCulling::Off,
             },
+            environment: EnvironmentSettings { cube_size: self.env_size, ..Default::default() },
             ..Default::default()
         };
         settings.validate().map_err(|e| {
@@ -335,6 +406,7 @@ impl LookArgs {
                 SettingsError::Msaa(_) => "--msaa",
                 SettingsError::Clusters(_) => "--clusters",
                 SettingsError::LightCutoff(_) => "light cutoff",
+                SettingsError::Environment(_) => "--env-size",
                 SettingsError::Shadows(s) => match s.name {
                     "atlas_size" => "--shadow-atlas",
                     "cascades" => "--cascades",

@@ -9,6 +9,9 @@
 //! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
 //!   or infinite values are refused with a warning; with no light entity at all, the default
 //!   key light and ambient term fill `default_lights` (see [`default_lighting`]);
+//! - environment: the `Environment` resource, copied when it changed (an image is an `Arc`);
+//!   with one, the default lights keep their key light but drop their ambient term (the
+//!   environment lights the scene from every side instead);
 //! - assets: versions compared against the last snapshot; only changed assets are re-shared.
 
 use bevy_ecs::prelude::*;
@@ -18,6 +21,7 @@ use penumbra_engine::components::{
     AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, IesLight, InheritedVisibility, Mesh3d,
     MeshMaterial3d, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
+use penumbra_engine::environment::Environment;
 use penumbra_engine::ies::IesProfile;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
@@ -28,7 +32,7 @@ use crate::world::{DrawItem, ExtractedLight, ExtractedView, LightKey, LightKind,
 
 /// Systems in the order they run.
 pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, ()> {
-    (begin_frame, extract_view, extract_draws, extract_lights, extract_assets).chain()
+    (begin_frame, extract_view, extract_draws, extract_lights, extract_environment, extract_assets).chain()
 }
 
 fn begin_frame(mut scene: ResMut<RenderScene>) {
@@ -451,6 +455,21 @@ fn extract_lights(
             Vec3::NEG_Z,
             false,
         ));
+    }
+}
+
+fn extract_environment(environment: Option<Res<Environment>>, mut scene: ResMut<RenderScene>) {
+    match environment {
+        Some(env) if env.is_changed() || scene.environment.is_none() => scene.environment = Some(env.clone()),
+        Some(_) => {}
+        None => {
+            if scene.environment.is_some() {
+                scene.environment = None;
+            }
+        }
+    }
+    if scene.environment.is_some() {
+        scene.default_lights.retain(|l| l.kind != LightKind::Ambient);
     }
 }
 

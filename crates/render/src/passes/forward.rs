@@ -49,6 +49,8 @@ pub struct ForwardInputs<'a> {
     /// With GPU culling: the first `batches` batches (the opaque ones) draw from these
     /// indirect arguments (`culling::ARGS_WORDS` words each, in batch order).
     pub indirect: Option<IndirectDraws<'a>>,
+    /// Draw the environment behind the scene (`Pass::Background`), after the opaque batches.
+    pub background: bool,
 }
 
 #[derive(Clone, Copy)]
@@ -86,7 +88,13 @@ pub fn encode(
     phase: OpaquePhase,
     timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
-    let error = compile(device, pipelines, batches);
+    let mut error = compile(device, pipelines, batches);
+    let samples = inputs.targets.samples;
+    if inputs.background
+        && let Err(e) = pipelines.background(device, samples)
+    {
+        error = Some(e);
+    }
     let (color, resolve) = inputs.targets.color_attachment();
     let split = inputs.targets.deferred.as_ref();
     let (early, late) = (phase == OpaquePhase::Early, phase == OpaquePhase::Late);
@@ -129,8 +137,23 @@ pub fn encode(
         occlusion_query_set: None,
         multiview_mask: None,
     });
-    let drawn = if ends { batches } else { &batches[..opaque_count.min(batches.len())] };
-    (draw(&mut pass, pipelines, inputs, drawn, 0), error)
+    let opaque = opaque_count.min(batches.len());
+    let mut counts = draw(&mut pass, pipelines, inputs, &batches[..opaque], 0);
+    // The background fills what the opaque draws left uncovered: after them (early depth
+    // rejects it under every surface), before blended draws (which show it through). The early
+    // half of occlusion culling leaves it to the late half.
+    if inputs.background
+        && !early
+        && let Some(pipeline) = pipelines.background_cached(samples)
+    {
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, inputs.view_bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    if ends {
+        counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
+    }
+    (counts, error)
 }
 
 /// After the deferred-lights pass: adds its light to the frame (when `add_local_light`: the pass

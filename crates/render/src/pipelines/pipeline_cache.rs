@@ -17,8 +17,10 @@ use std::collections::HashMap;
 
 mod casters;
 mod culling;
+mod environment;
 pub use casters::CasterKey;
 pub use culling::{CullPhase, HzbStep};
+pub use environment::{ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep};
 
 use penumbra_engine::mesh::Topology;
 
@@ -57,6 +59,8 @@ pub struct PipelineKey {
     pub shadows: bool,
     /// Some local light reads a shadow map this frame.
     pub local_shadows: bool,
+    /// The scene has an environment: image-based light is compiled in.
+    pub ibl: bool,
     pub debug: DebugView,
     pub topology: TopologyKey,
     /// Double-sided materials draw both faces.
@@ -94,6 +98,7 @@ impl PipelineKey {
             .with("IES_LIGHTS", local && self.light_shapes.ies)
             .with("SHADOWS", lit && self.shadows)
             .with("LOCAL_SHADOWS", local && self.local_shadows)
+            .with("IBL", lit && self.ibl)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
             .with("DEBUG_CASCADES", self.debug == DebugView::Cascades)
     }
@@ -254,6 +259,10 @@ pub struct PipelineCache {
     cull_layouts: culling::CullLayouts,
     cull: HashMap<CullPhase, wgpu::ComputePipeline>,
     hzb: HashMap<HzbStep, wgpu::ComputePipeline>,
+    env_layouts: environment::EnvLayouts,
+    env: HashMap<EnvStep, wgpu::ComputePipeline>,
+    /// Keyed by sample count.
+    background: HashMap<u32, wgpu::RenderPipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -372,6 +381,22 @@ impl PipelineCache {
                 // Local lights' shadows: one entry per layer, and the layers.
                 storage(13, lit),
                 depth_array(14, lit),
+                // The environment (shaders/ibl.wgsl): parameters, irradiance harmonics, the
+                // specular cube, the split-sum table, their sampler.
+                buffer_entry(15, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
+                storage(16, wgpu::ShaderStages::FRAGMENT),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 17,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::Cube,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                texture(18, true),
+                sampler(19),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;
@@ -449,12 +474,16 @@ impl PipelineCache {
         });
         let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
         let cull_layouts = culling::cull_layouts(device);
+        let env_layouts = environment::env_layouts(device, &view_layout);
         let caster_layout = casters::caster_layout(device);
         let caster_pipeline_layouts = [
             layout("shadow casters", &[Some(&caster_layout)]),
             layout("masked shadow casters", &[Some(&caster_layout), Some(&material_layout)]),
         ];
         Self {
+            env_layouts,
+            env: HashMap::new(),
+            background: HashMap::new(),
             cull_layouts,
             cull: HashMap::new(),
             hzb: HashMap::new(),
@@ -656,7 +685,9 @@ impl PipelineCache {
                 hzb.push((key, self.create_hzb(device, &mut candidate, key)?));
             }
         }
-        let total = self.cull.len()
+        let env = self.reload_env(device, &mut candidate, files)?;
+        let total = self.env_pipeline_count()
+            + self.cull.len()
             + self.hzb.len()
             + self.caster.len()
             + self.forward.len()
@@ -684,6 +715,7 @@ impl PipelineCache {
         self.caster.extend(caster);
         self.cull.extend(cull);
         self.hzb.extend(hzb);
+        let rebuilt = rebuilt + self.apply_env_reload(env);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }

@@ -35,6 +35,8 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("ltc.wgsl", include_str!("../../../../shaders/ltc.wgsl")),
     ("ies.wgsl", include_str!("../../../../shaders/ies.wgsl")),
     ("shadows.wgsl", include_str!("../../../../shaders/shadows.wgsl")),
+    ("cubemap.wgsl", include_str!("../../../../shaders/cubemap.wgsl")),
+    ("ibl.wgsl", include_str!("../../../../shaders/ibl.wgsl")),
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
@@ -46,6 +48,10 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("deferred_composite.wgsl", include_str!("../../../../shaders/deferred_composite.wgsl")),
     ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
     ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
+    ("env_source.wgsl", include_str!("../../../../shaders/env_source.wgsl")),
+    ("env_filter.wgsl", include_str!("../../../../shaders/env_filter.wgsl")),
+    ("brdf_lut.wgsl", include_str!("../../../../shaders/brdf_lut.wgsl")),
+    ("background.wgsl", include_str!("../../../../shaders/background.wgsl")),
 ];
 
 /// The repository's shader folder as seen at compile time; the viewer watches it when it still

@@ -9,7 +9,11 @@ use std::collections::VecDeque;
 use std::time::Instant;
 
 use anyhow::{Result, anyhow};
+use bevy_ecs::prelude::{Component, Query, With};
 use bevy_ecs::schedule::ScheduleLabel;
+use glam::{Quat, Vec3};
+use penumbra_engine::components::{DirectionalLight, Transform};
+use penumbra_engine::environment::{EnvironmentSource, Sky};
 use penumbra_render::headless::{ShotSettings, stage_scene};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderSettings, Renderer};
 
@@ -159,6 +163,24 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let renderer = Renderer::new(ctx, settings.clone())?;
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let (mut app, size) = stage_scene(&scene, &shot)?;
+    let environment = args.look.environment()?;
+    let env_label = match &environment {
+        None => "none".to_owned(),
+        Some(_) if args.env_churn => "sky, sun turning 1° a frame (prefiltered every frame)".to_owned(),
+        Some(_) => format!("--env {}, {}² faces", args.look.env, settings.environment.cube_size),
+    };
+    if let Some(mut env) = environment {
+        if args.env_churn {
+            env.source = EnvironmentSource::Sky(Sky::default());
+            app.world.spawn((
+                DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
+                Transform::IDENTITY.looking_at(Vec3::new(-1.0, -0.6, -0.4), Vec3::Y),
+                ChurnSun,
+            ));
+            app.add_systems(penumbra_engine::Update, turn_sun);
+        }
+        app.insert_resource(env);
+    }
     app.insert_resource(renderer);
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     app.update();
@@ -184,6 +206,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "draws     {} draw calls, {} instances, {} triangles",
         stats.draw_calls, stats.instances, stats.primitives
     );
+    println!("env       {env_label} ({} prefilter runs)", stats.environment_prefilters);
     println!();
     println!("| measure | median | p90 |");
     println!("|---|---:|---:|");
@@ -199,11 +222,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
         println!("| GPU per frame (ms) | n/a (adapter has no timestamp queries) | |");
     }
     println!(
-        "| GPU memory (MiB): mesh pool / textures / instances / targets | {:.1} / {:.1} / {:.2} / {:.1} | |",
+        "| GPU memory (MiB): mesh pool / textures / instances / targets / environment | {:.1} / {:.1} / {:.2} / {:.1} / {:.1} | |",
         mib(mem.mesh_pool),
         mib(mem.textures),
         mib(mem.instances),
-        mib(mem.targets)
+        mib(mem.targets),
+        mib(mem.environment)
     );
     Ok(())
+}
+
+/// The sun `--env-churn` adds and turns.
+#[derive(Component)]
+struct ChurnSun;
+
+/// Turns the sun 1° about +Y each frame: the sky's maps are remade every frame.
+fn turn_sun(mut suns: Query<&mut Transform, With<ChurnSun>>) {
+    for mut t in &mut suns {
+        t.rotation = Quat::from_rotation_y(1f32.to_radians()) * t.rotation;
+    }
 }

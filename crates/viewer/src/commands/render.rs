@@ -26,7 +26,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     });
     let scene = scene::load(Some(&args.path), &args.scene_args)?;
     step("scene decoded");
+    let environment = args.look.environment()?;
+    step("environment read");
     let (mut app, size) = stage_scene(&scene, &shot)?;
+    if let Some(env) = environment {
+        app.insert_resource(env);
+    }
     step("scene staged");
     let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))??;
     let pixels = render_frames(&mut app, renderer, size, args.frames)?;

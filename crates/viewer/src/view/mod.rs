@@ -16,6 +16,7 @@ use bevy_ecs::entity::Entity;
 use bevy_ecs::world::Mut;
 use glam::{Vec2, Vec3};
 use penumbra_engine::components::{Camera, GlobalTransform, Projection, Transform};
+use penumbra_engine::environment::Environment;
 use penumbra_engine::framing::world_bounds;
 use penumbra_engine::import::GltfScene;
 use penumbra_engine::{App, Time, TimeMode};
@@ -127,6 +128,9 @@ impl Viewer {
             exposure_ev100: self.args.look.exposure,
         };
         let (mut app, _) = stage_scene(&self.scene, &shot)?;
+        if let Some(env) = self.args.look.environment()? {
+            app.insert_resource(env);
+        }
         app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
         // The orbit camera starts where the staged camera (auto-framed or the file's) looks from.
         app.update();
@@ -247,13 +251,28 @@ impl Running {
         let format = self.config.format;
         let window = self.window.clone();
         let overlay = &mut self.overlay;
+        let before = self.app.world.get_resource::<Environment>().cloned();
+        let mut env = before.clone();
         self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
             let scene = world.resource::<RenderScene>();
             renderer.render(scene, &view, format, size);
             let ctx = renderer.context().clone();
-            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, renderer.shader_error());
+            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, renderer.shader_error(), &mut env);
             ctx.queue.present(texture);
         });
+        // The panel's edits reach the renderer as an ordinary resource change next frame.
+        if env != before {
+            self.set_environment(env);
+        }
+    }
+
+    fn set_environment(&mut self, env: Option<Environment>) {
+        match env {
+            Some(e) => self.app.world.insert_resource(e),
+            None => {
+                self.app.world.remove_resource::<Environment>();
+            }
+        }
     }
 }
 
@@ -320,6 +339,17 @@ impl ApplicationHandler for Viewer {
                 };
                 let towards = r.cursor_point();
                 r.orbit.zoom(notches, towards);
+            }
+            WindowEvent::DroppedFile(path) => {
+                // An environment map dropped on the window replaces the environment's source.
+                let mut env = r.app.world.get_resource::<Environment>().cloned();
+                let status = overlay::load_environment(&mut env, &path);
+                if status.is_ok() {
+                    r.set_environment(env);
+                } else if let Err(e) = &status {
+                    tracing::error!("{e}");
+                }
+                r.overlay.set_env_status(status);
             }
             WindowEvent::RedrawRequested => {
                 r.frame();

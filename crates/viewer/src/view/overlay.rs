@@ -1,8 +1,16 @@
-//! The viewer's egui overlay, drawn over the tonemapped frame (never into the scene). Today it
-//! shows one thing: the current shader error, in red, until a reload fixes it. The panels of the
-//! full viewer (issue #6) will grow here.
+//! The viewer's egui overlay, drawn over the tonemapped frame (never into the scene): the
+//! current shader error, in red, until a reload fixes it; and the environment panel (source,
+//! a .hdr/.exr file to load, intensity, rotation, background). The other panels of the full
+//! viewer (issue #6) will grow here.
+//!
+//! The overlay edits a copy of the scene's `Environment`; the viewer writes it back to the main
+//! world when it changed, so the renderer sees an ordinary resource change.
+
+use std::path::Path;
+use std::sync::Arc;
 
 use egui::{Color32, RichText};
+use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
 use penumbra_render::ShaderError;
 use winit::event::WindowEvent;
 use winit::window::Window;
@@ -11,6 +19,20 @@ pub struct Overlay {
     ctx: egui::Context,
     state: egui_winit::State,
     renderer: egui_wgpu::Renderer,
+    /// The environment panel's file field.
+    env_path: String,
+    /// The last load's outcome: what was loaded, or why not.
+    env_status: Option<Result<String, String>>,
+}
+
+/// Loads `path` as the environment's image; on failure the environment stays as it was and
+/// the error (naming the file) is returned.
+pub fn load_environment(env: &mut Option<Environment>, path: &Path) -> Result<String, String> {
+    let image = EnvironmentImage::load(path).map_err(|e| e.to_string())?;
+    let loaded = format!("{} ({}×{})", path.display(), image.width, image.height);
+    let current = env.get_or_insert_with(Environment::default);
+    current.source = EnvironmentSource::Image(Arc::new(image));
+    Ok(loaded)
 }
 
 impl Overlay {
@@ -25,7 +47,7 @@ impl Overlay {
             Some(device.limits().max_texture_dimension_2d as usize),
         );
         let renderer = egui_wgpu::Renderer::new(device, format, egui_wgpu::RendererOptions::default());
-        Self { ctx, state, renderer }
+        Self { ctx, state, renderer, env_path: String::new(), env_status: None }
     }
 
     /// Feeds a window event to egui; true when egui used it (the camera should ignore it).
@@ -33,7 +55,14 @@ impl Overlay {
         self.state.on_window_event(window, event).consumed
     }
 
-    /// Draws the overlay into `target` (already holding the frame) and submits it.
+    /// Shows the outcome of loading an environment from outside the panel (a dropped file).
+    pub fn set_env_status(&mut self, status: Result<String, String>) {
+        self.env_status = Some(status);
+    }
+
+    /// Draws the overlay into `target` (already holding the frame) and submits it. `env` is
+    /// the scene's environment, edited in place by the panel.
+    #[allow(clippy::too_many_arguments)]
     pub fn draw(
         &mut self,
         window: &Window,
@@ -42,9 +71,12 @@ impl Overlay {
         target: &wgpu::TextureView,
         size: (u32, u32),
         shader_error: Option<&ShaderError>,
+        env: &mut Option<Environment>,
     ) {
         let raw = self.state.take_egui_input(window);
+        let (env_path, env_status) = (&mut self.env_path, &mut self.env_status);
         let mut full = self.ctx.run_ui(raw, |ui| {
+            environment_panel(ui, env, env_path, env_status);
             if let Some(e) = shader_error {
                 egui::Frame::new().fill(Color32::from_rgba_unmultiplied(110, 0, 0, 230)).inner_margin(10).show(
                     ui,
@@ -96,4 +128,84 @@ impl Overlay {
             self.renderer.free_texture(&id);
         }
     }
+}
+
+fn environment_panel(
+    ui: &mut egui::Ui,
+    env: &mut Option<Environment>,
+    path: &mut String,
+    status: &mut Option<Result<String, String>>,
+) {
+    egui::Window::new("Environment").default_open(false).anchor(egui::Align2::RIGHT_TOP, [-8.0, 8.0]).show(
+        ui.ctx(),
+        |ui| {
+            let kind = match env.as_ref().map(|e| &e.source) {
+                None => "none",
+                Some(EnvironmentSource::Auto) => "auto",
+                Some(EnvironmentSource::Sky(_)) => "sky",
+                Some(EnvironmentSource::Studio) => "studio",
+                Some(EnvironmentSource::Image(_)) => "image",
+            };
+            ui.horizontal(|ui| {
+                for (name, source) in [
+                    ("none", None),
+                    ("auto", Some(EnvironmentSource::Auto)),
+                    ("sky", Some(EnvironmentSource::Sky(Sky::default()))),
+                    ("studio", Some(EnvironmentSource::Studio)),
+                ] {
+                    if ui.selectable_label(kind == name, name).clicked() && kind != name {
+                        match source {
+                            None => *env = None,
+                            Some(s) => env.get_or_insert_with(Environment::default).source = s,
+                        }
+                    }
+                }
+                if kind == "image" {
+                    let _ = ui.selectable_label(true, "image");
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.add(egui::TextEdit::singleline(path).hint_text(".hdr or .exr file (or drop one on the window)"));
+                if ui.button("Load").clicked() {
+                    *status = Some(load_environment(env, Path::new(path.trim())));
+                }
+            });
+            match status {
+                Some(Ok(m)) => {
+                    ui.label(format!("loaded {m}"));
+                }
+                Some(Err(e)) => {
+                    ui.label(RichText::new(e.as_str()).color(Color32::from_rgb(255, 90, 90)));
+                }
+                None => {}
+            }
+            let Some(e) = env.as_mut() else { return };
+            ui.add(egui::Slider::new(&mut e.intensity, 0.0..=16.0).logarithmic(true).text("intensity"));
+            let mut degrees = e.rotation.to_degrees();
+            if ui.add(egui::Slider::new(&mut degrees, -180.0..=180.0).text("rotation °")).changed() {
+                e.rotation = degrees.to_radians();
+            }
+            let mut blur = match e.background {
+                Background::Blurred(r) => Some(r),
+                _ => None,
+            };
+            ui.horizontal(|ui| {
+                ui.label("background");
+                if ui.selectable_label(e.background == Background::Environment, "environment").clicked() {
+                    e.background = Background::Environment;
+                }
+                if ui.selectable_label(blur.is_some(), "blurred").clicked() && blur.is_none() {
+                    blur = Some(0.5);
+                }
+                if ui.selectable_label(matches!(e.background, Background::Color(_)), "colour").clicked() {
+                    e.background = Background::Color([0.02, 0.02, 0.025]);
+                    blur = None;
+                }
+            });
+            if let Some(mut r) = blur {
+                ui.add(egui::Slider::new(&mut r, 0.0..=1.0).text("blur (roughness)"));
+                e.background = Background::Blurred(r);
+            }
+        },
+    );
 }

@@ -1,0 +1,729 @@
+//! Environment lighting: the one owner of the maps image-based lighting reads, and of the
+//! compute passes that make them.
+//!
+//! Data flow: extraction copies the main world's `Environment` resource into
+//! `RenderScene::environment`. [`EnvironmentLighting::prepare`] resolves its source (the sky
+//! needs the scene's brightest directional light) into a [`MapsKey`]; only when the key changes
+//! (a new image, the sun turning, another cube size) does [`EnvironmentLighting::encode`] run
+//! the prefilter chain on the GPU:
+//!
+//! 1. source cube, level 0 (`env_source.wgsl`): the sky, the studio gradient, or the
+//!    equirectangular image (reduced on the CPU by box filtering to 4 × the face size, so
+//!    bright small sources keep their energy);
+//! 2. the source's mip chain (2 × 2 box);
+//! 3. the specular cube: level 0 copied from the source, levels 1..[`SPECULAR_LEVELS`] GGX-
+//!    prefiltered at perceptual roughness `level / (SPECULAR_LEVELS − 1)` with filtered
+//!    importance sampling;
+//! 4. nine irradiance harmonics from the source level whose faces are at most 32²;
+//! 5. once per renderer, the split-sum table (64², `brdf_lut.wgsl`).
+//!
+//! Intensity, rotation and the background change only the uniform (`GpuEnvironment`), never
+//! the maps. Sources are stored divided by a scale (the sky's zenith luminance, an image's
+//! peak over f16's range) that the uniform multiplies back, so no source clamps in the f16
+//! cubes. Without an environment the forward shaders are compiled without IBL, the maps are
+//! released, and the bindings hold 1 × 1 stand-ins.
+
+pub mod sky;
+
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
+
+use crate::pipelines::pipeline_cache::{ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep, PipelineCache};
+use crate::pipelines::shader_library::ShaderError;
+use crate::timing::GpuTimer;
+
+/// Roughness levels of the specular cube (perceptual roughness 0, 0.2, … 1).
+pub const SPECULAR_LEVELS: u32 = 6;
+/// Side of the split-sum table.
+pub const LUT_SIZE: u32 = 64;
+/// The irradiance harmonics are projected from the first source level at most this wide.
+const SH_FACE_MAX: u32 = 32;
+/// Stand-in radiance scale of the studio gradient: straight up, at the horizon, straight down
+/// (cd/m²). With the default exposure (EV100 0) the sky above reads 0.83 before tonemapping.
+pub const STUDIO_RADIANCE: [f32; 3] = [1.0, 0.6, 0.25];
+/// Most GGX samples per texel of any level.
+pub const MAX_SAMPLES: u32 = 4096;
+/// Uniform buffer stride between per-level filter parameters.
+const PARAMS_STRIDE: u64 = 256;
+
+/// How finely the environment is prefiltered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvironmentSettings {
+    /// Face size of the source and of the specular cube's sharpest level; a power of two,
+    /// 16..=2048. The background shows this level.
+    pub cube_size: u32,
+    /// GGX samples per texel of the first prefiltered level (perceptual roughness 0.2); each
+    /// rougher level takes twice as many (up to [`MAX_SAMPLES`]).
+    pub specular_samples: u32,
+}
+
+impl Default for EnvironmentSettings {
+    fn default() -> Self {
+        Self { cube_size: 512, specular_samples: 128 }
+    }
+}
+
+impl EnvironmentSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.cube_size.is_power_of_two() && (16..=2048).contains(&self.cube_size)) {
+            return Err(format!("environment cube size {} must be a power of two in 16..=2048", self.cube_size));
+        }
+        if !(1..=MAX_SAMPLES).contains(&self.specular_samples) {
+            return Err(format!(
+                "environment specular samples {} must lie in 1..={MAX_SAMPLES}",
+                self.specular_samples
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Mirrors `EnvironmentParams` in `shaders/ibl.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+struct GpuEnvironment {
+    rotation: [f32; 2],
+    intensity: f32,
+    max_lod: f32,
+    background: [f32; 4],
+}
+
+/// Mirrors `SourceParams` in `shaders/env_source.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct GpuSourceParams {
+    perez_lum: [f32; 4],
+    perez_x: [f32; 4],
+    perez_y: [f32; 4],
+    perez_e: [f32; 4],
+    zenith: [f32; 4],
+    sun: [f32; 4],
+    studio: [f32; 4],
+    mode: u32,
+    face_size: u32,
+    _pad: [u32; 2],
+}
+
+/// Mirrors `FilterParams` in `shaders/env_filter.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct GpuFilterParams {
+    roughness: f32,
+    sample_count: u32,
+    source_size: u32,
+    face_size: u32,
+    source_levels: u32,
+    _pad: [u32; 3],
+}
+
+/// What the maps are made from, resolved.
+#[derive(Debug, Clone)]
+enum Source {
+    Sky(sky::SkyParams),
+    Studio,
+    Image(Arc<EnvironmentImage>),
+}
+
+impl PartialEq for Source {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            // The scale goes to the uniform; only the shape is in the maps.
+            (Source::Sky(a), Source::Sky(b)) => {
+                sky::SkyParams { scale: 0.0, ..*a } == sky::SkyParams { scale: 0.0, ..*b }
+            }
+            (Source::Studio, Source::Studio) => true,
+            (Source::Image(a), Source::Image(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+}
+
+/// Everything the maps depend on: a change of any part re-runs the prefilter chain.
+#[derive(Debug, Clone, PartialEq)]
+struct MapsKey {
+    source: Source,
+    cube_size: u32,
+    specular_samples: u32,
+}
+
+/// The maps of one cube size, and the bind groups of the steps that make them.
+struct Maps {
+    size: u32,
+    source: wgpu::Texture,
+    specular: wgpu::Texture,
+    specular_view: wgpu::TextureView,
+    source_params: wgpu::Buffer,
+    filter_params: wgpu::Buffer,
+    downsample_groups: Vec<wgpu::BindGroup>,
+    specular_groups: Vec<wgpu::BindGroup>,
+    sh_group: wgpu::BindGroup,
+    sh_face: u32,
+    /// Bind group of the source step (it holds the image, so it is made per source).
+    source_group: Option<wgpu::BindGroup>,
+}
+
+/// What [`EnvironmentLighting::prepare`] decided.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EnvironmentFrame {
+    /// The scene has an environment: forward shaders add its light.
+    pub active: bool,
+    /// The maps are made this frame.
+    pub prefilter: bool,
+    /// A view or texture in the view bind group was replaced.
+    pub rebind: bool,
+}
+
+pub struct EnvironmentLighting {
+    uniform: wgpu::Buffer,
+    sh: wgpu::Buffer,
+    sampler: wgpu::Sampler,
+    stand_in_cube: wgpu::TextureView,
+    stand_in_2d: wgpu::TextureView,
+    lut: Option<(wgpu::Texture, wgpu::TextureView)>,
+    lut_made: bool,
+    maps: Option<Maps>,
+    /// What the maps hold (or are about to, while `pending`).
+    key: Option<MapsKey>,
+    pending: bool,
+    last_uniform: Option<GpuEnvironment>,
+    /// Prefilter chains run since start-up.
+    pub prefilters: u64,
+    /// The last problem with the scene's environment, reported once.
+    refused: Option<String>,
+}
+
+fn texture_bytes(t: &wgpu::Texture) -> u64 {
+    let mut total = 0;
+    for level in 0..t.mip_level_count() {
+        let (w, h) = ((t.width() >> level).max(1) as u64, (t.height() >> level).max(1) as u64);
+        total += w * h * t.depth_or_array_layers() as u64 * t.format().block_copy_size(None).unwrap_or(8) as u64;
+    }
+    total
+}
+
+impl EnvironmentLighting {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let stand_in = |label, layers, dimension| {
+            let t = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ENVIRONMENT_FORMAT,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            // Zero-initialised by wgpu: no light, should a shader read it.
+            t.create_view(&wgpu::TextureViewDescriptor { dimension: Some(dimension), ..Default::default() })
+        };
+        Self {
+            uniform: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("environment"),
+                size: std::mem::size_of::<GpuEnvironment>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            sh: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("environment irradiance"),
+                size: 9 * 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            sampler: device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("environment"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                ..Default::default()
+            }),
+            stand_in_cube: stand_in("environment stand-in", 6, wgpu::TextureViewDimension::Cube),
+            stand_in_2d: stand_in("split-sum stand-in", 1, wgpu::TextureViewDimension::D2),
+            lut: None,
+            lut_made: false,
+            maps: None,
+            key: None,
+            pending: false,
+            last_uniform: None,
+            prefilters: 0,
+            refused: None,
+        }
+    }
+
+    pub fn uniform(&self) -> &wgpu::Buffer {
+        &self.uniform
+    }
+
+    pub fn irradiance_buffer(&self) -> &wgpu::Buffer {
+        &self.sh
+    }
+
+    pub fn sampler(&self) -> &wgpu::Sampler {
+        &self.sampler
+    }
+
+    pub fn specular_view(&self) -> &wgpu::TextureView {
+        self.maps.as_ref().map_or(&self.stand_in_cube, |m| &m.specular_view)
+    }
+
+    pub fn lut_view(&self) -> &wgpu::TextureView {
+        self.lut.as_ref().map_or(&self.stand_in_2d, |(_, v)| v)
+    }
+
+    /// GPU memory held by the maps and the table.
+    pub fn bytes(&self) -> u64 {
+        let maps = self.maps.as_ref().map_or(0, |m| texture_bytes(&m.source) + texture_bytes(&m.specular));
+        maps + self.lut.as_ref().map_or(0, |(t, _)| texture_bytes(t))
+    }
+
+    /// Resolves this frame's environment, (re)allocates maps when the cube size changes, and
+    /// uploads what the prefilter chain reads when the source changed. `sun`: the scene's
+    /// brightest directional light as (direction towards it, illuminance in lux).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipelines: &PipelineCache,
+        settings: &EnvironmentSettings,
+        environment: Option<&Environment>,
+        sun: Option<(Vec3, f32)>,
+    ) -> EnvironmentFrame {
+        let environment = environment.filter(|e| match e.validate() {
+            Ok(()) => {
+                self.refused = None;
+                true
+            }
+            Err(problem) => {
+                if self.refused.as_ref() != Some(&problem) {
+                    tracing::error!("environment refused: {problem}; rendering without it");
+                    self.refused = Some(problem);
+                }
+                false
+            }
+        });
+        let Some(env) = environment else {
+            // No environment: release the maps; the bindings fall back to stand-ins.
+            let rebind = self.maps.take().is_some();
+            self.key = None;
+            self.pending = false;
+            return EnvironmentFrame { active: false, prefilter: false, rebind };
+        };
+        let (source, source_scale) = resolve(env, sun);
+        let key = MapsKey { source, cube_size: settings.cube_size, specular_samples: settings.specular_samples };
+        let mut rebind = false;
+        if self.maps.as_ref().is_none_or(|m| m.size != settings.cube_size) {
+            self.maps = Some(Maps::new(device, pipelines, &self.sh, settings.cube_size));
+            rebind = true;
+            self.key = None;
+        }
+        if self.lut.is_none() {
+            self.lut = Some(make_lut_texture(device));
+            rebind = true;
+        }
+        if self.key.as_ref() != Some(&key) {
+            let maps = self.maps.as_mut().expect("made above");
+            maps.upload_source(device, queue, pipelines, &key);
+            self.write_filter_params(queue, settings);
+            self.key = Some(key);
+            self.pending = true;
+        }
+        let max_lod = (SPECULAR_LEVELS - 1) as f32;
+        let uniform = GpuEnvironment {
+            rotation: [env.rotation.cos(), env.rotation.sin()],
+            intensity: env.intensity * source_scale,
+            max_lod,
+            background: match env.background {
+                Background::Environment => [0.0, 0.0, 0.0, 0.0],
+                Background::Blurred(r) => [0.0, 0.0, 0.0, r * max_lod],
+                Background::Color(c) => [c[0], c[1], c[2], -1.0],
+            },
+        };
+        if self.last_uniform != Some(uniform) {
+            queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+            self.last_uniform = Some(uniform);
+        }
+        EnvironmentFrame { active: true, prefilter: self.pending || !self.lut_made, rebind }
+    }
+
+    fn write_filter_params(&self, queue: &wgpu::Queue, settings: &EnvironmentSettings) {
+        let Some(maps) = &self.maps else { return };
+        let levels = maps.source.mip_level_count();
+        let mut bytes = vec![0u8; (PARAMS_STRIDE * (SPECULAR_LEVELS as u64 + 1)) as usize];
+        for level in 0..=SPECULAR_LEVELS {
+            // Entry SPECULAR_LEVELS is the harmonics' projection.
+            let (roughness, face) = if level < SPECULAR_LEVELS {
+                (level as f32 / (SPECULAR_LEVELS - 1) as f32, (maps.size >> level).max(1))
+            } else {
+                (0.0, maps.sh_face)
+            };
+            let p = GpuFilterParams {
+                roughness,
+                // Rougher levels converge more slowly and have a quarter of the texels of the
+                // level before: twice the samples each costs half as much again in all.
+                sample_count: (settings.specular_samples << level.saturating_sub(1).min(5)).min(MAX_SAMPLES),
+                source_size: maps.size,
+                face_size: face,
+                source_levels: levels,
+                _pad: [0; 3],
+            };
+            let at = (level as u64 * PARAMS_STRIDE) as usize;
+            bytes[at..at + std::mem::size_of::<GpuFilterParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        queue.write_buffer(&maps.filter_params, 0, &bytes);
+    }
+
+    /// Runs the prefilter chain if the source changed, and the split-sum table once. On a
+    /// shader error nothing runs and the work stays pending (a reload may fix it).
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), ShaderError> {
+        if !(self.pending || (!self.lut_made && self.lut.is_some())) {
+            return Ok(());
+        }
+        pipelines.compile_env_steps(device)?;
+        let step = |s| pipelines.env_step_cached(s).expect("compiled above");
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("environment prefilter"),
+            timestamp_writes: timer.and_then(|t| t.compute_pass("environment")),
+        });
+        if !self.lut_made
+            && let Some((lut, _)) = &self.lut
+        {
+            let view = lut.create_view(&Default::default());
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("split-sum table"),
+                layout: pipelines.env_layout(EnvStep::BrdfLut),
+                entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) }],
+            });
+            pass.set_pipeline(step(EnvStep::BrdfLut));
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(LUT_SIZE.div_ceil(8), LUT_SIZE.div_ceil(8), 1);
+            self.lut_made = true;
+        }
+        // The source step's group holds the uploaded image: released once it has run.
+        if self.pending
+            && let Some(maps) = self.maps.as_mut()
+            && let Some(source_group) = maps.source_group.take()
+        {
+            let groups = |size: u32| (size.div_ceil(8), size.div_ceil(8), 6);
+            pass.set_pipeline(step(EnvStep::Source));
+            pass.set_bind_group(0, &source_group, &[]);
+            let (x, y, z) = groups(maps.size);
+            pass.dispatch_workgroups(x, y, z);
+            pass.set_pipeline(step(EnvStep::Downsample));
+            for (i, group) in maps.downsample_groups.iter().enumerate() {
+                pass.set_bind_group(0, group, &[]);
+                let (x, y, z) = groups((maps.size >> (i + 1)).max(1));
+                pass.dispatch_workgroups(x, y, z);
+            }
+            pass.set_pipeline(step(EnvStep::Specular));
+            for (i, group) in maps.specular_groups.iter().enumerate() {
+                pass.set_bind_group(0, group, &[]);
+                let (x, y, z) = groups((maps.size >> (i + 1)).max(1));
+                pass.dispatch_workgroups(x, y, z);
+            }
+            pass.set_pipeline(step(EnvStep::IrradianceSh));
+            pass.set_bind_group(0, &maps.sh_group, &[]);
+            pass.dispatch_workgroups(1, 1, 1);
+            drop(pass);
+            // The sharpest specular level is the source itself.
+            encoder.copy_texture_to_texture(
+                maps.source.as_image_copy(),
+                maps.specular.as_image_copy(),
+                wgpu::Extent3d { width: maps.size, height: maps.size, depth_or_array_layers: 6 },
+            );
+            self.pending = false;
+            self.prefilters += 1;
+        }
+        Ok(())
+    }
+}
+
+/// The source to make maps from, and the scale its stored values are multiplied by.
+fn resolve(env: &Environment, sun: Option<(Vec3, f32)>) -> (Source, f32) {
+    let sky = match &env.source {
+        EnvironmentSource::Auto => Some(Sky::default()),
+        EnvironmentSource::Sky(s) => Some(*s),
+        EnvironmentSource::Studio => None,
+        EnvironmentSource::Image(img) => return (Source::Image(img.clone()), image_scale(img)),
+    };
+    match (sky, sun) {
+        (Some(sky), Some((towards, lux))) => {
+            let p = sky::sky_params(&sky, towards, lux);
+            (Source::Sky(p), p.scale)
+        }
+        _ => (Source::Studio, 1.0),
+    }
+}
+
+/// An image brighter than f16 allows is stored scaled down by this (1 for ordinary images).
+fn image_scale(img: &EnvironmentImage) -> f32 {
+    let peak = img.texels.iter().flatten().fold(0.0f32, |m, &v| m.max(v));
+    (peak / 60_000.0).max(1.0)
+}
+
+fn tex(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
+}
+
+fn make_lut_texture(device: &wgpu::Device) -> (wgpu::Texture, wgpu::TextureView) {
+    let t = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("split-sum table"),
+        size: wgpu::Extent3d { width: LUT_SIZE, height: LUT_SIZE, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: ENVIRONMENT_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING,
+        view_formats: &[],
+    });
+    let v = t.create_view(&Default::default());
+    (t, v)
+}
+
+impl Maps {
+    fn new(device: &wgpu::Device, pipelines: &PipelineCache, sh: &wgpu::Buffer, size: u32) -> Self {
+        let levels = size.ilog2() + 1;
+        let cube = |label, mips, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 6 },
+                mip_level_count: mips,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ENVIRONMENT_FORMAT,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING;
+        let source = cube("environment source", levels, usage | wgpu::TextureUsages::COPY_SRC);
+        let specular = cube("environment specular", SPECULAR_LEVELS.min(levels), usage | wgpu::TextureUsages::COPY_DST);
+        let level_view = |t: &wgpu::Texture, level: u32| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                base_mip_level: level,
+                mip_level_count: Some(1),
+                ..Default::default()
+            })
+        };
+        let buffer = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let source_params = buffer("environment source", std::mem::size_of::<GpuSourceParams>() as u64);
+        let filter_params = buffer("environment filter", PARAMS_STRIDE * (SPECULAR_LEVELS as u64 + 1));
+        let params_at = |level: u32| wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &filter_params,
+                offset: level as u64 * PARAMS_STRIDE,
+                size: std::num::NonZeroU64::new(std::mem::size_of::<GpuFilterParams>() as u64),
+            }),
+        };
+        let downsample_groups = (1..levels)
+            .map(|level| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("environment downsample"),
+                    layout: pipelines.env_layout(EnvStep::Downsample),
+                    entries: &[tex(0, &level_view(&source, level - 1)), tex(1, &level_view(&source, level))],
+                })
+            })
+            .collect();
+        let source_cube = source.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::Cube),
+            ..Default::default()
+        });
+        let filter_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("environment prefilter"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let specular_groups = (1..specular.mip_level_count())
+            .map(|level| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("environment specular"),
+                    layout: pipelines.env_layout(EnvStep::Specular),
+                    entries: &[
+                        params_at(level),
+                        tex(1, &source_cube),
+                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&filter_sampler) },
+                        tex(3, &level_view(&specular, level)),
+                    ],
+                })
+            })
+            .collect();
+        let sh_level = size.ilog2().saturating_sub(SH_FACE_MAX.ilog2());
+        let sh_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("environment irradiance"),
+            layout: pipelines.env_layout(EnvStep::IrradianceSh),
+            entries: &[
+                params_at(SPECULAR_LEVELS),
+                tex(1, &level_view(&source, sh_level)),
+                wgpu::BindGroupEntry { binding: 2, resource: sh.as_entire_binding() },
+            ],
+        });
+        let specular_view = specular.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::Cube),
+            ..Default::default()
+        });
+        Self {
+            size,
+            sh_face: (size >> sh_level).max(1),
+            source,
+            specular,
+            specular_view,
+            source_params,
+            filter_params,
+            downsample_groups,
+            specular_groups,
+            sh_group,
+            source_group: None,
+        }
+    }
+
+    /// Writes the source step's parameters and, for an image, uploads it; makes the source
+    /// step's bind group.
+    fn upload_source(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, pipelines: &PipelineCache, key: &MapsKey) {
+        let mut p = GpuSourceParams::zeroed();
+        p.face_size = self.size;
+        p.studio = [STUDIO_RADIANCE[0], STUDIO_RADIANCE[1], STUDIO_RADIANCE[2], 0.0];
+        let mut image = None;
+        match &key.source {
+            Source::Sky(s) => {
+                p.mode = 0;
+                p.perez_lum = s.perez_lum.to_array();
+                p.perez_x = s.perez_x.to_array();
+                p.perez_y = s.perez_y.to_array();
+                p.perez_e = s.perez_e.extend(0.0).to_array();
+                p.zenith = s.zenith.extend(0.0).to_array();
+                p.sun = s.sun.extend(s.ground).to_array();
+            }
+            Source::Studio => p.mode = 1,
+            Source::Image(img) => {
+                p.mode = 2;
+                image = Some(upload_equirect(device, queue, img, self.size));
+            }
+        }
+        queue.write_buffer(&self.source_params, 0, bytemuck::bytes_of(&p));
+        let placeholder;
+        let equirect_view = match &image {
+            Some(t) => t.create_view(&Default::default()),
+            None => {
+                placeholder = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("no equirectangular image"),
+                    size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: EQUIRECT_FORMAT,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                });
+                placeholder.create_view(&Default::default())
+            }
+        };
+        let level0 = self.source.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            base_mip_level: 0,
+            mip_level_count: Some(1),
+            ..Default::default()
+        });
+        self.source_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("environment source"),
+            layout: pipelines.env_layout(EnvStep::Source),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.source_params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&level0) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&equirect_view) },
+            ],
+        }));
+    }
+}
+
+/// Uploads `img` reduced to 4 × the face size (box-filtered: energy kept), divided by its
+/// storage scale. The texture lives only until the source step has read it.
+fn upload_equirect(device: &wgpu::Device, queue: &wgpu::Queue, img: &EnvironmentImage, face: u32) -> wgpu::Texture {
+    let scale = 1.0 / image_scale(img);
+    let reduced = img.reduced(4 * face);
+    let texels: Vec<[f32; 4]> =
+        reduced.texels.iter().map(|t| [t[0] * scale, t[1] * scale, t[2] * scale, 1.0]).collect();
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("environment image"),
+        size: wgpu::Extent3d { width: reduced.width, height: reduced.height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: EQUIRECT_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    queue.write_texture(
+        texture.as_image_copy(),
+        bytemuck::cast_slice(&texels),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(reduced.width * 16), rows_per_image: None },
+        wgpu::Extent3d { width: reduced.width, height: reduced.height, depth_or_array_layers: 1 },
+    );
+    texture
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_are_range_checked() {
+        assert!(EnvironmentSettings::default().validate().is_ok());
+        assert!(
+            EnvironmentSettings { cube_size: 100, ..Default::default() }
+                .validate()
+                .unwrap_err()
+                .contains("power of two")
+        );
+        assert!(EnvironmentSettings { cube_size: 8, ..Default::default() }.validate().is_err());
+        assert!(EnvironmentSettings { specular_samples: 0, ..Default::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn auto_source_is_the_sky_with_a_sun_and_the_studio_without() {
+        let env = Environment::default();
+        assert!(matches!(resolve(&env, None), (Source::Studio, s) if s == 1.0));
+        let (src, scale) = resolve(&env, Some((Vec3::new(0.0, 1.0, 1.0).normalize(), 100_000.0)));
+        assert!(matches!(src, Source::Sky(_)) && scale > 1000.0);
+        let studio = Environment { source: EnvironmentSource::Studio, ..Default::default() };
+        assert!(matches!(resolve(&studio, Some((Vec3::Y, 5.0))).0, Source::Studio));
+    }
+
+    #[test]
+    fn sun_brightness_alone_does_not_change_the_maps() {
+        let env = Environment::default();
+        let dir = Vec3::new(0.3, 0.7, 0.2).normalize();
+        let (a, sa) = resolve(&env, Some((dir, 10.0)));
+        let (b, sb) = resolve(&env, Some((dir, 20.0)));
+        assert_eq!(a, b);
+        assert!((sb / sa - 2.0).abs() < 1e-5);
+        let (c, _) = resolve(&env, Some((Vec3::new(0.3, 0.6, 0.2).normalize(), 10.0)));
+        assert_ne!(a, c);
+    }
+
+    #[test]
+    fn very_bright_images_are_stored_scaled() {
+        let img = EnvironmentImage::from_fn(8, 4, "sun", |d| Vec3::splat(if d.y > 0.9 { 1e6 } else { 1.0 }));
+        assert!((image_scale(&img) - 1e6 / 60_000.0).abs() < 1e-2);
+        let dim = EnvironmentImage::from_fn(8, 4, "dim", |_| Vec3::ONE);
+        assert_eq!(image_scale(&dim), 1.0);
+    }
+}

@@ -1,0 +1,72 @@
+// Image-based lighting: light from the environment (environment/mod.rs prefilters it), for
+// the forward shader (IBL variant) and the background pass.
+//
+// - Diffuse: nine spherical-harmonic coefficients of the cosine-convolved environment, over π
+//   (env_filter.wgsl), so a Lambertian surface of albedo 1 returns Σ c_i·Y_i(n).
+// - Specular: the split sum (Karis 2013): the GGX-prefiltered cube at the surface's roughness
+//   (mip = perceptual roughness × max_lod) times the directional albedo from the table of
+//   brdf_lut.wgsl, with multiple-scattering compensation (brdf.wgsl's specular_albedo), combined
+//   as glTF's metal/dielectric mix like the uniform ambient light: a white surface under a
+//   uniform environment returns exactly its radiance (the furnace test).
+#define_import_path penumbra::ibl
+
+#import penumbra::brdf::{Surface, DIELECTRIC_F0, specular_albedo}
+
+struct EnvironmentParams {
+    // cos and sin of the environment's turn about +Y.
+    rotation: vec2<f32>,
+    // Radiance scale: the user's intensity times the scale the maps are stored at.
+    intensity: f32,
+    // Mip of the specular cube that holds perceptual roughness 1.
+    max_lod: f32,
+    // Background: linear radiance (rgb) when w < 0, else the specular mip to show.
+    background: vec4<f32>,
+};
+
+@group(0) @binding(15) var<uniform> environment: EnvironmentParams;
+@group(0) @binding(16) var<storage, read> irradiance_sh: array<vec4<f32>, 9>;
+@group(0) @binding(17) var specular_cube: texture_cube<f32>;
+@group(0) @binding(18) var brdf_lut: texture_2d<f32>;
+@group(0) @binding(19) var environment_sampler: sampler;
+
+// A world direction in the environment's own frame (turned back by its rotation).
+fn to_environment(d: vec3<f32>) -> vec3<f32> {
+    let c = environment.rotation.x;
+    let s = environment.rotation.y;
+    return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z);
+}
+
+// Outgoing radiance of a white Lambertian surface facing `n`, scaled.
+fn diffuse_irradiance(n_world: vec3<f32>) -> vec3<f32> {
+    let n = to_environment(n_world);
+    let c = irradiance_sh;
+    let sum = c[0].rgb * 0.282095
+        + c[1].rgb * (0.488603 * n.y) + c[2].rgb * (0.488603 * n.z) + c[3].rgb * (0.488603 * n.x)
+        + c[4].rgb * (1.092548 * n.x * n.y) + c[5].rgb * (1.092548 * n.y * n.z)
+        + c[6].rgb * (0.315392 * (3.0 * n.z * n.z - 1.0)) + c[7].rgb * (1.092548 * n.x * n.z)
+        + c[8].rgb * (0.546274 * (n.x * n.x - n.y * n.y));
+    // Three bands ring below zero opposite a small bright source.
+    return max(sum, vec3<f32>(0.0)) * environment.intensity;
+}
+
+// Prefiltered radiance along `dir` at perceptual roughness `roughness`, scaled.
+fn prefiltered_radiance(dir: vec3<f32>, roughness: f32) -> vec3<f32> {
+    let lod = roughness * environment.max_lod;
+    return textureSampleLevel(specular_cube, environment_sampler, to_environment(dir), lod).rgb * environment.intensity;
+}
+
+// Light the environment sends towards the eye from surface `s`.
+fn environment_light(s: Surface) -> vec3<f32> {
+    let r = reflect(-s.v, s.n);
+    // Rough lobes lean towards the normal (Lagarde and de Rousiers 2014, "Moving Frostbite to
+    // PBR", §4.9.3): the prefiltered cube was made with n = v = r.
+    let a = s.alpha;
+    let dir = normalize(mix(s.n, r, (1.0 - a) * (sqrt(1.0 - a) + a)));
+    let ab = textureSampleLevel(brdf_lut, environment_sampler, vec2<f32>(s.n_dot_v, s.perceptual_roughness), 0.0).rg;
+    let dielectric_specular = specular_albedo(DIELECTRIC_F0, ab);
+    let metal_specular = specular_albedo(s.base_color, ab);
+    let specular = mix(dielectric_specular, metal_specular, s.metallic);
+    let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
+    let light = specular * prefiltered_radiance(dir, s.perceptual_roughness) + diffuse * diffuse_irradiance(s.n);
+    return light * s.occlusion;
+}
