@@ -2,11 +2,16 @@
 // happens exactly once: by the hardware when the output format is *Srgb, else here.
 
 // Variants: TONEMAP_NEUTRAL or TONEMAP_ACES (neither: clamp only); ENCODE_SRGB when the output
-// format is not an sRGB format.
+// format is not an sRGB format; BLOOM mixes in the bloom chain (bloom.wgsl) by its strength,
+// AUTO_EXPOSURE applies automatic exposure's correction (exposure.wgsl), both before the curve.
 
 #import penumbra::common::fullscreen_position
+#import penumbra::post_params::PostParams
 
 @group(0) @binding(0) var hdr: texture_2d<f32>;
+@group(0) @binding(1) var bloom: texture_2d<f32>;
+@group(0) @binding(2) var linear_clamp: sampler;
+@group(0) @binding(3) var<storage, read> post: PostParams;
 
 struct VertexOut {
     @builtin(position) position: vec4<f32>,
@@ -69,7 +74,16 @@ fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let c = max(textureLoad(hdr, vec2<i32>(in.position.xy), 0).rgb, vec3<f32>(0.0));
+    var c = max(textureLoad(hdr, vec2<i32>(in.position.xy), 0).rgb, vec3<f32>(0.0));
+#ifdef BLOOM
+    // Level 0 is half the frame's size: sampled at the pixel's centre, bilinearly.
+    let uv = in.position.xy / vec2<f32>(textureDimensions(hdr));
+    let blurred = textureSampleLevel(bloom, linear_clamp, uv, 0.0).rgb * post.bloom_norm;
+    c = mix(c, blurred, post.bloom_strength);
+#endif
+#ifdef AUTO_EXPOSURE
+    c *= post.exposure_scale;
+#endif
     var mapped = c;
 #ifdef TONEMAP_NEUTRAL
     mapped = pbr_neutral(c);

@@ -32,8 +32,14 @@ pub enum Pass {
     /// Alpha-blended draws, back to front, in the same render pass as `Opaque` (or, with
     /// deferred lights, as their composite).
     Transparent,
+    /// Bloom's half-size mip chain, down and up (render passes).
+    Bloom,
+    /// Compute: luminance histogram and the adapted exposure the tonemap pass applies.
+    AutoExposure,
     /// HDR to display: exposure is already applied; tonemap and sRGB-encode into the output.
     Tonemap,
+    /// FXAA from the tonemapped image into the output.
+    Fxaa,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -60,6 +66,10 @@ pub struct SceneNeeds {
     pub environment_changed: bool,
     /// The scene has an environment to show behind it.
     pub background: bool,
+    /// Post-processing switched on in the settings.
+    pub bloom: bool,
+    pub auto_exposure: bool,
+    pub fxaa: bool,
 }
 
 impl FramePlan {
@@ -74,6 +84,9 @@ impl FramePlan {
             occlusion,
             environment_changed,
             background,
+            bloom,
+            auto_exposure,
+            fxaa,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -107,7 +120,16 @@ impl FramePlan {
         if has_blend {
             passes.push((Pass::Transparent, "blended draws exist"));
         }
+        if bloom {
+            passes.push((Pass::Bloom, "bloom is on"));
+        }
+        if auto_exposure {
+            passes.push((Pass::AutoExposure, "automatic exposure is on"));
+        }
         passes.push((Pass::Tonemap, "every frame ends in the output target"));
+        if fxaa {
+            passes.push((Pass::Fxaa, "FXAA is on"));
+        }
         Self { passes }
     }
 
@@ -218,5 +240,15 @@ mod tests {
         });
         assert_eq!(changed.passes[0].0, Pass::EnvironmentPrefilter);
         assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Background));
+    }
+
+    #[test]
+    fn post_processing_only_when_on_and_around_the_tonemap_pass() {
+        let off = plan(SceneNeeds { has_opaque: true, ..Default::default() });
+        assert!(!off.runs(Pass::Bloom) && !off.runs(Pass::AutoExposure) && !off.runs(Pass::Fxaa));
+        let on =
+            plan(SceneNeeds { has_opaque: true, bloom: true, auto_exposure: true, fxaa: true, ..Default::default() });
+        let order: Vec<Pass> = on.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::Opaque, Pass::Bloom, Pass::AutoExposure, Pass::Tonemap, Pass::Fxaa]);
     }
 }

@@ -27,6 +27,7 @@ use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
 use crate::passes::culling::{CullInputs, GpuCulling};
 use crate::passes::deferred_lights::{self, GpuDeferredParams};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase};
+use crate::passes::post::{PostProcess, PostSettings};
 use crate::passes::shadows::local::LocalCandidate;
 use crate::passes::shadows::orchestrator::{DirectionalCandidate, SceneBounds, ShadowOrchestrator};
 use crate::passes::shadows::{ShadowSettings, ShadowSettingsError};
@@ -78,6 +79,8 @@ pub struct RenderSettings {
     pub occlusion_culling: OcclusionCulling,
     /// How the scene's `Environment` (if it has one) is prefiltered.
     pub environment: EnvironmentSettings,
+    /// Bloom, automatic exposure, FXAA (all off by default).
+    pub post: PostSettings,
 }
 
 /// When occlusion culling runs (it needs GPU culling).
@@ -155,6 +158,7 @@ impl Default for RenderSettings {
             gpu_culling: true,
             occlusion_culling: OcclusionCulling::Auto,
             environment: EnvironmentSettings::default(),
+            post: PostSettings::default(),
         }
     }
 }
@@ -171,6 +175,8 @@ pub enum SettingsError {
     Shadows(#[from] ShadowSettingsError),
     #[error("{0}")]
     Environment(String),
+    #[error("{0}")]
+    Post(String),
 }
 
 impl RenderSettings {
@@ -184,6 +190,7 @@ impl RenderSettings {
         }
         self.shadows.validate()?;
         self.environment.validate().map_err(SettingsError::Environment)?;
+        self.post.validate().map_err(SettingsError::Post)?;
         Ok(())
     }
 }
@@ -245,6 +252,8 @@ pub struct MemoryStats {
     pub shadows: u64,
     /// The environment's cubes and split-sum table (0 without an environment).
     pub environment: u64,
+    /// Bloom's chain and FXAA's intermediate (0 with both off).
+    pub post: u64,
 }
 
 /// Mirrors `struct View` in `shaders/forward.wgsl`.
@@ -323,6 +332,7 @@ pub struct Renderer {
     clusters: ClusterBinner,
     shadows: ShadowOrchestrator,
     environment: EnvironmentLighting,
+    post: PostProcess,
     /// The scene has an environment this frame (part of every pipeline key).
     ibl_active: bool,
     /// Forward pipelines read directional shadow maps (part of every pipeline key).
@@ -412,6 +422,7 @@ impl Renderer {
             clusters: ClusterBinner::new(device),
             shadows: ShadowOrchestrator::new(device),
             environment: EnvironmentLighting::new(device),
+            post: PostProcess::new(device),
             ibl_active: false,
             shadows_active: false,
             local_shadows_active: false,
@@ -586,6 +597,7 @@ impl Renderer {
             clusters: self.clusters.gpu_bytes(),
             shadows: self.shadows.gpu_bytes(),
             environment: self.environment.bytes(),
+            post: self.post.gpu_bytes(),
         }
     }
 
@@ -597,6 +609,15 @@ impl Renderer {
             return Ok(None);
         }
         self.culling.read_visible_counts(&self.ctx.device, &self.ctx.queue).map(Some)
+    }
+
+    /// Automatic exposure's state after the last frame: (the correction the tonemap pass
+    /// applied on top of the camera's exposure, the adapted EV100). Reads back (waits for the
+    /// GPU): for tests and tools.
+    pub fn auto_exposure_state(&self) -> Result<(f32, f32), ReadbackError> {
+        let bytes = readback::read_buffer(&self.ctx.device, &self.ctx.queue, self.post.params_buffer(), 8)?;
+        let f = |i: usize| f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("4 bytes"));
+        Ok((f(0), f(1)))
     }
 
     /// Renders into the renderer's own offscreen output (`Rgba8UnormSrgb`) of `size`.
@@ -757,6 +778,16 @@ impl Renderer {
         for (i, (batch, _)) in blend_batches.iter().enumerate() {
             batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
         }
+        let camera_exposure = scene.view.map_or(1.0, |v| v.exposure);
+        let post = self.post.prepare(
+            &device,
+            &queue,
+            &self.pipelines,
+            self.targets.as_ref().expect("made above"),
+            &self.settings.post,
+            scene.delta_seconds,
+            camera_exposure,
+        );
         let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
         let shadow_layers = self.shadows.frame().rendered_layers();
         let plan = FramePlan::new(SceneNeeds {
@@ -769,6 +800,9 @@ impl Renderer {
             occlusion,
             environment_changed: env_frame.prefilter,
             background: env_frame.active && scene.view.is_some(),
+            bloom: post.bloom,
+            auto_exposure: post.auto_exposure,
+            fxaa: post.fxaa,
         });
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
@@ -899,17 +933,44 @@ impl Renderer {
             counts += after;
             forward_error = forward_error.or(error);
         }
-        let tonemap_result = tonemap::encode(
+        let mut post_error = None;
+        if plan.runs(Pass::Bloom) || plan.runs(Pass::AutoExposure) {
+            post_error = self
+                .post
+                .encode_before_tonemap(&mut encoder, &device, &mut self.pipelines, targets, self.timer.as_mut())
+                .err();
+        }
+        // With FXAA the tonemap pass writes the intermediate FXAA reads.
+        let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, output_format);
+        let tonemap_output =
+            tonemap::Output { view: self.post.tonemap_target().unwrap_or(output), format: tonemap_key.format };
+        let mut tonemap_result = tonemap::encode(
             &mut encoder,
             &device,
             &mut self.pipelines,
-            targets,
-            self.settings.tonemapper,
-            tonemap::Output { view: output, format: output_format },
+            self.post.tonemap_group(),
+            tonemap_key,
+            tonemap_output,
             self.timer.as_mut(),
         );
-        if let Some(e) =
-            env_error.or(cluster_error).or(cull_error).or(shadow_error).or(forward_error).or(tonemap_result.err())
+        if plan.runs(Pass::Fxaa) {
+            let fxaa = self.post.encode_fxaa(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                output,
+                output_format,
+                self.timer.as_mut(),
+            );
+            tonemap_result = tonemap_result.and(fxaa);
+        }
+        if let Some(e) = post_error
+            .or(env_error)
+            .or(cluster_error)
+            .or(cull_error)
+            .or(shadow_error)
+            .or(forward_error)
+            .or(tonemap_result.err())
             && self.shader_error.as_ref() != Some(&e)
         {
             tracing::error!("{e}");

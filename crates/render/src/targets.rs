@@ -17,7 +17,6 @@ pub struct FrameTargets {
     pub hdr_view: wgpu::TextureView,
     pub hdr_msaa_view: Option<wgpu::TextureView>,
     pub depth_view: wgpu::TextureView,
-    pub tonemap_bind_group: wgpu::BindGroup,
     pub deferred: Option<DeferredTargets>,
 }
 
@@ -74,11 +73,6 @@ impl FrameTargets {
         // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid.
         let depth_usage = attach | sampled;
         let depth_view = tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default());
-        let tonemap_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("tonemap input"),
-            layout: &pipelines.tonemap_layout,
-            entries: &[view_entry(0, &hdr_view)],
-        });
         let deferred = deferred_params.map(|params| {
             let view = |t: wgpu::Texture| t.create_view(&Default::default());
             let surface_shape_view = view(tex("surface shape", SURFACE_SHAPE_FORMAT, samples, attach | sampled));
@@ -102,7 +96,7 @@ impl FrameTargets {
             });
             DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
         });
-        Self { size, samples, hdr, hdr_view, hdr_msaa_view, depth_view, tonemap_bind_group, deferred }
+        Self { size, samples, hdr, hdr_view, hdr_msaa_view, depth_view, deferred }
     }
 
     /// Where the forward pass draws, and what it resolves into.

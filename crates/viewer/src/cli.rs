@@ -8,6 +8,7 @@ use penumbra_engine::environment::{Background, Environment, EnvironmentImage, En
 use penumbra_render::environment::EnvironmentSettings;
 use penumbra_render::headless::CameraChoice;
 use penumbra_render::passes::clusters::grid::ClusterConfig;
+use penumbra_render::passes::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
 use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError};
@@ -99,7 +100,7 @@ pub struct LookArgs {
     #[arg(long, default_value = "auto", value_name = "auto|sky|studio|none|FILE")]
     pub env: String,
     /// Multiplies the environment's radiance (light and background).
-    #[arg(long, default_value_t = 1.0, value_name = "FACTOR")]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_name = "FACTOR")]
     pub env_intensity: f32,
     /// Turns the environment about the vertical axis, degrees.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "DEGREES")]
@@ -114,6 +115,27 @@ pub struct LookArgs {
     /// Perceptual roughness of the blurred background, 0 to 1.
     #[arg(long, default_value_t = 0.5, value_name = "ROUGHNESS")]
     pub background_blur: f32,
+    /// Bloom: how much of the image its blur replaces, 0 to 1 (`--bloom` alone: 0.04).
+    #[arg(long, num_args = 0..=1, default_missing_value = "0.04", value_name = "STRENGTH")]
+    pub bloom: Option<f32>,
+    /// FXAA on the tonemapped image (with or instead of MSAA: `--msaa 1 --fxaa`).
+    #[arg(long)]
+    pub fxaa: bool,
+    /// Automatic exposure (histogram-metered, adapting over time) instead of the fixed EV100.
+    #[arg(long)]
+    pub auto_exposure: bool,
+    /// Automatic exposure's limits, EV100.
+    #[arg(long, default_value = "-6:18", value_parser = parse_ev_range, value_name = "MIN:MAX", allow_hyphen_values = true)]
+    pub ev_range: (f32, f32),
+    /// Automatic exposure's compensation, EV (positive: brighter).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "EV")]
+    pub exposure_compensation: f32,
+}
+
+fn parse_ev_range(s: &str) -> Result<(f32, f32), String> {
+    let (a, b) = s.split_once(':').ok_or_else(|| format!("{s:?} is not MIN:MAX (for example -6:18)"))?;
+    let n = |v: &str| v.trim().parse::<f32>().map_err(|_| format!("{v:?} in {s:?} is not a number"));
+    Ok((n(a)?, n(b)?))
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -399,6 +421,16 @@ impl LookArgs {
                 OcclusionArg::Off => OcclusionCulling::Off,
             },
             environment: EnvironmentSettings { cube_size: self.env_size, ..Default::default() },
+            post: PostSettings {
+                bloom: self.bloom.map(|strength| BloomSettings { strength, ..Default::default() }),
+                fxaa: self.fxaa,
+                auto_exposure: self.auto_exposure.then(|| AutoExposure {
+                    min_ev100: self.ev_range.0,
+                    max_ev100: self.ev_range.1,
+                    compensation: self.exposure_compensation,
+                    ..Default::default()
+                }),
+            },
             ..Default::default()
         };
         settings.validate().map_err(|e| {
@@ -407,6 +439,8 @@ impl LookArgs {
                 SettingsError::Clusters(_) => "--clusters",
                 SettingsError::LightCutoff(_) => "light cutoff",
                 SettingsError::Environment(_) => "--env-size",
+                SettingsError::Post(m) if m.contains("bloom") => "--bloom",
+                SettingsError::Post(_) => "--auto-exposure / --ev-range / --exposure-compensation",
                 SettingsError::Shadows(s) => match s.name {
                     "atlas_size" => "--shadow-atlas",
                     "cascades" => "--cascades",

@@ -82,8 +82,14 @@ fn a_missing_file_fails_with_its_name() {
 #[test]
 fn out_of_range_settings_name_their_flag() {
     let scene = asset("BoxTextured/BoxTextured.glb");
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 11] = [
         (&["--msaa", "3"], "--msaa"),
+        (&["--env-size", "100"], "--env-size"),
+        (&["--env-intensity", "-1"], "--env-intensity"),
+        (&["--background", "blurred", "--background-blur", "3"], "--background-blur"),
+        (&["--bloom", "2"], "--bloom"),
+        (&["--auto-exposure", "--ev-range", "5:1"], "--ev-range"),
+        (&["--env", "/nonexistent/sky.hdr"], "/nonexistent/sky.hdr"),
         (&["--size", "0x10"], "--size"),
         (&["--size", "20000x10"], "--size"),
         (&["--exposure", "1e9"], "--exposure"),

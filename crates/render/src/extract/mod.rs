@@ -35,8 +35,9 @@ pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, (
     (begin_frame, extract_view, extract_draws, extract_lights, extract_environment, extract_assets).chain()
 }
 
-fn begin_frame(mut scene: ResMut<RenderScene>) {
+fn begin_frame(time: Option<Res<penumbra_engine::Time>>, mut scene: ResMut<RenderScene>) {
     scene.frame += 1;
+    scene.delta_seconds = time.map_or(0.0, |t| t.delta_secs());
     scene.changed_draws.clear();
     scene.removed_draws.clear();
 }

@@ -3,5 +3,6 @@ pub mod clusters;
 pub mod culling;
 pub mod deferred_lights;
 pub mod forward;
+pub mod post;
 pub mod shadows;
 pub mod tonemap;

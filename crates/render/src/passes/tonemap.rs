@@ -1,8 +1,8 @@
-//! Tonemap pass: one full-screen triangle from the resolved HDR target into the output.
+//! Tonemap pass: one full-screen triangle from the resolved HDR target (with bloom and
+//! automatic exposure when on, see `post.rs`, which owns its inputs) into the output.
 
-use crate::pipelines::pipeline_cache::{PipelineCache, Tonemapper};
+use crate::pipelines::pipeline_cache::{PipelineCache, TonemapKey};
 use crate::pipelines::shader_library::ShaderError;
-use crate::targets::FrameTargets;
 use crate::timing::GpuTimer;
 
 /// Where the tonemapped frame goes.
@@ -15,12 +15,12 @@ pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
     pipelines: &mut PipelineCache,
-    targets: &FrameTargets,
-    tonemapper: Tonemapper,
+    inputs: &wgpu::BindGroup,
+    key: TonemapKey,
     output: Output,
     timer: Option<&mut GpuTimer>,
 ) -> Result<(), ShaderError> {
-    let pipeline = pipelines.tonemap(device, tonemapper, output.format)?;
+    let pipeline = pipelines.tonemap(device, key)?;
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("tonemap"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -35,7 +35,7 @@ pub fn encode(
         multiview_mask: None,
     });
     pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, &targets.tonemap_bind_group, &[]);
+    pass.set_bind_group(0, inputs, &[]);
     pass.draw(0..3, 0..1);
     Ok(())
 }

@@ -18,9 +18,11 @@ use std::collections::HashMap;
 mod casters;
 mod culling;
 mod environment;
+mod post;
 pub use casters::CasterKey;
 pub use culling::{CullPhase, HzbStep};
 pub use environment::{ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep};
+pub use post::{BloomStep, ExposureStep, TonemapKey};
 
 use penumbra_engine::mesh::Topology;
 
@@ -241,7 +243,12 @@ pub struct PipelineCache {
     tonemap_pipeline_layout: wgpu::PipelineLayout,
     mipmap_pipeline_layout: wgpu::PipelineLayout,
     forward: HashMap<PipelineKey, wgpu::RenderPipeline>,
-    tonemap: HashMap<(Tonemapper, wgpu::TextureFormat), wgpu::RenderPipeline>,
+    tonemap: HashMap<TonemapKey, wgpu::RenderPipeline>,
+    post_layouts: post::PostLayouts,
+    bloom: HashMap<BloomStep, wgpu::RenderPipeline>,
+    exposure: HashMap<ExposureStep, wgpu::ComputePipeline>,
+    /// Keyed by output format.
+    fxaa: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     mipmap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     cluster: HashMap<ClusterEntry, wgpu::ComputePipeline>,
     /// Inputs of the deferred-lights pass, single-sampled and multisampled.
@@ -416,9 +423,10 @@ impl PipelineCache {
             label: Some("material"),
             entries: &material_entries,
         });
+        // The resolved HDR frame, the bloom chain's level 0, its sampler, the post parameters.
         let tonemap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tonemap"),
-            entries: &[texture(0, false)],
+            entries: &[texture(0, false), texture(1, true), sampler(2), storage(3, wgpu::ShaderStages::FRAGMENT)],
         });
         let mipmap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mipmap"),
@@ -475,12 +483,17 @@ impl PipelineCache {
         let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
         let cull_layouts = culling::cull_layouts(device);
         let env_layouts = environment::env_layouts(device, &view_layout);
+        let post_layouts = post::post_layouts(device);
         let caster_layout = casters::caster_layout(device);
         let caster_pipeline_layouts = [
             layout("shadow casters", &[Some(&caster_layout)]),
             layout("masked shadow casters", &[Some(&caster_layout), Some(&material_layout)]),
         ];
         Self {
+            post_layouts,
+            bloom: HashMap::new(),
+            exposure: HashMap::new(),
+            fxaa: HashMap::new(),
             env_layouts,
             env: HashMap::new(),
             background: HashMap::new(),
@@ -542,13 +555,7 @@ impl PipelineCache {
         self.forward.get(key)
     }
 
-    pub fn tonemap(
-        &mut self,
-        device: &wgpu::Device,
-        tonemapper: Tonemapper,
-        format: wgpu::TextureFormat,
-    ) -> Result<&wgpu::RenderPipeline, ShaderError> {
-        let key = (tonemapper, format);
+    pub fn tonemap(&mut self, device: &wgpu::Device, key: TonemapKey) -> Result<&wgpu::RenderPipeline, ShaderError> {
         if !self.tonemap.contains_key(&key) {
             let p = self.create_tonemap(device, &mut None, key)?;
             self.tonemap.insert(key, p);
@@ -686,7 +693,9 @@ impl PipelineCache {
             }
         }
         let env = self.reload_env(device, &mut candidate, files)?;
+        let post = self.reload_post(device, &mut candidate, files)?;
         let total = self.env_pipeline_count()
+            + self.post_pipeline_count()
             + self.cull.len()
             + self.hzb.len()
             + self.caster.len()
@@ -715,7 +724,7 @@ impl PipelineCache {
         self.caster.extend(caster);
         self.cull.extend(cull);
         self.hzb.extend(hzb);
-        let rebuilt = rebuilt + self.apply_env_reload(env);
+        let rebuilt = rebuilt + self.apply_env_reload(env) + self.apply_post_reload(post);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
     }
@@ -801,12 +810,15 @@ impl PipelineCache {
         &mut self,
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
-        (tonemapper, format): (Tonemapper, wgpu::TextureFormat),
+        key: TonemapKey,
     ) -> Result<wgpu::RenderPipeline, ShaderError> {
+        let format = key.format;
         let defs = ShaderDefs::default()
-            .with("TONEMAP_NEUTRAL", tonemapper == Tonemapper::Neutral)
-            .with("TONEMAP_ACES", tonemapper == Tonemapper::Aces)
-            .with("ENCODE_SRGB", !format.is_srgb());
+            .with("TONEMAP_NEUTRAL", key.tonemapper == Tonemapper::Neutral)
+            .with("TONEMAP_ACES", key.tonemapper == Tonemapper::Aces)
+            .with("ENCODE_SRGB", !format.is_srgb())
+            .with("BLOOM", key.bloom)
+            .with("AUTO_EXPOSURE", key.auto_exposure);
         let module = self.library(candidate).create_module(device, "tonemap.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "tonemap.wgsl", || {

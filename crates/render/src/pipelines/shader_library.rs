@@ -37,6 +37,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("shadows.wgsl", include_str!("../../../../shaders/shadows.wgsl")),
     ("cubemap.wgsl", include_str!("../../../../shaders/cubemap.wgsl")),
     ("ibl.wgsl", include_str!("../../../../shaders/ibl.wgsl")),
+    ("post_params.wgsl", include_str!("../../../../shaders/post_params.wgsl")),
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
     ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
@@ -52,6 +53,9 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("env_filter.wgsl", include_str!("../../../../shaders/env_filter.wgsl")),
     ("brdf_lut.wgsl", include_str!("../../../../shaders/brdf_lut.wgsl")),
     ("background.wgsl", include_str!("../../../../shaders/background.wgsl")),
+    ("bloom.wgsl", include_str!("../../../../shaders/bloom.wgsl")),
+    ("exposure.wgsl", include_str!("../../../../shaders/exposure.wgsl")),
+    ("fxaa.wgsl", include_str!("../../../../shaders/fxaa.wgsl")),
 ];
 
 /// The repository's shader folder as seen at compile time; the viewer watches it when it still
