@@ -19,8 +19,11 @@ struct EnvironmentParams {
     intensity: f32,
     // Mip of the specular cube that holds perceptual roughness 1.
     max_lod: f32,
-    // Background: linear radiance (rgb) when w < 0, else the specular mip to show.
-    background: vec4<f32>,
+    // The specular mip the background shows (0: sharp).
+    background_lod: f32,
+    _pad_a: f32,
+    _pad_b: f32,
+    _pad_c: f32,
 };
 
 @group(0) @binding(15) var<uniform> environment: EnvironmentParams;

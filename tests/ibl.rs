@@ -273,6 +273,13 @@ fn prefiltering_runs_only_when_the_environment_changes() {
     let hdr = hdr_of(&app);
     assert!((at(&hdr, (SIZE / 2, SIZE / 2)).x - 2.0).abs() < 0.04, "intensity 2 doubles the light");
     assert!((at(&hdr, (0, 0)).x - 2.0).abs() < 0.04, "and the background");
+    // A solid background is the clear colour: no background pass draws it.
+    app.world.resource_mut::<Environment>().background = Background::Color([0.25, 0.5, 0.75]);
+    render_app(&mut app, (SIZE, SIZE), s.clone());
+    assert!(!stats(&app).plan.runs(Pass::Background), "{}", stats(&app).plan);
+    let corner = at(&hdr_of(&app), (0, 0));
+    assert!((corner - Vec3::new(0.25, 0.5, 0.75)).abs().max_element() < 2e-3, "solid background {corner}");
+    assert_eq!(stats(&app).environment_prefilters, 1);
     // A new image is a new environment.
     app.world.resource_mut::<Environment>().source = EnvironmentSource::Image(uniform(0.5));
     render_app(&mut app, (SIZE, SIZE), s.clone());

@@ -7,7 +7,7 @@
 //!   mean, and moves a 1-sample image towards the 4-sample one;
 //! - automatic exposure meters a uniform scene to the calibrated mid-grey in one frame, then
 //!   adapts towards a new brightness at its rate per second, within its EV limits;
-//! - with all three on, a golden of DamagedHelmet under the studio environment.
+//! - goldens of DamagedHelmet under the studio environment with each, and with all three.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -167,6 +167,16 @@ fn auto_exposure_meters_mid_grey_then_adapts_at_its_rate() {
 
 #[test]
 fn golden_damaged_helmet_with_bloom_fxaa_and_auto_exposure() {
+    let post = PostSettings {
+        bloom: Some(BloomSettings { strength: 0.1, ..Default::default() }),
+        fxaa: true,
+        auto_exposure: Some(AutoExposure::default()),
+    };
+    helmet_golden("DamagedHelmet-post", 1, post);
+}
+
+/// DamagedHelmet under the studio environment with one post-processing setting.
+fn helmet_golden(name: &str, msaa: u32, post: PostSettings) {
     use penumbra::engine::import::{GltfScene, ImportOptions};
     use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stage_scene};
     let scene = GltfScene::load(&common::asset("DamagedHelmet/DamagedHelmet.glb"), &ImportOptions::default()).unwrap();
@@ -174,20 +184,33 @@ fn golden_damaged_helmet_with_bloom_fxaa_and_auto_exposure() {
     let (mut app, size) = stage_scene(&scene, &shot).unwrap();
     app.insert_resource(Environment::default());
     let settings = RenderSettings {
-        msaa: 1,
+        msaa,
         environment: EnvironmentSettings { cube_size: 128, ..Default::default() },
-        post: PostSettings {
-            bloom: Some(BloomSettings { strength: 0.1, ..Default::default() }),
-            fxaa: true,
-            auto_exposure: Some(AutoExposure::default()),
-        },
+        post,
         ..Default::default()
     };
     let renderer = Renderer::new(common::gpu(), settings).unwrap();
     let rgba8 = render_frames(&mut app, renderer, size, 1).unwrap();
-    common::check_golden(
-        "DamagedHelmet-post",
-        &common::Shot { width: size.0, height: size.1, rgba8 },
-        common::Tolerance::default(),
+    common::check_golden(name, &common::Shot { width: size.0, height: size.1, rgba8 }, common::Tolerance::default());
+}
+
+#[test]
+fn golden_damaged_helmet_with_bloom() {
+    let post =
+        PostSettings { bloom: Some(BloomSettings { strength: 0.15, ..Default::default() }), ..Default::default() };
+    helmet_golden("DamagedHelmet-bloom", 4, post);
+}
+
+#[test]
+fn golden_damaged_helmet_with_fxaa_instead_of_msaa() {
+    helmet_golden("DamagedHelmet-fxaa", 1, PostSettings { fxaa: true, ..Default::default() });
+}
+
+#[test]
+fn golden_damaged_helmet_with_auto_exposure() {
+    helmet_golden(
+        "DamagedHelmet-auto-exposure",
+        4,
+        PostSettings { auto_exposure: Some(AutoExposure::default()), ..Default::default() },
     );
 }

@@ -64,7 +64,7 @@ pub struct SceneNeeds {
     pub occlusion: bool,
     /// The environment's maps must be (re)made this frame.
     pub environment_changed: bool,
-    /// The scene has an environment to show behind it.
+    /// The scene has an environment to show behind it (not a solid colour: that is the clear).
     pub background: bool,
     /// Post-processing switched on in the settings.
     pub bloom: bool,

@@ -799,7 +799,7 @@ impl Renderer {
             culled: self.culling_active,
             occlusion,
             environment_changed: env_frame.prefilter,
-            background: env_frame.active && scene.view.is_some(),
+            background: env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some(),
             bloom: post.bloom,
             auto_exposure: post.auto_exposure,
             fxaa: post.fxaa,
@@ -843,7 +843,11 @@ impl Renderer {
         let targets = self.targets.as_ref().expect("made above");
         // Handles (reference-counted), so the culling owner stays free to encode between passes.
         let (early_args, late_args) = (self.culling.args().clone(), self.culling.late_args().clone());
-        let [r, g, b] = self.settings.clear_color;
+        // A solid background is the clear colour, exposed like the scene (f16-clamped).
+        let [r, g, b] = match env_frame.solid_background {
+            Some(c) => c.map(|v| (v * camera_exposure).clamp(0.0, 65504.0) as f64),
+            None => self.settings.clear_color,
+        };
         let view_bind_group = self.view_bind_group.as_ref().expect("made above");
         let inputs = ForwardInputs {
             targets,

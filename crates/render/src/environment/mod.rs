@@ -88,7 +88,8 @@ struct GpuEnvironment {
     rotation: [f32; 2],
     intensity: f32,
     max_lod: f32,
-    background: [f32; 4],
+    background_lod: f32,
+    _pad: [f32; 3],
 }
 
 /// Mirrors `SourceParams` in `shaders/env_source.wgsl`.
@@ -166,7 +167,7 @@ struct Maps {
 }
 
 /// What [`EnvironmentLighting::prepare`] decided.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct EnvironmentFrame {
     /// The scene has an environment: forward shaders add its light.
     pub active: bool,
@@ -174,6 +175,9 @@ pub struct EnvironmentFrame {
     pub prefilter: bool,
     /// A view or texture in the view bind group was replaced.
     pub rebind: bool,
+    /// A solid background's radiance: the frame is cleared to it (exposed) and no background
+    /// pass runs.
+    pub solid_background: Option<[f32; 3]>,
 }
 
 pub struct EnvironmentLighting {
@@ -309,7 +313,7 @@ impl EnvironmentLighting {
             let rebind = self.maps.take().is_some();
             self.key = None;
             self.pending = false;
-            return EnvironmentFrame { active: false, prefilter: false, rebind };
+            return EnvironmentFrame { active: false, prefilter: false, rebind, solid_background: None };
         };
         let (source, source_scale) = resolve(env, sun);
         let key = MapsKey { source, cube_size: settings.cube_size, specular_samples: settings.specular_samples };
@@ -335,17 +339,21 @@ impl EnvironmentLighting {
             rotation: [env.rotation.cos(), env.rotation.sin()],
             intensity: env.intensity * source_scale,
             max_lod,
-            background: match env.background {
-                Background::Environment => [0.0, 0.0, 0.0, 0.0],
-                Background::Blurred(r) => [0.0, 0.0, 0.0, r * max_lod],
-                Background::Color(c) => [c[0], c[1], c[2], -1.0],
+            background_lod: match env.background {
+                Background::Blurred(r) => r * max_lod,
+                Background::Environment | Background::Color(_) => 0.0,
             },
+            _pad: [0.0; 3],
         };
         if self.last_uniform != Some(uniform) {
             queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
             self.last_uniform = Some(uniform);
         }
-        EnvironmentFrame { active: true, prefilter: self.pending || !self.lut_made, rebind }
+        let solid_background = match env.background {
+            Background::Color(c) => Some(c),
+            _ => None,
+        };
+        EnvironmentFrame { active: true, prefilter: self.pending || !self.lut_made, rebind, solid_background }
     }
 
     fn write_filter_params(&self, queue: &wgpu::Queue, settings: &EnvironmentSettings) {
