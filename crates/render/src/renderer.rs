@@ -683,6 +683,7 @@ impl Renderer {
             &self.settings.environment,
             scene.environment.as_ref(),
             sun(scene),
+            self.ctx.info.device_type == wgpu::DeviceType::Cpu,
         );
         rebind |= env_frame.rebind;
         if env_frame.active != self.ibl_active {
@@ -849,16 +850,20 @@ impl Renderer {
             None => self.settings.clear_color,
         };
         let view_bind_group = self.view_bind_group.as_ref().expect("made above");
+        // The background is composited over the resolved frame (one sample a pixel, after the
+        // surfaces left their coverage in alpha), except with deferred local lights, whose
+        // colour alpha carries roughness: then the forward pass draws it where depth is clear.
+        let composite_background = plan.runs(Pass::Background) && !self.deferred_lights;
         let inputs = ForwardInputs {
             targets,
             view_bind_group,
             mesh_pool: &self.mesh_pool,
             materials: &self.materials,
-            clear_color: wgpu::Color { r, g, b, a: 1.0 },
+            clear_color: if composite_background { wgpu::Color::TRANSPARENT } else { wgpu::Color { r, g, b, a: 1.0 } },
             indirect: self
                 .culling_active
                 .then_some(IndirectDraws { args: &early_args, batches: self.opaque_batches.len() }),
-            background: plan.runs(Pass::Background),
+            background: plan.runs(Pass::Background) && !composite_background,
         };
         let opaque_count = self.opaque_batches.len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
@@ -936,6 +941,18 @@ impl Renderer {
             );
             counts += after;
             forward_error = forward_error.or(error);
+        }
+        if composite_background
+            && let Err(e) = forward::encode_background(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                targets,
+                view_bind_group,
+                self.timer.as_mut(),
+            )
+        {
+            forward_error = forward_error.or(Some(e));
         }
         let mut post_error = None;
         if plan.runs(Pass::Bloom) || plan.runs(Pass::AutoExposure) {

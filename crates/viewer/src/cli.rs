@@ -106,8 +106,9 @@ pub struct LookArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "DEGREES")]
     pub env_rotation: f32,
     /// Face size of the environment's cube maps (a power of two, 16 to 2048).
-    #[arg(long, default_value_t = EnvironmentSettings::default().cube_size, value_name = "TEXELS")]
-    pub env_size: u32,
+    /// (`auto`: 512 on a GPU, 128 on a CPU rasteriser such as lavapipe.)
+    #[arg(long, default_value = "auto", value_parser = parse_env_size, value_name = "TEXELS|auto")]
+    pub env_size: EnvSize,
     /// Behind the scene: the environment, the environment `blurred` (as a surface of
     /// --background-blur roughness reflects it), or the solid clear `color`.
     #[arg(long, value_enum, default_value_t = BackgroundArg::Environment)]
@@ -130,6 +131,17 @@ pub struct LookArgs {
     /// Automatic exposure's compensation, EV (positive: brighter).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "EV")]
     pub exposure_compensation: f32,
+}
+
+/// `--env-size`: a face size, or `auto` (`None`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EnvSize(pub Option<u32>);
+
+fn parse_env_size(s: &str) -> Result<EnvSize, String> {
+    if s == "auto" {
+        return Ok(EnvSize(None));
+    }
+    s.parse::<u32>().map(|n| EnvSize(Some(n))).map_err(|_| format!("{s:?} is neither a whole number nor auto"))
 }
 
 fn parse_ev_range(s: &str) -> Result<(f32, f32), String> {
@@ -420,7 +432,7 @@ impl LookArgs {
                 OcclusionArg::On => OcclusionCulling::On,
                 OcclusionArg::Off => OcclusionCulling::Off,
             },
-            environment: EnvironmentSettings { cube_size: self.env_size, ..Default::default() },
+            environment: EnvironmentSettings { cube_size: self.env_size.0, ..Default::default() },
             post: PostSettings {
                 bloom: self.bloom.map(|strength| BloomSettings { strength, ..Default::default() }),
                 fxaa: self.fxaa,

@@ -7,7 +7,7 @@
 use penumbra_engine::Handle;
 use penumbra_engine::mesh::Mesh;
 
-use crate::pipelines::pipeline_cache::{PipelineCache, PipelineKey};
+use crate::pipelines::pipeline_cache::{BackgroundMode, PipelineCache, PipelineKey};
 use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::materials::{MaterialKey, MaterialTable};
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
@@ -49,7 +49,9 @@ pub struct ForwardInputs<'a> {
     /// With GPU culling: the first `batches` batches (the opaque ones) draw from these
     /// indirect arguments (`culling::ARGS_WORDS` words each, in batch order).
     pub indirect: Option<IndirectDraws<'a>>,
-    /// Draw the environment behind the scene (`Pass::Background`), after the opaque batches.
+    /// Draw the environment behind the scene (`Pass::Background`) in this pass, after the
+    /// opaque batches (with deferred local lights; otherwise `encode_background` composites it
+    /// over the resolved frame).
     pub background: bool,
 }
 
@@ -91,7 +93,7 @@ pub fn encode(
     let mut error = compile(device, pipelines, batches);
     let samples = inputs.targets.samples;
     if inputs.background
-        && let Err(e) = pipelines.background(device, samples)
+        && let Err(e) = pipelines.background(device, BackgroundMode::InPass { samples })
     {
         error = Some(e);
     }
@@ -144,7 +146,7 @@ pub fn encode(
     // half of occlusion culling leaves it to the late half.
     if inputs.background
         && !early
-        && let Some(pipeline) = pipelines.background_cached(samples)
+        && let Some(pipeline) = pipelines.background_cached(BackgroundMode::InPass { samples })
     {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, inputs.view_bind_group, &[]);
@@ -296,4 +298,35 @@ fn draw(
         i += run;
     }
     counts
+}
+
+/// The background over the resolved frame (`BackgroundMode::Composite`): one full-screen
+/// triangle, single-sampled, adding the environment where the surfaces' coverage (alpha) falls
+/// short of 1. The forward pass cleared colour and alpha to 0 for it.
+pub fn encode_background(
+    encoder: &mut wgpu::CommandEncoder,
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    targets: &FrameTargets,
+    view_bind_group: &wgpu::BindGroup,
+    timer: Option<&mut GpuTimer>,
+) -> Result<(), ShaderError> {
+    let pipeline = pipelines.background(device, BackgroundMode::Composite)?;
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("background"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &targets.hdr_view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: timer.and_then(|t| t.pass("background")),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, view_bind_group, &[]);
+    pass.draw(0..3, 0..1);
+    Ok(())
 }

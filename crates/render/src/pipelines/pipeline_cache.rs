@@ -21,7 +21,7 @@ mod environment;
 mod post;
 pub use casters::CasterKey;
 pub use culling::{CullPhase, HzbStep};
-pub use environment::{ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep};
+pub use environment::{BackgroundMode, ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep};
 pub use post::{BloomStep, ExposureStep, TonemapKey};
 
 use penumbra_engine::mesh::Topology;
@@ -268,8 +268,7 @@ pub struct PipelineCache {
     hzb: HashMap<HzbStep, wgpu::ComputePipeline>,
     env_layouts: environment::EnvLayouts,
     env: HashMap<EnvStep, wgpu::ComputePipeline>,
-    /// Keyed by sample count.
-    background: HashMap<u32, wgpu::RenderPipeline>,
+    background: HashMap<BackgroundMode, wgpu::RenderPipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.

@@ -160,6 +160,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
     let adapter = ctx.describe();
     let timestamps = ctx.caps.timestamps;
+    let cpu_adapter = ctx.info.device_type == wgpu::DeviceType::Cpu;
     let renderer = Renderer::new(ctx, settings.clone())?;
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let (mut app, size) = stage_scene(&scene, &shot)?;
@@ -167,7 +168,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let env_label = match &environment {
         None => "none".to_owned(),
         Some(_) if args.env_churn => "sky, sun turning 1° a frame (prefiltered every frame)".to_owned(),
-        Some(_) => format!("--env {}, {}² faces", args.look.env, settings.environment.cube_size),
+        Some(_) => format!("--env {}, {}² faces", args.look.env, settings.environment.cube_size_for(cpu_adapter)),
     };
     if let Some(mut env) = environment {
         if args.env_churn {

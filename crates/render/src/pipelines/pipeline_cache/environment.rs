@@ -26,6 +26,18 @@ pub enum EnvStep {
     BrdfLut,
 }
 
+/// Where the background is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BackgroundMode {
+    /// Inside the forward pass of `samples` samples, after the opaque draws, where the depth is
+    /// still the far plane: with deferred local lights, whose colour alpha carries roughness
+    /// (the pass also writes the surface target, which the background leaves alone).
+    InPass { samples: u32 },
+    /// Over the resolved frame, weighted by what the surfaces left uncovered (1 − alpha): one
+    /// sample a pixel instead of one a sample.
+    Composite,
+}
+
 impl EnvStep {
     const ALL: [EnvStep; 5] =
         [EnvStep::Source, EnvStep::Downsample, EnvStep::Specular, EnvStep::IrradianceSh, EnvStep::BrdfLut];
@@ -155,17 +167,21 @@ impl PipelineCache {
         self.env.get(&step)
     }
 
-    /// The background pipeline for a pass of `samples` samples, compiled on first use.
-    pub fn background(&mut self, device: &wgpu::Device, samples: u32) -> Result<&wgpu::RenderPipeline, ShaderError> {
-        if !self.background.contains_key(&samples) {
-            let p = self.create_background(device, &mut None, samples)?;
-            self.background.insert(samples, p);
+    /// The background pipeline of `mode`, compiled on first use.
+    pub fn background(
+        &mut self,
+        device: &wgpu::Device,
+        mode: BackgroundMode,
+    ) -> Result<&wgpu::RenderPipeline, ShaderError> {
+        if !self.background.contains_key(&mode) {
+            let p = self.create_background(device, &mut None, mode)?;
+            self.background.insert(mode, p);
         }
-        Ok(&self.background[&samples])
+        Ok(&self.background[&mode])
     }
 
-    pub fn background_cached(&self, samples: u32) -> Option<&wgpu::RenderPipeline> {
-        self.background.get(&samples)
+    pub fn background_cached(&self, mode: BackgroundMode) -> Option<&wgpu::RenderPipeline> {
+        self.background.get(&mode)
     }
 
     pub(super) fn create_env_step(
@@ -196,10 +212,57 @@ impl PipelineCache {
         &mut self,
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
-        samples: u32,
+        mode: BackgroundMode,
     ) -> Result<wgpu::RenderPipeline, ShaderError> {
         let module = self.library(candidate).create_module(device, "background.wgsl", &ShaderDefs::default())?;
         self.compiled += 1;
+        let color = |blend| {
+            Some(wgpu::ColorTargetState {
+                format: crate::targets::HDR_FORMAT,
+                blend,
+                write_mask: wgpu::ColorWrites::COLOR,
+            })
+        };
+        let (samples, depth_stencil, targets) = match mode {
+            // Only where the depth is still the cleared far plane: no surface there. Alpha keeps
+            // what the clear wrote (deferred lights read it as "no surface").
+            BackgroundMode::InPass { samples } => (
+                samples,
+                Some(wgpu::DepthStencilState {
+                    format: crate::targets::DEPTH_FORMAT,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::Equal),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                vec![
+                    color(None),
+                    Some(wgpu::ColorTargetState {
+                        format: super::SURFACE_SHAPE_FORMAT,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::empty(),
+                    }),
+                ],
+            ),
+            // Premultiplied "under": the frame holds the surfaces' radiance with their coverage
+            // in alpha (cleared to 0), so the background adds where coverage is short.
+            BackgroundMode::Composite => (
+                1,
+                None,
+                vec![color(Some(wgpu::BlendState {
+                    color: wgpu::BlendComponent {
+                        src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
+                        dst_factor: wgpu::BlendFactor::One,
+                        operation: wgpu::BlendOperation::Add,
+                    },
+                    alpha: wgpu::BlendComponent {
+                        src_factor: wgpu::BlendFactor::Zero,
+                        dst_factor: wgpu::BlendFactor::One,
+                        operation: wgpu::BlendOperation::Add,
+                    },
+                }))],
+            ),
+        };
         checked_pipeline(device, "background.wgsl", || {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("background"),
@@ -211,25 +274,13 @@ impl PipelineCache {
                     buffers: &[],
                 },
                 primitive: wgpu::PrimitiveState::default(),
-                // Only where the depth is still the cleared far plane: no surface there.
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: crate::targets::DEPTH_FORMAT,
-                    depth_write_enabled: Some(false),
-                    depth_compare: Some(wgpu::CompareFunction::Equal),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
+                depth_stencil,
                 multisample: wgpu::MultisampleState { count: samples, mask: !0, alpha_to_coverage_enabled: false },
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
                     entry_point: Some("fs_main"),
                     compilation_options: Default::default(),
-                    // Alpha keeps what the clear wrote (deferred lights read it as "no surface").
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: crate::targets::HDR_FORMAT,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::COLOR,
-                    })],
+                    targets: &targets,
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -256,8 +307,8 @@ impl PipelineCache {
             }
         }
         if hit["background.wgsl"] {
-            for samples in self.background.keys().copied().collect::<Vec<_>>() {
-                out.background.push((samples, self.create_background(device, candidate, samples)?));
+            for mode in self.background.keys().copied().collect::<Vec<_>>() {
+                out.background.push((mode, self.create_background(device, candidate, mode)?));
             }
         }
         Ok(out)
@@ -279,5 +330,5 @@ impl PipelineCache {
 #[derive(Default)]
 pub(super) struct EnvReload {
     steps: Vec<(EnvStep, wgpu::ComputePipeline)>,
-    background: Vec<(u32, wgpu::RenderPipeline)>,
+    background: Vec<(BackgroundMode, wgpu::RenderPipeline)>,
 }
