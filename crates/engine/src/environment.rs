@@ -61,14 +61,18 @@ impl Environment {
         {
             return Err(format!("background blur {r} must lie in 0..=1 (a perceptual roughness)"));
         }
-        if let EnvironmentSource::Sky(sky) = &self.source {
-            sky.validate()?;
+        match &self.source {
+            EnvironmentSource::Sky(sky) => sky.validate()?,
+            EnvironmentSource::Image(img) => img.validate()?,
+            _ => {}
         }
         Ok(())
     }
 }
 
-#[derive(Debug, Clone, PartialEq)]
+/// Images compare by identity (the same `Arc`), not texel by texel: comparing sources every
+/// frame must not walk millions of texels.
+#[derive(Debug, Clone)]
 pub enum EnvironmentSource {
     /// The sky of the brightest directional light (the sun) when the scene has one, else the
     /// studio gradient.
@@ -80,6 +84,18 @@ pub enum EnvironmentSource {
     Studio,
     /// An equirectangular image.
     Image(Arc<EnvironmentImage>),
+}
+
+impl PartialEq for EnvironmentSource {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (EnvironmentSource::Auto, EnvironmentSource::Auto) => true,
+            (EnvironmentSource::Sky(a), EnvironmentSource::Sky(b)) => a == b,
+            (EnvironmentSource::Studio, EnvironmentSource::Studio) => true,
+            (EnvironmentSource::Image(a), EnvironmentSource::Image(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
 }
 
 /// Parameters of the procedural sky. Its radiance is Preetham's clear-sky luminance for the
@@ -234,6 +250,22 @@ impl EnvironmentImage {
         Ok(Self { width, height, texels, label })
     }
 
+    /// Checks what code may have built by hand: a size of at least 2 × 1, at most
+    /// [`MAX_ENVIRONMENT_SIDE`] a side, and one texel for each.
+    pub fn validate(&self) -> Result<(), String> {
+        let (w, h) = (self.width, self.height);
+        if w < 2 || h < 1 || w > MAX_ENVIRONMENT_SIDE || h > MAX_ENVIRONMENT_SIDE {
+            return Err(format!(
+                "environment map {}: {w}×{h} is outside 2×1 ..= {MAX_ENVIRONMENT_SIDE}×{MAX_ENVIRONMENT_SIDE}",
+                self.label
+            ));
+        }
+        if self.texels.len() != w as usize * h as usize {
+            return Err(format!("environment map {}: {} texels for {w}×{h}", self.label, self.texels.len()));
+        }
+        Ok(())
+    }
+
     /// Halves the image (box filter, area-weighted for odd sizes) until it is at most
     /// `max_width` wide: the mean radiance, and with it the light
     /// a small bright source gives, is kept exactly, where point-sampling a large map would miss
@@ -370,5 +402,11 @@ mod tests {
         };
         assert!(e.validate().unwrap_err().contains("turbidity"));
         assert!(Environment::default().validate().is_ok());
+        let mut bad = EnvironmentImage::from_fn(4, 2, "short", |_| Vec3::ONE);
+        bad.texels.pop();
+        let e = Environment::image(Arc::new(bad)).validate().unwrap_err();
+        assert!(e.contains("short") && e.contains("7 texels"), "{e}");
+        let e = Environment::image(Arc::new(EnvironmentImage::from_fn(0, 0, "empty", |_| Vec3::ONE))).validate();
+        assert!(e.unwrap_err().contains("outside"));
     }
 }

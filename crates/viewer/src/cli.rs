@@ -116,8 +116,9 @@ pub struct LookArgs {
     /// Perceptual roughness of the blurred background, 0 to 1.
     #[arg(long, default_value_t = 0.5, value_name = "ROUGHNESS")]
     pub background_blur: f32,
-    /// Bloom: how much of the image its blur replaces, 0 to 1 (`--bloom` alone: 0.04).
-    #[arg(long, num_args = 0..=1, default_missing_value = "0.04", value_name = "STRENGTH")]
+    /// Bloom: how much of the image its blur replaces, 0 to 1 (`--bloom` alone: 0.04;
+    /// `--bloom=0.1` for more: the `=` keeps a scene path after the flag a path).
+    #[arg(long, num_args = 0..=1, require_equals = true, default_missing_value = "0.04", value_name = "STRENGTH")]
     pub bloom: Option<f32>,
     /// FXAA on the tonemapped image (with or instead of MSAA: `--msaa 1 --fxaa`).
     #[arg(long)]

@@ -87,7 +87,7 @@ fn out_of_range_settings_name_their_flag() {
         (&["--env-size", "100"], "--env-size"),
         (&["--env-intensity", "-1"], "--env-intensity"),
         (&["--background", "blurred", "--background-blur", "3"], "--background-blur"),
-        (&["--bloom", "2"], "--bloom"),
+        (&["--bloom=2"], "--bloom"),
         (&["--auto-exposure", "--ev-range", "5:1"], "--ev-range"),
         (&["--env", "/nonexistent/sky.hdr"], "/nonexistent/sky.hdr"),
         (&["--size", "0x10"], "--size"),

@@ -53,7 +53,8 @@ const PARAMS_STRIDE: u64 = 256;
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvironmentSettings {
     /// Face size of the source and of the specular cube's sharpest level; a power of two,
-    /// 16..=2048. The background shows this level. `None`: [`AUTO_CUBE_GPU`] on a GPU,
+    /// 32..=2048 (32 is the smallest with all six roughness levels). The background shows
+    /// this level. `None`: [`AUTO_CUBE_GPU`] on a GPU,
     /// [`AUTO_CUBE_CPU`] on a CPU rasteriser (lavapipe), where prefiltering 512² faces takes
     /// 3.7 s and 128² 0.4 s (README).
     pub cube_size: Option<u32>,
@@ -80,9 +81,9 @@ impl EnvironmentSettings {
 
     pub fn validate(&self) -> Result<(), String> {
         if let Some(size) = self.cube_size
-            && !(size.is_power_of_two() && (16..=2048).contains(&size))
+            && !(size.is_power_of_two() && (32..=2048).contains(&size))
         {
-            return Err(format!("environment cube size {size} must be a power of two in 16..=2048"));
+            return Err(format!("environment cube size {size} must be a power of two in 32..=2048"));
         }
         if !(1..=MAX_SAMPLES).contains(&self.specular_samples) {
             return Err(format!(
@@ -210,6 +211,8 @@ pub struct EnvironmentLighting {
     pub prefilters: u64,
     /// The last problem with the scene's environment, reported once.
     refused: Option<String>,
+    /// An image's storage scale, which needs a pass over every texel: computed once per image.
+    image_scale: Option<(Arc<EnvironmentImage>, f32)>,
 }
 
 fn texture_bytes(t: &wgpu::Texture) -> u64 {
@@ -267,6 +270,7 @@ impl EnvironmentLighting {
             last_uniform: None,
             prefilters: 0,
             refused: None,
+            image_scale: None,
         }
     }
 
@@ -331,7 +335,23 @@ impl EnvironmentLighting {
             self.pending = false;
             return EnvironmentFrame { active: false, prefilter: false, rebind, solid_background: None };
         };
-        let (source, source_scale) = resolve(env, sun);
+        let (source, source_scale) = match &env.source {
+            EnvironmentSource::Image(img) => {
+                let scale = match &self.image_scale {
+                    Some((held, s)) if Arc::ptr_eq(held, img) => *s,
+                    _ => {
+                        let s = image_scale(img);
+                        self.image_scale = Some((img.clone(), s));
+                        s
+                    }
+                };
+                (Source::Image(img.clone()), scale)
+            }
+            _ => {
+                self.image_scale = None;
+                resolve(env, sun)
+            }
+        };
         let key = MapsKey { source, cube_size, specular_samples: settings.specular_samples };
         let mut rebind = false;
         if self.maps.as_ref().is_none_or(|m| m.size != cube_size) {
@@ -713,7 +733,7 @@ mod tests {
         assert!(EnvironmentSettings::default().validate().is_ok());
         let size = |s| EnvironmentSettings { cube_size: Some(s), ..Default::default() };
         assert!(size(100).validate().unwrap_err().contains("power of two"));
-        assert!(size(8).validate().is_err());
+        assert!(size(16).validate().is_err(), "too small for six roughness levels");
         assert_eq!(EnvironmentSettings::default().cube_size_for(true), AUTO_CUBE_CPU);
         assert_eq!(EnvironmentSettings::default().cube_size_for(false), AUTO_CUBE_GPU);
         assert_eq!(size(64).cube_size_for(false), 64);
@@ -734,10 +754,14 @@ mod tests {
     fn sun_brightness_alone_does_not_change_the_maps() {
         let env = Environment::default();
         let dir = Vec3::new(0.3, 0.7, 0.2).normalize();
-        let (a, sa) = resolve(&env, Some((dir, 10.0)));
-        let (b, sb) = resolve(&env, Some((dir, 20.0)));
-        assert_eq!(a, b);
-        assert!((sb / sa - 2.0).abs() < 1e-5);
+        // Not a power-of-two ratio: float rounding must not reach what shapes the maps.
+        for (l1, l2) in [(3.0, 7.0), (4.0, 3.0), (10.0, 20.0)] {
+            let (a, sa) = resolve(&env, Some((dir, l1)));
+            let (b, sb) = resolve(&env, Some((dir, l2)));
+            assert_eq!(a, b, "{l1} lux vs {l2} lux");
+            assert!((sb / sa - l2 / l1).abs() < 1e-5);
+        }
+        let (a, _) = resolve(&env, Some((dir, 10.0)));
         let (c, _) = resolve(&env, Some((Vec3::new(0.3, 0.6, 0.2).normalize(), 10.0)));
         assert_ne!(a, c);
     }

@@ -117,7 +117,10 @@ pub fn sky_params(sky: &Sky, towards_sun: Vec3, sun_lux: f32) -> SkyParams {
             sky_e += (l * theta.cos() * d_omega) as f64;
         }
     }
-    let sun_e = if scale > 0.0 { sun_lux.max(0.0) * elevation.sin().max(0.0) / scale } else { 0.0 };
+    // The sun's horizontal illuminance in the stored unit (lux / scale), written without the
+    // sun's lux, which cancels: rounding must not make the shape depend on the brightness.
+    let unit = zenith_kcd * 1000.0 * twilight / CLEAR_DAY_SUN_LUX;
+    let sun_e = if unit > 0.0 { elevation.sin().max(0.0) / unit } else { 0.0 };
     let ground = sky.ground_albedo / std::f32::consts::PI * (sky_e as f32 + sun_e);
     SkyParams {
         perez_lum: lum.coefficients(),

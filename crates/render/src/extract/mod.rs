@@ -469,7 +469,9 @@ fn extract_environment(environment: Option<Res<Environment>>, mut scene: ResMut<
             }
         }
     }
-    if scene.environment.is_some() {
+    // An environment the renderer will refuse (bad numbers set from code) lights nothing: the
+    // default ambient term stays then.
+    if scene.environment.as_ref().is_some_and(|e| e.validate().is_ok()) {
         scene.default_lights.retain(|l| l.kind != LightKind::Ambient);
     }
 }

@@ -112,6 +112,8 @@ struct BloomChain {
     views: Vec<wgpu::TextureView>,
     /// Group reading the frame (level 0's source), then each level's (level i + 1's source).
     down_groups: Vec<wgpu::BindGroup>,
+    /// The frame view the first group reads.
+    source: wgpu::TextureView,
     /// Group reading level i + 1 (drawn onto level i).
     up_groups: Vec<wgpu::BindGroup>,
 }
@@ -325,14 +327,13 @@ impl PostProcess {
             let clear = wgpu::LoadOp::Clear(wgpu::Color::BLACK);
             for (i, group) in chain.down_groups.iter().enumerate() {
                 let step = if i == 0 { BloomStep::DownFirst } else { BloomStep::Down };
-                let t = if i == 0 { timer.as_deref_mut() } else { None };
-                let mut pass = bloom_pass(encoder, &chain.views[i], clear, t);
+                let mut pass = bloom_pass(encoder, &chain.views[i], clear, timer.as_deref_mut());
                 pass.set_pipeline(pipelines.bloom_cached(step).expect("compiled above"));
                 pass.set_bind_group(0, group, &[]);
                 pass.draw(0..3, 0..1);
             }
             for (i, group) in chain.up_groups.iter().enumerate().rev() {
-                let mut pass = bloom_pass(encoder, &chain.views[i], wgpu::LoadOp::Load, None);
+                let mut pass = bloom_pass(encoder, &chain.views[i], wgpu::LoadOp::Load, timer.as_deref_mut());
                 pass.set_pipeline(pipelines.bloom_cached(BloomStep::Up).expect("compiled above"));
                 pass.set_bind_group(0, group, &[]);
                 pass.draw(0..3, 0..1);
@@ -480,7 +481,7 @@ impl BloomChain {
             down_groups.push(sampled_group(device, pipelines, sampler, v, "bloom down"));
         }
         let up_groups = views[1..].iter().map(|v| sampled_group(device, pipelines, sampler, v, "bloom up")).collect();
-        Self { frame, texture, views, down_groups, up_groups }
+        Self { frame, texture, views, down_groups, up_groups, source: targets.hdr_view.clone() }
     }
 
     /// The first group reads the frame: remade when the frame's HDR target was replaced at the
@@ -492,7 +493,10 @@ impl BloomChain {
         sampler: &wgpu::Sampler,
         targets: &FrameTargets,
     ) {
-        self.down_groups[0] = sampled_group(device, pipelines, sampler, &targets.hdr_view, "bloom from frame");
+        if self.source != targets.hdr_view {
+            self.down_groups[0] = sampled_group(device, pipelines, sampler, &targets.hdr_view, "bloom from frame");
+            self.source = targets.hdr_view.clone();
+        }
     }
 }
 

@@ -193,6 +193,7 @@ fn environment_panel(
                 ui.label("background");
                 if ui.selectable_label(e.background == Background::Environment, "environment").clicked() {
                     e.background = Background::Environment;
+                    blur = None;
                 }
                 if ui.selectable_label(blur.is_some(), "blurred").clicked() && blur.is_none() {
                     blur = Some(0.5);
