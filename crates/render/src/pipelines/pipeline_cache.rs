@@ -858,14 +858,7 @@ impl PipelineCache {
         self.compiled += 1;
         let layout = &self.deferred_pipeline_layouts[key.multisampled as usize];
         checked_pipeline(device, "deferred_lights.wgsl", || {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("deferred lights"),
-                layout: Some(layout),
-                module: &module,
-                entry_point: Some("shade_local_lights"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, layout, &module, "shade_local_lights", "deferred lights")
         })
     }
 
@@ -935,16 +928,27 @@ impl PipelineCache {
         let module = self.library(candidate).create_module(device, "cluster_bin.wgsl", &ShaderDefs::default())?;
         self.compiled += 1;
         checked_pipeline(device, "cluster_bin.wgsl", || {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry.name()),
-                layout: Some(&self.cluster_pipeline_layout),
-                module: &module,
-                entry_point: Some(entry.name()),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, &self.cluster_pipeline_layout, &module, entry.name(), entry.name())
         })
     }
+}
+
+/// A compute pipeline of `module`'s `entry` (no overrides, no pipeline cache).
+fn compute_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    label: &str,
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
 }
 
 fn fullscreen_pipeline(

@@ -2,7 +2,7 @@
 //! and the hierarchical depth buffer's reductions (`shaders/hzb.wgsl`). The part of the
 //! pipeline cache that serves `passes::culling`.
 
-use super::{PipelineCache, buffer_entry, checked_pipeline, storage};
+use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline, storage};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
 /// Which cull pass: without occlusion culling, or its early or late half.
@@ -169,14 +169,7 @@ impl PipelineCache {
         let module = self.library(candidate).create_module(device, "cull.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "cull.wgsl", || {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("cull"),
-                layout: Some(&self.cull_layouts.cull_pipeline[phase.index()]),
-                module: &module,
-                entry_point: Some("cull_instances"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, &self.cull_layouts.cull_pipeline[phase.index()], &module, "cull_instances", "cull")
         })
     }
 
@@ -192,14 +185,7 @@ impl PipelineCache {
         let module = self.library(candidate).create_module(device, "hzb.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "hzb.wgsl", || {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("hzb"),
-                layout: Some(&self.cull_layouts.hzb_pipeline[step.index()]),
-                module: &module,
-                entry_point: Some("reduce"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, &self.cull_layouts.hzb_pipeline[step.index()], &module, "reduce", "hzb")
         })
     }
 }

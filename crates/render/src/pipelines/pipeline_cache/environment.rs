@@ -2,7 +2,7 @@
 //! (`env_source.wgsl`, `env_filter.wgsl`, `brdf_lut.wgsl`) and the background pass
 //! (`background.wgsl`). The part of the pipeline cache that serves `environment/`.
 
-use super::{PipelineCache, buffer_entry, checked_pipeline};
+use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
 /// The format of every environment map (source cube, specular cube, split-sum table).
@@ -197,14 +197,13 @@ impl PipelineCache {
         let module = self.library(candidate).create_module(device, step.file(), &defs)?;
         self.compiled += 1;
         checked_pipeline(device, step.file(), || {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(step.entry()),
-                layout: Some(&self.env_layouts.step_pipelines[step.index()]),
-                module: &module,
-                entry_point: Some(step.entry()),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(
+                device,
+                &self.env_layouts.step_pipelines[step.index()],
+                &module,
+                step.entry(),
+                step.entry(),
+            )
         })
     }
 

@@ -3,7 +3,7 @@
 //! (`fxaa.wgsl`). The part of the pipeline cache that serves `passes::post` and
 //! `passes::tonemap`.
 
-use super::{PipelineCache, Tonemapper, buffer_entry, checked_pipeline, fullscreen_pipeline};
+use super::{PipelineCache, Tonemapper, buffer_entry, checked_pipeline, compute_pipeline, fullscreen_pipeline};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 use crate::targets::HDR_FORMAT;
 
@@ -182,14 +182,7 @@ impl PipelineCache {
             ExposureStep::Average => "average",
         };
         checked_pipeline(device, "exposure.wgsl", || {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&self.post_layouts.exposure_pipeline),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, &self.post_layouts.exposure_pipeline, &module, entry, entry)
         })
     }
 
