@@ -10,7 +10,7 @@ use common::{Tolerance, check_golden, render_asset};
 const SIZE: (u32, u32) = (256, 256);
 
 fn golden(name: &str, rel: &str, camera: CameraChoice) {
-    let shot = ShotSettings { size: Some(SIZE), camera, exposure_ev100: None };
+    let shot = ShotSettings { size: Some(SIZE), camera, exposure_ev100: None, animation: None };
     let image = render_asset(rel, &shot, RenderSettings::default());
     check_golden(name, &image, Tolerance::default());
 }

@@ -368,7 +368,8 @@ fn env_golden(name: &str, rel: &str, env: Environment, sun: bool) {
     use penumbra::engine::import::{GltfScene, ImportOptions};
     use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stage_scene};
     let scene = GltfScene::load(&common::asset(rel), &ImportOptions::default()).unwrap();
-    let shot = ShotSettings { size: Some((256, 256)), camera: CameraChoice::Auto, exposure_ev100: None };
+    let shot =
+        ShotSettings { size: Some((256, 256)), camera: CameraChoice::Auto, exposure_ev100: None, animation: None };
     let (mut app, size) = stage_scene(&scene, &shot).unwrap();
     if sun {
         // Low and from the front-left, so the sky has a bright side.

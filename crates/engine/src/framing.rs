@@ -5,21 +5,37 @@ use glam::Vec3;
 
 use crate::assets::Assets;
 use crate::bounds::Aabb;
-use crate::components::{Camera, GlobalTransform, InheritedVisibility, Mesh3d, Projection, Transform};
+use crate::components::{
+    Camera, GlobalTransform, InheritedVisibility, JointMatrices, Mesh3d, MorphWeights, Projection, Transform,
+};
 use crate::mesh::Mesh;
 
-/// World-space bounds of every visible mesh (after `PostUpdate` has propagated transforms).
+/// World-space bounds of every visible mesh (after `PostUpdate` has propagated transforms),
+/// skinned and morphed meshes in their current pose.
 pub fn world_bounds(world: &mut World) -> Aabb {
-    let mut q = world.query::<(&Mesh3d, &GlobalTransform, Option<&InheritedVisibility>)>();
+    let mut q = world.query::<(
+        &Mesh3d,
+        &GlobalTransform,
+        Option<&InheritedVisibility>,
+        Option<&JointMatrices>,
+        Option<&MorphWeights>,
+    )>();
     let meshes = world.resource::<Assets<Mesh>>();
     let mut bounds = Aabb::EMPTY;
-    for (mesh, transform, vis) in q.iter(world) {
+    for (mesh, transform, vis, joints, weights) in q.iter(world) {
         if vis.is_some_and(|v| !v.0) {
             continue;
         }
-        if let Ok(m) = meshes.get(mesh.0) {
-            bounds = bounds.union(&m.aabb().transformed(&transform.0));
-        }
+        let Ok(m) = meshes.get(mesh.0) else { continue };
+        let posed = (joints.is_some() && m.is_skinned()) || (weights.is_some() && !m.morph_targets.is_empty());
+        let local = if posed {
+            let joints = joints.map_or(&[][..], |j| &j.0);
+            let weights = weights.map_or(&[][..], |w| &w.0);
+            Aabb::from_points(&m.deformed_positions(joints, weights))
+        } else {
+            m.aabb()
+        };
+        bounds = bounds.union(&local.transformed(&transform.0));
     }
     bounds
 }

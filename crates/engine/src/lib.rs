@@ -5,6 +5,7 @@
 //! lights, cameras, `Mesh3d`); `PostUpdate` derives world-space state (`GlobalTransform`,
 //! `InheritedVisibility`); the render crate's extraction then reads it. Nothing here knows the GPU.
 
+pub mod animation;
 pub mod app;
 pub mod assets;
 pub mod bounds;
@@ -38,13 +39,20 @@ impl Plugin for CorePlugin {
             .init_resource::<Assets<ies::IesProfile>>()
             .add_systems(
                 PostUpdate,
-                (components::transform::propagate_transforms, components::visibility::propagate_visibility).chain(),
+                (
+                    animation::animate,
+                    components::transform::propagate_transforms,
+                    components::visibility::propagate_visibility,
+                    components::skin::update_joint_matrices,
+                )
+                    .chain(),
             );
     }
 }
 
 pub mod prelude {
     pub use crate::CorePlugin;
+    pub use crate::animation::{AnimationClip, AnimationPlayer, Repeat};
     pub use crate::app::{App, Plugin, PostUpdate, Startup, Update};
     pub use crate::assets::{Assets, Handle};
     pub use crate::bounds::Aabb;
@@ -54,7 +62,7 @@ pub mod prelude {
     pub use crate::image::Image;
     pub use crate::import::{ImportError, ImportOptions, load_scene};
     pub use crate::material::{AlphaMode, StandardMaterial, TextureRef};
-    pub use crate::mesh::{Mesh, Topology};
+    pub use crate::mesh::{Mesh, MorphTarget, Topology};
     pub use crate::time::{Time, TimeMode};
     pub use bevy_ecs::prelude::*;
     pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};

@@ -39,6 +39,23 @@ pub struct Mesh {
     /// Linear RGBA.
     pub colors: Vec<Vec4>,
     pub indices: Option<Vec<u32>>,
+    /// Up to four joints per vertex (glTF's JOINTS_0), indices into the skin's joint list.
+    pub joints: Vec<[u16; 4]>,
+    /// Weights of `joints` (WEIGHTS_0). Importers normalise them to sum to 1; a vertex whose
+    /// weights are all 0 is not skinned (it keeps its bind-space position).
+    pub weights: Vec<Vec4>,
+    /// Displacements added to the attributes, each scaled by its weight in `MorphWeights`.
+    pub morph_targets: Vec<MorphTarget>,
+}
+
+/// One morph target: per-vertex displacements (an empty vector means the target does not move
+/// that attribute).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MorphTarget {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    /// Displacements of the tangents' xyz (the handedness sign does not morph).
+    pub tangents: Vec<Vec3>,
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -49,6 +66,10 @@ pub enum MeshError {
     IndexOutOfRange { index: u32, at: usize, vertices: usize },
     #[error("{count} indices is not a whole number of {topology:?} primitives")]
     PartialPrimitive { count: usize, topology: Topology },
+    #[error("JOINTS_0 and WEIGHTS_0 must come together ({joints} joint and {weights} weight values)")]
+    SkinAttributes { joints: usize, weights: usize },
+    #[error("morph target {target}: {name} has {len} values but there are {vertices} positions")]
+    MorphTargetLength { target: usize, name: &'static str, len: usize, vertices: usize },
     #[error("tangent generation needs triangles with normals and texture coordinates")]
     TangentInputsMissing,
     #[error("tangent generation failed: {0}")]
@@ -81,6 +102,20 @@ impl Mesh {
         check("TEXCOORD_0", self.uv0.len())?;
         check("TEXCOORD_1", self.uv1.len())?;
         check("COLOR_0", self.colors.len())?;
+        check("JOINTS_0", self.joints.len())?;
+        check("WEIGHTS_0", self.weights.len())?;
+        if self.joints.len() != self.weights.len() {
+            return Err(MeshError::SkinAttributes { joints: self.joints.len(), weights: self.weights.len() });
+        }
+        for (target, t) in self.morph_targets.iter().enumerate() {
+            for (name, len) in
+                [("POSITION", t.positions.len()), ("NORMAL", t.normals.len()), ("TANGENT", t.tangents.len())]
+            {
+                if len != 0 && len != n {
+                    return Err(MeshError::MorphTargetLength { target, name, len, vertices: n });
+                }
+            }
+        }
         if let Some(indices) = &self.indices
             && let Some((at, &index)) = indices.iter().enumerate().find(|(_, i)| **i as usize >= n)
         {
@@ -115,6 +150,16 @@ impl Mesh {
             + fix(&mut self.uv0, |p| p.is_finite(), Vec2::ZERO)
             + fix(&mut self.uv1, |p| p.is_finite(), Vec2::ZERO)
             + fix(&mut self.colors, |p| p.is_finite(), Vec4::ONE)
+            + fix(&mut self.weights, |w| w.is_finite(), Vec4::ZERO)
+            + self
+                .morph_targets
+                .iter_mut()
+                .map(|t| {
+                    fix(&mut t.positions, |p| p.is_finite(), Vec3::ZERO)
+                        + fix(&mut t.normals, |p| p.is_finite(), Vec3::ZERO)
+                        + fix(&mut t.tangents, |p| p.is_finite(), Vec3::ZERO)
+                })
+                .sum::<usize>()
     }
 
     /// Expands indices so every triangle owns its three vertices (needed for flat normals).
@@ -133,6 +178,66 @@ impl Mesh {
         gather(&mut self.uv0, &indices);
         gather(&mut self.uv1, &indices);
         gather(&mut self.colors, &indices);
+        gather(&mut self.joints, &indices);
+        gather(&mut self.weights, &indices);
+        for t in &mut self.morph_targets {
+            gather(&mut t.positions, &indices);
+            gather(&mut t.normals, &indices);
+            gather(&mut t.tangents, &indices);
+        }
+    }
+
+    /// Scales every vertex's weights to sum to 1, as glTF requires of skinned meshes (exporters
+    /// often write sums a few ULPs off, some far off). All-zero weights stay zero. Returns the
+    /// number of vertices whose sum was off by more than 1e-3, for a warning.
+    pub fn normalize_weights(&mut self) -> usize {
+        let mut off = 0;
+        for w in &mut self.weights {
+            let w_clamped = w.max(Vec4::ZERO);
+            let sum = w_clamped.element_sum();
+            if (sum - 1.0).abs() > 1e-3 {
+                off += 1;
+            }
+            *w = if sum > 0.0 { w_clamped / sum } else { Vec4::ZERO };
+        }
+        off
+    }
+
+    /// Positions after morph targets (`weights`, missing ones 0) and skinning (`joints`:
+    /// mesh_from_bind per joint, missing ones the identity), computed on the CPU exactly as the
+    /// GPU deformation pass does. For framing and tests; frames deform on the GPU.
+    pub fn deformed_positions(&self, joints: &[glam::Mat4], weights: &[f32]) -> Vec<Vec3> {
+        (0..self.positions.len())
+            .map(|v| {
+                let mut p = self.positions[v];
+                for (t, target) in self.morph_targets.iter().enumerate() {
+                    if let (Some(w), Some(d)) = (weights.get(t), target.positions.get(v)) {
+                        p += *w * *d;
+                    }
+                }
+                let (Some(j), Some(w)) = (self.joints.get(v), self.weights.get(v)) else { return p };
+                if w.element_sum() <= 0.0 {
+                    return p;
+                }
+                let m = (0..4).fold(glam::Mat4::ZERO, |m, i| {
+                    m + joints.get(j[i] as usize).copied().unwrap_or(glam::Mat4::IDENTITY) * w[i]
+                });
+                m.transform_point3(p)
+            })
+            .collect()
+    }
+
+    pub fn is_skinned(&self) -> bool {
+        !self.joints.is_empty()
+    }
+
+    /// The largest joint index a vertex with non-zero weight refers to.
+    pub fn max_joint(&self) -> Option<u16> {
+        self.joints
+            .iter()
+            .zip(&self.weights)
+            .flat_map(|(j, w)| j.iter().zip(w.to_array()).filter(|(_, w)| *w > 0.0).map(|(j, _)| *j))
+            .max()
     }
 
     /// Face normals, as the glTF spec asks for when NORMAL is absent. Unindexes the mesh.

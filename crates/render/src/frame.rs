@@ -11,6 +11,8 @@ pub enum Pass {
     /// Compute: make the environment's maps (source cube, specular levels, irradiance
     /// harmonics; the split-sum table once).
     EnvironmentPrefilter,
+    /// Compute: skin and morph the draws whose pose changed into their vertex copies.
+    Deform,
     /// Compute: cull opaque and masked draws against the view frustum into indirect draws.
     Cull,
     /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
@@ -64,6 +66,8 @@ pub struct SceneNeeds {
     pub occlusion: bool,
     /// The environment's maps must be (re)made this frame.
     pub environment_changed: bool,
+    /// Deformed draws whose pose changed this frame.
+    pub deform_jobs: usize,
     /// The scene has an environment to show behind it (not a solid colour: that is the clear).
     pub background: bool,
     /// Post-processing switched on in the settings.
@@ -83,6 +87,7 @@ impl FramePlan {
             culled,
             occlusion,
             environment_changed,
+            deform_jobs,
             background,
             bloom,
             auto_exposure,
@@ -91,6 +96,9 @@ impl FramePlan {
         let mut passes = Vec::new();
         if environment_changed {
             passes.push((Pass::EnvironmentPrefilter, "the environment changed (or is new): its maps are made"));
+        }
+        if deform_jobs > 0 {
+            passes.push((Pass::Deform, "skinned or morphed draws changed pose: their vertices are recomputed"));
         }
         if culled && has_opaque {
             passes.push((Pass::Cull, "opaque draws to cull (GPU culling on and supported)"));
@@ -180,6 +188,15 @@ mod tests {
         let plan = plan(SceneNeeds { binned_lights: 3, shadow_layers: 2, has_opaque: true, ..Default::default() });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
         assert_eq!(order, [Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
+    }
+
+    #[test]
+    fn deformation_only_when_a_pose_changed_and_before_everything_that_draws() {
+        assert!(!plan(SceneNeeds { has_opaque: true, shadow_layers: 1, ..Default::default() }).runs(Pass::Deform));
+        let plan =
+            plan(SceneNeeds { deform_jobs: 2, has_opaque: true, culled: true, shadow_layers: 1, ..Default::default() });
+        let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::Deform, Pass::Cull, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
     }
 
     #[test]

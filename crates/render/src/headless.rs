@@ -3,6 +3,7 @@
 //! and users' own screenshot tests all go through here, so they see the same frame.
 
 use bevy_ecs::prelude::*;
+use penumbra_engine::animation::{AnimationPlayer, PlayerError};
 use penumbra_engine::components::{Camera, Exposure};
 use penumbra_engine::framing::{framing_camera_from, world_bounds};
 use penumbra_engine::import::{GltfCamera, GltfScene};
@@ -29,11 +30,23 @@ pub struct ShotSettings {
     pub camera: CameraChoice,
     /// Overrides the camera's exposure.
     pub exposure_ev100: Option<f32>,
+    /// Poses an animated scene at one time of one clip (paused there). `None`: the scene as
+    /// spawned, its first clip playing from time 0 with the fixed step.
+    pub animation: Option<AnimationShot>,
+}
+
+/// Which animation pose a screenshot shows.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct AnimationShot {
+    /// A clip's name or index; `None` keeps the active clip (the first).
+    pub clip: Option<String>,
+    /// Seconds into the clip.
+    pub time: f32,
 }
 
 impl Default for ShotSettings {
     fn default() -> Self {
-        Self { size: None, camera: CameraChoice::Auto, exposure_ev100: None }
+        Self { size: None, camera: CameraChoice::Auto, exposure_ev100: None, animation: None }
     }
 }
 
@@ -50,6 +63,10 @@ pub enum ShotError {
     Size(u32, u32),
     #[error("--exposure {0}: must be a finite EV100 between {lo} and {hi}", lo = EV100_RANGE.start(), hi = EV100_RANGE.end())]
     Exposure(f32),
+    #[error("--animation/--time: {0}")]
+    Animation(#[from] PlayerError),
+    #[error("--animation/--time: the scene has no animations")]
+    NoAnimations,
     #[error(transparent)]
     Render(#[from] RendererError),
 }
@@ -76,11 +93,28 @@ pub fn stage_scene(scene: &GltfScene, settings: &ShotSettings) -> Result<(App, (
     let mut app = App::new();
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
     app.insert_resource(Time::fixed_hz(60.0));
-    scene.spawn(&mut app.world);
+    let root = scene.spawn(&mut app.world);
+    if let Some(shot) = &settings.animation {
+        pose_animation(&mut app.world, root, shot)?;
+    }
     // One update without a renderer: transforms propagate, nothing is drawn.
     app.update();
     let size = stage_camera(&mut app, settings)?;
     Ok((app, size))
+}
+
+/// Pauses the scene's player at `shot`'s clip and time.
+pub fn pose_animation(world: &mut World, root: Entity, shot: &AnimationShot) -> Result<(), ShotError> {
+    let mut player = world.get_mut::<AnimationPlayer>(root).ok_or(ShotError::NoAnimations)?;
+    if let Some(clip) = &shot.clip {
+        match clip.parse::<usize>() {
+            Ok(index) => player.play(index)?,
+            Err(_) => player.play_named(clip)?,
+        };
+    }
+    player.pause();
+    player.seek(shot.time)?;
+    Ok(())
 }
 
 /// Chooses (or frames) the camera in an already-updated app; returns the output size.

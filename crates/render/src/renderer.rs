@@ -39,6 +39,7 @@ use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::pipelines::shader_watcher::ShaderWatcher;
 use crate::prepare::buffer::GrowableBuffer;
+use crate::prepare::deform::MeshDeformer;
 use crate::prepare::instances::{GpuInstance, InstanceBuffer};
 use crate::prepare::light_store::{DEFAULT_CUTOFF, LightShapes, LightStore};
 use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS};
@@ -254,6 +255,8 @@ pub struct MemoryStats {
     pub environment: u64,
     /// Bloom's chain and FXAA's intermediate (0 with both off).
     pub post: u64,
+    /// Skinning and morph-target data (deformed vertex copies count in `mesh_pool`).
+    pub deform: u64,
 }
 
 /// Mirrors `struct View` in `shaders/forward.wgsl`.
@@ -325,6 +328,7 @@ pub struct Renderer {
     settings: RenderSettings,
     pipelines: PipelineCache,
     mesh_pool: MeshPool,
+    deformer: MeshDeformer,
     textures: TextureCache,
     materials: MaterialTable,
     instances: InstanceBuffer,
@@ -354,6 +358,8 @@ pub struct Renderer {
     /// Material pipeline bits last seen, to notice a material switching alpha mode.
     material_bits: HashMap<MaterialKey, (AlphaKey, bool, bool, TextureSet)>,
     opaque_batches: Vec<Batch>,
+    /// Batch index of each deformed draw's vertex copy (each is a batch of its own).
+    deformed_batches: HashMap<MeshId, usize>,
     opaque_slots: Vec<u32>,
     /// `opaque_slots` changed since it was last uploaded.
     opaque_slots_dirty: bool,
@@ -415,6 +421,7 @@ impl Renderer {
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
         Ok(Self {
             mesh_pool: MeshPool::new(device),
+            deformer: MeshDeformer::new(device),
             textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx)),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
@@ -443,6 +450,7 @@ impl Renderer {
             mesh_ids: HashMap::new(),
             material_bits: HashMap::new(),
             opaque_batches: Vec::new(),
+            deformed_batches: HashMap::new(),
             opaque_slots: Vec::new(),
             opaque_slots_dirty: true,
             culling: GpuCulling::new(device),
@@ -598,6 +606,7 @@ impl Renderer {
             shadows: self.shadows.gpu_bytes(),
             environment: self.environment.bytes(),
             post: self.post.gpu_bytes(),
+            deform: self.deformer.gpu_bytes(),
         }
     }
 
@@ -704,6 +713,18 @@ impl Renderer {
         let t = Instant::now();
         self.prepare_meshes(scene);
         tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+        let deform_frame = {
+            let (draws, mesh_ids) = (&self.draws, &self.mesh_ids);
+            let draw_mesh = |e: Entity| draws.get(e).and_then(|d| Some((d.mesh, *mesh_ids.get(&d.mesh)?)));
+            self.deformer.prepare(&device, &queue, &mut self.mesh_pool, scene, draw_mesh, !in_step)
+        };
+        if deform_frame.outputs_changed {
+            self.batches_dirty = true;
+        }
+        if deform_frame.jobs > 0 {
+            // A pose changed: shadow maps of what it casts into, and the scene's bounds, follow.
+            self.caster_generation += 1;
+        }
         if self.materials.is_dirty() {
             // A masked caster's cutoff may have changed.
             self.caster_generation += 1;
@@ -754,6 +775,14 @@ impl Renderer {
         };
         occlusion &= culling;
         if culling {
+            if !self.cull_batches_dirty {
+                // Deformed copies' bounds follow their pose (after a rebuild they are read fresh).
+                for id in &deform_frame.moved {
+                    if let Some(&i) = self.deformed_batches.get(id) {
+                        self.culling.update_batch_bounds(&queue, i, &self.opaque_batches[i], &self.mesh_pool);
+                    }
+                }
+            }
             if self.cull_batches_dirty {
                 // The late draws' region follows every blended entry there can be.
                 let late_base = (opaque_len + self.blend_entities.len()) as u32;
@@ -800,6 +829,7 @@ impl Renderer {
             culled: self.culling_active,
             occlusion,
             environment_changed: env_frame.prefilter,
+            deform_jobs: deform_frame.jobs,
             background: env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some(),
             bloom: post.bloom,
             auto_exposure: post.auto_exposure,
@@ -809,6 +839,13 @@ impl Renderer {
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
+        }
+        let mut deform_error = None;
+        if plan.runs(Pass::Deform) {
+            deform_error = self
+                .deformer
+                .encode(&mut encoder, &device, &mut self.pipelines, &self.mesh_pool, self.timer.as_mut())
+                .err();
         }
         let mut env_error = None;
         if plan.runs(Pass::EnvironmentPrefilter) {
@@ -986,6 +1023,7 @@ impl Renderer {
             tonemap_result = tonemap_result.and(fxaa);
         }
         if let Some(e) = post_error
+            .or(deform_error)
             .or(env_error)
             .or(cluster_error)
             .or(cull_error)
@@ -1167,7 +1205,7 @@ impl Renderer {
     fn scene_bounds(&self, scene: &RenderScene) -> SceneBounds {
         let mut bounds = SceneBounds { casters: Aabb::EMPTY, receivers: Aabb::EMPTY };
         for (entity, d) in self.draws.iter().filter(|(_, d)| d.visible) {
-            let Some(entry) = self.mesh_ids.get(&d.mesh).and_then(|id| self.mesh_pool.entry(*id)) else { continue };
+            let Some(entry) = self.draw_mesh_id(entity, d).and_then(|id| self.mesh_pool.entry(id)) else { continue };
             let Some(item) = scene.draws.get(entity) else { continue };
             let world = entry.aabb.transformed(&item.world_from_local);
             if world.is_empty() || !world.min.is_finite() || !world.max.is_finite() {
@@ -1412,6 +1450,11 @@ impl Renderer {
         })
     }
 
+    /// The pool entry `entity` draws: its deformed copy if it has one, else its mesh's entry.
+    fn draw_mesh_id(&self, entity: Entity, d: &DrawState) -> Option<MeshId> {
+        self.deformer.output(entity, d.mesh).or_else(|| self.mesh_ids.get(&d.mesh).copied())
+    }
+
     /// Sorts visible opaque and masked draws into instanced batches; collects blended draws.
     fn rebuild_batches(&mut self) {
         self.batches_dirty = false;
@@ -1422,7 +1465,7 @@ impl Renderer {
             if !d.visible {
                 continue;
             }
-            let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else { continue };
+            let (Some(key), Some(mesh_id)) = (self.pipeline_key(d), self.draw_mesh_id(entity, d)) else { continue };
             if key.alpha == AlphaKey::Blend {
                 self.blend_entities.push(entity);
             } else {
@@ -1435,6 +1478,7 @@ impl Renderer {
         items.sort_unstable_by_key(|&(key, material, mesh_id, _, slot)| (key.alpha, key, material, mesh_id, slot));
         self.blend_entities.sort_unstable();
         self.opaque_batches.clear();
+        self.deformed_batches.clear();
         self.opaque_slots.clear();
         self.opaque_slots_dirty = true;
         self.cull_batches_dirty = true;
@@ -1444,6 +1488,13 @@ impl Renderer {
             match self.opaque_batches.last_mut() {
                 Some(b) if b.key == key && b.material == material && b.mesh_id == mesh_id => b.count += 1,
                 _ => self.opaque_batches.push(Batch { key, material, mesh, mesh_id, first: i, count: 1 }),
+            }
+        }
+        if self.deformer.instance_count() > 0 {
+            for (i, b) in self.opaque_batches.iter().enumerate() {
+                if self.mesh_pool.entry(b.mesh_id).is_some_and(|e| e.is_derived()) {
+                    self.deformed_batches.insert(b.mesh_id, i);
+                }
             }
         }
         // New pipeline keys alone (shadows switched on, a debug view) change no caster.
@@ -1470,7 +1521,7 @@ impl Renderer {
         let mut out: Vec<(f32, Entity, Batch, u32)> = Vec::new();
         for entity in &self.blend_entities {
             let Some(d) = self.draws.get(*entity) else { continue };
-            let (Some(key), Some(&mesh_id)) = (self.pipeline_key(d), self.mesh_ids.get(&d.mesh)) else {
+            let (Some(key), Some(mesh_id)) = (self.pipeline_key(d), self.draw_mesh_id(*entity, d)) else {
                 continue;
             };
             let (Some(entry), Some(item)) = (self.mesh_pool.entry(mesh_id), scene.draws.get(*entity)) else {

@@ -111,6 +111,15 @@ pub struct ExtractedLight {
     pub shadows: bool,
 }
 
+/// The pose of a deformed draw: what the deformation pass needs beyond the mesh.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ExtractedDeform {
+    /// Per joint, mesh bind space to the entity's space (`JointMatrices`); empty without a skin.
+    pub joints: Vec<glam::Mat4>,
+    /// Morph-target weights (`MorphWeights`); empty without morph targets.
+    pub morph_weights: Vec<f32>,
+}
+
 /// An asset as of the version extraction saw.
 #[derive(Debug, Clone)]
 pub struct Snapshot<T> {
@@ -129,6 +138,12 @@ pub struct RenderScene {
     pub changed_draws: Vec<Entity>,
     /// Entities removed from `draws` this frame.
     pub removed_draws: Vec<Entity>,
+    /// Poses of skinned and morphed draws, retained like `draws` (keyed by the drawing entity).
+    pub deforms: HashMap<Entity, ExtractedDeform>,
+    /// Entities whose pose was inserted or changed this frame.
+    pub changed_deforms: Vec<Entity>,
+    /// Entities that lost their skin and morph weights (or were despawned) this frame.
+    pub removed_deforms: Vec<Entity>,
     /// Every visible light with finite parameters, retained across frames like `draws`.
     pub lights: HashMap<LightKey, ExtractedLight>,
     /// Lights inserted or changed this frame.

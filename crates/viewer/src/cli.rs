@@ -245,10 +245,27 @@ pub struct RenderArgs {
     /// Fixed-step (60 Hz) frames to run before the screenshot.
     #[arg(long, default_value_t = 1)]
     pub frames: u32,
+    /// The animation clip to pose (a name or an index; default the first).
+    #[arg(long, value_name = "CLIP")]
+    pub animation: Option<String>,
+    /// Seconds into the clip; the pose is held there (default 0 when --animation is given;
+    /// without either, the first clip plays from 0 over --frames).
+    #[arg(long, value_name = "SECONDS")]
+    pub time: Option<f32>,
     #[command(flatten)]
     pub look: LookArgs,
     #[command(flatten)]
     pub scene_args: SceneArgs,
+}
+
+impl RenderArgs {
+    /// The pose `--animation` and `--time` ask for, if any.
+    pub fn animation_shot(&self) -> Option<penumbra_render::headless::AnimationShot> {
+        (self.animation.is_some() || self.time.is_some()).then(|| penumbra_render::headless::AnimationShot {
+            clip: self.animation.clone(),
+            time: self.time.unwrap_or(0.0),
+        })
+    }
 }
 
 #[derive(Args, Debug)]

@@ -5,6 +5,7 @@
 pub mod camera;
 pub mod light;
 pub mod mesh;
+pub mod skin;
 pub mod transform;
 pub mod visibility;
 
@@ -15,5 +16,6 @@ pub use light::{
     AmbientLight, DirectionalLight, DiskLight, IesLight, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
 pub use mesh::{Mesh3d, MeshMaterial3d};
+pub use skin::{JointMatrices, MorphWeights, SkinnedMesh};
 pub use transform::{GlobalTransform, Transform};
 pub use visibility::{InheritedVisibility, Visibility};

@@ -56,6 +56,10 @@ pub enum ImportErrorKind {
     },
     #[error("IES profile {index} ({uri}): {reason}")]
     IesProfile { index: usize, uri: String, reason: String },
+    #[error("skin {index}: {reason}")]
+    Skin { index: usize, reason: String },
+    #[error("animation {index}: {reason}")]
+    Animation { index: usize, reason: String },
     #[error("node hierarchy: {0}")]
     Hierarchy(String),
     #[error("scene {index} does not exist (the file has {count})")]

@@ -6,6 +6,8 @@
 //!   on all cores for large scenes); `changed_draws` lists each entity once, in no particular
 //!   order; losing its mesh, placement
 //!   (GlobalTransform) or visibility (InheritedVisibility) component removes it, as for lights;
+//! - deforms: joint matrices and morph weights of skinned and morphed meshes, change-detected
+//!   like draws (`changed_deforms` / `removed_deforms`); non-finite weights count as 0;
 //! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
 //!   or infinite values are refused with a warning; with no light entity at all, the default
 //!   key light and ambient term fill `default_lights` (see [`default_lighting`]);
@@ -18,8 +20,8 @@ use bevy_ecs::prelude::*;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::assets::Assets;
 use penumbra_engine::components::{
-    AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, IesLight, InheritedVisibility, Mesh3d,
-    MeshMaterial3d, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
+    AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, IesLight, InheritedVisibility, JointMatrices,
+    Mesh3d, MeshMaterial3d, MorphWeights, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
 use penumbra_engine::environment::Environment;
 use penumbra_engine::ies::IesProfile;
@@ -28,11 +30,14 @@ use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
 
 use crate::entity_table::Replaced;
-use crate::world::{DrawItem, ExtractedLight, ExtractedView, LightKey, LightKind, RenderScene, Snapshot};
+use crate::world::{
+    DrawItem, ExtractedDeform, ExtractedLight, ExtractedView, LightKey, LightKind, RenderScene, Snapshot,
+};
 
 /// Systems in the order they run.
 pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, ()> {
-    (begin_frame, extract_view, extract_draws, extract_lights, extract_environment, extract_assets).chain()
+    (begin_frame, extract_view, extract_draws, extract_deforms, extract_lights, extract_environment, extract_assets)
+        .chain()
 }
 
 fn begin_frame(time: Option<Res<penumbra_engine::Time>>, mut scene: ResMut<RenderScene>) {
@@ -40,6 +45,58 @@ fn begin_frame(time: Option<Res<penumbra_engine::Time>>, mut scene: ResMut<Rende
     scene.delta_seconds = time.map_or(0.0, |t| t.delta_secs());
     scene.changed_draws.clear();
     scene.removed_draws.clear();
+    scene.changed_deforms.clear();
+    scene.removed_deforms.clear();
+}
+
+/// Poses of skinned and morphed meshes: copied when their joint matrices or weights changed.
+/// A pose without a mesh is kept (the mesh may come back); the renderer pairs them by entity.
+fn extract_deforms(
+    changed: Query<
+        (Entity, Option<&JointMatrices>, Option<&MorphWeights>),
+        Or<(Changed<JointMatrices>, Changed<MorphWeights>)>,
+    >,
+    poses: Query<(Option<&JointMatrices>, Option<&MorphWeights>)>,
+    mut removed_joints: RemovedComponents<JointMatrices>,
+    mut removed_weights: RemovedComponents<MorphWeights>,
+    mut scene: ResMut<RenderScene>,
+) {
+    let scene = &mut *scene;
+    // Listed by the removals below; `changed` may list them again.
+    let mut relisted = 0;
+    for entity in removed_joints.read().chain(removed_weights.read()).collect::<Vec<_>>() {
+        // Losing one of the two leaves the other: re-extract what is left.
+        match poses.get(entity) {
+            Ok((j, w)) if j.is_some() || w.is_some() => {
+                let pose = ExtractedDeform {
+                    joints: j.map(|j| j.0.clone()).unwrap_or_default(),
+                    morph_weights: w.map(|w| w.0.clone()).unwrap_or_default(),
+                };
+                scene.deforms.insert(entity, pose);
+                scene.changed_deforms.push(entity);
+                relisted += 1;
+            }
+            _ => {
+                if scene.deforms.remove(&entity).is_some() {
+                    scene.removed_deforms.push(entity);
+                }
+            }
+        }
+    }
+    for (entity, joints, weights) in &changed {
+        let pose = scene.deforms.entry(entity).or_default();
+        if let Some(j) = joints {
+            pose.joints.clone_from(&j.0);
+        }
+        if let Some(w) = weights {
+            // NaN weights would smear NaN over every vertex: a weight that is not finite counts 0.
+            pose.morph_weights.clear();
+            pose.morph_weights.extend(w.0.iter().map(|w| if w.is_finite() { *w } else { 0.0 }));
+        }
+        if !scene.changed_deforms[..relisted].contains(&entity) {
+            scene.changed_deforms.push(entity);
+        }
+    }
 }
 
 fn extract_view(cameras: Query<(&Camera, &GlobalTransform, &InheritedVisibility)>, mut scene: ResMut<RenderScene>) {

@@ -53,6 +53,15 @@ struct GpuCullBatch {
     _pad: u32,
 }
 
+fn cull_batch(b: &Batch, mesh_pool: &MeshPool) -> GpuCullBatch {
+    let bounds =
+        mesh_pool.entry(b.mesh_id).map(|e| e.aabb).filter(|a| !a.is_empty() && a.min.is_finite() && a.max.is_finite());
+    // Without usable bounds a batch is never culled.
+    let (center, half_extent) =
+        bounds.map_or(([0.0; 3], [f32::MAX / 16.0; 3]), |a| (a.center().to_array(), a.half_extents().to_array()));
+    GpuCullBatch { center, first: b.first, half_extent, _pad: 0 }
+}
+
 /// The hierarchical depth buffer: level 0 is the largest power of two within the frame.
 struct Hzb {
     frame_size: (u32, u32),
@@ -199,11 +208,7 @@ impl GpuCulling {
         for (i, b) in batches.iter().enumerate() {
             item_batch.extend(std::iter::repeat_n(i as u32, b.count as usize));
             let entry = mesh_pool.entry(b.mesh_id);
-            let bounds = entry.map(|e| e.aabb).filter(|a| !a.is_empty() && a.min.is_finite() && a.max.is_finite());
-            // Without usable bounds a batch is never culled.
-            let (center, half_extent) = bounds
-                .map_or(([0.0; 3], [f32::MAX / 16.0; 3]), |a| (a.center().to_array(), a.half_extents().to_array()));
-            gpu_batches.push(GpuCullBatch { center, first: b.first, half_extent, _pad: 0 });
+            gpu_batches.push(cull_batch(b, mesh_pool));
             let words: [u32; ARGS_WORDS as usize] = match entry {
                 Some(e) => match &e.indices {
                     Some(r) => [r.len() as u32, 0, r.start, e.vertices.start, b.first],
@@ -241,6 +246,16 @@ impl GpuCulling {
                 queue.write_buffer(buffer.buffer(), 0, bytes);
             }
         }
+    }
+
+    /// Rewrites one batch's bounds (a deformed draw's copy moved) without a rebuild.
+    pub fn update_batch_bounds(&self, queue: &wgpu::Queue, index: usize, batch: &Batch, mesh_pool: &MeshPool) {
+        if index >= self.batch_count as usize {
+            return;
+        }
+        let gpu = cull_batch(batch, mesh_pool);
+        let offset = (index * std::mem::size_of::<GpuCullBatch>()) as u64;
+        queue.write_buffer(self.batches.buffer(), offset, bytemuck::bytes_of(&gpu));
     }
 
     /// Every frame: the parameters, the depth pyramid for a frame of `frame_size` when

@@ -17,6 +17,7 @@ use std::collections::HashMap;
 
 mod casters;
 mod culling;
+mod deform;
 mod environment;
 mod post;
 pub use casters::CasterKey;
@@ -266,6 +267,8 @@ pub struct PipelineCache {
     cull_layouts: culling::CullLayouts,
     cull: HashMap<CullPhase, wgpu::ComputePipeline>,
     hzb: HashMap<HzbStep, wgpu::ComputePipeline>,
+    deform_layouts: deform::DeformLayouts,
+    deform: Option<wgpu::ComputePipeline>,
     env_layouts: environment::EnvLayouts,
     env: HashMap<EnvStep, wgpu::ComputePipeline>,
     background: HashMap<BackgroundMode, wgpu::RenderPipeline>,
@@ -499,6 +502,8 @@ impl PipelineCache {
             cull_layouts,
             cull: HashMap::new(),
             hzb: HashMap::new(),
+            deform_layouts: deform::deform_layouts(device),
+            deform: None,
             caster_layout,
             caster_pipeline_layouts,
             caster: HashMap::new(),
@@ -637,6 +642,7 @@ impl PipelineCache {
         let caster_hit = lib.depends_on("shadow_caster.wgsl", files);
         let cull_hit = lib.depends_on("cull.wgsl", files);
         let hzb_hit = lib.depends_on("hzb.wgsl", files);
+        let deform_hit = lib.depends_on("deform.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -691,12 +697,17 @@ impl PipelineCache {
                 hzb.push((key, self.create_hzb(device, &mut candidate, key)?));
             }
         }
+        let deform = match (deform_hit, self.deform.is_some()) {
+            (true, true) => Some(self.create_deform(device, &mut candidate)?),
+            _ => None,
+        };
         let env = self.reload_env(device, &mut candidate, files)?;
         let post = self.reload_post(device, &mut candidate, files)?;
         let total = self.env_pipeline_count()
             + self.post_pipeline_count()
             + self.cull.len()
             + self.hzb.len()
+            + self.deform.is_some() as usize
             + self.caster.len()
             + self.forward.len()
             + self.tonemap.len()
@@ -706,6 +717,7 @@ impl PipelineCache {
             + self.composite.len();
         let rebuilt = cull.len()
             + hzb.len()
+            + deform.is_some() as usize
             + caster.len()
             + forward.len()
             + tonemap.len()
@@ -723,6 +735,9 @@ impl PipelineCache {
         self.caster.extend(caster);
         self.cull.extend(cull);
         self.hzb.extend(hzb);
+        if deform.is_some() {
+            self.deform = deform;
+        }
         let rebuilt = rebuilt + self.apply_env_reload(env) + self.apply_post_reload(post);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })

@@ -43,6 +43,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
     ("cull.wgsl", include_str!("../../../../shaders/cull.wgsl")),
     ("hzb.wgsl", include_str!("../../../../shaders/hzb.wgsl")),
+    ("deform.wgsl", include_str!("../../../../shaders/deform.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
     ("shadow_caster.wgsl", include_str!("../../../../shaders/shadow_caster.wgsl")),
     ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
@@ -365,6 +366,7 @@ mod tests {
         }
         lib.compose("mipmap.wgsl", &defs(&[])).unwrap();
         lib.compose("cull.wgsl", &defs(&[])).unwrap();
+        lib.compose("deform.wgsl", &defs(&[])).unwrap();
         lib.compose("cull.wgsl", &defs(&["OCCLUSION_EARLY"])).unwrap();
         lib.compose("cull.wgsl", &defs(&["OCCLUSION_LATE"])).unwrap();
         for d in [&[][..], &["FROM_DEPTH"], &["FROM_DEPTH", "MULTISAMPLED"]] {

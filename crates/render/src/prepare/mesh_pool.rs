@@ -11,6 +11,10 @@
 //!   spawned twice, the same primitive in many files) share one entry and one upload.
 //! - Eviction: an entry no asset refers to, or one not drawn for `evict_after_frames`, is freed;
 //!   an asset whose entry was evicted is uploaded again the next time it is drawn.
+//! - Derived entries: a deformed (skinned or morphed) draw gets its own vertex range, written by
+//!   the deformation pass (`prepare::deform`), sharing its source's index range (the draw's base
+//!   vertex points at the copy). Their owner frees them; eviction and dedup leave them alone.
+//!   The vertex buffer is therefore also a storage buffer.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -64,12 +68,19 @@ pub struct PoolEntry {
     pub topology: Topology,
     pub aabb: Aabb,
     hash: blake3::Hash,
+    /// A deformed draw's vertex copy: its index range belongs to the source entry.
+    derived: bool,
     /// Number of mesh assets that map to this entry.
     asset_refs: u32,
     last_used_frame: u64,
 }
 
 impl PoolEntry {
+    /// A deformed draw's vertex copy (see the module doc).
+    pub fn is_derived(&self) -> bool {
+        self.derived
+    }
+
     /// Vertices the draw consumes.
     pub fn element_count(&self) -> u32 {
         self.indices.as_ref().map_or(self.vertices.len(), |r| r.len()) as u32
@@ -96,9 +107,13 @@ pub struct MeshPool {
     by_asset: HashMap<Handle<Mesh>, (u64, MeshId)>,
     pub evict_after_frames: u64,
     stats: PoolStats,
+    /// Incremented whenever the vertex buffer is replaced (bind groups holding it are stale).
+    vertex_generation: u64,
 }
 
 const VERTEX_SIZE: u64 = std::mem::size_of::<GpuVertex>() as u64;
+/// Vertex-buffer usage: drawn from, and written by the deformation pass.
+const VERTEX_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::VERTEX.union(wgpu::BufferUsages::STORAGE);
 const INDEX_SIZE: u64 = 4;
 
 fn create_buffer(device: &wgpu::Device, label: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -116,12 +131,7 @@ impl MeshPool {
     pub fn new(device: &wgpu::Device) -> Self {
         let (v, i) = (64 * 1024u32, 256 * 1024u32);
         Self {
-            vertex_buffer: create_buffer(
-                device,
-                "mesh pool vertices",
-                v as u64 * VERTEX_SIZE,
-                wgpu::BufferUsages::VERTEX,
-            ),
+            vertex_buffer: create_buffer(device, "mesh pool vertices", v as u64 * VERTEX_SIZE, VERTEX_USAGE),
             index_buffer: create_buffer(device, "mesh pool indices", i as u64 * INDEX_SIZE, wgpu::BufferUsages::INDEX),
             vertex_alloc: RangeAllocator::new(0..v),
             index_alloc: RangeAllocator::new(0..i),
@@ -133,6 +143,7 @@ impl MeshPool {
             // re-upload it, short enough that a streamed-out model's memory comes back.
             evict_after_frames: 300,
             stats: PoolStats::default(),
+            vertex_generation: 0,
         }
     }
 
@@ -141,6 +152,10 @@ impl MeshPool {
     }
     pub fn index_buffer(&self) -> &wgpu::Buffer {
         &self.index_buffer
+    }
+    /// Moves whenever `vertex_buffer()` is a new buffer.
+    pub fn vertex_generation(&self) -> u64 {
+        self.vertex_generation
     }
     pub fn entry(&self, id: MeshId) -> Option<&PoolEntry> {
         self.entries.get(id.0 as usize).and_then(Option::as_ref)
@@ -212,6 +227,7 @@ impl MeshPool {
         let mut freed = 0;
         for i in 0..self.entries.len() {
             let stale = match &self.entries[i] {
+                Some(e) if e.derived => false,
                 Some(e) => e.asset_refs == 0 || frame.saturating_sub(e.last_used_frame) > self.evict_after_frames,
                 None => false,
             };
@@ -228,6 +244,49 @@ impl MeshPool {
             }
         }
         freed
+    }
+
+    /// A vertex range the size of `source`'s for a deformed draw, drawn with `source`'s indices.
+    /// Its contents are undefined until the deformation pass writes them.
+    pub fn allocate_derived(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, source: MeshId) -> Option<MeshId> {
+        let src = self.entry(source)?.clone();
+        let count = src.vertices.len() as u32;
+        let range = self.allocate(device, queue, true, count.max(1));
+        let entry = PoolEntry { vertices: range.start..range.start + count, derived: true, asset_refs: 0, ..src };
+        Some(self.insert_entry(entry))
+    }
+
+    /// Frees a derived entry (other entries are freed by eviction).
+    pub fn free_derived(&mut self, id: MeshId) {
+        if let Some(e) = self.entries.get_mut(id.0 as usize)
+            && e.as_ref().is_some_and(|e| e.derived)
+        {
+            let e = e.take().expect("checked");
+            self.vertex_alloc.free_range(e.vertices.start..e.vertices.start + (e.vertices.len() as u32).max(1));
+            self.free_ids.push(id.0);
+        }
+    }
+
+    /// A derived entry's bounds, which follow its pose.
+    pub fn set_derived_aabb(&mut self, id: MeshId, aabb: Aabb) {
+        if let Some(Some(e)) = self.entries.get_mut(id.0 as usize)
+            && e.derived
+        {
+            e.aabb = aabb;
+        }
+    }
+
+    fn insert_entry(&mut self, entry: PoolEntry) -> MeshId {
+        match self.free_ids.pop() {
+            Some(i) => {
+                self.entries[i as usize] = Some(entry);
+                MeshId(i)
+            }
+            None => {
+                self.entries.push(Some(entry));
+                MeshId(self.entries.len() as u32 - 1)
+            }
+        }
     }
 
     fn upload(
@@ -255,19 +314,11 @@ impl MeshPool {
             topology: mesh.topology,
             aabb: mesh.aabb(),
             hash,
+            derived: false,
             asset_refs: 0,
             last_used_frame: frame,
         };
-        let id = match self.free_ids.pop() {
-            Some(i) => {
-                self.entries[i as usize] = Some(entry);
-                MeshId(i)
-            }
-            None => {
-                self.entries.push(Some(entry));
-                MeshId(self.entries.len() as u32 - 1)
-            }
-        };
+        let id = self.insert_entry(entry);
         self.by_hash.insert(hash, id);
         id
     }
@@ -275,13 +326,7 @@ impl MeshPool {
     /// A range of `len` elements, growing the buffer when it does not fit.
     fn allocate(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, vertex: bool, len: u32) -> Range<u32> {
         let (alloc, buffer, elem, label, usage) = if vertex {
-            (
-                &mut self.vertex_alloc,
-                &mut self.vertex_buffer,
-                VERTEX_SIZE,
-                "mesh pool vertices",
-                wgpu::BufferUsages::VERTEX,
-            )
+            (&mut self.vertex_alloc, &mut self.vertex_buffer, VERTEX_SIZE, "mesh pool vertices", VERTEX_USAGE)
         } else {
             (&mut self.index_alloc, &mut self.index_buffer, INDEX_SIZE, "mesh pool indices", wgpu::BufferUsages::INDEX)
         };
@@ -300,6 +345,9 @@ impl MeshPool {
         queue.submit([copy.finish()]);
         *buffer = new_buffer;
         alloc.grow_to(new_end);
+        if vertex {
+            self.vertex_generation += 1;
+        }
         tracing::debug!("{label}: grew to {new_end} elements");
         alloc.allocate_range(len).expect("grown to fit")
     }

@@ -15,7 +15,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
     let settings = args.look.render_settings(false, None)?;
-    let shot = ShotSettings { size: args.size, camera: args.camera, exposure_ev100: args.look.exposure };
+    let shot = ShotSettings {
+        size: args.size,
+        camera: args.camera,
+        exposure_ev100: args.look.exposure,
+        animation: args.animation_shot(),
+    };
     shot.validate()?;
     let gpu = std::thread::spawn(move || -> Result<Renderer> {
         let ctx = GpuContext::new_headless(&AdapterRequest::default())?;

@@ -126,6 +126,7 @@ impl Viewer {
             size: Some((config.width, config.height)),
             camera: self.args.camera,
             exposure_ev100: self.args.look.exposure,
+            animation: None,
         };
         let (mut app, _) = stage_scene(&self.scene, &shot)?;
         if let Some(env) = self.args.look.environment()? {

@@ -8,6 +8,7 @@
 //! nodes into entities under one [`SceneRoot`], infallibly.
 
 mod accessor;
+mod animation;
 mod ies_lights;
 mod images;
 mod materials;
@@ -20,10 +21,11 @@ use std::sync::Arc;
 use bevy_ecs::prelude::*;
 use glam::{Mat4, Vec3};
 
+use crate::animation::{AnimationClip, AnimationPlayer};
 use crate::assets::{Assets, Handle};
 use crate::components::{
-    Camera, DirectionalLight, Exposure, IesLight, Mesh3d, MeshMaterial3d, Name, PointLight, Projection, SpotLight,
-    Transform, Visibility,
+    Camera, DirectionalLight, Exposure, IesLight, Mesh3d, MeshMaterial3d, MorphWeights, Name, PointLight, Projection,
+    SkinnedMesh, SpotLight, Transform, Visibility,
 };
 use crate::ies::IesProfile;
 use crate::image::Image;
@@ -106,6 +108,9 @@ struct NodeDesc {
     camera: Option<usize>,
     light: Option<usize>,
     ies_light: Option<ies_lights::IesLightDesc>,
+    skin: Option<usize>,
+    /// The node's morph weights (glTF `node.weights`), else its mesh's.
+    weights: Option<Vec<f32>>,
 }
 
 #[derive(Debug, Clone)]
@@ -126,6 +131,9 @@ pub struct GltfScene {
     lights: Vec<LightDesc>,
     /// EXT_lights_ies profiles.
     ies_profiles: Vec<Arc<IesProfile>>,
+    skins: Vec<animation::SkinDesc>,
+    /// Shared by every spawned instance's player.
+    animations: Arc<[AnimationClip]>,
     /// Root nodes of the scene to spawn.
     roots: Vec<usize>,
     scene_index: Option<usize>,
@@ -151,6 +159,10 @@ impl GltfScene {
 
     pub fn scene_index(&self) -> Option<usize> {
         self.scene_index
+    }
+
+    pub fn animations(&self) -> &[AnimationClip] {
+        &self.animations
     }
 
     /// Spawns the selected scene under a new [`SceneRoot`] entity and returns it.
@@ -192,12 +204,53 @@ impl GltfScene {
             default_material,
             ies_profiles: &ies_handles,
         };
+        // Per node: its entity, then the entities drawing its mesh (itself for one primitive).
+        let mut spawned: Vec<Vec<Entity>> = vec![Vec::new(); self.nodes.len()];
         let mut stack: Vec<(usize, Entity)> = self.roots.iter().rev().map(|&n| (n, root)).collect();
         while let Some((node, parent)) = stack.pop() {
-            let e = ctx.spawn_node(world, node, parent);
-            stack.extend(self.nodes[node].children.iter().rev().map(|&c| (c, e)));
+            spawned[node] = ctx.spawn_node(world, node, parent);
+            stack.extend(self.nodes[node].children.iter().rev().map(|&c| (c, spawned[node][0])));
+        }
+        self.spawn_deformers(world, &spawned);
+        if !self.animations.is_empty() {
+            let mut player = AnimationPlayer::new(self.animations.clone(), spawned.into());
+            player.play(0).expect("the file has a clip 0");
+            world.entity_mut(root).insert(player);
         }
         root
+    }
+
+    /// Skins and morph weights go on the entities drawing a node's mesh, once every node (every
+    /// possible joint) has its entity. Joints outside the spawned scene hold the bind pose.
+    fn spawn_deformers(&self, world: &mut World, spawned: &[Vec<Entity>]) {
+        for (node, entities) in spawned.iter().enumerate() {
+            let desc = &self.nodes[node];
+            let Some(mesh) = desc.mesh else { continue };
+            let drawn = if entities.len() > 1 { &entities[1..] } else { entities.as_slice() };
+            let prims = &self.meshes[mesh].1;
+            if let Some(skin) = desc.skin.map(|s| &self.skins[s]) {
+                let joints: Vec<Entity> =
+                    skin.joints.iter().map(|&j| spawned[j].first().copied().unwrap_or(Entity::PLACEHOLDER)).collect();
+                for (&e, p) in drawn.iter().zip(prims) {
+                    if p.mesh.is_skinned() {
+                        world.entity_mut(e).insert(SkinnedMesh {
+                            inverse_bindposes: skin.inverse_bindposes.clone(),
+                            joints: joints.clone(),
+                        });
+                    }
+                }
+            }
+            let targets = prims.iter().map(|p| p.mesh.morph_targets.len()).max().unwrap_or(0);
+            if targets > 0 {
+                let mut weights = desc.weights.clone().unwrap_or_default();
+                weights.resize(targets, 0.0);
+                for (&e, p) in drawn.iter().zip(prims) {
+                    if !p.mesh.morph_targets.is_empty() {
+                        world.entity_mut(e).insert(MorphWeights(weights.clone()));
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -210,7 +263,8 @@ struct SpawnCtx<'a> {
 }
 
 impl SpawnCtx<'_> {
-    fn spawn_node(&self, world: &mut World, node: usize, parent: Entity) -> Entity {
+    /// Returns the node's entity, followed by its primitives' entities when it has several.
+    fn spawn_node(&self, world: &mut World, node: usize, parent: Entity) -> Vec<Entity> {
         let desc = &self.scene.nodes[node];
         let mut e = world.spawn((Name::new(desc.name.clone()), desc.transform, ChildOf(parent)));
         if let Some(c) = desc.camera {
@@ -237,6 +291,7 @@ impl SpawnCtx<'_> {
             });
         }
         let id = e.id();
+        let mut out = vec![id];
         if let Some(m) = desc.mesh {
             let prims = &self.meshes[m];
             let material = |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
@@ -245,17 +300,18 @@ impl SpawnCtx<'_> {
             } else {
                 let mesh_name = &self.scene.meshes[m].0;
                 for (k, (mesh, mat)) in prims.iter().enumerate() {
-                    world.spawn((
+                    let child = world.spawn((
                         Name::new(format!("{mesh_name} primitive {k}")),
                         Transform::IDENTITY,
                         Mesh3d(*mesh),
                         MeshMaterial3d(material(*mat)),
                         ChildOf(id),
                     ));
+                    out.push(child.id());
                 }
             }
         }
-        id
+        out
     }
 }
 
@@ -307,6 +363,13 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     for mesh in document.meshes() {
         let mut prims = Vec::new();
         for prim in mesh.primitives() {
+            if prim.get(&gltf::mesh::Semantic::Joints(1)).is_some() {
+                warnings.push(format!(
+                    "mesh {} primitive {}: more than four joint influences (JOINTS_1); only JOINTS_0/WEIGHTS_0 are used",
+                    mesh.index(),
+                    prim.index()
+                ));
+            }
             let material = prim.material().index();
             let needs = primitive::GeometryNeeds {
                 max_elements: options.max_accessor_elements,
@@ -316,7 +379,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
                     .map(|t| t.uv_set),
             };
             match primitive::build(&prim, &buffers, &needs, mesh.index())? {
-                primitive::Built::Mesh(mesh) => prims.push(PrimitiveDesc { mesh: Arc::new(mesh), material }),
+                primitive::Built::Mesh(mesh) => prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material }),
                 primitive::Built::Skipped(why) => warnings.push(why),
             }
         }
@@ -348,8 +411,14 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             camera: n.camera().map(|c| c.index()),
             light: n.light().map(|l| l.index()),
             ies_light: ies_node_lights[n.index()],
+            skin: n.skin().map(|s| s.index()),
+            weights: n.weights().or_else(|| n.mesh().and_then(|m| m.weights())).map(<[f32]>::to_vec),
         })
-        .collect();
+        .collect::<Vec<NodeDesc>>();
+    let skins = animation::load_skins(&document, &buffers)?;
+    check_skinned_meshes(&nodes, &meshes, &skins)?;
+    let animations: Arc<[AnimationClip]> =
+        animation::load_animations(&document, &buffers, options.max_accessor_elements)?.into();
     let cameras = document
         .cameras()
         .map(|c| {
@@ -408,10 +477,38 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         cameras,
         lights,
         ies_profiles,
+        skins,
+        animations,
         roots,
         scene_index: options.scene.or_else(|| document.default_scene().map(|s| s.index())),
         warnings,
     })
+}
+
+/// Every joint index a skinned vertex uses (with non-zero weight) must name one of its skin's
+/// joints: checked here so that the GPU never reads past a joint list.
+fn check_skinned_meshes(
+    nodes: &[NodeDesc],
+    meshes: &[(String, Vec<PrimitiveDesc>)],
+    skins: &[animation::SkinDesc],
+) -> Result<(), ImportErrorKind> {
+    for (i, node) in nodes.iter().enumerate() {
+        let (Some(skin), Some(mesh)) = (node.skin, node.mesh) else { continue };
+        let joints = skins[skin].joints.len();
+        for (k, p) in meshes[mesh].1.iter().enumerate() {
+            if let Some(j) = p.mesh.max_joint()
+                && j as usize >= joints
+            {
+                return Err(ImportErrorKind::Skin {
+                    index: skin,
+                    reason: format!(
+                        "node {i}'s mesh {mesh} primitive {k} uses joint {j}, but the skin has {joints} joints"
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {

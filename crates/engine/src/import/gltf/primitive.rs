@@ -6,7 +6,7 @@ use gltf::mesh::{Mode, Semantic};
 
 use super::accessor::{read_f32, read_indices};
 use crate::import::ImportErrorKind;
-use crate::mesh::{Mesh, Topology};
+use crate::mesh::{Mesh, MorphTarget, Topology};
 
 /// What the primitive's material asks of its geometry.
 pub(crate) struct GeometryNeeds {
@@ -17,7 +17,7 @@ pub(crate) struct GeometryNeeds {
 }
 
 pub(crate) enum Built {
-    Mesh(Mesh),
+    Mesh(Box<Mesh>),
     /// No POSITION: the spec says to skip rendering the primitive.
     Skipped(String),
 }
@@ -30,7 +30,8 @@ pub(crate) fn build(
 ) -> Result<Built, ImportErrorKind> {
     let primitive = prim.index();
     let acc_err = |a: &gltf::Accessor, reason: String| ImportErrorKind::Accessor { index: a.index(), reason };
-    for a in prim.attributes().map(|(_, a)| a).chain(prim.indices()) {
+    let targets = prim.morph_targets().flat_map(|t| [t.positions(), t.normals(), t.tangents()].into_iter().flatten());
+    for a in prim.attributes().map(|(_, a)| a).chain(prim.indices()).chain(targets) {
         if a.count() as u64 > needs.max_elements {
             return Err(ImportErrorKind::LimitExceeded {
                 what: "an accessor's element count",
@@ -74,6 +75,34 @@ pub(crate) fn build(
         };
     }
 
+    if let Some(a) = prim.get(&Semantic::Joints(0)) {
+        if a.normalized() || !matches!(a.data_type(), gltf::accessor::DataType::U8 | gltf::accessor::DataType::U16) {
+            return Err(acc_err(&a, "JOINTS_0 must be unsigned bytes or shorts, not normalized".into()));
+        }
+        mesh.joints =
+            read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(|j| j.map(|x| x as u16)).collect();
+    }
+    if let Some(a) = prim.get(&Semantic::Weights(0)) {
+        mesh.weights = read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec4::from).collect();
+    }
+    for (target_index, target) in prim.morph_targets().enumerate() {
+        let mut t = MorphTarget::default();
+        for (acc, dst) in [
+            (target.positions(), &mut t.positions),
+            (target.normals(), &mut t.normals),
+            (target.tangents(), &mut t.tangents),
+        ] {
+            if let Some(a) = acc {
+                *dst = read_f32::<3>(&a, buffers)
+                    .map_err(|e| acc_err(&a, format!("morph target {target_index}: {e}")))?
+                    .into_iter()
+                    .map(Vec3::from)
+                    .collect();
+            }
+        }
+        mesh.morph_targets.push(t);
+    }
+
     let elements: Option<Vec<u32>> = match prim.indices() {
         Some(a) => Some(read_indices(&a, buffers).map_err(|e| acc_err(&a, e))?),
         None => None,
@@ -84,6 +113,14 @@ pub(crate) fn build(
     // Dangling indices must be caught before anything below indexes attribute arrays by them.
     mesh.validate().map_err(|source| ImportErrorKind::Mesh { mesh: mesh_index, primitive, source })?;
 
+    if mesh.is_skinned() {
+        let off = mesh.normalize_weights();
+        if off > 0 {
+            tracing::warn!(
+                "mesh {mesh_index} primitive {primitive}: {off} vertices' WEIGHTS_0 did not sum to 1; normalised"
+            );
+        }
+    }
     let replaced = mesh.sanitize();
     if replaced > 0 {
         tracing::warn!("mesh {mesh_index} primitive {primitive}: replaced {replaced} non-finite attribute values");
@@ -105,7 +142,7 @@ pub(crate) fn build(
             }
         }
     }
-    Ok(Built::Mesh(mesh))
+    Ok(Built::Mesh(Box::new(mesh)))
 }
 
 /// Strips, fans and loops become lists, following the glTF 2.0 spec §3.7.2.1 exactly so the

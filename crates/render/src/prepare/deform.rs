@@ -1,0 +1,632 @@
+//! The mesh deformer: the one owner of skinning and morph-target data on the GPU and of the
+//! compute pass that applies them (`shaders/deform.wgsl`).
+//!
+//! How a pose reaches the screen:
+//! 1. Source data, once per mesh asset version: per vertex four joints and four weights, and
+//!    per morph target per vertex the position, normal and tangent displacements, packed into
+//!    one storage buffer of words (range-allocated; a CPU mirror re-uploads it if it grows).
+//!    Beside it, on the CPU, what bounds need: per joint the bind-space box of the vertices it
+//!    moves, the box of unskinned vertices, and per target its largest displacement per axis.
+//! 2. Per deformed draw (an entity whose `Mesh3d` has skin or morph data and that carries
+//!    `JointMatrices` or `MorphWeights`): a derived mesh-pool entry, its own vertex copy drawn
+//!    with the source's indices. Batching, culling, shadow casters and the forward pass treat
+//!    it as an ordinary mesh, so the pose is computed once however many passes draw it.
+//! 3. Per frame, only for draws whose pose changed (or that are new): a job (source and copy
+//!    ranges, data offsets), the joint matrices (three rows each, identity beyond the pose's
+//!    joints) and the weights, packed contiguously for this frame's jobs and uploaded; then one
+//!    dispatch (one workgroup row per job). A still character costs nothing after its first
+//!    frame.
+//! 4. Bounds: the copy's box is recomputed on the CPU from the pose, conservatively (skinning
+//!    blends joint transforms with weights summing to 1, so a vertex stays within the convex
+//!    hull of its joints' images of it, each inside that joint's transformed box, grown by the
+//!    weighted morph displacements), and handed to the pool; culling and shadow fitting use it.
+//!
+//! Limits: the whole vertex pool is bound as one storage buffer, so deformation needs the pool
+//! within `max_storage_buffer_binding_size` (128 MiB on lavapipe: two million vertices); past
+//! it draws keep their bind pose and an error is logged once. A mesh with more than
+//! 65 535 × 64 vertices is not deformed either (the dispatch's row limit).
+
+use std::collections::{HashMap, HashSet};
+use std::ops::Range;
+
+use bevy_ecs::entity::Entity;
+use bytemuck::{Pod, Zeroable};
+use glam::{Affine3A, Mat4, Vec3};
+use penumbra_engine::Handle;
+use penumbra_engine::bounds::Aabb;
+use penumbra_engine::mesh::Mesh;
+use range_alloc::RangeAllocator;
+
+use crate::pipelines::pipeline_cache::PipelineCache;
+use crate::pipelines::shader_library::ShaderError;
+use crate::prepare::buffer::GrowableBuffer;
+use crate::prepare::mesh_pool::{MeshId, MeshPool};
+use crate::timing::GpuTimer;
+use crate::world::{ExtractedDeform, RenderScene};
+
+const WORKGROUP: u32 = 64;
+const NO_SKIN: u32 = u32::MAX;
+/// Words per vertex per morph target (`deform.wgsl`'s MORPH_WORDS).
+const MORPH_WORDS: usize = 9;
+/// Words per skinned vertex (`deform.wgsl`'s SKIN_WORDS).
+const SKIN_WORDS: usize = 6;
+/// Workgroup rows one dispatch dimension holds (WebGPU's guaranteed minimum).
+const MAX_ROWS: u32 = 65_535;
+
+/// Mirrors `struct Job` in `shaders/deform.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuJob {
+    source_vertex: u32,
+    output_vertex: u32,
+    vertex_count: u32,
+    skin_offset: u32,
+    joint_row: u32,
+    morph_offset: u32,
+    target_count: u32,
+    weight_offset: u32,
+}
+
+/// A mesh asset's deformation data.
+struct Source {
+    version: u64,
+    /// Words in `data`.
+    range: Range<u32>,
+    vertex_count: u32,
+    skin_offset: Option<u32>,
+    morph_offset: u32,
+    target_count: u32,
+    /// Joints the vertices use (the largest index + 1).
+    joint_count: u32,
+    /// Per joint, the bind-space box of the vertices it moves (weight > 0).
+    joint_boxes: Vec<Aabb>,
+    /// Vertices no joint moves (all weights 0), or all vertices without a skin.
+    rest_box: Aabb,
+    /// Per target, its largest displacement along each axis.
+    morph_extents: Vec<Vec3>,
+    /// Deformed draws using it.
+    users: u32,
+}
+
+/// A deformed draw.
+struct Instance {
+    mesh: Handle<Mesh>,
+    version: u64,
+    source_entry: MeshId,
+    output: MeshId,
+}
+
+/// What `prepare` did this frame, for the renderer.
+#[derive(Debug, Default)]
+pub struct DeformFrame {
+    /// Jobs the pass will run (0: the pass is left out).
+    pub jobs: usize,
+    /// A deformed draw appeared, went, or got a new copy: batches must be rebuilt.
+    pub outputs_changed: bool,
+    /// Copies whose bounds changed (their batches' cull bounds follow).
+    pub moved: Vec<MeshId>,
+}
+
+pub struct MeshDeformer {
+    sources: HashMap<Handle<Mesh>, Source>,
+    data: Vec<u32>,
+    data_alloc: RangeAllocator<u32>,
+    data_buffer: GrowableBuffer,
+    /// Words of `data` to upload before the next dispatch (everything after growth).
+    data_dirty: Option<Range<u32>>,
+    instances: HashMap<Entity, Instance>,
+    jobs: Vec<GpuJob>,
+    joint_rows: Vec<[f32; 4]>,
+    weights: Vec<f32>,
+    job_buffer: GrowableBuffer,
+    joint_buffer: GrowableBuffer,
+    weight_buffer: GrowableBuffer,
+    params: wgpu::Buffer,
+    /// The bind group, and the pool's vertex generation it was made for.
+    bind_group: Option<(u64, wgpu::BindGroup)>,
+    /// The widest job this frame, in workgroups.
+    max_groups: u32,
+    warned_too_large: bool,
+}
+
+impl MeshDeformer {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let storage = wgpu::BufferUsages::STORAGE;
+        Self {
+            sources: HashMap::new(),
+            data: Vec::new(),
+            data_alloc: RangeAllocator::new(0..0),
+            data_buffer: GrowableBuffer::new(device, "deform data", storage, 256),
+            data_dirty: None,
+            instances: HashMap::new(),
+            jobs: Vec::new(),
+            joint_rows: Vec::new(),
+            weights: Vec::new(),
+            job_buffer: GrowableBuffer::new(device, "deform jobs", storage, 256),
+            joint_buffer: GrowableBuffer::new(device, "joint matrices", storage, 256),
+            weight_buffer: GrowableBuffer::new(device, "morph weights", storage, 256),
+            params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("deform params"),
+                size: 16,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            bind_group: None,
+            max_groups: 0,
+            warned_too_large: false,
+        }
+    }
+
+    /// The vertex copy drawn for `entity`, if it is deformed and still draws `mesh`.
+    pub fn output(&self, entity: Entity, mesh: Handle<Mesh>) -> Option<MeshId> {
+        self.instances.get(&entity).filter(|i| i.mesh == mesh).map(|i| i.output)
+    }
+
+    /// Deformed draws.
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// GPU bytes held (source data, this frame's jobs, joints and weights).
+    pub fn gpu_bytes(&self) -> u64 {
+        self.data_buffer.capacity()
+            + self.job_buffer.capacity()
+            + self.joint_buffer.capacity()
+            + self.weight_buffer.capacity()
+    }
+
+    /// Syncs deformed draws with the scene and plans this frame's jobs. `draw_mesh` gives a
+    /// drawn entity's mesh and its pool entry. `resync`: the change lists cannot be trusted
+    /// (the renderer missed a frame): every pose counts as changed.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pool: &mut MeshPool,
+        scene: &RenderScene,
+        draw_mesh: impl Fn(Entity) -> Option<(Handle<Mesh>, MeshId)>,
+        resync: bool,
+    ) -> DeformFrame {
+        let mut frame = DeformFrame::default();
+        self.jobs.clear();
+        self.joint_rows.clear();
+        self.weights.clear();
+        self.max_groups = 0;
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if pool.vertex_buffer().size() > limit {
+            if !self.warned_too_large {
+                tracing::error!(
+                    "the mesh pool ({} MiB) exceeds this adapter's storage binding limit ({} MiB): skinned and \
+                     morphed meshes are drawn in their bind pose",
+                    pool.vertex_buffer().size() >> 20,
+                    limit >> 20
+                );
+                self.warned_too_large = true;
+            }
+            frame.outputs_changed = !self.instances.is_empty();
+            for (_, instance) in self.instances.drain() {
+                pool.free_derived(instance.output);
+            }
+            return frame;
+        }
+        let changed: HashSet<Entity> = scene.changed_deforms.iter().copied().collect();
+        // Draws that are no longer deformed (pose gone, mesh gone, mesh without deform data).
+        let gone: Vec<Entity> = self
+            .instances
+            .iter()
+            .filter(|(e, i)| {
+                !scene.deforms.contains_key(e)
+                    || draw_mesh(**e).is_none_or(|(mesh, entry)| {
+                        let version = scene.meshes.get(&mesh).map(|s| s.version);
+                        mesh != i.mesh || entry != i.source_entry || version != Some(i.version)
+                    })
+            })
+            .map(|(e, _)| *e)
+            .collect();
+        for e in gone {
+            self.drop_instance(e, pool);
+            frame.outputs_changed = true;
+        }
+        // Entity order, so jobs (and anything allocated for them) come out the same every run.
+        let mut entities: Vec<Entity> = scene.deforms.keys().copied().collect();
+        entities.sort_unstable();
+        for entity in entities {
+            let Some((mesh, entry)) = draw_mesh(entity) else { continue };
+            let Some(snapshot) = scene.meshes.get(&mesh) else { continue };
+            let pose = &scene.deforms[&entity];
+            let is_new = !self.instances.contains_key(&entity);
+            if is_new {
+                if !self.ensure_source(mesh, snapshot.version, &snapshot.data) {
+                    continue;
+                }
+                let Some(output) = pool.allocate_derived(device, queue, entry) else { continue };
+                if let Some(s) = self.sources.get_mut(&mesh) {
+                    s.users += 1;
+                }
+                self.instances
+                    .insert(entity, Instance { mesh, version: snapshot.version, source_entry: entry, output });
+                frame.outputs_changed = true;
+            } else if !resync && !changed.contains(&entity) {
+                continue;
+            }
+            let (Some(instance), Some(entry_range)) =
+                (self.instances.get(&entity), pool.entry(entry).map(|e| e.vertices.clone()))
+            else {
+                continue;
+            };
+            let output = instance.output;
+            let Some(output_start) = pool.entry(output).map(|e| e.vertices.start) else { continue };
+            let source = &self.sources[&mesh];
+            let job = push_job(&mut self.joint_rows, &mut self.weights, source, pose, entry_range.start, output_start);
+            self.jobs.push(job);
+            self.max_groups = self.max_groups.max(source.vertex_count.div_ceil(WORKGROUP));
+            pool.set_derived_aabb(output, pose_bounds(source, pose));
+            frame.moved.push(output);
+        }
+        frame.jobs = self.jobs.len();
+        self.upload(device, queue, pool);
+        frame
+    }
+
+    fn drop_instance(&mut self, entity: Entity, pool: &mut MeshPool) {
+        let Some(instance) = self.instances.remove(&entity) else { return };
+        pool.free_derived(instance.output);
+        let done = self.sources.get_mut(&instance.mesh).is_some_and(|s| {
+            s.users = s.users.saturating_sub(1);
+            s.users == 0
+        });
+        if done && let Some(s) = self.sources.remove(&instance.mesh) {
+            self.data_alloc.free_range(s.range);
+        }
+    }
+
+    /// Packs `mesh`'s deformation data if it is not there at this version. False when the mesh
+    /// has nothing to deform (or is too large to).
+    fn ensure_source(&mut self, handle: Handle<Mesh>, version: u64, mesh: &Mesh) -> bool {
+        if let Some(s) = self.sources.get(&handle) {
+            if s.version == version {
+                return true;
+            }
+            if s.users > 0 {
+                // Older instances still point at it; they are re-made next frame (version check).
+                return false;
+            }
+            let s = self.sources.remove(&handle).expect("checked");
+            self.data_alloc.free_range(s.range);
+        }
+        let n = mesh.vertex_count();
+        if (!mesh.is_skinned() && mesh.morph_targets.is_empty()) || n == 0 {
+            return false;
+        }
+        if n.div_ceil(WORKGROUP as usize) > MAX_ROWS as usize {
+            tracing::warn!("a mesh of {n} vertices is too large to deform on the GPU; drawn in its bind pose");
+            return false;
+        }
+        let words = source_words(mesh);
+        let range = self.allocate_words(words.max(1));
+        let source =
+            pack_source(mesh, version, range.clone(), &mut self.data[range.start as usize..range.end as usize]);
+        self.mark_dirty(range);
+        self.sources.insert(handle, source);
+        true
+    }
+
+    fn allocate_words(&mut self, words: u32) -> Range<u32> {
+        if let Ok(r) = self.data_alloc.allocate_range(words) {
+            return r;
+        }
+        let old = self.data_alloc.initial_range().end;
+        let new = old.saturating_mul(2).max(old + words).max(4096);
+        self.data_alloc.grow_to(new);
+        self.data.resize(new as usize, 0);
+        self.data_dirty = Some(0..new);
+        self.data_alloc.allocate_range(words).expect("grown to fit")
+    }
+
+    fn mark_dirty(&mut self, r: Range<u32>) {
+        self.data_dirty = Some(match self.data_dirty.take() {
+            Some(d) => d.start.min(r.start)..d.end.max(r.end),
+            None => r,
+        });
+    }
+
+    fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, pool: &MeshPool) {
+        let mut rebind = false;
+        if let Some(r) = self.data_dirty.take() {
+            if self.data_buffer.reserve(device, self.data.len() as u64 * 4) {
+                rebind = true;
+                queue.write_buffer(self.data_buffer.buffer(), 0, bytemuck::cast_slice(&self.data));
+            } else if !r.is_empty() {
+                let words = &self.data[r.start as usize..r.end as usize];
+                queue.write_buffer(self.data_buffer.buffer(), r.start as u64 * 4, bytemuck::cast_slice(words));
+            }
+        }
+        if self.jobs.is_empty() {
+            return;
+        }
+        rebind |= self.job_buffer.reserve(device, std::mem::size_of_val(self.jobs.as_slice()) as u64);
+        rebind |= self.joint_buffer.reserve(device, (self.joint_rows.len().max(1) * 16) as u64);
+        rebind |= self.weight_buffer.reserve(device, (self.weights.len().max(1) * 4) as u64);
+        queue.write_buffer(self.job_buffer.buffer(), 0, bytemuck::cast_slice(&self.jobs));
+        if !self.joint_rows.is_empty() {
+            queue.write_buffer(self.joint_buffer.buffer(), 0, bytemuck::cast_slice(&self.joint_rows));
+        }
+        if !self.weights.is_empty() {
+            queue.write_buffer(self.weight_buffer.buffer(), 0, bytemuck::cast_slice(&self.weights));
+        }
+        queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&[self.jobs.len() as u32, 0, 0, 0]));
+        if rebind || self.bind_group.as_ref().is_none_or(|(g, _)| *g != pool.vertex_generation()) {
+            self.bind_group = None;
+        }
+    }
+
+    /// Runs this frame's jobs. Call after `prepare` when its frame had jobs.
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        pool: &MeshPool,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), ShaderError> {
+        if self.jobs.is_empty() {
+            return Ok(());
+        }
+        pipelines.deform(device)?;
+        if self.bind_group.is_none() {
+            fn buf(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+                wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+            }
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("deform"),
+                layout: pipelines.deform_layout(),
+                entries: &[
+                    buf(0, pool.vertex_buffer()),
+                    buf(1, self.job_buffer.buffer()),
+                    buf(2, self.data_buffer.buffer()),
+                    buf(3, self.joint_buffer.buffer()),
+                    buf(4, self.weight_buffer.buffer()),
+                    buf(5, &self.params),
+                ],
+            });
+            self.bind_group = Some((pool.vertex_generation(), group));
+        }
+        let pipeline = pipelines.deform(device)?;
+        let (_, group) = self.bind_group.as_ref().expect("made above");
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("deform"),
+            timestamp_writes: timer.and_then(|t| t.compute_pass("deform")),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        let jobs = self.jobs.len() as u32;
+        pass.dispatch_workgroups(self.max_groups, jobs.min(MAX_ROWS), jobs.div_ceil(MAX_ROWS));
+        Ok(())
+    }
+}
+
+/// Appends a job's joint rows and weights to this frame's packing and returns the job.
+fn push_job(
+    joint_rows: &mut Vec<[f32; 4]>,
+    weights: &mut Vec<f32>,
+    source: &Source,
+    pose: &ExtractedDeform,
+    source_vertex: u32,
+    output_vertex: u32,
+) -> GpuJob {
+    let joint_row = joint_rows.len() as u32;
+    if source.skin_offset.is_some() {
+        // Joints the pose lacks (a script's skin shorter than the mesh needs) hold the bind
+        // pose rather than reading past this draw's matrices.
+        for j in 0..source.joint_count as usize {
+            let m = pose.joints.get(j).copied().unwrap_or(Mat4::IDENTITY);
+            let rows = m.transpose();
+            joint_rows.extend([rows.x_axis.to_array(), rows.y_axis.to_array(), rows.z_axis.to_array()]);
+        }
+    }
+    let weight_offset = weights.len() as u32;
+    for t in 0..source.target_count as usize {
+        weights.push(pose.morph_weights.get(t).copied().unwrap_or(0.0));
+    }
+    GpuJob {
+        source_vertex,
+        output_vertex,
+        vertex_count: source.vertex_count,
+        skin_offset: source.skin_offset.unwrap_or(NO_SKIN),
+        joint_row,
+        morph_offset: source.morph_offset,
+        target_count: source.target_count,
+        weight_offset,
+    }
+}
+
+fn source_words(mesh: &Mesh) -> u32 {
+    let n = mesh.vertex_count();
+    let skin = if mesh.is_skinned() { n * SKIN_WORDS } else { 0 };
+    (skin + mesh.morph_targets.len() * n * MORPH_WORDS) as u32
+}
+
+/// Packs `mesh`'s joints, weights and morph displacements into `words` (which start at word
+/// `range.start` of the data buffer) and measures what bounds need.
+fn pack_source(mesh: &Mesh, version: u64, range: Range<u32>, words: &mut [u32]) -> Source {
+    let n = mesh.vertex_count();
+    let mut at = 0;
+    let skin_offset = mesh.is_skinned().then_some(range.start);
+    let mut joint_boxes: Vec<Aabb> = Vec::new();
+    let mut rest_box = Aabb::EMPTY;
+    if mesh.is_skinned() {
+        for (v, (joints, weights)) in mesh.joints.iter().zip(&mesh.weights).enumerate() {
+            let w = &mut words[at..at + SKIN_WORDS];
+            w[0] = joints[0] as u32 | (joints[1] as u32) << 16;
+            w[1] = joints[2] as u32 | (joints[3] as u32) << 16;
+            for i in 0..4 {
+                w[2 + i] = weights[i].to_bits();
+            }
+            at += SKIN_WORDS;
+            let p = mesh.positions[v];
+            let point = Aabb { min: p, max: p };
+            let mut moved = false;
+            for (j, w) in joints.iter().zip(weights.to_array()) {
+                if w > 0.0 {
+                    let j = *j as usize;
+                    if joint_boxes.len() <= j {
+                        joint_boxes.resize(j + 1, Aabb::EMPTY);
+                    }
+                    joint_boxes[j] = joint_boxes[j].union(&point);
+                    moved = true;
+                }
+            }
+            if !moved {
+                rest_box = rest_box.union(&point);
+            }
+        }
+    } else {
+        rest_box = mesh.aabb();
+    }
+    let morph_offset = range.start + at as u32;
+    let mut morph_extents = Vec::with_capacity(mesh.morph_targets.len());
+    for t in &mesh.morph_targets {
+        let mut extent = Vec3::ZERO;
+        for v in 0..n {
+            let get = |a: &Vec<Vec3>| a.get(v).copied().unwrap_or(Vec3::ZERO);
+            let (dp, dn, dt) = (get(&t.positions), get(&t.normals), get(&t.tangents));
+            extent = extent.max(dp.abs());
+            let w = &mut words[at..at + MORPH_WORDS];
+            for (i, x) in dp.to_array().into_iter().chain(dn.to_array()).chain(dt.to_array()).enumerate() {
+                w[i] = x.to_bits();
+            }
+            at += MORPH_WORDS;
+        }
+        morph_extents.push(extent);
+    }
+    Source {
+        version,
+        range,
+        vertex_count: n as u32,
+        skin_offset,
+        morph_offset,
+        target_count: mesh.morph_targets.len() as u32,
+        // Every index read, weighted or not (the shader reads all four), has its matrix.
+        joint_count: mesh.joints.iter().flatten().map(|&j| j as u32 + 1).max().unwrap_or(0),
+        joint_boxes,
+        rest_box,
+        morph_extents,
+        users: 0,
+    }
+}
+
+/// The deformed copy's bounds under `pose` (see the module doc, step 4).
+fn pose_bounds(source: &Source, pose: &ExtractedDeform) -> Aabb {
+    let mut grow = Vec3::ZERO;
+    for (t, extent) in source.morph_extents.iter().enumerate() {
+        grow += pose.morph_weights.get(t).copied().unwrap_or(0.0).abs() * *extent;
+    }
+    let grown = |b: &Aabb| if b.is_empty() { *b } else { Aabb { min: b.min - grow, max: b.max + grow } };
+    let mut bounds = grown(&source.rest_box);
+    for (j, b) in source.joint_boxes.iter().enumerate() {
+        if b.is_empty() {
+            continue;
+        }
+        let m = pose.joints.get(j).copied().unwrap_or(Mat4::IDENTITY);
+        bounds = bounds.union(&grown(b).transformed(&Affine3A::from_mat4(m)));
+    }
+    bounds
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Quat, Vec4};
+    use penumbra_engine::mesh::MorphTarget;
+    use penumbra_engine::scenes::SplitMix64;
+
+    /// What `deform.wgsl` computes for a position, on the CPU.
+    fn deform_position(mesh: &Mesh, v: usize, pose: &ExtractedDeform) -> Vec3 {
+        let mut p = mesh.positions[v];
+        for (t, target) in mesh.morph_targets.iter().enumerate() {
+            p += pose.morph_weights[t] * target.positions[v];
+        }
+        let w = mesh.weights[v];
+        if w.element_sum() == 0.0 {
+            return p;
+        }
+        let j = mesh.joints[v];
+        let m: Mat4 = (0..4).map(|i| pose.joints[j[i] as usize] * w[i]).fold(Mat4::ZERO, |a, b| a + b);
+        m.transform_point3(p)
+    }
+
+    #[test]
+    fn pose_bounds_contain_every_skinned_and_morphed_vertex() {
+        let mut rng = SplitMix64(7);
+        let n = 400;
+        let mut mesh = Mesh::default();
+        let mut target = MorphTarget::default();
+        for i in 0..n {
+            mesh.positions.push(Vec3::new(rng.uniform(-1.0, 1.0), rng.uniform(0.0, 2.0), rng.uniform(-1.0, 1.0)));
+            target.positions.push(Vec3::new(rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2), 0.0));
+            let j = [(i % 5) as u16, ((i / 5) % 5) as u16, 0, 4];
+            // Every tenth vertex is unskinned (all weights 0).
+            let w = if i % 10 == 0 {
+                Vec4::ZERO
+            } else {
+                let w = Vec4::new(rng.uniform(0.0, 1.0), rng.uniform(0.0, 1.0), rng.uniform(0.0, 0.3), 0.0);
+                w / w.element_sum()
+            };
+            mesh.joints.push(j);
+            mesh.weights.push(w);
+        }
+        mesh.morph_targets.push(target);
+        let words = source_words(&mesh);
+        let mut data = vec![0u32; words as usize];
+        let source = pack_source(&mesh, 1, 0..words, &mut data);
+        assert_eq!(source.joint_count, 5);
+        for trial in 0..20 {
+            let pose = ExtractedDeform {
+                joints: (0..5)
+                    .map(|j| {
+                        Mat4::from_scale_rotation_translation(
+                            Vec3::splat(rng.uniform(0.5, 2.0)),
+                            Quat::from_rotation_y(rng.uniform(-3.0, 3.0) + j as f32),
+                            Vec3::new(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), 0.0),
+                        )
+                    })
+                    .collect(),
+                morph_weights: vec![rng.uniform(-1.5, 1.5)],
+            };
+            let b = pose_bounds(&source, &pose);
+            for v in 0..n {
+                let p = deform_position(&mesh, v, &pose);
+                let inside = p.cmpge(b.min - 1e-4).all() && p.cmple(b.max + 1e-4).all();
+                assert!(inside, "trial {trial}: vertex {v} at {p} is outside {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn packing_puts_joints_weights_and_displacements_where_the_shader_reads_them() {
+        let mut mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X],
+            joints: vec![[1, 2, 3, 65535], [0; 4]],
+            weights: vec![Vec4::new(0.5, 0.25, 0.25, 0.0), Vec4::X],
+            ..Default::default()
+        };
+        mesh.morph_targets.push(MorphTarget {
+            positions: vec![Vec3::Y, Vec3::Z],
+            normals: vec![],
+            tangents: vec![Vec3::X, Vec3::X],
+        });
+        let words = source_words(&mesh);
+        assert_eq!(words as usize, 2 * SKIN_WORDS + 2 * MORPH_WORDS);
+        let mut data = vec![0u32; words as usize + 10];
+        let s = pack_source(&mesh, 1, 10..10 + words, &mut data[10..]);
+        assert_eq!((s.skin_offset, s.morph_offset), (Some(10), 10 + 2 * SKIN_WORDS as u32));
+        let d = &data[10..];
+        assert_eq!(d[0], 1 | 2 << 16);
+        assert_eq!(d[1], 3 | 65535 << 16);
+        assert_eq!(f32::from_bits(d[3]), 0.25);
+        let m = 2 * SKIN_WORDS;
+        // Target 0, vertex 1: position (0, 0, 1), normal 0, tangent (1, 0, 0).
+        let v1: Vec<f32> = d[m + MORPH_WORDS..m + 2 * MORPH_WORDS].iter().map(|w| f32::from_bits(*w)).collect();
+        assert_eq!(v1, [0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+    }
+}
