@@ -256,6 +256,28 @@ impl Mesh {
             .collect();
     }
 
+    /// Smooth normals: each vertex gets the area-weighted sum of the normals of every triangle
+    /// touching its position (vertices split only by UV or colour are welded for this), the
+    /// shading a missing-normals OBJ most often intends. Triangle lists only.
+    pub fn compute_smooth_normals(&mut self) {
+        if self.topology != Topology::TriangleList {
+            return;
+        }
+        let indices = self.indices.clone().unwrap_or_else(|| (0..self.positions.len() as u32).collect());
+        let key = |p: Vec3| p.to_array().map(f32::to_bits);
+        let mut sums: std::collections::HashMap<[u32; 3], Vec3> = std::collections::HashMap::new();
+        for t in indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| self.positions[i as usize]);
+            // The cross product's length is twice the area: the weighting.
+            let n = (b - a).cross(c - a);
+            for p in [a, b, c] {
+                *sums.entry(key(p)).or_default() += n;
+            }
+        }
+        self.normals =
+            self.positions.iter().map(|p| sums.get(&key(*p)).map_or(Vec3::Z, |n| n.normalize_or(Vec3::Z))).collect();
+    }
+
     /// MikkTSpace tangents (the space glTF normal maps are baked in), from `NORMAL` and the given
     /// UV set. Vertices MikkTSpace leaves undefined (degenerate faces) get +X with sign +1.
     pub fn generate_tangents(&mut self, uv_set: u32) -> Result<(), MeshError> {
@@ -368,6 +390,22 @@ mod tests {
         m.compute_flat_normals();
         assert_eq!(m.positions.len(), 6);
         assert!(m.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6));
+    }
+
+    #[test]
+    fn smooth_normals_weld_split_vertices_and_weight_by_area() {
+        // Two triangles folded along the x axis, the shared edge duplicated (as a UV seam would).
+        let mut m = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO, Vec3::Z, Vec3::X],
+            indices: Some(vec![0, 1, 2, 3, 4, 5]),
+            ..Default::default()
+        };
+        m.compute_smooth_normals();
+        let fold = Vec3::new(0.0, 1.0, 1.0).normalize();
+        for v in [0, 1, 3, 5] {
+            assert!((m.normals[v] - fold).length() < 1e-6, "shared edge vertex {v}: {}", m.normals[v]);
+        }
+        assert!((m.normals[2] - Vec3::Z).length() < 1e-6 && (m.normals[4] - Vec3::Y).length() < 1e-6);
     }
 
     #[test]

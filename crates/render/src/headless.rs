@@ -6,7 +6,7 @@ use bevy_ecs::prelude::*;
 use penumbra_engine::animation::{AnimationPlayer, PlayerError};
 use penumbra_engine::components::{Camera, Exposure};
 use penumbra_engine::framing::{framing_camera_from, world_bounds};
-use penumbra_engine::import::{GltfCamera, GltfScene};
+use penumbra_engine::import::{GltfCamera, SpawnScene};
 use penumbra_engine::{App, CorePlugin, Time};
 
 use crate::renderer::{Renderer, RendererError};
@@ -88,7 +88,7 @@ impl ShotSettings {
 }
 
 /// An app with the scene spawned and one active camera; returns it with the output size.
-pub fn stage_scene(scene: &GltfScene, settings: &ShotSettings) -> Result<(App, (u32, u32)), ShotError> {
+pub fn stage_scene(scene: &impl SpawnScene, settings: &ShotSettings) -> Result<(App, (u32, u32)), ShotError> {
     settings.validate()?;
     let mut app = App::new();
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);

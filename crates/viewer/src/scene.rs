@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use penumbra_engine::import::{GltfScene, ImportError, ImportOptions};
+use penumbra_engine::import::{GltfScene, ImportError, ImportOptions, SceneFile};
 
 use crate::cli::SceneArgs;
 
@@ -15,10 +15,10 @@ pub fn options(args: &SceneArgs) -> ImportOptions {
 }
 
 /// Loads `path`, or the embedded default scene when `None`.
-pub fn load(path: Option<&Path>, args: &SceneArgs) -> Result<GltfScene, ImportError> {
+pub fn load(path: Option<&Path>, args: &SceneArgs) -> Result<SceneFile, ImportError> {
     let opts = options(args);
     match path {
-        Some(p) => GltfScene::load(p, &opts),
-        None => GltfScene::from_bytes(DEFAULT_SCENE, &PathBuf::from(DEFAULT_SCENE_NAME), &opts),
+        Some(p) => SceneFile::load(p, &opts),
+        None => GltfScene::from_bytes(DEFAULT_SCENE, &PathBuf::from(DEFAULT_SCENE_NAME), &opts).map(SceneFile::Gltf),
     }
 }

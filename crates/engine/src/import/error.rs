@@ -29,7 +29,7 @@ impl ImportError {
 pub enum ImportErrorKind {
     #[error("cannot read the file: {0}")]
     Io(#[source] std::io::Error),
-    #[error("unsupported file type (expected .gltf or .glb)")]
+    #[error("unsupported file type (expected .gltf, .glb or .obj)")]
     UnknownFormat,
     #[error("not a valid glTF file: {0}")]
     Malformed(String),
@@ -56,6 +56,8 @@ pub enum ImportErrorKind {
     },
     #[error("IES profile {index} ({uri}): {reason}")]
     IesProfile { index: usize, uri: String, reason: String },
+    #[error("{}{reason}", line.map_or_else(String::new, |l| format!("line {l}: ")))]
+    Obj { line: Option<usize>, reason: String },
     #[error("skin {index}: {reason}")]
     Skin { index: usize, reason: String },
     #[error("animation {index}: {reason}")]

@@ -18,7 +18,7 @@ use glam::{Vec2, Vec3};
 use penumbra_engine::components::{Camera, GlobalTransform, Projection, Transform};
 use penumbra_engine::environment::Environment;
 use penumbra_engine::framing::world_bounds;
-use penumbra_engine::import::GltfScene;
+use penumbra_engine::import::SceneFile;
 use penumbra_engine::{App, Time, TimeMode};
 use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
@@ -58,7 +58,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
 
 struct Viewer {
     args: ViewArgs,
-    scene: GltfScene,
+    scene: SceneFile,
     settings: RenderSettings,
     running: Option<Running>,
     error: Option<anyhow::Error>,
@@ -87,7 +87,7 @@ struct Running {
 
 impl Viewer {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
-        let title = format!("penumbra — {}", self.scene.path.display());
+        let title = format!("penumbra — {}", self.scene.path().display());
         let window = Arc::new(
             event_loop
                 .create_window(

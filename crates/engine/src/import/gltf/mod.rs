@@ -10,10 +10,10 @@
 mod accessor;
 mod animation;
 mod ies_lights;
-mod images;
+pub(crate) mod images;
 mod materials;
 mod primitive;
-mod source;
+pub(crate) mod source;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
