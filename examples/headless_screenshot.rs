@@ -1,15 +1,17 @@
-//! A scene written as Rust, rendered headless to a PNG: the pattern for screenshot tests of your
-//! own scenes. Run with `cargo run --example headless_screenshot -- out.png`.
+//! A scene written as Rust, rendered headless to a PNG, and a screenshot test of it: the pattern
+//! for testing your own scenes. `cargo run --example headless_screenshot -- --headless out.png`
+//! writes the image (without `--headless` it opens a window); `cargo test --example
+//! headless_screenshot` runs the test below, which is what to copy into your own `tests/`.
+//!
+//! Screenshot tests stay deterministic because `HeadlessRunner` steps `Time` by a fixed amount
+//! (60 Hz): frame N always shows the same simulated state. Render small (a few hundred pixels)
+//! and assert on what the picture must show; for whole-image comparisons against a stored golden
+//! use a perceptual metric (Penumbra's own tests use FLIP through the `nv-flip` crate).
 
 use penumbra::prelude::*;
-use penumbra::render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out = std::env::args().nth(1).unwrap_or_else(|| "headless_screenshot.png".into());
-    let mut app = App::new();
+fn scene(app: &mut App) {
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
-    app.insert_resource(Time::fixed_hz(60.0));
-
     let sphere = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::uv_sphere(1.0, 48, 24));
     let floor = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::plane(8.0));
     let mut materials = app.world.resource_mut::<Assets<StandardMaterial>>();
@@ -30,13 +32,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.2 });
     app.world
         .spawn((Camera::default(), Transform::from_xyz(0.0, 2.5, 6.0).looking_at(Vec3::new(0.0, 0.8, 0.0), Vec3::Y)));
+}
 
-    let renderer = Renderer::new(GpuContext::new_headless(&AdapterRequest::default())?, RenderSettings::default())?;
-    app.insert_resource(renderer);
-    app.insert_resource(RenderOutput::Headless { width: 640, height: 360 });
-    app.update();
-    let pixels = app.world.resource::<Renderer>().read_headless()?;
-    image::save_buffer(&out, &pixels, 640, 360, image::ColorType::Rgba8)?;
-    println!("wrote {out}");
-    Ok(())
+#[cfg_attr(test, allow(dead_code))]
+fn main() {
+    let mut app = App::new();
+    scene(&mut app);
+    penumbra::run(&mut app);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Linear-ish brightness of pixel (x, y) of an RGBA8 image `width` wide.
+    fn brightness(rgba: &[u8], width: u32, x: u32, y: u32) -> f32 {
+        let p = &rgba[((y * width + x) * 4) as usize..][..3];
+        (p[0] as f32 + p[1] as f32 + p[2] as f32) / (3.0 * 255.0)
+    }
+
+    #[test]
+    fn the_gold_sphere_stands_lit_on_the_floor() {
+        let mut app = App::new();
+        scene(&mut app);
+        let (w, h) = (160, 90);
+        let out = std::env::temp_dir().join("headless_screenshot.png");
+        // No GPU adapter is an error that says what to install, never a skipped test.
+        let shots = HeadlessRunner::screenshot(&out, (w, h), 1).run_on(&mut app).unwrap_or_else(|e| panic!("{e}"));
+        let image = &shots[0];
+        let sphere = brightness(image, w, w / 2, h / 3);
+        let sky = brightness(image, w, 4, 2);
+        let floor = brightness(image, w, w / 2, h - 3);
+        assert!(sphere > 0.3, "the sphere is lit ({sphere})");
+        assert!(sky < 0.1, "nothing is drawn above the horizon ({sky})");
+        assert!(floor > sky, "the floor is lit ({floor} vs {sky})");
+        // Gold: red above blue at the sphere's centre.
+        let p = &image[(((h / 3) * w + w / 2) * 4) as usize..][..3];
+        assert!(p[0] > p[2], "{p:?}");
+        assert!(out.exists());
+    }
 }

@@ -169,3 +169,87 @@ pub fn render_frames(app: &mut App, renderer: Renderer, size: (u32, u32), frames
     }
     Ok(app.world.resource::<Renderer>().read_headless().map_err(RendererError::from)?)
 }
+
+/// Runs a scripted app headless: `frames` fixed-step updates rendered offscreen at `size`,
+/// saving the frames listed in `screenshots` as PNGs. Add it as a plugin and call `App::run`
+/// (the same program can add a window runner instead), or call [`HeadlessRunner::run_on`] to
+/// get the pixels back in a test.
+#[derive(Debug, Clone)]
+pub struct HeadlessRunner {
+    pub size: (u32, u32),
+    pub frames: u32,
+    /// Fixed step, updates per second.
+    pub hz: f64,
+    /// (frame number from 1, file): frames to save.
+    pub screenshots: Vec<(u32, std::path::PathBuf)>,
+    pub settings: crate::RenderSettings,
+}
+
+impl HeadlessRunner {
+    /// Renders `frames` frames and saves the last one to `out`.
+    pub fn screenshot(out: impl Into<std::path::PathBuf>, size: (u32, u32), frames: u32) -> Self {
+        let frames = frames.max(1);
+        Self { size, frames, hz: 60.0, screenshots: vec![(frames, out.into())], settings: Default::default() }
+    }
+
+    /// Runs the frames on `app` and returns the RGBA8 pixels of each listed screenshot frame, in
+    /// order (the files are written too).
+    pub fn run_on(&self, app: &mut App) -> Result<Vec<Vec<u8>>, HeadlessError> {
+        let (w, h) = self.size;
+        if !((1..=MAX_SIZE).contains(&w) && (1..=MAX_SIZE).contains(&h)) {
+            return Err(ShotError::Size(w, h).into());
+        }
+        if !(self.hz.is_finite() && self.hz > 0.0) {
+            return Err(HeadlessError::Step(self.hz));
+        }
+        if !app.world.contains_resource::<Renderer>() {
+            let ctx = crate::GpuContext::new_headless(&crate::AdapterRequest::default())?;
+            app.insert_resource(Renderer::new(ctx, self.settings.clone()).map_err(ShotError::from)?);
+        }
+        app.insert_resource(Time::fixed_hz(self.hz));
+        app.insert_resource(RenderOutput::Headless { width: w, height: h });
+        let mut shots = Vec::new();
+        for frame in 1..=self.frames.max(1) {
+            app.update();
+            for (_, path) in self.screenshots.iter().filter(|(f, _)| *f == frame) {
+                let pixels = app
+                    .world
+                    .resource::<Renderer>()
+                    .read_headless()
+                    .map_err(RendererError::from)
+                    .map_err(ShotError::from)?;
+                image::save_buffer(path, &pixels, w, h, image::ColorType::Rgba8)
+                    .map_err(|e| HeadlessError::Write { path: path.clone(), reason: e.to_string() })?;
+                shots.push(pixels);
+            }
+        }
+        Ok(shots)
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum HeadlessError {
+    #[error(transparent)]
+    Shot(#[from] ShotError),
+    #[error(transparent)]
+    Context(#[from] crate::ContextError),
+    #[error("the headless step must be a positive number of updates per second, not {0}")]
+    Step(f64),
+    #[error("cannot write {}: {reason}", path.display())]
+    Write { path: std::path::PathBuf, reason: String },
+}
+
+impl penumbra_engine::Plugin for HeadlessRunner {
+    fn build(&self, app: &mut App) {
+        let runner = self.clone();
+        app.set_runner(move |mut app| {
+            if let Err(e) = runner.run_on(&mut app) {
+                eprintln!("error: {e}");
+                std::process::exit(1);
+            }
+            for (_, path) in &runner.screenshots {
+                println!("wrote {}", path.display());
+            }
+        });
+    }
+}

@@ -75,6 +75,26 @@ impl Transform {
         self.rotation = Quat::from_mat3(&Mat3::from_cols(right, up, back));
     }
 
+    /// Turns by `rotation` in the parent's space (applied after the current rotation).
+    pub fn rotate(&mut self, rotation: Quat) {
+        self.rotation = (rotation * self.rotation).normalize();
+    }
+
+    /// Turns `angle` radians about the parent's X axis.
+    pub fn rotate_x(&mut self, angle: f32) {
+        self.rotate(Quat::from_rotation_x(angle));
+    }
+
+    /// Turns `angle` radians about the parent's Y axis.
+    pub fn rotate_y(&mut self, angle: f32) {
+        self.rotate(Quat::from_rotation_y(angle));
+    }
+
+    /// Turns `angle` radians about the parent's Z axis.
+    pub fn rotate_z(&mut self, angle: f32) {
+        self.rotate(Quat::from_rotation_z(angle));
+    }
+
     pub fn to_affine(&self) -> Affine3A {
         Affine3A::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
     }

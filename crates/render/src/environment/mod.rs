@@ -3,7 +3,7 @@
 //!
 //! Data flow: extraction copies the main world's `Environment` resource into
 //! `RenderScene::environment`. [`EnvironmentLighting::prepare`] resolves its source (the sky
-//! needs the scene's brightest directional light) into a [`MapsKey`]; only when the key changes
+//! needs the scene's brightest directional light) into a `MapsKey`; only when the key changes
 //! (a new image, the sun turning, another cube size) does [`EnvironmentLighting::encode`] run
 //! the prefilter chain on the GPU:
 //!

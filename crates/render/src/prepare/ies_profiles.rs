@@ -1,5 +1,5 @@
 //! The IES profiles on the GPU, owned by the light store: every profile some light uses, each
-//! as its [`ProfileGrid`] (normalised candela on a uniform angle grid), laid one after another
+//! as its [`ProfileGrid`](penumbra_engine::ies::ProfileGrid) (normalised candela on a uniform angle grid), laid one after another
 //! in one `array<f32>` storage buffer that `shaders/ies.wgsl` indexes. A light finds its
 //! profile through the [`ProfileSlot`] packed into it.
 //!

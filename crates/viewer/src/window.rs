@@ -1,0 +1,190 @@
+//! [`WindowRunner`]: runs a scripted [`App`] in a window, the windowed twin of
+//! `penumbra_render::headless::HeadlessRunner`, so one program can do either.
+//!
+//! Each redraw: `App::update` (the user's systems, propagation, extraction) with `Time` on the
+//! wall clock, then the renderer draws the extracted scene into the swap-chain image and presents
+//! it. The surface follows the window's physical size (HiDPI-correct); a minimised (0×0) window
+//! keeps updating without drawing; `Esc` or the close button ends the loop.
+
+use std::sync::Arc;
+
+use anyhow::{Context, Result, anyhow};
+use bevy_ecs::world::Mut;
+use penumbra_engine::{App, Plugin, Time, TimeMode};
+use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+/// Runs the app in a window until it is closed. Add it as a plugin, then call `App::run`.
+#[derive(Debug, Clone)]
+pub struct WindowRunner {
+    pub title: String,
+    /// Logical size (the framebuffer is this times the display's scale factor).
+    pub size: (u32, u32),
+    pub vsync: bool,
+    pub settings: RenderSettings,
+}
+
+impl Default for WindowRunner {
+    fn default() -> Self {
+        Self { title: "penumbra".into(), size: (1280, 720), vsync: true, settings: RenderSettings::default() }
+    }
+}
+
+impl Plugin for WindowRunner {
+    fn build(&self, app: &mut App) {
+        let runner = self.clone();
+        app.set_runner(move |app| {
+            if let Err(e) = runner.run(app) {
+                eprintln!("error: {e:#}");
+                std::process::exit(1);
+            }
+        });
+    }
+}
+
+impl WindowRunner {
+    /// Runs `app` until the window closes.
+    pub fn run(self, app: App) -> Result<()> {
+        #[cfg(all(unix, not(target_os = "macos")))]
+        if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+            anyhow::bail!(
+                "no display (DISPLAY and WAYLAND_DISPLAY are unset): run this program headless instead \
+                 (penumbra::render::headless::HeadlessRunner)"
+            );
+        }
+        let event_loop = EventLoop::new().map_err(|e| anyhow!("cannot open a window: {e}"))?;
+        let mut handler = Handler { runner: self, app: Some(app), running: None, error: None };
+        event_loop.run_app(&mut handler).context("window event loop")?;
+        handler.error.map_or(Ok(()), Err)
+    }
+}
+
+struct Handler {
+    runner: WindowRunner,
+    app: Option<App>,
+    running: Option<Running>,
+    error: Option<anyhow::Error>,
+}
+
+struct Running {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    app: App,
+}
+
+impl Handler {
+    fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
+        let mut app = self.app.take().ok_or_else(|| anyhow!("the app was already started"))?;
+        let (w, h) = self.runner.size;
+        let window = Arc::new(
+            event_loop
+                .create_window(
+                    Window::default_attributes()
+                        .with_title(self.runner.title.clone())
+                        .with_inner_size(winit::dpi::LogicalSize::new(w, h)),
+                )
+                .context("cannot create the window")?,
+        );
+        let request = AdapterRequest::default();
+        let desc =
+            GpuContext::instance_descriptor(&request).with_display_handle(Box::new(event_loop.owned_display_handle()));
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
+        let ctx = GpuContext::with_instance(instance, &request, Some(&surface))?;
+        let size = window.inner_size();
+        let caps = surface.get_capabilities(&ctx.adapter);
+        let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: if self.runner.vsync { wgpu::PresentMode::AutoVsync } else { wgpu::PresentMode::AutoNoVsync },
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes[0],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+            view_formats: Vec::new(),
+        };
+        surface.configure(&ctx.device, &config);
+        app.insert_resource(Renderer::new(ctx, self.runner.settings.clone())?);
+        app.insert_resource(RenderOutput::External);
+        app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
+        Ok(Running { window, surface, config, app })
+    }
+}
+
+impl Running {
+    fn frame(&mut self) {
+        self.app.update();
+        if self.config.width == 0 || self.config.height == 0 {
+            return;
+        }
+        let device = self.app.world.resource::<Renderer>().context().device.clone();
+        let texture = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&device, &self.config);
+                return;
+            }
+            _ => return,
+        };
+        let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let (size, format) = ((self.config.width, self.config.height), self.config.format);
+        self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
+            renderer.render(world.resource::<RenderScene>(), &view, format, size);
+            renderer.context().queue.present(texture);
+        });
+    }
+}
+
+impl ApplicationHandler for Handler {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.running.is_some() {
+            return;
+        }
+        match self.start(event_loop) {
+            Ok(r) => {
+                r.window.request_redraw();
+                self.running = Some(r);
+            }
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(r) = self.running.as_mut() else { return };
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::KeyboardInput { event, .. }
+                if event.state == ElementState::Pressed && event.logical_key == Key::Named(NamedKey::Escape) =>
+            {
+                event_loop.exit()
+            }
+            WindowEvent::Resized(size) => {
+                // Minimised: keep the configuration and skip drawing until restored.
+                if size.width > 0 && size.height > 0 {
+                    r.config.width = size.width;
+                    r.config.height = size.height;
+                    let device = r.app.world.resource::<Renderer>().context().device.clone();
+                    r.surface.configure(&device, &r.config);
+                } else {
+                    r.config.width = 0;
+                    r.config.height = 0;
+                }
+            }
+            WindowEvent::RedrawRequested => {
+                r.frame();
+                r.window.request_redraw();
+            }
+            _ => {}
+        }
+    }
+}
