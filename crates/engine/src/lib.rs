@@ -60,7 +60,7 @@ pub mod prelude {
     pub use crate::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
     pub use crate::ies::IesProfile;
     pub use crate::image::Image;
-    pub use crate::import::{ImportError, ImportOptions, load_scene};
+    pub use crate::import::{ImportError, ImportOptions, SceneFile, clone_scene, load_scene, spawn_instance};
     pub use crate::material::{AlphaMode, StandardMaterial, TextureRef};
     pub use crate::mesh::{Mesh, MorphTarget, Topology};
     pub use crate::time::{Time, TimeMode};

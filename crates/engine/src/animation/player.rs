@@ -154,6 +154,17 @@ impl AnimationPlayer {
         self.repeat == Repeat::Once && if self.speed >= 0.0 { self.time >= clip.duration() } else { self.time <= 0.0 }
     }
 
+    /// Takes `other`'s playback state (clip, time, speed, pause, repeat), keeping this player's
+    /// own clips and targets: how a cloned scene instance continues where its original is.
+    pub fn copy_playback(&mut self, other: &AnimationPlayer) {
+        self.active = other.active.filter(|&i| i < self.clips.len());
+        self.time = other.time;
+        self.speed = other.speed;
+        self.paused = other.paused;
+        self.repeat = other.repeat;
+        self.applied = None;
+    }
+
     fn wrap(&self, t: f32) -> f32 {
         let duration = self.active_clip().map_or(0.0, AnimationClip::duration);
         if duration <= 0.0 {

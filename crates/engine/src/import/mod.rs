@@ -9,6 +9,7 @@ pub mod gltf;
 pub mod obj;
 
 use std::path::Path;
+use std::sync::Arc;
 
 use bevy_ecs::entity::Entity;
 use bevy_ecs::world::World;
@@ -69,7 +70,46 @@ impl SpawnScene for SceneFile {
     }
 }
 
-/// Loads a scene file (`.gltf`, `.glb` or `.obj`) and spawns it under a new root entity.
+/// The decoded file a scene instance was spawned from, on its root: what [`clone_scene`] spawns
+/// again. Shared, not copied, by every instance.
+#[derive(bevy_ecs::component::Component, Debug, Clone)]
+pub struct SceneSource(pub Arc<SceneFile>);
+
+/// Spawns `scene` under a new root that remembers it ([`SceneSource`]), so the instance can be
+/// cloned.
+pub fn spawn_instance(world: &mut World, scene: &Arc<SceneFile>) -> Entity {
+    let root = scene.spawn(world);
+    world.entity_mut(root).insert(SceneSource(scene.clone()));
+    root
+}
+
+/// Loads a scene file (`.gltf`, `.glb` or `.obj`) and spawns it under a new root entity. The
+/// instance moves with the root's `Transform`, despawns with the root (`World::despawn` takes
+/// its descendants along), and [`clone_scene`] makes more of it.
 pub fn load_scene(world: &mut World, path: &Path, options: &ImportOptions) -> Result<Entity, ImportError> {
-    Ok(SceneFile::load(path, options)?.spawn(world))
+    Ok(spawn_instance(world, &Arc::new(SceneFile::load(path, options)?)))
+}
+
+/// Spawns another instance of the scene under `root` (which must carry a [`SceneSource`], as
+/// instances from [`load_scene`] and [`spawn_instance`] do): same file, same root placement and
+/// visibility, and its animation player (if any) at the same clip, time, speed and pause state.
+/// The instances share meshes, materials and images; each has its own entities. `None` if
+/// `root` is not such a root.
+pub fn clone_scene(world: &mut World, root: Entity) -> Option<Entity> {
+    let source = world.get::<SceneSource>(root)?.0.clone();
+    let transform = world.get::<crate::components::Transform>(root).copied();
+    let visibility = world.get::<crate::components::Visibility>(root).copied();
+    let player = world.get::<crate::animation::AnimationPlayer>(root).cloned();
+    let copy = spawn_instance(world, &source);
+    let mut e = world.entity_mut(copy);
+    if let Some(t) = transform {
+        e.insert(t);
+    }
+    if let Some(v) = visibility {
+        e.insert(v);
+    }
+    if let (Some(from), Some(mut to)) = (player, e.get_mut::<crate::animation::AnimationPlayer>()) {
+        to.copy_playback(&from);
+    }
+    Some(copy)
 }
