@@ -304,13 +304,17 @@ pub struct BenchArgs {
     /// For the built-in `many-lights` scene: the light counts to run, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000", value_name = "N,N,...")]
     pub lights: Vec<usize>,
-    /// For the built-in `many-cubes` scene: the cube counts to run, comma-separated.
+    /// For the built-in `many-cubes` scene: the cube counts to run, comma-separated (for
+    /// `characters`: the instance counts).
     #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000", value_name = "N,N,...")]
     pub count: Vec<usize>,
     /// For `many-cubes`: the fractions of cubes that turn every frame, comma-separated (each in
     /// 0..=1; `--moving` alone means 1).
     #[arg(long, value_delimiter = ',', default_value = "0", default_missing_value = "1", num_args = 0..=1, value_parser = parse_fraction, value_name = "F,F,...")]
     pub moving: Vec<f64>,
+    /// For `characters`: the animated, skinned model to crowd (default tests/assets/Fox/Fox.glb).
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
     /// For `many-cubes`: where the cubes stand.
     #[arg(long, value_enum, default_value = "grid")]
     pub layout: LayoutArg,

@@ -2,7 +2,8 @@
 //! compute pass that applies them (`shaders/deform.wgsl`).
 //!
 //! How a pose reaches the screen:
-//! 1. Source data, once per mesh asset version: per vertex four joints and four weights, and
+//! 1. Source data, once per mesh content (keyed by the asset's shared `Arc<Mesh>`, so every
+//!    instance of a scene, whose mesh assets share one `Arc`, shares one copy): per vertex four joints and four weights, and
 //!    per morph target per vertex the position, normal and tangent displacements, packed into
 //!    one storage buffer of words (range-allocated; a CPU mirror re-uploads it if it grows).
 //!    Beside it, on the CPU, what bounds need: per joint the bind-space box of the vertices it
@@ -67,9 +68,14 @@ struct GpuJob {
     weight_offset: u32,
 }
 
-/// A mesh asset's deformation data.
+/// Which mesh content a source was packed from: the address of the asset's shared data, kept
+/// alive by the source itself (so the address cannot be reused while the key exists).
+type SourceKey = usize;
+
+/// A mesh's deformation data.
 struct Source {
-    version: u64,
+    /// Holds the content the key points at.
+    _mesh: std::sync::Arc<Mesh>,
     /// Words in `data`.
     range: Range<u32>,
     vertex_count: u32,
@@ -92,6 +98,7 @@ struct Source {
 struct Instance {
     mesh: Handle<Mesh>,
     version: u64,
+    source: SourceKey,
     source_entry: MeshId,
     output: MeshId,
 }
@@ -108,7 +115,7 @@ pub struct DeformFrame {
 }
 
 pub struct MeshDeformer {
-    sources: HashMap<Handle<Mesh>, Source>,
+    sources: HashMap<SourceKey, Source>,
     data: Vec<u32>,
     data_alloc: RangeAllocator<u32>,
     data_buffer: GrowableBuffer,
@@ -235,16 +242,17 @@ impl MeshDeformer {
             let Some(snapshot) = scene.meshes.get(&mesh) else { continue };
             let pose = &scene.deforms[&entity];
             let is_new = !self.instances.contains_key(&entity);
+            let key = std::sync::Arc::as_ptr(&snapshot.data) as SourceKey;
             if is_new {
-                if !self.ensure_source(mesh, snapshot.version, &snapshot.data) {
+                if !self.ensure_source(key, &snapshot.data) {
                     continue;
                 }
                 let Some(output) = pool.allocate_derived(device, queue, entry) else { continue };
-                if let Some(s) = self.sources.get_mut(&mesh) {
+                if let Some(s) = self.sources.get_mut(&key) {
                     s.users += 1;
                 }
-                self.instances
-                    .insert(entity, Instance { mesh, version: snapshot.version, source_entry: entry, output });
+                let instance = Instance { mesh, version: snapshot.version, source: key, source_entry: entry, output };
+                self.instances.insert(entity, instance);
                 frame.outputs_changed = true;
             } else if !resync && !changed.contains(&entity) {
                 continue;
@@ -256,7 +264,7 @@ impl MeshDeformer {
             };
             let output = instance.output;
             let Some(output_start) = pool.entry(output).map(|e| e.vertices.start) else { continue };
-            let source = &self.sources[&mesh];
+            let Some(source) = self.sources.get(&instance.source) else { continue };
             let job = push_job(&mut self.joint_rows, &mut self.weights, source, pose, entry_range.start, output_start);
             self.jobs.push(job);
             self.max_groups = self.max_groups.max(source.vertex_count.div_ceil(WORKGROUP));
@@ -271,28 +279,20 @@ impl MeshDeformer {
     fn drop_instance(&mut self, entity: Entity, pool: &mut MeshPool) {
         let Some(instance) = self.instances.remove(&entity) else { return };
         pool.free_derived(instance.output);
-        let done = self.sources.get_mut(&instance.mesh).is_some_and(|s| {
+        let done = self.sources.get_mut(&instance.source).is_some_and(|s| {
             s.users = s.users.saturating_sub(1);
             s.users == 0
         });
-        if done && let Some(s) = self.sources.remove(&instance.mesh) {
+        if done && let Some(s) = self.sources.remove(&instance.source) {
             self.data_alloc.free_range(s.range);
         }
     }
 
-    /// Packs `mesh`'s deformation data if it is not there at this version. False when the mesh
-    /// has nothing to deform (or is too large to).
-    fn ensure_source(&mut self, handle: Handle<Mesh>, version: u64, mesh: &Mesh) -> bool {
-        if let Some(s) = self.sources.get(&handle) {
-            if s.version == version {
-                return true;
-            }
-            if s.users > 0 {
-                // Older instances still point at it; they are re-made next frame (version check).
-                return false;
-            }
-            let s = self.sources.remove(&handle).expect("checked");
-            self.data_alloc.free_range(s.range);
+    /// Packs `mesh`'s deformation data unless it is there already. False when the mesh has
+    /// nothing to deform (or is too large to).
+    fn ensure_source(&mut self, key: SourceKey, mesh: &std::sync::Arc<Mesh>) -> bool {
+        if self.sources.contains_key(&key) {
+            return true;
         }
         let n = mesh.vertex_count();
         if (!mesh.is_skinned() && mesh.morph_targets.is_empty()) || n == 0 {
@@ -304,10 +304,9 @@ impl MeshDeformer {
         }
         let words = source_words(mesh);
         let range = self.allocate_words(words.max(1));
-        let source =
-            pack_source(mesh, version, range.clone(), &mut self.data[range.start as usize..range.end as usize]);
+        let source = pack_source(mesh, range.clone(), &mut self.data[range.start as usize..range.end as usize]);
         self.mark_dirty(range);
-        self.sources.insert(handle, source);
+        self.sources.insert(key, source);
         true
     }
 
@@ -448,7 +447,7 @@ fn source_words(mesh: &Mesh) -> u32 {
 
 /// Packs `mesh`'s joints, weights and morph displacements into `words` (which start at word
 /// `range.start` of the data buffer) and measures what bounds need.
-fn pack_source(mesh: &Mesh, version: u64, range: Range<u32>, words: &mut [u32]) -> Source {
+fn pack_source(mesh: &std::sync::Arc<Mesh>, range: Range<u32>, words: &mut [u32]) -> Source {
     let n = mesh.vertex_count();
     let mut at = 0;
     let skin_offset = mesh.is_skinned().then_some(range.start);
@@ -500,7 +499,7 @@ fn pack_source(mesh: &Mesh, version: u64, range: Range<u32>, words: &mut [u32]) 
         morph_extents.push(extent);
     }
     Source {
-        version,
+        _mesh: mesh.clone(),
         range,
         vertex_count: n as u32,
         skin_offset,
@@ -578,7 +577,7 @@ mod tests {
         mesh.morph_targets.push(target);
         let words = source_words(&mesh);
         let mut data = vec![0u32; words as usize];
-        let source = pack_source(&mesh, 1, 0..words, &mut data);
+        let source = pack_source(&std::sync::Arc::new(mesh.clone()), 0..words, &mut data);
         assert_eq!(source.joint_count, 5);
         for trial in 0..20 {
             let pose = ExtractedDeform {
@@ -618,7 +617,7 @@ mod tests {
         let words = source_words(&mesh);
         assert_eq!(words as usize, 2 * SKIN_WORDS + 2 * MORPH_WORDS);
         let mut data = vec![0u32; words as usize + 10];
-        let s = pack_source(&mesh, 1, 10..10 + words, &mut data[10..]);
+        let s = pack_source(&std::sync::Arc::new(mesh), 10..10 + words, &mut data[10..]);
         assert_eq!((s.skin_offset, s.morph_offset), (Some(10), 10 + 2 * SKIN_WORDS as u32));
         let d = &data[10..];
         assert_eq!(d[0], 1 | 2 << 16);

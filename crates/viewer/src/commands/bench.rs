@@ -146,6 +146,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.path.as_deref().is_some_and(|p| p == std::path::Path::new("many-cubes") && !p.exists()) {
         return super::bench_cubes::run(&args);
     }
+    if args.path.as_deref().is_some_and(|p| p == std::path::Path::new("characters") && !p.exists()) {
+        return super::bench_characters::run(&args);
+    }
     if args.path.as_deref().is_some_and(|p| p == std::path::Path::new("shadows") && !p.exists()) {
         return super::bench_shadows::run(&args);
     }

@@ -1,5 +1,6 @@
 //! Headless subcommands.
 pub mod bench;
+pub mod bench_characters;
 pub mod bench_cubes;
 pub mod bench_lights;
 pub mod bench_reload;
