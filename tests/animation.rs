@@ -348,3 +348,53 @@ fn gpu_skinning_of_300_joints_and_40_morph_targets_equals_the_cpu_reference() {
     let flip = common::flip_mean(&gpu_frame, &cpu_frame, 512, 128);
     assert!(flip < 0.002 && differing < 100, "FLIP {flip}, {differing} pixels differ");
 }
+
+/// The ribbon at rest, drawn as a static mesh (no skin, no morph targets).
+fn static_ribbon_frame(mesh: Mesh) -> Vec<u8> {
+    let mut app = common::scene_app();
+    let unlit = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::ONE, 1.0) };
+    let plain = Mesh { joints: Vec::new(), weights: Vec::new(), morph_targets: Vec::new(), ..mesh };
+    common::spawn_mesh(&mut app, plain, unlit, Transform::IDENTITY);
+    app.world.spawn((
+        Camera::default(),
+        Transform::from_xyz(15.0, 0.5, 10.5).looking_at(Vec3::new(15.0, 0.5, 0.0), Vec3::Y),
+    ));
+    common::render_app(&mut app, (512, 128), RenderSettings::default())
+}
+
+#[test]
+fn a_deformed_draw_follows_mesh_edits_and_returns_to_rest_when_its_pose_goes() {
+    let (segments, targets) = (40, 4);
+    let mut app = common::scene_app();
+    let joints: Vec<Entity> =
+        (0..segments).map(|i| app.world.spawn(Transform::from_xyz(0.1 * i as f32, 0.3, 0.0)).id()).collect();
+    let inverse_bindposes: Vec<Mat4> =
+        (0..segments).map(|i| Mat4::from_translation(Vec3::new(-0.1 * i as f32, 0.0, 0.0))).collect();
+    let unlit = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::ONE, 1.0) };
+    let mesh = ribbon(segments, targets);
+    let entity = common::spawn_mesh(&mut app, mesh.clone(), unlit, Transform::IDENTITY);
+    let skin = SkinnedMesh { inverse_bindposes: inverse_bindposes.into(), joints };
+    app.world.entity_mut(entity).insert((skin, MorphWeights(vec![1.0; targets])));
+    app.world.spawn((
+        Camera::default(),
+        Transform::from_xyz(15.0, 0.5, 10.5).looking_at(Vec3::new(15.0, 0.5, 0.0), Vec3::Y),
+    ));
+    let posed = common::render_app(&mut app, (512, 128), RenderSettings::default());
+    let rest = static_ribbon_frame(mesh.clone());
+    assert_ne!(posed, rest, "lifted 0.3 m and morphed");
+
+    // Editing the mesh asset (here: the ribbon twice as long) re-deforms the new content.
+    let handle = app.world.get::<Mesh3d>(entity).unwrap().0;
+    let longer: Vec<Vec3> = mesh.positions.iter().map(|p| Vec3::new(2.0 * p.x, p.y, p.z)).collect();
+    app.world.resource_mut::<Assets<Mesh>>().get_mut(handle).unwrap().positions = longer.clone();
+    let edited = common::render_app(&mut app, (512, 128), RenderSettings::default());
+    let matrices = app.world.get::<JointMatrices>(entity).unwrap().0.clone();
+    let edited_mesh = Mesh { positions: longer, ..mesh.clone() };
+    let reference = Mesh { positions: edited_mesh.deformed_positions(&matrices, &[1.0; 4]), ..edited_mesh.clone() };
+    assert_eq!(edited, static_ribbon_frame(reference), "the edited mesh, deformed");
+
+    // Without skin and weights the draw is its mesh at rest again.
+    app.world.entity_mut(entity).remove::<(SkinnedMesh, JointMatrices, MorphWeights)>();
+    let bare = common::render_app(&mut app, (512, 128), RenderSettings::default());
+    assert_eq!(bare, static_ribbon_frame(edited_mesh), "no pose: the bind pose");
+}

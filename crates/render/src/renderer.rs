@@ -39,7 +39,7 @@ use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::pipelines::shader_watcher::ShaderWatcher;
 use crate::prepare::buffer::GrowableBuffer;
-use crate::prepare::deform::MeshDeformer;
+use crate::prepare::deform::{MeshDeformer, Visit};
 use crate::prepare::instances::{GpuInstance, InstanceBuffer};
 use crate::prepare::light_store::{DEFAULT_CUTOFF, LightShapes, LightStore};
 use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS};
@@ -711,12 +711,17 @@ impl Renderer {
         self.prepare_materials(scene, &mut encoder);
         tracing::debug!("materials and textures prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
         let t = Instant::now();
-        self.prepare_meshes(scene);
+        let meshes_changed = self.prepare_meshes(scene);
         tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
         let deform_frame = {
             let (draws, mesh_ids) = (&self.draws, &self.mesh_ids);
             let draw_mesh = |e: Entity| draws.get(e).and_then(|d| Some((d.mesh, *mesh_ids.get(&d.mesh)?)));
-            self.deformer.prepare(&device, &queue, &mut self.mesh_pool, scene, draw_mesh, !in_step)
+            let visit = match (in_step, meshes_changed || scene.meshes_changed) {
+                (false, _) => Visit::Resync,
+                (true, true) => Visit::Scan,
+                (true, false) => Visit::Changes,
+            };
+            self.deformer.prepare(&device, &queue, &mut self.mesh_pool, scene, draw_mesh, visit)
         };
         if deform_frame.outputs_changed {
             self.batches_dirty = true;
@@ -1399,7 +1404,9 @@ impl Renderer {
         }
     }
 
-    fn prepare_meshes(&mut self, scene: &RenderScene) {
+    /// Returns whether any mesh asset now maps to another pool entry (or to none).
+    fn prepare_meshes(&mut self, scene: &RenderScene) -> bool {
+        let mut changed = false;
         // Mesh assets that vanished release their pool entries; entries nothing refers to are
         // evicted at the end of the frame.
         self.mesh_pool.retain_assets(|h| scene.meshes.contains_key(&h));
@@ -1412,6 +1419,7 @@ impl Renderer {
                 }
                 if self.mesh_ids.remove(&handle).is_some() {
                     self.batches_dirty = true;
+                    changed = true;
                 }
                 self.mesh_pool.release_asset(handle);
                 continue;
@@ -1419,8 +1427,10 @@ impl Renderer {
             let id = self.mesh_pool.get_or_upload(&self.ctx.device, &self.ctx.queue, handle, snapshot, self.frame);
             if self.mesh_ids.insert(handle, id) != Some(id) {
                 self.batches_dirty = true;
+                changed = true;
             }
         }
+        changed
     }
 
     fn pipeline_key(&self, d: &DrawState) -> Option<PipelineKey> {

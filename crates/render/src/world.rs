@@ -153,6 +153,8 @@ pub struct RenderScene {
     /// The default key and ambient lights, when the scene has no light entities at all.
     pub default_lights: Vec<ExtractedLight>,
     pub meshes: HashMap<Handle<Mesh>, Snapshot<Mesh>>,
+    /// A mesh snapshot was replaced (new version) or removed this frame.
+    pub meshes_changed: bool,
     pub materials: HashMap<Handle<StandardMaterial>, Snapshot<StandardMaterial>>,
     pub images: HashMap<Handle<Image>, Snapshot<Image>>,
     pub ies_profiles: HashMap<Handle<IesProfile>, Snapshot<IesProfile>>,

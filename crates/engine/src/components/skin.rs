@@ -41,14 +41,23 @@ pub struct JointMatrices(pub Vec<Mat4>);
 #[derive(Component, Debug, Clone, PartialEq, Default)]
 pub struct MorphWeights(pub Vec<f32>);
 
-/// Recomputes every skinned mesh's joint matrices; writes (and marks changed) only those that
-/// moved. A joint that no longer exists (despawned) holds the bind pose.
+/// Recomputes the joint matrices of skinned meshes whose placement, skin or any joint moved
+/// since the last run; writes (and marks changed) only those whose matrices differ. A still
+/// crowd costs a change-tick check per joint. A joint that no longer exists (despawned) holds
+/// the bind pose.
 pub fn update_joint_matrices(
-    mut skinned: Query<(&SkinnedMesh, &GlobalTransform, &mut JointMatrices)>,
-    joints: Query<&GlobalTransform>,
+    mut skinned: Query<(Ref<SkinnedMesh>, Ref<GlobalTransform>, &mut JointMatrices)>,
+    joints: Query<Ref<GlobalTransform>>,
 ) {
     let mut scratch = Vec::new();
     for (skin, world_from_mesh, mut matrices) in &mut skinned {
+        let moved = skin.is_changed()
+            || world_from_mesh.is_changed()
+            || matrices.0.len() != skin.joints.len()
+            || skin.joints.iter().any(|&j| joints.get(j).map_or(true, |g| g.is_changed()));
+        if !moved {
+            continue;
+        }
         let mesh_from_world = DAffine3::from_mat4(Mat4::from(world_from_mesh.0).as_dmat4()).inverse();
         scratch.clear();
         for (i, &joint) in skin.joints.iter().enumerate() {

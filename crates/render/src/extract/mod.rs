@@ -533,18 +533,25 @@ fn extract_environment(environment: Option<Res<Environment>>, mut scene: ResMut<
     }
 }
 
+/// Returns whether a snapshot was replaced (a new version) or removed; new assets alone do not
+/// count (nothing drawn can refer to them without a draw change).
 fn sync_assets<T: Send + Sync + 'static>(
     assets: &Assets<T>,
     snapshots: &mut std::collections::HashMap<penumbra_engine::Handle<T>, Snapshot<T>>,
-) {
+) -> bool {
+    let before = snapshots.len();
     snapshots.retain(|h, _| assets.contains(*h));
+    let mut changed = snapshots.len() != before;
     for (handle, _) in assets.iter() {
         let version = assets.version(handle).expect("live handle from iter");
-        if snapshots.get(&handle).is_none_or(|s| s.version != version) {
+        let known = snapshots.get(&handle).map(|s| s.version);
+        if known != Some(version) {
+            changed |= known.is_some();
             let data = assets.get_arc(handle).expect("live handle from iter").clone();
             snapshots.insert(handle, Snapshot { version, data });
         }
     }
+    changed
 }
 
 fn extract_assets(
@@ -555,7 +562,7 @@ fn extract_assets(
     mut scene: ResMut<RenderScene>,
 ) {
     let scene = &mut *scene;
-    sync_assets(&meshes, &mut scene.meshes);
+    scene.meshes_changed = sync_assets(&meshes, &mut scene.meshes);
     sync_assets(&materials, &mut scene.materials);
     sync_assets(&images, &mut scene.images);
     sync_assets(&ies_profiles, &mut scene.ies_profiles);

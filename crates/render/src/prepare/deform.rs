@@ -103,6 +103,17 @@ struct Instance {
     output: MeshId,
 }
 
+/// Which deformed draws `prepare` looks at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Visit {
+    /// Those the change lists name.
+    Changes,
+    /// Every one (a mesh asset changed under a draw), redeforming those whose pose changed.
+    Scan,
+    /// Every one, redeforming all (the change lists cannot be trusted: a frame was missed).
+    Resync,
+}
+
 /// What `prepare` did this frame, for the renderer.
 #[derive(Debug, Default)]
 pub struct DeformFrame {
@@ -183,8 +194,8 @@ impl MeshDeformer {
     }
 
     /// Syncs deformed draws with the scene and plans this frame's jobs. `draw_mesh` gives a
-    /// drawn entity's mesh and its pool entry. `resync`: the change lists cannot be trusted
-    /// (the renderer missed a frame): every pose counts as changed.
+    /// drawn entity's mesh and its pool entry. See [`Visit`]: normally only the entities the
+    /// change lists name, so a still crowd costs nothing.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -192,8 +203,9 @@ impl MeshDeformer {
         pool: &mut MeshPool,
         scene: &RenderScene,
         draw_mesh: impl Fn(Entity) -> Option<(Handle<Mesh>, MeshId)>,
-        resync: bool,
+        visit: Visit,
     ) -> DeformFrame {
+        let (scan, resync) = (visit != Visit::Changes, visit == Visit::Resync);
         let mut frame = DeformFrame::default();
         self.jobs.clear();
         self.joint_rows.clear();
@@ -217,32 +229,37 @@ impl MeshDeformer {
             return frame;
         }
         let changed: HashSet<Entity> = scene.changed_deforms.iter().copied().collect();
-        // Draws that are no longer deformed (pose gone, mesh gone, mesh without deform data).
-        let gone: Vec<Entity> = self
-            .instances
-            .iter()
-            .filter(|(e, i)| {
-                !scene.deforms.contains_key(e)
-                    || draw_mesh(**e).is_none_or(|(mesh, entry)| {
-                        let version = scene.meshes.get(&mesh).map(|s| s.version);
-                        mesh != i.mesh || entry != i.source_entry || version != Some(i.version)
-                    })
-            })
-            .map(|(e, _)| *e)
-            .collect();
-        for e in gone {
-            self.drop_instance(e, pool);
-            frame.outputs_changed = true;
-        }
+        // What can have changed: poses that changed or went, draws that changed (a new mesh or
+        // material) or went; everything on a scan or a resync.
+        let mut entities: Vec<Entity> = if scan {
+            self.instances.keys().chain(scene.deforms.keys()).copied().collect()
+        } else {
+            let draws = scene.changed_draws.iter().chain(&scene.removed_draws);
+            let relevant = draws.filter(|e| scene.deforms.contains_key(e) || self.instances.contains_key(e));
+            let poses = scene.changed_deforms.iter().chain(&scene.removed_deforms);
+            poses.chain(relevant).copied().collect()
+        };
         // Entity order, so jobs (and anything allocated for them) come out the same every run.
-        let mut entities: Vec<Entity> = scene.deforms.keys().copied().collect();
         entities.sort_unstable();
+        entities.dedup();
         for entity in entities {
-            let Some((mesh, entry)) = draw_mesh(entity) else { continue };
-            let Some(snapshot) = scene.meshes.get(&mesh) else { continue };
-            let pose = &scene.deforms[&entity];
-            let is_new = !self.instances.contains_key(&entity);
+            let draw = draw_mesh(entity);
+            let pose = scene.deforms.get(&entity);
+            let snapshot = draw.and_then(|(mesh, _)| scene.meshes.get(&mesh));
+            // No longer deformed as it was (pose gone, draw gone, another mesh or version).
+            let stale = self.instances.get(&entity).is_some_and(|i| match (pose, draw, snapshot) {
+                (Some(_), Some((mesh, entry)), Some(s)) => {
+                    mesh != i.mesh || entry != i.source_entry || s.version != i.version
+                }
+                _ => true,
+            });
+            if stale {
+                self.drop_instance(entity, pool);
+                frame.outputs_changed = true;
+            }
+            let (Some(pose), Some((mesh, entry)), Some(snapshot)) = (pose, draw, snapshot) else { continue };
             let key = std::sync::Arc::as_ptr(&snapshot.data) as SourceKey;
+            let is_new = !self.instances.contains_key(&entity);
             if is_new {
                 if !self.ensure_source(key, &snapshot.data) {
                     continue;
