@@ -15,6 +15,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use bevy_ecs::entity::Entity;
 use bevy_ecs::world::Mut;
 use glam::{Vec2, Vec3};
+use penumbra_engine::animation::{AnimationPlayer, Repeat};
 use penumbra_engine::components::{Camera, GlobalTransform, Projection, Transform};
 use penumbra_engine::environment::Environment;
 use penumbra_engine::framing::world_bounds;
@@ -254,16 +255,29 @@ impl Running {
         let overlay = &mut self.overlay;
         let before = self.app.world.get_resource::<Environment>().cloned();
         let mut env = before.clone();
+        // The scene's player (the first, for a single loaded scene), edited as a copy.
+        let animated = {
+            let mut q = self.app.world.query::<(bevy_ecs::entity::Entity, &AnimationPlayer)>();
+            q.iter(&self.app.world).next().map(|(e, p)| (e, p.clone()))
+        };
+        let mut player = animated.as_ref().map(|(_, p)| p.clone());
         self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
             let scene = world.resource::<RenderScene>();
             renderer.render(scene, &view, format, size);
             let ctx = renderer.context().clone();
-            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, renderer.shader_error(), &mut env);
+            let error = renderer.shader_error();
+            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, error, &mut env, player.as_mut());
             ctx.queue.present(texture);
         });
-        // The panel's edits reach the renderer as an ordinary resource change next frame.
+        // The panels' edits reach the renderer and the animation system as ordinary changes.
         if env != before {
             self.set_environment(env);
+        }
+        if let (Some((root, was)), Some(edited)) = (animated, player)
+            && playback(&was) != playback(&edited)
+            && let Some(mut p) = self.app.world.get_mut::<AnimationPlayer>(root)
+        {
+            p.copy_playback(&edited);
         }
     }
 
@@ -275,6 +289,11 @@ impl Running {
             }
         }
     }
+}
+
+/// What the animation panel can change in a player.
+fn playback(p: &AnimationPlayer) -> (Option<usize>, f32, f32, bool, Repeat) {
+    (p.active(), p.time(), p.speed(), p.is_paused(), p.repeat())
 }
 
 impl ApplicationHandler for Viewer {

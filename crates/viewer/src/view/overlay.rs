@@ -1,15 +1,18 @@
 //! The viewer's egui overlay, drawn over the tonemapped frame (never into the scene): the
-//! current shader error, in red, until a reload fixes it; and the environment panel (source,
-//! a .hdr/.exr file to load, intensity, rotation, background). The other panels of the full
+//! current shader error, in red, until a reload fixes it; the environment panel (source, a
+//! .hdr/.exr file to load, intensity, rotation, background); and, for animated scenes, the
+//! animation panel (the clips, play/pause, loop, speed, the time). The other panels of the full
 //! viewer (issue #6) will grow here.
 //!
-//! The overlay edits a copy of the scene's `Environment`; the viewer writes it back to the main
-//! world when it changed, so the renderer sees an ordinary resource change.
+//! The overlay edits copies of the scene's `Environment` and of its `AnimationPlayer`; the viewer
+//! writes them back to the main world when they changed, so the renderer and the animation
+//! system see ordinary changes.
 
 use std::path::Path;
 use std::sync::Arc;
 
 use egui::{Color32, RichText};
+use penumbra_engine::animation::{AnimationPlayer, Repeat};
 use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
 use penumbra_render::ShaderError;
 use winit::event::WindowEvent;
@@ -61,7 +64,7 @@ impl Overlay {
     }
 
     /// Draws the overlay into `target` (already holding the frame) and submits it. `env` is
-    /// the scene's environment, edited in place by the panel.
+    /// the scene's environment and `player` its animation player, edited in place by the panels.
     #[allow(clippy::too_many_arguments)]
     pub fn draw(
         &mut self,
@@ -72,11 +75,15 @@ impl Overlay {
         size: (u32, u32),
         shader_error: Option<&ShaderError>,
         env: &mut Option<Environment>,
+        mut player: Option<&mut AnimationPlayer>,
     ) {
         let raw = self.state.take_egui_input(window);
         let (env_path, env_status) = (&mut self.env_path, &mut self.env_status);
         let mut full = self.ctx.run_ui(raw, |ui| {
             environment_panel(ui, env, env_path, env_status);
+            if let Some(player) = player.as_deref_mut() {
+                animation_panel(ui, player);
+            }
             if let Some(e) = shader_error {
                 egui::Frame::new().fill(Color32::from_rgba_unmultiplied(110, 0, 0, 230)).inner_margin(10).show(
                     ui,
@@ -209,4 +216,46 @@ fn environment_panel(
             }
         },
     );
+}
+
+/// The scene's clips (by name), play/pause, loop, speed and the play head.
+fn animation_panel(ui: &mut egui::Ui, player: &mut AnimationPlayer) {
+    let title = format!("Animation ({} clips)", player.clips().len());
+    egui::Window::new(title).default_open(true).anchor(egui::Align2::LEFT_BOTTOM, [8.0, -8.0]).show(ui.ctx(), |ui| {
+        let active = player.active();
+        let names: Vec<String> = player.clips().iter().map(|c| c.name.clone()).collect();
+        let mut chosen = None;
+        egui::ComboBox::from_label("clip").selected_text(active.map_or("(stopped)", |i| names[i].as_str())).show_ui(
+            ui,
+            |ui| {
+                for (i, name) in names.iter().enumerate() {
+                    if ui.selectable_label(active == Some(i), name).clicked() {
+                        chosen = Some(i);
+                    }
+                }
+            },
+        );
+        if let Some(i) = chosen.filter(|&i| Some(i) != active) {
+            // Indices come from the list itself: always valid.
+            let _ = player.play(i);
+        }
+        ui.horizontal(|ui| {
+            if ui.button(if player.is_paused() { "play" } else { "pause" }).clicked() {
+                if player.is_paused() { player.resume() } else { player.pause() }
+            }
+            let mut looping = player.repeat() == Repeat::Loop;
+            if ui.checkbox(&mut looping, "loop").changed() {
+                player.set_repeat(if looping { Repeat::Loop } else { Repeat::Once });
+            }
+        });
+        let mut speed = player.speed();
+        if ui.add(egui::Slider::new(&mut speed, -2.0..=2.0).text("speed")).changed() {
+            let _ = player.set_speed(speed);
+        }
+        let duration = player.active_clip().map_or(0.0, |c| c.duration());
+        let mut time = player.time();
+        if ui.add(egui::Slider::new(&mut time, 0.0..=duration.max(1e-3)).text("time (s)")).changed() {
+            let _ = player.seek(time);
+        }
+    });
 }
