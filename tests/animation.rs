@@ -287,8 +287,9 @@ fn ribbon(segments: usize, targets: usize) -> Mesh {
             mesh.joints.push([i as u16, ((i + 1) % segments) as u16, 0, 0]);
             mesh.weights.push(Vec4::new(0.7, 0.3, 0.0, 0.0));
             for (t, target) in morph.iter_mut().enumerate() {
-                let lift = if i % targets == t { Vec3::new(0.0, 0.4 * y, 0.0) } else { Vec3::ZERO };
-                target.positions.push(lift);
+                let hit = i % targets == t;
+                target.positions.push(if hit { Vec3::new(0.0, 0.4 * y, 0.0) } else { Vec3::ZERO });
+                target.normals.push(if hit { Vec3::new(0.3, 0.2 * y, 0.0) } else { Vec3::ZERO });
             }
         }
         mesh.indices.get_or_insert_with(Vec::new).extend([base, base + 1, base + 2, base, base + 2, base + 3]);
@@ -297,8 +298,8 @@ fn ribbon(segments: usize, targets: usize) -> Mesh {
     mesh
 }
 
-/// Renders the ribbon with a flat unlit material from a fixed camera: skinned and morphed on the
-/// GPU when `gpu` is set, else as a static mesh whose positions the CPU deformed.
+/// Renders the lit ribbon from a fixed camera: skinned and morphed on the GPU when
+/// `gpu_deformed` is set, else as a static mesh whose positions and normals the CPU deformed.
 fn ribbon_frame(gpu_deformed: bool) -> Vec<u8> {
     let (segments, targets) = (300, 40);
     let mut app = common::scene_app();
@@ -306,18 +307,21 @@ fn ribbon_frame(gpu_deformed: bool) -> Vec<u8> {
     let joints: Vec<Entity> = (0..segments)
         .map(|i| {
             let x = 0.1 * i as f32;
-            let t = Transform::from_xyz(x, 0.5 * (0.1 * i as f32).sin(), 0.0)
-                .with_rotation(Quat::from_rotation_z(0.3 * (0.07 * i as f32).cos()));
+            let t = Transform::from_xyz(x, 0.5 * (0.1 * i as f32).sin(), 0.0).with_rotation(
+                Quat::from_rotation_z(0.3 * (0.07 * i as f32).cos())
+                    * Quat::from_rotation_y(0.6 * (0.05 * i as f32).sin()),
+            );
             app.world.spawn(t).id()
         })
         .collect();
     let inverse_bindposes: Vec<Mat4> =
         (0..segments).map(|i| Mat4::from_translation(Vec3::new(-0.1 * i as f32, 0.0, 0.0))).collect();
     let weights: Vec<f32> = (0..targets).map(|t| (t as f32 * 0.37).sin()).collect();
-    let unlit = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::ONE, 1.0) };
+    // Lit and glossy, so normals show: the default key light and ambient term light it.
+    let paint = StandardMaterial::from_color(Vec4::ONE, 0.4);
     let mesh = ribbon(segments, targets);
     let skin = SkinnedMesh { inverse_bindposes: inverse_bindposes.into(), joints };
-    let entity = common::spawn_mesh(&mut app, mesh.clone(), unlit.clone(), Transform::IDENTITY);
+    let entity = common::spawn_mesh(&mut app, mesh.clone(), paint.clone(), Transform::IDENTITY);
     app.world.entity_mut(entity).insert((skin, MorphWeights(weights.clone())));
     app.world.spawn((
         Camera::default(),
@@ -326,24 +330,28 @@ fn ribbon_frame(gpu_deformed: bool) -> Vec<u8> {
     app.update();
     if !gpu_deformed {
         let matrices = app.world.get::<JointMatrices>(entity).unwrap().0.clone();
-        let mut posed = Mesh { positions: mesh.deformed_positions(&matrices, &weights), ..mesh };
+        let (positions, normals) =
+            (mesh.deformed_positions(&matrices, &weights), mesh.deformed_normals(&matrices, &weights));
+        let mut posed = Mesh { positions, normals, ..mesh };
         posed.joints.clear();
         posed.weights.clear();
         posed.morph_targets.clear();
         app.world.despawn(entity);
-        common::spawn_mesh(&mut app, posed, unlit, Transform::IDENTITY);
+        common::spawn_mesh(&mut app, posed, paint, Transform::IDENTITY);
     }
     common::render_app(&mut app, (512, 128), RenderSettings::default())
 }
 
 #[test]
 fn gpu_skinning_of_300_joints_and_40_morph_targets_equals_the_cpu_reference() {
+    // Positions and normals (lit, glossy): the joints turn about Y as well as Z, and the morph
+    // targets bend normals too.
     let gpu_frame = ribbon_frame(true);
     let cpu_frame = ribbon_frame(false);
     let covered = gpu_frame.chunks_exact(4).filter(|p| p[0] > 60 || p[2] > 60).count();
     assert!(covered > 5_000, "the ribbon covers {covered} pixels");
-    // Same positions up to float summation order: at most a few edge pixels differ (measured:
-    // none).
+    // Same positions and normals up to float summation order: at most a few pixels differ.
+
     let differing = gpu_frame.chunks_exact(4).zip(cpu_frame.chunks_exact(4)).filter(|(a, b)| a != b).count();
     let flip = common::flip_mean(&gpu_frame, &cpu_frame, 512, 128);
     assert!(flip < 0.002 && differing < 100, "FLIP {flip}, {differing} pixels differ");

@@ -227,6 +227,34 @@ impl Mesh {
             .collect()
     }
 
+    /// Normals after morph targets and skinning, as the GPU deformation pass computes them:
+    /// displaced, then turned by the cofactor of the blended joint matrix (signed by its
+    /// determinant), then normalised (a zero normal stays zero). For tests and tools.
+    pub fn deformed_normals(&self, joints: &[glam::Mat4], weights: &[f32]) -> Vec<Vec3> {
+        (0..self.normals.len())
+            .map(|v| {
+                let mut n = self.normals[v];
+                for (t, target) in self.morph_targets.iter().enumerate() {
+                    if let (Some(w), Some(d)) = (weights.get(t), target.normals.get(v)) {
+                        n += *w * *d;
+                    }
+                }
+                if let (Some(j), Some(w)) = (self.joints.get(v), self.weights.get(v))
+                    && w.element_sum() > 0.0
+                {
+                    let m = (0..4).fold(glam::Mat4::ZERO, |m, i| {
+                        m + joints.get(j[i] as usize).copied().unwrap_or(glam::Mat4::IDENTITY) * w[i]
+                    });
+                    let (c0, c1, c2) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+                    let cofactor = glam::Mat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
+                    let sign = if c0.dot(c1.cross(c2)) < 0.0 { -1.0 } else { 1.0 };
+                    n = cofactor * n * sign;
+                }
+                n.try_normalize().unwrap_or(Vec3::ZERO)
+            })
+            .collect()
+    }
+
     pub fn is_skinned(&self) -> bool {
         !self.joints.is_empty()
     }
