@@ -406,3 +406,30 @@ fn a_deformed_draw_follows_mesh_edits_and_returns_to_rest_when_its_pose_goes() {
     let bare = common::render_app(&mut app, (512, 128), RenderSettings::default());
     assert_eq!(bare, static_ribbon_frame(edited_mesh), "no pose: the bind pose");
 }
+
+#[test]
+fn nan_weights_and_joints_leave_no_nan_in_the_frame() {
+    let (segments, targets) = (20, 4);
+    let mut app = common::scene_app();
+    let joints: Vec<Entity> = (0..segments)
+        .map(|i| {
+            // Every third joint is NaN or infinite, every fourth scaled to nothing.
+            let t = match i % 4 {
+                0 => Transform::from_xyz(f32::NAN, 0.0, 0.0),
+                1 => Transform::from_scale(Vec3::ZERO),
+                2 => Transform::from_xyz(f32::INFINITY, 1e30, 0.0),
+                _ => Transform::from_xyz(0.1 * i as f32, 0.0, 0.0),
+            };
+            app.world.spawn(t).id()
+        })
+        .collect();
+    let inverse_bindposes: Vec<Mat4> = vec![Mat4::IDENTITY; segments];
+    let mesh = ribbon(segments, targets);
+    let entity = common::spawn_mesh(&mut app, mesh, StandardMaterial::from_color(Vec4::ONE, 0.5), Transform::IDENTITY);
+    let skin = SkinnedMesh { inverse_bindposes: inverse_bindposes.into(), joints };
+    app.world.entity_mut(entity).insert((skin, MorphWeights(vec![f32::NAN, f32::INFINITY, -1e30, 0.5])));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(1.0, 0.5, 4.0).looking_at(Vec3::new(1.0, 0.5, 0.0), Vec3::Y)));
+    common::render_app(&mut app, (128, 64), RenderSettings::default());
+    common::assert_finite_hdr(&common::hdr_of(&app), "NaN and infinite poses");
+}
