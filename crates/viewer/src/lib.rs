@@ -1,4 +1,6 @@
 //! The viewer crate's library part: [`window::WindowRunner`], which runs a scripted `App` in a
-//! window (the `penumbra` binary's own viewer lives in its `view` module).
+//! window, and [`surface::WindowSurface`], the window-and-surface plumbing it shares with the
+//! `penumbra` binary's own viewer (its `view` module).
 
+pub mod surface;
 pub mod window;

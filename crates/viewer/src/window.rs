@@ -6,17 +6,17 @@
 //! it. The surface follows the window's physical size (HiDPI-correct); a minimised (0×0) window
 //! keeps updating without drawing; `Esc` or the close button ends the loop.
 
-use std::sync::Arc;
-
 use anyhow::{Context, Result, anyhow};
 use bevy_ecs::world::Mut;
 use penumbra_engine::{App, Plugin, Time, TimeMode};
-use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
+use penumbra_render::{RenderOutput, RenderScene, RenderSettings, Renderer};
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
+
+use crate::surface::WindowSurface;
 
 /// Runs the app in a window until it is closed. Add it as a plugin, then call `App::run`.
 #[derive(Debug, Clone)]
@@ -71,9 +71,7 @@ struct Handler {
 }
 
 struct Running {
-    window: Arc<Window>,
-    surface: wgpu::Surface<'static>,
-    config: wgpu::SurfaceConfiguration,
+    surface: WindowSurface,
     app: App,
 }
 
@@ -81,60 +79,24 @@ impl Handler {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
         let mut app = self.app.take().ok_or_else(|| anyhow!("the app was already started"))?;
         let (w, h) = self.runner.size;
-        let window = Arc::new(
-            event_loop
-                .create_window(
-                    Window::default_attributes()
-                        .with_title(self.runner.title.clone())
-                        .with_inner_size(winit::dpi::LogicalSize::new(w, h)),
-                )
-                .context("cannot create the window")?,
-        );
-        let request = AdapterRequest::default();
-        let desc =
-            GpuContext::instance_descriptor(&request).with_display_handle(Box::new(event_loop.owned_display_handle()));
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
-        let ctx = GpuContext::with_instance(instance, &request, Some(&surface))?;
-        let size = window.inner_size();
-        let caps = surface.get_capabilities(&ctx.adapter);
-        let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
-        let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            format,
-            width: size.width.max(1),
-            height: size.height.max(1),
-            present_mode: if self.runner.vsync { wgpu::PresentMode::AutoVsync } else { wgpu::PresentMode::AutoNoVsync },
-            desired_maximum_frame_latency: 2,
-            alpha_mode: caps.alpha_modes[0],
-            color_space: wgpu::SurfaceColorSpace::Auto,
-            view_formats: Vec::new(),
-        };
-        surface.configure(&ctx.device, &config);
+        let attributes = Window::default_attributes()
+            .with_title(self.runner.title.clone())
+            .with_inner_size(winit::dpi::LogicalSize::new(w, h));
+        let (surface, ctx) = WindowSurface::new(event_loop, attributes, self.runner.vsync, false)?;
         app.insert_resource(Renderer::new(ctx, self.runner.settings.clone())?);
         app.insert_resource(RenderOutput::External);
         app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
-        Ok(Running { window, surface, config, app })
+        Ok(Running { surface, app })
     }
 }
 
 impl Running {
     fn frame(&mut self) {
         self.app.update();
-        if self.config.width == 0 || self.config.height == 0 {
-            return;
-        }
         let device = self.app.world.resource::<Renderer>().context().device.clone();
-        let texture = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                self.surface.configure(&device, &self.config);
-                return;
-            }
-            _ => return,
-        };
+        let Some(texture) = self.surface.acquire(&device) else { return };
         let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let (size, format) = ((self.config.width, self.config.height), self.config.format);
+        let (size, format) = (self.surface.size(), self.surface.config.format);
         self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
             renderer.render(world.resource::<RenderScene>(), &view, format, size);
             renderer.context().queue.present(texture);
@@ -149,7 +111,7 @@ impl ApplicationHandler for Handler {
         }
         match self.start(event_loop) {
             Ok(r) => {
-                r.window.request_redraw();
+                r.surface.window.request_redraw();
                 self.running = Some(r);
             }
             Err(e) => {
@@ -169,20 +131,12 @@ impl ApplicationHandler for Handler {
                 event_loop.exit()
             }
             WindowEvent::Resized(size) => {
-                // Minimised: keep the configuration and skip drawing until restored.
-                if size.width > 0 && size.height > 0 {
-                    r.config.width = size.width;
-                    r.config.height = size.height;
-                    let device = r.app.world.resource::<Renderer>().context().device.clone();
-                    r.surface.configure(&device, &r.config);
-                } else {
-                    r.config.width = 0;
-                    r.config.height = 0;
-                }
+                let device = r.app.world.resource::<Renderer>().context().device.clone();
+                r.surface.resize(size.width, size.height, &device);
             }
             WindowEvent::RedrawRequested => {
                 r.frame();
-                r.window.request_redraw();
+                r.surface.window.request_redraw();
             }
             _ => {}
         }

@@ -8,7 +8,6 @@
 mod orbit;
 mod overlay;
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -22,7 +21,8 @@ use penumbra_engine::framing::world_bounds;
 use penumbra_engine::import::SceneFile;
 use penumbra_engine::{App, Time, TimeMode};
 use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
-use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
+use penumbra_render::{GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
+use penumbra_viewer::surface::WindowSurface;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
@@ -74,9 +74,7 @@ struct Input {
 }
 
 struct Running {
-    window: Arc<Window>,
-    surface: wgpu::Surface<'static>,
-    config: wgpu::SurfaceConfiguration,
+    surface: WindowSurface,
     app: App,
     camera: Entity,
     orbit: OrbitCamera,
@@ -89,39 +87,11 @@ struct Running {
 impl Viewer {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
         let title = format!("penumbra — {}", self.scene.path().display());
-        let window = Arc::new(
-            event_loop
-                .create_window(
-                    Window::default_attributes()
-                        .with_title(title)
-                        .with_inner_size(winit::dpi::LogicalSize::new(1280, 800)),
-                )
-                .context("cannot create the window")?,
-        );
-        let request = AdapterRequest::default();
-        let desc =
-            GpuContext::instance_descriptor(&request).with_display_handle(Box::new(event_loop.owned_display_handle()));
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
-        let ctx = GpuContext::with_instance(instance, &request, Some(&surface))?;
-        let size = window.inner_size();
-        let caps = surface.get_capabilities(&ctx.adapter);
-        let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
-        let present_mode =
-            if self.args.no_vsync { wgpu::PresentMode::AutoNoVsync } else { wgpu::PresentMode::AutoVsync };
-        let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            format,
-            width: size.width.max(1),
-            height: size.height.max(1),
-            present_mode,
-            desired_maximum_frame_latency: 2,
-            alpha_mode: caps.alpha_modes[0],
-            color_space: wgpu::SurfaceColorSpace::Auto,
-            // egui blends in gamma space, so it draws through a non-sRGB view of the same image.
-            view_formats: vec![format.remove_srgb_suffix()],
-        };
-        surface.configure(&ctx.device, &config);
+        let attributes =
+            Window::default_attributes().with_title(title).with_inner_size(winit::dpi::LogicalSize::new(1280, 800));
+        // egui blends in gamma space, so it draws through a non-sRGB view of the same image.
+        let (surface, ctx) = WindowSurface::new(event_loop, attributes, !self.args.no_vsync, true)?;
+        let config = &surface.config;
 
         let shot = ShotSettings {
             size: Some((config.width, config.height)),
@@ -156,29 +126,24 @@ impl Viewer {
             let cam = *app.world.get::<Camera>(camera).expect("queried");
             app.world.get_mut::<Camera>(camera).expect("queried").is_active = false;
             let free = app.world.spawn((Camera { is_active: true, ..cam }, state.transform())).id();
-            return self.finish(window, surface, config, app, free, state, ctx);
+            return self.finish(surface, app, free, state, ctx);
         }
-        self.finish(window, surface, config, app, camera, state, ctx)
+        self.finish(surface, app, camera, state, ctx)
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn finish(
         &self,
-        window: Arc<Window>,
-        surface: wgpu::Surface<'static>,
-        config: wgpu::SurfaceConfiguration,
+        surface: WindowSurface,
         mut app: App,
         camera: Entity,
         state: OrbitState,
         ctx: GpuContext,
     ) -> Result<Running> {
-        let overlay = Overlay::new(&window, &ctx.device, config.format.remove_srgb_suffix());
+        let overlay = Overlay::new(&surface.window, &ctx.device, surface.config.format.remove_srgb_suffix());
         app.insert_resource(Renderer::new(ctx, self.settings.clone())?);
         app.insert_resource(RenderOutput::External);
         Ok(Running {
-            window,
             surface,
-            config,
             app,
             camera,
             orbit: OrbitCamera::new(state),
@@ -206,21 +171,12 @@ impl Running {
 
     /// The point under the cursor on the plane through the orbit target facing the camera.
     fn cursor_point(&self) -> Option<Vec3> {
-        let (w, h) = (self.config.width as f32, self.config.height as f32);
+        let (w, h) = (self.surface.config.width as f32, self.surface.config.height as f32);
         let t = self.orbit.goal.transform();
         let tan = (0.5 * self.yfov()).tan();
         let ndc = Vec2::new(2.0 * self.input.cursor.x / w - 1.0, 1.0 - 2.0 * self.input.cursor.y / h);
         let dir = t.rotation * Vec3::new(ndc.x * tan * w / h, ndc.y * tan, -1.0);
         Some(t.translation + dir * self.orbit.goal.distance)
-    }
-
-    fn resize(&mut self, width: u32, height: u32, device: &wgpu::Device) {
-        if width == 0 || height == 0 {
-            return; // minimised: keep the old configuration, skip frames until restored
-        }
-        self.config.width = width;
-        self.config.height = height;
-        self.surface.configure(device, &self.config);
     }
 
     fn frame(&mut self) {
@@ -232,26 +188,16 @@ impl Running {
             *t = transform;
         }
         self.app.update();
-        if self.config.width == 0 || self.config.height == 0 {
-            return;
-        }
         let device = self.app.world.resource::<Renderer>().context().device.clone();
-        let texture = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                self.surface.configure(&device, &self.config);
-                return;
-            }
-            _ => return, // timeout, occluded, validation: try again next frame
-        };
+        let Some(texture) = self.surface.acquire(&device) else { return };
         let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let ui_view = texture.texture.create_view(&wgpu::TextureViewDescriptor {
-            format: Some(self.config.format.remove_srgb_suffix()),
+            format: Some(self.surface.config.format.remove_srgb_suffix()),
             ..Default::default()
         });
-        let size = (self.config.width, self.config.height);
-        let format = self.config.format;
-        let window = self.window.clone();
+        let size = self.surface.size();
+        let format = self.surface.config.format;
+        let window = self.surface.window.clone();
         let overlay = &mut self.overlay;
         let before = self.app.world.get_resource::<Environment>().cloned();
         let mut env = before.clone();
@@ -303,7 +249,7 @@ impl ApplicationHandler for Viewer {
         }
         match self.start(event_loop) {
             Ok(r) => {
-                r.window.request_redraw();
+                r.surface.window.request_redraw();
                 self.running = Some(r);
             }
             Err(e) => {
@@ -315,14 +261,14 @@ impl ApplicationHandler for Viewer {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(r) = self.running.as_mut() else { return };
-        if r.overlay.on_window_event(&r.window, &event) {
+        if r.overlay.on_window_event(&r.surface.window, &event) {
             return;
         }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {
                 let device = r.app.world.resource::<Renderer>().context().device.clone();
-                r.resize(size.width, size.height, &device);
+                r.surface.resize(size.width, size.height, &device);
             }
             WindowEvent::ModifiersChanged(m) => r.input.modifiers = m.state(),
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => match event.logical_key
@@ -344,7 +290,7 @@ impl ApplicationHandler for Viewer {
                 let p = Vec2::new(position.x as f32, position.y as f32);
                 let d = p - r.input.cursor;
                 r.input.cursor = p;
-                let h = r.config.height as f32;
+                let h = r.surface.config.height as f32;
                 if r.input.middle || r.input.right || (r.input.left && r.input.modifiers.shift_key()) {
                     let yfov = r.yfov();
                     r.orbit.pan(d.x, d.y, h, yfov);
@@ -373,7 +319,7 @@ impl ApplicationHandler for Viewer {
             }
             WindowEvent::RedrawRequested => {
                 r.frame();
-                r.window.request_redraw();
+                r.surface.window.request_redraw();
             }
             _ => {}
         }

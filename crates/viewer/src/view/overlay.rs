@@ -220,7 +220,8 @@ fn environment_panel(
 
 /// The scene's clips (by name), play/pause, loop, speed and the play head.
 fn animation_panel(ui: &mut egui::Ui, player: &mut AnimationPlayer) {
-    let title = format!("Animation ({} clips)", player.clips().len());
+    let n = player.clips().len();
+    let title = format!("Animation ({n} clip{})", if n == 1 { "" } else { "s" });
     egui::Window::new(title).default_open(true).anchor(egui::Align2::LEFT_BOTTOM, [8.0, -8.0]).show(ui.ctx(), |ui| {
         let active = player.active();
         let names: Vec<String> = player.clips().iter().map(|c| c.name.clone()).collect();
