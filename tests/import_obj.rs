@@ -136,6 +136,33 @@ fn bad_obj_input_is_named_with_file_and_line() {
     let e = error(&bad_mtl);
     assert!(e.contains("scene.mtl") && e.contains("line 10"), "{e}");
 
+    let relative =
+        edited(
+            "obj_relative",
+            |f, t| {
+                if f == "scene.obj" { t.replace("f 15 16 17 18", "f 15/-9 16/-9 17/-9") } else { t }
+            },
+        );
+    let e = error(&relative);
+    assert!(e.contains("scene.obj") && e.contains("line 53") && e.contains("texture coordinate index -9"), "{e}");
+
     let e = error(&asset("ObjScene/nothing_here.obj"));
     assert!(e.contains("nothing_here.obj"), "{e}");
+}
+
+#[test]
+fn non_finite_mtl_values_fall_back_to_defaults() {
+    let path = edited("obj_nan_mtl", |f, t| {
+        if f == "scene.mtl" {
+            t.replace("Kd 0.3 0.6 1.0", "Kd nan nan nan").replace("d 0.4", "d nan").replace("Ns 900", "Ns inf")
+        } else {
+            t
+        }
+    });
+    let scene = ObjScene::load(&path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let (_world, objects) = spawned(&scene);
+    let glass = &objects.iter().find(|o| o.0 == "pane").unwrap().2;
+    assert_eq!(glass.base_color, Vec4::ONE, "NaN Kd and d read as absent");
+    assert_eq!(glass.alpha_mode, AlphaMode::Opaque);
+    assert!(glass.roughness.is_finite());
 }

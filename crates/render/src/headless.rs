@@ -113,6 +113,8 @@ pub fn pose_animation(world: &mut World, root: Entity, shot: &AnimationShot) -> 
         };
     }
     player.pause();
+    // Held, not looped: `--time` at the clip's end shows its last pose, not its first.
+    player.set_repeat(penumbra_engine::animation::Repeat::Once);
     player.seek(shot.time)?;
     Ok(())
 }
@@ -209,7 +211,9 @@ impl HeadlessRunner {
         app.insert_resource(Time::fixed_hz(self.hz));
         app.insert_resource(RenderOutput::Headless { width: w, height: h });
         let mut shots = Vec::new();
-        for frame in 1..=self.frames.max(1) {
+        // A screenshot asked for after `frames` extends the run to it rather than going missing.
+        let last = self.screenshots.iter().map(|(f, _)| *f).max().unwrap_or(0).max(self.frames).max(1);
+        for frame in 1..=last {
             app.update();
             for (_, path) in self.screenshots.iter().filter(|(f, _)| *f == frame) {
                 let pixels = app

@@ -166,34 +166,47 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
     let mtl_failure: RefCell<Option<ImportError>> = RefCell::new(None);
     let load_options =
         tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
+    check_face_indices(bytes).map_err(|(line, reason)| obj_err(ImportErrorKind::Obj { line: Some(line), reason }))?;
     let mut reader = LineCounter { inner: std::io::BufReader::new(bytes), newlines: 0 };
-    let result = tobj::load_obj_buf(&mut reader, &load_options, |mtl: &Path| {
-        let rel = mtl.to_string_lossy();
-        let fail = |kind: ImportErrorKind| {
-            mtl_failure.borrow_mut().get_or_insert(ImportError::new(base_dir.join(mtl), kind));
-            Err(tobj::LoadError::GenericFailure)
-        };
-        let file = match resolve_inside(&base_dir, &rel, options.allow_outside_folder) {
-            Ok(f) => f,
-            Err(UriError::OutsideFolder) => return fail(ImportErrorKind::UriOutsideFolder { uri: rel.into_owned() }),
-            Err(e) => return fail(ImportErrorKind::Obj { line: None, reason: format!("{e:?}") }),
-        };
-        let text = match std::fs::read(&file) {
-            Ok(t) => t,
-            Err(e) => {
-                mtl_failure.borrow_mut().get_or_insert(ImportError::new(&file, ImportErrorKind::Io(e)));
-                return Err(tobj::LoadError::OpenFileFailed);
-            }
-        };
-        let mut mtl_reader = LineCounter { inner: std::io::BufReader::new(text.as_slice()), newlines: 0 };
-        tobj::load_mtl_buf(&mut mtl_reader).inspect_err(|e| {
-            let line = Some(mtl_reader.newlines.max(1));
-            mtl_failure
-                .borrow_mut()
-                .get_or_insert(ImportError::new(&file, ImportErrorKind::Obj { line, reason: parse_error(*e) }));
+    // Bad input must not panic: should the parser still meet a case the check above misses, its
+    // panic is an error naming the file, not a crash.
+    let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut reader, &load_options, |mtl: &Path| {
+            let rel = mtl.to_string_lossy();
+            let fail = |kind: ImportErrorKind| {
+                mtl_failure.borrow_mut().get_or_insert(ImportError::new(base_dir.join(mtl), kind));
+                Err(tobj::LoadError::GenericFailure)
+            };
+            let file = match resolve_inside(&base_dir, &rel, options.allow_outside_folder) {
+                Ok(f) => f,
+                Err(UriError::OutsideFolder) => {
+                    return fail(ImportErrorKind::UriOutsideFolder { uri: rel.into_owned() });
+                }
+                Err(e) => return fail(ImportErrorKind::Obj { line: None, reason: format!("{e:?}") }),
+            };
+            let text = match std::fs::read(&file) {
+                Ok(t) => t,
+                Err(e) => {
+                    mtl_failure.borrow_mut().get_or_insert(ImportError::new(&file, ImportErrorKind::Io(e)));
+                    return Err(tobj::LoadError::OpenFileFailed);
+                }
+            };
+            let mut mtl_reader = LineCounter { inner: std::io::BufReader::new(text.as_slice()), newlines: 0 };
+            tobj::load_mtl_buf(&mut mtl_reader).inspect_err(|e| {
+                let line = Some(mtl_reader.newlines.max(1));
+                mtl_failure
+                    .borrow_mut()
+                    .get_or_insert(ImportError::new(&file, ImportErrorKind::Obj { line, reason: parse_error(*e) }));
+            })
         })
-    });
+    }));
     let line = reader.newlines;
+    let Ok(result) = parsed else {
+        return Err(obj_err(ImportErrorKind::Obj {
+            line: Some(line.max(1)),
+            reason: "the OBJ parser failed on this line".into(),
+        }));
+    };
     if let Some(e) = mtl_failure.into_inner() {
         return Err(e);
     }
@@ -240,6 +253,42 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
         tracing::warn!("{}: {w}", path.display());
     }
     Ok(ObjScene { path: path.to_path_buf(), objects, materials: descs, images, warnings })
+}
+
+/// Face corners (`f v/vt/vn ...`) must name elements that exist: an index of 0, or a negative
+/// (relative) index reaching before the first element, is refused with its line. The parser
+/// checks positive indices itself but computes relative ones with unchecked arithmetic.
+fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut counts = [0i64; 3];
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            Some("f") => {
+                for corner in words {
+                    for (kind, index) in corner.split('/').enumerate().take(3) {
+                        if index.is_empty() {
+                            continue;
+                        }
+                        let what = ["vertex", "texture coordinate", "normal"][kind];
+                        let i: i64 =
+                            index.parse().map_err(|_| (n + 1, format!("face index {index:?} is not a number")))?;
+                        if i == 0 || -i > counts[kind] {
+                            return Err((
+                                n + 1,
+                                format!("face {what} index {i} names no {what} ({} defined so far)", counts[kind]),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// One tobj mesh (single-indexed, triangulated) to a `Mesh`; `None` when it has no faces.
@@ -312,7 +361,7 @@ fn parse_texture_statement(s: &str) -> TextureStatement {
     let numbers = |i: &mut usize, max: usize| {
         let mut v = Vec::new();
         while v.len() < max
-            && let Some(x) = tokens.get(*i).and_then(|t| t.parse::<f32>().ok())
+            && let Some(x) = tokens.get(*i).and_then(|t| t.parse::<f32>().ok()).filter(|x| x.is_finite())
         {
             v.push(x);
             *i += 1;
@@ -355,13 +404,18 @@ fn convert_material(
     image_index: &mut HashMap<PathBuf, usize>,
     warnings: &mut Vec<String>,
 ) -> Result<MaterialDesc, ImportError> {
-    let param = |k: &str| m.unknown_param.get(k).and_then(|v| v.split_whitespace().next()?.parse::<f32>().ok());
-    let rgb = |c: Option<[f32; 3]>| c.map(Vec3::from_array);
+    // Rust's float parsing (tobj's too) accepts "nan" and "inf": every factor that is not finite
+    // counts as absent, so no NaN reaches a material.
+    let finite = |x: f32| x.is_finite().then_some(x);
+    let param = |k: &str| {
+        m.unknown_param.get(k).and_then(|v| v.split_whitespace().next()?.parse::<f32>().ok()).and_then(finite)
+    };
+    let rgb = |c: Option<[f32; 3]>| c.map(Vec3::from_array).filter(|c| c.is_finite());
     let diffuse = rgb(m.diffuse).unwrap_or(Vec3::ONE);
     let specular = rgb(m.specular).unwrap_or(Vec3::ZERO);
-    let alpha = m.dissolve.or_else(|| param("Tr").map(|tr| 1.0 - tr)).unwrap_or(1.0).clamp(0.0, 1.0);
+    let alpha = m.dissolve.and_then(finite).or_else(|| param("Tr").map(|tr| 1.0 - tr)).unwrap_or(1.0).clamp(0.0, 1.0);
     let roughness = param("Pr").unwrap_or_else(|| {
-        let ns = m.shininess.unwrap_or(0.0).max(0.0);
+        let ns = m.shininess.and_then(finite).unwrap_or(0.0).max(0.0);
         (2.0 / (ns + 2.0)).sqrt().sqrt()
     });
     let old_style_metal = diffuse.max_element() < 1e-4 && specular.max_element() > 1e-4;
@@ -377,7 +431,8 @@ fn convert_material(
         emissive: rgb(m.emissive)
             .or_else(|| {
                 m.unknown_param.get("Ke").and_then(|v| {
-                    let c: Vec<f32> = v.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+                    let c: Vec<f32> =
+                        v.split_whitespace().filter_map(|x| x.parse().ok()).filter(|x: &f32| x.is_finite()).collect();
                     (c.len() == 3).then(|| Vec3::new(c[0], c[1], c[2]))
                 })
             })

@@ -49,6 +49,11 @@ fn begin_frame(time: Option<Res<penumbra_engine::Time>>, mut scene: ResMut<Rende
     scene.removed_deforms.clear();
 }
 
+/// NaN weights would smear NaN over every vertex: a weight that is not finite counts 0.
+fn finite_weights(weights: &[f32]) -> Vec<f32> {
+    weights.iter().map(|w| if w.is_finite() { *w } else { 0.0 }).collect()
+}
+
 /// Poses of skinned and morphed meshes: copied when their joint matrices or weights changed.
 /// A pose without a mesh is kept (the mesh may come back); the renderer pairs them by entity.
 fn extract_deforms(
@@ -70,7 +75,7 @@ fn extract_deforms(
             Ok((j, w)) if j.is_some() || w.is_some() => {
                 let pose = ExtractedDeform {
                     joints: j.map(|j| j.0.clone()).unwrap_or_default(),
-                    morph_weights: w.map(|w| w.0.clone()).unwrap_or_default(),
+                    morph_weights: w.map(|w| finite_weights(&w.0)).unwrap_or_default(),
                 };
                 scene.deforms.insert(entity, pose);
                 scene.changed_deforms.push(entity);
@@ -89,9 +94,7 @@ fn extract_deforms(
             pose.joints.clone_from(&j.0);
         }
         if let Some(w) = weights {
-            // NaN weights would smear NaN over every vertex: a weight that is not finite counts 0.
-            pose.morph_weights.clear();
-            pose.morph_weights.extend(w.0.iter().map(|w| if w.is_finite() { *w } else { 0.0 }));
+            pose.morph_weights = finite_weights(&w.0);
         }
         if !scene.changed_deforms[..relisted].contains(&entity) {
             scene.changed_deforms.push(entity);

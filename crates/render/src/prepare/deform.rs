@@ -211,21 +211,7 @@ impl MeshDeformer {
         self.joint_rows.clear();
         self.weights.clear();
         self.max_groups = 0;
-        let limit = device.limits().max_storage_buffer_binding_size;
-        if pool.vertex_buffer().size() > limit {
-            if !self.warned_too_large {
-                tracing::error!(
-                    "the mesh pool ({} MiB) exceeds this adapter's storage binding limit ({} MiB): skinned and \
-                     morphed meshes are drawn in their bind pose",
-                    pool.vertex_buffer().size() >> 20,
-                    limit >> 20
-                );
-                self.warned_too_large = true;
-            }
-            frame.outputs_changed = !self.instances.is_empty();
-            for (_, instance) in self.instances.drain() {
-                pool.free_derived(instance.output);
-            }
+        if self.pool_too_large(device, pool, &mut frame) {
             return frame;
         }
         let changed: HashSet<Entity> = scene.changed_deforms.iter().copied().collect();
@@ -264,7 +250,10 @@ impl MeshDeformer {
                 if !self.ensure_source(key, &snapshot.data) {
                     continue;
                 }
-                let Some(output) = pool.allocate_derived(device, queue, entry) else { continue };
+                let Some(output) = pool.allocate_derived(device, queue, entry) else {
+                    self.release_unused_source(key);
+                    continue;
+                };
                 if let Some(s) = self.sources.get_mut(&key) {
                     s.users += 1;
                 }
@@ -288,19 +277,57 @@ impl MeshDeformer {
             pool.set_derived_aabb(output, pose_bounds(source, pose));
             frame.moved.push(output);
         }
+        // Allocating copies may have grown the pool past what one binding can hold.
+        if self.pool_too_large(device, pool, &mut frame) {
+            return frame;
+        }
         frame.jobs = self.jobs.len();
         self.upload(device, queue, pool);
         frame
     }
 
+    /// Past the adapter's storage binding limit the pool cannot be bound for writing: every
+    /// deformed draw returns to its bind pose (with one logged error) and no job runs.
+    fn pool_too_large(&mut self, device: &wgpu::Device, pool: &mut MeshPool, frame: &mut DeformFrame) -> bool {
+        let limit = device.limits().max_storage_buffer_binding_size;
+        if pool.vertex_buffer().size() <= limit {
+            return false;
+        }
+        if !self.warned_too_large {
+            tracing::error!(
+                "the mesh pool ({} MiB) exceeds this adapter's storage binding limit ({} MiB): skinned and \
+                 morphed meshes are drawn in their bind pose",
+                pool.vertex_buffer().size() >> 20,
+                limit >> 20
+            );
+            self.warned_too_large = true;
+        }
+        frame.outputs_changed |= !self.instances.is_empty();
+        let all: Vec<Entity> = self.instances.keys().copied().collect();
+        for e in all {
+            self.drop_instance(e, pool);
+        }
+        self.jobs.clear();
+        self.joint_rows.clear();
+        self.weights.clear();
+        frame.moved.clear();
+        true
+    }
+
     fn drop_instance(&mut self, entity: Entity, pool: &mut MeshPool) {
         let Some(instance) = self.instances.remove(&entity) else { return };
         pool.free_derived(instance.output);
-        let done = self.sources.get_mut(&instance.source).is_some_and(|s| {
+        if let Some(s) = self.sources.get_mut(&instance.source) {
             s.users = s.users.saturating_sub(1);
-            s.users == 0
-        });
-        if done && let Some(s) = self.sources.remove(&instance.source) {
+        }
+        self.release_unused_source(instance.source);
+    }
+
+    /// Frees a source no deformed draw uses any more.
+    fn release_unused_source(&mut self, key: SourceKey) {
+        if self.sources.get(&key).is_some_and(|s| s.users == 0)
+            && let Some(s) = self.sources.remove(&key)
+        {
             self.data_alloc.free_range(s.range);
         }
     }
@@ -315,13 +342,22 @@ impl MeshDeformer {
         if (!mesh.is_skinned() && mesh.morph_targets.is_empty()) || n == 0 {
             return false;
         }
+        // Importers validate their meshes; a mesh built or edited in code might not be, and
+        // packing indexes its attributes by vertex.
+        if let Err(e) = mesh.validate() {
+            tracing::error!("a skinned or morphed mesh is invalid ({e}); drawn in its bind pose");
+            return false;
+        }
         if n.div_ceil(WORKGROUP as usize) > MAX_ROWS as usize {
             tracing::warn!("a mesh of {n} vertices is too large to deform on the GPU; drawn in its bind pose");
             return false;
         }
         let words = source_words(mesh);
         let range = self.allocate_words(words.max(1));
-        let source = pack_source(mesh, range.clone(), &mut self.data[range.start as usize..range.end as usize]);
+        let words = &mut self.data[range.start as usize..range.end as usize];
+        // A reused range holds an older source's words; nothing stale may reach the shader.
+        words.fill(0);
+        let source = pack_source(mesh, range.clone(), words);
         self.mark_dirty(range);
         self.sources.insert(key, source);
         true
@@ -351,6 +387,8 @@ impl MeshDeformer {
         if let Some(r) = self.data_dirty.take() {
             if self.data_buffer.reserve(device, self.data.len() as u64 * 4) {
                 rebind = true;
+                // The bind group holds the old buffer, whether or not jobs run this frame.
+                self.bind_group = None;
                 queue.write_buffer(self.data_buffer.buffer(), 0, bytemuck::cast_slice(&self.data));
             } else if !r.is_empty() {
                 let words = &self.data[r.start as usize..r.end as usize];
@@ -473,8 +511,11 @@ fn pack_source(mesh: &std::sync::Arc<Mesh>, range: Range<u32>, words: &mut [u32]
     if mesh.is_skinned() {
         for (v, (joints, weights)) in mesh.joints.iter().zip(&mesh.weights).enumerate() {
             let w = &mut words[at..at + SKIN_WORDS];
-            w[0] = joints[0] as u32 | (joints[1] as u32) << 16;
-            w[1] = joints[2] as u32 | (joints[3] as u32) << 16;
+            // An influence of weight 0 reads joint 0: exporters pad unused slots with any index
+            // (255, 65535), which would otherwise count as joints to upload every frame.
+            let j = |i: usize| if weights[i] > 0.0 { joints[i] as u32 } else { 0 };
+            w[0] = j(0) | j(1) << 16;
+            w[1] = j(2) | j(3) << 16;
             for i in 0..4 {
                 w[2 + i] = weights[i].to_bits();
             }
@@ -522,8 +563,9 @@ fn pack_source(mesh: &std::sync::Arc<Mesh>, range: Range<u32>, words: &mut [u32]
         skin_offset,
         morph_offset,
         target_count: mesh.morph_targets.len() as u32,
-        // Every index read, weighted or not (the shader reads all four), has its matrix.
-        joint_count: mesh.joints.iter().flatten().map(|&j| j as u32 + 1).max().unwrap_or(0),
+        // Every index the shader reads (weighted ones; unweighted slots read joint 0) has its
+        // matrix.
+        joint_count: (joint_boxes.len() as u32).max(1),
         joint_boxes,
         rest_box,
         morph_extents,
@@ -638,7 +680,9 @@ mod tests {
         assert_eq!((s.skin_offset, s.morph_offset), (Some(10), 10 + 2 * SKIN_WORDS as u32));
         let d = &data[10..];
         assert_eq!(d[0], 1 | 2 << 16);
-        assert_eq!(d[1], 3 | 65535 << 16);
+        // The fourth influence has weight 0: its padding index 65535 is packed as joint 0.
+        assert_eq!(d[1], 3);
+        assert_eq!(s.joint_count, 4);
         assert_eq!(f32::from_bits(d[3]), 0.25);
         let m = 2 * SKIN_WORDS;
         // Target 0, vertex 1: position (0, 0, 1), normal 0, tangent (1, 0, 0).
