@@ -84,7 +84,7 @@ mod tests {
             size: (96, 96),
             frames: 15,
             screenshots: vec![(1, dir.join("gltf_scene_1.png")), (15, dir.join("gltf_scene_15.png"))],
-            ..HeadlessRunner::screenshot("", (96, 96), 1)
+            ..Default::default()
         };
         let shots = runner.run_on(&mut app).unwrap_or_else(|e| panic!("{e}"));
         assert!(shots[0].chunks_exact(4).filter(|p| p[0] > 60).count() > 50, "the model is in view");

@@ -51,7 +51,7 @@ mod tests {
             size: (96, 64),
             frames: 30,
             screenshots: vec![(1, dir.join("hello_cube_1.png")), (30, dir.join("hello_cube_30.png"))],
-            ..HeadlessRunner::screenshot("", (96, 64), 1)
+            ..Default::default()
         };
         let shots = runner.run_on(&mut app).unwrap_or_else(|e| panic!("{e}"));
         let centre = |s: &[u8]| s[(32 * 96 + 48) * 4..][..3].to_vec();

@@ -81,7 +81,7 @@ mod tests {
             size: (96, 64),
             frames: 20,
             screenshots: vec![(1, dir.join("spinning_lights_1.png")), (20, dir.join("spinning_lights_20.png"))],
-            ..HeadlessRunner::screenshot("", (96, 64), 1)
+            ..Default::default()
         };
         let shots = runner.run_on(&mut app).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(app.world.resource::<Renderer>().stats().lights, 301, "every light (and the ambient) is drawn");

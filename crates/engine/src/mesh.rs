@@ -215,16 +215,20 @@ impl Mesh {
                         p += *w * *d;
                     }
                 }
-                let (Some(j), Some(w)) = (self.joints.get(v), self.weights.get(v)) else { return p };
-                if w.element_sum() <= 0.0 {
-                    return p;
-                }
-                let m = (0..4).fold(glam::Mat4::ZERO, |m, i| {
-                    m + joints.get(j[i] as usize).copied().unwrap_or(glam::Mat4::IDENTITY) * w[i]
-                });
-                m.transform_point3(p)
+                self.skin_matrix(v, joints).map_or(p, |m| m.transform_point3(p))
             })
             .collect()
+    }
+
+    /// Vertex `v`'s blended joint matrix (`joints` missing ones count as the identity), or `None`
+    /// when the vertex is not skinned (no skin, or all weights 0).
+    fn skin_matrix(&self, v: usize, joints: &[glam::Mat4]) -> Option<glam::Mat4> {
+        let (j, w) = (self.joints.get(v)?, self.weights.get(v)?);
+        (w.element_sum() > 0.0).then(|| {
+            (0..4).fold(glam::Mat4::ZERO, |m, i| {
+                m + joints.get(j[i] as usize).copied().unwrap_or(glam::Mat4::IDENTITY) * w[i]
+            })
+        })
     }
 
     /// Normals after morph targets and skinning, as the GPU deformation pass computes them:
@@ -239,12 +243,7 @@ impl Mesh {
                         n += *w * *d;
                     }
                 }
-                if let (Some(j), Some(w)) = (self.joints.get(v), self.weights.get(v))
-                    && w.element_sum() > 0.0
-                {
-                    let m = (0..4).fold(glam::Mat4::ZERO, |m, i| {
-                        m + joints.get(j[i] as usize).copied().unwrap_or(glam::Mat4::IDENTITY) * w[i]
-                    });
+                if let Some(m) = self.skin_matrix(v, joints) {
                     let (c0, c1, c2) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
                     let cofactor = glam::Mat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
                     let sign = if c0.dot(c1.cross(c2)) < 0.0 { -1.0 } else { 1.0 };

@@ -187,20 +187,25 @@ pub struct HeadlessRunner {
     pub settings: crate::RenderSettings,
 }
 
+impl Default for HeadlessRunner {
+    /// One frame at 640×360, stepped at 60 Hz, nothing saved.
+    fn default() -> Self {
+        Self { size: (640, 360), frames: 1, hz: 60.0, screenshots: Vec::new(), settings: Default::default() }
+    }
+}
+
 impl HeadlessRunner {
     /// Renders `frames` frames and saves the last one to `out`.
     pub fn screenshot(out: impl Into<std::path::PathBuf>, size: (u32, u32), frames: u32) -> Self {
         let frames = frames.max(1);
-        Self { size, frames, hz: 60.0, screenshots: vec![(frames, out.into())], settings: Default::default() }
+        Self { size, frames, screenshots: vec![(frames, out.into())], ..Default::default() }
     }
 
     /// Runs the frames on `app` and returns the RGBA8 pixels of each listed screenshot frame, in
     /// order (the files are written too).
     pub fn run_on(&self, app: &mut App) -> Result<Vec<Vec<u8>>, HeadlessError> {
         let (w, h) = self.size;
-        if !((1..=MAX_SIZE).contains(&w) && (1..=MAX_SIZE).contains(&h)) {
-            return Err(ShotError::Size(w, h).into());
-        }
+        ShotSettings { size: Some(self.size), ..Default::default() }.validate()?;
         if !(self.hz.is_finite() && self.hz > 0.0) {
             return Err(HeadlessError::Step(self.hz));
         }

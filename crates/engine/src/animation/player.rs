@@ -184,9 +184,10 @@ impl AnimationPlayer {
     }
 }
 
-/// Advances every player by this frame's `Time` and writes its clip's values at the new time
-/// into the targets. Runs first in `PostUpdate`, so `Update` systems can steer players and the
-/// pose is propagated the same frame.
+/// Writes every playing player's clip, sampled at its play head, into the targets (unless that
+/// pose is already there), then advances the play head by this frame's `Time` × speed. Runs
+/// first in `PostUpdate`, so `Update` systems can steer players and the pose is propagated the
+/// same frame.
 pub fn animate(
     time: Res<Time>,
     mut players: Query<&mut AnimationPlayer>,

@@ -114,8 +114,7 @@ impl ObjScene {
             let default = assets.add(StandardMaterial::from_color(Vec4::new(0.8, 0.8, 0.8, 1.0), 0.5));
             (handles, default)
         };
-        let name = self.path.file_name().map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
-        let root = world.spawn((SceneRoot { source: self.path.clone(), scene: None }, Name::new(name))).id();
+        let root = SceneRoot::spawn(world, &self.path, None);
         for (name, mesh, material) in &self.objects {
             let mesh = world.resource_mut::<Assets<Mesh>>().add_arc(mesh.clone());
             let material = material.and_then(|m| materials.get(m).copied()).unwrap_or(default_material);

@@ -2,10 +2,10 @@
 //! compute pass that applies them (`shaders/deform.wgsl`).
 //!
 //! How a pose reaches the screen:
-//! 1. Source data, once per mesh content (keyed by the asset's shared `Arc<Mesh>`, so every
-//!    instance of a scene, whose mesh assets share one `Arc`, shares one copy): per vertex four joints and four weights, and
-//!    per morph target per vertex the position, normal and tangent displacements, packed into
-//!    one storage buffer of words (range-allocated; a CPU mirror re-uploads it if it grows).
+//! 1. Source data, once per mesh content (keyed by the asset's shared `Arc<Mesh>`, so the
+//!    instances of a scene, whose mesh assets share one `Arc`, share one copy): per vertex four
+//!    joints and four weights, and per morph target per vertex the position, normal and tangent
+//!    displacements, packed into one storage buffer of words (range-allocated; a CPU mirror re-uploads it if it grows).
 //!    Beside it, on the CPU, what bounds need: per joint the bind-space box of the vertices it
 //!    moves, the box of unskinned vertices, and per target its largest displacement per axis.
 //! 2. Per deformed draw (an entity whose `Mesh3d` has skin or morph data and that carries
@@ -82,7 +82,7 @@ struct Source {
     skin_offset: Option<u32>,
     morph_offset: u32,
     target_count: u32,
-    /// Joints the vertices use (the largest index + 1).
+    /// Matrices a job uploads: the largest joint index with weight (+ 1), at least 1.
     joint_count: u32,
     /// Per joint, the bind-space box of the vertices it moves (weight > 0).
     joint_boxes: Vec<Aabb>,
@@ -97,7 +97,7 @@ struct Source {
 /// A deformed draw.
 struct Instance {
     mesh: Handle<Mesh>,
-    version: u64,
+    /// The content it was deformed from: a new version of the asset is new content (a new key).
     source: SourceKey,
     source_entry: MeshId,
     output: MeshId,
@@ -232,10 +232,11 @@ impl MeshDeformer {
             let draw = draw_mesh(entity);
             let pose = scene.deforms.get(&entity);
             let snapshot = draw.and_then(|(mesh, _)| scene.meshes.get(&mesh));
-            // No longer deformed as it was (pose gone, draw gone, another mesh or version).
-            let stale = self.instances.get(&entity).is_some_and(|i| match (pose, draw, snapshot) {
-                (Some(_), Some((mesh, entry)), Some(s)) => {
-                    mesh != i.mesh || entry != i.source_entry || s.version != i.version
+            let key = snapshot.map(|s| std::sync::Arc::as_ptr(&s.data) as SourceKey);
+            // No longer deformed as it was (pose gone, draw gone, another mesh or its content).
+            let stale = self.instances.get(&entity).is_some_and(|i| match (pose, draw, key) {
+                (Some(_), Some((mesh, entry)), Some(key)) => {
+                    mesh != i.mesh || entry != i.source_entry || key != i.source
                 }
                 _ => true,
             });
@@ -243,8 +244,9 @@ impl MeshDeformer {
                 self.drop_instance(entity, pool);
                 frame.outputs_changed = true;
             }
-            let (Some(pose), Some((mesh, entry)), Some(snapshot)) = (pose, draw, snapshot) else { continue };
-            let key = std::sync::Arc::as_ptr(&snapshot.data) as SourceKey;
+            let (Some(pose), Some((mesh, entry)), Some(snapshot), Some(key)) = (pose, draw, snapshot, key) else {
+                continue;
+            };
             let is_new = !self.instances.contains_key(&entity);
             if is_new {
                 if !self.ensure_source(key, &snapshot.data) {
@@ -257,7 +259,7 @@ impl MeshDeformer {
                 if let Some(s) = self.sources.get_mut(&key) {
                     s.users += 1;
                 }
-                let instance = Instance { mesh, version: snapshot.version, source: key, source_entry: entry, output };
+                let instance = Instance { mesh, source: key, source_entry: entry, output };
                 self.instances.insert(entity, instance);
                 frame.outputs_changed = true;
             } else if !resync && !changed.contains(&entity) {
@@ -598,21 +600,6 @@ mod tests {
     use penumbra_engine::mesh::MorphTarget;
     use penumbra_engine::scenes::SplitMix64;
 
-    /// What `deform.wgsl` computes for a position, on the CPU.
-    fn deform_position(mesh: &Mesh, v: usize, pose: &ExtractedDeform) -> Vec3 {
-        let mut p = mesh.positions[v];
-        for (t, target) in mesh.morph_targets.iter().enumerate() {
-            p += pose.morph_weights[t] * target.positions[v];
-        }
-        let w = mesh.weights[v];
-        if w.element_sum() == 0.0 {
-            return p;
-        }
-        let j = mesh.joints[v];
-        let m: Mat4 = (0..4).map(|i| pose.joints[j[i] as usize] * w[i]).fold(Mat4::ZERO, |a, b| a + b);
-        m.transform_point3(p)
-    }
-
     #[test]
     fn pose_bounds_contain_every_skinned_and_morphed_vertex() {
         let mut rng = SplitMix64(7);
@@ -652,8 +639,8 @@ mod tests {
                 morph_weights: vec![rng.uniform(-1.5, 1.5)],
             };
             let b = pose_bounds(&source, &pose);
-            for v in 0..n {
-                let p = deform_position(&mesh, v, &pose);
+            // The CPU twin of what deform.wgsl computes.
+            for (v, p) in mesh.deformed_positions(&pose.joints, &pose.morph_weights).into_iter().enumerate() {
                 let inside = p.cmpge(b.min - 1e-4).all() && p.cmple(b.max + 1e-4).all();
                 assert!(inside, "trial {trial}: vertex {v} at {p} is outside {b:?}");
             }

@@ -202,25 +202,26 @@ impl Running {
         let before = self.app.world.get_resource::<Environment>().cloned();
         let mut env = before.clone();
         // The scene's player (the first, for a single loaded scene), edited as a copy.
-        let animated = {
+        let mut animated = {
             let mut q = self.app.world.query::<(bevy_ecs::entity::Entity, &AnimationPlayer)>();
             q.iter(&self.app.world).next().map(|(e, p)| (e, p.clone()))
         };
-        let mut player = animated.as_ref().map(|(_, p)| p.clone());
+        let playback_before = animated.as_ref().map(|(_, p)| playback(p));
         self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
             let scene = world.resource::<RenderScene>();
             renderer.render(scene, &view, format, size);
             let ctx = renderer.context().clone();
             let error = renderer.shader_error();
-            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, error, &mut env, player.as_mut());
+            let player = animated.as_mut().map(|(_, p)| p);
+            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, error, &mut env, player);
             ctx.queue.present(texture);
         });
         // The panels' edits reach the renderer and the animation system as ordinary changes.
         if env != before {
             self.set_environment(env);
         }
-        if let (Some((root, was)), Some(edited)) = (animated, player)
-            && playback(&was) != playback(&edited)
+        if let (Some((root, edited)), Some(before)) = (animated, playback_before)
+            && playback(&edited) != before
             && let Some(mut p) = self.app.world.get_mut::<AnimationPlayer>(root)
         {
             p.copy_playback(&edited);

@@ -83,6 +83,14 @@ pub struct SceneRoot {
     pub scene: Option<usize>,
 }
 
+impl SceneRoot {
+    /// Spawns a scene's root entity, named after the file.
+    pub(crate) fn spawn(world: &mut World, source: &Path, scene: Option<usize>) -> Entity {
+        let name = source.file_name().map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
+        world.spawn((SceneRoot { source: source.to_path_buf(), scene }, Name::new(name))).id()
+    }
+}
+
 /// A camera that came from the file (glTF camera index). Spawned inactive; activate one to look
 /// through it (`penumbra render --camera N`).
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
@@ -194,9 +202,7 @@ impl GltfScene {
                 .map(|(_, prims)| prims.iter().map(|p| (meshes.add_arc(p.mesh.clone()), p.material)).collect())
                 .collect()
         };
-        let name = self.path.file_name().map_or_else(|| "scene".into(), |n| n.to_string_lossy().into_owned());
-        let root =
-            world.spawn((SceneRoot { source: self.path.clone(), scene: self.scene_index }, Name::new(name))).id();
+        let root = SceneRoot::spawn(world, &self.path, self.scene_index);
         let ctx = SpawnCtx {
             scene: self,
             meshes: &mesh_handles,
