@@ -6,7 +6,7 @@ use glam::Vec3;
 use crate::assets::Assets;
 use crate::bounds::Aabb;
 use crate::components::{
-    Camera, GlobalTransform, InheritedVisibility, JointMatrices, Mesh3d, MorphWeights, Projection, Transform,
+    Camera, Children, GlobalTransform, InheritedVisibility, JointMatrices, Mesh3d, MorphWeights, Projection, Transform,
 };
 use crate::mesh::Mesh;
 
@@ -27,17 +27,49 @@ pub fn world_bounds(world: &mut World) -> Aabb {
             continue;
         }
         let Ok(m) = meshes.get(mesh.0) else { continue };
-        let posed = (joints.is_some() && m.is_skinned()) || (weights.is_some() && !m.morph_targets.is_empty());
-        let local = if posed {
-            let joints = joints.map_or(&[][..], |j| &j.0);
-            let weights = weights.map_or(&[][..], |w| &w.0);
-            Aabb::from_points(&m.deformed_positions(joints, weights))
-        } else {
-            m.aabb()
-        };
-        bounds = bounds.union(&local.transformed(&transform.0));
+        bounds = bounds.union(&posed_bounds(m, joints, weights).transformed(&transform.0));
     }
     bounds
+}
+
+/// World-space bounds of `root`'s visible meshes and its descendants', or `None` if it has none.
+pub fn entity_bounds(world: &World, root: Entity) -> Option<Aabb> {
+    let mut bounds = Aabb::EMPTY;
+    let mut stack = vec![root];
+    while let Some(e) = stack.pop() {
+        if let Some(b) = mesh_bounds(world, e) {
+            bounds = bounds.union(&b);
+        }
+        if let Some(children) = world.get::<Children>(e) {
+            stack.extend(children.iter());
+        }
+    }
+    (!bounds.is_empty()).then_some(bounds)
+}
+
+/// World bounds of one entity's mesh, in its current pose; `None` if hidden or without a mesh.
+fn mesh_bounds(world: &World, e: Entity) -> Option<Aabb> {
+    let entity = world.get_entity(e).ok()?;
+    let mesh = entity.get::<Mesh3d>()?;
+    let transform = entity.get::<GlobalTransform>()?;
+    if entity.get::<InheritedVisibility>().is_some_and(|v| !v.0) {
+        return None;
+    }
+    let m = world.get_resource::<Assets<Mesh>>()?.get(mesh.0).ok()?;
+    let local = posed_bounds(m, entity.get::<JointMatrices>(), entity.get::<MorphWeights>());
+    Some(local.transformed(&transform.0))
+}
+
+/// Local bounds of a mesh in its current skinned and morphed pose.
+fn posed_bounds(m: &Mesh, joints: Option<&JointMatrices>, weights: Option<&MorphWeights>) -> Aabb {
+    let posed = (joints.is_some() && m.is_skinned()) || (weights.is_some() && !m.morph_targets.is_empty());
+    if posed {
+        let joints = joints.map_or(&[][..], |j| &j.0);
+        let weights = weights.map_or(&[][..], |w| &w.0);
+        Aabb::from_points(&m.deformed_positions(joints, weights))
+    } else {
+        m.aabb()
+    }
 }
 
 /// A camera looking down −Z at the centre of `bounds` (the view glTF sample screenshots use).

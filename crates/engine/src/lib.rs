@@ -18,6 +18,7 @@ pub mod import;
 pub mod material;
 pub mod mesh;
 pub mod parallel;
+pub mod picking;
 pub mod primitives;
 pub mod scenes;
 pub mod time;

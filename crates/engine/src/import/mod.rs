@@ -7,6 +7,7 @@
 pub mod error;
 pub mod gltf;
 pub mod obj;
+pub mod progress;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -17,6 +18,7 @@ use bevy_ecs::world::World;
 pub use error::{ImportError, ImportErrorKind};
 pub use gltf::{GltfCamera, GltfScene, ImportOptions, SceneRoot};
 pub use obj::ObjScene;
+pub use progress::{ImportProgress, ImportStage, ProgressSnapshot};
 
 /// A decoded scene file of any supported format: what phase one of an import produces.
 #[derive(Debug, Clone)]
@@ -28,12 +30,19 @@ pub enum SceneFile {
 impl SceneFile {
     /// Reads and decodes `path`, choosing the importer by extension (`.gltf`/`.glb`, `.obj`).
     pub fn load(path: &Path, options: &ImportOptions) -> Result<SceneFile, ImportError> {
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        match ext.as_deref() {
-            Some("gltf" | "glb") => Ok(SceneFile::Gltf(GltfScene::load(path, options)?)),
-            Some("obj") => Ok(SceneFile::Obj(ObjScene::load(path, options)?)),
-            _ => Err(ImportError::new(path, ImportErrorKind::UnknownFormat)),
+        if let Some(p) = &options.progress {
+            p.enter(ImportStage::Reading, 0);
         }
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let file = match ext.as_deref() {
+            Some("gltf" | "glb") => SceneFile::Gltf(GltfScene::load(path, options)?),
+            Some("obj") => SceneFile::Obj(ObjScene::load(path, options)?),
+            _ => return Err(ImportError::new(path, ImportErrorKind::UnknownFormat)),
+        };
+        if let Some(p) = &options.progress {
+            p.enter(ImportStage::Done, 0);
+        }
+        Ok(file)
     }
 
     pub fn path(&self) -> &Path {

@@ -56,6 +56,8 @@ pub struct ImportOptions {
     pub max_accessor_elements: u64,
     pub max_image_dimension: u32,
     pub max_image_bytes: u64,
+    /// Reports the import's stages and counts (for a progress bar on another thread).
+    pub progress: Option<super::ImportProgress>,
 }
 
 impl Default for ImportOptions {
@@ -71,6 +73,7 @@ impl Default for ImportOptions {
             // 16384 is the largest 2D texture wgpu guarantees on desktop adapters.
             max_image_dimension: 16384,
             max_image_bytes: 1 << 30,
+            progress: None,
         }
     }
 }
@@ -360,12 +363,24 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         .map(|e| format!("optional extension {e} is not supported and is ignored"))
         .collect();
 
+    let progress = |stage, total| {
+        if let Some(p) = &options.progress {
+            p.enter(stage, total);
+        }
+    };
+    let step = || {
+        if let Some(p) = &options.progress {
+            p.step();
+        }
+    };
     let base_dir = path.parent().unwrap_or(Path::new("."));
+    progress(super::ImportStage::Buffers, document.buffers().len());
     let buffers = load_buffers(&document, blob, base_dir, options)?;
     let roots = scene_roots(&document, options.scene)?;
 
     let materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
     let mut meshes = Vec::new();
+    progress(super::ImportStage::Meshes, document.meshes().len());
     for mesh in document.meshes() {
         let mut prims = Vec::new();
         for prim in mesh.primitives() {
@@ -390,6 +405,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             }
         }
         meshes.push((mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned), prims));
+        step();
     }
 
     let images = decode_images(&document, &materials, &buffers, base_dir, path, options)?;
@@ -645,12 +661,19 @@ fn decode_images(
         let label = format!("{file}#{}", image.name().map_or_else(|| format!("image{}", image.index()), str::to_owned));
         jobs.push((image.index(), uri, label, images::image_bytes(&image, buffers, base_dir, options)?));
     }
+    if let Some(p) = &options.progress {
+        p.enter(super::ImportStage::Images, jobs.len());
+    }
     let decoded = crate::parallel::parallel_map(&jobs, |(index, uri, label, bytes)| {
         let bytes = match bytes {
             images::ImageBytes::Slice(s) => s,
             images::ImageBytes::Owned(v) => v.as_slice(),
         };
-        images::decode(bytes, *index, uri, label.clone(), options)
+        let image = images::decode(bytes, *index, uri, label.clone(), options);
+        if let Some(p) = &options.progress {
+            p.step();
+        }
+        image
     });
     let mut out: Vec<Option<Arc<Image>>> = vec![None; used.len()];
     for ((index, ..), image) in jobs.iter().zip(decoded) {
