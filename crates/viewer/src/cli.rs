@@ -270,7 +270,7 @@ impl RenderArgs {
 
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// A .gltf or .glb file (default: the embedded default scene).
+    /// A .gltf, .glb or .obj file (default: the embedded default scene).
     #[arg(value_name = "SCENE")]
     pub path: Option<PathBuf>,
     #[arg(long, default_value = "auto", value_parser = parse_camera)]
@@ -282,6 +282,12 @@ pub struct ViewArgs {
     /// Present without waiting for vertical sync.
     #[arg(long)]
     pub no_vsync: bool,
+    /// The window's size in logical pixels.
+    #[arg(long, value_parser = parse_size, default_value = "1280x800", value_name = "WxH")]
+    pub size: (u32, u32),
+    /// Where F12 saves screenshots (penumbra-NNNN.png, the first free number).
+    #[arg(long, value_name = "DIR")]
+    pub screenshot_dir: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

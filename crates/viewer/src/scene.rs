@@ -3,12 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use penumbra_engine::import::{GltfScene, ImportError, ImportOptions, SceneFile};
+use penumbra_engine::import::{GltfScene, ImportError, ImportOptions, ImportStage, SceneFile};
 
 use crate::cli::SceneArgs;
 
 const DEFAULT_SCENE: &[u8] = include_bytes!("../../../assets/DamagedHelmet.glb");
-const DEFAULT_SCENE_NAME: &str = "<embedded>/DamagedHelmet.glb";
+pub const DEFAULT_SCENE_NAME: &str = "<embedded>/DamagedHelmet.glb";
 
 pub fn options(args: &SceneArgs) -> ImportOptions {
     ImportOptions { scene: args.scene_index, allow_outside_folder: args.allow_outside_folder, ..Default::default() }
@@ -16,9 +16,18 @@ pub fn options(args: &SceneArgs) -> ImportOptions {
 
 /// Loads `path`, or the embedded default scene when `None`.
 pub fn load(path: Option<&Path>, args: &SceneArgs) -> Result<SceneFile, ImportError> {
-    let opts = options(args);
+    load_with(path, &options(args))
+}
+
+pub fn load_with(path: Option<&Path>, opts: &ImportOptions) -> Result<SceneFile, ImportError> {
     match path {
-        Some(p) => SceneFile::load(p, &opts),
-        None => GltfScene::from_bytes(DEFAULT_SCENE, &PathBuf::from(DEFAULT_SCENE_NAME), &opts).map(SceneFile::Gltf),
+        Some(p) => SceneFile::load(p, opts),
+        None => {
+            let scene = GltfScene::from_bytes(DEFAULT_SCENE, &PathBuf::from(DEFAULT_SCENE_NAME), opts)?;
+            if let Some(p) = &opts.progress {
+                p.enter(ImportStage::Done, 0);
+            }
+            Ok(SceneFile::Gltf(scene))
+        }
     }
 }

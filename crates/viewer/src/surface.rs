@@ -38,8 +38,10 @@ impl WindowSurface {
         let size = window.inner_size();
         let caps = surface.get_capabilities(&ctx.adapter);
         let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
+        // Copyable where the surface allows it, so a screenshot is the image on screen.
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | (caps.usages & wgpu::TextureUsages::COPY_SRC);
         let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            usage,
             format,
             width: size.width.max(1),
             height: size.height.max(1),
@@ -59,6 +61,14 @@ impl WindowSurface {
         if self.visible {
             self.config.width = width;
             self.config.height = height;
+            self.surface.configure(device, &self.config);
+        }
+    }
+
+    /// Switches vertical sync (takes effect from the next image).
+    pub fn set_vsync(&mut self, vsync: bool, device: &wgpu::Device) {
+        self.config.present_mode = if vsync { wgpu::PresentMode::AutoVsync } else { wgpu::PresentMode::AutoNoVsync };
+        if self.visible {
             self.surface.configure(device, &self.config);
         }
     }

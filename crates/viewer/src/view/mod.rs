@@ -1,27 +1,31 @@
-//! `penumbra view`: a window showing a scene with a basic orbit camera. The full viewer (egui
-//! panels, picking, drag-and-drop) is issue #6; this is the window loop it will grow from.
+//! `penumbra view`: the interactive viewer. A winit window; the scene drawn by the renderer
+//! into the swap-chain image; the egui overlay ([`overlay`], [`panels`]) drawn over it.
 //!
-//! Each frame: input moves the orbit camera's goal; `App::update` runs the schedules (extraction
-//! included); the renderer draws the extracted scene into the swap-chain image. Resizes
-//! reconfigure the surface at the window's physical size; a 0×0 (minimised) window skips frames.
+//! Each frame: a finished background load ([`loader`]) replaces the scene ([`staged`]); input
+//! moves the orbit camera's goal and the camera eases towards it ([`orbit`]); `App::update`
+//! runs the schedules (extraction included); the renderer draws the extracted scene; an F12
+//! screenshot copies that image before the overlay draws ([`screenshot`]); the overlay's
+//! actions are carried out. Resizes reconfigure the surface at the window's physical size; a
+//! 0×0 (minimised) window skips frames.
 
+mod loader;
 mod orbit;
 mod overlay;
+mod panels;
+mod recent;
+mod screenshot;
+mod staged;
 
-use std::time::Instant;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow, bail};
-use bevy_ecs::entity::Entity;
 use bevy_ecs::world::Mut;
-use glam::{Vec2, Vec3};
-use penumbra_engine::animation::{AnimationPlayer, Repeat};
-use penumbra_engine::components::{Camera, GlobalTransform, Projection, Transform};
-use penumbra_engine::environment::Environment;
-use penumbra_engine::framing::world_bounds;
+use glam::Vec2;
+use penumbra_engine::components::GlobalTransform;
 use penumbra_engine::import::SceneFile;
-use penumbra_engine::{App, Time, TimeMode};
-use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
-use penumbra_render::{GpuContext, RenderOutput, RenderScene, RenderSettings, Renderer};
+use penumbra_render::headless::CameraChoice;
+use penumbra_render::{GpuContext, RenderScene, RenderSettings, Renderer};
 use penumbra_viewer::surface::WindowSurface;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -30,9 +34,12 @@ use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::window::{Window, WindowId};
 
 use crate::cli::ViewArgs;
-use crate::scene;
-use orbit::{OrbitCamera, OrbitState};
-use overlay::Overlay;
+use loader::Loader;
+use orbit::OrbitState;
+use overlay::{Action, FrameInfo, Overlay, UiState};
+use recent::RecentFiles;
+use screenshot::Screenshots;
+use staged::Staged;
 
 pub fn run(args: ViewArgs) -> Result<()> {
     #[cfg(all(unix, not(target_os = "macos")))]
@@ -43,13 +50,14 @@ pub fn run(args: ViewArgs) -> Result<()> {
         );
     }
     // Running from a checkout: watch its shaders so edits show up live.
-    let repository = std::path::Path::new(penumbra_render::pipelines::shader_library::REPOSITORY_SHADER_DIR);
+    let repository = Path::new(penumbra_render::pipelines::shader_library::REPOSITORY_SHADER_DIR);
     let settings = args.look.render_settings(true, repository.is_dir().then(|| repository.to_path_buf()))?;
-    let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
+    // Flags are checked before the window opens, so a bad one is an error line, not a window.
+    args.look.environment()?;
     let event_loop = EventLoop::new().map_err(|e| {
         anyhow!("cannot open a window ({e}). For a headless screenshot use `penumbra render SCENE --out shot.png`")
     })?;
-    let mut viewer = Viewer { args, scene, settings, running: None, error: None };
+    let mut viewer = Viewer { args, settings, running: None, error: None };
     event_loop.run_app(&mut viewer).context("window event loop")?;
     match viewer.error {
         Some(e) => Err(e),
@@ -59,137 +67,163 @@ pub fn run(args: ViewArgs) -> Result<()> {
 
 struct Viewer {
     args: ViewArgs,
-    scene: SceneFile,
     settings: RenderSettings,
     running: Option<Running>,
     error: Option<anyhow::Error>,
 }
 
+#[derive(Default)]
 struct Input {
     cursor: Vec2,
     left: bool,
     middle: bool,
     right: bool,
     modifiers: ModifiersState,
+    /// Where the left button went down, and whether the pointer has moved since (a click
+    /// selects; a drag orbits).
+    press: Option<(Vec2, bool)>,
+    last_click: Option<(Instant, Vec2)>,
+}
+
+/// Smoothed frame rate for the stats panel.
+struct FrameClock {
+    last: Instant,
+    window_start: Instant,
+    frames: u32,
+    fps: f32,
+    frame_ms: f32,
 }
 
 struct Running {
     surface: WindowSurface,
-    app: App,
-    camera: Entity,
-    orbit: OrbitCamera,
-    home: OrbitState,
+    ctx: GpuContext,
+    scene: Option<Staged>,
+    loader: Option<Loader>,
+    /// The first load's failure ends the viewer (there is no scene to keep showing).
+    first_load: bool,
     input: Input,
-    last_frame: Instant,
+    clock: FrameClock,
     overlay: Overlay,
+    ui: UiState,
+    recent: RecentFiles,
+    screenshots: Screenshots,
+    screenshot_requested: bool,
+    can_copy_surface: bool,
+    settings: RenderSettings,
 }
 
 impl Viewer {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
-        let title = format!("penumbra — {}", self.scene.path().display());
+        let title = "penumbra".to_owned();
+        let (w, h) = self.args.size;
         let attributes =
-            Window::default_attributes().with_title(title).with_inner_size(winit::dpi::LogicalSize::new(1280, 800));
+            Window::default_attributes().with_title(title).with_inner_size(winit::dpi::LogicalSize::new(w, h));
         // egui blends in gamma space, so it draws through a non-sRGB view of the same image.
         let (surface, ctx) = WindowSurface::new(event_loop, attributes, !self.args.no_vsync, true)?;
-        let config = &surface.config;
-
-        let shot = ShotSettings {
-            size: Some((config.width, config.height)),
-            camera: self.args.camera,
-            exposure_ev100: self.args.look.exposure,
-            animation: None,
-        };
-        let (mut app, _) = stage_scene(&self.scene, &shot)?;
-        if let Some(env) = self.args.look.environment()? {
-            app.insert_resource(env);
-        }
-        app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
-        // The orbit camera starts where the staged camera (auto-framed or the file's) looks from.
-        app.update();
-        let bounds = world_bounds(&mut app.world);
-        let (camera, state) = {
-            let mut q = app.world.query::<(Entity, &Camera, &GlobalTransform)>();
-            let (e, _, g) =
-                q.iter(&app.world).find(|(_, c, _)| c.is_active).ok_or_else(|| anyhow!("no active camera"))?;
-            let eye = g.translation();
-            let target = if bounds.is_empty() {
-                eye + g.forward()
-            } else {
-                // The point along the view ray nearest the scene's centre.
-                let t = (bounds.center() - eye).dot(g.forward()).max(1e-3);
-                eye + g.forward() * t
-            };
-            (e, OrbitState::looking_at(eye, target))
-        };
-        if !matches!(self.args.camera, CameraChoice::Auto | CameraChoice::Orbit { .. }) {
-            // Orbiting a file's camera would move its node; drive a free camera from its pose.
-            let cam = *app.world.get::<Camera>(camera).expect("queried");
-            app.world.get_mut::<Camera>(camera).expect("queried").is_active = false;
-            let free = app.world.spawn((Camera { is_active: true, ..cam }, state.transform())).id();
-            return self.finish(surface, app, free, state, ctx);
-        }
-        self.finish(surface, app, camera, state, ctx)
-    }
-
-    fn finish(
-        &self,
-        surface: WindowSurface,
-        mut app: App,
-        camera: Entity,
-        state: OrbitState,
-        ctx: GpuContext,
-    ) -> Result<Running> {
         let overlay = Overlay::new(&surface.window, &ctx.device, surface.config.format.remove_srgb_suffix());
-        app.insert_resource(Renderer::new(ctx, self.settings.clone())?);
-        app.insert_resource(RenderOutput::External);
+        let now = Instant::now();
+        let screenshot_dir = self.args.screenshot_dir.clone().unwrap_or_else(|| PathBuf::from("."));
         Ok(Running {
+            can_copy_surface: surface.config.usage.contains(wgpu::TextureUsages::COPY_SRC),
             surface,
-            app,
-            camera,
-            orbit: OrbitCamera::new(state),
-            home: state,
-            input: Input {
-                cursor: Vec2::ZERO,
-                left: false,
-                middle: false,
-                right: false,
-                modifiers: ModifiersState::empty(),
-            },
-            last_frame: Instant::now(),
+            ctx,
+            scene: None,
+            loader: Some(Loader::start(self.args.path.as_deref(), &self.args.scene_args)),
+            first_load: true,
+            input: Input::default(),
+            clock: FrameClock { last: now, window_start: now, frames: 0, fps: 0.0, frame_ms: 0.0 },
             overlay,
+            ui: UiState::new(!self.args.no_vsync),
+            recent: RecentFiles::load(),
+            screenshots: Screenshots::new(screenshot_dir),
+            screenshot_requested: false,
+            settings: self.settings.clone(),
         })
     }
 }
 
 impl Running {
-    fn yfov(&self) -> f32 {
-        match self.app.world.get::<Camera>(self.camera).map(|c| c.projection) {
-            Some(Projection::Perspective { yfov, .. }) => yfov,
-            _ => 45f32.to_radians(),
+    /// Takes a finished load: a new scene replaces the current one; a failure leaves it.
+    fn poll_loader(&mut self, args: &ViewArgs) -> Result<()> {
+        let Some(outcome) = self.loader.as_ref().and_then(Loader::poll) else { return Ok(()) };
+        let loader = self.loader.take().expect("polled");
+        let first = std::mem::replace(&mut self.first_load, false);
+        let staged =
+            outcome.map_err(anyhow::Error::msg).and_then(|file| self.stage(&file, loader.path.clone(), args, first));
+        match staged {
+            Ok(staged) => {
+                tracing::info!("loaded {} in {:.2} s", staged.name, loader.started.elapsed().as_secs_f32());
+                if let Some(p) = &staged.path {
+                    self.recent.add(p);
+                }
+                self.surface.window.set_title(&format!("penumbra — {}", staged.name));
+                self.ui.selected = None;
+                self.ui.load_error = None;
+                self.scene = Some(staged);
+                Ok(())
+            }
+            Err(e) if first => Err(e),
+            Err(e) => {
+                tracing::error!("{e:#}");
+                self.ui.load_error = Some(format!("{e:#}"));
+                Ok(())
+            }
         }
     }
 
-    /// The point under the cursor on the plane through the orbit target facing the camera.
-    fn cursor_point(&self) -> Option<Vec3> {
-        let (w, h) = (self.surface.config.width as f32, self.surface.config.height as f32);
-        let t = self.orbit.goal.transform();
-        let tan = (0.5 * self.yfov()).tan();
-        let ndc = Vec2::new(2.0 * self.input.cursor.x / w - 1.0, 1.0 - 2.0 * self.input.cursor.y / h);
-        let dir = t.rotation * Vec3::new(ndc.x * tan * w / h, ndc.y * tan, -1.0);
-        Some(t.translation + dir * self.orbit.goal.distance)
+    fn stage(&mut self, file: &SceneFile, path: Option<PathBuf>, args: &ViewArgs, first: bool) -> Result<Staged> {
+        for w in file_warnings(file) {
+            tracing::warn!("{w}");
+        }
+        // Command-line camera and exposure apply to the first scene; later ones are framed.
+        let choice = if first { args.camera } else { CameraChoice::Auto };
+        let exposure = if first { args.look.exposure } else { None };
+        // The environment carries over from the scene before (the panel may have changed it).
+        let env = match &self.scene {
+            Some(s) => s.app.world.get_resource().cloned(),
+            None => args.look.environment()?,
+        };
+        let renderer = Renderer::new(self.ctx.clone(), self.settings.clone())?;
+        Staged::new(file, path, choice, exposure, env, self.surface.size(), renderer)
     }
 
-    fn frame(&mut self) {
+    fn open(&mut self, path: PathBuf, args: &ViewArgs) {
+        if let Some(l) = &self.loader {
+            self.ui.set_status(format!("still loading {}", l.name()));
+            return;
+        }
+        self.loader = Some(Loader::start(Some(&path), &args.scene_args));
+    }
+
+    fn frame(&mut self, args: &ViewArgs, event_loop: &ActiveEventLoop) -> Result<()> {
+        self.poll_loader(args)?;
         let now = Instant::now();
-        let dt = (now - self.last_frame).as_secs_f32();
-        self.last_frame = now;
-        let transform = self.orbit.update(dt);
-        if let Some(mut t) = self.app.world.get_mut::<Transform>(self.camera) {
-            *t = transform;
+        let dt = (now - self.clock.last).as_secs_f32();
+        self.clock.last = now;
+        self.clock.frames += 1;
+        let window = now - self.clock.window_start;
+        if window >= Duration::from_millis(500) {
+            self.clock.fps = self.clock.frames as f32 / window.as_secs_f32();
+            self.clock.frame_ms = 1e3 / self.clock.fps.max(1e-3);
+            (self.clock.frames, self.clock.window_start) = (0, now);
         }
-        self.app.update();
-        let device = self.app.world.resource::<Renderer>().context().device.clone();
-        let Some(texture) = self.surface.acquire(&device) else { return };
+        for outcome in self.screenshots.finished() {
+            match outcome {
+                Ok(p) => {
+                    tracing::info!("saved screenshot {}", p.display());
+                    self.ui.set_status(format!("saved {}", p.display()));
+                }
+                Err(e) => {
+                    tracing::error!("{e}");
+                    self.ui.set_status(e);
+                }
+            }
+        }
+        if let Some(s) = self.scene.as_mut() {
+            s.advance_camera(dt);
+            s.app.update();
+        }
+        let Some(texture) = self.surface.acquire(&self.ctx.device) else { return Ok(()) };
         let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let ui_view = texture.texture.create_view(&wgpu::TextureViewDescriptor {
             format: Some(self.surface.config.format.remove_srgb_suffix()),
@@ -197,50 +231,161 @@ impl Running {
         });
         let size = self.surface.size();
         let format = self.surface.config.format;
-        let window = self.surface.window.clone();
-        let overlay = &mut self.overlay;
-        let before = self.app.world.get_resource::<Environment>().cloned();
-        let mut env = before.clone();
-        // The scene's player (the first, for a single loaded scene), edited as a copy.
-        let mut animated = {
-            let mut q = self.app.world.query::<(bevy_ecs::entity::Entity, &AnimationPlayer)>();
-            q.iter(&self.app.world).next().map(|(e, p)| (e, p.clone()))
+        let loading = self.loader.as_ref().map(|l| (l.name(), l.progress(), l.started.elapsed().as_secs_f32()));
+        let cameras = self.scene.as_mut().map(Staged::cameras).unwrap_or_default();
+        let through = self.scene.as_ref().and_then(|s| s.through.map(|(i, _)| i));
+        let screenshot = std::mem::take(&mut self.screenshot_requested);
+        let (overlay, ui, window, screenshots, recent) =
+            (&mut self.overlay, &mut self.ui, self.surface.window.clone(), &self.screenshots, &self.recent.paths);
+        let (fps, frame_ms) = (self.clock.fps, self.clock.frame_ms);
+        let copy = self.can_copy_surface;
+        let ctx = self.ctx.clone();
+        let actions = match self.scene.as_mut() {
+            Some(s) => {
+                let name = s.name.clone();
+                s.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
+                    let scene = world.resource::<RenderScene>();
+                    renderer.render(scene, &view, format, size);
+                    if screenshot {
+                        screenshots.capture(&mut renderer, scene, copy.then_some(&texture.texture), size);
+                    }
+                    let info = FrameInfo {
+                        renderer: Some(&renderer),
+                        fps,
+                        frame_ms,
+                        loading,
+                        recent,
+                        cameras,
+                        through,
+                        scene_name: &name,
+                    };
+                    overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, false, ui, Some(world), &info)
+                })
+            }
+            None => {
+                let info =
+                    FrameInfo { renderer: None, fps, frame_ms, loading, recent, cameras, through, scene_name: "" };
+                overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, true, ui, None, &info)
+            }
         };
-        let playback_before = animated.as_ref().map(|(_, p)| playback(p));
-        self.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
-            let scene = world.resource::<RenderScene>();
-            renderer.render(scene, &view, format, size);
-            let ctx = renderer.context().clone();
-            let error = renderer.shader_error();
-            let player = animated.as_mut().map(|(_, p)| p);
-            overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, error, &mut env, player);
-            ctx.queue.present(texture);
-        });
-        // The panels' edits reach the renderer and the animation system as ordinary changes.
-        if env != before {
-            self.set_environment(env);
+        ctx.queue.present(texture);
+        for action in actions {
+            self.act(action, args, event_loop);
         }
-        if let (Some((root, edited)), Some(before)) = (animated, playback_before)
-            && playback(&edited) != before
-            && let Some(mut p) = self.app.world.get_mut::<AnimationPlayer>(root)
-        {
-            p.copy_playback(&edited);
+        self.sync_gpu_timing();
+        Ok(())
+    }
+
+    fn act(&mut self, action: Action, args: &ViewArgs, event_loop: &ActiveEventLoop) {
+        let aspect = self.aspect();
+        match action {
+            Action::Open(path) => self.open(path, args),
+            Action::Screenshot => self.screenshot_requested = true,
+            Action::Settings(s) => {
+                let Some(scene) = self.scene.as_mut() else { return };
+                let mut renderer = scene.app.world.resource_mut::<Renderer>();
+                match renderer.set_settings(s.clone()) {
+                    Ok(()) => self.settings = s,
+                    Err(e) => self.ui.set_status(e.to_string()),
+                }
+            }
+            Action::LookThrough(index) => {
+                if let Some(s) = self.scene.as_mut()
+                    && let Err(e) = s.look_through(index)
+                {
+                    self.ui.set_status(e.to_string());
+                }
+            }
+            Action::FrameScene => {
+                if let Some(s) = self.scene.as_mut() {
+                    s.take_over_file_camera();
+                    s.orbit.goal = s.framing_goal(aspect);
+                }
+            }
+            Action::Focus(e) => {
+                if let Some(s) = self.scene.as_mut() {
+                    let bounds = penumbra_engine::framing::entity_bounds(&s.app.world, e);
+                    let center = match bounds {
+                        Some(b) => b.center(),
+                        None => match s.app.world.get::<GlobalTransform>(e) {
+                            Some(g) => g.translation(),
+                            None => return,
+                        },
+                    };
+                    s.take_over_file_camera();
+                    let eye = s.orbit.goal.transform().translation;
+                    s.orbit.goal = OrbitState::looking_at(eye, center);
+                }
+            }
+            Action::Vsync(on) => {
+                self.surface.set_vsync(on, &self.ctx.device);
+            }
+            Action::Quit => event_loop.exit(),
         }
     }
 
-    fn set_environment(&mut self, env: Option<Environment>) {
-        match env {
-            Some(e) => self.app.world.insert_resource(e),
-            None => {
-                self.app.world.remove_resource::<Environment>();
+    /// GPU timestamps cost a little, so they run only while the stats panel shows them.
+    fn sync_gpu_timing(&mut self) {
+        let want = self.ui.show_stats;
+        if self.settings.gpu_timing != want {
+            self.settings.gpu_timing = want;
+            if let Some(s) = self.scene.as_mut() {
+                let _ = s.app.world.resource_mut::<Renderer>().set_settings(self.settings.clone());
             }
+        }
+    }
+
+    fn aspect(&self) -> f32 {
+        let (w, h) = self.surface.size();
+        w.max(1) as f32 / h.max(1) as f32
+    }
+
+    fn on_key(&mut self, key: &Key, event_loop: &ActiveEventLoop, args: &ViewArgs) {
+        let ctrl = self.input.modifiers.control_key();
+        match key {
+            Key::Named(NamedKey::Escape) => event_loop.exit(),
+            Key::Named(NamedKey::F1) => self.ui.show_stats ^= true,
+            Key::Named(NamedKey::F2) => self.ui.world_axes ^= true,
+            Key::Named(NamedKey::F3) => self.ui.local_axes ^= true,
+            Key::Named(NamedKey::F12) => self.screenshot_requested = true,
+            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("o") => self.ui.open_dialog = true,
+            Key::Character(c) if c.eq_ignore_ascii_case("f") => self.act(Action::FrameScene, args, event_loop),
+            _ => {}
+        }
+    }
+
+    fn on_click(&mut self, at: Vec2) {
+        let size = self.surface.size();
+        let now = Instant::now();
+        let double =
+            self.input.last_click.is_some_and(|(t, p)| now - t < Duration::from_millis(400) && p.distance(at) < 6.0);
+        self.input.last_click = if double { None } else { Some((now, at)) };
+        let Some(s) = self.scene.as_mut() else { return };
+        let hit = s.pick(at, size);
+        tracing::debug!("click at {at}: {hit:?}");
+        self.ui.selected = hit.map(|(e, _)| e);
+        // Selecting something shows what it is.
+        self.ui.show_inspector |= hit.is_some();
+        if double && let Some((_, point)) = hit {
+            // Focus: the clicked point becomes the orbit's centre, the camera stays where it is.
+            s.take_over_file_camera();
+            let eye = s.orbit.goal.transform().translation;
+            s.orbit.goal = OrbitState::looking_at(eye, point);
         }
     }
 }
 
-/// What the animation panel can change in a player.
-fn playback(p: &AnimationPlayer) -> (Option<usize>, f32, f32, bool, Repeat) {
-    (p.active(), p.time(), p.speed(), p.is_paused(), p.repeat())
+fn file_warnings(file: &SceneFile) -> &[String] {
+    match file {
+        SceneFile::Gltf(g) => &g.warnings,
+        SceneFile::Obj(o) => &o.warnings,
+    }
+}
+
+/// Files the viewer opens as scenes (others dropped on it are tried as environment maps).
+fn is_scene_file(path: &Path) -> bool {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    matches!(ext.as_deref(), Some("gltf" | "glb" | "obj"))
 }
 
 impl ApplicationHandler for Viewer {
@@ -262,26 +407,34 @@ impl ApplicationHandler for Viewer {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(r) = self.running.as_mut() else { return };
+        let args = &self.args;
         if r.overlay.on_window_event(&r.surface.window, &event) {
+            // egui took it; a button released over a panel still ends a drag.
+            if let WindowEvent::MouseInput { state: ElementState::Released, .. } = event {
+                (r.input.left, r.input.middle, r.input.right, r.input.press) = (false, false, false, None);
+            }
             return;
         }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
-            WindowEvent::Resized(size) => {
-                let device = r.app.world.resource::<Renderer>().context().device.clone();
-                r.surface.resize(size.width, size.height, &device);
-            }
+            WindowEvent::Resized(size) => r.surface.resize(size.width, size.height, &r.ctx.device),
             WindowEvent::ModifiersChanged(m) => r.input.modifiers = m.state(),
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => match event.logical_key
+            WindowEvent::KeyboardInput { event, .. }
+                if event.state == ElementState::Pressed && !event.repeat && !r.overlay.wants_keyboard() =>
             {
-                Key::Named(NamedKey::Escape) => event_loop.exit(),
-                Key::Character(c) if c.eq_ignore_ascii_case("f") => r.orbit.goal = r.home,
-                _ => {}
-            },
+                r.on_key(&event.logical_key, event_loop, args);
+            }
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = state == ElementState::Pressed;
                 match button {
-                    MouseButton::Left => r.input.left = down,
+                    MouseButton::Left => {
+                        r.input.left = down;
+                        if down {
+                            r.input.press = Some((r.input.cursor, false));
+                        } else if let Some((at, false)) = r.input.press.take() {
+                            r.on_click(at);
+                        }
+                    }
                     MouseButton::Middle => r.input.middle = down,
                     MouseButton::Right => r.input.right = down,
                     _ => {}
@@ -291,12 +444,20 @@ impl ApplicationHandler for Viewer {
                 let p = Vec2::new(position.x as f32, position.y as f32);
                 let d = p - r.input.cursor;
                 r.input.cursor = p;
+                if let Some((start, moved)) = r.input.press.as_mut() {
+                    *moved |= start.distance(p) > 3.0;
+                }
+                let dragging = r.input.middle || r.input.right || r.input.left;
+                let Some(s) = r.scene.as_mut() else { return };
+                if dragging {
+                    s.take_over_file_camera();
+                }
                 let h = r.surface.config.height as f32;
                 if r.input.middle || r.input.right || (r.input.left && r.input.modifiers.shift_key()) {
-                    let yfov = r.yfov();
-                    r.orbit.pan(d.x, d.y, h, yfov);
+                    let yfov = s.yfov();
+                    s.orbit.pan(d.x, d.y, h, yfov);
                 } else if r.input.left {
-                    r.orbit.orbit(d.x, d.y, h);
+                    s.orbit.orbit(d.x, d.y, h);
                 }
             }
             WindowEvent::MouseWheel { delta, .. } => {
@@ -304,22 +465,37 @@ impl ApplicationHandler for Viewer {
                     MouseScrollDelta::LineDelta(_, y) => y,
                     MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
                 };
-                let towards = r.cursor_point();
-                r.orbit.zoom(notches, towards);
+                let size = r.surface.size();
+                let cursor = r.input.cursor;
+                let Some(s) = r.scene.as_mut() else { return };
+                s.take_over_file_camera();
+                // Zoom toward the point under the cursor (on the plane through the target).
+                let ray = s.ray_through(cursor, size);
+                let towards = ray.origin + ray.direction * s.orbit.current.distance;
+                s.orbit.zoom(notches, Some(towards));
             }
             WindowEvent::DroppedFile(path) => {
-                // An environment map dropped on the window replaces the environment's source.
-                let mut env = r.app.world.get_resource::<Environment>().cloned();
-                let status = overlay::load_environment(&mut env, &path);
-                if status.is_ok() {
-                    r.set_environment(env);
-                } else if let Err(e) = &status {
-                    tracing::error!("{e}");
+                if is_scene_file(&path) {
+                    r.open(path, args);
+                } else if let Some(s) = r.scene.as_mut() {
+                    // Anything else is tried as an environment map.
+                    let mut env = s.app.world.get_resource().cloned();
+                    let status = panels::load_environment(&mut env, &path);
+                    match (&status, env) {
+                        (Ok(_), Some(env)) => s.app.world.insert_resource(env),
+                        (Err(e), _) => tracing::error!("{e}"),
+                        _ => {}
+                    }
+                    r.ui.env_status = Some(status);
+                    r.ui.show_environment = true;
                 }
-                r.overlay.set_env_status(status);
             }
             WindowEvent::RedrawRequested => {
-                r.frame();
+                if let Err(e) = r.frame(args, event_loop) {
+                    self.error = Some(e);
+                    event_loop.exit();
+                    return;
+                }
                 r.surface.window.request_redraw();
             }
             _ => {}

@@ -1,0 +1,42 @@
+//! The recent-files list: scenes opened successfully, newest first, kept in
+//! `$XDG_CONFIG_HOME/penumbra/recent.txt` (or `~/.config/penumbra/recent.txt`), one path per
+//! line. A missing or unreadable list is an empty one; failing to save it is logged, never fatal.
+
+use std::path::{Path, PathBuf};
+
+const KEEP: usize = 10;
+
+pub struct RecentFiles {
+    file: Option<PathBuf>,
+    pub paths: Vec<PathBuf>,
+}
+
+impl RecentFiles {
+    pub fn load() -> RecentFiles {
+        let file = std::env::var_os("XDG_CONFIG_HOME")
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+            .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".config")))
+            .map(|dir| dir.join("penumbra").join("recent.txt"));
+        let paths = file
+            .as_ref()
+            .and_then(|f| std::fs::read_to_string(f).ok())
+            .map(|text| text.lines().filter(|l| !l.trim().is_empty()).map(PathBuf::from).take(KEEP).collect())
+            .unwrap_or_default();
+        RecentFiles { file, paths }
+    }
+
+    /// Puts `path` first (absolute, so the list works from any folder) and saves the list.
+    pub fn add(&mut self, path: &Path) {
+        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        self.paths.retain(|p| *p != path);
+        self.paths.insert(0, path);
+        self.paths.truncate(KEEP);
+        let Some(file) = &self.file else { return };
+        let text: String = self.paths.iter().map(|p| format!("{}\n", p.display())).collect();
+        let saved = file.parent().map_or(Ok(()), std::fs::create_dir_all).and_then(|_| std::fs::write(file, text));
+        if let Err(e) = saved {
+            tracing::warn!("cannot save the recent-files list {}: {e}", file.display());
+        }
+    }
+}

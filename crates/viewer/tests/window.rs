@@ -1,0 +1,332 @@
+//! `penumbra view` in a real window: an Xvfb X server, the viewer on lavapipe, input from
+//! xdotool (the XTEST extension, so the viewer sees real pointer and key events) and the
+//! window's pixels read back from the X server.
+//!
+//! One viewer runs through the whole script (startup on a CPU rasteriser is the slow part):
+//! first frame against a golden (loosely: the panels' text may render differently), a
+//! horizontal drag of half a turn against a headless render from behind, a scroll zoom, F12,
+//! opening a broken file, resizes down to a few pixels, and Esc. Needs `Xvfb` and `xdotool`
+//! (Debian: `apt-get install -y xvfb xdotool`); without them the test fails saying so.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use x11rb::protocol::xproto::{ConnectionExt, ImageFormat};
+
+const W: u32 = 320;
+const H: u32 = 240;
+/// `--background color`: the viewer's clear colour after tonemapping, so the model is whatever
+/// differs from it.
+const BACKGROUND_TOLERANCE: i32 = 12;
+
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn need(tool: &str) {
+    let found =
+        Command::new("sh").arg("-c").arg(format!("command -v {tool}")).output().is_ok_and(|o| o.status.success());
+    assert!(
+        found,
+        "{tool} is not installed: the window tests need Xvfb and xdotool (Debian: apt-get install -y xvfb xdotool)"
+    );
+}
+
+/// An Xvfb server on a free display number.
+fn xvfb() -> (Killed, String) {
+    need("Xvfb");
+    need("xdotool");
+    for n in (90 + std::process::id() % 300)..400 {
+        if Path::new(&format!("/tmp/.X{n}-lock")).exists() {
+            continue;
+        }
+        let display = format!(":{n}");
+        let child = Command::new("Xvfb")
+            .args([&display, "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb starts");
+        let server = Killed(child);
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if x11rb::connect(Some(&display)).is_ok() {
+                return (server, display);
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+    panic!("no Xvfb display could be started");
+}
+
+struct Viewer {
+    display: String,
+    process: Killed,
+    window: u32,
+    log: PathBuf,
+}
+
+impl Viewer {
+    fn xdotool(&self, args: &[&str]) {
+        let o = Command::new("xdotool").args(args).env("DISPLAY", &self.display).output().expect("xdotool runs");
+        assert!(o.status.success(), "xdotool {args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+
+    fn alive(&mut self) -> bool {
+        self.process.0.try_wait().expect("wait").is_none()
+    }
+
+    fn log(&self) -> String {
+        let mut s = String::new();
+        let _ = std::fs::File::open(&self.log).and_then(|mut f| f.read_to_string(&mut s));
+        s
+    }
+
+    /// The window's pixels as RGBA8, with its size.
+    fn capture(&self) -> (Vec<u8>, u32, u32) {
+        let (conn, _) = x11rb::connect(Some(&self.display)).expect("connect to Xvfb");
+        let g = conn.get_geometry(self.window).unwrap().reply().unwrap();
+        let image = conn
+            .get_image(ImageFormat::Z_PIXMAP, self.window, 0, 0, g.width, g.height, !0)
+            .unwrap()
+            .reply()
+            .expect("GetImage of the viewer's window");
+        // Depth 24 at 32 bits per pixel, little-endian: B, G, R, unused.
+        let rgba = image.data.chunks_exact(4).flat_map(|p| [p[2], p[1], p[0], 255]).collect();
+        (rgba, g.width as u32, g.height as u32)
+    }
+
+    /// Captures until two in a row match (the camera has settled and the frame is drawn).
+    fn settled(&mut self, what: &str) -> (Vec<u8>, u32, u32) {
+        let deadline = Instant::now() + Duration::from_secs(90);
+        let mut last = self.capture();
+        loop {
+            std::thread::sleep(Duration::from_millis(700));
+            assert!(self.alive(), "the viewer exited during {what}; its log:\n{}", self.log());
+            let next = self.capture();
+            if next == last && model_box(&next).is_some() {
+                return next;
+            }
+            assert!(Instant::now() < deadline, "{what}: the window never settled; log:\n{}", self.log());
+            last = next;
+        }
+    }
+}
+
+fn penumbra() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_penumbra"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("window").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Rows the model is looked for in: below the menu bar, above the status line.
+const TOP: u32 = 30;
+const BOTTOM: u32 = 24;
+
+/// Bounding box (x0, y0, x1, y1) of the pixels that differ from the background's colour
+/// (sampled at the window's left edge), between the menu bar and the status line.
+fn model_box((rgba, w, h): &(Vec<u8>, u32, u32)) -> Option<(u32, u32, u32, u32)> {
+    if *h <= TOP + BOTTOM {
+        return None;
+    }
+    let background = &rgba[((h / 2) * w + 1) as usize * 4..][..3];
+    let mut b: Option<(u32, u32, u32, u32)> = None;
+    for y in TOP..(h - BOTTOM) {
+        for x in 0..*w {
+            let p = &rgba[((y * w + x) * 4) as usize..][..3];
+            if p.iter().zip(background).any(|(a, c)| (*a as i32 - *c as i32).abs() > BACKGROUND_TOLERANCE) {
+                b = Some(b.map_or((x, y, x, y), |(x0, y0, x1, y1)| (x0.min(x), y0.min(y), x1.max(x), y1.max(y))));
+            }
+        }
+    }
+    b
+}
+
+/// Whether the box is clear of the searched region's edges (the whole model is measured).
+fn inside(b: (u32, u32, u32, u32), w: u32, h: u32) -> bool {
+    b.0 > 1 && b.1 > TOP && b.2 < w - 2 && b.3 < h - BOTTOM - 1
+}
+
+/// FLIP mean over the window's middle rows (the menu bar and the status line left out).
+fn flip_middle(a: &[u8], b: &[u8], w: u32, h: u32) -> f32 {
+    let (y0, y1) = (TOP, h - BOTTOM);
+    let rows = |rgba: &[u8]| -> Vec<u8> {
+        rgba[(y0 * w * 4) as usize..(y1 * w * 4) as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+    };
+    let reference = nv_flip::FlipImageRgb8::with_data(w, y1 - y0, &rows(a));
+    let test = nv_flip::FlipImageRgb8::with_data(w, y1 - y0, &rows(b));
+    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    nv_flip::FlipPool::from_image(&error).mean()
+}
+
+fn golden(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/goldens/viewer").join(name)
+}
+
+fn save(path: &Path, rgba: &[u8], w: u32, h: u32) {
+    image::save_buffer(path, rgba, w, h, image::ColorType::Rgba8).unwrap();
+}
+
+#[test]
+fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
+    let (_server, display) = xvfb();
+    let dir = scratch("script");
+    let log = dir.join("viewer.log");
+    let shots = dir.join("shots");
+    let common = ["--size", "320x240", "--background", "color", "--msaa", "4"];
+    let child = penumbra()
+        .arg("view")
+        .args(common)
+        .arg("--screenshot-dir")
+        .arg(&shots)
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_CONFIG_HOME", dir.join("config"))
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("the viewer starts");
+    let mut viewer = Viewer { display: display.clone(), process: Killed(child), window: 0, log };
+    let found = Command::new("xdotool")
+        .args(["search", "--sync", "--name", "^penumbra"])
+        .env("DISPLAY", &display)
+        .output()
+        .expect("xdotool search");
+    viewer.window = String::from_utf8_lossy(&found.stdout)
+        .lines()
+        .next()
+        .and_then(|l| l.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no viewer window appeared; log:\n{}", viewer.log()));
+    // Without a window manager nothing gives the window the keyboard; the pointer rests in its
+    // middle so that wheel events reach the scene.
+    viewer.xdotool(&["windowfocus", "--sync", &viewer.window.to_string()]);
+    viewer.xdotool(&["mousemove", "--window", &viewer.window.to_string(), "160", "140"]);
+
+    // First frame: the embedded default scene, as the golden shows it.
+    let first = viewer.settled("the first frame");
+    assert_eq!((first.1, first.2), (W, H), "the window is not the asked size");
+    let golden_path = golden("first_frame.png");
+    if std::env::var_os("PENUMBRA_UPDATE_GOLDENS").is_some() {
+        save(&golden_path, &first.0, W, H);
+    }
+    let expected = image::open(&golden_path).expect("tests/goldens/viewer/first_frame.png").into_rgba8();
+    let error = flip_middle(expected.as_raw(), &first.0, W, H);
+    save(&dir.join("first_frame.png"), &first.0, W, H);
+    assert!(error < 0.05, "first frame: FLIP {error:.4} against {} (see {})", golden_path.display(), dir.display());
+
+    // A horizontal drag of one window height turns the camera half way round the vertical
+    // axis: the view from behind, which a headless render from yaw 180° shows.
+    let win = viewer.window.to_string();
+    viewer.xdotool(&["mousemove", "--window", &win, "40", "140", "mousedown", "1"]);
+    for x in (60..=280).step_by(20) {
+        viewer.xdotool(&["mousemove", "--window", &win, &x.to_string(), "140"]);
+    }
+    viewer.xdotool(&["mouseup", "1"]);
+    let behind = viewer.settled("the drag");
+    save(&dir.join("behind.png"), &behind.0, W, H);
+    let reference = dir.join("behind_headless.png");
+    let o = penumbra()
+        .arg("render")
+        // The embedded default scene is this file.
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/DamagedHelmet.glb"))
+        .arg("--out")
+        .arg(&reference)
+        .args(common)
+        .args(["--camera", "orbit:180:0"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = image::open(&reference).unwrap().into_rgba8();
+    let turned = flip_middle(reference.as_raw(), &behind.0, W, H);
+    let unmoved = flip_middle(&first.0, &behind.0, W, H);
+    assert!(
+        turned < 0.06 && unmoved > 2.0 * turned,
+        "after the drag: FLIP {turned:.4} against the view from behind, {unmoved:.4} against the first frame"
+    );
+
+    // Scroll down: farther, so the model covers less of the window (and stays inside it
+    // through the resizes below).
+    let before = model_box(&behind).expect("model visible");
+    viewer.xdotool(&["mousemove", "--window", &win, "160", "140", "click", "5", "click", "5", "click", "5"]);
+    let farther = viewer.settled("the zoom");
+    let after = model_box(&farther).expect("model visible");
+    let width = |b: (u32, u32, u32, u32)| (b.2 - b.0) as f32;
+    assert!(width(after) < 0.8 * width(before), "zoom: model width {} → {}", width(before), width(after));
+    assert!(inside(after, W, H), "zoomed out, the model still touches the edge: {after:?}");
+
+    // Resizes, down to a few pixels: no crash, and the model keeps its proportions.
+    let aspect = |b: (u32, u32, u32, u32)| (b.2 - b.0) as f32 / (b.3 - b.1) as f32;
+    let reference_aspect = aspect(after);
+    for (w, h) in [(480, 200), (8, 8), (1, 1), (200, 300), (320, 240)] {
+        viewer.xdotool(&["windowsize", "--sync", &win, &w.to_string(), &h.to_string()]);
+        std::thread::sleep(Duration::from_millis(800));
+        assert!(viewer.alive(), "the viewer exited at {w}×{h}; log:\n{}", viewer.log());
+        if w >= 200 {
+            let frame = viewer.settled(&format!("the resize to {w}×{h}"));
+            assert_eq!((frame.1, frame.2), (w, h));
+            let b = model_box(&frame).expect("model visible");
+            assert!(inside(b, w, h), "{w}×{h}: the model reaches the edge: {b:?}");
+            let a = aspect(b);
+            assert!(
+                (a / reference_aspect - 1.0).abs() < 0.1,
+                "{w}×{h}: model aspect {a:.3}, was {reference_aspect:.3}"
+            );
+        }
+    }
+    let closer = viewer.settled("the last resize");
+
+    // F12 writes the scene, without the panels, as a PNG of the window's size.
+    viewer.xdotool(&["key", "F12"]);
+    let shot = shots.join("penumbra-0001.png");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !shot.exists() || image::open(&shot).is_err() {
+        assert!(Instant::now() < deadline, "F12 wrote no {}; log:\n{}", shot.display(), viewer.log());
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let png = image::open(&shot).unwrap().into_rgba8();
+    assert_eq!((png.width(), png.height()), (W, H));
+    let shown = flip_middle(png.as_raw(), &closer.0, W, H);
+    assert!(shown < 0.02, "the screenshot differs from the window's scene: FLIP {shown:.4}");
+
+    // Opening a broken file (Ctrl+O, type, Enter) reports it and keeps the scene.
+    let broken = dir.join("broken.glb");
+    std::fs::write(&broken, b"glTF\x02\x00\x00\x00not really a binary glTF").unwrap();
+    viewer.xdotool(&["key", "ctrl+o"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    viewer.xdotool(&["type", "--delay", "20", broken.to_str().unwrap()]);
+    viewer.xdotool(&["key", "Return"]);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !viewer.log().contains("broken.glb") {
+        assert!(viewer.alive(), "the viewer exited on a broken file; log:\n{}", viewer.log());
+        assert!(Instant::now() < deadline, "no error named broken.glb; log:\n{}", viewer.log());
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let line = viewer.log().lines().find(|l| l.contains("broken.glb")).unwrap().to_owned();
+    assert!(line.contains("ERROR"), "the broken file was not reported as an error: {line}");
+    assert!(viewer.alive());
+
+    // Esc quits cleanly.
+    viewer.xdotool(&["key", "Escape"]);
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(s) = viewer.process.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "Esc did not quit the viewer");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(status.success(), "the viewer exited with {status}; log:\n{}", viewer.log());
+}
