@@ -32,6 +32,8 @@ pub enum Command {
     Render(RenderArgs),
     /// Measure CPU and GPU frame times and load-to-first-frame.
     Bench(BenchArgs),
+    /// Render a turntable (the camera circling the scene once) as an animated GIF.
+    Gif(GifArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -252,6 +254,32 @@ pub struct RenderArgs {
     /// without either, the first clip plays from 0 over --frames).
     #[arg(long, value_name = "SECONDS")]
     pub time: Option<f32>,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct GifArgs {
+    /// A .gltf, .glb or .obj file (default: the embedded default scene).
+    #[arg(value_name = "SCENE")]
+    pub path: Option<PathBuf>,
+    /// Output GIF.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Frames in one turn, 2 to 1000.
+    #[arg(long, default_value_t = 36)]
+    pub frames: u32,
+    /// WIDTHxHEIGHT, each 1 to 4096.
+    #[arg(long, value_parser = parse_size, default_value = "320x320")]
+    pub size: (u32, u32),
+    /// Length of one turn (animations in the scene play along), 0.1 to 600.
+    #[arg(long, default_value_t = 4.0)]
+    pub seconds: f32,
+    /// Camera elevation, degrees (-89 to 89).
+    #[arg(long, default_value_t = 15.0, allow_negative_numbers = true)]
+    pub pitch: f32,
     #[command(flatten)]
     pub look: LookArgs,
     #[command(flatten)]

@@ -1,5 +1,5 @@
 //! `penumbra`: the command-line entry point. Subcommands: `view` (interactive window), `render`
-//! (headless screenshot), `bench` (CPU/GPU timings). The binary adds no rendering features of its
+//! (headless screenshot), `bench` (CPU/GPU timings), `gif` (turntable). The binary adds no rendering features of its
 //! own; it wires the engine and renderer to a window or a file.
 
 mod cli;
@@ -24,6 +24,7 @@ fn main() -> ExitCode {
         cli::Command::Render(a) => commands::render::run(a),
         cli::Command::Bench(a) => commands::bench::run(a),
         cli::Command::View(a) => view::run(a),
+        cli::Command::Gif(a) => commands::gif::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -118,3 +118,57 @@ fn view_without_a_display_points_to_render() {
     let e = stderr(&o);
     assert!(e.contains("no display") && e.contains("penumbra render"), "{e}");
 }
+
+#[test]
+fn gif_is_a_turntable_round_the_scene() {
+    use image::AnimationDecoder;
+    let out = out_dir("gif").join("turn.gif");
+    let o = penumbra(&[
+        "gif",
+        "--out",
+        out.to_str().unwrap(),
+        "--frames",
+        "6",
+        "--size",
+        "64x48",
+        "--seconds",
+        "1.2",
+        "--background",
+        "color",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let decoder =
+        image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap())).unwrap();
+    let frames = decoder.into_frames().collect_frames().expect("a valid GIF");
+    assert_eq!(frames.len(), 6);
+    let mut previous: Option<Vec<u8>> = None;
+    for (i, f) in frames.iter().enumerate() {
+        let (num, den) = f.delay().numer_denom_ms();
+        assert_eq!(num / den, 200, "frame {i}: delay");
+        let img = f.buffer();
+        assert_eq!(img.dimensions(), (64, 48));
+        // The model (what differs from the clear colour in the corner) stays whole and centred.
+        let bg = *img.get_pixel(0, 0);
+        let differs =
+            |p: &image::Rgba<u8>| p.0.iter().zip(bg.0).take(3).any(|(a, b)| (*a as i32 - b as i32).abs() > 12);
+        let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+        for (x, y, p) in img.enumerate_pixels() {
+            if differs(p) {
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+            }
+        }
+        assert!(
+            x0 > 0 && y0 > 0 && x1 < 63 && y1 < 47,
+            "frame {i}: the model leaves the frame ({x0},{y0})-({x1},{y1})"
+        );
+        let centre = ((x0 + x1) as f32 / 2.0, (y0 + y1) as f32 / 2.0);
+        assert!((centre.0 - 32.0).abs() < 6.0 && (centre.1 - 24.0).abs() < 6.0, "frame {i}: off centre {centre:?}");
+        let raw = img.as_raw().clone();
+        assert!(previous.as_ref() != Some(&raw), "frame {i} equals the frame before: the camera did not turn");
+        previous = Some(raw);
+    }
+    for bad in [["--frames", "1"], ["--seconds", "0"], ["--pitch", "95"], ["--size", "0x10"]] {
+        let o = penumbra(&["gif", "--out", out.to_str().unwrap(), bad[0], bad[1]]);
+        assert!(!o.status.success() && stderr(&o).contains(bad[0]), "{bad:?}: {}", stderr(&o));
+    }
+}

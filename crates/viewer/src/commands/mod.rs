@@ -5,4 +5,5 @@ pub mod bench_cubes;
 pub mod bench_lights;
 pub mod bench_reload;
 pub mod bench_shadows;
+pub mod gif;
 pub mod render;
