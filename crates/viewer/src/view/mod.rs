@@ -345,8 +345,6 @@ impl Running {
         match key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Named(NamedKey::F1) => self.ui.show_stats ^= true,
-            Key::Named(NamedKey::F2) => self.ui.world_axes ^= true,
-            Key::Named(NamedKey::F3) => self.ui.local_axes ^= true,
             Key::Named(NamedKey::F12) => self.screenshot_requested = true,
             Key::Character(c) if ctrl && c.eq_ignore_ascii_case("o") => self.ui.open_dialog = true,
             Key::Character(c) if c.eq_ignore_ascii_case("f") => self.act(Action::FrameScene, args, event_loop),
@@ -362,7 +360,6 @@ impl Running {
         self.input.last_click = if double { None } else { Some((now, at)) };
         let Some(s) = self.scene.as_mut() else { return };
         let hit = s.pick(at, size);
-        tracing::debug!("click at {at}: {hit:?}");
         self.ui.selected = hit.map(|(e, _)| e);
         // Selecting something shows what it is.
         self.ui.show_inspector |= hit.is_some();
