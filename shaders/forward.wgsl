@@ -13,7 +13,7 @@
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
 // (directional lights read their cascaded shadow maps, shadows.wgsl), IBL (the environment's
 // light, ibl.wgsl), and the debug
-// views DEBUG_CLUSTER_HEAT and DEBUG_CASCADES. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
+// views DEBUG_CLUSTER_HEAT, DEBUG_CASCADES, DEBUG_NORMALS and DEBUG_UVS. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
 // (deferred_lights.wgsl) instead, from the surface each fragment also writes out.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
@@ -282,6 +282,16 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     // Tinted by cascade, shaded by the lit image's luminance so shapes and shadows still read.
     let luminance = dot(out, vec3<f32>(0.2126, 0.7152, 0.0722));
     out = cascade_tint(view_depth(in.rel_position)) * (0.25 + 0.75 * clamp(luminance, 0.0, 1.0));
+#endif
+#ifdef DEBUG_NORMALS
+#ifdef UNLIT
+    out = safe_normalize(in.normal, vec3<f32>(0.0, 0.0, 1.0)) * 0.5 + 0.5;
+#else
+    out = n * 0.5 + 0.5;
+#endif
+#endif
+#ifdef DEBUG_UVS
+    out = vec3<f32>(fract(in.uv0), 0.0);
 #endif
     // No NaN or Inf may reach the render target: a NaN fails every comparison, so it becomes 0.
     // With deferred local lights their pass adds up to as much again, so each half stays below

@@ -282,3 +282,33 @@ fn a_changed_entity_is_listed_once_however_often_its_material_went() {
     assert_eq!(scene.changed_draws.iter().filter(|e| **e == cube).count(), 1, "{:?}", scene.changed_draws);
     assert_eq!(scene.draws.get(cube).map(|d| d.material), Some(None), "drawn with the default material");
 }
+
+/// The normals view shows world-space normals as colour (+X red, +Y green, +Z blue at the
+/// sphere's right, top and middle); the UV view shows u in red and v in green, growing to the
+/// right and downwards across a quad (glTF's v points down the image).
+#[test]
+fn normal_and_uv_debug_views_show_their_attribute() {
+    use penumbra::render::pipelines::pipeline_cache::DebugView;
+    let px = |rgba: &[u8], x: u32, y: u32| -> [u8; 3] {
+        let i = ((y * SIZE.0 + x) * 4) as usize;
+        [rgba[i], rgba[i + 1], rgba[i + 2]]
+    };
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    spawn_mesh(&mut app, Mesh::uv_sphere(1.2, 48, 24), white(), Transform::default());
+    let rgba = render_app(&mut app, SIZE, RenderSettings { debug_view: DebugView::Normals, ..settings() });
+    let (middle, right, top) = (px(&rgba, 32, 32), px(&rgba, 50, 32), px(&rgba, 32, 14));
+    assert!(middle[2] > 200 && middle[0].abs_diff(middle[1]) < 12, "middle (+Z) {middle:?}");
+    assert!(right[0] > right[1] + 40 && right[0] > 180, "right (+X) {right:?}");
+    assert!(top[1] > top[0] + 40 && top[1] > 180, "top (+Y) {top:?}");
+
+    let mut app = scene_app();
+    lit_camera(&mut app, 2.4);
+    spawn_mesh(&mut app, facing_quad(), white(), Transform::default());
+    let rgba = render_app(&mut app, SIZE, RenderSettings { debug_view: DebugView::Uvs, ..settings() });
+    let (left, right) = (px(&rgba, 16, 32), px(&rgba, 48, 32));
+    let (upper, lower) = (px(&rgba, 32, 16), px(&rgba, 32, 48));
+    assert!(right[0] > left[0] + 40, "u grows to the right: {left:?} → {right:?}");
+    assert!(lower[1] > upper[1] + 40, "v grows downwards: {upper:?} → {lower:?}");
+    assert!(left[2] < 5 && right[2] < 5, "blue stays 0");
+}

@@ -62,7 +62,8 @@ pub struct LookArgs {
     pub shader_dir: Option<PathBuf>,
     /// Show a debug view instead of the shaded image: `clusters` colours each pixel by the
     /// number of lights in its cluster (black none, blue, green, yellow, red, white ≥ 256);
-    /// `cascades` by the sun's shadow cascade (red, green, blue, yellow from near to far).
+    /// `cascades` by the sun's shadow cascade (red, green, blue, yellow from near to far);
+    /// `normals` shows world-space shading normals (n·0.5+0.5), `uvs` the first UV set.
     #[arg(long, value_enum, default_value_t = DebugViewArg::None)]
     pub debug_view: DebugViewArg,
     /// How fragments find local lights: through their cluster, in the fragment shader
@@ -207,6 +208,8 @@ pub enum DebugViewArg {
     None,
     Clusters,
     Cascades,
+    Normals,
+    Uvs,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -471,6 +474,8 @@ impl LookArgs {
                 DebugViewArg::None => DebugView::None,
                 DebugViewArg::Clusters => DebugView::ClusterHeat,
                 DebugViewArg::Cascades => DebugView::Cascades,
+                DebugViewArg::Normals => DebugView::Normals,
+                DebugViewArg::Uvs => DebugView::Uvs,
             },
             shadows: ShadowSettings {
                 atlas_size: self.shadow_atlas,

@@ -104,6 +104,8 @@ impl PipelineKey {
             .with("IBL", lit && self.ibl)
             .with("DEBUG_CLUSTER_HEAT", self.debug == DebugView::ClusterHeat)
             .with("DEBUG_CASCADES", self.debug == DebugView::Cascades)
+            .with("DEBUG_NORMALS", self.debug == DebugView::Normals)
+            .with("DEBUG_UVS", self.debug == DebugView::Uvs)
     }
 }
 
@@ -153,6 +155,10 @@ pub enum DebugView {
     /// The first shadowed directional light's cascade of each fragment (red, green, blue,
     /// yellow from near to far; grey beyond them), shaded by the lit image's brightness.
     Cascades,
+    /// The shading normal (after normal mapping) in world space, as colour: n · 0.5 + 0.5.
+    Normals,
+    /// The first texture coordinate set, as colour: red u, green v (wrapped into 0..1).
+    Uvs,
 }
 
 /// The entry points of `cluster_bin.wgsl`, in the order they run.

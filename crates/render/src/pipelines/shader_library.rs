@@ -358,6 +358,10 @@ mod tests {
         lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
         let shadowed = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "SHADOWS", "LOCAL_SHADOWS", "DEBUG_CASCADES"];
         lib.compose("forward.wgsl", &defs(&shadowed)).unwrap();
+        for debug in ["DEBUG_NORMALS", "DEBUG_UVS", "DEBUG_CLUSTER_HEAT"] {
+            lib.compose("forward.wgsl", &defs(&[debug, "NORMAL_MAP"])).unwrap();
+            lib.compose("forward.wgsl", &defs(&[debug, "UNLIT"])).unwrap();
+        }
         lib.compose("shadow_caster.wgsl", &defs(&[])).unwrap();
         lib.compose("shadow_caster.wgsl", &defs(&["ALPHA_MASK", "BASE_COLOR_TEXTURE"])).unwrap();
         lib.compose("deferred_lights.wgsl", &defs(&["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "LOCAL_SHADOWS"])).unwrap();

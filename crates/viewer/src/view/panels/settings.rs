@@ -53,6 +53,8 @@ pub fn panel(ui: &mut egui::Ui, world: &mut World, renderer: &Renderer, vsync: &
                     (DebugView::None, "off"),
                     (DebugView::ClusterHeat, "light clusters"),
                     (DebugView::Cascades, "cascades"),
+                    (DebugView::Normals, "normals"),
+                    (DebugView::Uvs, "UVs"),
                 ] {
                     ui.selectable_value(&mut s.debug_view, v, name);
                 }
