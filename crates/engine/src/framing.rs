@@ -62,13 +62,25 @@ fn mesh_bounds(world: &World, e: Entity) -> Option<Aabb> {
 
 /// Local bounds of a mesh in its current skinned and morphed pose.
 fn posed_bounds(m: &Mesh, joints: Option<&JointMatrices>, weights: Option<&MorphWeights>) -> Aabb {
+    match posed_positions(m, joints, weights) {
+        std::borrow::Cow::Borrowed(_) => m.aabb(),
+        std::borrow::Cow::Owned(p) => Aabb::from_points(&p),
+    }
+}
+
+/// A mesh's positions in its current skinned and morphed pose (borrowed when it has none).
+pub fn posed_positions<'a>(
+    m: &'a Mesh,
+    joints: Option<&JointMatrices>,
+    weights: Option<&MorphWeights>,
+) -> std::borrow::Cow<'a, [Vec3]> {
     let posed = (joints.is_some() && m.is_skinned()) || (weights.is_some() && !m.morph_targets.is_empty());
     if posed {
         let joints = joints.map_or(&[][..], |j| &j.0);
         let weights = weights.map_or(&[][..], |w| &w.0);
-        Aabb::from_points(&m.deformed_positions(joints, weights))
+        std::borrow::Cow::Owned(m.deformed_positions(joints, weights))
     } else {
-        m.aabb()
+        std::borrow::Cow::Borrowed(&m.positions)
     }
 }
 

@@ -54,15 +54,8 @@ pub fn raycast(world: &mut World, ray: Ray) -> Option<RayHit> {
         if m.topology != Topology::TriangleList {
             continue;
         }
-        let posed = (joints.is_some() && m.is_skinned()) || (weights.is_some() && !m.morph_targets.is_empty());
-        let deformed;
-        let positions: &[Vec3] = if posed {
-            deformed = m.deformed_positions(joints.map_or(&[][..], |j| &j.0), weights.map_or(&[][..], |w| &w.0));
-            &deformed
-        } else {
-            &m.positions
-        };
-        let Some(t) = hit_mesh(positions, m.indices.as_deref(), &transform.0, ray.origin, dir) else { continue };
+        let positions = crate::framing::posed_positions(m, joints, weights);
+        let Some(t) = hit_mesh(&positions, m.indices.as_deref(), &transform.0, ray.origin, dir) else { continue };
         let point = ray.origin + dir * t;
         if best.is_none_or(|b| t < b.distance) {
             best = Some(RayHit { entity, point, distance: t });

@@ -27,17 +27,39 @@ pub enum SceneFile {
     Obj(ObjScene),
 }
 
+/// The scene formats, by file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Gltf,
+    Obj,
+}
+
+impl Format {
+    fn of(path: &Path) -> Option<Format> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("gltf" | "glb") => Some(Format::Gltf),
+            Some("obj") => Some(Format::Obj),
+            _ => None,
+        }
+    }
+}
+
 impl SceneFile {
+    /// Whether `path`'s extension names a format [`SceneFile::load`] reads.
+    pub fn is_scene_path(path: &Path) -> bool {
+        Format::of(path).is_some()
+    }
+
     /// Reads and decodes `path`, choosing the importer by extension (`.gltf`/`.glb`, `.obj`).
     pub fn load(path: &Path, options: &ImportOptions) -> Result<SceneFile, ImportError> {
         if let Some(p) = &options.progress {
             p.enter(ImportStage::Reading, 0);
         }
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        let file = match ext.as_deref() {
-            Some("gltf" | "glb") => SceneFile::Gltf(GltfScene::load(path, options)?),
-            Some("obj") => SceneFile::Obj(ObjScene::load(path, options)?),
-            _ => return Err(ImportError::new(path, ImportErrorKind::UnknownFormat)),
+        let file = match Format::of(path) {
+            Some(Format::Gltf) => SceneFile::Gltf(GltfScene::load(path, options)?),
+            Some(Format::Obj) => SceneFile::Obj(ObjScene::load(path, options)?),
+            None => return Err(ImportError::new(path, ImportErrorKind::UnknownFormat)),
         };
         if let Some(p) = &options.progress {
             p.enter(ImportStage::Done, 0);

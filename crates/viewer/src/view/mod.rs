@@ -232,7 +232,7 @@ impl Running {
         let size = self.surface.size();
         let format = self.surface.config.format;
         let loading = self.loader.as_ref().map(|l| (l.name(), l.progress(), l.started.elapsed().as_secs_f32()));
-        let cameras = self.scene.as_mut().map(Staged::cameras).unwrap_or_default();
+        let cameras = self.scene.as_ref().map(|s| s.cameras.clone()).unwrap_or_default();
         let through = self.scene.as_ref().and_then(|s| s.through.map(|(i, _)| i));
         let screenshot = std::mem::take(&mut self.screenshot_requested);
         let (overlay, ui, window, screenshots, recent) =
@@ -379,12 +379,6 @@ fn file_warnings(file: &SceneFile) -> &[String] {
     }
 }
 
-/// Files the viewer opens as scenes (others dropped on it are tried as environment maps).
-fn is_scene_file(path: &Path) -> bool {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    matches!(ext.as_deref(), Some("gltf" | "glb" | "obj"))
-}
-
 impl ApplicationHandler for Viewer {
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
         if self.running.is_some() {
@@ -472,7 +466,8 @@ impl ApplicationHandler for Viewer {
                 s.orbit.zoom(notches, Some(towards));
             }
             WindowEvent::DroppedFile(path) => {
-                if is_scene_file(&path) {
+                // Scene files open as scenes; anything else dropped is tried as an environment map.
+                if SceneFile::is_scene_path(&path) {
                     r.open(path, args);
                 } else if let Some(s) = r.scene.as_mut() {
                     // Anything else is tried as an environment map.

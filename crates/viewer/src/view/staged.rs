@@ -31,6 +31,8 @@ pub struct Staged {
     pub orbit: OrbitCamera,
     /// A file camera being looked through instead (its glTF index and entity).
     pub through: Option<(usize, Entity)>,
+    /// The file's cameras (glTF index, node name), listed once at staging for the Camera menu.
+    pub cameras: Vec<(usize, String)>,
 }
 
 impl Staged {
@@ -70,7 +72,9 @@ impl Staged {
         };
         app.insert_resource(renderer);
         app.insert_resource(RenderOutput::External);
-        let mut staged = Staged { app, path, name, camera, orbit: OrbitCamera::new(state), through: None };
+        let mut staged =
+            Staged { app, path, name, camera, orbit: OrbitCamera::new(state), through: None, cameras: Vec::new() };
+        staged.cameras = staged.list_cameras();
         if let CameraChoice::Gltf(index) = choice {
             staged.look_through(Some(index))?;
         }
@@ -78,7 +82,7 @@ impl Staged {
     }
 
     /// The file's cameras: glTF index and node name, in index order.
-    pub fn cameras(&mut self) -> Vec<(usize, String)> {
+    fn list_cameras(&mut self) -> Vec<(usize, String)> {
         let mut q = self.app.world.query::<(&GltfCamera, Option<&Name>)>();
         let mut v: Vec<(usize, String)> = q
             .iter(&self.app.world)
