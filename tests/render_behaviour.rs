@@ -312,3 +312,54 @@ fn normal_and_uv_debug_views_show_their_attribute() {
     assert!(lower[1] > upper[1] + 40, "v grows downwards: {upper:?} → {lower:?}");
     assert!(left[2] < 5 && right[2] < 5, "blue stays 0");
 }
+
+/// Gizmo lines are drawn over the scene but depth-tested against it: a line behind a cube is
+/// hidden where the cube covers it, one in front crosses it; without lines the pass is left out.
+/// With and without MSAA, and with local lights shaded by the compute pass (the lines then end
+/// the composite pass instead of the forward pass).
+#[test]
+fn gizmo_lines_are_depth_tested_and_only_drawn_when_present() {
+    use penumbra::render::frame::Pass;
+    use penumbra::render::renderer::LightWalk;
+    let variants = [
+        (settings(), false),
+        (RenderSettings { msaa: 4, ..Default::default() }, false),
+        (RenderSettings { msaa: 4, light_walk: LightWalk::ClusteredCompute, ..Default::default() }, true),
+    ];
+    for (settings, deferred) in variants {
+        let mut app = scene_app();
+        lit_camera(&mut app, 4.0);
+        spawn_mesh(&mut app, Mesh::cuboid(Vec3::ONE), white(), Transform::default());
+        if deferred {
+            app.world.spawn((PointLight { intensity: 2.0, ..Default::default() }, Transform::from_xyz(0.0, 2.0, 2.0)));
+        }
+        let (red, green) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let mut gizmos = Gizmos::default();
+        gizmos.line(Vec3::new(-2.0, 0.3, -1.0), Vec3::new(2.0, 0.3, -1.0), red);
+        gizmos.line(Vec3::new(-2.0, -0.3, 1.0), Vec3::new(2.0, -0.3, 1.0), green);
+        app.insert_resource(gizmos);
+        let rgba = render_app(&mut app, SIZE, settings.clone());
+        let column_has = |x: u32, want: fn([u8; 3]) -> bool| {
+            (0..SIZE.1).any(|y| {
+                let i = ((y * SIZE.0 + x) * 4) as usize;
+                want([rgba[i], rgba[i + 1], rgba[i + 2]])
+            })
+        };
+        // Dominant, not pure: with MSAA a one-pixel line covers part of a pixel's samples.
+        let is_red = |p: [u8; 3]| p[0] as i32 > p[1] as i32 + 70 && p[0] as i32 > p[2] as i32 + 70;
+        let is_green = |p: [u8; 3]| p[1] as i32 > p[0] as i32 + 70 && p[1] as i32 > p[2] as i32 + 70;
+        let what = format!("MSAA {}, deferred {deferred}", settings.msaa);
+        assert!(column_has(4, is_red) && column_has(60, is_red), "{what}: the line behind shows beside the cube");
+        assert!(!column_has(32, is_red), "{what}: the line behind is hidden by the cube");
+        assert!(column_has(32, is_green) && column_has(4, is_green), "{what}: the line in front crosses the cube");
+        let plan = app.world.resource::<Renderer>().stats().plan.clone();
+        assert!(plan.runs(Pass::Gizmos), "{what}");
+        assert_eq!(plan.runs(Pass::DeferredLights), deferred, "{what}");
+
+        app.world.resource_mut::<Gizmos>().clear();
+        let rgba = render_app(&mut app, SIZE, settings);
+        let coloured = rgba.chunks_exact(4).any(|p| is_red([p[0], p[1], p[2]]) || is_green([p[0], p[1], p[2]]));
+        assert!(!coloured, "{what}: cleared lines stay");
+        assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Gizmos), "{what}: a pass without lines ran");
+    }
+}

@@ -12,6 +12,7 @@ pub mod bounds;
 pub mod components;
 pub mod environment;
 pub mod framing;
+pub mod gizmos;
 pub mod ies;
 pub mod image;
 pub mod import;
@@ -59,6 +60,7 @@ pub mod prelude {
     pub use crate::bounds::Aabb;
     pub use crate::components::*;
     pub use crate::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
+    pub use crate::gizmos::Gizmos;
     pub use crate::ies::IesProfile;
     pub use crate::image::Image;
     pub use crate::import::{ImportError, ImportOptions, SceneFile, clone_scene, load_scene, spawn_instance};

@@ -34,6 +34,9 @@ pub enum Pass {
     /// Alpha-blended draws, back to front, in the same render pass as `Opaque` (or, with
     /// deferred lights, as their composite).
     Transparent,
+    /// Gizmo lines (axes, selection boxes, debug lines), last in the render pass that ends the
+    /// frame's drawing, depth-tested against the scene.
+    Gizmos,
     /// Bloom's half-size mip chain, down and up (render passes).
     Bloom,
     /// Compute: luminance histogram and the adapted exposure the tonemap pass applies.
@@ -74,6 +77,8 @@ pub struct SceneNeeds {
     pub bloom: bool,
     pub auto_exposure: bool,
     pub fxaa: bool,
+    /// Vertices of the gizmo lines to draw.
+    pub gizmo_vertices: u32,
 }
 
 impl FramePlan {
@@ -92,6 +97,7 @@ impl FramePlan {
             bloom,
             auto_exposure,
             fxaa,
+            gizmo_vertices,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -127,6 +133,9 @@ impl FramePlan {
         }
         if has_blend {
             passes.push((Pass::Transparent, "blended draws exist"));
+        }
+        if gizmo_vertices > 0 {
+            passes.push((Pass::Gizmos, "the scene has gizmo lines to draw"));
         }
         if bloom {
             passes.push((Pass::Bloom, "bloom is on"));

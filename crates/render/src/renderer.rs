@@ -351,6 +351,7 @@ pub struct Renderer {
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
     view_bind_group: Option<wgpu::BindGroup>,
+    gizmos: crate::passes::gizmos::GizmoLines,
     draws: EntityTable<DrawState>,
     mesh_users: HashMap<Handle<Mesh>, u32>,
     material_users: HashMap<MaterialKey, u32>,
@@ -444,6 +445,7 @@ impl Renderer {
             view_buffer,
             pipelines,
             view_bind_group: None,
+            gizmos: Default::default(),
             draws: EntityTable::default(),
             mesh_users: HashMap::new(),
             material_users: HashMap::new(),
@@ -825,6 +827,11 @@ impl Renderer {
         );
         let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
         let shadow_layers = self.shadows.frame().rendered_layers();
+        // Without a camera there is nothing to draw lines for.
+        let gizmo_vertices = match scene.view {
+            Some(v) => self.gizmos.prepare(&device, &queue, &scene.gizmos, v.world_from_view.translation.into()),
+            None => 0,
+        };
         let plan = FramePlan::new(SceneNeeds {
             binned_lights: binned,
             shadow_layers,
@@ -839,6 +846,7 @@ impl Renderer {
             bloom: post.bloom,
             auto_exposure: post.auto_exposure,
             fxaa: post.fxaa,
+            gizmo_vertices,
         });
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
@@ -906,6 +914,7 @@ impl Renderer {
                 .culling_active
                 .then_some(IndirectDraws { args: &early_args, batches: self.opaque_batches.len() }),
             background: plan.runs(Pass::Background) && !composite_background,
+            gizmos: if plan.runs(Pass::Gizmos) { self.gizmos.draw() } else { None },
         };
         let opaque_count = self.opaque_batches.len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {

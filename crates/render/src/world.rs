@@ -160,6 +160,8 @@ pub struct RenderScene {
     pub ies_profiles: HashMap<Handle<IesProfile>, Snapshot<IesProfile>>,
     /// The main world's `Environment` resource, if it has one (an image is shared, not copied).
     pub environment: Option<Environment>,
+    /// Debug lines of the main world's `Gizmos` resource (finite ones only).
+    pub gizmos: Vec<penumbra_engine::gizmos::GizmoLine>,
     /// Seconds since the previous frame by the main world's `Time` (fixed in headless runs):
     /// what time-based effects (automatic exposure's adaptation) advance by.
     pub delta_seconds: f32,

@@ -14,6 +14,7 @@
 //! - environment: the `Environment` resource, copied when it changed (an image is an `Arc`);
 //!   with one, the default lights keep their key light but drop their ambient term (the
 //!   environment lights the scene from every side instead);
+//! - gizmos: the `Gizmos` resource's lines, copied when it changed (non-finite lines dropped);
 //! - assets: versions compared against the last snapshot; only changed assets are re-shared.
 
 use bevy_ecs::prelude::*;
@@ -24,6 +25,7 @@ use penumbra_engine::components::{
     Mesh3d, MeshMaterial3d, MorphWeights, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
 use penumbra_engine::environment::Environment;
+use penumbra_engine::gizmos::Gizmos;
 use penumbra_engine::ies::IesProfile;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::StandardMaterial;
@@ -36,7 +38,16 @@ use crate::world::{
 
 /// Systems in the order they run.
 pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, ()> {
-    (begin_frame, extract_view, extract_draws, extract_deforms, extract_lights, extract_environment, extract_assets)
+    (
+        begin_frame,
+        extract_view,
+        extract_draws,
+        extract_deforms,
+        extract_lights,
+        extract_environment,
+        extract_gizmos,
+        extract_assets,
+    )
         .chain()
 }
 
@@ -516,6 +527,20 @@ fn extract_lights(
             Vec3::NEG_Z,
             false,
         ));
+    }
+}
+
+fn extract_gizmos(gizmos: Option<Res<Gizmos>>, mut scene: ResMut<RenderScene>) {
+    match gizmos {
+        Some(g) if g.is_changed() => {
+            scene.gizmos.clear();
+            let finite = |l: &&penumbra_engine::gizmos::GizmoLine| {
+                l.start.is_finite() && l.end.is_finite() && l.color.is_finite()
+            };
+            scene.gizmos.extend(g.lines().iter().filter(finite));
+        }
+        Some(_) => {}
+        None => scene.gizmos.clear(),
     }
 }
 

@@ -2,11 +2,13 @@
 //! pipeline, material and mesh so state changes are minimal), then blended draws back to front.
 //! With deferred local lights the pass splits around the deferred-lights compute pass: opaque
 //! batches (also writing their surface), then the composite of the local light and the blended
-//! batches.
+//! batches. Gizmo lines, if any, end whichever pass ends the frame's drawing (after the blended
+//! draws, depth-tested against everything).
 
 use penumbra_engine::Handle;
 use penumbra_engine::mesh::Mesh;
 
+use crate::passes::gizmos::GizmoDraw;
 use crate::pipelines::pipeline_cache::{BackgroundMode, PipelineCache, PipelineKey};
 use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::materials::{MaterialKey, MaterialTable};
@@ -53,6 +55,8 @@ pub struct ForwardInputs<'a> {
     /// opaque batches (with deferred local lights; otherwise `encode_background` composites it
     /// over the resolved frame).
     pub background: bool,
+    /// Gizmo lines drawn last in the pass that ends the frame's drawing.
+    pub gizmos: Option<GizmoDraw<'a>>,
 }
 
 #[derive(Clone, Copy)]
@@ -99,6 +103,12 @@ pub fn encode(
     }
     let (color, resolve) = inputs.targets.color_attachment();
     let split = inputs.targets.deferred.as_ref();
+    if split.is_none()
+        && phase != OpaquePhase::Early
+        && let Some(e) = compile_gizmos(device, pipelines, inputs)
+    {
+        error = Some(e);
+    }
     let (early, late) = (phase == OpaquePhase::Early, phase == OpaquePhase::Late);
     // Multisampled colour need not be stored once resolved (unless a later pass goes on).
     let ends = split.is_none() && !early;
@@ -154,6 +164,7 @@ pub fn encode(
     }
     if ends {
         counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
+        draw_gizmos(&mut pass, pipelines, inputs);
     }
     (counts, error)
 }
@@ -176,6 +187,9 @@ pub fn encode_after_deferred(
     let blended = &batches[opaque_count.min(batches.len())..];
     let mut error = compile(device, pipelines, blended);
     if let Err(e) = pipelines.composite(device, targets.samples, crate::targets::DEPTH_FORMAT) {
+        error = Some(e);
+    }
+    if let Some(e) = compile_gizmos(device, pipelines, inputs) {
         error = Some(e);
     }
     let (color, resolve) = targets.color_attachment();
@@ -204,7 +218,23 @@ pub fn encode_after_deferred(
         pass.set_bind_group(0, &deferred.composite_bind_group, &[]);
         pass.draw(0..3, 0..1);
     }
-    (draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len())), error)
+    let counts = draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len()));
+    draw_gizmos(&mut pass, pipelines, inputs);
+    (counts, error)
+}
+
+fn compile_gizmos(device: &wgpu::Device, pipelines: &mut PipelineCache, inputs: &ForwardInputs) -> Option<ShaderError> {
+    inputs.gizmos.and_then(|_| pipelines.gizmo(device, inputs.targets.samples).err())
+}
+
+/// The frame's gizmo lines, after everything else the pass draws.
+fn draw_gizmos(pass: &mut wgpu::RenderPass<'_>, pipelines: &PipelineCache, inputs: &ForwardInputs) {
+    let Some(g) = inputs.gizmos else { return };
+    let Some(pipeline) = pipelines.gizmo_cached(inputs.targets.samples) else { return };
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, inputs.view_bind_group, &[]);
+    pass.set_vertex_buffer(0, g.vertices.slice(..));
+    pass.draw(0..g.count, 0..1);
 }
 
 /// Creates the batches' pipelines before a pass borrows the cache immutably; returns the last

@@ -3,6 +3,7 @@ pub mod clusters;
 pub mod culling;
 pub mod deferred_lights;
 pub mod forward;
+pub mod gizmos;
 pub mod post;
 pub mod shadows;
 pub mod tonemap;

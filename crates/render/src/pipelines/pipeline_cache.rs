@@ -19,10 +19,12 @@ mod casters;
 mod culling;
 mod deform;
 mod environment;
+mod gizmos;
 mod post;
 pub use casters::CasterKey;
 pub use culling::{CullPhase, HzbStep};
 pub use environment::{BackgroundMode, ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep};
+pub use gizmos::GIZMO_VERTEX_BYTES;
 pub use post::{BloomStep, ExposureStep, TonemapKey};
 
 use penumbra_engine::mesh::Topology;
@@ -278,6 +280,9 @@ pub struct PipelineCache {
     env_layouts: environment::EnvLayouts,
     env: HashMap<EnvStep, wgpu::ComputePipeline>,
     background: HashMap<BackgroundMode, wgpu::RenderPipeline>,
+    gizmo_layout: wgpu::PipelineLayout,
+    /// By sample count.
+    gizmo: HashMap<u32, wgpu::RenderPipeline>,
     /// Pipelines created since start-up (a pipeline compiled twice would show here).
     pub compiled: usize,
     /// Incremented by every successful reload.
@@ -490,6 +495,7 @@ impl PipelineCache {
         });
         let composite_pipeline_layout = layout("deferred composite", &[Some(&composite_layout)]);
         let cull_layouts = culling::cull_layouts(device);
+        let gizmo_layout = layout("gizmos", &[Some(&view_layout)]);
         let env_layouts = environment::env_layouts(device, &view_layout);
         let post_layouts = post::post_layouts(device);
         let caster_layout = casters::caster_layout(device);
@@ -505,6 +511,8 @@ impl PipelineCache {
             env_layouts,
             env: HashMap::new(),
             background: HashMap::new(),
+            gizmo_layout,
+            gizmo: HashMap::new(),
             cull_layouts,
             cull: HashMap::new(),
             hzb: HashMap::new(),
@@ -649,6 +657,7 @@ impl PipelineCache {
         let cull_hit = lib.depends_on("cull.wgsl", files);
         let hzb_hit = lib.depends_on("hzb.wgsl", files);
         let deform_hit = lib.depends_on("deform.wgsl", files);
+        let gizmo_hit = lib.depends_on("gizmo.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -707,6 +716,12 @@ impl PipelineCache {
             (true, true) => Some(self.create_deform(device, &mut candidate)?),
             _ => None,
         };
+        let mut gizmo = Vec::new();
+        if gizmo_hit {
+            for samples in self.gizmo.keys().copied().collect::<Vec<_>>() {
+                gizmo.push((samples, self.create_gizmo(device, &mut candidate, samples)?));
+            }
+        }
         let env = self.reload_env(device, &mut candidate, files)?;
         let post = self.reload_post(device, &mut candidate, files)?;
         let total = self.env_pipeline_count()
@@ -720,7 +735,8 @@ impl PipelineCache {
             + self.mipmap.len()
             + self.cluster.len()
             + self.deferred.len()
-            + self.composite.len();
+            + self.composite.len()
+            + self.gizmo.len();
         let rebuilt = cull.len()
             + hzb.len()
             + deform.is_some() as usize
@@ -730,7 +746,8 @@ impl PipelineCache {
             + mipmap.len()
             + cluster.len()
             + deferred.len()
-            + composite.len();
+            + composite.len()
+            + gizmo.len();
         self.shaders = candidate.expect("still there");
         self.forward.extend(forward);
         self.tonemap.extend(tonemap);
@@ -741,6 +758,7 @@ impl PipelineCache {
         self.caster.extend(caster);
         self.cull.extend(cull);
         self.hzb.extend(hzb);
+        self.gizmo.extend(gizmo);
         if deform.is_some() {
             self.deform = deform;
         }

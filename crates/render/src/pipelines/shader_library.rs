@@ -57,6 +57,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("bloom.wgsl", include_str!("../../../../shaders/bloom.wgsl")),
     ("exposure.wgsl", include_str!("../../../../shaders/exposure.wgsl")),
     ("fxaa.wgsl", include_str!("../../../../shaders/fxaa.wgsl")),
+    ("gizmo.wgsl", include_str!("../../../../shaders/gizmo.wgsl")),
 ];
 
 /// The repository's shader folder as seen at compile time; the viewer watches it when it still
@@ -371,6 +372,7 @@ mod tests {
         lib.compose("mipmap.wgsl", &defs(&[])).unwrap();
         lib.compose("cull.wgsl", &defs(&[])).unwrap();
         lib.compose("deform.wgsl", &defs(&[])).unwrap();
+        lib.compose("gizmo.wgsl", &defs(&[])).unwrap();
         lib.compose("cull.wgsl", &defs(&["OCCLUSION_EARLY"])).unwrap();
         lib.compose("cull.wgsl", &defs(&["OCCLUSION_LATE"])).unwrap();
         for d in [&[][..], &["FROM_DEPTH"], &["FROM_DEPTH", "MULTISAMPLED"]] {

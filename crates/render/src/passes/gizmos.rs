@@ -1,0 +1,61 @@
+//! Gizmo lines: the extracted `Gizmos` (world-space segments) uploaded as camera-relative line
+//! vertices each frame they exist (the camera moves, and camera-relative positions keep lines
+//! far from the origin as precise as the meshes they annotate), then drawn by the forward pass
+//! after the scene's draws, in the same render pass so they are depth-tested against it and
+//! multisampled with it. With no lines nothing is uploaded, compiled or drawn.
+
+use glam::Vec3;
+use penumbra_engine::gizmos::GizmoLine;
+
+use crate::pipelines::pipeline_cache::GIZMO_VERTEX_BYTES;
+use crate::prepare::buffer::GrowableBuffer;
+
+/// The frame's gizmo vertices, for the forward pass.
+#[derive(Clone, Copy)]
+pub struct GizmoDraw<'a> {
+    pub vertices: &'a wgpu::Buffer,
+    pub count: u32,
+}
+
+#[derive(Default)]
+pub struct GizmoLines {
+    buffer: Option<GrowableBuffer>,
+    count: u32,
+    scratch: Vec<[f32; 6]>,
+}
+
+impl GizmoLines {
+    /// Uploads `lines` relative to `camera`; returns the vertex count (0: nothing to draw).
+    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, lines: &[GizmoLine], camera: Vec3) -> u32 {
+        self.count = 0;
+        if lines.is_empty() {
+            return 0;
+        }
+        self.scratch.clear();
+        for l in lines {
+            for p in [l.start, l.end] {
+                let rel = p - camera;
+                self.scratch.push([rel.x, rel.y, rel.z, l.color.x, l.color.y, l.color.z]);
+            }
+        }
+        let bytes = self.scratch.len() as u64 * GIZMO_VERTEX_BYTES;
+        let buffer = self
+            .buffer
+            .get_or_insert_with(|| GrowableBuffer::new(device, "gizmo lines", wgpu::BufferUsages::VERTEX, bytes));
+        buffer.reserve(device, bytes);
+        queue.write_buffer(buffer.buffer(), 0, bytemuck::cast_slice(&self.scratch));
+        self.count = self.scratch.len() as u32;
+        self.count
+    }
+
+    /// What the forward pass draws this frame, if anything.
+    pub fn draw(&self) -> Option<GizmoDraw<'_>> {
+        let buffer = self.buffer.as_ref().filter(|_| self.count > 0)?;
+        Some(GizmoDraw { vertices: buffer.buffer(), count: self.count })
+    }
+
+    /// Bytes held on the GPU.
+    pub fn memory(&self) -> u64 {
+        self.buffer.as_ref().map_or(0, GrowableBuffer::capacity)
+    }
+}
