@@ -5,7 +5,7 @@
 //! One viewer runs through the whole script (startup on a CPU rasteriser is the slow part):
 //! first frame against a golden (loosely: the panels' text may render differently), a
 //! horizontal drag of half a turn against a headless render from behind, a scroll zoom, F12,
-//! opening a broken file, resizes down to a few pixels, and Esc. Needs `Xvfb` and `xdotool`
+//! opening a broken file, resizes down to a few pixels, the F2 axes, and Esc. Needs `Xvfb` and `xdotool`
 //! (Debian: `apt-get install -y xvfb xdotool`); without them the test fails saying so.
 
 use std::io::Read;
@@ -287,6 +287,22 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
         }
     }
     let closer = viewer.settled("the last resize");
+
+    // F2 draws the world axes (X red, Y green, Z blue); F2 again takes them away.
+    let dominant = |rgba: &[u8], c: usize| {
+        rgba.chunks_exact(4).filter(|p| (0..3).filter(|&k| k != c).all(|k| p[c] as i32 > p[k] as i32 + 60)).count()
+    };
+    let plain = viewer.settled("before the axes");
+    viewer.xdotool(&["key", "F2"]);
+    let axes = viewer.settled("the world axes");
+    // The camera looks along Z here, so the blue Z axis is seen end-on: X and Y are counted.
+    for (c, name) in [(0, "red X"), (1, "green Y")] {
+        let (before, after) = (dominant(&plain.0, c), dominant(&axes.0, c));
+        assert!(after >= before + 5, "F2: {name} pixels {before} → {after}");
+    }
+    viewer.xdotool(&["key", "F2"]);
+    let again = viewer.settled("the axes switched off");
+    assert!(again == plain, "F2 twice does not give the frame back");
 
     // F12 writes the scene, without the panels, as a PNG of the window's size.
     viewer.xdotool(&["key", "F12"]);

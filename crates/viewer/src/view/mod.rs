@@ -2,12 +2,14 @@
 //! into the swap-chain image; the egui overlay ([`overlay`], [`panels`]) drawn over it.
 //!
 //! Each frame: a finished background load ([`loader`]) replaces the scene ([`staged`]); input
-//! moves the orbit camera's goal and the camera eases towards it ([`orbit`]); `App::update`
+//! moves the orbit camera's goal and the camera eases towards it ([`orbit`]); axes and the
+//! selection box become gizmo lines ([`gizmos`]); `App::update`
 //! runs the schedules (extraction included); the renderer draws the extracted scene; an F12
 //! screenshot copies that image before the overlay draws ([`screenshot`]); the overlay's
 //! actions are carried out. Resizes reconfigure the surface at the window's physical size; a
 //! 0×0 (minimised) window skips frames.
 
+mod gizmos;
 mod loader;
 mod orbit;
 mod overlay;
@@ -221,6 +223,13 @@ impl Running {
         }
         if let Some(s) = self.scene.as_mut() {
             s.advance_camera(dt);
+            let request = gizmos::GizmoRequest {
+                world_axes: self.ui.world_axes,
+                local_axes: self.ui.local_axes,
+                selected: self.ui.selected,
+                camera: s.camera,
+            };
+            gizmos::update(&mut s.app.world, &request);
             s.app.update();
         }
         let Some(texture) = self.surface.acquire(&self.ctx.device) else { return Ok(()) };
@@ -345,6 +354,8 @@ impl Running {
         match key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Named(NamedKey::F1) => self.ui.show_stats ^= true,
+            Key::Named(NamedKey::F2) => self.ui.world_axes ^= true,
+            Key::Named(NamedKey::F3) => self.ui.local_axes ^= true,
             Key::Named(NamedKey::F12) => self.screenshot_requested = true,
             Key::Character(c) if ctrl && c.eq_ignore_ascii_case("o") => self.ui.open_dialog = true,
             Key::Character(c) if c.eq_ignore_ascii_case("f") => self.act(Action::FrameScene, args, event_loop),

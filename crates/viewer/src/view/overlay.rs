@@ -42,6 +42,9 @@ pub struct UiState {
     pub show_inspector: bool,
     pub show_settings: bool,
     pub show_environment: bool,
+    /// F2: the world's axes at the origin; F3: every object's local axes.
+    pub world_axes: bool,
+    pub local_axes: bool,
     pub selected: Option<Entity>,
     pub open_dialog: bool,
     pub open_path: String,
@@ -67,6 +70,8 @@ impl UiState {
             show_inspector: false,
             show_settings: false,
             show_environment: false,
+            world_axes: false,
+            local_axes: false,
             selected: None,
             open_dialog: false,
             open_path: String::new(),

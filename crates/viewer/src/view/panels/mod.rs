@@ -44,6 +44,8 @@ pub fn menu_bar(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
             });
             ui.menu_button("View", |ui| {
                 ui.checkbox(&mut state.show_stats, "Stats  (F1)");
+                ui.checkbox(&mut state.world_axes, "World axes  (F2)");
+                ui.checkbox(&mut state.local_axes, "Local axes  (F3)");
                 ui.checkbox(&mut state.show_tree, "Scene tree");
                 ui.checkbox(&mut state.show_inspector, "Inspector");
                 ui.checkbox(&mut state.show_settings, "Render settings");

@@ -1,5 +1,5 @@
 //! The scene tree: the entity hierarchy (roots, then `Children` in order) with names. Clicking
-//! selects (the inspector shows the selection), double-clicking
+//! selects (the inspector shows it; the viewport draws its bounding box), double-clicking
 //! focuses the camera on it.
 
 use bevy_ecs::entity::Entity;
