@@ -39,11 +39,17 @@ fn need(tool: &str) {
     );
 }
 
-/// An Xvfb server on a free display number.
+/// An Xvfb server on a free display number. Tests in this file run in parallel: each takes its
+/// own numbers from a counter, and a server that exits (the number was taken after all) is
+/// passed over.
 fn xvfb() -> (Killed, String) {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static NEXT: AtomicU32 = AtomicU32::new(0);
     need("Xvfb");
     need("xdotool");
-    for n in (90 + std::process::id() % 300)..400 {
+    let base = 90 + (std::process::id() % 200) * 4;
+    for _ in 0..50 {
+        let n = base + NEXT.fetch_add(1, Ordering::Relaxed);
         if Path::new(&format!("/tmp/.X{n}-lock")).exists() {
             continue;
         }
@@ -54,11 +60,19 @@ fn xvfb() -> (Killed, String) {
             .stderr(Stdio::null())
             .spawn()
             .expect("Xvfb starts");
-        let server = Killed(child);
+        let mut server = Killed(child);
         let deadline = Instant::now() + Duration::from_secs(10);
         while Instant::now() < deadline {
+            if server.0.try_wait().expect("wait").is_some() {
+                break;
+            }
             if x11rb::connect(Some(&display)).is_ok() {
-                return (server, display);
+                // Connected, and to our own server only if it is still running.
+                std::thread::sleep(Duration::from_millis(200));
+                if server.0.try_wait().expect("wait").is_none() {
+                    return (server, display);
+                }
+                break;
             }
             std::thread::sleep(Duration::from_millis(100));
         }
@@ -74,6 +88,36 @@ struct Viewer {
 }
 
 impl Viewer {
+    /// Starts `penumbra view ARGS` on `display` (extra environment in `env`), logging to
+    /// `dir/viewer.log`, and finds its window.
+    fn start(display: &str, dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Viewer {
+        let log = dir.join("viewer.log");
+        let child = penumbra()
+            .arg("view")
+            .args(args)
+            .env("DISPLAY", display)
+            .env_remove("WAYLAND_DISPLAY")
+            .env("XDG_CONFIG_HOME", dir.join("config"))
+            .env("RUST_LOG", "info")
+            .envs(env.iter().copied())
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .expect("the viewer starts");
+        let mut viewer = Viewer { display: display.to_owned(), process: Killed(child), window: 0, log };
+        let found = Command::new("xdotool")
+            .args(["search", "--sync", "--name", "^penumbra"])
+            .env("DISPLAY", display)
+            .output()
+            .expect("xdotool search");
+        viewer.window = String::from_utf8_lossy(&found.stdout)
+            .lines()
+            .next()
+            .and_then(|l| l.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no viewer window appeared; log:\n{}", viewer.log()));
+        viewer
+    }
+
     fn xdotool(&self, args: &[&str]) {
         let o = Command::new("xdotool").args(args).env("DISPLAY", &self.display).output().expect("xdotool runs");
         assert!(o.status.success(), "xdotool {args:?}: {}", String::from_utf8_lossy(&o.stderr));
@@ -161,7 +205,11 @@ fn inside(b: (u32, u32, u32, u32), w: u32, h: u32) -> bool {
 
 /// FLIP mean over the window's middle rows (the menu bar and the status line left out).
 fn flip_middle(a: &[u8], b: &[u8], w: u32, h: u32) -> f32 {
-    let (y0, y1) = (TOP, h - BOTTOM);
+    flip_rows(a, b, w, TOP, h - BOTTOM)
+}
+
+/// FLIP mean over rows `y0..y1`.
+fn flip_rows(a: &[u8], b: &[u8], w: u32, y0: u32, y1: u32) -> f32 {
     let rows = |rgba: &[u8]| -> Vec<u8> {
         rgba[(y0 * w * 4) as usize..(y1 * w * 4) as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
     };
@@ -183,33 +231,10 @@ fn save(path: &Path, rgba: &[u8], w: u32, h: u32) {
 fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     let (_server, display) = xvfb();
     let dir = scratch("script");
-    let log = dir.join("viewer.log");
     let shots = dir.join("shots");
     let common = ["--size", "320x240", "--background", "color", "--msaa", "4"];
-    let child = penumbra()
-        .arg("view")
-        .args(common)
-        .arg("--screenshot-dir")
-        .arg(&shots)
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_CONFIG_HOME", dir.join("config"))
-        .env("RUST_LOG", "info")
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&log).unwrap())
-        .spawn()
-        .expect("the viewer starts");
-    let mut viewer = Viewer { display: display.clone(), process: Killed(child), window: 0, log };
-    let found = Command::new("xdotool")
-        .args(["search", "--sync", "--name", "^penumbra"])
-        .env("DISPLAY", &display)
-        .output()
-        .expect("xdotool search");
-    viewer.window = String::from_utf8_lossy(&found.stdout)
-        .lines()
-        .next()
-        .and_then(|l| l.trim().parse().ok())
-        .unwrap_or_else(|| panic!("no viewer window appeared; log:\n{}", viewer.log()));
+    let mut viewer =
+        Viewer::start(&display, &dir, &[&common[..], &["--screenshot-dir", shots.to_str().unwrap()]].concat(), &[]);
     // Without a window manager nothing gives the window the keyboard; the pointer rests in its
     // middle so that wheel events reach the scene.
     viewer.xdotool(&["windowfocus", "--sync", &viewer.window.to_string()]);
@@ -288,6 +313,19 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     }
     let closer = viewer.settled("the last resize");
 
+    // Hidden and shown again (unmapped: what minimising does without a window manager): the
+    // viewer keeps running and shows the same frame.
+    viewer.xdotool(&["windowunmap", "--sync", &win]);
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(viewer.alive(), "the viewer exited while hidden; log:\n{}", viewer.log());
+    viewer.xdotool(&["windowmap", "--sync", &win]);
+    viewer.xdotool(&["windowfocus", "--sync", &win]);
+    let shown = viewer.settled("showing the window again");
+    save(&dir.join("before_hiding.png"), &closer.0, W, H);
+    save(&dir.join("shown_again.png"), &shown.0, W, H);
+    let changed = flip_middle(&closer.0, &shown.0, W, H);
+    assert!(changed < 0.005, "the frame changed while the window was hidden: FLIP {changed:.4}");
+
     // F2 draws the world axes (X red, Y green, Z blue); F2 again takes them away.
     let dominant = |rgba: &[u8], c: usize| {
         rgba.chunks_exact(4).filter(|p| (0..3).filter(|&k| k != c).all(|k| p[c] as i32 > p[k] as i32 + 60)).count()
@@ -345,4 +383,31 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
         std::thread::sleep(Duration::from_millis(100));
     };
     assert!(status.success(), "the viewer exited with {status}; log:\n{}", viewer.log());
+}
+
+/// HiDPI: at scale factor 2 a window of 160×120 logical pixels has a 320×240 framebuffer, and the
+/// scene is rendered at that resolution (it matches a headless 320×240 render), not upscaled.
+#[test]
+fn viewer_renders_at_the_physical_size_of_a_hidpi_window() {
+    let (_server, display) = xvfb();
+    let dir = scratch("hidpi");
+    let args = ["--size", "160x120", "--background", "color", "--msaa", "4"];
+    let mut viewer = Viewer::start(&display, &dir, &args, &[("WINIT_X11_SCALE_FACTOR", "2")]);
+    let frame = viewer.settled("the first frame at scale 2");
+    assert_eq!((frame.1, frame.2), (W, H), "the framebuffer does not follow the physical size");
+    let reference = dir.join("headless.png");
+    let o = penumbra()
+        .arg("render")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/DamagedHelmet.glb"))
+        .arg("--out")
+        .arg(&reference)
+        .args(["--size", "320x240", "--background", "color", "--msaa", "4"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = image::open(&reference).unwrap().into_rgba8();
+    save(&dir.join("window.png"), &frame.0, W, H);
+    // The menu bar is twice as tall at scale 2: compare below it.
+    let error = flip_rows(reference.as_raw(), &frame.0, W, 2 * TOP, H - BOTTOM);
+    assert!(error < 0.03, "HiDPI window vs headless 320×240: FLIP {error:.4} (see {})", dir.display());
 }

@@ -83,6 +83,16 @@ impl OrbitCamera {
         c.distance = (c.distance.ln() + (g.distance.ln() - c.distance.ln()) * a).exp();
         c.yaw += (g.yaw - c.yaw) * a;
         c.pitch += (g.pitch - c.pitch) * a;
+        // Close enough to see no difference: arrive. Exponential easing alone never does, and a
+        // camera still creeping by float noise redraws a different image every frame.
+        const ARRIVED: f32 = 1e-5;
+        if (c.target - g.target).length() <= ARRIVED * g.distance
+            && (c.distance / g.distance - 1.0).abs() <= ARRIVED
+            && (c.yaw - g.yaw).abs() <= ARRIVED
+            && (c.pitch - g.pitch).abs() <= ARRIVED
+        {
+            *c = *g;
+        }
         c.transform()
     }
 }
@@ -98,6 +108,22 @@ mod tests {
         assert!((t.translation - Vec3::new(3.0, 2.0, 5.0)).length() < 1e-4);
         let forward = t.rotation * Vec3::NEG_Z;
         assert!((forward - (Vec3::new(1.0, 0.0, 0.0) - t.translation).normalize()).length() < 1e-4);
+    }
+
+    #[test]
+    fn the_camera_arrives_exactly_and_then_stays_still() {
+        let start = OrbitState { target: Vec3::ZERO, distance: 10.0, yaw: 0.0, pitch: 0.0 };
+        let mut cam = OrbitCamera::new(start);
+        cam.orbit(100.0, 20.0, 500.0);
+        cam.zoom(2.0, Some(Vec3::new(1.0, 0.5, 0.0)));
+        let mut frames = 0;
+        while cam.current != cam.goal {
+            cam.update(1.0 / 60.0);
+            frames += 1;
+            assert!(frames < 600, "still easing after 10 s: {:?} vs {:?}", cam.current, cam.goal);
+        }
+        let settled = cam.update(1.0 / 60.0);
+        assert_eq!(cam.update(1.0 / 60.0), settled);
     }
 
     #[test]
