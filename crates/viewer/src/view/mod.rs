@@ -150,11 +150,15 @@ impl Running {
         let Some(outcome) = self.loader.as_ref().and_then(Loader::poll) else { return Ok(()) };
         let loader = self.loader.take().expect("polled");
         let first = std::mem::replace(&mut self.first_load, false);
+        let imported = loader.started.elapsed().as_secs_f32();
+        let staging = Instant::now();
         let staged =
             outcome.map_err(anyhow::Error::msg).and_then(|file| self.stage(&file, loader.path.clone(), args, first));
         match staged {
             Ok(staged) => {
-                tracing::info!("loaded {} in {:.2} s", staged.name, loader.started.elapsed().as_secs_f32());
+                // The import ran beside the window; staging (spawning, the renderer) blocks it.
+                let staged_in = staging.elapsed().as_secs_f32();
+                tracing::info!("loaded {}: imported in {imported:.2} s, staged in {staged_in:.2} s", staged.name);
                 if let Some(p) = &staged.path {
                     self.recent.add(p);
                 }
