@@ -342,6 +342,32 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     let again = viewer.settled("the axes switched off");
     assert!(again == plain, "F2 twice does not give the frame back");
 
+    // A click on the model selects it: a yellow box round it. A click
+    // on empty background clears the selection and the box goes.
+    let yellow = |rgba: &[u8]| {
+        rgba.chunks_exact(4).filter(|p| p[0] > 150 && p[1] > 120 && (p[2] as i32) < p[1] as i32 - 80).count()
+    };
+    viewer.xdotool(&["mousemove", "--window", &win, "160", "132", "click", "1"]);
+    let selected = viewer.settled("the selection");
+    save(&dir.join("selected.png"), &selected.0, W, H);
+    let b = model_box(&closer).expect("model visible");
+    let boxed = |rgba: &[u8]| {
+        let mut n = 0;
+        for y in b.1..=b.3 {
+            for x in b.0..=b.2 {
+                let p = &rgba[((y * W + x) * 4) as usize..][..3];
+                n += usize::from(p[0] > 150 && p[1] > 120 && (p[2] as i32) < p[1] as i32 - 80);
+            }
+        }
+        n
+    };
+    assert!(yellow(&selected.0) >= yellow(&closer.0) + 20, "no selection box after a click on the model");
+    assert!(boxed(&selected.0) > 0, "the selection box is not round the model");
+    viewer.xdotool(&["mousemove", "--window", &win, "300", "200", "click", "1"]);
+    let cleared = viewer.settled("clearing the selection");
+    let in_scene = |rgba: &[u8]| boxed(rgba);
+    assert_eq!(in_scene(&cleared.0), boxed(&closer.0), "the box stays after clicking on nothing");
+
     // F12 writes the scene, without the panels, as a PNG of the window's size.
     viewer.xdotool(&["key", "F12"]);
     let shot = shots.join("penumbra-0001.png");

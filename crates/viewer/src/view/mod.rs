@@ -375,9 +375,9 @@ impl Running {
         self.input.last_click = if double { None } else { Some((now, at)) };
         let Some(s) = self.scene.as_mut() else { return };
         let hit = s.pick(at, size);
+        // The box round it shows the selection; View > Inspector shows what it is (opening the
+        // panel on every click would cover the scene in a small window).
         self.ui.selected = hit.map(|(e, _)| e);
-        // Selecting something shows what it is.
-        self.ui.show_inspector |= hit.is_some();
         if double && let Some((_, point)) = hit {
             // Focus: the clicked point becomes the orbit's centre, the camera stays where it is.
             s.take_over_file_camera();

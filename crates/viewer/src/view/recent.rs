@@ -18,6 +18,11 @@ impl RecentFiles {
             .map(PathBuf::from)
             .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".config")))
             .map(|dir| dir.join("penumbra").join("recent.txt"));
+        Self::load_from(file)
+    }
+
+    /// The list kept in `file` (`None`: kept nowhere).
+    pub fn load_from(file: Option<PathBuf>) -> RecentFiles {
         let paths = file
             .as_ref()
             .and_then(|f| std::fs::read_to_string(f).ok())
@@ -38,5 +43,29 @@ impl RecentFiles {
         if let Err(e) = saved {
             tracing::warn!("cannot save the recent-files list {}: {e}", file.display());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn newest_first_without_repeats_at_most_ten_and_kept_across_runs() {
+        let dir = std::env::temp_dir().join(format!("penumbra-recent-{}", std::process::id()));
+        let file = dir.join("penumbra").join("recent.txt");
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut recent = RecentFiles::load_from(Some(file.clone()));
+        assert!(recent.paths.is_empty(), "a missing list is an empty one");
+        for i in 0..12 {
+            recent.add(Path::new(&format!("/scenes/{i}.glb")));
+        }
+        recent.add(Path::new("/scenes/5.glb"));
+        let again = RecentFiles::load_from(Some(file));
+        assert_eq!(again.paths.len(), 10);
+        assert_eq!(again.paths[0], Path::new("/scenes/5.glb"));
+        assert_eq!(again.paths[1], Path::new("/scenes/11.glb"));
+        assert_eq!(again.paths.iter().filter(|p| p.ends_with("5.glb")).count(), 1);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
