@@ -47,13 +47,59 @@ pub enum Pass {
     Fxaa,
 }
 
+impl Pass {
+    pub const ALL: [Pass; 15] = [
+        Pass::EnvironmentPrefilter,
+        Pass::Deform,
+        Pass::Cull,
+        Pass::ClusterBin,
+        Pass::Shadows,
+        Pass::Opaque,
+        Pass::Background,
+        Pass::OcclusionLate,
+        Pass::DeferredLights,
+        Pass::Transparent,
+        Pass::Gizmos,
+        Pass::Bloom,
+        Pass::AutoExposure,
+        Pass::Tonemap,
+        Pass::Fxaa,
+    ];
+
+    /// What the pass reads (buffers, textures) and writes, for `penumbra render --explain`.
+    pub fn inputs(self) -> &'static str {
+        match self {
+            Pass::EnvironmentPrefilter => "environment source (sky, studio or image) -> source cube, GGX levels, SH",
+            Pass::Deform => "mesh pool vertices, joint matrices, morph weights -> deformed vertex copies",
+            Pass::Cull => "view, instance buffer, draw slots -> indirect draw arguments",
+            Pass::ClusterBin => "view, light store (local lights) -> cluster counts, offsets, index lists",
+            Pass::Shadows => "casters' vertices and instances, cascade matrices -> shadow atlas layers",
+            Pass::Opaque => {
+                "view, mesh pool, instances, materials, textures, light store [, cluster lists] \
+                 [, shadow atlas] [, environment maps] -> HDR colour, depth"
+            }
+            Pass::Background => "environment cube (or its blurred level), HDR alpha -> HDR colour",
+            Pass::OcclusionLate => "depth -> depth pyramid -> late cull -> second opaque draws",
+            Pass::DeferredLights => "surface buffer, depth, cluster lists, light store -> HDR colour",
+            Pass::Transparent => "view, blended draws sorted back to front, lights -> HDR colour",
+            Pass::Gizmos => "gizmo line vertices, depth -> HDR colour",
+            Pass::Bloom => "HDR colour -> half-size mip chain",
+            Pass::AutoExposure => "HDR colour -> luminance histogram -> adapted exposure",
+            Pass::Tonemap => "HDR colour [, bloom chain] [, exposure] -> output (sRGB)",
+            Pass::Fxaa => "tonemapped intermediate -> output",
+        }
+    }
+}
+
 #[derive(Debug, Clone, Default)]
 pub struct FramePlan {
     pub passes: Vec<(Pass, &'static str)>,
+    /// What the plan was made from.
+    pub needs: SceneNeeds,
 }
 
 /// What this frame's scene holds and asks for, as far as the plan is concerned.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SceneNeeds {
     /// Local lights the forward pass will find through clusters.
     pub binned_lights: u32,
@@ -147,18 +193,51 @@ impl FramePlan {
         if fxaa {
             passes.push((Pass::Fxaa, "FXAA is on"));
         }
-        Self { passes }
+        Self { passes, needs }
     }
 
     pub fn runs(&self, pass: Pass) -> bool {
         self.passes.iter().any(|(p, _)| *p == pass)
+    }
+
+    /// The passes this frame leaves out, each with the reason (what the scene lacks).
+    pub fn left_out(&self) -> Vec<(Pass, &'static str)> {
+        let n = &self.needs;
+        Pass::ALL
+            .into_iter()
+            .filter(|p| !self.runs(*p))
+            .map(|p| {
+                let why = match p {
+                    Pass::EnvironmentPrefilter if n.background => "the environment's maps are unchanged",
+                    Pass::EnvironmentPrefilter => "no environment changed (or none exists)",
+                    Pass::Deform => "no skinned or morphed draw changed pose",
+                    Pass::Cull if !n.has_opaque => "no opaque draws",
+                    Pass::Cull => "GPU culling off or unsupported by the adapter",
+                    Pass::ClusterBin if n.binned_lights == 0 => "no local lights reach the fragment shader's lists",
+                    Pass::ClusterBin => "nothing to light",
+                    Pass::Shadows => "no shadowed light's casters reach what the camera sees",
+                    Pass::Opaque | Pass::Tonemap => "always runs",
+                    Pass::Background => "no environment to show (none, or a solid background colour)",
+                    Pass::OcclusionLate => {
+                        "occlusion culling off (auto: fewer than 10 000 opaque instances or a CPU adapter)"
+                    }
+                    Pass::DeferredLights => "local lights are shaded in the fragment shader, or there are none",
+                    Pass::Transparent => "no blended draws",
+                    Pass::Gizmos => "no gizmo lines",
+                    Pass::Bloom => "bloom is off",
+                    Pass::AutoExposure => "automatic exposure is off",
+                    Pass::Fxaa => "FXAA is off",
+                };
+                (p, why)
+            })
+            .collect()
     }
 }
 
 impl fmt::Display for FramePlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for (i, (p, why)) in self.passes.iter().enumerate() {
-            writeln!(f, "{}. {p:?}: {why}", i + 1)?;
+            writeln!(f, "{:>2}. {p:?}: {why}", i + 1)?;
         }
         Ok(())
     }

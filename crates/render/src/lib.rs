@@ -13,12 +13,14 @@
 pub mod context;
 pub mod entity_table;
 pub mod environment;
+pub mod explain;
 pub mod extract;
 pub mod frame;
 pub mod headless;
 pub mod passes;
 pub mod pipelines;
 pub mod prepare;
+pub mod quality;
 pub mod readback;
 pub mod renderer;
 pub mod targets;
@@ -32,6 +34,7 @@ use penumbra_engine::{App, Plugin};
 pub use context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT};
 pub use pipelines::pipeline_cache::Tonemapper;
 pub use pipelines::shader_library::ShaderError;
+pub use quality::QualityPreset;
 pub use renderer::{FrameStats, MemoryStats, RenderSettings, Renderer, RendererError, ShaderSource};
 pub use world::RenderScene;
 

@@ -12,7 +12,7 @@ use penumbra_render::passes::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
 use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError};
-use penumbra_render::{RenderSettings, ShaderSource, Tonemapper};
+use penumbra_render::{QualityPreset, RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
 #[command(name = "penumbra", version, about = "A real-time glTF renderer and viewer")]
@@ -50,9 +50,13 @@ pub struct SceneArgs {
 pub struct LookArgs {
     #[arg(long, value_enum, default_value_t = TonemapArg::Neutral)]
     pub tonemap: TonemapArg,
-    /// MSAA samples (1 or 4).
-    #[arg(long, default_value_t = 4)]
-    pub msaa: u32,
+    /// Quality preset: sets MSAA, shadow atlas size, cascades, shadow filter, cluster grid and
+    /// the light cutoff together (`high` is the default); the flags for each override it.
+    #[arg(long, default_value = "high", value_parser = parse_quality, value_name = "low|medium|high|ultra")]
+    pub quality: QualityPreset,
+    /// MSAA samples (1 or 4; default from --quality).
+    #[arg(long)]
+    pub msaa: Option<u32>,
     /// Exposure as EV100 (default: the camera's, EV100 −0.263, which maps radiance 1 to 1).
     #[arg(long, allow_negative_numbers = true)]
     pub exposure: Option<f32>,
@@ -73,22 +77,28 @@ pub struct LookArgs {
     /// the range window).
     #[arg(long, value_enum, default_value_t = LightWalkArg::Auto)]
     pub light_walk: LightWalkArg,
-    /// Cluster grid: tiles across x tiles down x depth slices.
-    #[arg(long, value_parser = parse_clusters, default_value = "16x16x32", value_name = "XxYxZ")]
-    pub clusters: ClusterConfig,
-    /// Texels across each layer of the shadow atlas (one layer per cascade), 16 to 16384.
-    #[arg(long, default_value_t = ShadowSettings::default().atlas_size, value_name = "TEXELS")]
-    pub shadow_atlas: u32,
-    /// Cascades per shadowed directional light, 1 to 4.
-    #[arg(long, default_value_t = ShadowSettings::default().cascades)]
-    pub cascades: u32,
+    /// Cluster grid: tiles across x tiles down x depth slices (default from --quality;
+    /// high: 16x16x32).
+    #[arg(long, value_parser = parse_clusters, value_name = "XxYxZ")]
+    pub clusters: Option<ClusterConfig>,
+    /// Display-referred luminance (after exposure) at which a local light without a glTF
+    /// range stops reaching (default from --quality; high: 1/4096).
+    #[arg(long, value_name = "LUMINANCE")]
+    pub light_cutoff: Option<f32>,
+    /// Texels across each layer of the shadow atlas (one layer per cascade), 16 to 16384
+    /// (default from --quality; high: 4096).
+    #[arg(long, value_name = "TEXELS")]
+    pub shadow_atlas: Option<u32>,
+    /// Cascades per shadowed directional light, 1 to 4 (default from --quality; high: 4).
+    #[arg(long)]
+    pub cascades: Option<u32>,
     /// Distance from the camera beyond which nothing is shadowed, in metres.
     #[arg(long, default_value_t = ShadowSettings::default().max_distance, value_name = "METRES")]
     pub shadow_distance: f32,
     /// Shadow filtering: `pcf` (fixed soft edge) or `pcss` (penumbrae widen with distance from
-    /// the caster, from the light's angular size).
-    #[arg(long, value_enum, default_value_t = ShadowFilterArg::Pcf)]
-    pub shadow_filter: ShadowFilterArg,
+    /// the caster, from the light's angular size). Default from --quality (pcss at ultra).
+    #[arg(long, value_enum)]
+    pub shadow_filter: Option<ShadowFilterArg>,
     /// Draw every opaque object instead of culling against the view on the GPU (for
     /// comparison; culling never changes the image).
     #[arg(long)]
@@ -223,6 +233,10 @@ pub enum LightWalkArg {
     Unbounded,
 }
 
+fn parse_quality(s: &str) -> Result<QualityPreset, String> {
+    s.parse()
+}
+
 fn parse_clusters(s: &str) -> Result<ClusterConfig, String> {
     let parts: Vec<&str> = s.split(['x', 'X']).collect();
     let [x, y, z] = parts.as_slice() else { return Err(format!("{s:?} is not XxYxZ (for example 16x16x32)")) };
@@ -257,6 +271,10 @@ pub struct RenderArgs {
     /// without either, the first clip plays from 0 over --frames).
     #[arg(long, value_name = "SECONDS")]
     pub time: Option<f32>,
+    /// Print the last frame's plan: the passes that ran, why, and what each reads; the passes
+    /// left out and why; the forward shader variants compiled; GPU memory by pool.
+    #[arg(long)]
+    pub explain: bool,
     #[command(flatten)]
     pub look: LookArgs,
     #[command(flatten)]
@@ -458,11 +476,9 @@ impl LookArgs {
             Some(dir) => ShaderSource::Folder { dir, watch },
             None => ShaderSource::Embedded,
         };
-        let settings = RenderSettings {
-            msaa: self.msaa,
+        let mut settings = RenderSettings {
             tonemapper: self.tonemap.into(),
             shaders,
-            clusters: self.clusters,
             light_walk: match self.light_walk {
                 LightWalkArg::Auto => LightWalk::Auto,
                 LightWalkArg::Clustered => LightWalk::Clustered,
@@ -477,16 +493,7 @@ impl LookArgs {
                 DebugViewArg::Normals => DebugView::Normals,
                 DebugViewArg::Uvs => DebugView::Uvs,
             },
-            shadows: ShadowSettings {
-                atlas_size: self.shadow_atlas,
-                cascades: self.cascades,
-                max_distance: self.shadow_distance,
-                filter: match self.shadow_filter {
-                    ShadowFilterArg::Pcf => ShadowFilter::Pcf,
-                    ShadowFilterArg::Pcss => ShadowFilter::Pcss,
-                },
-                ..Default::default()
-            },
+            shadows: ShadowSettings { max_distance: self.shadow_distance, ..Default::default() },
             gpu_culling: !self.no_culling,
             occlusion_culling: match self.occlusion {
                 OcclusionArg::Auto => OcclusionCulling::Auto,
@@ -506,11 +513,34 @@ impl LookArgs {
             },
             ..Default::default()
         };
+        // The preset first, then whichever of its settings were given alone.
+        self.quality.apply(&mut settings);
+        if let Some(msaa) = self.msaa {
+            settings.msaa = msaa;
+        }
+        if let Some(clusters) = self.clusters {
+            settings.clusters = clusters;
+        }
+        if let Some(cutoff) = self.light_cutoff {
+            settings.light_cutoff = cutoff;
+        }
+        if let Some(size) = self.shadow_atlas {
+            settings.shadows.atlas_size = size;
+        }
+        if let Some(cascades) = self.cascades {
+            settings.shadows.cascades = cascades;
+        }
+        if let Some(filter) = self.shadow_filter {
+            settings.shadows.filter = match filter {
+                ShadowFilterArg::Pcf => ShadowFilter::Pcf,
+                ShadowFilterArg::Pcss => ShadowFilter::Pcss,
+            };
+        }
         settings.validate().map_err(|e| {
             let flag = match &e {
                 SettingsError::Msaa(_) => "--msaa",
                 SettingsError::Clusters(_) => "--clusters",
-                SettingsError::LightCutoff(_) => "light cutoff",
+                SettingsError::LightCutoff(_) => "--light-cutoff",
                 SettingsError::Environment(_) => "--env-size",
                 SettingsError::Post(m) if m.contains("bloom") => "--bloom",
                 SettingsError::Post(_) => "--auto-exposure / --ev-range / --exposure-compensation",

@@ -82,8 +82,11 @@ fn a_missing_file_fails_with_its_name() {
 #[test]
 fn out_of_range_settings_name_their_flag() {
     let scene = asset("BoxTextured/BoxTextured.glb");
-    let cases: [(&[&str], &str); 11] = [
+    let cases: [(&[&str], &str); 14] = [
         (&["--msaa", "3"], "--msaa"),
+        (&["--quality", "extreme"], "--quality"),
+        (&["--light-cutoff", "0"], "--light-cutoff"),
+        (&["--quality", "low", "--cascades", "9"], "--cascades"),
         (&["--env-size", "100"], "--env-size"),
         (&["--env-intensity", "-1"], "--env-intensity"),
         (&["--background", "blurred", "--background-blur", "3"], "--background-blur"),
@@ -104,6 +107,50 @@ fn out_of_range_settings_name_their_flag() {
     }
     let o = penumbra(&["render", &scene, "--out", "/tmp/x.png", "--size", "big"]);
     assert!(!o.status.success() && stderr(&o).contains("--size"), "{}", stderr(&o));
+}
+
+#[test]
+fn explain_prints_the_plan_and_quality_presets_change_it() {
+    let dir = out_dir("explain");
+    let out = dir.join("plan.png");
+    let run = |quality: &str| {
+        let o = penumbra(&[
+            "render",
+            &asset("BoxTextured/BoxTextured.glb"),
+            "--out",
+            out.to_str().unwrap(),
+            "--size",
+            "32x32",
+            "--env",
+            "none",
+            "--explain",
+            "--quality",
+            quality,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let low = run("low");
+    assert!(low.contains("Frame plan") && low.contains("Opaque: opaque or masked draws exist"), "{low}");
+    assert!(low.contains("- Background: no environment to show"), "{low}");
+    assert!(low.contains("MSAA 1: BASE_COLOR_TEXTURE"), "low renders without MSAA: {low}");
+    let high = run("high");
+    assert!(high.contains("MSAA 4: BASE_COLOR_TEXTURE"), "{high}");
+    // The flag alone overrides the preset.
+    let o = penumbra(&[
+        "render",
+        &asset("BoxTextured/BoxTextured.glb"),
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "32x32",
+        "--explain",
+        "--quality",
+        "low",
+        "--msaa",
+        "4",
+    ]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("MSAA 4:"), "{}", stderr(&o));
 }
 
 #[test]

@@ -44,5 +44,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
     image::save_buffer(&args.out, &pixels, size.0, size.1, image::ColorType::Rgba8)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     step("PNG written");
+    if args.explain {
+        print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
+    }
     Ok(())
 }

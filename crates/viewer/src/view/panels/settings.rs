@@ -1,12 +1,14 @@
-//! The render settings panel: tonemapper, exposure (the active camera's EV100), MSAA, FXAA,
+//! The render settings panel: tonemapper, exposure (the active camera's EV100), the quality
+//! preset, the shadow filter, MSAA, FXAA,
 //! bloom, automatic exposure, debug views and vsync. Renderer settings change through
 //! [`Action::Settings`] (validated by the renderer); exposure is the camera component's.
 
 use bevy_ecs::world::World;
 use penumbra_engine::components::Camera;
 use penumbra_render::passes::post::{AutoExposure, BloomSettings};
+use penumbra_render::passes::shadows::ShadowFilter;
 use penumbra_render::pipelines::pipeline_cache::DebugView;
-use penumbra_render::{Renderer, Tonemapper};
+use penumbra_render::{QualityPreset, Renderer, Tonemapper};
 
 use crate::view::overlay::Action;
 
@@ -25,6 +27,23 @@ pub fn panel(ui: &mut egui::Ui, world: &mut World, renderer: &Renderer, vsync: &
                 }
             });
             exposure(ui, world);
+            ui.horizontal(|ui| {
+                ui.label("quality");
+                let current = QualityPreset::matching(&s);
+                for p in QualityPreset::ALL {
+                    if ui.selectable_label(current == Some(p), p.name()).clicked() {
+                        p.apply(&mut s);
+                    }
+                }
+                if current.is_none() {
+                    ui.weak("(custom)");
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.label("shadows");
+                ui.selectable_value(&mut s.shadows.filter, ShadowFilter::Pcf, "PCF");
+                ui.selectable_value(&mut s.shadows.filter, ShadowFilter::Pcss, "PCSS");
+            });
             ui.horizontal(|ui| {
                 ui.label("MSAA");
                 ui.selectable_value(&mut s.msaa, 1, "off");

@@ -1,0 +1,105 @@
+//! The frame plan leaves out what the scene does not need: for five small scenes, the exact
+//! passes that run, the forward shader's feature switches, and the pools that stay empty.
+
+use penumbra::prelude::*;
+use penumbra::render::RenderSettings;
+use penumbra::render::frame::Pass;
+
+mod common;
+use common::{render_app, scene_app, spawn_mesh};
+
+const SIZE: (u32, u32) = (32, 32);
+
+fn camera(app: &mut App) {
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 1.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y)));
+}
+
+fn lit_sphere(app: &mut App) {
+    spawn_mesh(app, Mesh::uv_sphere(0.5, 16, 8), StandardMaterial::from_color(Vec4::ONE, 0.5), Transform::default());
+}
+
+/// Renders one frame and returns (passes in order, feature switches of every forward variant,
+/// the renderer's memory by pool).
+fn plan_of(mut app: App) -> (Vec<Pass>, Vec<String>, penumbra::render::MemoryStats, String) {
+    render_app(&mut app, SIZE, RenderSettings::default());
+    let r = app.world.resource::<Renderer>();
+    let passes = r.stats().plan.passes.iter().map(|(p, _)| *p).collect();
+    let defs = r.forward_pipeline_keys().iter().flat_map(|k| k.shader_defs().0).map(str::to_string).collect();
+    (passes, defs, r.memory(), penumbra::render::explain::explain(r))
+}
+
+#[test]
+fn an_empty_scene_clears_and_tonemaps_only() {
+    let mut app = scene_app();
+    camera(&mut app);
+    let (passes, defs, mem, explain) = plan_of(app);
+    assert_eq!(passes, [Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert!(defs.is_empty(), "no forward pipeline is compiled for an empty scene: {defs:?}");
+    assert_eq!((mem.shadows, mem.environment, mem.post), (0, 0, 0), "{explain}");
+    assert!(explain.contains("Opaque: clears the targets (no opaque draws)"), "{explain}");
+}
+
+#[test]
+fn one_unlit_triangle_compiles_only_the_unlit_shader() {
+    let mut app = scene_app();
+    camera(&mut app);
+    let triangle = Mesh {
+        positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)],
+        normals: vec![Vec3::Z; 3],
+        ..Default::default()
+    };
+    let material = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::ONE, 1.0) };
+    spawn_mesh(&mut app, triangle, material, Transform::default());
+    let (passes, defs, mem, explain) = plan_of(app);
+    assert_eq!(passes, [Pass::Cull, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(defs, ["UNLIT"], "{explain}");
+    assert_eq!(mem.shadows, 0);
+}
+
+#[test]
+fn a_lit_scene_without_shadows_has_no_shadow_pass_or_lookups() {
+    let mut app = scene_app();
+    camera(&mut app);
+    lit_sphere(&mut app);
+    app.world.spawn((
+        DirectionalLight { shadows: false, ..Default::default() },
+        Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    let (passes, defs, mem, explain) = plan_of(app);
+    assert_eq!(passes, [Pass::Cull, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert!(defs.is_empty(), "the base lit shader: {defs:?}");
+    assert_eq!(mem.shadows, 0, "no shadow atlas without a shadowed light");
+    assert!(explain.contains("Shadows: no shadowed light's casters"), "{explain}");
+}
+
+#[test]
+fn one_directional_shadow_caster_adds_the_shadow_pass_and_lookups() {
+    let mut app = scene_app();
+    camera(&mut app);
+    lit_sphere(&mut app);
+    spawn_mesh(
+        &mut app,
+        Mesh::plane(6.0),
+        StandardMaterial::from_color(Vec4::ONE, 0.8),
+        Transform::from_xyz(0.0, -0.5, 0.0),
+    );
+    app.world.spawn((DirectionalLight::default(), Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    let (passes, defs, mem, explain) = plan_of(app);
+    assert_eq!(passes, [Pass::Cull, Pass::Shadows, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(defs, ["SHADOWS"], "{explain}");
+    assert!(mem.shadows > 0);
+}
+
+#[test]
+fn local_lights_only_bin_clusters_and_compile_the_clustered_walk() {
+    let mut app = scene_app();
+    camera(&mut app);
+    lit_sphere(&mut app);
+    for x in [-1.0, 1.0] {
+        app.world.spawn((PointLight { shadows: false, ..Default::default() }, Transform::from_xyz(x, 1.0, 1.0)));
+    }
+    let (passes, defs, mem, explain) = plan_of(app);
+    assert_eq!(passes, [Pass::Cull, Pass::ClusterBin, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(defs, ["CLUSTERED_LIGHTS", "LOCAL_LIGHTS"], "{explain}");
+    assert_eq!(mem.shadows, 0);
+}
