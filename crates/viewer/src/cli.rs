@@ -34,6 +34,9 @@ pub enum Command {
     Bench(BenchArgs),
     /// Render a turntable (the camera circling the scene once) as an animated GIF.
     Gif(GifArgs),
+    /// Image error against path-traced references and GPU cost, for every suite scene at every
+    /// quality preset: a table, a CSV and an error-against-time plot.
+    Report(ReportArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -57,7 +60,8 @@ pub struct LookArgs {
     /// MSAA samples (1 or 4; default from --quality).
     #[arg(long)]
     pub msaa: Option<u32>,
-    /// Exposure as EV100 (default: the camera's, EV100 −0.263, which maps radiance 1 to 1).
+    /// Exposure as EV100 (default: the camera's, EV100 0, which scales radiance by 1/1.2;
+    /// −0.263 maps radiance 1 to 1).
     #[arg(long, allow_negative_numbers = true)]
     pub exposure: Option<f32>,
     /// Read WGSL from this folder instead of the embedded shaders (`view` also watches it and
@@ -279,6 +283,39 @@ pub struct RenderArgs {
     pub look: LookArgs,
     #[command(flatten)]
     pub scene_args: SceneArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    /// The reference suite: a folder holding suite.txt (`NAME PATH` per line) and
+    /// refs/NAME.direct.exr (+ NAME.gi.exr) from tools/reference.py.
+    #[arg(long, default_value = "tests/reference", value_name = "DIR")]
+    pub suite: PathBuf,
+    /// Names the run (for example the GPU): the plot's title, OUT/LABEL.csv and OUT/LABEL.png.
+    #[arg(long, default_value = "report", value_name = "NAME")]
+    pub label: String,
+    /// Folder for the CSV and the plot.
+    #[arg(long, default_value = ".", value_name = "DIR")]
+    pub out: PathBuf,
+    /// The presets to measure, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "low,medium,high,ultra", value_parser = parse_quality, value_name = "P,P,...")]
+    pub presets: Vec<QualityPreset>,
+    /// Only these scenes (names from suite.txt), comma-separated.
+    #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+    pub scenes: Vec<String>,
+    /// Timed frames per scene and preset (GPU and CPU times are their medians).
+    #[arg(long, default_value_t = 30)]
+    pub frames: u32,
+    #[arg(long, default_value_t = 5)]
+    pub warmup: u32,
+    /// Size the frame times are measured at (the error is measured at the references' size).
+    #[arg(long, value_parser = parse_size, default_value = "1920x1080", value_name = "WxH")]
+    pub timing_size: (u32, u32),
+    /// Also save every compared image as DIR/SCENE.PRESET.png, its FLIP error map against the
+    /// direct-light reference as DIR/SCENE.PRESET.flip.png, and each reference through the same
+    /// tonemapper as DIR/SCENE.reference.png.
+    #[arg(long, value_name = "DIR")]
+    pub images: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

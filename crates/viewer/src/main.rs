@@ -1,5 +1,6 @@
 //! `penumbra`: the command-line entry point. Subcommands: `view` (interactive window), `render`
-//! (headless screenshot), `bench` (CPU/GPU timings), `gif` (turntable). The binary adds no rendering features of its
+//! (headless screenshot), `bench` (CPU/GPU timings), `gif` (turntable), `report`
+//! (error against path-traced references and cost, per quality preset). The binary adds no rendering features of its
 //! own; it wires the engine and renderer to a window or a file.
 
 mod cli;
@@ -25,6 +26,7 @@ fn main() -> ExitCode {
         cli::Command::Bench(a) => commands::bench::run(a),
         cli::Command::View(a) => view::run(a),
         cli::Command::Gif(a) => commands::gif::run(a),
+        cli::Command::Report(a) => commands::report::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

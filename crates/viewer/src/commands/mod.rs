@@ -7,3 +7,4 @@ pub mod bench_reload;
 pub mod bench_shadows;
 pub mod gif;
 pub mod render;
+pub mod report;

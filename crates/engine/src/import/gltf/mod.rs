@@ -9,6 +9,7 @@
 
 mod accessor;
 mod animation;
+mod area_lights;
 mod ies_lights;
 pub(crate) mod images;
 mod materials;
@@ -38,6 +39,7 @@ use materials::MaterialDesc;
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "EXT_lights_ies",
+    "PENUMBRA_lights_area",
     "KHR_materials_emissive_strength",
     "KHR_materials_unlit",
     "KHR_texture_transform",
@@ -119,6 +121,7 @@ struct NodeDesc {
     camera: Option<usize>,
     light: Option<usize>,
     ies_light: Option<ies_lights::IesLightDesc>,
+    area_light: Option<area_lights::AreaLightDesc>,
     skin: Option<usize>,
     /// The node's morph weights (glTF `node.weights`), else its mesh's.
     weights: Option<Vec<f32>>,
@@ -299,6 +302,14 @@ impl SpawnCtx<'_> {
                 shadows: true,
             });
         }
+        if let Some(l) = desc.area_light {
+            match l {
+                area_lights::AreaLightDesc::Rect(l) => e.insert(l),
+                area_lights::AreaLightDesc::Disk(l) => e.insert(l),
+                area_lights::AreaLightDesc::Sphere(l) => e.insert(l),
+                area_lights::AreaLightDesc::Tube(l) => e.insert(l),
+            };
+        }
         let id = e.id();
         let mut out = vec![id];
         if let Some(m) = desc.mesh {
@@ -413,6 +424,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options)?;
     let ies_node_lights: Vec<Option<ies_lights::IesLightDesc>> =
         document.nodes().map(|n| ies_lights::node_light(&n, ies_profiles.len())).collect::<Result<_, _>>()?;
+    let area_node_lights: Vec<Option<area_lights::AreaLightDesc>> =
+        document.nodes().map(|n| area_lights::node_light(&n)).collect::<Result<_, _>>()?;
     let nodes = document
         .nodes()
         .map(|n| NodeDesc {
@@ -433,6 +446,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             camera: n.camera().map(|c| c.index()),
             light: n.light().map(|l| l.index()),
             ies_light: ies_node_lights[n.index()],
+            area_light: area_node_lights[n.index()],
             skin: n.skin().map(|s| s.index()),
             weights: n.weights().or_else(|| n.mesh().and_then(|m| m.weights())).map(<[f32]>::to_vec),
         })

@@ -1,0 +1,104 @@
+//! Image error against a reference: FLIP (mean and 99th percentile) on the display-referred
+//! images, PSNR on the linear HDR ones. The reference's display image is made here on the CPU
+//! with the same curve `shaders/tonemap.wgsl` applies (Khronos PBR Neutral, then sRGB), so both
+//! images reach FLIP through identical tonemapping; a test holds the two curves equal.
+
+/// Khronos PBR Neutral, as `pbr_neutral` in `shaders/tonemap.wgsl`.
+pub fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
+    const START: f32 = 0.8 - 0.04;
+    const DESATURATION: f32 = 0.15;
+    let x = c[0].min(c[1]).min(c[2]);
+    let offset = if x < 0.08 { x - 6.25 * x * x } else { 0.04 };
+    let c = c.map(|v| v - offset);
+    let peak = c[0].max(c[1]).max(c[2]);
+    if peak < START {
+        return c;
+    }
+    let d = 1.0 - START;
+    let new_peak = 1.0 - d * d / (peak + d - START);
+    let g = 1.0 - 1.0 / (DESATURATION * (peak - new_peak) + 1.0);
+    c.map(|v| v * new_peak / peak * (1.0 - g) + new_peak * g)
+}
+
+pub fn srgb_encode(v: f32) -> f32 {
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 { v * 12.92 } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// Linear exposed radiance to 8-bit RGB as Penumbra's neutral tonemap pass writes it.
+pub fn display_rgb8(hdr: &[[f32; 3]]) -> Vec<u8> {
+    hdr.iter()
+        .flat_map(|&p| {
+            let p = p.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 });
+            pbr_neutral(p).map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8)
+        })
+        .collect()
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageError {
+    pub flip_mean: f32,
+    pub flip_p99: f32,
+    /// 10·log10(1 / MSE) over linear RGB, unclamped, with radiance 1 as the peak (display white
+    /// at the references' exposure); `inf` for identical images.
+    pub psnr_db: f64,
+    /// Where the error is: FLIP's per-pixel error in magma colours, RGB8.
+    pub flip_map: Vec<u8>,
+}
+
+/// FLIP between two RGB8 images of `size` (the reference first): mean, 99th percentile, and the
+/// error map in FLIP's magma colours (RGB8).
+pub fn flip(reference: &[u8], test: &[u8], size: (u32, u32)) -> (f32, f32, Vec<u8>) {
+    let r = nv_flip::FlipImageRgb8::with_data(size.0, size.1, reference);
+    let t = nv_flip::FlipImageRgb8::with_data(size.0, size.1, test);
+    let error = nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mut pool = nv_flip::FlipPool::from_image(&error);
+    let map = error.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+    (pool.mean(), pool.get_percentile(0.99, true), map)
+}
+
+pub fn psnr(reference: &[[f32; 3]], test: &[[f32; 3]]) -> f64 {
+    let mut sum = 0.0f64;
+    for (r, t) in reference.iter().zip(test) {
+        for k in 0..3 {
+            let d = (r[k] as f64) - (t[k] as f64);
+            sum += if d.is_finite() { d * d } else { 1e30 };
+        }
+    }
+    let mse = sum / (reference.len() * 3).max(1) as f64;
+    10.0 * (1.0 / mse).log10()
+}
+
+pub fn compare(reference: &[[f32; 3]], test_hdr: &[[f32; 3]], test_rgb8: &[u8], size: (u32, u32)) -> ImageError {
+    let (flip_mean, flip_p99, flip_map) = flip(&display_rgb8(reference), test_rgb8, size);
+    ImageError { flip_mean, flip_p99, psnr_db: psnr(reference, test_hdr), flip_map }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn neutral_leaves_dark_colours_and_compresses_bright_ones() {
+        // Below the knee only the small offset applies.
+        let c = pbr_neutral([0.3, 0.2, 0.1]);
+        assert!((c[0] - 0.26).abs() < 1e-6 && (c[2] - 0.06).abs() < 1e-6, "{c:?}");
+        let white = pbr_neutral([100.0, 100.0, 100.0]);
+        assert!(white.iter().all(|v| *v > 0.99 && *v <= 1.0), "{white:?}");
+        assert_eq!(pbr_neutral([0.0; 3]), [0.0; 3]);
+    }
+
+    #[test]
+    fn identical_images_have_no_error_and_noise_has_some() {
+        let img: Vec<[f32; 3]> = (0..64 * 64).map(|i| [(i % 64) as f32 / 64.0, 0.5, (i / 64) as f32 / 32.0]).collect();
+        let rgb = display_rgb8(&img);
+        let e = compare(&img, &img, &rgb, (64, 64));
+        assert_eq!(e.flip_mean, 0.0);
+        assert!(e.psnr_db.is_infinite());
+        let noisy: Vec<[f32; 3]> =
+            img.iter().enumerate().map(|(i, p)| p.map(|v| v + if i % 2 == 0 { 0.1 } else { -0.1 })).collect();
+        let e = compare(&img, &noisy, &display_rgb8(&noisy), (64, 64));
+        assert!(e.flip_mean > 0.01 && e.flip_p99 >= e.flip_mean, "{e:?}");
+        assert!((e.psnr_db - 20.0).abs() < 0.5, "an error of 0.1 everywhere is 20 dB: {e:?}");
+    }
+}
