@@ -66,6 +66,25 @@ fn specular_albedo(f0_color: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
     return fss_ess + ems * fss_ess * f_avg / (vec3<f32>(1.0) - ems * f_avg);
 }
 
+// Multiple scattering for light from one direction: the single-scattering GGX lobe loses
+// Ems = 1 − Ess of its energy (more the rougher it is). The lobe is scaled by the ratio of the
+// total directional albedo to the single-scattering one in the model `specular_albedo` uses
+// (Fdez-Agüera 2019): 1 + Ems·Favg / (1 − Ems·Favg), which is 1/Ess for a white metal (as
+// Kulla & Conty 2017) and saturates coloured metals as repeated bounces do. Path tracers'
+// multiple-scattering GGX (Cycles' Principled BSDF) keeps that energy too: without it, rough
+// metals lit directly were up to half as bright as the Cycles references of `penumbra report`
+// (tests/reference, spheres scene).
+fn specular_multiscatter(f0_color: vec3<f32>, n_dot_v: f32, perceptual_roughness: f32) -> vec3<f32> {
+    let ab = env_brdf_approx(n_dot_v, perceptual_roughness);
+    return multiscatter_scale(f0_color, ab.x + ab.y);
+}
+
+// `specular_multiscatter` for a given single-scattering albedo of a white lobe.
+fn multiscatter_scale(f0_color: vec3<f32>, ess: f32) -> vec3<f32> {
+    let ems_f_avg = (1.0 - clamp(ess, 0.0, 1.0)) * (f0_color + (vec3<f32>(1.0) - f0_color) / 21.0);
+    return vec3<f32>(1.0) + ems_f_avg / (vec3<f32>(1.0) - ems_f_avg);
+}
+
 // Light from a uniform environment of radiance `l`. As glTF defines the material, this is
 // mix(dielectric, metal, metallic): the dielectric's diffuse lobe gets what its specular lobe
 // leaves, so a white surface returns exactly `l` whatever its roughness or metalness, which the
@@ -91,7 +110,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let f = f_schlick(s.f0_color, v_dot_h);
+    let f = f_schlick(s.f0_color, v_dot_h) * specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
     let spec = f * (d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
     let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
@@ -116,5 +135,6 @@ fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let d_v = d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
-    return f_schlick(s.f0_color, v_dot_h) * (d_v * n_dot_l);
+    let ms = specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
+    return f_schlick(s.f0_color, v_dot_h) * ms * (d_v * n_dot_l);
 }

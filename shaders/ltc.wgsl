@@ -17,7 +17,7 @@
 #define_import_path penumbra::ltc
 
 #import penumbra::common::{PI, safe_normalize}
-#import penumbra::brdf::{Surface, DIELECTRIC_F0, f_schlick}
+#import penumbra::brdf::{Surface, DIELECTRIC_F0, f_schlick, multiscatter_scale}
 #import penumbra::light_data::{Light, LIGHT_DISK, range_window}
 
 const LTC_SIZE: u32 = 64u;
@@ -218,7 +218,10 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     // The transformed cosine is normalised (it integrates to π over the hemisphere); the fit's
     // magnitude restores the lobe's albedo, split into F0 and 1 − F0 shares (Schlick).
     let specular_integral = clipped_cos_integral(&in_frame, count) / PI;
-    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(1.0) - s.f0_color) * cell.magnitude.y) * specular_integral;
+    // Multiple scattering as in `brdf::specular_multiscatter`, with the fit's own albedo for
+    // F0 = 1 (magnitude.x + magnitude.y) as Ess.
+    let ms = multiscatter_scale(s.f0_color, cell.magnitude.x + cell.magnitude.y);
+    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(1.0) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
     // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
     let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, s.n_dot_v)) * s.diffuse_color / PI * diffuse_integral;
     return (diffuse + specular) * light.color * window;
