@@ -162,6 +162,22 @@ impl Mesh {
                 .sum::<usize>()
     }
 
+    /// Triangles of a triangle list with zero area (repeated or collinear corners); 0 for
+    /// other topologies.
+    pub fn degenerate_triangles(&self) -> usize {
+        if self.topology != Topology::TriangleList {
+            return 0;
+        }
+        let corner = |i: u32| self.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO);
+        let area_zero = |t: &[u32]| (corner(t[1]) - corner(t[0])).cross(corner(t[2]) - corner(t[0])) == Vec3::ZERO;
+        match &self.indices {
+            Some(idx) => idx.chunks_exact(3).filter(|t| area_zero(t)).count(),
+            None => {
+                (0..self.positions.len() as u32).collect::<Vec<_>>().chunks_exact(3).filter(|t| area_zero(t)).count()
+            }
+        }
+    }
+
     /// Expands indices so every triangle owns its three vertices (needed for flat normals).
     pub fn unindex(&mut self) {
         let Some(indices) = self.indices.take() else {

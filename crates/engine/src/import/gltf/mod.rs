@@ -411,7 +411,10 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
                     .map(|t| t.uv_set),
             };
             match primitive::build(&prim, &buffers, &needs, mesh.index())? {
-                primitive::Built::Mesh(mesh) => prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material }),
+                primitive::Built::Mesh(mesh, notes) => {
+                    warnings.extend(notes);
+                    prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material })
+                }
                 primitive::Built::Skipped(why) => warnings.push(why),
             }
         }

@@ -17,7 +17,8 @@ pub(crate) struct GeometryNeeds {
 }
 
 pub(crate) enum Built {
-    Mesh(Box<Mesh>),
+    /// The mesh, and what was repaired or is suspect in it (for the scene's warnings).
+    Mesh(Box<Mesh>, Vec<String>),
     /// No POSITION: the spec says to skip rendering the primitive.
     Skipped(String),
 }
@@ -113,17 +114,28 @@ pub(crate) fn build(
     // Dangling indices must be caught before anything below indexes attribute arrays by them.
     mesh.validate().map_err(|source| ImportErrorKind::Mesh { mesh: mesh_index, primitive, source })?;
 
+    let mut notes = Vec::new();
     if mesh.is_skinned() {
         let off = mesh.normalize_weights();
         if off > 0 {
-            tracing::warn!(
+            notes.push(format!(
                 "mesh {mesh_index} primitive {primitive}: {off} vertices' WEIGHTS_0 did not sum to 1; normalised"
-            );
+            ));
         }
     }
     let replaced = mesh.sanitize();
     if replaced > 0 {
-        tracing::warn!("mesh {mesh_index} primitive {primitive}: replaced {replaced} non-finite attribute values");
+        notes.push(format!(
+            "mesh {mesh_index} primitive {primitive}: replaced {replaced} non-finite or zero-length attribute values \
+             (NaN or infinite positions, UVs, colours; zero-length normals and tangents)"
+        ));
+    }
+    let degenerate = mesh.degenerate_triangles();
+    if degenerate > 0 {
+        notes.push(format!(
+            "mesh {mesh_index} primitive {primitive}: {degenerate} degenerate triangles (zero area: \
+             the rasteriser draws nothing for them)"
+        ));
     }
     if topology == Topology::TriangleList {
         if mesh.normals.is_empty() {
@@ -142,7 +154,7 @@ pub(crate) fn build(
             }
         }
     }
-    Ok(Built::Mesh(Box::new(mesh)))
+    Ok(Built::Mesh(Box::new(mesh), notes))
 }
 
 /// Strips, fans and loops become lists, following the glTF 2.0 spec §3.7.2.1 exactly so the
