@@ -1,0 +1,330 @@
+//! What Penumbra's whole path costs over the least a wgpu program can do, on the least a scene
+//! can hold: one unlit triangle at 1920×1080.
+//!
+//! - `minimal wgpu`: a hand-written program (its own instance, adapter and device) that clears
+//!   an 8-bit sRGB target and draws the triangle from a constant array: one render pass, one
+//!   pipeline, no buffers.
+//! - `penumbra`: the same triangle as an ECS entity (unlit material, camera), through
+//!   extraction, prepare, the frame plan and the passes it picks (culling, the HDR forward pass,
+//!   tonemapping), at MSAA 1 and at the default MSAA 4.
+//!
+//! - `helmet`: DamagedHelmet under a sun and two point lights (the reference suite's scene), as
+//!   the frame plan builds it, and with features forced on that change nothing in the image: a
+//!   zero-intensity environment (prefilter once, IBL shading and the background every frame),
+//!   bloom at strength 0, and a shadowed spot light aimed away from everything the camera sees.
+//!   That difference is what leaving unused work out saves.
+//!
+//! Both pipeline frames the same way (at most two in flight, no readback) and report the median
+//! wall time per frame, the CPU time on the calling thread per frame and the GPU time per frame
+//! (timestamp queries around every pass). Run: `cargo bench --bench triangle [-- --frames N
+//! --size WxH]`.
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use penumbra::prelude::*;
+use penumbra::render::{RenderOutput, RenderPlugin};
+
+const FRAMES: usize = 300;
+const WARMUP: usize = 30;
+
+struct Times {
+    wall: Vec<f64>,
+    cpu: Vec<f64>,
+    gpu: Vec<f64>,
+    /// Penumbra's passes: (label, GPU ms per frame).
+    passes: Vec<(&'static str, Vec<f64>)>,
+}
+
+fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
+
+const SHADER: &str = r#"
+@vertex
+fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    var p = array<vec2<f32>, 3>(vec2<f32>(-0.5, -0.5), vec2<f32>(0.5, -0.5), vec2<f32>(0.0, 0.5));
+    return vec4<f32>(p[i], 0.0, 1.0);
+}
+
+@fragment
+fn fs() -> @location(0) vec4<f32> {
+    return vec4<f32>(1.0, 0.5, 0.2, 1.0);
+}
+"#;
+
+/// The hand-written program: everything it needs, nothing else.
+fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+        .into_iter()
+        .max_by_key(|a| a.get_info().device_type != wgpu::DeviceType::Cpu)
+        .expect("a Vulkan adapter (on Debian without a GPU: apt-get install -y mesa-vulkan-drivers)");
+    let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("minimal"),
+        required_features: if timestamps { wgpu::Features::TIMESTAMP_QUERY } else { wgpu::Features::empty() },
+        required_limits: wgpu::Limits::default(),
+        experimental_features: wgpu::ExperimentalFeatures::disabled(),
+        memory_hints: wgpu::MemoryHints::Performance,
+        trace: wgpu::Trace::Off,
+    }))
+    .expect("a device");
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let target = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("target"),
+        size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    });
+    let view = target.create_view(&Default::default());
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("triangle"),
+        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+    });
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("triangle"),
+        layout: None,
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs"),
+            compilation_options: Default::default(),
+            targets: &[Some(format.into())],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    let total = WARMUP + frames;
+    let queries = timestamps.then(|| {
+        let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2 * total as u32,
+        });
+        let bytes = 16 * total as u64;
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("resolve"),
+            size: bytes,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        (set, resolve, readback)
+    });
+    let mut in_flight = VecDeque::new();
+    let mut times = Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new() };
+    let mut last = Instant::now();
+    for frame in 0..total {
+        let start = Instant::now();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("triangle"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: queries.as_ref().map(|(set, ..)| wgpu::RenderPassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(2 * frame as u32),
+                    end_of_pass_write_index: Some(2 * frame as u32 + 1),
+                }),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.draw(0..3, 0..1);
+        }
+        in_flight.push_back(queue.submit([encoder.finish()]));
+        let cpu = start.elapsed().as_secs_f64() * 1e3;
+        while in_flight.len() > 2 {
+            let oldest = in_flight.pop_front().expect("non-empty");
+            let _ = device.poll(wgpu::PollType::Wait { submission_index: Some(oldest), timeout: None });
+        }
+        let now = Instant::now();
+        if frame >= WARMUP {
+            times.wall.push((now - last).as_secs_f64() * 1e3);
+            times.cpu.push(cpu);
+        }
+        last = now;
+    }
+    if let Some((set, resolve, readback)) = &queries {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.resolve_query_set(set, 0..2 * total as u32, resolve, 0);
+        encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, 16 * total as u64);
+        queue.submit([encoder.finish()]);
+        readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        let _ = device.poll(wgpu::PollType::wait_indefinitely());
+        let data = readback.slice(..).get_mapped_range().expect("mapped above");
+        let ticks: &[u64] = bytemuck::cast_slice(&data);
+        let period = queue.get_timestamp_period() as f64;
+        times.gpu =
+            (WARMUP..total).map(|f| (ticks[2 * f + 1].wrapping_sub(ticks[2 * f])) as f64 * period / 1e6).collect();
+    }
+    let info = adapter.get_info();
+    (format!("{} ({:?})", info.name, info.backend), times)
+}
+
+/// The same triangle through Penumbra.
+fn penumbra(size: (u32, u32), frames: usize, msaa: u32) -> Times {
+    let mut app = App::new();
+    app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+    let triangle_mesh = Mesh {
+        positions: vec![Vec3::new(-0.5, -0.5, 0.0), Vec3::new(0.5, -0.5, 0.0), Vec3::new(0.0, 0.5, 0.0)],
+        normals: vec![Vec3::Z; 3],
+        ..Default::default()
+    };
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(triangle_mesh);
+    let material = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::new(1.0, 0.5, 0.2, 1.0), 1.0) };
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(material);
+    app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::IDENTITY));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 2.0)));
+    run(app, RenderSettings { msaa, ..Default::default() }, size, frames)
+}
+
+/// The reference suite's lit helmet, through its own camera; `forced` adds the unused features.
+fn helmet(size: (u32, u32), frames: usize, forced: bool) -> Times {
+    let mut app = App::new();
+    app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/assets/DamagedHelmet/DamagedHelmetLit.gltf");
+    penumbra::engine::import::load_scene(&mut app.world, &path, &Default::default()).unwrap_or_else(|e| panic!("{e}"));
+    let mut settings = RenderSettings::default();
+    if forced {
+        use penumbra::engine::environment::{Background, Environment, EnvironmentSource};
+        app.insert_resource(Environment {
+            source: EnvironmentSource::Studio,
+            intensity: 0.0,
+            rotation: 0.0,
+            background: Background::Environment,
+        });
+        settings.post.bloom =
+            Some(penumbra::render::passes::post::BloomSettings { strength: 0.0, ..Default::default() });
+        app.world.spawn((
+            SpotLight { intensity: 100.0, range: Some(5.0), ..Default::default() },
+            Transform::from_xyz(0.0, 0.0, -20.0).looking_at(Vec3::new(0.0, 0.0, -40.0), Vec3::Y),
+        ));
+        spawn_caster(&mut app);
+    }
+    app.update();
+    let mut cameras = app.world.query::<&mut Camera>();
+    for mut c in cameras.iter_mut(&mut app.world) {
+        c.is_active = true;
+    }
+    run(app, settings, size, frames)
+}
+
+/// A small box in the spot's cone, far behind the helmet's camera: its shadow map has a caster.
+fn spawn_caster(app: &mut App) {
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::default());
+    app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::from_xyz(0.0, 0.0, -23.0)));
+}
+
+/// Pipelined frames of `app` at `size`, timed.
+fn run(mut app: App, settings: RenderSettings, size: (u32, u32), frames: usize) -> Times {
+    let ctx = penumbra::render::GpuContext::new_headless(&Default::default()).unwrap_or_else(|e| panic!("{e}"));
+    let settings = RenderSettings { gpu_timing: true, ..settings };
+    app.insert_resource(Renderer::new(ctx, settings).expect("a renderer"));
+    app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
+    let mut in_flight = VecDeque::new();
+    let mut times = Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new() };
+    let mut last = Instant::now();
+    let mut last_gpu_frame = 0;
+    for frame in 0..WARMUP + frames {
+        let start = Instant::now();
+        app.update();
+        let cpu = start.elapsed().as_secs_f64() * 1e3;
+        let renderer = app.world.resource::<Renderer>();
+        if let Some(s) = renderer.last_submission() {
+            in_flight.push_back(s.clone());
+        }
+        while in_flight.len() > 2 {
+            let oldest = in_flight.pop_front().expect("non-empty");
+            let _ =
+                renderer.context().device.poll(wgpu::PollType::Wait { submission_index: Some(oldest), timeout: None });
+        }
+        let now = Instant::now();
+        if frame >= WARMUP {
+            times.wall.push((now - last).as_secs_f64() * 1e3);
+            times.cpu.push(cpu);
+            if let Some(t) = renderer.stats().gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
+                last_gpu_frame = t.frame;
+                times.gpu.push(t.passes.iter().map(|(_, ms)| ms).sum());
+                for (label, ms) in &t.passes {
+                    match times.passes.iter_mut().find(|(l, _)| l == label) {
+                        Some((_, v)) => v.push(*ms),
+                        None => times.passes.push((label, vec![*ms])),
+                    }
+                }
+            }
+        }
+        last = now;
+    }
+    times
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let frames = arg("--frames").and_then(|f| f.parse().ok()).unwrap_or(FRAMES);
+    let size = arg("--size")
+        .and_then(|s| s.split_once('x').and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?))))
+        .unwrap_or((1920, 1080));
+    let (adapter, base) = minimal(size, frames);
+    let runs = [
+        ("minimal wgpu", "1 pass, sRGB8 target", base),
+        ("penumbra", "MSAA 1", penumbra(size, frames, 1)),
+        ("penumbra", "MSAA 4 (default)", penumbra(size, frames, 4)),
+        ("helmet", "as planned", helmet(size, frames, false)),
+        ("helmet", "unused features on", helmet(size, frames, true)),
+    ];
+    println!("one unlit triangle at {}x{}, {frames} frames (median), {adapter}", size.0, size.1);
+    println!(
+        "{:<14} {:<22} {:>9} {:>9} {:>9} {:>12}",
+        "program", "settings", "frame ms", "CPU ms", "GPU ms", "frame ratio"
+    );
+    let base_wall = median(&runs[0].2.wall);
+    for (program, settings, t) in &runs {
+        let wall = median(&t.wall);
+        println!(
+            "{program:<14} {settings:<22} {wall:>9.3} {:>9.3} {:>9.3} {:>11.2}x",
+            median(&t.cpu),
+            median(&t.gpu),
+            wall / base_wall
+        );
+        if !t.passes.is_empty() {
+            let split: Vec<String> = t.passes.iter().map(|(l, v)| format!("{l} {:.3}", median(v))).collect();
+            println!("{:<37} GPU ms by pass: {}", "", split.join(", "));
+        }
+    }
+}
