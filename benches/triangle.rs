@@ -16,7 +16,7 @@
 //!
 //! Both pipeline frames the same way (at most two in flight, no readback) and report the median
 //! wall time per frame, the CPU time on the calling thread per frame and the GPU time per frame
-//! (timestamp queries around every pass). Run: `cargo bench --bench triangle [-- --frames N
+//! (timestamp queries around every pass: the first pass's beginning to the last pass's end). Run: `cargo bench --bench triangle [-- --frames N
 //! --size WxH]`.
 
 use std::collections::VecDeque;
@@ -279,7 +279,7 @@ fn run(mut app: App, settings: RenderSettings, size: (u32, u32), frames: usize) 
             times.cpu.push(cpu);
             if let Some(t) = renderer.stats().gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
                 last_gpu_frame = t.frame;
-                times.gpu.push(t.passes.iter().map(|(_, ms)| ms).sum());
+                times.gpu.push(t.span_ms);
                 for (label, ms) in &t.passes {
                     match times.passes.iter_mut().find(|(l, _)| l == label) {
                         Some((_, v)) => v.push(*ms),

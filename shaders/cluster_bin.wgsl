@@ -137,38 +137,46 @@ fn touches(b: Bounds, c: vec3<u32>) -> bool {
     return true;
 }
 
-// Walks light `id`'s candidate clusters: counts it into each it touches, or (`fill`) writes its
-// slot at each one's cursor. Both passes must visit exactly the same clusters.
-fn bin_light(id: u32, fill: bool) {
+// Walks light `id`'s candidate clusters, spread over the 64 threads of its workgroup (thread
+// `t` takes every 64th cell of the box): counts the light into each cluster it touches, or
+// (`fill`) writes its slot at each one's cursor. Both passes visit exactly the same clusters.
+// One thread per light walked a light covering the whole view (a bright lamp in a room: its
+// range reaches past the walls) through all 8192 clusters serially, an atomic each: 5.5 ms on
+// an H100 for one light; a workgroup per light takes 64 times fewer steps.
+fn bin_light(id: u32, t: u32, fill: bool) {
     if id >= grid.light_count {
         return;
     }
     let slot = grid.light_first + id;
     let b = light_bounds(lights[slot]);
     let box = candidate_box(b);
-    for (var k = box.lo.z; k <= box.hi.z; k++) {
-        for (var j = box.lo.y; j <= box.hi.y; j++) {
-            for (var i = box.lo.x; i <= box.hi.x; i++) {
-                let c = vec3<u32>(u32(i), u32(j), u32(k));
-                if touches(b, c) {
-                    let at = atomicAdd(&counts[cluster_id(grid, c)], 1u);
-                    if fill {
-                        indices[at] = slot;
-                    }
-                }
+    if any(box.hi < box.lo) {
+        return;
+    }
+    let size = vec3<u32>(box.hi - box.lo) + vec3<u32>(1u);
+    let cells = size.x * size.y * size.z;
+    for (var n = t; n < cells; n += BIN_THREADS) {
+        let c = vec3<u32>(box.lo) + vec3<u32>(n % size.x, (n / size.x) % size.y, n / (size.x * size.y));
+        if touches(b, c) {
+            let at = atomicAdd(&counts[cluster_id(grid, c)], 1u);
+            if fill {
+                indices[at] = slot;
             }
         }
     }
 }
 
-@compute @workgroup_size(64)
-fn count_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    bin_light(flat_id(gid, groups), false);
-}
+const BIN_THREADS: u32 = 64u;
 
-// Large dispatches spill into y (a dimension holds at most 65 535 workgroups).
-fn flat_id(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * 64u;
+// One workgroup per light; large dispatches spill into y (a dimension holds at most 65 535
+// workgroups).
+@compute @workgroup_size(64)
+fn count_lights(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) t: u32,
+) {
+    bin_light(wg.x + wg.y * groups.x, t, false);
 }
 
 const SCAN_THREADS: u32 = 256u;
@@ -206,8 +214,12 @@ fn prefix_sum(@builtin(local_invocation_index) t: u32) {
 }
 
 @compute @workgroup_size(64)
-fn fill_lists(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    bin_light(flat_id(gid, groups), true);
+fn fill_lists(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) t: u32,
+) {
+    bin_light(wg.x + wg.y * groups.x, t, true);
 }
 
 // One workgroup sorts one cluster's list with a bitonic network in which every comparator

@@ -29,6 +29,11 @@ struct Slot {
 pub struct FrameTimings {
     pub frame: u64,
     pub passes: Vec<(&'static str, f64)>,
+    /// From the first pass's beginning to the last pass's end. Unlike the sum of `passes`, this
+    /// counts time two passes overlap once (a pass's beginning timestamp can be written while
+    /// the previous frame's last pass still runs, on NVIDIA: the sum then counts that wait),
+    /// and it includes the gaps between passes (copies, barriers).
+    pub span_ms: f64,
 }
 
 pub struct GpuTimer {
@@ -157,8 +162,11 @@ impl GpuTimer {
                                 None => passes.push((l, ms)),
                             }
                         }
+                        let first = ticks.iter().step_by(2).copied().min().unwrap_or(0);
+                        let last = ticks.iter().skip(1).step_by(2).copied().max().unwrap_or(0);
+                        let span_ms = last.saturating_sub(first) as f64 * self.period_ns / 1e6;
                         if self.latest.as_ref().is_none_or(|t| t.frame < slot.frame) {
-                            self.latest = Some(FrameTimings { frame: slot.frame, passes });
+                            self.latest = Some(FrameTimings { frame: slot.frame, passes, span_ms });
                         }
                     }
                     slot.readback.unmap();

@@ -46,6 +46,8 @@ pub struct FrameTimes {
     /// `app.update()` on this thread: extraction, prepare and encode (not the GPU wait).
     pub update: Vec<f64>,
     pub gpu_total: Vec<f64>,
+    /// First pass's beginning to last pass's end, per frame (see `FrameTimings::span_ms`).
+    pub gpu_span: Vec<f64>,
     pub passes: Vec<(&'static str, Vec<f64>)>,
     /// The CPU frame split: the main world's stages (user systems, propagation), extraction,
     /// the renderer's prepare (and of it the instance upload), encode and submit.
@@ -80,15 +82,17 @@ pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> 
     let mut cpu = Vec::new();
     let mut update = Vec::new();
     let mut gpu_total = Vec::new();
+    let mut gpu_span = Vec::new();
     let mut passes: Vec<(&'static str, Vec<f64>)> = Vec::new();
     let (mut main, mut extract, mut prepare, mut instance_upload, mut submit, mut instance_bytes) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (extract_stage, render_stage) = (penumbra_render::Extract.intern(), penumbra_render::Render.intern());
     let mut last_gpu_frame = 0;
-    let mut record_gpu = |stats: &penumbra_render::FrameStats, gpu_total: &mut Vec<f64>| {
+    let mut record_gpu = |stats: &penumbra_render::FrameStats, gpu_total: &mut Vec<f64>, gpu_span: &mut Vec<f64>| {
         let Some(t) = stats.gpu.as_ref().filter(|t| t.frame > last_gpu_frame) else { return };
         last_gpu_frame = t.frame;
         gpu_total.push(t.passes.iter().map(|(_, ms)| ms).sum());
+        gpu_span.push(t.span_ms);
         for (label, ms) in &t.passes {
             match passes.iter_mut().find(|(l, _)| l == label) {
                 Some((_, v)) => v.push(*ms),
@@ -116,14 +120,27 @@ pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> 
         instance_upload.push(stats.instance_upload_ms);
         submit.push(stats.submit_ms);
         instance_bytes.push(stats.instance_bytes_uploaded as f64);
-        record_gpu(&stats, &mut gpu_total);
+        record_gpu(&stats, &mut gpu_total, &mut gpu_span);
     }
     app.world.resource_mut::<Renderer>().finish();
     let stats = app.world.resource::<Renderer>().stats().clone();
-    record_gpu(&stats, &mut gpu_total);
+    record_gpu(&stats, &mut gpu_total, &mut gpu_span);
     // Unsorted, in frame order, so that samples of one frame can be summed (`cpu_frame`);
     // `percentile` sorts what it is given.
-    FrameTimes { wall, cpu, update, gpu_total, passes, main, extract, prepare, instance_upload, submit, instance_bytes }
+    FrameTimes {
+        wall,
+        cpu,
+        update,
+        gpu_total,
+        gpu_span,
+        passes,
+        main,
+        extract,
+        prepare,
+        instance_upload,
+        submit,
+        instance_bytes,
+    }
 }
 
 /// The `p` quantile (0..=1) of `samples`, in any order; NaN when there are none.

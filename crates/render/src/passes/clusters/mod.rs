@@ -202,7 +202,8 @@ impl ClusterBinner {
             timestamp_writes: timer.and_then(|t| t.compute_pass("clusters")),
         });
         pass.set_bind_group(0, bind_group, &[]);
-        let light_groups = self.light_count.div_ceil(64);
+        // One workgroup of 64 threads per light (they share its candidate clusters).
+        let light_groups = self.light_count;
         for (entry, groups) in [
             (ClusterEntry::Count, light_groups),
             (ClusterEntry::PrefixSum, 1),

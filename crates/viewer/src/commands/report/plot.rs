@@ -81,7 +81,7 @@ pub fn draw(path: &Path, title: &str, y_label: &str, lines: &[Line]) -> Result<(
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(SeriesLabelPosition::LowerRight)
             .label_font(("sans-serif", 14))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
