@@ -23,6 +23,17 @@
 // shader small, which matters for compile time on hot reload); lights with a size have their
 // own integrals, compiled in only when the scene has such lights (SPHERE_TUBE_LIGHTS,
 // LTC_LIGHTS); IES lights are point lights with a profile (IES_LIGHTS).
+// Lights with a size are shadowed from their centre (a cube map, as a point light): sharper
+// than the penumbra their size casts, but no light passes through what stands in the way.
+fn area_shadow(light: Light, rel_pos: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>) -> f32 {
+#ifdef LOCAL_SHADOWS
+    if light.shape.w > 0.5 {
+        return local_shadow(light, rel_pos, n, to_light);
+    }
+#endif
+    return 1.0;
+}
+
 fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: vec3<f32>) -> vec3<f32> {
     if light.kind == LIGHT_AMBIENT {
         return ambient(s, light.color);
@@ -34,15 +45,15 @@ fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: ve
         let to_light = (light.position - camera_position) - rel_pos;
 #ifdef SPHERE_TUBE_LIGHTS
         if light.kind == LIGHT_SPHERE {
-            return sphere_light(s, light, to_light);
+            return sphere_light(s, light, to_light) * area_shadow(light, rel_pos, s.n, to_light);
         }
         if light.kind == LIGHT_TUBE {
-            return tube_light(s, light, to_light);
+            return tube_light(s, light, to_light) * area_shadow(light, rel_pos, s.n, to_light);
         }
 #endif
 #ifdef LTC_LIGHTS
         if light.kind == LIGHT_RECT || light.kind == LIGHT_DISK {
-            return ltc_light(s, light, to_light);
+            return ltc_light(s, light, to_light) * area_shadow(light, rel_pos, s.n, to_light);
         }
 #endif
         // Only guards the division: any fixed physical floor (1 mm, 1 cm as some engines use)

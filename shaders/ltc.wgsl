@@ -132,9 +132,21 @@ fn clipped_cos_integral(v: ptr<function, array<vec3<f32>, 17>>, count: u32) -> f
     return 0.5 * abs(sum);
 }
 
+// A rectangle's or disk's unit width axis (in its plane) and, for a rectangle, half height:
+// a rectangle's shape.xyz is its width axis scaled by its half height (shape.w holds the
+// shadow layer, as for every local light), a disk's is the unit axis.
+fn plane_axes(light: Light) -> vec4<f32> {
+    if light.kind == LIGHT_DISK {
+        return vec4<f32>(light.shape.xyz, 0.0);
+    }
+    let half_height = length(light.shape.xyz);
+    return vec4<f32>(light.shape.xyz / max(half_height, 1e-30), half_height);
+}
+
 // The light's outline, relative to the surface, as `count` corners.
 fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 17>>) -> u32 {
-    let across = light.shape.xyz;
+    let axes = plane_axes(light);
+    let across = axes.xyz;
     let up = cross(light.direction, across);
     if light.kind == LIGHT_DISK {
         // The regular 16-gon of the disk's area: circumradius r·√(2π / (n·sin(2π/n))).
@@ -146,7 +158,7 @@ fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 
         return DISK_SIDES;
     }
     let x = across * light.size;
-    let y = up * light.shape.w;
+    let y = up * axes.w;
     (*v)[0] = to_light + x + y;
     (*v)[1] = to_light - x + y;
     (*v)[2] = to_light - x - y;
@@ -158,7 +170,8 @@ fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 
 // the surface to the light's centre).
 fn nearest_dist2(light: Light, to_light: vec3<f32>) -> f32 {
     let q = -to_light;
-    let across = light.shape.xyz;
+    let axes = plane_axes(light);
+    let across = axes.xyz;
     let up = cross(light.direction, across);
     var in_plane: vec3<f32>;
     if light.kind == LIGHT_DISK {
@@ -167,7 +180,7 @@ fn nearest_dist2(light: Light, to_light: vec3<f32>) -> f32 {
         in_plane = planar * min(1.0, light.size / max(len, 1e-30));
     } else {
         in_plane = across * clamp(dot(q, across), -light.size, light.size)
-            + up * clamp(dot(q, up), -light.shape.w, light.shape.w);
+            + up * clamp(dot(q, up), -axes.w, axes.w);
     }
     let off = q - in_plane;
     return dot(off, off);
@@ -178,7 +191,7 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     if dot(light.direction, to_light) >= 0.0 {
         return vec3<f32>(0.0);
     }
-    let extent = select(length(vec2<f32>(light.size, light.shape.w)), light.size, light.kind == LIGHT_DISK);
+    let extent = select(length(vec2<f32>(light.size, plane_axes(light).w)), light.size, light.kind == LIGHT_DISK);
     let window = range_window(nearest_dist2(light, to_light), light.range - extent);
     if window <= 0.0 {
         return vec3<f32>(0.0);

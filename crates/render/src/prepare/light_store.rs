@@ -153,7 +153,8 @@ pub fn pack(light: &ExtractedLight, exposure: f32, cutoff: f32, profiles: &Profi
         LightKind::Rect { width, height } => {
             g.kind = KIND_RECT;
             g.size = 0.5 * width.max(0.0);
-            g.shape = across.extend(0.5 * height.max(0.0)).to_array();
+            // The width axis scaled by the half height: shape.w stays free for the shadow layer.
+            g.shape = (across * (0.5 * height.max(0.0))).extend(0.0).to_array();
         }
         LightKind::Disk { radius } => {
             g.kind = KIND_DISK;
@@ -778,9 +779,10 @@ mod tests {
         rect.right = Vec3::new(1.0, 0.0, 0.5);
         let g = pack(&rect, 1.0, DEFAULT_CUTOFF, &ProfileTable::default());
         assert!((g.range - (3.0 + 0.5 * 5f32.sqrt())).abs() < 1e-5, "{}", g.range);
+        // The width axis scaled by the half height; shape.w is left for the shadow layer.
         let axis = Vec3::new(g.shape[0], g.shape[1], g.shape[2]);
-        assert!(axis.dot(Vec3::from(g.direction)).abs() < 1e-6 && (axis.length() - 1.0).abs() < 1e-6);
-        assert_eq!((g.size, g.shape[3]), (1.0, 0.5));
+        assert!(axis.dot(Vec3::from(g.direction)).abs() < 1e-6 && (axis.length() - 0.5).abs() < 1e-6);
+        assert_eq!((g.size, g.shape[3]), (1.0, 0.0));
         // Computed reach: a rect of luminance L and area A reaches as far as a point light of
         // intensity L·A.
         let mut point = light(LightKind::Point);

@@ -85,7 +85,13 @@ const WIDEST_SPOT: f32 = std::f32::consts::FRAC_PI_3;
 fn faces_for(light: &ExtractedLight) -> Option<u32> {
     match light.kind {
         LightKind::Spot { outer_cone_angle, .. } if outer_cone_angle <= WIDEST_SPOT => Some(1),
-        LightKind::Spot { .. } | LightKind::Point => Some(6),
+        // Lights with a size are shadowed from their centre, as point lights.
+        LightKind::Spot { .. }
+        | LightKind::Point
+        | LightKind::Sphere { .. }
+        | LightKind::Tube { .. }
+        | LightKind::Rect { .. }
+        | LightKind::Disk { .. } => Some(6),
         _ => None,
     }
 }
