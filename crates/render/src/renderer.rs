@@ -259,6 +259,22 @@ pub struct MemoryStats {
     pub deform: u64,
 }
 
+impl MemoryStats {
+    /// Every pool together.
+    pub fn total(&self) -> u64 {
+        self.mesh_pool
+            + self.textures
+            + self.instances
+            + self.targets
+            + self.lights
+            + self.clusters
+            + self.shadows
+            + self.environment
+            + self.post
+            + self.deform
+    }
+}
+
 /// Mirrors `struct View` in `shaders/forward.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]

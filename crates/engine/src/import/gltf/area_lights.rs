@@ -54,14 +54,10 @@ pub(crate) fn node_light(node: &gltf::Node) -> Result<Option<AreaLightDesc>, Imp
     };
     let color = match ext.get("color") {
         None => Vec3::ONE,
-        Some(v) => {
-            let c: Option<Vec<f32>> =
-                v.as_array().map(|a| a.iter().filter_map(Value::as_f64).map(|x| x as f32).collect());
-            match c.as_deref() {
-                Some(&[r, g, b]) if [r, g, b].iter().all(|x| x.is_finite() && *x >= 0.0) => Vec3::new(r, g, b),
-                _ => return Err(invalid(&at, "color", &format!("must be three numbers ≥ 0, found {v}"))),
-            }
-        }
+        Some(v) => match super::ies_lights::json_rgb(v).filter(|c| c.min_element() >= 0.0) {
+            Some(c) => c,
+            None => return Err(invalid(&at, "color", &format!("must be three numbers ≥ 0, found {v}"))),
+        },
     };
     let range = match ext.get("range") {
         None => None,

@@ -113,16 +113,21 @@ pub(crate) fn node_light(node: &gltf::Node, profiles: usize) -> Result<Option<Ie
     let color = match ext.get("color") {
         None => Vec3::ONE,
         Some(v) => {
-            let c: Option<Vec<f32>> =
-                v.as_array().map(|a| a.iter().filter_map(Value::as_f64).map(|x| x as f32).collect());
-            match c.as_deref() {
+            match json_rgb(v) {
                 // The extension clamps the colour to [0, 1].
-                Some(&[r, g, b]) if [r, g, b].iter().all(|x| x.is_finite()) => {
-                    Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE)
-                }
-                _ => return Err(invalid(format!("{at}.color"), &format!("must be three numbers, found {v}"))),
+                Some(c) => c.clamp(Vec3::ZERO, Vec3::ONE),
+                None => return Err(invalid(format!("{at}.color"), &format!("must be three numbers, found {v}"))),
             }
         }
     };
     Ok(Some(IesLightDesc { profile, multiplier, color }))
+}
+
+/// Three finite numbers as a colour (the `color` of node light extensions); `None` otherwise.
+pub(crate) fn json_rgb(v: &Value) -> Option<Vec3> {
+    let c: Vec<f32> = v.as_array()?.iter().map(|x| x.as_f64().map(|x| x as f32)).collect::<Option<_>>()?;
+    match c.as_slice() {
+        &[r, g, b] if [r, g, b].iter().all(|x| x.is_finite()) => Some(Vec3::new(r, g, b)),
+        _ => None,
+    }
 }

@@ -116,17 +116,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
             app.insert_resource(RenderOutput::Headless { width: w, height: h });
             let times = time_frames(&mut app, args.warmup, args.frames);
             let cpu: Vec<f64> = (0..times.cpu.len()).map(|i| times.cpu_frame(i)).collect();
-            let m = app.world.resource::<Renderer>().memory();
-            let bytes = m.mesh_pool
-                + m.textures
-                + m.instances
-                + m.targets
-                + m.lights
-                + m.clusters
-                + m.shadows
-                + m.environment
-                + m.post
-                + m.deform;
+            let bytes = app.world.resource::<Renderer>().memory().total();
             rows.push(Row {
                 scene: s.name.clone(),
                 preset,
