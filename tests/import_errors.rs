@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use penumbra::engine::import::{ImportErrorKind, ImportOptions, load_scene};
+use penumbra::engine::import::{ImportErrorKind, ImportOptions, Limit, load_scene};
 use penumbra::prelude::*;
 
 mod common;
@@ -43,10 +43,14 @@ fn write_scene(name: &str, json: &str, with_bin: bool) -> PathBuf {
 
 /// Loads into a fresh world and checks that a failure leaves no entity or asset behind.
 fn load_expecting_error(path: &Path) -> penumbra::engine::import::ImportError {
+    load_expecting_error_with(path, &ImportOptions::default())
+}
+
+fn load_expecting_error_with(path: &Path, options: &ImportOptions) -> penumbra::engine::import::ImportError {
     let mut app = App::new();
     app.add_plugins(CorePlugin);
     let before = app.world.entities().count_spawned();
-    let err = load_scene(&mut app.world, path, &ImportOptions::default()).expect_err("load must fail");
+    let err = load_scene(&mut app.world, path, options).expect_err("load must fail");
     assert_eq!(app.world.entities().count_spawned(), before, "a failed load left entities behind");
     assert!(app.world.resource::<Assets<Mesh>>().is_empty(), "a failed load left meshes behind");
     let msg = err.to_string();
@@ -250,5 +254,106 @@ fn an_accessor_asking_for_absurd_memory_is_refused_before_allocating() {
     let path = write_scene("hugecount", &json, true);
     let err = load_expecting_error(&path);
     assert!(matches!(err.kind, ImportErrorKind::LimitExceeded { .. }), "{err}");
-    assert!(err.to_string().contains("max_accessor_elements"), "{err}");
+    assert!(err.to_string().contains("--limit vertices=N"), "the file-wide total is checked first: {err}");
+}
+
+/// Options with one limit set (`NAME=N`, as on the command line).
+fn with_limit(setting: &str) -> ImportOptions {
+    let mut options = ImportOptions::default();
+    options.limits.apply(setting).unwrap();
+    options
+}
+
+fn assert_limit(err: &penumbra::engine::import::ImportError, limit: Limit) {
+    match &err.kind {
+        ImportErrorKind::LimitExceeded { name, .. } => assert_eq!(*name, limit, "{err}"),
+        _ => panic!("expected the {limit} limit, got: {err}"),
+    }
+    assert!(err.to_string().contains(&format!("--limit {limit}=N")), "says how to raise it: {err}");
+}
+
+#[test]
+fn an_out_of_range_position_accessor_is_an_error_not_a_panic() {
+    // gltf-json's own validation indexes the accessor list with POSITION unchecked.
+    let json = triangle_json("triangle.bin", "").replace(r#""POSITION": 0"#, r#""POSITION": 9"#);
+    let err = load_expecting_error(&write_scene("position9", &json, true));
+    assert!(matches!(err.kind, ImportErrorKind::Invalid(_)) && err.to_string().contains("accessor 9"), "{err}");
+}
+
+#[test]
+fn one_accessor_reused_by_many_primitives_meets_the_totals() {
+    let prims = vec![r#"{"attributes": {"POSITION": 0}}"#; 50].join(",");
+    let json = triangle_json("triangle.bin", "")
+        .replace(r#"[{"attributes": {"POSITION": 0}}]"#, &format!("[{prims}]"));
+    let path = write_scene("reused", &json, true);
+    // 150 vertices declared; 50 × 36 bytes decoded.
+    assert_limit(&load_expecting_error_with(&path, &with_limit("vertices=149")), Limit::Vertices);
+    assert_limit(&load_expecting_error_with(&path, &with_limit("decoded-bytes=1000")), Limit::DecodedBytes);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &with_limit("vertices=150")).expect("at the limit is allowed");
+}
+
+#[test]
+fn deep_hierarchies_are_refused_past_the_node_depth_limit() {
+    let chain = |n: usize| {
+        let nodes: Vec<String> =
+            (0..n).map(|i| if i + 1 < n { format!(r#"{{"children": [{}]}}"#, i + 1) } else { r#"{"mesh": 0}"#.into() }).collect();
+        triangle_json("triangle.bin", "").replace(r#""nodes": [{"mesh": 0}]"#, &format!(r#""nodes": [{}]"#, nodes.join(",")))
+    };
+    let err = load_expecting_error(&write_scene("deep", &chain(1100), true));
+    assert_limit(&err, Limit::NodeDepth);
+    let path = write_scene("deep40", &chain(40), true);
+    assert_limit(&load_expecting_error_with(&path, &with_limit("node-depth=39")), Limit::NodeDepth);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &with_limit("node-depth=40")).expect("40 levels under a limit of 40");
+}
+
+#[test]
+fn a_scene_listing_a_root_twice_is_refused() {
+    let json = triangle_json("triangle.bin", "").replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [0, 0]}]"#);
+    let err = load_expecting_error(&write_scene("tworoots", &json, true));
+    assert!(matches!(err.kind, ImportErrorKind::Hierarchy(_)), "{err}");
+}
+
+#[test]
+fn animation_keys_buffer_sizes_and_image_files_have_limits() {
+    let anim = r#""animations": [{"channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}],
+                                  "samplers": [{"input": 0, "output": 0}]}],"#;
+    let path = write_scene("animkeys", &triangle_json("triangle.bin", anim), true);
+    assert_limit(&load_expecting_error_with(&path, &with_limit("animation-keys=2")), Limit::AnimationKeys);
+
+    let path = write_scene("bufbytes", &triangle_json("triangle.bin", ""), true);
+    assert_limit(&load_expecting_error_with(&path, &with_limit("buffer-bytes=35")), Limit::BufferBytes);
+
+    let textured = triangle_json("triangle.bin", r#""images": [{"uri": "big.png"}], "textures": [{"source": 0}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],"#)
+    .replace(r#"{"attributes": {"POSITION": 0}}"#, r#"{"attributes": {"POSITION": 0}, "material": 0}"#);
+    let path = write_scene("imagebytes", &textured, true);
+    std::fs::write(path.parent().unwrap().join("big.png"), vec![0u8; 4096]).unwrap();
+    let err = load_expecting_error_with(&path, &with_limit("image-bytes=4000"));
+    assert_limit(&err, Limit::ImageBytes);
+}
+
+#[test]
+fn a_skin_with_an_absurd_sparse_inverse_bind_accessor_is_refused_before_allocating() {
+    let skin = r#""skins": [{"joints": [0], "inverseBindMatrices": 1}],"#;
+    let json = triangle_json("triangle.bin", skin).replace(
+        r#""min": [0,0,0], "max": [1,1,0]}]"#,
+        r#""min": [0,0,0], "max": [1,1,0]},
+           {"componentType": 5126, "count": 4000000000, "type": "MAT4",
+            "sparse": {"count": 1, "indices": {"bufferView": 0, "componentType": 5125}, "values": {"bufferView": 0}}}]"#,
+    );
+    let err = load_expecting_error(&write_scene("hugeskin", &json, true));
+    assert_limit(&err, Limit::AccessorElements);
+}
+
+#[test]
+fn an_obj_face_index_of_i64_min_is_an_error_not_an_overflow() {
+    let dir = scratch_dir("obj-i64min");
+    let path = dir.join("bad.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -9223372036854775808 1 2\n").unwrap();
+    let err = load_expecting_error(&path);
+    assert!(err.to_string().contains("names no vertex"), "{err}");
 }

@@ -39,7 +39,7 @@ pub enum Command {
     Report(ReportArgs),
 }
 
-#[derive(Args, Debug, Clone)]
+#[derive(Args, Debug, Clone, Default)]
 pub struct SceneArgs {
     /// Which scene of the file (default: the file's default scene).
     #[arg(long = "scene", value_name = "INDEX")]
@@ -47,6 +47,31 @@ pub struct SceneArgs {
     /// Let relative URIs in the file reach outside its folder.
     #[arg(long)]
     pub allow_outside_folder: bool,
+    /// Raise or lower an import limit (repeatable), e.g. `--limit vertices=1e9 --limit image-bytes=2G`.
+    #[arg(long = "limit", value_name = "NAME=N", value_parser = parse_limit, long_help = LIMIT_HELP)]
+    pub limits: Vec<String>,
+}
+
+/// `--limit`'s long help: every limit with its default (a unit test keeps it complete).
+pub const LIMIT_HELP: &str = "Raise or lower an import limit (repeatable). A scene file is untrusted input: \
+every count or size it declares is checked against these before memory is allocated.
+  data-uri-bytes=256M      decoded size of one base64 data URI
+  buffer-bytes=4G          byteLength of one glTF buffer
+  accessor-elements=64M    elements in one accessor
+  decoded-bytes=8G         vertex, index, skin and animation data decoded in one import
+  vertices=256M            vertices over all primitives of a file
+  indices=1G               indices over all primitives of a file
+  animation-keys=64M       keyframes over all animation samplers
+  node-depth=1024          depth of the node hierarchy
+  nodes=4M                 nodes in a file
+  image-dimension=16384    width or height of one image
+  image-bytes=1G           decoded size of one image, and size of one image file
+  total-image-bytes=8G     decoded size of all images of a file
+N may be written 100000, 1e8, 512M or 4G (K, M, G are powers of 1024).";
+
+fn parse_limit(s: &str) -> Result<String, String> {
+    penumbra_engine::import::ImportLimits::default().apply(s)?;
+    Ok(s.to_owned())
 }
 
 #[derive(Args, Debug, Clone)]
@@ -591,5 +616,26 @@ impl LookArgs {
             anyhow::anyhow!("{flag}: {e}")
         })?;
         Ok(settings)
+    }
+}
+
+#[cfg(test)]
+mod limit_help_tests {
+    use penumbra_engine::import::{ImportLimits, Limit};
+
+    #[test]
+    fn limit_help_lists_every_limit_with_its_true_default() {
+        let defaults = ImportLimits::default();
+        let mut seen = Vec::new();
+        for setting in super::LIMIT_HELP.lines().filter_map(|l| l.strip_prefix("  ")).map(|l| l.split(' ').next().unwrap())
+        {
+            let mut parsed = ImportLimits { vertices: 0, ..defaults };
+            parsed.apply(setting).unwrap();
+            let name = setting.split('=').next().unwrap();
+            let limit = Limit::from_name(name).unwrap();
+            assert_eq!(parsed.get(limit), defaults.get(limit), "{setting}");
+            seen.push(limit);
+        }
+        assert_eq!(seen, Limit::ALL, "every limit, in Limit::ALL's order");
     }
 }

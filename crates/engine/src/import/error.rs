@@ -66,6 +66,6 @@ pub enum ImportErrorKind {
     Hierarchy(String),
     #[error("scene {index} does not exist (the file has {count})")]
     NoSuchScene { index: usize, count: usize },
-    #[error("{what} is {value}, over the limit of {limit} ({how_to_raise})")]
-    LimitExceeded { what: &'static str, value: u64, limit: u64, how_to_raise: &'static str },
+    #[error("{what} is {value}, over the limit of {limit} (raise it with `--limit {name}=N`, or ImportLimits in code)")]
+    LimitExceeded { what: &'static str, value: u64, limit: u64, name: super::Limit },
 }

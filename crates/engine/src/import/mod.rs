@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod gltf;
+pub mod limits;
 pub mod obj;
 pub mod progress;
 
@@ -17,6 +18,7 @@ use bevy_ecs::world::World;
 
 pub use error::{ImportError, ImportErrorKind};
 pub use gltf::{GltfCamera, GltfScene, ImportOptions, SceneRoot};
+pub use limits::{ImportLimits, Limit};
 pub use obj::ObjScene;
 pub use progress::{ImportProgress, ImportStage, ProgressSnapshot};
 

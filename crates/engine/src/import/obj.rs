@@ -34,7 +34,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::gltf::SceneRoot;
 use super::gltf::images::decode;
-use super::gltf::source::{UriError, resolve_inside};
+use super::gltf::source::{ReadLimit, UriError, read_file, resolve_inside};
 use super::{ImportError, ImportErrorKind, ImportOptions};
 use crate::assets::{Assets, Handle};
 use crate::components::{Mesh3d, MeshMaterial3d, Name, Transform};
@@ -181,12 +181,13 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
                 Err(UriError::OutsideFolder) => {
                     return fail(ImportErrorKind::UriOutsideFolder { uri: rel.into_owned() });
                 }
-                Err(e) => return fail(ImportErrorKind::Obj { line: None, reason: format!("{e:?}") }),
+                Err(e) => return fail(ImportErrorKind::Obj { line: None, reason: e.to_string() }),
             };
-            let text = match std::fs::read(&file) {
+            let text = match read_file(&file, ReadLimit::file(options, "an MTL file's size")) {
                 Ok(t) => t,
                 Err(e) => {
-                    mtl_failure.borrow_mut().get_or_insert(ImportError::new(&file, ImportErrorKind::Io(e)));
+                    let kind = e.into_kind(&rel, |reason| ImportErrorKind::Obj { line: None, reason });
+                    mtl_failure.borrow_mut().get_or_insert(ImportError::new(&file, kind));
                     return Err(tobj::LoadError::OpenFileFailed);
                 }
             };
@@ -275,7 +276,8 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
                         let what = ["vertex", "texture coordinate", "normal"][kind];
                         let i: i64 =
                             index.parse().map_err(|_| (n + 1, format!("face index {index:?} is not a number")))?;
-                        if i == 0 || -i > counts[kind] {
+                        // `i64::MIN` has no negation: it names no element either way.
+                        if i == 0 || i.checked_neg().is_none_or(|neg| neg > counts[kind]) {
                             return Err((
                                 n + 1,
                                 format!("face {what} index {i} names no {what} ({} defined so far)", counts[kind]),
@@ -296,12 +298,14 @@ fn convert_mesh(m: &tobj::Mesh, normal_mapped: bool, options: &ImportOptions) ->
     if m.indices.is_empty() || n == 0 {
         return Ok(None);
     }
-    if n as u64 > options.max_accessor_elements || m.indices.len() as u64 > options.max_accessor_elements {
+    let limits = &options.limits;
+    if n as u64 > limits.vertices || m.indices.len() as u64 > limits.indices {
         return Err(format!(
-            "{} vertices / {} indices exceed ImportOptions::max_accessor_elements ({})",
-            n,
+            "{n} vertices / {} indices exceed the limits of {} / {} (raise them with `--limit vertices=N` / \
+             `--limit indices=N`, or ImportLimits in code)",
             m.indices.len(),
-            options.max_accessor_elements
+            limits.vertices,
+            limits.indices
         ));
     }
     let vec3s = |v: &[f32]| v.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
@@ -453,13 +457,15 @@ fn convert_material(
                 ImportError::new(base_dir, ImportErrorKind::UriOutsideFolder { uri: t.file.clone() })
             }
             e => {
-                ImportError::new(base_dir.join(&t.file), ImportErrorKind::Obj { line: None, reason: format!("{e:?}") })
+                ImportError::new(base_dir.join(&t.file), ImportErrorKind::Obj { line: None, reason: e.to_string() })
             }
         })?;
         let index = match image_index.get(&path) {
             Some(&i) => i,
             None => {
-                let bytes = std::fs::read(&path).map_err(|e| ImportError::new(&path, ImportErrorKind::Io(e)))?;
+                let bytes = read_file(&path, ReadLimit::image(options)).map_err(|e| {
+                    ImportError::new(&path, e.into_kind(&t.file, |reason| ImportErrorKind::Obj { line: None, reason }))
+                })?;
                 let label = t.file.clone();
                 let image =
                     decode(&bytes, images.len(), &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;

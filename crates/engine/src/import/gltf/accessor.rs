@@ -4,12 +4,85 @@
 //! so Penumbra decodes accessors itself: element size, stride, view and buffer extents are
 //! checked with overflow-safe arithmetic, then components are converted to `f32` (normalised
 //! integers per the glTF spec: signed `max(c / MAX, −1)`, unsigned `c / MAX`) and sparse
-//! substitutions applied.
+//! substitutions applied. Every decode is charged to the import's [`ImportLimits`] before its
+//! output is allocated ([`Buffers::charge`]): per accessor and in total, so a file cannot make a
+//! few bytes of JSON decode into gigabytes, nor decode one large accessor a thousand times.
+
+use std::cell::Cell;
+use std::ops::Deref;
 
 use gltf::accessor::{DataType, Dimensions};
 
-/// A decoding failure, reported by the caller as `accessor N: reason`.
-pub(crate) type AccessorResult<T> = Result<T, String>;
+use crate::import::{ImportErrorKind, ImportLimits, Limit};
+
+/// A decoding failure: the file is wrong (reported as `accessor N: reason` or in the caller's
+/// words), or it asks for more than the limits allow (reported as the limit).
+#[derive(Debug)]
+pub(crate) enum AccessorError {
+    Bad(String),
+    Limit(ImportErrorKind),
+}
+
+impl AccessorError {
+    /// The import error, with a malformed accessor described by `make(reason)`.
+    pub(crate) fn into_kind_with(self, make: impl FnOnce(String) -> ImportErrorKind) -> ImportErrorKind {
+        match self {
+            AccessorError::Bad(reason) => make(reason),
+            AccessorError::Limit(kind) => kind,
+        }
+    }
+
+    /// `accessor N: reason`.
+    pub(crate) fn into_kind(self, index: usize) -> ImportErrorKind {
+        self.into_kind_with(|reason| ImportErrorKind::Accessor { index, reason })
+    }
+
+    /// Prefixes a malformed accessor's reason with where it was used.
+    pub(crate) fn context(self, prefix: impl std::fmt::Display) -> Self {
+        match self {
+            AccessorError::Bad(reason) => AccessorError::Bad(format!("{prefix}: {reason}")),
+            limit => limit,
+        }
+    }
+}
+
+impl From<String> for AccessorError {
+    fn from(reason: String) -> Self {
+        AccessorError::Bad(reason)
+    }
+}
+
+pub(crate) type AccessorResult<T> = Result<T, AccessorError>;
+
+/// The file's buffers, and what decoding accessors from them has allocated so far.
+pub(crate) struct Buffers {
+    data: Vec<Vec<u8>>,
+    limits: ImportLimits,
+    decoded: Cell<u64>,
+}
+
+impl Buffers {
+    pub(crate) fn new(data: Vec<Vec<u8>>, limits: ImportLimits) -> Self {
+        Self { data, limits, decoded: Cell::new(0) }
+    }
+
+    /// Charges `count` elements of `elem_bytes` decoded bytes each, before they are allocated.
+    fn charge(&self, count: usize, elem_bytes: usize) -> AccessorResult<()> {
+        let lim = |e| AccessorError::Limit(e);
+        self.limits.check(Limit::AccessorElements, "an accessor's element count", count as u64).map_err(lim)?;
+        let total = self.decoded.get().saturating_add((count as u64).saturating_mul(elem_bytes as u64));
+        self.limits.check(Limit::DecodedBytes, "decoded accessor data", total).map_err(lim)?;
+        self.decoded.set(total);
+        Ok(())
+    }
+}
+
+impl Deref for Buffers {
+    type Target = [Vec<u8>];
+    fn deref(&self) -> &[Vec<u8>] {
+        &self.data
+    }
+}
 
 fn component_size(t: DataType) -> usize {
     match t {
@@ -65,7 +138,7 @@ fn strided_window<'b>(
     count: usize,
     elem_size: usize,
     stride_override: Option<usize>,
-) -> AccessorResult<(&'b [u8], usize)> {
+) -> Result<(&'b [u8], usize), String> {
     let buffer =
         buffers.get(view.buffer().index()).ok_or_else(|| format!("buffer {} does not exist", view.buffer().index()))?;
     let stride = stride_override.unwrap_or(view.stride().unwrap_or(elem_size));
@@ -104,17 +177,18 @@ fn strided_window<'b>(
 /// Decodes an accessor of `N` components per element to `f32`.
 pub(crate) fn read_f32<const N: usize>(
     accessor: &gltf::Accessor,
-    buffers: &[Vec<u8>],
+    buffers: &Buffers,
 ) -> AccessorResult<Vec<[f32; N]>> {
     let dims = dimensions_len(accessor.dimensions());
     if dims != N {
-        return Err(format!("expected {N} components per element, found {:?}", accessor.dimensions()));
+        return Err(format!("expected {N} components per element, found {:?}", accessor.dimensions()).into());
     }
     let ty = accessor.data_type();
     let csize = component_size(ty);
     let elem = csize * N;
     let count = accessor.count();
     let normalized = accessor.normalized();
+    buffers.charge(count, N * 4)?;
     let decode =
         |bytes: &[u8]| -> [f32; N] { std::array::from_fn(|c| read_component(&bytes[c * csize..], ty, normalized)) };
 
@@ -129,7 +203,7 @@ pub(crate) fn read_f32<const N: usize>(
     if let Some(sparse) = accessor.sparse() {
         let n = sparse.count();
         if n > count {
-            return Err(format!("sparse count {n} exceeds the accessor count {count}"));
+            return Err(format!("sparse count {n} exceeds the accessor count {count}").into());
         }
         let indices = sparse.indices();
         let isize = match indices.index_type() {
@@ -159,18 +233,18 @@ pub(crate) fn read_f32<const N: usize>(
 }
 
 /// Decodes an index accessor (unsigned scalar).
-pub(crate) fn read_indices(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> AccessorResult<Vec<u32>> {
+pub(crate) fn read_indices(accessor: &gltf::Accessor, buffers: &Buffers) -> AccessorResult<Vec<u32>> {
     if accessor.dimensions() != Dimensions::Scalar {
-        return Err(format!("indices must be scalars, found {:?}", accessor.dimensions()));
+        return Err(format!("indices must be scalars, found {:?}", accessor.dimensions()).into());
     }
     match accessor.data_type() {
         DataType::U8 | DataType::U16 | DataType::U32 => {}
         other => {
-            return Err(format!("indices must be unsigned integers, found {other:?}"));
+            return Err(format!("indices must be unsigned integers, found {other:?}").into());
         }
     }
     if accessor.normalized() {
-        return Err("indices must not be normalized".into());
+        return Err(String::from("indices must not be normalized").into());
     }
     // Through f32 would lose integers above 2^24: decode the integers directly.
     let ty = accessor.data_type();
@@ -188,6 +262,7 @@ pub(crate) fn read_indices(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Ac
         // the values an index buffer can address on any GPU we target (< 2^24 vertices).
         return Ok(read_f32::<1>(accessor, buffers)?.into_iter().map(|[v]| v as u32).collect());
     }
+    buffers.charge(count, 4)?;
     let Some(view) = accessor.view() else {
         return Ok(vec![0; count]);
     };

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use glam::Mat4;
 use gltf::animation::{Interpolation as GltfInterpolation, Property};
 
-use super::accessor::read_f32;
+use super::accessor::{AccessorError, Buffers, read_f32};
 use crate::animation::{AnimatedProperty, AnimationChannel, AnimationClip, Interpolation, Sampler};
 use crate::import::ImportErrorKind;
 
@@ -19,7 +19,7 @@ pub(crate) struct SkinDesc {
     pub inverse_bindposes: Arc<[Mat4]>,
 }
 
-pub(crate) fn load_skins(document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Vec<SkinDesc>, ImportErrorKind> {
+pub(crate) fn load_skins(document: &gltf::Document, buffers: &Buffers) -> Result<Vec<SkinDesc>, ImportErrorKind> {
     document
         .skins()
         .map(|skin| {
@@ -31,7 +31,9 @@ pub(crate) fn load_skins(document: &gltf::Document, buffers: &[Vec<u8>]) -> Resu
             let inverse_bindposes: Arc<[Mat4]> = match skin.inverse_bind_matrices() {
                 Some(a) => {
                     let m = read_f32::<16>(&a, buffers)
-                        .map_err(|e| skin_err(format!("inverseBindMatrices (accessor {}): {e}", a.index())))?;
+                        .map_err(|e| {
+                            e.into_kind_with(|r| skin_err(format!("inverseBindMatrices (accessor {}): {r}", a.index())))
+                        })?;
                     if m.len() < joints.len() {
                         return Err(skin_err(format!("{} inverse bind matrices for {} joints", m.len(), joints.len())));
                     }
@@ -51,8 +53,7 @@ pub(crate) fn load_skins(document: &gltf::Document, buffers: &[Vec<u8>]) -> Resu
 
 pub(crate) fn load_animations(
     document: &gltf::Document,
-    buffers: &[Vec<u8>],
-    max_keys: u64,
+    buffers: &Buffers,
 ) -> Result<Vec<AnimationClip>, ImportErrorKind> {
     let mut clips = Vec::new();
     for animation in document.animations() {
@@ -62,22 +63,16 @@ pub(crate) fn load_animations(
         for (c, channel) in animation.channels().enumerate() {
             let sampler = channel.sampler();
             let (input, output) = (sampler.input(), sampler.output());
-            for a in [&input, &output] {
-                if a.count() as u64 > max_keys {
-                    return Err(ImportErrorKind::LimitExceeded {
-                        what: "an animation accessor's element count",
-                        value: a.count() as u64,
-                        limit: max_keys,
-                        how_to_raise: "ImportOptions::max_accessor_elements",
-                    });
-                }
-            }
             let times: Vec<f32> = read_f32::<1>(&input, buffers)
-                .map_err(|e| anim_err(format!("channel {c}: input (accessor {}): {e}", input.index())))?
+                .map_err(|e| {
+                    e.into_kind_with(|r| anim_err(format!("channel {c}: input (accessor {}): {r}", input.index())))
+                })?
                 .into_iter()
                 .map(|[t]| t)
                 .collect();
-            let out_err = |e: String| anim_err(format!("channel {c}: output (accessor {}): {e}", output.index()));
+            let out_err = |e: AccessorError| {
+                e.into_kind_with(|r| anim_err(format!("channel {c}: output (accessor {}): {r}", output.index())))
+            };
             let (property, values): (AnimatedProperty, Vec<f32>) = match channel.target().property() {
                 Property::Translation => {
                     (AnimatedProperty::Translation, read_f32::<3>(&output, buffers).map_err(out_err)?.concat())

@@ -6,7 +6,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::ImportOptions;
-use super::source::read_uri;
+use super::source::{ReadLimit, read_uri};
 use crate::image::Image;
 use crate::import::ImportErrorKind;
 
@@ -38,7 +38,7 @@ pub(crate) fn image_bytes<'a>(
             })?;
             Ok(ImageBytes::Slice(&buffer[view.offset()..end]))
         }
-        gltf::image::Source::Uri { uri, .. } => read_uri(base_dir, uri, options)
+        gltf::image::Source::Uri { uri, .. } => read_uri(base_dir, uri, options, ReadLimit::image(options))
             .map(ImageBytes::Owned)
             .map_err(|e| e.into_kind(uri, |reason| ImportErrorKind::Image { index, uri: uri.to_owned(), reason })),
     }
@@ -65,15 +65,16 @@ pub(crate) fn decode(
     if reader.format().is_none() {
         return Err(err("unknown image format (Penumbra decodes PNG and JPEG)".into()));
     }
+    let (max_side, max_bytes) = (options.limits.image_dimension, options.limits.image_bytes);
     let mut limits = image::Limits::default();
-    limits.max_image_width = Some(options.max_image_dimension);
-    limits.max_image_height = Some(options.max_image_dimension);
-    limits.max_alloc = Some(options.max_image_bytes);
+    limits.max_image_width = Some(max_side.min(u32::MAX as u64) as u32);
+    limits.max_image_height = Some(max_side.min(u32::MAX as u64) as u32);
+    limits.max_alloc = Some(max_bytes);
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| match e {
         image::ImageError::Limits(l) => err(format!(
-            "{l} (limits: {0}×{0} pixels, {1} bytes; raise ImportOptions::max_image_dimension / max_image_bytes)",
-            options.max_image_dimension, options.max_image_bytes
+            "{l} (limits: {max_side}×{max_side} pixels, {max_bytes} bytes; raise them with \
+             `--limit image-dimension=N` / `--limit image-bytes=N`, or ImportLimits in code)"
         )),
         other => err(format!("cannot decode: {other}")),
     })?;
@@ -87,7 +88,7 @@ fn decode_jpeg_rgba(bytes: &[u8], label: &str, options: &ImportOptions) -> Resul
     use zune_core::bytestream::ZCursor;
     use zune_core::colorspace::ColorSpace;
     use zune_core::options::DecoderOptions;
-    let max = options.max_image_dimension as usize;
+    let max = options.limits.image_dimension.min(u32::MAX as u64) as usize;
     let opts =
         DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::RGBA).set_max_width(max).set_max_height(max);
     let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), opts);
@@ -97,10 +98,11 @@ fn decode_jpeg_rgba(bytes: &[u8], label: &str, options: &ImportOptions) -> Resul
         return Ok(None);
     }
     let size = w as u64 * h as u64 * 4;
-    if size > options.max_image_bytes {
+    if size > options.limits.image_bytes {
         return Err(format!(
-            "{w}×{h} decodes to {size} bytes, over the limit of {} (raise ImportOptions::max_image_bytes)",
-            options.max_image_bytes
+            "{w}×{h} decodes to {size} bytes, over the limit of {} (raise it with `--limit image-bytes=N`, or \
+             ImportLimits in code)",
+            options.limits.image_bytes
         ));
     }
     let mut rgba8 = vec![0u8; size as usize];

@@ -30,7 +30,8 @@ use crate::components::{
 };
 use crate::ies::IesProfile;
 use crate::image::Image;
-use crate::import::{ImportError, ImportErrorKind};
+use crate::import::{ImportError, ImportErrorKind, ImportLimits, Limit};
+use accessor::Buffers;
 use crate::material::{StandardMaterial, TextureRef};
 use crate::mesh::Mesh;
 use materials::MaterialDesc;
@@ -52,12 +53,8 @@ pub struct ImportOptions {
     pub scene: Option<usize>,
     /// Let relative URIs reach outside the scene's folder (`..`, absolute paths, symlinks).
     pub allow_outside_folder: bool,
-    pub max_data_uri_bytes: u64,
-    /// Elements one accessor may have (checked before decoding; an accessor without a
-    /// bufferView could otherwise ask for any amount of memory).
-    pub max_accessor_elements: u64,
-    pub max_image_dimension: u32,
-    pub max_image_bytes: u64,
+    /// What the file may make the importer allocate (see [`ImportLimits`]).
+    pub limits: ImportLimits,
     /// Reports the import's stages and counts (for a progress bar on another thread).
     pub progress: Option<super::ImportProgress>,
 }
@@ -67,14 +64,7 @@ impl Default for ImportOptions {
         Self {
             scene: None,
             allow_outside_folder: false,
-            // 256 MiB: larger than any single buffer in the Khronos samples by 20×.
-            max_data_uri_bytes: 256 << 20,
-            // 64 Mi elements: four times the vertex count of the largest scanned meshes
-            // people view, and at most 1 GiB for a vec4 attribute.
-            max_accessor_elements: 1 << 26,
-            // 16384 is the largest 2D texture wgpu guarantees on desktop adapters.
-            max_image_dimension: 16384,
-            max_image_bytes: 1 << 30,
+            limits: ImportLimits::default(),
             progress: None,
         }
     }
@@ -368,6 +358,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         return Err(ImportErrorKind::UnsupportedExtension { name: name.to_owned() });
     }
     validate(&document)?;
+    check_totals(&document, &options.limits)?;
     let mut warnings: Vec<String> = document
         .extensions_used()
         .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
@@ -386,8 +377,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     };
     let base_dir = path.parent().unwrap_or(Path::new("."));
     progress(super::ImportStage::Buffers, document.buffers().len());
-    let buffers = load_buffers(&document, blob, base_dir, options)?;
-    let roots = scene_roots(&document, options.scene)?;
+    let roots = scene_roots(&document, options.scene, &options.limits)?;
+    let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options)?, options.limits);
 
     let materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
     let mut meshes = Vec::new();
@@ -404,7 +395,6 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             }
             let material = prim.material().index();
             let needs = primitive::GeometryNeeds {
-                max_elements: options.max_accessor_elements,
                 normal_map_uv_set: material
                     .and_then(|m| materials.get(m))
                     .and_then(|m| m.textures[materials::NORMAL_SLOT].as_ref())
@@ -457,7 +447,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let skins = animation::load_skins(&document, &buffers)?;
     check_skinned_meshes(&nodes, &meshes, &skins)?;
     let animations: Arc<[AnimationClip]> =
-        animation::load_animations(&document, &buffers, options.max_accessor_elements)?.into();
+        animation::load_animations(&document, &buffers)?.into();
     let cameras = document
         .cameras()
         .map(|c| {
@@ -553,6 +543,20 @@ fn check_skinned_meshes(
 fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
     use gltf::json::validation::Validate;
     let root = document.as_json();
+    // gltf-json's own primitive check indexes `accessors` with POSITION unchecked (a panic on an
+    // out-of-range index): check every attribute index first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let targets = prim.targets.iter().flatten().flat_map(|t| [&t.positions, &t.normals, &t.tangents]);
+            let indices = prim.attributes.values().chain(targets.flatten()).chain(prim.indices.as_ref());
+            if let Some(bad) = indices.map(|i| i.value()).find(|&i| i >= root.accessors.len()) {
+                return Err(ImportErrorKind::Invalid(format!(
+                    "meshes[{m}].primitives[{p}] uses accessor {bad}, but the file has {}",
+                    root.accessors.len()
+                )));
+            }
+        }
+    }
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, error| {
         let path = path().to_string();
@@ -578,6 +582,7 @@ fn load_buffers(
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let index = buffer.index();
+        options.limits.check(Limit::BufferBytes, "a buffer's byteLength", buffer.length() as u64)?;
         let (uri, data) = match buffer.source() {
             gltf::buffer::Source::Bin => {
                 let data = blob.take().ok_or_else(|| ImportErrorKind::Buffer {
@@ -589,7 +594,8 @@ fn load_buffers(
             }
             gltf::buffer::Source::Uri(uri) => {
                 let short = if uri.starts_with("data:") { "data URI".to_owned() } else { uri.to_owned() };
-                let data = source::read_uri(base_dir, uri, options).map_err(|e| {
+                let limit = source::ReadLimit::buffer(buffer.length() as u64);
+                let data = source::read_uri(base_dir, uri, options, limit).map_err(|e| {
                     e.into_kind(uri, |reason| ImportErrorKind::Buffer { index, uri: short.clone(), reason })
                 })?;
                 (short, data)
@@ -608,10 +614,15 @@ fn load_buffers(
 }
 
 /// The root nodes to spawn, after checking the node graph is a forest (each node has at most one
-/// parent and no cycles), as glTF requires.
-fn scene_roots(document: &gltf::Document, requested: Option<usize>) -> Result<Vec<usize>, ImportErrorKind> {
+/// parent and no cycles), as glTF requires, and no deeper than the limit.
+fn scene_roots(
+    document: &gltf::Document,
+    requested: Option<usize>,
+    limits: &ImportLimits,
+) -> Result<Vec<usize>, ImportErrorKind> {
     let n = document.nodes().len();
     let mut parent: Vec<Option<usize>> = vec![None; n];
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
     for node in document.nodes() {
         for child in node.children() {
             if let Some(p) = parent[child.index()] {
@@ -622,16 +633,18 @@ fn scene_roots(document: &gltf::Document, requested: Option<usize>) -> Result<Ve
                 )));
             }
             parent[child.index()] = Some(node.index());
+            children[node.index()].push(child.index());
         }
     }
     // Every node reachable from a parentless node is in a tree; anything left over is on a cycle.
-    let mut reached = vec![false; n];
-    let mut stack: Vec<usize> = (0..n).filter(|&i| parent[i].is_none()).collect();
-    while let Some(i) = stack.pop() {
-        reached[i] = true;
-        stack.extend(document.nodes().nth(i).into_iter().flat_map(|node| node.children().map(|c| c.index())));
+    let mut depth: Vec<Option<u64>> = vec![None; n];
+    let mut stack: Vec<(usize, u64)> = (0..n).filter(|&i| parent[i].is_none()).map(|i| (i, 1)).collect();
+    while let Some((i, d)) = stack.pop() {
+        limits.check(Limit::NodeDepth, "the node hierarchy's depth", d)?;
+        depth[i] = Some(d);
+        stack.extend(children[i].iter().map(|&c| (c, d + 1)));
     }
-    if let Some(i) = reached.iter().position(|r| !r) {
+    if let Some(i) = depth.iter().position(Option::is_none) {
         return Err(ImportErrorKind::Hierarchy(format!("node {i} is part of a cycle")));
     }
     let scene_count = document.scenes().len();
@@ -650,7 +663,28 @@ fn scene_roots(document: &gltf::Document, requested: Option<usize>) -> Result<Ve
     if let Some(&r) = roots.iter().find(|&&r| parent[r].is_some()) {
         return Err(ImportErrorKind::Hierarchy(format!("scene root node {r} is also a child of another node")));
     }
+    let mut listed = vec![false; n];
+    for &r in &roots {
+        if std::mem::replace(&mut listed[r], true) {
+            return Err(ImportErrorKind::Hierarchy(format!("the scene lists root node {r} twice")));
+        }
+    }
     Ok(roots)
+}
+
+/// Totals the file declares, checked before anything is decoded: per-accessor checks alone would
+/// let a file reuse one large accessor in a million primitives.
+fn check_totals(document: &gltf::Document, limits: &ImportLimits) -> Result<(), ImportErrorKind> {
+    limits.check(Limit::Nodes, "the node count", document.nodes().len() as u64)?;
+    let (mut vertices, mut indices) = (0u64, 0u64);
+    for prim in document.meshes().flat_map(|m| m.primitives()) {
+        vertices += prim.get(&gltf::mesh::Semantic::Positions).map_or(0, |a| a.count() as u64);
+        indices += prim.indices().map_or(0, |a| a.count() as u64);
+    }
+    limits.check(Limit::Vertices, "the vertex count over all primitives", vertices)?;
+    limits.check(Limit::Indices, "the index count over all primitives", indices)?;
+    let keys: u64 = document.animations().flat_map(|a| a.samplers()).map(|s| s.input().count() as u64).sum();
+    limits.check(Limit::AnimationKeys, "keyframes over all animation samplers", keys)
 }
 
 fn decode_images(
@@ -693,8 +727,14 @@ fn decode_images(
         image
     });
     let mut out: Vec<Option<Arc<Image>>> = vec![None; used.len()];
+    // Checked as images arrive: each is already bounded by `image-bytes`, so at most one per core
+    // exists beyond the total when the import stops.
+    let mut total = 0u64;
     for ((index, ..), image) in jobs.iter().zip(decoded) {
-        out[*index] = Some(Arc::new(image?));
+        let image = image?;
+        total += image.rgba8.len() as u64;
+        options.limits.check(Limit::TotalImageBytes, "the decoded size of all images", total)?;
+        out[*index] = Some(Arc::new(image));
     }
     Ok(out)
 }

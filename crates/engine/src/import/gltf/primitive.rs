@@ -4,14 +4,12 @@
 use glam::{Vec2, Vec3, Vec4};
 use gltf::mesh::{Mode, Semantic};
 
-use super::accessor::{read_f32, read_indices};
+use super::accessor::{AccessorError, Buffers, read_f32, read_indices};
 use crate::import::ImportErrorKind;
 use crate::mesh::{Mesh, MorphTarget, Topology};
 
 /// What the primitive's material asks of its geometry.
 pub(crate) struct GeometryNeeds {
-    /// `ImportOptions::max_accessor_elements`.
-    pub max_elements: u64,
     /// UV set of the normal map, if the material has one: tangents are needed in that set.
     pub normal_map_uv_set: Option<u32>,
 }
@@ -25,23 +23,12 @@ pub(crate) enum Built {
 
 pub(crate) fn build(
     prim: &gltf::Primitive,
-    buffers: &[Vec<u8>],
+    buffers: &Buffers,
     needs: &GeometryNeeds,
     mesh_index: usize,
 ) -> Result<Built, ImportErrorKind> {
     let primitive = prim.index();
-    let acc_err = |a: &gltf::Accessor, reason: String| ImportErrorKind::Accessor { index: a.index(), reason };
-    let targets = prim.morph_targets().flat_map(|t| [t.positions(), t.normals(), t.tangents()].into_iter().flatten());
-    for a in prim.attributes().map(|(_, a)| a).chain(prim.indices()).chain(targets) {
-        if a.count() as u64 > needs.max_elements {
-            return Err(ImportErrorKind::LimitExceeded {
-                what: "an accessor's element count",
-                value: a.count() as u64,
-                limit: needs.max_elements,
-                how_to_raise: "ImportOptions::max_accessor_elements",
-            });
-        }
-    }
+    let acc_err = |a: &gltf::Accessor, e: AccessorError| e.into_kind(a.index());
     let read3 = |s: Semantic| -> Result<Option<Vec<Vec3>>, ImportErrorKind> {
         prim.get(&s)
             .map(|a| {
@@ -78,7 +65,7 @@ pub(crate) fn build(
 
     if let Some(a) = prim.get(&Semantic::Joints(0)) {
         if a.normalized() || !matches!(a.data_type(), gltf::accessor::DataType::U8 | gltf::accessor::DataType::U16) {
-            return Err(acc_err(&a, "JOINTS_0 must be unsigned bytes or shorts, not normalized".into()));
+            return Err(acc_err(&a, String::from("JOINTS_0 must be unsigned bytes or shorts, not normalized").into()));
         }
         mesh.joints =
             read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(|j| j.map(|x| x as u16)).collect();
@@ -95,7 +82,7 @@ pub(crate) fn build(
         ] {
             if let Some(a) = acc {
                 *dst = read_f32::<3>(&a, buffers)
-                    .map_err(|e| acc_err(&a, format!("morph target {target_index}: {e}")))?
+                    .map_err(|e| acc_err(&a, e.context(format!("morph target {target_index}"))))?
                     .into_iter()
                     .map(Vec3::from)
                     .collect();

@@ -7,7 +7,7 @@ use std::path::{Component, Path, PathBuf};
 use base64::Engine as _;
 
 use super::ImportOptions;
-use crate::import::ImportErrorKind;
+use crate::import::{ImportErrorKind, Limit};
 
 /// A GLB header is 12 bytes: magic, version, total length. The gltf crate subtracts 12 from the
 /// declared length without checking it, so a truncated or hostile header is refused here first.
@@ -37,7 +37,48 @@ pub(crate) enum UriError {
     OutsideFolder,
     Unsupported(String),
     Read(String),
-    TooLarge { size: u64, limit: u64 },
+    TooLarge { size: u64, max: u64, limit: Limit, what: &'static str },
+}
+
+impl std::fmt::Display for UriError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            UriError::OutsideFolder => f.write_str("the URI points outside the scene's folder"),
+            UriError::Unsupported(r) | UriError::Read(r) => f.write_str(r),
+            UriError::TooLarge { size, max, limit, what } => {
+                write!(f, "{what} is {size}, over the limit of {max} (raise it with `--limit {limit}=N`)")
+            }
+        }
+    }
+}
+
+/// How much a URI may bring in, checked before the bytes are allocated.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ReadLimit {
+    bytes: u64,
+    /// Read only the first `bytes` of a longer file rather than refusing it.
+    truncate: bool,
+    limit: Limit,
+    what: &'static str,
+}
+
+impl ReadLimit {
+    /// A glTF buffer: its byteLength, already checked against `--limit buffer-bytes`. A longer
+    /// file is legal; the rest is never used, so never read.
+    pub(crate) fn buffer(byte_length: u64) -> Self {
+        Self { bytes: byte_length, truncate: true, limit: Limit::BufferBytes, what: "a buffer's size" }
+    }
+
+    /// An encoded image file.
+    pub(crate) fn image(options: &ImportOptions) -> Self {
+        let bytes = options.limits.image_bytes;
+        Self { bytes, truncate: false, limit: Limit::ImageBytes, what: "an image file's size" }
+    }
+
+    /// Any other referenced file (an IES profile).
+    pub(crate) fn file(options: &ImportOptions, what: &'static str) -> Self {
+        Self { bytes: options.limits.buffer_bytes, truncate: false, limit: Limit::BufferBytes, what }
+    }
 }
 
 impl UriError {
@@ -46,20 +87,22 @@ impl UriError {
         match self {
             UriError::OutsideFolder => ImportErrorKind::UriOutsideFolder { uri: uri.to_owned() },
             UriError::Unsupported(r) | UriError::Read(r) => make(r),
-            UriError::TooLarge { size, limit } => ImportErrorKind::LimitExceeded {
-                what: "a data URI's decoded size",
-                value: size,
-                limit,
-                how_to_raise: "ImportOptions::max_data_uri_bytes",
-            },
+            UriError::TooLarge { size, max, limit, what } => {
+                ImportErrorKind::LimitExceeded { what, value: size, limit: max, name: limit }
+            }
         }
     }
 }
 
 /// Reads what `uri` names, relative to `base_dir`.
-pub(crate) fn read_uri(base_dir: &Path, uri: &str, options: &ImportOptions) -> Result<Vec<u8>, UriError> {
+pub(crate) fn read_uri(
+    base_dir: &Path,
+    uri: &str,
+    options: &ImportOptions,
+    read_limit: ReadLimit,
+) -> Result<Vec<u8>, UriError> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        return decode_data_uri(rest, options.max_data_uri_bytes);
+        return decode_data_uri(rest, options.limits.data_uri_bytes);
     }
     if has_scheme(uri) {
         return Err(UriError::Unsupported(format!(
@@ -70,7 +113,26 @@ pub(crate) fn read_uri(base_dir: &Path, uri: &str, options: &ImportOptions) -> R
         .decode_utf8()
         .map_err(|_| UriError::Read("URI is not valid UTF-8 after percent-decoding".into()))?;
     let path = resolve_inside(base_dir, &decoded, options.allow_outside_folder)?;
-    std::fs::read(&path).map_err(|e| UriError::Read(format!("cannot read {}: {e}", path.display())))
+    read_file(&path, read_limit)
+}
+
+/// Reads at most `limit.bytes` of `path` (a device or a 100 GB file must not be read whole).
+pub(crate) fn read_file(path: &Path, limit: ReadLimit) -> Result<Vec<u8>, UriError> {
+    use std::io::Read;
+    let read_err = |e: std::io::Error| UriError::Read(format!("cannot read {}: {e}", path.display()));
+    let file = std::fs::File::open(path).map_err(read_err)?;
+    let size = file.metadata().map_err(read_err)?.len();
+    if !limit.truncate && size > limit.bytes {
+        return Err(UriError::TooLarge { size, max: limit.bytes, limit: limit.limit, what: limit.what });
+    }
+    let mut out = Vec::new();
+    // `+ 1` notices a file that grew, or a device whose metadata says 0 bytes.
+    let cap = if limit.truncate { limit.bytes } else { limit.bytes.saturating_add(1) };
+    file.take(cap).read_to_end(&mut out).map_err(read_err)?;
+    if out.len() as u64 > limit.bytes {
+        return Err(UriError::TooLarge { size: out.len() as u64, max: limit.bytes, limit: limit.limit, what: limit.what });
+    }
+    Ok(out)
 }
 
 fn has_scheme(uri: &str) -> bool {
@@ -95,7 +157,7 @@ fn decode_data_uri(rest: &str, limit: u64) -> Result<Vec<u8>, UriError> {
     // Base64 expands 3 bytes to 4: check the bound before allocating.
     let size = payload.len() as u64 / 4 * 3;
     if size > limit {
-        return Err(UriError::TooLarge { size, limit });
+        return Err(UriError::TooLarge { size, max: limit, limit: Limit::DataUriBytes, what: "a data URI's decoded size" });
     }
     base64::engine::general_purpose::STANDARD
         .decode(payload.trim_end())
@@ -123,14 +185,19 @@ pub(crate) fn resolve_inside(base_dir: &Path, relative: &str, allow_outside: boo
             return Err(UriError::OutsideFolder);
         }
     }
-    // Then symlinks: the real path must still be under the real folder.
-    if let (Ok(real), Ok(real_base)) = (joined.canonicalize(), base_dir.canonicalize()) {
-        if !real.starts_with(&real_base) {
-            return Err(UriError::OutsideFolder);
-        }
-        return Ok(real);
+    // Then symlinks: the real path must still be under the real folder. A scene named without a
+    // folder (`penumbra view scene.gltf`) has the empty path as its folder: that is ".".
+    let base = if base_dir.as_os_str().is_empty() { Path::new(".") } else { base_dir };
+    let real_base =
+        base.canonicalize().map_err(|e| UriError::Read(format!("cannot resolve the folder {}: {e}", base.display())))?;
+    let real = base
+        .join(rel)
+        .canonicalize()
+        .map_err(|e| UriError::Read(format!("cannot read {}: {e}", joined.display())))?;
+    if !real.starts_with(&real_base) {
+        return Err(UriError::OutsideFolder);
     }
-    Ok(joined)
+    Ok(real)
 }
 
 #[cfg(test)]
@@ -143,7 +210,35 @@ mod tests {
         assert!(matches!(resolve_inside(base, "../etc/passwd", false), Err(UriError::OutsideFolder)));
         assert!(matches!(resolve_inside(base, "a/../../b", false), Err(UriError::OutsideFolder)));
         assert!(matches!(resolve_inside(base, "/etc/passwd", false), Err(UriError::OutsideFolder)));
-        assert!(resolve_inside(base, "a/../b.bin", false).is_ok());
+        assert!(matches!(resolve_inside(base, "a/../b.bin", false), Err(UriError::Read(_))), "missing, not outside");
+    }
+
+    #[test]
+    fn symlinks_out_of_the_folder_are_refused() {
+        let dir = std::env::temp_dir().join(format!("penumbra-symlink-{}", std::process::id()));
+        let inner = dir.join("scene");
+        std::fs::create_dir_all(&inner).unwrap();
+        std::fs::write(dir.join("secret.bin"), b"secret").unwrap();
+        std::fs::write(inner.join("ok.bin"), b"ok").unwrap();
+        let _ = std::fs::remove_file(inner.join("link.bin"));
+        std::os::unix::fs::symlink(dir.join("secret.bin"), inner.join("link.bin")).unwrap();
+        assert!(matches!(resolve_inside(&inner, "link.bin", false), Err(UriError::OutsideFolder)));
+        assert!(resolve_inside(&inner, "link.bin", true).is_ok(), "allowed by the flag");
+        assert!(resolve_inside(&inner, "ok.bin", false).is_ok());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn reads_stop_at_the_limit() {
+        let path = std::env::temp_dir().join(format!("penumbra-read-limit-{}", std::process::id()));
+        std::fs::write(&path, [7u8; 100]).unwrap();
+        assert_eq!(read_file(&path, ReadLimit::buffer(10)).unwrap().len(), 10, "a buffer reads its byteLength");
+        let mut options = ImportOptions::default();
+        options.limits.image_bytes = 99;
+        assert!(matches!(read_file(&path, ReadLimit::image(&options)), Err(UriError::TooLarge { size: 100, .. })));
+        options.limits.image_bytes = 100;
+        assert_eq!(read_file(&path, ReadLimit::image(&options)).unwrap().len(), 100);
+        std::fs::remove_file(&path).unwrap();
     }
 
     #[test]
@@ -157,7 +252,7 @@ mod tests {
     #[test]
     fn data_uris_decode_and_respect_the_limit() {
         let opts = ImportOptions::default();
-        assert_eq!(read_uri(Path::new("."), "data:application/octet-stream;base64,AAEC", &opts).unwrap(), [0, 1, 2]);
+        assert_eq!(read_uri(Path::new("."), "data:application/octet-stream;base64,AAEC", &opts, ReadLimit::buffer(3)).unwrap(), [0, 1, 2]);
         assert!(matches!(decode_data_uri(";base64,AAAAAAAA", 3), Err(UriError::TooLarge { .. })));
     }
 

@@ -74,7 +74,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
         {
             bail!("{}: {gi_size:?}, but the direct reference is {size:?}", s.gi.as_ref().unwrap().display());
         }
-        let file = scene::load(Some(&s.path), &SceneArgs { scene_index: None, allow_outside_folder: false })?;
+        let file = scene::load(Some(&s.path), &SceneArgs::default())?;
         for &preset in &args.presets {
             bar.set_message(format!("{} at {preset}", s.name));
             let settings = RenderSettings { clear_color: [0.0; 3], gpu_timing: true, ..preset.settings() };
@@ -222,7 +222,7 @@ mod tests {
     #[test]
     fn the_cpu_tonemap_matches_the_tonemap_pass() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/reference/scenes/spheres.gltf");
-        let file = scene::load(Some(&path), &SceneArgs { scene_index: None, allow_outside_folder: false }).unwrap();
+        let file = scene::load(Some(&path), &SceneArgs::default()).unwrap();
         let ctx = GpuContext::new_headless(&AdapterRequest::default()).unwrap_or_else(|e| panic!("{e}"));
         let renderer = Renderer::new(ctx, RenderSettings { msaa: 1, ..Default::default() }).unwrap();
         let shot = ShotSettings {
