@@ -41,7 +41,7 @@
 
 pub use penumbra_engine as engine;
 pub use penumbra_render as render;
-pub use penumbra_viewer::window;
+pub use penumbra_viewer::{soak, window};
 
 use std::path::PathBuf;
 

@@ -69,3 +69,35 @@ fn a_scene_instance_moves_clones_and_despawns_as_a_whole() {
     assert_eq!(app.world.resource::<Renderer>().stats().instances * 2, drawn);
     assert!(clone_scene(&mut app.world, root).is_none(), "a despawned root is not cloned");
 }
+
+#[test]
+fn unloading_an_instance_removes_its_entities_and_assets_and_leaves_the_others() {
+    let mut app = common::scene_app();
+    let path = common::asset("BoxTextured/BoxTextured.glb");
+    let options = ImportOptions::default();
+    let first = load_scene(&mut app.world, &path, &options).unwrap();
+    let (meshes, materials, images) = (
+        app.world.resource::<Assets<Mesh>>().len(),
+        app.world.resource::<Assets<StandardMaterial>>().len(),
+        app.world.resource::<Assets<Image>>().len(),
+    );
+    assert!(meshes > 0 && materials > 0 && images > 0);
+    let entities = count::<With<Transform>>(&mut app.world);
+    let second = clone_scene(&mut app.world, first).unwrap();
+    let frame_both = common::render_app(&mut app, (48, 48), Default::default());
+    assert!(unload_scene(&mut app.world, first));
+    assert_eq!(count::<With<Transform>>(&mut app.world), entities, "only the second instance's entities remain");
+    assert_eq!(app.world.resource::<Assets<Mesh>>().len(), meshes);
+    assert_eq!(app.world.resource::<Assets<StandardMaterial>>().len(), materials);
+    assert_eq!(app.world.resource::<Assets<Image>>().len(), images);
+    // The survivor still draws exactly as before (both instances sat in the same place).
+    assert_eq!(common::render_app(&mut app, (48, 48), Default::default()), frame_both);
+    assert!(unload_scene(&mut app.world, second));
+    assert_eq!(count::<With<Transform>>(&mut app.world), 0);
+    assert!(app.world.resource::<Assets<Mesh>>().is_empty());
+    assert!(app.world.resource::<Assets<StandardMaterial>>().is_empty());
+    assert!(app.world.resource::<Assets<Image>>().is_empty());
+    assert!(!unload_scene(&mut app.world, second), "already gone");
+    common::render_app(&mut app, (48, 48), Default::default());
+    assert_eq!(app.world.resource::<Renderer>().memory().textures, 0, "the GPU textures went with the images");
+}

@@ -63,7 +63,9 @@ pub mod prelude {
     pub use crate::gizmos::Gizmos;
     pub use crate::ies::IesProfile;
     pub use crate::image::Image;
-    pub use crate::import::{ImportError, ImportOptions, SceneFile, clone_scene, load_scene, spawn_instance};
+    pub use crate::import::{
+        ImportError, ImportOptions, SceneFile, clone_scene, load_scene, spawn_instance, unload_scene,
+    };
     pub use crate::material::{AlphaMode, StandardMaterial, TextureRef};
     pub use crate::mesh::{Mesh, MorphTarget, Topology};
     pub use crate::time::{Time, TimeMode};

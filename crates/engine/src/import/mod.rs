@@ -22,6 +22,12 @@ pub use limits::{ImportLimits, Limit};
 pub use obj::ObjScene;
 pub use progress::{ImportProgress, ImportStage, ProgressSnapshot};
 
+/// Decodes one texture image (PNG or JPEG) as the importers do, under `options.limits`: the
+/// entry point of the image fuzz target, and for tools that load textures outside a scene.
+pub fn decode_texture(bytes: &[u8], label: &str, options: &ImportOptions) -> Result<crate::image::Image, ImportErrorKind> {
+    gltf::images::decode(bytes, 0, label, label.to_owned(), options)
+}
+
 /// A decoded scene file of any supported format: what phase one of an import produces.
 #[derive(Debug, Clone)]
 pub enum SceneFile {
@@ -114,6 +120,37 @@ pub fn spawn_instance(world: &mut World, scene: &Arc<SceneFile>) -> Entity {
     let root = scene.spawn(world);
     world.entity_mut(root).insert(SceneSource(scene.clone()));
     root
+}
+
+/// The assets one spawned scene instance added (every spawn adds its own handles, sharing the
+/// decoded data by `Arc`), on the instance's root: what [`unload_scene`] removes.
+#[derive(bevy_ecs::component::Component, Debug, Clone, Default)]
+pub struct SceneAssets {
+    pub meshes: Vec<crate::assets::Handle<crate::mesh::Mesh>>,
+    pub materials: Vec<crate::assets::Handle<crate::material::StandardMaterial>>,
+    pub images: Vec<crate::assets::Handle<crate::image::Image>>,
+    pub ies_profiles: Vec<crate::assets::Handle<crate::ies::IesProfile>>,
+}
+
+/// Despawns a scene instance (its root and every descendant) and removes the assets it added,
+/// so that loading and unloading scenes for hours keeps memory flat. A handle taken from the
+/// scene and used elsewhere goes stale with it (drawing skips a stale mesh or material); clone
+/// the asset first to keep it. Returns whether `root` was a scene root.
+pub fn unload_scene(world: &mut World, root: Entity) -> bool {
+    let Some(assets) = world.get::<SceneAssets>(root).cloned() else { return false };
+    world.despawn(root);
+    fn remove_all<T: Send + Sync + 'static>(world: &mut World, handles: &[crate::assets::Handle<T>]) {
+        if let Some(mut store) = world.get_resource_mut::<crate::assets::Assets<T>>() {
+            for &h in handles {
+                let _ = store.remove(h);
+            }
+        }
+    }
+    remove_all(world, &assets.meshes);
+    remove_all(world, &assets.materials);
+    remove_all(world, &assets.images);
+    remove_all(world, &assets.ies_profiles);
+    true
 }
 
 /// Loads a scene file (`.gltf`, `.glb` or `.obj`) and spawns it under a new root entity. The

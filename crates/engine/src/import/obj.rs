@@ -115,8 +115,14 @@ impl ObjScene {
             (handles, default)
         };
         let root = SceneRoot::spawn(world, &self.path, None);
+        let mut added = super::SceneAssets {
+            materials: materials.iter().copied().chain([default_material]).collect(),
+            images: images.clone(),
+            ..Default::default()
+        };
         for (name, mesh, material) in &self.objects {
             let mesh = world.resource_mut::<Assets<Mesh>>().add_arc(mesh.clone());
+            added.meshes.push(mesh);
             let material = material.and_then(|m| materials.get(m).copied()).unwrap_or(default_material);
             world.spawn((
                 Name::new(name.clone()),
@@ -126,6 +132,7 @@ impl ObjScene {
                 ChildOf(root),
             ));
         }
+        world.entity_mut(root).insert(added);
         root
     }
 }

@@ -166,6 +166,15 @@ impl ShaderLibrary {
         Self::from_sources(None, sources)
     }
 
+    /// The embedded shaders with `file`'s source replaced by `source` (an edit, as a reload would
+    /// see it, without a folder): for tests and the composer's fuzz target.
+    pub fn embedded_with(file: &str, source: &str) -> Result<Self, ShaderError> {
+        let mut sources: BTreeMap<String, String> =
+            EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
+        sources.insert(file.to_owned(), source.to_owned());
+        Self::from_sources(None, sources)
+    }
+
     /// Every `*.wgsl` in `dir`; files missing there are taken from the embedded set.
     pub fn from_dir(dir: &Path) -> Result<Self, ShaderError> {
         let mut sources: BTreeMap<String, String> =

@@ -169,6 +169,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.path.as_deref().is_some_and(|p| p == std::path::Path::new("shadows") && !p.exists()) {
         return super::bench_shadows::run(&args);
     }
+    if args.path.as_deref().is_some_and(|p| p == std::path::Path::new("soak") && !p.exists()) {
+        return super::bench_soak::run(&args);
+    }
     let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
     let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
     shot.validate()?;

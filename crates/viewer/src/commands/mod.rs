@@ -5,6 +5,7 @@ pub mod bench_cubes;
 pub mod bench_lights;
 pub mod bench_reload;
 pub mod bench_shadows;
+pub mod bench_soak;
 pub mod gif;
 pub mod render;
 pub mod report;

@@ -199,6 +199,12 @@ impl GltfScene {
                 .collect()
         };
         let root = SceneRoot::spawn(world, &self.path, self.scene_index);
+        world.entity_mut(root).insert(super::SceneAssets {
+            meshes: mesh_handles.iter().flatten().map(|(h, _)| *h).collect(),
+            materials: material_handles.iter().copied().chain([default_material]).collect(),
+            images: image_handles.iter().flatten().copied().collect(),
+            ies_profiles: ies_handles.clone(),
+        });
         let ctx = SpawnCtx {
             scene: self,
             meshes: &mesh_handles,

@@ -1,0 +1,19 @@
+//! Image bytes through Penumbra's decoders: textures (PNG, JPEG via zune-jpeg or the image
+//! crate) under the import limits, and environment maps (Radiance .hdr, OpenEXR). The first
+//! byte picks the path.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use penumbra_engine::environment::EnvironmentImage;
+use penumbra_engine::import::{ImportOptions, decode_texture};
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&pick, bytes)) = data.split_first() else { return };
+    if pick & 1 == 0 {
+        let mut options = ImportOptions::default();
+        options.limits.image_bytes = 64 << 20;
+        let _ = decode_texture(bytes, "fuzz.png", &options);
+    } else {
+        let _ = EnvironmentImage::from_bytes(bytes, "fuzz.hdr");
+    }
+});
