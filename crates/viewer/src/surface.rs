@@ -1,7 +1,12 @@
 //! [`WindowSurface`]: a window, its wgpu surface and the GPU context made for it; shared by the
 //! `penumbra view` viewer and [`crate::window::WindowRunner`]. The surface's size follows the
 //! window's physical size (HiDPI-correct); a minimised (0×0) window keeps its configuration and
-//! hands out no images until restored; an outdated or lost surface is reconfigured.
+//! hands out no images until restored; an outdated surface is reconfigured and a lost one is
+//! created anew from the window.
+//!
+//! Fault injection: with `PENUMBRA_DEBUG_SURFACE_LOSS=N` in the environment every Nth image
+//! request reports the surface lost (as a driver does after a display change), so that tests
+//! exercise the recovery path on any machine (`crates/viewer/tests/window.rs`).
 
 use std::sync::Arc;
 
@@ -14,8 +19,34 @@ pub struct WindowSurface {
     pub window: Arc<Window>,
     pub surface: wgpu::Surface<'static>,
     pub config: wgpu::SurfaceConfiguration,
+    /// Kept to create the surface again when it is lost.
+    instance: wgpu::Instance,
     /// False while the window is minimised.
     visible: bool,
+    /// `PENUMBRA_DEBUG_SURFACE_LOSS`: report every Nth request as lost.
+    fault_every: Option<u64>,
+    requests: u64,
+    /// Times the surface was lost and created again.
+    pub recreated: u64,
+}
+
+/// What an image request's answer asks of the surface.
+#[derive(Debug, PartialEq, Eq)]
+enum Recovery {
+    /// Nothing: skip this frame (timeout, occluded).
+    Skip,
+    /// Configure again (outdated: the window changed under it).
+    Reconfigure,
+    /// Create the surface anew from the window (lost).
+    Recreate,
+}
+
+fn recovery(status: &wgpu::CurrentSurfaceTexture) -> Recovery {
+    match status {
+        wgpu::CurrentSurfaceTexture::Outdated => Recovery::Reconfigure,
+        wgpu::CurrentSurfaceTexture::Lost => Recovery::Recreate,
+        _ => Recovery::Skip,
+    }
 }
 
 impl WindowSurface {
@@ -34,6 +65,7 @@ impl WindowSurface {
             GpuContext::instance_descriptor(&request).with_display_handle(Box::new(event_loop.owned_display_handle()));
         let instance = wgpu::Instance::new(desc);
         let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
+        let keep = instance.clone();
         let ctx = GpuContext::with_instance(instance, &request, Some(&surface))?;
         let size = window.inner_size();
         let caps = surface.get_capabilities(&ctx.adapter);
@@ -52,7 +84,21 @@ impl WindowSurface {
             view_formats: if linear_view { vec![format.remove_srgb_suffix()] } else { Vec::new() },
         };
         surface.configure(&ctx.device, &config);
-        Ok((WindowSurface { window, surface, config, visible: true }, ctx))
+        let fault_every = std::env::var("PENUMBRA_DEBUG_SURFACE_LOSS").ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0);
+        if let Some(n) = fault_every {
+            tracing::warn!("PENUMBRA_DEBUG_SURFACE_LOSS: every {n}th surface image request will report the surface lost");
+        }
+        let surface = WindowSurface {
+            window,
+            surface,
+            config,
+            instance: keep,
+            visible: true,
+            fault_every,
+            requests: 0,
+            recreated: 0,
+        };
+        Ok((surface, ctx))
     }
 
     /// Follows a window resize; 0×0 (minimised) stops handing out images until restored.
@@ -78,18 +124,52 @@ impl WindowSurface {
     }
 
     /// The next swap-chain image, or `None` this frame (minimised, timed out, occluded, or the
-    /// surface was outdated or lost and has been reconfigured for the next one).
+    /// surface was outdated or lost and has been reconfigured or recreated for the next one).
     pub fn acquire(&mut self, device: &wgpu::Device) -> Option<wgpu::SurfaceTexture> {
         if !self.visible {
             return None;
         }
-        match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => Some(t),
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                self.surface.configure(device, &self.config);
-                None
-            }
-            _ => None,
+        self.requests += 1;
+        let injected = self.fault_every.is_some_and(|n| self.requests.is_multiple_of(n));
+        let status = if injected { wgpu::CurrentSurfaceTexture::Lost } else { self.surface.get_current_texture() };
+        let action = match status {
+            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => return Some(t),
+            other => recovery(&other),
+        };
+        match action {
+            Recovery::Skip => {}
+            Recovery::Reconfigure => self.surface.configure(device, &self.config),
+            Recovery::Recreate => self.recreate(device),
         }
+        None
+    }
+
+    /// A lost surface cannot be configured again (wgpu's contract): make a new one for the same
+    /// window. If that fails the old one stays and the next frame tries again.
+    fn recreate(&mut self, device: &wgpu::Device) {
+        match self.instance.create_surface(self.window.clone()) {
+            Ok(surface) => {
+                // The assignment drops the old surface (and its swap chain) before the new one
+                // is configured: a window has one swap chain at a time.
+                self.surface = surface;
+                self.surface.configure(device, &self.config);
+                self.recreated += 1;
+                tracing::info!("the window surface was lost; created it again ({} times so far)", self.recreated);
+            }
+            Err(e) => tracing::error!("the window surface was lost and cannot be created again yet: {e}"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lost_surfaces_are_recreated_and_outdated_ones_reconfigured() {
+        assert_eq!(recovery(&wgpu::CurrentSurfaceTexture::Lost), Recovery::Recreate);
+        assert_eq!(recovery(&wgpu::CurrentSurfaceTexture::Outdated), Recovery::Reconfigure);
+        assert_eq!(recovery(&wgpu::CurrentSurfaceTexture::Timeout), Recovery::Skip);
+        assert_eq!(recovery(&wgpu::CurrentSurfaceTexture::Occluded), Recovery::Skip);
     }
 }

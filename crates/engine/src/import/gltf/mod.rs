@@ -549,6 +549,19 @@ fn check_skinned_meshes(
 fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
     use gltf::json::validation::Validate;
     let root = document.as_json();
+    // The gltf crate unwraps an image's source: a bufferView needs a mimeType, and one of the two
+    // must be there (found by fuzzing; gltf-json's validation checks neither).
+    for (i, image) in root.images.iter().enumerate() {
+        let problem = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => Some("has neither a uri nor a bufferView"),
+            (Some(_), Some(_), _) => Some("has both a uri and a bufferView"),
+            (None, Some(_), None) => Some("has a bufferView but no mimeType"),
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            return Err(ImportErrorKind::Invalid(format!("images[{i}] {problem}")));
+        }
+    }
     // gltf-json's own primitive check indexes `accessors` with POSITION unchecked (a panic on an
     // out-of-range index): check every attribute index first.
     for (m, mesh) in root.meshes.iter().enumerate() {
@@ -564,13 +577,22 @@ fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
         }
     }
     let mut errors = Vec::new();
-    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+    let mut report = |path: &dyn Fn() -> gltf::json::Path, error| {
         let path = path().to_string();
         // Required extensions were checked against Penumbra's own list already.
         if !path.starts_with("extensionsRequired") {
             errors.push(format!("{path}: {error}"));
         }
-    });
+    };
+    root.validate(root, gltf::json::Path::new, &mut report);
+    // gltf-json does not validate animation channel targets (node index, path); the gltf crate
+    // unwraps them (found by fuzzing).
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let at = || gltf::json::Path::new().field("animations").index(a).field("channels").index(c).field("target");
+            channel.target.validate(root, at, &mut report);
+        }
+    }
     if errors.is_empty() {
         return Ok(());
     }
