@@ -283,8 +283,7 @@ fn an_out_of_range_position_accessor_is_an_error_not_a_panic() {
 #[test]
 fn one_accessor_reused_by_many_primitives_meets_the_totals() {
     let prims = vec![r#"{"attributes": {"POSITION": 0}}"#; 50].join(",");
-    let json = triangle_json("triangle.bin", "")
-        .replace(r#"[{"attributes": {"POSITION": 0}}]"#, &format!("[{prims}]"));
+    let json = triangle_json("triangle.bin", "").replace(r#"[{"attributes": {"POSITION": 0}}]"#, &format!("[{prims}]"));
     let path = write_scene("reused", &json, true);
     // 150 vertices declared; 50 × 36 bytes decoded.
     assert_limit(&load_expecting_error_with(&path, &with_limit("vertices=149")), Limit::Vertices);
@@ -297,9 +296,11 @@ fn one_accessor_reused_by_many_primitives_meets_the_totals() {
 #[test]
 fn deep_hierarchies_are_refused_past_the_node_depth_limit() {
     let chain = |n: usize| {
-        let nodes: Vec<String> =
-            (0..n).map(|i| if i + 1 < n { format!(r#"{{"children": [{}]}}"#, i + 1) } else { r#"{"mesh": 0}"#.into() }).collect();
-        triangle_json("triangle.bin", "").replace(r#""nodes": [{"mesh": 0}]"#, &format!(r#""nodes": [{}]"#, nodes.join(",")))
+        let nodes: Vec<String> = (0..n)
+            .map(|i| if i + 1 < n { format!(r#"{{"children": [{}]}}"#, i + 1) } else { r#"{"mesh": 0}"#.into() })
+            .collect();
+        triangle_json("triangle.bin", "")
+            .replace(r#""nodes": [{"mesh": 0}]"#, &format!(r#""nodes": [{}]"#, nodes.join(",")))
     };
     let err = load_expecting_error(&write_scene("deep", &chain(1100), true));
     assert_limit(&err, Limit::NodeDepth);
@@ -312,7 +313,8 @@ fn deep_hierarchies_are_refused_past_the_node_depth_limit() {
 
 #[test]
 fn a_scene_listing_a_root_twice_is_refused() {
-    let json = triangle_json("triangle.bin", "").replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [0, 0]}]"#);
+    let json =
+        triangle_json("triangle.bin", "").replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [0, 0]}]"#);
     let err = load_expecting_error(&write_scene("tworoots", &json, true));
     assert!(matches!(err.kind, ImportErrorKind::Hierarchy(_)), "{err}");
 }
@@ -327,8 +329,11 @@ fn animation_keys_buffer_sizes_and_image_files_have_limits() {
     let path = write_scene("bufbytes", &triangle_json("triangle.bin", ""), true);
     assert_limit(&load_expecting_error_with(&path, &with_limit("buffer-bytes=35")), Limit::BufferBytes);
 
-    let textured = triangle_json("triangle.bin", r#""images": [{"uri": "big.png"}], "textures": [{"source": 0}],
-        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],"#)
+    let textured = triangle_json(
+        "triangle.bin",
+        r#""images": [{"uri": "big.png"}], "textures": [{"source": 0}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],"#,
+    )
     .replace(r#"{"attributes": {"POSITION": 0}}"#, r#"{"attributes": {"POSITION": 0}, "material": 0}"#);
     let path = write_scene("imagebytes", &textured, true);
     std::fs::write(path.parent().unwrap().join("big.png"), vec![0u8; 4096]).unwrap();

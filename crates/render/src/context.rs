@@ -6,6 +6,7 @@
 //! same context; a window passes its surface so that only adapters able to present are chosen.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What to install when no adapter is found: the message every caller (CLI, tests) prints.
 pub const INSTALL_HINT: &str = "no GPU adapter found. Penumbra needs a Vulkan driver (or GL through EGL). \
@@ -41,6 +42,10 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     pub info: Arc<wgpu::AdapterInfo>,
     pub caps: Capabilities,
+    /// Set by the device-lost callback (a driver reset, a removed GPU, `Device::destroy`).
+    lost: Arc<AtomicBool>,
+    /// How the adapter was chosen, to choose again after a loss.
+    request: AdapterRequest,
 }
 
 /// How to pick the adapter.
@@ -121,6 +126,23 @@ impl GpuContext {
         }))
         .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?;
         tracing::info!("GPU: {} ({:?}, {:?}, driver {})", info.name, info.backend, info.device_type, info.driver_info);
+        let lost = Arc::new(AtomicBool::new(false));
+        let flag = lost.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            flag.store(true, Ordering::Release);
+            tracing::error!("the GPU device was lost ({reason:?}): {message}");
+        });
+        // wgpu's default handler panics on any uncaptured error, which is right for Penumbra's
+        // own bugs; once the device is lost every call fails, and those failures are expected
+        // until the renderer replaces the device.
+        let flag = lost.clone();
+        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            if flag.load(Ordering::Acquire) {
+                tracing::debug!("on a lost device: {error}");
+            } else {
+                panic!("wgpu error: {error}");
+            }
+        }));
         Ok(Self {
             instance,
             adapter,
@@ -128,7 +150,20 @@ impl GpuContext {
             queue,
             info: Arc::new(info),
             caps: Capabilities { timestamps, indirect_first_instance },
+            lost,
+            request: request.clone(),
         })
+    }
+
+    /// Whether the device was lost; a lost device never comes back (make a new context).
+    pub fn is_lost(&self) -> bool {
+        self.lost.load(Ordering::Acquire)
+    }
+
+    /// A new headless context chosen as this one was: what a renderer without a window uses to
+    /// recover from a lost device.
+    pub fn recreate_headless(&self) -> Result<Self, ContextError> {
+        Self::new_headless(&self.request)
     }
 
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)".

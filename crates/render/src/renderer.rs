@@ -329,6 +329,8 @@ pub enum RendererError {
     Settings(#[from] SettingsError),
     #[error(transparent)]
     Readback(#[from] ReadbackError),
+    #[error(transparent)]
+    Context(#[from] crate::context::ContextError),
 }
 
 /// 8× anisotropic filtering keeps textures sharp at grazing angles on GPUs, where it is nearly
@@ -407,6 +409,8 @@ pub struct Renderer {
     deferred_params: wgpu::Buffer,
     /// The last binning refusal, reported once until it changes.
     binning_error: Option<BinningTooLarge>,
+    /// Devices lost and replaced so far.
+    device_losses: u32,
 }
 
 impl Renderer {
@@ -491,9 +495,48 @@ impl Renderer {
             deferred_lights: false,
             deferred_params: deferred_lights::params_buffer(&ctx.device),
             binning_error: None,
+            device_losses: 0,
             settings,
             ctx,
         })
+    }
+
+    /// Whether the GPU device is lost: nothing renders until [`Renderer::replace_device`] (the
+    /// headless path does it by itself; a window must make a new surface first).
+    pub fn is_device_lost(&self) -> bool {
+        // A non-blocking poll first: wgpu reports a destroyed device's loss from its maintenance,
+        // not from `destroy` itself.
+        let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+        self.ctx.is_lost()
+    }
+
+    /// How many lost devices this renderer has replaced.
+    pub fn device_losses(&self) -> u32 {
+        self.device_losses
+    }
+
+    /// Starts again on `ctx` after a device loss: every GPU resource is made anew from the
+    /// render world, which the first frame then syncs in full (it missed the change lists), so
+    /// the scene comes back as it was. Settings and the shader source stay.
+    pub fn replace_device(&mut self, ctx: GpuContext) -> Result<(), RendererError> {
+        let mut fresh = Renderer::new(ctx, self.settings.clone())?;
+        fresh.device_losses = self.device_losses + 1;
+        fresh.gizmos = std::mem::take(&mut self.gizmos);
+        *self = fresh;
+        tracing::info!("rendering again on a new device ({} lost so far)", self.device_losses);
+        Ok(())
+    }
+
+    /// A headless renderer's recovery: a new device chosen as the old one was. `false` while
+    /// none can be had (the next frame tries again).
+    fn recover_headless(&mut self) -> bool {
+        match self.ctx.recreate_headless().map_err(RendererError::from).and_then(|ctx| self.replace_device(ctx)) {
+            Ok(()) => true,
+            Err(e) => {
+                tracing::error!("the GPU device was lost and cannot be replaced yet: {e}");
+                false
+            }
+        }
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -649,11 +692,17 @@ impl Renderer {
 
     /// Renders into the renderer's own offscreen output (`Rgba8UnormSrgb`) of `size`.
     pub fn render_headless(&mut self, scene: &RenderScene, size: (u32, u32)) {
+        if self.is_device_lost() && !self.recover_headless() {
+            return;
+        }
+        // A 0×0 request draws into a 1×1 texture: compare with what was made, or it is made again
+        // every frame.
+        let size = (size.0.max(1), size.1.max(1));
         let needs_new = self.headless.as_ref().is_none_or(|(t, _)| (t.width(), t.height()) != size);
         if needs_new {
             let texture = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("headless output"),
-                size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
+                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,

@@ -627,7 +627,8 @@ mod limit_help_tests {
     fn limit_help_lists_every_limit_with_its_true_default() {
         let defaults = ImportLimits::default();
         let mut seen = Vec::new();
-        for setting in super::LIMIT_HELP.lines().filter_map(|l| l.strip_prefix("  ")).map(|l| l.split(' ').next().unwrap())
+        for setting in
+            super::LIMIT_HELP.lines().filter_map(|l| l.strip_prefix("  ")).map(|l| l.split(' ').next().unwrap())
         {
             let mut parsed = ImportLimits { vertices: 0, ..defaults };
             parsed.apply(setting).unwrap();

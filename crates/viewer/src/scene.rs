@@ -11,8 +11,11 @@ const DEFAULT_SCENE: &[u8] = include_bytes!("../../../assets/DamagedHelmet.glb")
 pub const DEFAULT_SCENE_NAME: &str = "<embedded>/DamagedHelmet.glb";
 
 pub fn options(args: &SceneArgs) -> ImportOptions {
-    let mut options =
-        ImportOptions { scene: args.scene_index, allow_outside_folder: args.allow_outside_folder, ..Default::default() };
+    let mut options = ImportOptions {
+        scene: args.scene_index,
+        allow_outside_folder: args.allow_outside_folder,
+        ..Default::default()
+    };
     for setting in &args.limits {
         // Checked when the command line was parsed.
         if let Err(e) = options.limits.apply(setting) {

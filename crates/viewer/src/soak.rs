@@ -169,7 +169,8 @@ impl Soak {
         let world = &mut self.app.world;
         let entity = match kind {
             0 => {
-                let light = PointLight { intensity: 20.0 + self.rng as f32 % 50.0, range: Some(3.0), ..Default::default() };
+                let light =
+                    PointLight { intensity: 20.0 + self.rng as f32 % 50.0, range: Some(3.0), ..Default::default() };
                 world.spawn((light, Transform::from_translation(position))).id()
             }
             1 => {
@@ -183,7 +184,8 @@ impl Soak {
                 } else {
                     Mesh::cuboid(Vec3::new(0.2 + self.next() * 0.4, 0.2 + self.next() * 0.4, 0.3))
                 };
-                let mut material = StandardMaterial::from_color(Vec4::new(self.next(), self.next(), self.next(), 1.0), 0.5);
+                let mut material =
+                    StandardMaterial::from_color(Vec4::new(self.next(), self.next(), self.next(), 1.0), 0.5);
                 if let Some(&image) = self.textures.back() {
                     material.base_color_texture = Some(TextureRef::new(image));
                 }

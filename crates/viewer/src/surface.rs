@@ -4,9 +4,12 @@
 //! hands out no images until restored; an outdated surface is reconfigured and a lost one is
 //! created anew from the window.
 //!
-//! Fault injection: with `PENUMBRA_DEBUG_SURFACE_LOSS=N` in the environment every Nth image
-//! request reports the surface lost (as a driver does after a display change), so that tests
-//! exercise the recovery path on any machine (`crates/viewer/tests/window.rs`).
+//! After a device loss, [`WindowSurface::replace_device`] makes a new device for the same window.
+//!
+//! Fault injection, so that tests exercise both recovery paths on any machine
+//! (`crates/viewer/tests/window.rs`): with `PENUMBRA_DEBUG_SURFACE_LOSS=N` in the environment
+//! every Nth image request reports the surface lost (as a driver does after a display change);
+//! with `PENUMBRA_DEBUG_DEVICE_LOSS=N` the Nth request destroys the GPU device.
 
 use std::sync::Arc;
 
@@ -21,10 +24,14 @@ pub struct WindowSurface {
     pub config: wgpu::SurfaceConfiguration,
     /// Kept to create the surface again when it is lost.
     instance: wgpu::Instance,
+    /// Kept to make a new instance (and device) after a device loss.
+    display: winit::event_loop::OwnedDisplayHandle,
     /// False while the window is minimised.
     visible: bool,
     /// `PENUMBRA_DEBUG_SURFACE_LOSS`: report every Nth request as lost.
     fault_every: Option<u64>,
+    /// `PENUMBRA_DEBUG_DEVICE_LOSS`: destroy the device at the Nth request.
+    destroy_at: Option<u64>,
     requests: u64,
     /// Times the surface was lost and created again.
     pub recreated: u64,
@@ -60,13 +67,8 @@ impl WindowSurface {
         linear_view: bool,
     ) -> Result<(WindowSurface, GpuContext)> {
         let window = Arc::new(event_loop.create_window(attributes).context("cannot create the window")?);
-        let request = AdapterRequest::default();
-        let desc =
-            GpuContext::instance_descriptor(&request).with_display_handle(Box::new(event_loop.owned_display_handle()));
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
-        let keep = instance.clone();
-        let ctx = GpuContext::with_instance(instance, &request, Some(&surface))?;
+        let display = event_loop.owned_display_handle();
+        let (instance, surface, ctx) = Self::device_for(&window, &display)?;
         let size = window.inner_size();
         let caps = surface.get_capabilities(&ctx.adapter);
         let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
@@ -84,21 +86,65 @@ impl WindowSurface {
             view_formats: if linear_view { vec![format.remove_srgb_suffix()] } else { Vec::new() },
         };
         surface.configure(&ctx.device, &config);
-        let fault_every = std::env::var("PENUMBRA_DEBUG_SURFACE_LOSS").ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0);
+        let env = |name| std::env::var(name).ok().and_then(|v| v.parse::<u64>().ok()).filter(|&n| n > 0);
+        let fault_every = env("PENUMBRA_DEBUG_SURFACE_LOSS");
         if let Some(n) = fault_every {
-            tracing::warn!("PENUMBRA_DEBUG_SURFACE_LOSS: every {n}th surface image request will report the surface lost");
+            tracing::warn!(
+                "PENUMBRA_DEBUG_SURFACE_LOSS: every {n}th surface image request will report the surface lost"
+            );
+        }
+        let destroy_at = env("PENUMBRA_DEBUG_DEVICE_LOSS");
+        if let Some(n) = destroy_at {
+            tracing::warn!("PENUMBRA_DEBUG_DEVICE_LOSS: the GPU device will be destroyed at surface image request {n}");
         }
         let surface = WindowSurface {
             window,
             surface,
             config,
-            instance: keep,
+            instance,
+            display,
             visible: true,
             fault_every,
+            destroy_at,
             requests: 0,
             recreated: 0,
         };
         Ok((surface, ctx))
+    }
+
+    /// A new instance, a surface for `window` and a device that can present to it.
+    fn device_for(
+        window: &Arc<Window>,
+        display: &winit::event_loop::OwnedDisplayHandle,
+    ) -> Result<(wgpu::Instance, wgpu::Surface<'static>, GpuContext)> {
+        let request = AdapterRequest::default();
+        let desc = GpuContext::instance_descriptor(&request).with_display_handle(Box::new(display.clone()));
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance.create_surface(window.clone()).context("cannot create a surface for the window")?;
+        let ctx = GpuContext::with_instance(instance.clone(), &request, Some(&surface))?;
+        Ok((instance, surface, ctx))
+    }
+
+    /// After a device loss: a new device for the same window, and the surface configured on it
+    /// (the format kept where the new adapter offers it). The caller hands the context to its
+    /// renderer ([`penumbra_render::Renderer::replace_device`]) and remakes its UI's GPU side.
+    pub fn replace_device(&mut self) -> Result<GpuContext> {
+        let (instance, surface, ctx) = Self::device_for(&self.window, &self.display)?;
+        let caps = surface.get_capabilities(&ctx.adapter);
+        if !caps.formats.contains(&self.config.format) {
+            self.config.format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
+            if !self.config.view_formats.is_empty() {
+                self.config.view_formats = vec![self.config.format.remove_srgb_suffix()];
+            }
+        }
+        // Old surface (and swap chain) first: a window has one swap chain at a time.
+        self.surface = surface;
+        self.instance = instance;
+        if self.visible {
+            self.surface.configure(&ctx.device, &self.config);
+        }
+        tracing::info!("the window has a new GPU device: {}", ctx.describe());
+        Ok(ctx)
     }
 
     /// Follows a window resize; 0×0 (minimised) stops handing out images until restored.
@@ -130,6 +176,11 @@ impl WindowSurface {
             return None;
         }
         self.requests += 1;
+        if self.destroy_at == Some(self.requests) {
+            tracing::warn!("PENUMBRA_DEBUG_DEVICE_LOSS: destroying the GPU device");
+            device.destroy();
+            return None;
+        }
         let injected = self.fault_every.is_some_and(|n| self.requests.is_multiple_of(n));
         let status = if injected { wgpu::CurrentSurfaceTexture::Lost } else { self.surface.get_current_texture() };
         let action = match status {

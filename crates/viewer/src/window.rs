@@ -92,6 +92,15 @@ impl Handler {
 
 impl Running {
     fn frame(&mut self) {
+        if self.app.world.resource::<Renderer>().is_device_lost() {
+            let replaced = self.surface.replace_device().and_then(|ctx| {
+                self.app.world.resource_mut::<Renderer>().replace_device(ctx).map_err(anyhow::Error::from)
+            });
+            if let Err(e) = replaced {
+                tracing::error!("the GPU device was lost and cannot be replaced yet: {e:#}");
+                return;
+            }
+        }
         self.app.update();
         let device = self.app.world.resource::<Renderer>().context().device.clone();
         let Some(texture) = self.surface.acquire(&device) else { return };

@@ -223,7 +223,8 @@ mod tests {
         limits.apply("image-bytes=512M").unwrap();
         limits.apply(" node-depth = 20 ").unwrap();
         assert_eq!((limits.vertices, limits.image_bytes, limits.node_depth), (1_000_000_000, 512 << 20, 20));
-        for bad in ["vertices", "vertex=3", "vertices=-1", "vertices=1.5", "vertices=lots", "nodes=99999999999999999999G"]
+        for bad in
+            ["vertices", "vertex=3", "vertices=-1", "vertices=1.5", "vertices=lots", "nodes=99999999999999999999G"]
         {
             let err = limits.apply(bad).unwrap_err();
             assert!(!err.is_empty(), "{bad}");

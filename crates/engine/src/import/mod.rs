@@ -24,7 +24,11 @@ pub use progress::{ImportProgress, ImportStage, ProgressSnapshot};
 
 /// Decodes one texture image (PNG or JPEG) as the importers do, under `options.limits`: the
 /// entry point of the image fuzz target, and for tools that load textures outside a scene.
-pub fn decode_texture(bytes: &[u8], label: &str, options: &ImportOptions) -> Result<crate::image::Image, ImportErrorKind> {
+pub fn decode_texture(
+    bytes: &[u8],
+    label: &str,
+    options: &ImportOptions,
+) -> Result<crate::image::Image, ImportErrorKind> {
     gltf::images::decode(bytes, 0, label, label.to_owned(), options)
 }
 

@@ -463,9 +463,7 @@ fn convert_material(
             UriError::OutsideFolder => {
                 ImportError::new(base_dir, ImportErrorKind::UriOutsideFolder { uri: t.file.clone() })
             }
-            e => {
-                ImportError::new(base_dir.join(&t.file), ImportErrorKind::Obj { line: None, reason: e.to_string() })
-            }
+            e => ImportError::new(base_dir.join(&t.file), ImportErrorKind::Obj { line: None, reason: e.to_string() }),
         })?;
         let index = match image_index.get(&path) {
             Some(&i) => i,

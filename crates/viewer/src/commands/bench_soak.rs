@@ -40,7 +40,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     };
     let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
     println!("adapter: {} ({:?})", ctx.info.name, ctx.info.backend);
-    println!("soak: {} frames at {w}x{h} (and two smaller sizes), {} scenes in rotation", args.frames, config.scenes.len());
+    println!(
+        "soak: {} frames at {w}x{h} (and two smaller sizes), {} scenes in rotation",
+        args.frames,
+        config.scenes.len()
+    );
     let every = (args.frames as u64 / 10).max(1);
     let mut soak = Soak::new(ctx, config)?;
     print_header();
@@ -60,8 +64,22 @@ pub fn run(args: &BenchArgs) -> Result<()> {
 fn print_header() {
     println!(
         "{:>7} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>7} {:>6} {:>6} {:>6} {:>5} {:>8}",
-        "frame", "RSS MiB", "GPU MiB", "meshpool", "textures", "instance", "targets", "lights", "clusters",
-        "shadows", "entity", "meshes", "mats", "images", "pipes", "ms/frame"
+        "frame",
+        "RSS MiB",
+        "GPU MiB",
+        "meshpool",
+        "textures",
+        "instance",
+        "targets",
+        "lights",
+        "clusters",
+        "shadows",
+        "entity",
+        "meshes",
+        "mats",
+        "images",
+        "pipes",
+        "ms/frame"
     );
 }
 

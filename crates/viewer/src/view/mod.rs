@@ -201,7 +201,28 @@ impl Running {
         self.loader = Some(Loader::start(Some(&path), &args.scene_args));
     }
 
+    /// After a device loss: a new device for the window, the UI's GPU side made again, and the
+    /// scene's renderer moved onto it (it rebuilds every GPU resource from the render world).
+    fn replace_device(&mut self) -> Result<()> {
+        let ctx = self.surface.replace_device()?;
+        self.overlay = Overlay::new(&self.surface.window, &ctx.device, self.surface.config.format.remove_srgb_suffix());
+        if let Some(s) = self.scene.as_mut() {
+            s.app.world.resource_mut::<Renderer>().replace_device(ctx.clone())?;
+        }
+        self.can_copy_surface = self.surface.config.usage.contains(wgpu::TextureUsages::COPY_SRC);
+        self.ctx = ctx;
+        Ok(())
+    }
+
     fn frame(&mut self, args: &ViewArgs, event_loop: &ActiveEventLoop) -> Result<()> {
+        // wgpu reports a lost device from its maintenance: poll, then look.
+        let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+        if self.ctx.is_lost() {
+            if let Err(e) = self.replace_device() {
+                tracing::error!("the GPU device was lost and cannot be replaced yet: {e:#}");
+                return Ok(());
+            }
+        }
         self.poll_loader(args)?;
         let now = Instant::now();
         let dt = (now - self.clock.last).as_secs_f32();

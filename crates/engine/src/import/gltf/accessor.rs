@@ -175,10 +175,7 @@ fn strided_window<'b>(
 }
 
 /// Decodes an accessor of `N` components per element to `f32`.
-pub(crate) fn read_f32<const N: usize>(
-    accessor: &gltf::Accessor,
-    buffers: &Buffers,
-) -> AccessorResult<Vec<[f32; N]>> {
+pub(crate) fn read_f32<const N: usize>(accessor: &gltf::Accessor, buffers: &Buffers) -> AccessorResult<Vec<[f32; N]>> {
     let dims = dimensions_len(accessor.dimensions());
     if dims != N {
         return Err(format!("expected {N} components per element, found {:?}", accessor.dimensions()).into());

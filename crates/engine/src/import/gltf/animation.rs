@@ -30,10 +30,9 @@ pub(crate) fn load_skins(document: &gltf::Document, buffers: &Buffers) -> Result
             }
             let inverse_bindposes: Arc<[Mat4]> = match skin.inverse_bind_matrices() {
                 Some(a) => {
-                    let m = read_f32::<16>(&a, buffers)
-                        .map_err(|e| {
-                            e.into_kind_with(|r| skin_err(format!("inverseBindMatrices (accessor {}): {r}", a.index())))
-                        })?;
+                    let m = read_f32::<16>(&a, buffers).map_err(|e| {
+                        e.into_kind_with(|r| skin_err(format!("inverseBindMatrices (accessor {}): {r}", a.index())))
+                    })?;
                     if m.len() < joints.len() {
                         return Err(skin_err(format!("{} inverse bind matrices for {} joints", m.len(), joints.len())));
                     }

@@ -53,9 +53,10 @@ pub(crate) fn load_profiles(
         let (source, bytes) = match (light.get("uri").and_then(Value::as_str), light.get("bufferView")) {
             (Some(uri), None) => {
                 let short = if uri.starts_with("data:") { "data URI".to_owned() } else { uri.to_owned() };
-                let bytes = read_uri(base_dir, uri, options, ReadLimit::file(options, "an IES profile's size")).map_err(|e| {
-                    e.into_kind(uri, |reason| ImportErrorKind::IesProfile { index, uri: short.clone(), reason })
-                })?;
+                let bytes = read_uri(base_dir, uri, options, ReadLimit::file(options, "an IES profile's size"))
+                    .map_err(|e| {
+                        e.into_kind(uri, |reason| ImportErrorKind::IesProfile { index, uri: short.clone(), reason })
+                    })?;
                 (short, bytes)
             }
             (None, Some(view)) => {

@@ -31,9 +31,9 @@ use crate::components::{
 use crate::ies::IesProfile;
 use crate::image::Image;
 use crate::import::{ImportError, ImportErrorKind, ImportLimits, Limit};
-use accessor::Buffers;
 use crate::material::{StandardMaterial, TextureRef};
 use crate::mesh::Mesh;
+use accessor::Buffers;
 use materials::MaterialDesc;
 
 /// Extensions Penumbra implements. A file that lists any other in `extensionsRequired` is refused.
@@ -61,12 +61,7 @@ pub struct ImportOptions {
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        Self {
-            scene: None,
-            allow_outside_folder: false,
-            limits: ImportLimits::default(),
-            progress: None,
-        }
+        Self { scene: None, allow_outside_folder: false, limits: ImportLimits::default(), progress: None }
     }
 }
 
@@ -452,8 +447,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         .collect::<Vec<NodeDesc>>();
     let skins = animation::load_skins(&document, &buffers)?;
     check_skinned_meshes(&nodes, &meshes, &skins)?;
-    let animations: Arc<[AnimationClip]> =
-        animation::load_animations(&document, &buffers)?.into();
+    let animations: Arc<[AnimationClip]> = animation::load_animations(&document, &buffers)?.into();
     let cameras = document
         .cameras()
         .map(|c| {

@@ -130,7 +130,12 @@ pub(crate) fn read_file(path: &Path, limit: ReadLimit) -> Result<Vec<u8>, UriErr
     let cap = if limit.truncate { limit.bytes } else { limit.bytes.saturating_add(1) };
     file.take(cap).read_to_end(&mut out).map_err(read_err)?;
     if out.len() as u64 > limit.bytes {
-        return Err(UriError::TooLarge { size: out.len() as u64, max: limit.bytes, limit: limit.limit, what: limit.what });
+        return Err(UriError::TooLarge {
+            size: out.len() as u64,
+            max: limit.bytes,
+            limit: limit.limit,
+            what: limit.what,
+        });
     }
     Ok(out)
 }
@@ -157,7 +162,12 @@ fn decode_data_uri(rest: &str, limit: u64) -> Result<Vec<u8>, UriError> {
     // Base64 expands 3 bytes to 4: check the bound before allocating.
     let size = payload.len() as u64 / 4 * 3;
     if size > limit {
-        return Err(UriError::TooLarge { size, max: limit, limit: Limit::DataUriBytes, what: "a data URI's decoded size" });
+        return Err(UriError::TooLarge {
+            size,
+            max: limit,
+            limit: Limit::DataUriBytes,
+            what: "a data URI's decoded size",
+        });
     }
     base64::engine::general_purpose::STANDARD
         .decode(payload.trim_end())
@@ -188,12 +198,11 @@ pub(crate) fn resolve_inside(base_dir: &Path, relative: &str, allow_outside: boo
     // Then symlinks: the real path must still be under the real folder. A scene named without a
     // folder (`penumbra view scene.gltf`) has the empty path as its folder: that is ".".
     let base = if base_dir.as_os_str().is_empty() { Path::new(".") } else { base_dir };
-    let real_base =
-        base.canonicalize().map_err(|e| UriError::Read(format!("cannot resolve the folder {}: {e}", base.display())))?;
-    let real = base
-        .join(rel)
+    let real_base = base
         .canonicalize()
-        .map_err(|e| UriError::Read(format!("cannot read {}: {e}", joined.display())))?;
+        .map_err(|e| UriError::Read(format!("cannot resolve the folder {}: {e}", base.display())))?;
+    let real =
+        base.join(rel).canonicalize().map_err(|e| UriError::Read(format!("cannot read {}: {e}", joined.display())))?;
     if !real.starts_with(&real_base) {
         return Err(UriError::OutsideFolder);
     }
@@ -252,7 +261,10 @@ mod tests {
     #[test]
     fn data_uris_decode_and_respect_the_limit() {
         let opts = ImportOptions::default();
-        assert_eq!(read_uri(Path::new("."), "data:application/octet-stream;base64,AAEC", &opts, ReadLimit::buffer(3)).unwrap(), [0, 1, 2]);
+        assert_eq!(
+            read_uri(Path::new("."), "data:application/octet-stream;base64,AAEC", &opts, ReadLimit::buffer(3)).unwrap(),
+            [0, 1, 2]
+        );
         assert!(matches!(decode_data_uri(";base64,AAAAAAAA", 3), Err(UriError::TooLarge { .. })));
     }
 

@@ -16,10 +16,11 @@ const SAMPLE_EVERY: u64 = 25;
 
 #[test]
 fn memory_plateaus_under_continuous_churn() {
-    let scenes = ["BoxTextured/BoxTextured.glb", "Fox/Fox.glb", "AnimatedMorphCube/AnimatedMorphCube.glb", "ObjScene/scene.obj"]
-        .iter()
-        .map(|rel| Arc::new(SceneFile::load(&common::asset(rel), &ImportOptions::default()).unwrap()))
-        .collect();
+    let scenes =
+        ["BoxTextured/BoxTextured.glb", "Fox/Fox.glb", "AnimatedMorphCube/AnimatedMorphCube.glb", "ObjScene/scene.obj"]
+            .iter()
+            .map(|rel| Arc::new(SceneFile::load(&common::asset(rel), &ImportOptions::default()).unwrap()))
+            .collect();
     let config = SoakConfig { sizes: vec![(64, 48), (40, 40), (72, 24)], scenes, settings: Default::default() };
     let mut soak = Soak::new(common::gpu(), config).unwrap();
     let mut samples: Vec<SoakSample> = Vec::new();
@@ -71,7 +72,11 @@ fn memory_plateaus_under_continuous_churn() {
         ("materials", &|s: &SoakSample| s.materials, 80),
         ("meshes", &|s: &SoakSample| s.meshes, 80),
     ] {
-        assert!(samples.iter().all(|s| f(s) <= bound), "{name} unbounded: {:?}", samples.iter().map(f).collect::<Vec<_>>());
+        assert!(
+            samples.iter().all(|s| f(s) <= bound),
+            "{name} unbounded: {:?}",
+            samples.iter().map(f).collect::<Vec<_>>()
+        );
     }
     // Host memory (lavapipe's "GPU" memory lives there too) levels off: the second half's peak
     // is within 16 MiB of the first half's (allocator and driver caches move a little).
@@ -82,4 +87,33 @@ fn memory_plateaus_under_continuous_churn() {
         rss(first) as f64 / 1048576.0,
         rss(second) as f64 / 1048576.0
     );
+}
+
+#[test]
+fn a_lost_device_is_replaced_and_the_scene_drawn_again() {
+    use penumbra::prelude::*;
+    use penumbra::render::{AdapterRequest, GpuContext};
+    // A context of its own: the test destroys its device.
+    let request = AdapterRequest { backends: Some(wgpu::Backends::VULKAN), name: None };
+    let ctx = GpuContext::new_headless(&request).expect("a Vulkan adapter (apt-get install mesa-vulkan-drivers)");
+    let mut app = common::scene_app();
+    app.insert_resource(Renderer::new(ctx, Default::default()).unwrap());
+    let image = app.world.resource_mut::<Assets<Image>>().add(Image {
+        width: 2,
+        height: 2,
+        rgba8: vec![255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255],
+        label: "checker".into(),
+    });
+    let mut material = StandardMaterial::from_color(Vec4::ONE, 0.5);
+    material.base_color_texture = Some(penumbra::engine::material::TextureRef::new(image));
+    common::spawn_mesh(&mut app, Mesh::uv_sphere(1.0, 24, 12), material, Transform::IDENTITY);
+    app.world.spawn((PointLight { intensity: 200.0, ..Default::default() }, Transform::from_xyz(2.0, 2.0, 2.0)));
+    let before = common::render_app(&mut app, (64, 64), Default::default());
+    app.world.resource::<Renderer>().context().device.destroy();
+    let mut after = Vec::new();
+    for _ in 0..3 {
+        after = common::render_app(&mut app, (64, 64), Default::default());
+    }
+    assert_eq!(app.world.resource::<Renderer>().device_losses(), 1, "the loss was noticed once");
+    assert!(common::flip_mean(&before, &after, 64, 64) < 1e-6, "the frame after recovery differs");
 }
