@@ -26,7 +26,7 @@ fn memory_plateaus_under_continuous_churn() {
     let mut samples: Vec<SoakSample> = Vec::new();
     while soak.frame() < FRAMES {
         soak.step();
-        if soak.frame() % SAMPLE_EVERY == 0 {
+        if soak.frame().is_multiple_of(SAMPLE_EVERY) {
             samples.push(soak.sample());
         }
     }

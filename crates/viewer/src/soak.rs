@@ -151,7 +151,9 @@ impl Soak {
         let (a, b) = ((self.next() * 255.0) as u8, (self.next() * 255.0) as u8);
         let side = 16 + 16 * (self.frame / TEXTURE_EVERY % 3) as u32;
         let rgba8 = (0..side * side)
-            .flat_map(|i| if (i / 4 + i / side / 4) % 2 == 0 { [a, b, 255 - a, 255] } else { [b, a, 128, 255] })
+            .flat_map(
+                |i| if (i / 4 + i / side / 4).is_multiple_of(2) { [a, b, 255 - a, 255] } else { [b, a, 128, 255] },
+            )
             .collect();
         let image = Image { width: side, height: side, rgba8, label: format!("soak texture {}", self.frame) };
         let handle = self.app.world.resource_mut::<Assets<Image>>().add(image);

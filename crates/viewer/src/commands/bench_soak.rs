@@ -52,7 +52,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let mut since = Instant::now();
     for frame in 1..=args.frames as u64 {
         soak.step();
-        if frame % every == 0 || frame == args.frames as u64 {
+        if frame.is_multiple_of(every) || frame == args.frames as u64 {
             let ms = since.elapsed().as_secs_f64() * 1e3 / every as f64;
             print_row(&soak.sample(), Some(ms));
             since = Instant::now();

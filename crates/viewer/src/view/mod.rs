@@ -217,11 +217,11 @@ impl Running {
     fn frame(&mut self, args: &ViewArgs, event_loop: &ActiveEventLoop) -> Result<()> {
         // wgpu reports a lost device from its maintenance: poll, then look.
         let _ = self.ctx.device.poll(wgpu::PollType::Poll);
-        if self.ctx.is_lost() {
-            if let Err(e) = self.replace_device() {
-                tracing::error!("the GPU device was lost and cannot be replaced yet: {e:#}");
-                return Ok(());
-            }
+        if self.ctx.is_lost()
+            && let Err(e) = self.replace_device()
+        {
+            tracing::error!("the GPU device was lost and cannot be replaced yet: {e:#}");
+            return Ok(());
         }
         self.poll_loader(args)?;
         let now = Instant::now();

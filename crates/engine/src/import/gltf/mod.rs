@@ -47,7 +47,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
 ];
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct ImportOptions {
     /// Which scene to spawn; `None` is the file's default scene (or scene 0).
     pub scene: Option<usize>,
@@ -57,12 +57,6 @@ pub struct ImportOptions {
     pub limits: ImportLimits,
     /// Reports the import's stages and counts (for a progress bar on another thread).
     pub progress: Option<super::ImportProgress>,
-}
-
-impl Default for ImportOptions {
-    fn default() -> Self {
-        Self { scene: None, allow_outside_folder: false, limits: ImportLimits::default(), progress: None }
-    }
 }
 
 /// The root entity of a spawned scene; despawning it (recursively) removes the whole scene.
