@@ -362,3 +362,84 @@ fn an_obj_face_index_of_i64_min_is_an_error_not_an_overflow() {
     let err = load_expecting_error(&path);
     assert!(err.to_string().contains("names no vertex"), "{err}");
 }
+
+/// A small valid PNG of `w`×`h` pixels.
+fn png(w: u32, h: u32) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::RgbaImage::from_pixel(w, h, image::Rgba([200, 100, 50, 255]))
+        .write_to(&mut out, image::ImageFormat::Png)
+        .unwrap();
+    out.into_inner()
+}
+
+/// The triangle with `images` (URIs), each the base colour of a material of its own (the importer
+/// decodes every image a material uses, drawn or not).
+fn textured_triangle(name: &str, images: &[&str]) -> PathBuf {
+    let list: Vec<String> = images.iter().map(|u| format!(r#"{{"uri": "{u}"}}"#)).collect();
+    let textures: Vec<String> = (0..images.len()).map(|i| format!(r#"{{"source": {i}}}"#)).collect();
+    let materials: Vec<String> = (0..images.len())
+        .map(|i| format!(r#"{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": {i}}}}}}}"#))
+        .collect();
+    let extra = format!(
+        r#""images": [{}], "textures": [{}], "materials": [{}],"#,
+        list.join(","),
+        textures.join(","),
+        materials.join(",")
+    );
+    let json = triangle_json("triangle.bin", &extra)
+        .replace(r#"{"attributes": {"POSITION": 0}}"#, r#"{"attributes": {"POSITION": 0}, "material": 0}"#);
+    write_scene(name, &json, true)
+}
+
+#[test]
+fn decoded_image_totals_are_checked_from_headers_before_decoding() {
+    let path = textured_triangle("imagetotal", &["a.png", "b.png"]);
+    let dir = path.parent().unwrap();
+    std::fs::write(dir.join("a.png"), png(4, 4)).unwrap();
+    std::fs::write(dir.join("b.png"), png(4, 4)).unwrap();
+    // 64 bytes each decoded.
+    assert_limit(&load_expecting_error_with(&path, &with_limit("total-image-bytes=100")), Limit::TotalImageBytes);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &with_limit("total-image-bytes=128")).expect("128 bytes of images fit");
+    // One image named three times is read and decoded once: it counts once.
+    let path = textured_triangle("imageshared", &["a.png", "a.png", "a.png"]);
+    std::fs::write(path.parent().unwrap().join("a.png"), png(4, 4)).unwrap();
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &with_limit("total-image-bytes=64")).expect("one decode of 64 bytes");
+    assert_eq!(app.world.resource::<Assets<Image>>().len(), 1, "the three entries share one image");
+}
+
+#[test]
+fn the_bytes_read_from_files_have_a_total() {
+    // Two buffers naming the same 36-byte file: 72 bytes read.
+    let json = triangle_json("triangle.bin", "").replace(
+        r#""buffers": [{"uri": "triangle.bin", "byteLength": 36}]"#,
+        r#""buffers": [{"uri": "triangle.bin", "byteLength": 36}, {"uri": "triangle.bin", "byteLength": 36}]"#,
+    );
+    let path = write_scene("readtotal", &json, true);
+    assert_limit(&load_expecting_error_with(&path, &with_limit("read-bytes=71")), Limit::ReadBytes);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &with_limit("read-bytes=72")).expect("72 bytes may be read");
+}
+
+#[test]
+fn obj_totals_and_textures_count_against_the_limits() {
+    let dir = scratch_dir("obj-limits");
+    let path = dir.join("two.obj");
+    std::fs::write(
+        &path,
+        "mtllib two.mtl\nusemtl m\no a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4 5 6\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("two.mtl"), "newmtl m\nmap_Kd tex.png\n").unwrap();
+    std::fs::write(dir.join("tex.png"), png(8, 8)).unwrap();
+    // Three vertices per object: six over the file.
+    assert_limit(&load_expecting_error_with(&path, &with_limit("vertices=5")), Limit::Vertices);
+    assert_limit(&load_expecting_error_with(&path, &with_limit("total-image-bytes=255")), Limit::TotalImageBytes);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, &path, &with_limit("vertices=6")).expect("six vertices fit");
+}

@@ -52,7 +52,8 @@ fn memory_plateaus_under_continuous_churn() {
     let high = |half: &[SoakSample], f: &dyn Fn(&SoakSample) -> u64| half.iter().map(f).max().unwrap();
     // Per pool: their sum peaks wherever the peaks of pools that vary with the cycle (targets
     // with the size, textures with the scene) happen to meet.
-    let pools: [(&str, &dyn Fn(&SoakSample) -> u64); 10] = [
+    let pools: [(&str, &dyn Fn(&SoakSample) -> u64); 11] = [
+        ("entities", &|s| s.entities as u64),
         ("mesh pool", &|s| s.gpu.mesh_pool),
         ("textures", &|s| s.gpu.textures),
         ("instances", &|s| s.gpu.instances),
@@ -79,10 +80,14 @@ fn memory_plateaus_under_continuous_churn() {
         );
     }
     // Host memory (lavapipe's "GPU" memory lives there too) levels off: the second half's peak
-    // is within 16 MiB of the first half's (allocator and driver caches move a little).
-    let rss = |half: &[SoakSample]| half.iter().filter_map(|s| s.rss_bytes).max().unwrap_or(0);
+    // is within 4 MiB of the first half's (measured: equal to 0.1 MiB). A leak of one churned
+    // 24-vertex box a frame would add 0.4 MiB over the second half's 250 frames, a leaked
+    // texture every 5 frames 50 times its 4 KiB: both below this bound, which catches what
+    // grows by a pool's doubling instead; the pool checks above catch the per-object leaks.
+    let rss =
+        |half: &[SoakSample]| half.iter().map(|s| s.rss_bytes.expect("/proc/self/status has VmRSS")).max().unwrap();
     assert!(
-        rss(second) <= rss(first) + (16 << 20),
+        rss(second) <= rss(first) + (4 << 20),
         "resident memory still grows: {:.1} MiB then {:.1} MiB",
         rss(first) as f64 / 1048576.0,
         rss(second) as f64 / 1048576.0
@@ -115,5 +120,5 @@ fn a_lost_device_is_replaced_and_the_scene_drawn_again() {
         after = common::render_app(&mut app, (64, 64), Default::default());
     }
     assert_eq!(app.world.resource::<Renderer>().device_losses(), 1, "the loss was noticed once");
-    assert!(common::flip_mean(&before, &after, 64, 64) < 1e-6, "the frame after recovery differs");
+    assert!(before == after, "the frame after recovery differs (FLIP {})", common::flip_mean(&before, &after, 64, 64));
 }

@@ -172,6 +172,39 @@ impl GpuContext {
     }
 }
 
+/// Spaces out retries of something that failed (making a new device after a loss): the first
+/// retry at once, then after 0.25 s, doubling to at most 8 s; `reset` after a success.
+#[derive(Debug, Clone, Default)]
+pub struct RetryBackoff {
+    next: Option<std::time::Instant>,
+    delay: std::time::Duration,
+}
+
+impl RetryBackoff {
+    const FIRST: std::time::Duration = std::time::Duration::from_millis(250);
+    const MAX: std::time::Duration = std::time::Duration::from_secs(8);
+
+    /// Whether a retry is due now.
+    pub fn due(&self) -> bool {
+        self.next.is_none_or(|t| std::time::Instant::now() >= t)
+    }
+
+    /// Records a failed try: the next one waits longer.
+    pub fn failed(&mut self) {
+        self.delay = if self.delay.is_zero() { Self::FIRST } else { (self.delay * 2).min(Self::MAX) };
+        self.next = Some(std::time::Instant::now() + self.delay);
+    }
+
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+
+    /// The wait before the next try.
+    pub fn delay(&self) -> std::time::Duration {
+        self.delay
+    }
+}
+
 fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
     let backend = match info.backend {
         wgpu::Backend::Vulkan => 3,
@@ -187,4 +220,25 @@ fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
         wgpu::DeviceType::Other => 0,
     };
     (backend, device)
+}
+
+#[cfg(test)]
+mod backoff_tests {
+    use super::RetryBackoff;
+
+    #[test]
+    fn retries_double_up_to_a_ceiling_and_reset() {
+        let mut b = RetryBackoff::default();
+        assert!(b.due(), "the first retry is at once");
+        let delays: Vec<u128> = (0..8)
+            .map(|_| {
+                b.failed();
+                b.delay().as_millis()
+            })
+            .collect();
+        assert_eq!(delays, [250, 500, 1000, 2000, 4000, 8000, 8000, 8000]);
+        assert!(!b.due(), "waits after a failure");
+        b.reset();
+        assert!(b.due());
+    }
 }

@@ -31,7 +31,7 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleLabel;
 use penumbra_engine::{App, Plugin};
 
-pub use context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT};
+pub use context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT, RetryBackoff};
 pub use pipelines::pipeline_cache::Tonemapper;
 pub use pipelines::shader_library::ShaderError;
 pub use quality::QualityPreset;

@@ -411,6 +411,8 @@ pub struct Renderer {
     binning_error: Option<BinningTooLarge>,
     /// Devices lost and replaced so far.
     device_losses: u32,
+    /// Spaces out attempts to replace a lost device.
+    recovery: crate::context::RetryBackoff,
 }
 
 impl Renderer {
@@ -496,6 +498,7 @@ impl Renderer {
             deferred_params: deferred_lights::params_buffer(&ctx.device),
             binning_error: None,
             device_losses: 0,
+            recovery: Default::default(),
             settings,
             ctx,
         })
@@ -519,9 +522,10 @@ impl Renderer {
     /// render world, which the first frame then syncs in full (it missed the change lists), so
     /// the scene comes back as it was. Settings and the shader source stay.
     pub fn replace_device(&mut self, ctx: GpuContext) -> Result<(), RendererError> {
+        // Nothing of the old renderer is kept: every buffer it holds (the gizmo lines' too) belongs
+        // to the lost device. Gizmo lines come again from the scene each frame.
         let mut fresh = Renderer::new(ctx, self.settings.clone())?;
         fresh.device_losses = self.device_losses + 1;
-        fresh.gizmos = std::mem::take(&mut self.gizmos);
         *self = fresh;
         tracing::info!("rendering again on a new device ({} lost so far)", self.device_losses);
         Ok(())
@@ -530,10 +534,15 @@ impl Renderer {
     /// A headless renderer's recovery: a new device chosen as the old one was. `false` while
     /// none can be had (the next frame tries again).
     fn recover_headless(&mut self) -> bool {
+        if !self.recovery.due() {
+            return false;
+        }
         match self.ctx.recreate_headless().map_err(RendererError::from).and_then(|ctx| self.replace_device(ctx)) {
             Ok(()) => true,
             Err(e) => {
-                tracing::error!("the GPU device was lost and cannot be replaced yet: {e}");
+                self.recovery.failed();
+                let wait = self.recovery.delay();
+                tracing::error!("the GPU device was lost and cannot be replaced yet ({e}); trying again in {wait:?}");
                 false
             }
         }

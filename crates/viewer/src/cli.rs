@@ -57,6 +57,7 @@ pub const LIMIT_HELP: &str = "Raise or lower an import limit (repeatable). A sce
 every count or size it declares is checked against these before memory is allocated.
   data-uri-bytes=256M      decoded size of one base64 data URI
   buffer-bytes=4G          byteLength of one glTF buffer
+  read-bytes=8G            bytes read from files and data URIs in one import
   accessor-elements=64M    elements in one accessor
   decoded-bytes=8G         vertex, index, skin and animation data decoded in one import
   vertices=256M            vertices over all primitives of a file

@@ -1,6 +1,6 @@
 //! The soak: thousands of headless frames of continuous churn, sampling host and GPU memory, to
 //! show that a viewer left running for hours keeps memory flat. Used by `penumbra bench soak`
-//! and by the CI test that runs a short version (`crates/viewer/tests/soak.rs`).
+//! and by the CI test that runs a short version (`tests/long_runs.rs`).
 //!
 //! Every frame spawns new meshes (new content, so the mesh pool takes new ranges), materials
 //! and point or spot lights, and despawns the oldest beyond a fixed window, removing their

@@ -73,6 +73,8 @@ struct Handler {
 struct Running {
     surface: WindowSurface,
     app: App,
+    /// Spaces out attempts to replace a lost device.
+    device_retry: penumbra_render::RetryBackoff,
 }
 
 impl Handler {
@@ -86,20 +88,28 @@ impl Handler {
         app.insert_resource(Renderer::new(ctx, self.runner.settings.clone())?);
         app.insert_resource(RenderOutput::External);
         app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
-        Ok(Running { surface, app })
+        Ok(Running { surface, app, device_retry: Default::default() })
     }
 }
 
 impl Running {
     fn frame(&mut self) {
         if self.app.world.resource::<Renderer>().is_device_lost() {
+            if !self.device_retry.due() {
+                // Without a device nothing presents, so nothing paces the loop: wait a little.
+                std::thread::sleep(std::time::Duration::from_millis(20));
+                return;
+            }
             let replaced = self.surface.replace_device().and_then(|ctx| {
                 self.app.world.resource_mut::<Renderer>().replace_device(ctx).map_err(anyhow::Error::from)
             });
             if let Err(e) = replaced {
-                tracing::error!("the GPU device was lost and cannot be replaced yet: {e:#}");
+                self.device_retry.failed();
+                let wait = self.device_retry.delay();
+                tracing::error!("the GPU device was lost and cannot be replaced yet ({e:#}); trying again in {wait:?}");
                 return;
             }
+            self.device_retry.reset();
         }
         self.app.update();
         let device = self.app.world.resource::<Renderer>().context().device.clone();

@@ -14,6 +14,7 @@ use std::fmt;
 pub enum Limit {
     DataUriBytes,
     BufferBytes,
+    ReadBytes,
     AccessorElements,
     DecodedBytes,
     Vertices,
@@ -27,9 +28,10 @@ pub enum Limit {
 }
 
 impl Limit {
-    pub const ALL: [Limit; 12] = [
+    pub const ALL: [Limit; 13] = [
         Limit::DataUriBytes,
         Limit::BufferBytes,
+        Limit::ReadBytes,
         Limit::AccessorElements,
         Limit::DecodedBytes,
         Limit::Vertices,
@@ -47,6 +49,7 @@ impl Limit {
         match self {
             Limit::DataUriBytes => "data-uri-bytes",
             Limit::BufferBytes => "buffer-bytes",
+            Limit::ReadBytes => "read-bytes",
             Limit::AccessorElements => "accessor-elements",
             Limit::DecodedBytes => "decoded-bytes",
             Limit::Vertices => "vertices",
@@ -65,6 +68,7 @@ impl Limit {
         match self {
             Limit::DataUriBytes => "decoded size of one base64 data URI",
             Limit::BufferBytes => "byteLength of one glTF buffer (a GLB chunk, a data URI or a file)",
+            Limit::ReadBytes => "bytes read from files and data URIs in one import",
             Limit::AccessorElements => "elements in one accessor",
             Limit::DecodedBytes => "bytes of vertex, index, skin and animation data decoded in one import",
             Limit::Vertices => "vertices over all primitives of a scene file",
@@ -82,6 +86,7 @@ impl Limit {
         match self {
             Limit::DataUriBytes => &mut limits.data_uri_bytes,
             Limit::BufferBytes => &mut limits.buffer_bytes,
+            Limit::ReadBytes => &mut limits.read_bytes,
             Limit::AccessorElements => &mut limits.accessor_elements,
             Limit::DecodedBytes => &mut limits.decoded_bytes,
             Limit::Vertices => &mut limits.vertices,
@@ -111,6 +116,7 @@ impl fmt::Display for Limit {
 pub struct ImportLimits {
     pub data_uri_bytes: u64,
     pub buffer_bytes: u64,
+    pub read_bytes: u64,
     pub accessor_elements: u64,
     pub decoded_bytes: u64,
     pub vertices: u64,
@@ -131,6 +137,7 @@ impl Default for ImportLimits {
             // 20× the largest single buffer in the Khronos samples.
             data_uri_bytes: 256 << 20,
             buffer_bytes: 4 << 30,
+            read_bytes: 8 << 30,
             // Four times the vertex count of the largest scanned meshes people view; 1 GiB for
             // one vec4 attribute.
             accessor_elements: 1 << 26,

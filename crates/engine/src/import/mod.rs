@@ -167,8 +167,9 @@ pub fn load_scene(world: &mut World, path: &Path, options: &ImportOptions) -> Re
 /// Spawns another instance of the scene under `root` (which must carry a [`SceneSource`], as
 /// instances from [`load_scene`] and [`spawn_instance`] do): same file, same root placement and
 /// visibility, and its animation player (if any) at the same clip, time, speed and pause state.
-/// The instances share meshes, materials and images; each has its own entities. `None` if
-/// `root` is not such a root.
+/// The instances share the decoded mesh and image data (by `Arc`); each has its own entities and
+/// its own asset handles, so [`unload_scene`] on one leaves the other whole. `None` if `root` is
+/// not such a root.
 pub fn clone_scene(world: &mut World, root: Entity) -> Option<Entity> {
     let source = world.get::<SceneSource>(root)?.0.clone();
     let transform = world.get::<crate::components::Transform>(root).copied();

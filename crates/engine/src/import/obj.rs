@@ -33,9 +33,9 @@ use bevy_ecs::prelude::*;
 use glam::{Vec2, Vec3, Vec4};
 
 use super::gltf::SceneRoot;
-use super::gltf::images::decode;
-use super::gltf::source::{ReadLimit, UriError, read_file, resolve_inside};
-use super::{ImportError, ImportErrorKind, ImportOptions};
+use super::gltf::images::{decode, decoded_size};
+use super::gltf::source::{ReadBudget, ReadLimit, UriError, read_file, resolve_inside};
+use super::{ImportError, ImportErrorKind, ImportOptions, Limit};
 use crate::assets::{Assets, Handle};
 use crate::components::{Mesh3d, MeshMaterial3d, Name, Transform};
 use crate::image::Image;
@@ -167,6 +167,7 @@ fn parse_error(e: tobj::LoadError) -> String {
 
 fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjScene, ImportError> {
     let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let reads = ReadBudget::new(options);
     let obj_err = |kind| ImportError::new(path, kind);
     // The MTL loader runs inside tobj; it records the first failure with its file.
     let mtl_failure: RefCell<Option<ImportError>> = RefCell::new(None);
@@ -190,7 +191,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
                 }
                 Err(e) => return fail(ImportErrorKind::Obj { line: None, reason: e.to_string() }),
             };
-            let text = match read_file(&file, ReadLimit::file(options, "an MTL file's size")) {
+            let text = match read_file(&file, ReadLimit::file(options, "an MTL file's size"), &reads) {
                 Ok(t) => t,
                 Err(e) => {
                     let kind = e.into_kind(&rel, |reason| ImportErrorKind::Obj { line: None, reason });
@@ -233,11 +234,23 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
     let materials = materials.map_err(|e| obj_err(ImportErrorKind::Obj { line: None, reason: parse_error(e) }))?;
 
     let mut warnings = Vec::new();
-    let mut images = Vec::new();
-    let mut image_index: HashMap<PathBuf, usize> = HashMap::new();
+    let mut images = ObjImages::new(path, reads);
     let mut descs = Vec::new();
     for m in &materials {
-        descs.push(convert_material(m, &base_dir, options, &mut images, &mut image_index, &mut warnings)?);
+        descs.push(convert_material(m, &base_dir, options, &mut images, &mut warnings)?);
+    }
+    let images = images.images;
+
+    // Totals over the file, before any mesh is converted (tobj's own arrays are bounded by the
+    // file's size).
+    let (vertices, indices) = models
+        .iter()
+        .fold((0u64, 0u64), |(v, i), m| (v + m.mesh.positions.len() as u64 / 3, i + m.mesh.indices.len() as u64));
+    for (limit, what, value) in [
+        (Limit::Vertices, "the vertex count over all objects", vertices),
+        (Limit::Indices, "the index count over all objects", indices),
+    ] {
+        options.limits.check(limit, what, value).map_err(obj_err)?;
     }
 
     let mut objects = Vec::new();
@@ -245,7 +258,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
         let material = model.mesh.material_id.filter(|&m| m < descs.len());
         let normal_mapped = material.is_some_and(|m| descs[m].normal.is_some());
         let name = if model.name.is_empty() { format!("object{i}") } else { model.name.clone() };
-        let Some(mesh) = convert_mesh(&model.mesh, normal_mapped, options).map_err(|reason| {
+        let Some(mesh) = convert_mesh(&model.mesh, normal_mapped).map_err(|reason| {
             obj_err(ImportErrorKind::Obj { line: None, reason: format!("object {name:?}: {reason}") })
         })?
         else {
@@ -300,20 +313,10 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
 }
 
 /// One tobj mesh (single-indexed, triangulated) to a `Mesh`; `None` when it has no faces.
-fn convert_mesh(m: &tobj::Mesh, normal_mapped: bool, options: &ImportOptions) -> Result<Option<Mesh>, String> {
+fn convert_mesh(m: &tobj::Mesh, normal_mapped: bool) -> Result<Option<Mesh>, String> {
     let n = m.positions.len() / 3;
     if m.indices.is_empty() || n == 0 {
         return Ok(None);
-    }
-    let limits = &options.limits;
-    if n as u64 > limits.vertices || m.indices.len() as u64 > limits.indices {
-        return Err(format!(
-            "{n} vertices / {} indices exceed the limits of {} / {} (raise them with `--limit vertices=N` / \
-             `--limit indices=N`, or ImportLimits in code)",
-            m.indices.len(),
-            limits.vertices,
-            limits.indices
-        ));
     }
     let vec3s = |v: &[f32]| v.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
     let mut mesh = Mesh {
@@ -406,12 +409,28 @@ fn parse_texture_statement(s: &str) -> TextureStatement {
     t
 }
 
+/// The textures an OBJ's materials name, each read and decoded once, with what reading and
+/// decoding them has used of the limits.
+struct ObjImages {
+    /// The OBJ file, which errors about all of its images together name.
+    scene: PathBuf,
+    images: Vec<Arc<Image>>,
+    index: HashMap<PathBuf, usize>,
+    reads: ReadBudget,
+    decoded: u64,
+}
+
+impl ObjImages {
+    fn new(scene: &Path, reads: ReadBudget) -> Self {
+        Self { scene: scene.to_path_buf(), images: Vec::new(), index: HashMap::new(), reads, decoded: 0 }
+    }
+}
+
 fn convert_material(
     m: &tobj::Material,
     base_dir: &Path,
     options: &ImportOptions,
-    images: &mut Vec<Arc<Image>>,
-    image_index: &mut HashMap<PathBuf, usize>,
+    textures: &mut ObjImages,
     warnings: &mut Vec<String>,
 ) -> Result<MaterialDesc, ImportError> {
     // Rust's float parsing (tobj's too) accepts "nan" and "inf": every factor that is not finite
@@ -465,18 +484,25 @@ fn convert_material(
             }
             e => ImportError::new(base_dir.join(&t.file), ImportErrorKind::Obj { line: None, reason: e.to_string() }),
         })?;
-        let index = match image_index.get(&path) {
+        let index = match textures.index.get(&path) {
             Some(&i) => i,
             None => {
-                let bytes = read_file(&path, ReadLimit::image(options)).map_err(|e| {
+                let bytes = read_file(&path, ReadLimit::image(options), &textures.reads).map_err(|e| {
                     ImportError::new(&path, e.into_kind(&t.file, |reason| ImportErrorKind::Obj { line: None, reason }))
                 })?;
+                textures.decoded = textures.decoded.saturating_add(decoded_size(&bytes).unwrap_or(0));
+                let what = "the decoded size of all images";
+                let scene = &textures.scene;
+                options
+                    .limits
+                    .check(Limit::TotalImageBytes, what, textures.decoded)
+                    .map_err(|k| ImportError::new(scene, k))?;
                 let label = t.file.clone();
-                let image =
-                    decode(&bytes, images.len(), &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
-                images.push(Arc::new(image));
-                image_index.insert(path, images.len() - 1);
-                images.len() - 1
+                let n = textures.images.len();
+                let image = decode(&bytes, n, &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
+                textures.images.push(Arc::new(image));
+                textures.index.insert(path, n);
+                n
             }
         };
         let wrap = if t.clamp { WrapMode::ClampToEdge } else { WrapMode::Repeat };
@@ -538,8 +564,7 @@ mod tests {
                 &m(ns),
                 Path::new("."),
                 &ImportOptions::default(),
-                &mut Vec::new(),
-                &mut HashMap::new(),
+                &mut ObjImages::new(Path::new("test.obj"), ReadBudget::new(&ImportOptions::default())),
                 &mut Vec::new(),
             )
             .unwrap();

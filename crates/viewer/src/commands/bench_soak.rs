@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Result, anyhow};
-use penumbra_engine::import::{ImportOptions, SceneFile};
+use penumbra_engine::import::SceneFile;
 use penumbra_render::{AdapterRequest, GpuContext, RenderSettings};
 use penumbra_viewer::soak::{Soak, SoakConfig, SoakSample};
 
@@ -29,8 +29,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         return Err(anyhow!("--frames must be at least 1"));
     }
     let mut scenes = vec![Arc::new(scene::load(None, &args.scene_args)?)];
+    let options = scene::options(&args.scene_args);
     for p in REPO_SCENES.iter().map(Path::new).filter(|p| p.exists()) {
-        scenes.push(Arc::new(SceneFile::load(p, &ImportOptions::default())?));
+        scenes.push(Arc::new(SceneFile::load(p, &options)?));
     }
     let (w, h) = args.size;
     let config = SoakConfig {

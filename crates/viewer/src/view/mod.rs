@@ -112,6 +112,8 @@ struct Running {
     screenshot_requested: bool,
     can_copy_surface: bool,
     settings: RenderSettings,
+    /// Spaces out attempts to replace a lost device.
+    device_retry: penumbra_render::RetryBackoff,
 }
 
 impl Viewer {
@@ -140,6 +142,7 @@ impl Viewer {
             screenshots: Screenshots::new(screenshot_dir),
             screenshot_requested: false,
             settings: self.settings.clone(),
+            device_retry: Default::default(),
         })
     }
 }
@@ -217,11 +220,19 @@ impl Running {
     fn frame(&mut self, args: &ViewArgs, event_loop: &ActiveEventLoop) -> Result<()> {
         // wgpu reports a lost device from its maintenance: poll, then look.
         let _ = self.ctx.device.poll(wgpu::PollType::Poll);
-        if self.ctx.is_lost()
-            && let Err(e) = self.replace_device()
-        {
-            tracing::error!("the GPU device was lost and cannot be replaced yet: {e:#}");
-            return Ok(());
+        if self.ctx.is_lost() {
+            if !self.device_retry.due() {
+                // Without a device nothing presents, so nothing paces the loop: wait a little.
+                std::thread::sleep(Duration::from_millis(20));
+                return Ok(());
+            }
+            if let Err(e) = self.replace_device() {
+                self.device_retry.failed();
+                let wait = self.device_retry.delay();
+                tracing::error!("the GPU device was lost and cannot be replaced yet ({e:#}); trying again in {wait:?}");
+                return Ok(());
+            }
+            self.device_retry.reset();
         }
         self.poll_loader(args)?;
         let now = Instant::now();

@@ -15,7 +15,7 @@ use glam::Vec3;
 use gltf::json::Value;
 
 use super::ImportOptions;
-use super::source::{ReadLimit, read_uri};
+use super::source::{ReadBudget, ReadLimit, read_uri};
 use crate::ies::IesProfile;
 use crate::import::ImportErrorKind;
 
@@ -41,6 +41,7 @@ pub(crate) fn load_profiles(
     base_dir: &Path,
     file: &str,
     options: &ImportOptions,
+    reads: &ReadBudget,
 ) -> Result<Vec<Arc<IesProfile>>, ImportErrorKind> {
     let Some(ext) = document.extension_value(NAME) else { return Ok(Vec::new()) };
     let Some(lights) = ext.get("lights").and_then(Value::as_array) else {
@@ -53,7 +54,7 @@ pub(crate) fn load_profiles(
         let (source, bytes) = match (light.get("uri").and_then(Value::as_str), light.get("bufferView")) {
             (Some(uri), None) => {
                 let short = if uri.starts_with("data:") { "data URI".to_owned() } else { uri.to_owned() };
-                let bytes = read_uri(base_dir, uri, options, ReadLimit::file(options, "an IES profile's size"))
+                let bytes = read_uri(base_dir, uri, options, ReadLimit::file(options, "an IES profile's size"), reads)
                     .map_err(|e| {
                         e.into_kind(uri, |reason| ImportErrorKind::IesProfile { index, uri: short.clone(), reason })
                     })?;

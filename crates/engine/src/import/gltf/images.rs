@@ -6,9 +6,9 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::ImportOptions;
-use super::source::{ReadLimit, read_uri};
+use super::source::{ReadBudget, ReadLimit, read_uri};
 use crate::image::Image;
-use crate::import::ImportErrorKind;
+use crate::import::{ImportErrorKind, Limit};
 
 /// Where an image's encoded bytes live.
 pub(crate) enum ImageBytes<'a> {
@@ -22,6 +22,7 @@ pub(crate) fn image_bytes<'a>(
     buffers: &'a [Vec<u8>],
     base_dir: &Path,
     options: &ImportOptions,
+    reads: &ReadBudget,
 ) -> Result<ImageBytes<'a>, ImportErrorKind> {
     let index = image.index();
     match image.source() {
@@ -38,10 +39,17 @@ pub(crate) fn image_bytes<'a>(
             })?;
             Ok(ImageBytes::Slice(&buffer[view.offset()..end]))
         }
-        gltf::image::Source::Uri { uri, .. } => read_uri(base_dir, uri, options, ReadLimit::image(options))
+        gltf::image::Source::Uri { uri, .. } => read_uri(base_dir, uri, options, ReadLimit::image(options), reads)
             .map(ImageBytes::Owned)
             .map_err(|e| e.into_kind(uri, |reason| ImportErrorKind::Image { index, uri: uri.to_owned(), reason })),
     }
+}
+
+/// The RGBA8 size an encoded image will decode to, from its header alone (`None` when the header
+/// cannot be read; decoding then reports why).
+pub(crate) fn decoded_size(bytes: &[u8]) -> Option<u64> {
+    let (w, h) = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().ok()?.into_dimensions().ok()?;
+    Some(w as u64 * h as u64 * 4)
 }
 
 pub(crate) fn decode(
@@ -64,6 +72,11 @@ pub(crate) fn decode(
         .map_err(|e| err(format!("cannot read: {e}")))?;
     if reader.format().is_none() {
         return Err(err("unknown image format (Penumbra decodes PNG and JPEG)".into()));
+    }
+    // The RGBA8 copy made after decoding is outside the decoder's own allocation limit: check
+    // its size from the header first.
+    if let Some(size) = decoded_size(bytes) {
+        options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", size)?;
     }
     let (max_side, max_bytes) = (options.limits.image_dimension, options.limits.image_bytes);
     let mut limits = image::Limits::default();

@@ -170,8 +170,15 @@ impl GltfScene {
         };
         let image_handles: Vec<Option<Handle<Image>>> = {
             let mut images = world.resource_mut::<Assets<Image>>();
-            // Shared, not copied: a textured model's images are tens of megabytes.
-            self.images.iter().map(|i| i.clone().map(|i| images.add_arc(i))).collect()
+            // Shared, not copied: a textured model's images are tens of megabytes. Entries that
+            // name the same source were decoded once and share one handle (one GPU texture).
+            let mut handles: std::collections::HashMap<*const Image, Handle<Image>> = Default::default();
+            self.images
+                .iter()
+                .map(|i| {
+                    i.as_ref().map(|i| *handles.entry(Arc::as_ptr(i)).or_insert_with(|| images.add_arc(i.clone())))
+                })
+                .collect()
         };
         let (material_handles, default_material) = {
             let mut mats = world.resource_mut::<Assets<StandardMaterial>>();
@@ -191,7 +198,12 @@ impl GltfScene {
         world.entity_mut(root).insert(super::SceneAssets {
             meshes: mesh_handles.iter().flatten().map(|(h, _)| *h).collect(),
             materials: material_handles.iter().copied().chain([default_material]).collect(),
-            images: image_handles.iter().flatten().copied().collect(),
+            images: {
+                let mut unique: Vec<Handle<Image>> = image_handles.iter().flatten().copied().collect();
+                unique.sort_by_key(|h| h.index());
+                unique.dedup();
+                unique
+            },
             ies_profiles: ies_handles.clone(),
         });
         let ctx = SpawnCtx {
@@ -373,7 +385,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let base_dir = path.parent().unwrap_or(Path::new("."));
     progress(super::ImportStage::Buffers, document.buffers().len());
     let roots = scene_roots(&document, options.scene, &options.limits)?;
-    let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options)?, options.limits);
+    let reads = source::ReadBudget::new(options);
+    let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options, &reads)?, options.limits);
 
     let materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
     let mut meshes = Vec::new();
@@ -407,9 +420,9 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         step();
     }
 
-    let images = decode_images(&document, &materials, &buffers, base_dir, path, options)?;
+    let images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
     let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
-    let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options)?;
+    let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options, &reads)?;
     let ies_node_lights: Vec<Option<ies_lights::IesLightDesc>> =
         document.nodes().map(|n| ies_lights::node_light(&n, ies_profiles.len())).collect::<Result<_, _>>()?;
     let area_node_lights: Vec<Option<area_lights::AreaLightDesc>> =
@@ -594,6 +607,7 @@ fn load_buffers(
     mut blob: Option<Vec<u8>>,
     base_dir: &Path,
     options: &ImportOptions,
+    reads: &source::ReadBudget,
 ) -> Result<Vec<Vec<u8>>, ImportErrorKind> {
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
@@ -611,7 +625,7 @@ fn load_buffers(
             gltf::buffer::Source::Uri(uri) => {
                 let short = if uri.starts_with("data:") { "data URI".to_owned() } else { uri.to_owned() };
                 let limit = source::ReadLimit::buffer(buffer.length() as u64);
-                let data = source::read_uri(base_dir, uri, options, limit).map_err(|e| {
+                let data = source::read_uri(base_dir, uri, options, limit, reads).map_err(|e| {
                     e.into_kind(uri, |reason| ImportErrorKind::Buffer { index, uri: short.clone(), reason })
                 })?;
                 (short, data)
@@ -694,12 +708,14 @@ fn check_totals(document: &gltf::Document, limits: &ImportLimits) -> Result<(), 
     limits.check(Limit::Nodes, "the node count", document.nodes().len() as u64)?;
     let (mut vertices, mut indices) = (0u64, 0u64);
     for prim in document.meshes().flat_map(|m| m.primitives()) {
-        vertices += prim.get(&gltf::mesh::Semantic::Positions).map_or(0, |a| a.count() as u64);
-        indices += prim.indices().map_or(0, |a| a.count() as u64);
+        // Counts come straight from the JSON (up to 2^64 - 1): saturate, never wrap.
+        vertices = vertices.saturating_add(prim.get(&gltf::mesh::Semantic::Positions).map_or(0, |a| a.count() as u64));
+        indices = indices.saturating_add(prim.indices().map_or(0, |a| a.count() as u64));
     }
     limits.check(Limit::Vertices, "the vertex count over all primitives", vertices)?;
     limits.check(Limit::Indices, "the index count over all primitives", indices)?;
-    let keys: u64 = document.animations().flat_map(|a| a.samplers()).map(|s| s.input().count() as u64).sum();
+    let keys =
+        document.animations().flat_map(|a| a.samplers()).fold(0u64, |n, s| n.saturating_add(s.input().count() as u64));
     limits.check(Limit::AnimationKeys, "keyframes over all animation samplers", keys)
 }
 
@@ -710,6 +726,7 @@ fn decode_images(
     base_dir: &Path,
     path: &Path,
     options: &ImportOptions,
+    reads: &source::ReadBudget,
 ) -> Result<Vec<Option<Arc<Image>>>, ImportErrorKind> {
     let mut used = vec![false; document.images().len()];
     for t in materials.iter().flat_map(|m| m.textures.iter().flatten()) {
@@ -718,15 +735,36 @@ fn decode_images(
         }
     }
     let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    // Images naming the same source (URI or bufferView) are read and decoded once.
+    let mut by_source: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    let mut job_of: Vec<Option<usize>> = vec![None; used.len()];
     let mut jobs = Vec::new();
+    let mut total = 0u64;
     for image in document.images().filter(|i| used[i.index()]) {
-        let uri = match image.source() {
-            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => uri.to_owned(),
-            gltf::image::Source::Uri { .. } => "data URI".to_owned(),
-            gltf::image::Source::View { view, .. } => format!("bufferView {}", view.index()),
+        let (uri, key) = match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => (uri.to_owned(), uri.to_owned()),
+            gltf::image::Source::Uri { uri, .. } => ("data URI".to_owned(), uri.to_owned()),
+            gltf::image::Source::View { view, .. } => {
+                let name = format!("bufferView {}", view.index());
+                (name.clone(), name)
+            }
         };
+        if let Some(&job) = by_source.get(&key) {
+            job_of[image.index()] = Some(job);
+            continue;
+        }
         let label = format!("{file}#{}", image.name().map_or_else(|| format!("image{}", image.index()), str::to_owned));
-        jobs.push((image.index(), uri, label, images::image_bytes(&image, buffers, base_dir, options)?));
+        let bytes = images::image_bytes(&image, buffers, base_dir, options, reads)?;
+        // The decoded size from the header, summed before anything is decoded.
+        let encoded = match &bytes {
+            images::ImageBytes::Slice(s) => *s,
+            images::ImageBytes::Owned(v) => v.as_slice(),
+        };
+        total = total.saturating_add(images::decoded_size(encoded).unwrap_or(0));
+        options.limits.check(Limit::TotalImageBytes, "the decoded size of all images", total)?;
+        by_source.insert(key, jobs.len());
+        job_of[image.index()] = Some(jobs.len());
+        jobs.push((image.index(), uri, label, bytes));
     }
     if let Some(p) = &options.progress {
         p.enter(super::ImportStage::Images, jobs.len());
@@ -742,15 +780,6 @@ fn decode_images(
         }
         image
     });
-    let mut out: Vec<Option<Arc<Image>>> = vec![None; used.len()];
-    // Checked as images arrive: each is already bounded by `image-bytes`, so at most one per core
-    // exists beyond the total when the import stops.
-    let mut total = 0u64;
-    for ((index, ..), image) in jobs.iter().zip(decoded) {
-        let image = image?;
-        total += image.rgba8.len() as u64;
-        options.limits.check(Limit::TotalImageBytes, "the decoded size of all images", total)?;
-        out[*index] = Some(Arc::new(image));
-    }
-    Ok(out)
+    let decoded: Vec<Arc<Image>> = decoded.into_iter().map(|d| d.map(Arc::new)).collect::<Result<_, _>>()?;
+    Ok(job_of.into_iter().map(|j| j.map(|j| decoded[j].clone())).collect())
 }

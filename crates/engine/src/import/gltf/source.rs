@@ -52,6 +52,30 @@ impl std::fmt::Display for UriError {
     }
 }
 
+/// Bytes one import has read from files and data URIs, against `--limit read-bytes`: per-file
+/// limits alone would let a file name one large file a thousand times.
+#[derive(Debug)]
+pub(crate) struct ReadBudget {
+    used: std::cell::Cell<u64>,
+    max: u64,
+}
+
+impl ReadBudget {
+    pub(crate) fn new(options: &ImportOptions) -> Self {
+        Self { used: std::cell::Cell::new(0), max: options.limits.read_bytes }
+    }
+
+    fn charge(&self, bytes: u64) -> Result<(), UriError> {
+        let total = self.used.get().saturating_add(bytes);
+        if total > self.max {
+            let what = "the bytes read from files and data URIs";
+            return Err(UriError::TooLarge { size: total, max: self.max, limit: Limit::ReadBytes, what });
+        }
+        self.used.set(total);
+        Ok(())
+    }
+}
+
 /// How much a URI may bring in, checked before the bytes are allocated.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct ReadLimit {
@@ -100,9 +124,10 @@ pub(crate) fn read_uri(
     uri: &str,
     options: &ImportOptions,
     read_limit: ReadLimit,
+    budget: &ReadBudget,
 ) -> Result<Vec<u8>, UriError> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        return decode_data_uri(rest, options.limits.data_uri_bytes);
+        return decode_data_uri(rest, options.limits.data_uri_bytes, budget);
     }
     if has_scheme(uri) {
         return Err(UriError::Unsupported(format!(
@@ -113,18 +138,24 @@ pub(crate) fn read_uri(
         .decode_utf8()
         .map_err(|_| UriError::Read("URI is not valid UTF-8 after percent-decoding".into()))?;
     let path = resolve_inside(base_dir, &decoded, options.allow_outside_folder)?;
-    read_file(&path, read_limit)
+    read_file(&path, read_limit, budget)
 }
 
 /// Reads at most `limit.bytes` of `path` (a device or a 100 GB file must not be read whole).
-pub(crate) fn read_file(path: &Path, limit: ReadLimit) -> Result<Vec<u8>, UriError> {
+pub(crate) fn read_file(path: &Path, limit: ReadLimit, budget: &ReadBudget) -> Result<Vec<u8>, UriError> {
     use std::io::Read;
     let read_err = |e: std::io::Error| UriError::Read(format!("cannot read {}: {e}", path.display()));
-    let file = std::fs::File::open(path).map_err(read_err)?;
-    let size = file.metadata().map_err(read_err)?.len();
+    // Opening a FIFO or a device would block or never end: only regular files.
+    let meta = std::fs::metadata(path).map_err(read_err)?;
+    if !meta.is_file() {
+        return Err(UriError::Read(format!("{} is not a regular file", path.display())));
+    }
+    let size = meta.len();
     if !limit.truncate && size > limit.bytes {
         return Err(UriError::TooLarge { size, max: limit.bytes, limit: limit.limit, what: limit.what });
     }
+    budget.charge(size.min(limit.bytes))?;
+    let file = std::fs::File::open(path).map_err(read_err)?;
     let mut out = Vec::new();
     // `+ 1` notices a file that grew, or a device whose metadata says 0 bytes.
     let cap = if limit.truncate { limit.bytes } else { limit.bytes.saturating_add(1) };
@@ -153,7 +184,7 @@ fn has_scheme(uri: &str) -> bool {
     }
 }
 
-fn decode_data_uri(rest: &str, limit: u64) -> Result<Vec<u8>, UriError> {
+fn decode_data_uri(rest: &str, limit: u64, budget: &ReadBudget) -> Result<Vec<u8>, UriError> {
     let (header, payload) =
         rest.split_once(',').ok_or_else(|| UriError::Read("data URI has no ',' before its payload".into()))?;
     if !header.ends_with(";base64") {
@@ -169,6 +200,7 @@ fn decode_data_uri(rest: &str, limit: u64) -> Result<Vec<u8>, UriError> {
             what: "a data URI's decoded size",
         });
     }
+    budget.charge(size)?;
     base64::engine::general_purpose::STANDARD
         .decode(payload.trim_end())
         .map_err(|e| UriError::Read(format!("invalid base64 in data URI: {e}")))
@@ -241,12 +273,33 @@ mod tests {
     fn reads_stop_at_the_limit() {
         let path = std::env::temp_dir().join(format!("penumbra-read-limit-{}", std::process::id()));
         std::fs::write(&path, [7u8; 100]).unwrap();
-        assert_eq!(read_file(&path, ReadLimit::buffer(10)).unwrap().len(), 10, "a buffer reads its byteLength");
         let mut options = ImportOptions::default();
+        let budget = ReadBudget::new(&options);
+        assert_eq!(
+            read_file(&path, ReadLimit::buffer(10), &budget).unwrap().len(),
+            10,
+            "a buffer reads its byteLength"
+        );
         options.limits.image_bytes = 99;
-        assert!(matches!(read_file(&path, ReadLimit::image(&options)), Err(UriError::TooLarge { size: 100, .. })));
+        let err = read_file(&path, ReadLimit::image(&options), &budget);
+        assert!(matches!(err, Err(UriError::TooLarge { size: 100, .. })));
         options.limits.image_bytes = 100;
-        assert_eq!(read_file(&path, ReadLimit::image(&options)).unwrap().len(), 100);
+        assert_eq!(read_file(&path, ReadLimit::image(&options), &budget).unwrap().len(), 100);
+        // The running total: 10 + 100 read so far; 150 allowed in all.
+        options.limits.read_bytes = 150;
+        let budget = ReadBudget::new(&options);
+        assert!(read_file(&path, ReadLimit::image(&options), &budget).is_ok());
+        let err = read_file(&path, ReadLimit::image(&options), &budget);
+        assert!(matches!(err, Err(UriError::TooLarge { limit: Limit::ReadBytes, size: 200, .. })), "{err:?}");
+        let fifo = std::env::temp_dir().join(format!("penumbra-fifo-{}", std::process::id()));
+        let _ = std::fs::remove_file(&fifo);
+        if std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+            assert!(
+                matches!(read_file(&fifo, ReadLimit::buffer(10), &budget), Err(UriError::Read(_))),
+                "no blocking open"
+            );
+            std::fs::remove_file(&fifo).unwrap();
+        }
         std::fs::remove_file(&path).unwrap();
     }
 
@@ -262,10 +315,20 @@ mod tests {
     fn data_uris_decode_and_respect_the_limit() {
         let opts = ImportOptions::default();
         assert_eq!(
-            read_uri(Path::new("."), "data:application/octet-stream;base64,AAEC", &opts, ReadLimit::buffer(3)).unwrap(),
+            read_uri(
+                Path::new("."),
+                "data:application/octet-stream;base64,AAEC",
+                &opts,
+                ReadLimit::buffer(3),
+                &ReadBudget::new(&opts)
+            )
+            .unwrap(),
             [0, 1, 2]
         );
-        assert!(matches!(decode_data_uri(";base64,AAAAAAAA", 3), Err(UriError::TooLarge { .. })));
+        assert!(matches!(
+            decode_data_uri(";base64,AAAAAAAA", 3, &ReadBudget::new(&opts)),
+            Err(UriError::TooLarge { .. })
+        ));
     }
 
     #[test]
