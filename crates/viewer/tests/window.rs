@@ -147,9 +147,17 @@ impl Viewer {
         (rgba, g.width as u32, g.height as u32)
     }
 
-    /// Captures until two in a row match (the camera has settled and the frame is drawn).
+    /// Captures until two in a row match (the camera has settled and the frame is drawn), once
+    /// the first scene has loaded: on a loaded machine the loading panel can hold still for
+    /// longer than the capture interval.
     fn settled(&mut self, what: &str) -> (Vec<u8>, u32, u32) {
         let deadline = Instant::now() + Duration::from_secs(90);
+        // The viewer logs "loaded NAME: imported in .. s, staged in .. s" (with colour codes).
+        while !self.log().contains(", staged in ") {
+            assert!(self.alive(), "the viewer exited during {what}; its log:\n{}", self.log());
+            assert!(Instant::now() < deadline, "{what}: the scene never loaded; log:\n{}", self.log());
+            std::thread::sleep(Duration::from_millis(100));
+        }
         let mut last = self.capture();
         loop {
             std::thread::sleep(Duration::from_millis(700));
