@@ -45,9 +45,15 @@ fn gltf_crashers_are_errors_now() {
 
 #[test]
 fn obj_ies_shader_and_image_crashers_are_errors_now() {
-    replay("obj", |b| {
-        let _ = ObjScene::from_bytes(b, Path::new("/nonexistent-penumbra-fuzz/scene.obj"), &ImportOptions::default());
+    // The OBJ importer turns a panic inside tobj into an error of its own ("the OBJ parser
+    // failed"); a crasher must be refused before tobj gets that far.
+    let n = replay("obj", |b| {
+        let loaded =
+            ObjScene::from_bytes(b, Path::new("/nonexistent-penumbra-fuzz/scene.obj"), &ImportOptions::default());
+        let err = loaded.expect_err("an invalid file loaded").to_string();
+        assert!(!err.contains("the OBJ parser failed"), "tobj panicked (caught): {err}");
     });
+    assert!(n >= 1, "the OBJ crasher files are present");
     replay("ies", |b| {
         let _ = IesProfile::parse(&String::from_utf8_lossy(b), "fuzz.ies");
     });

@@ -112,7 +112,8 @@ fn bad_obj_input_is_named_with_file_and_line() {
     let range =
         edited("obj_range", |f, t| if f == "scene.obj" { t.replace("f 15 16 17 18", "f 15 16 17 99") } else { t });
     let e = error(&range);
-    assert!(e.contains("scene.obj") && e.contains("out of bounds") && e.contains("ending at line 54"), "{e}");
+    // Named on the face's own line, before tobj (which would only name the object's end).
+    assert!(e.contains("scene.obj") && e.contains("line 53") && e.contains("index 99 names no vertex"), "{e}");
 
     let no_mtl =
         edited(

@@ -280,33 +280,52 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
 /// checks positive indices itself but computes relative ones with unchecked arithmetic.
 fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
     let text = String::from_utf8_lossy(bytes);
+    let kind_of = |word: Option<&str>| match word {
+        Some("v") => Some(0),
+        Some("vt") => Some(1),
+        Some("vn") => Some(2),
+        _ => None,
+    };
+    // Positive indices may name elements defined later; none may pass the file's total. tobj
+    // multiplies an index by 2 or 3 unchecked (an overflow, found by fuzzing), so a bound here
+    // keeps every index it sees below the file's line count.
+    let mut totals = [0i64; 3];
+    for line in text.lines() {
+        if let Some(k) = kind_of(line.split_whitespace().next()) {
+            totals[k] += 1;
+        }
+    }
     let mut counts = [0i64; 3];
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => counts[0] += 1,
-            Some("vt") => counts[1] += 1,
-            Some("vn") => counts[2] += 1,
-            Some("f") => {
-                for corner in words {
-                    for (kind, index) in corner.split('/').enumerate().take(3) {
-                        if index.is_empty() {
-                            continue;
-                        }
-                        let what = ["vertex", "texture coordinate", "normal"][kind];
-                        let i: i64 =
-                            index.parse().map_err(|_| (n + 1, format!("face index {index:?} is not a number")))?;
-                        // `i64::MIN` has no negation: it names no element either way.
-                        if i == 0 || i.checked_neg().is_none_or(|neg| neg > counts[kind]) {
-                            return Err((
-                                n + 1,
-                                format!("face {what} index {i} names no {what} ({} defined so far)", counts[kind]),
-                            ));
-                        }
-                    }
+        let first = words.next();
+        if let Some(k) = kind_of(first) {
+            counts[k] += 1;
+        }
+        if first != Some("f") {
+            continue;
+        }
+        for corner in words {
+            for (kind, index) in corner.split('/').enumerate().take(3) {
+                if index.is_empty() {
+                    continue;
+                }
+                let what = ["vertex", "texture coordinate", "normal"][kind];
+                let i: i64 = index.parse().map_err(|_| (n + 1, format!("face index {index:?} is not a number")))?;
+                // `i64::MIN` has no negation: it names no element either way.
+                if i == 0 || i.checked_neg().is_none_or(|neg| neg > counts[kind]) {
+                    return Err((
+                        n + 1,
+                        format!("face {what} index {i} names no {what} ({} defined so far)", counts[kind]),
+                    ));
+                }
+                if i > totals[kind] {
+                    return Err((
+                        n + 1,
+                        format!("face {what} index {i} names no {what} (the file has {})", totals[kind]),
+                    ));
                 }
             }
-            _ => {}
         }
     }
     Ok(())
