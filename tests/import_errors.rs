@@ -257,6 +257,14 @@ fn an_accessor_asking_for_absurd_memory_is_refused_before_allocating() {
     assert!(err.to_string().contains("--limit vertices=N"), "the file-wide total is checked first: {err}");
 }
 
+/// Loads into a fresh world, which must succeed; returns the app for further checks.
+fn load_ok(path: &Path, options: &ImportOptions, why: &str) -> App {
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    load_scene(&mut app.world, path, options).expect(why);
+    app
+}
+
 /// Options with one limit set (`NAME=N`, as on the command line).
 fn with_limit(setting: &str) -> ImportOptions {
     let mut options = ImportOptions::default();
@@ -288,9 +296,7 @@ fn one_accessor_reused_by_many_primitives_meets_the_totals() {
     // 150 vertices declared; 50 × 36 bytes decoded.
     assert_limit(&load_expecting_error_with(&path, &with_limit("vertices=149")), Limit::Vertices);
     assert_limit(&load_expecting_error_with(&path, &with_limit("decoded-bytes=1000")), Limit::DecodedBytes);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    load_scene(&mut app.world, &path, &with_limit("vertices=150")).expect("at the limit is allowed");
+    load_ok(&path, &with_limit("vertices=150"), "at the limit is allowed");
 }
 
 #[test]
@@ -306,9 +312,7 @@ fn deep_hierarchies_are_refused_past_the_node_depth_limit() {
     assert_limit(&err, Limit::NodeDepth);
     let path = write_scene("deep40", &chain(40), true);
     assert_limit(&load_expecting_error_with(&path, &with_limit("node-depth=39")), Limit::NodeDepth);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    load_scene(&mut app.world, &path, &with_limit("node-depth=40")).expect("40 levels under a limit of 40");
+    load_ok(&path, &with_limit("node-depth=40"), "40 levels under a limit of 40");
 }
 
 #[test]
@@ -399,15 +403,11 @@ fn decoded_image_totals_are_checked_from_headers_before_decoding() {
     std::fs::write(dir.join("b.png"), png(4, 4)).unwrap();
     // 64 bytes each decoded.
     assert_limit(&load_expecting_error_with(&path, &with_limit("total-image-bytes=100")), Limit::TotalImageBytes);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    load_scene(&mut app.world, &path, &with_limit("total-image-bytes=128")).expect("128 bytes of images fit");
+    load_ok(&path, &with_limit("total-image-bytes=128"), "128 bytes of images fit");
     // One image named three times is read and decoded once: it counts once.
     let path = textured_triangle("imageshared", &["a.png", "a.png", "a.png"]);
     std::fs::write(path.parent().unwrap().join("a.png"), png(4, 4)).unwrap();
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    load_scene(&mut app.world, &path, &with_limit("total-image-bytes=64")).expect("one decode of 64 bytes");
+    let app = load_ok(&path, &with_limit("total-image-bytes=64"), "one decode of 64 bytes");
     assert_eq!(app.world.resource::<Assets<Image>>().len(), 1, "the three entries share one image");
 }
 
@@ -420,9 +420,7 @@ fn the_bytes_read_from_files_have_a_total() {
     );
     let path = write_scene("readtotal", &json, true);
     assert_limit(&load_expecting_error_with(&path, &with_limit("read-bytes=71")), Limit::ReadBytes);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    load_scene(&mut app.world, &path, &with_limit("read-bytes=72")).expect("72 bytes may be read");
+    load_ok(&path, &with_limit("read-bytes=72"), "72 bytes may be read");
 }
 
 #[test]
@@ -439,7 +437,5 @@ fn obj_totals_and_textures_count_against_the_limits() {
     // Three vertices per object: six over the file.
     assert_limit(&load_expecting_error_with(&path, &with_limit("vertices=5")), Limit::Vertices);
     assert_limit(&load_expecting_error_with(&path, &with_limit("total-image-bytes=255")), Limit::TotalImageBytes);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    load_scene(&mut app.world, &path, &with_limit("vertices=6")).expect("six vertices fit");
+    load_ok(&path, &with_limit("vertices=6"), "six vertices fit");
 }
