@@ -17,7 +17,7 @@
 //! Both pipeline frames the same way (at most two in flight, no readback) and report the median
 //! wall time per frame, the CPU time on the calling thread per frame and the GPU time per frame
 //! (timestamp queries around every pass: the first pass's beginning to the last pass's end). Run: `cargo bench --bench triangle [-- --frames N
-//! --size WxH]`.
+//! --size WxH --no-helmet]`.
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -34,6 +34,15 @@ struct Times {
     gpu: Vec<f64>,
     /// Penumbra's passes: (label, GPU ms per frame).
     passes: Vec<(&'static str, Vec<f64>)>,
+    /// Penumbra's CPU time by part: (label, ms per frame).
+    cpu_parts: Vec<(String, Vec<f64>)>,
+}
+
+fn push(parts: &mut Vec<(String, Vec<f64>)>, label: &str, ms: f64) {
+    match parts.iter_mut().find(|(l, _)| l == label) {
+        Some((_, v)) => v.push(ms),
+        None => parts.push((label.to_string(), vec![ms])),
+    }
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -135,7 +144,8 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
         (set, resolve, readback)
     });
     let mut in_flight = VecDeque::new();
-    let mut times = Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new() };
+    let mut times =
+        Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new(), cpu_parts: Vec::new() };
     let mut last = Instant::now();
     for frame in 0..total {
         let start = Instant::now();
@@ -257,14 +267,24 @@ fn run(mut app: App, settings: RenderSettings, size: (u32, u32), frames: usize) 
     app.insert_resource(Renderer::new(ctx, settings).expect("a renderer"));
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     let mut in_flight = VecDeque::new();
-    let mut times = Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new() };
+    let mut times =
+        Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new(), cpu_parts: Vec::new() };
     let mut last = Instant::now();
     let mut last_gpu_frame = 0;
     for frame in 0..WARMUP + frames {
         let start = Instant::now();
-        app.update();
+        let stages = app.update_timed();
         let cpu = start.elapsed().as_secs_f64() * 1e3;
         let renderer = app.world.resource::<Renderer>();
+        if frame >= WARMUP {
+            for (label, ms) in &stages {
+                push(&mut times.cpu_parts, &format!("{label:?}"), *ms);
+            }
+            let s = renderer.stats();
+            push(&mut times.cpu_parts, "of which prepare", s.prepare_ms);
+            push(&mut times.cpu_parts, "encode", s.cpu_ms - s.prepare_ms);
+            push(&mut times.cpu_parts, "submit", s.submit_ms);
+        }
         if let Some(s) = renderer.last_submission() {
             in_flight.push_back(s.clone());
         }
@@ -300,14 +320,18 @@ fn main() {
     let size = arg("--size")
         .and_then(|s| s.split_once('x').and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?))))
         .unwrap_or((1920, 1080));
+    // `--no-helmet`: the triangle rows only (the helmet takes most of a run on lavapipe).
+    let helmets = !args.iter().any(|a| a == "--no-helmet");
     let (adapter, base) = minimal(size, frames);
-    let runs = [
+    let mut runs = vec![
         ("minimal wgpu", "1 pass, sRGB8 target", base),
         ("penumbra", "MSAA 1", penumbra(size, frames, 1)),
         ("penumbra", "MSAA 4 (default)", penumbra(size, frames, 4)),
-        ("helmet", "as planned", helmet(size, frames, false)),
-        ("helmet", "unused features on", helmet(size, frames, true)),
     ];
+    if helmets {
+        runs.push(("helmet", "as planned", helmet(size, frames, false)));
+        runs.push(("helmet", "unused features on", helmet(size, frames, true)));
+    }
     println!("one unlit triangle at {}x{}, {frames} frames (median), {adapter}", size.0, size.1);
     println!(
         "{:<14} {:<22} {:>9} {:>9} {:>9} {:>12}",
@@ -325,6 +349,10 @@ fn main() {
         if !t.passes.is_empty() {
             let split: Vec<String> = t.passes.iter().map(|(l, v)| format!("{l} {:.3}", median(v))).collect();
             println!("{:<37} GPU ms by pass: {}", "", split.join(", "));
+        }
+        if !t.cpu_parts.is_empty() {
+            let split: Vec<String> = t.cpu_parts.iter().map(|(l, v)| format!("{l} {:.3}", median(v))).collect();
+            println!("{:<37} CPU ms by stage: {}", "", split.join(", "));
         }
     }
 }

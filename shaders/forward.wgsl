@@ -13,13 +13,19 @@
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
 // (directional lights read their cascaded shadow maps, shadows.wgsl), IBL (the environment's
 // light, ibl.wgsl), and the debug
-// views DEBUG_CLUSTER_HEAT, DEBUG_CASCADES, DEBUG_NORMALS and DEBUG_UVS. DEFERRED_LOCAL_LIGHTS: local lights are shaded by a compute pass
-// (deferred_lights.wgsl) instead, from the surface each fragment also writes out.
+// views DEBUG_CLUSTER_HEAT, DEBUG_CASCADES, DEBUG_NORMALS and DEBUG_UVS. DEFERRED_LOCAL_LIGHTS:
+// local lights are shaded by a compute pass (deferred_lights.wgsl) instead, from the surface
+// each fragment also writes out. TONEMAP_IN_FORWARD (with display.wgsl's switches): nothing
+// reads the HDR colour, so the output is tonemapped here and drawn straight into the output
+// target; the tonemap pass does not run.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
 #import penumbra::view::{View, eye_direction}
 #ifdef DEFERRED_LOCAL_LIGHTS
 #import penumbra::gbuffer::encode_surface
+#endif
+#ifdef TONEMAP_IN_FORWARD
+#import penumbra::display::display_rgb
 #endif
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
 #import penumbra::light_data::Light
@@ -302,6 +308,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     let limit = F16_MAX;
 #endif
     out = select(vec3<f32>(0.0), clamp(out, vec3<f32>(0.0), vec3<f32>(limit)), out == out);
+#ifdef TONEMAP_IN_FORWARD
+    // Nothing reads the HDR colour this frame: this pass writes the output itself.
+    out = display_rgb(out);
+#endif
     let alpha = clamp(base.a, 0.0, 1.0);
 #ifdef ALPHA_BLEND
     // Premultiplied alpha: the blend state is (ONE, ONE_MINUS_SRC_ALPHA).

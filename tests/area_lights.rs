@@ -17,7 +17,8 @@ use common::{floor_radiance, hdr_of, render_app, scene_app, top_down};
 const SIZE: u32 = 64;
 
 fn settings() -> RenderSettings {
-    RenderSettings { msaa: 1, ..Default::default() }
+    // The tests read HDR colour.
+    RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() }
 }
 
 /// The floor's radiance at `p` from an emitter given as samples (point, direction it emits

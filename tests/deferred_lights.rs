@@ -17,7 +17,7 @@ use common::{assert_finite_hdr, flip_mean, hdr_of, render_app, scene_app, spawn_
 
 fn render(app: &mut App, size: (u32, u32), msaa: u32, walk: LightWalk) -> (Vec<u8>, Vec<[f32; 4]>) {
     app.world.remove_resource::<Renderer>();
-    let px = render_app(app, size, RenderSettings { msaa, light_walk: walk, ..Default::default() });
+    let px = render_app(app, size, RenderSettings { msaa, light_walk: walk, keep_hdr: true, ..Default::default() });
     (px, hdr_of(app))
 }
 
@@ -139,7 +139,7 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
 /// long ones to the compute pass, and back when the lights thin out.
 #[test]
 fn the_automatic_walk_moves_long_lists_to_compute_and_back() {
-    let settings = RenderSettings { msaa: 1, ..Default::default() };
+    let settings = RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() };
     assert_eq!(settings.light_walk, LightWalk::Auto);
     let runs_compute = |app: &App| app.world.resource::<Renderer>().stats().plan.runs(Pass::DeferredLights);
     let mut app = scene_app();

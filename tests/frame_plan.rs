@@ -20,8 +20,15 @@ fn lit_sphere(app: &mut App) {
 
 /// Renders one frame and returns (passes in order, feature switches of every forward variant,
 /// the renderer's memory by pool).
-fn plan_of(mut app: App) -> (Vec<Pass>, Vec<String>, penumbra::render::MemoryStats, String) {
-    render_app(&mut app, SIZE, RenderSettings::default());
+fn plan_of(app: App) -> (Vec<Pass>, Vec<String>, penumbra::render::MemoryStats, String) {
+    plan_with(app, RenderSettings::default())
+}
+
+fn plan_with(
+    mut app: App,
+    settings: RenderSettings,
+) -> (Vec<Pass>, Vec<String>, penumbra::render::MemoryStats, String) {
+    render_app(&mut app, SIZE, settings);
     let r = app.world.resource::<Renderer>();
     let passes = r.stats().plan.passes.iter().map(|(p, _)| *p).collect();
     let defs = r.forward_pipeline_keys().iter().flat_map(|k| k.shader_defs().0).map(str::to_string).collect();
@@ -39,8 +46,7 @@ fn an_empty_scene_clears_and_tonemaps_only() {
     assert!(explain.contains("Opaque: clears the targets (no opaque draws)"), "{explain}");
 }
 
-#[test]
-fn one_unlit_triangle_compiles_only_the_unlit_shader() {
+fn unlit_triangle() -> App {
     let mut app = scene_app();
     camera(&mut app);
     let triangle = Mesh {
@@ -50,10 +56,24 @@ fn one_unlit_triangle_compiles_only_the_unlit_shader() {
     };
     let material = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::ONE, 1.0) };
     spawn_mesh(&mut app, triangle, material, Transform::default());
-    let (passes, defs, mem, explain) = plan_of(app);
+    app
+}
+
+#[test]
+fn one_unlit_triangle_compiles_only_the_unlit_shader() {
+    let (passes, defs, mem, explain) = plan_of(unlit_triangle());
     assert_eq!(passes, [Pass::Cull, Pass::Opaque, Pass::Tonemap], "{explain}");
     assert_eq!(defs, ["UNLIT"], "{explain}");
     assert_eq!(mem.shadows, 0);
+}
+
+#[test]
+fn one_unlit_triangle_at_msaa_1_draws_straight_into_the_output() {
+    let (passes, defs, mem, explain) = plan_with(unlit_triangle(), RenderSettings { msaa: 1, ..Default::default() });
+    assert_eq!(passes, [Pass::Cull, Pass::Opaque], "{explain}");
+    assert_eq!(defs, ["TONEMAP_IN_FORWARD", "TONEMAP_NEUTRAL", "UNLIT"], "{explain}");
+    assert_eq!(mem.targets, (SIZE.0 * SIZE.1 * 4) as u64, "depth only: {explain}");
+    assert!(explain.contains("Tonemap: nothing reads the HDR colour"), "{explain}");
 }
 
 #[test]

@@ -29,7 +29,7 @@ fn furnace(metallic: f32, roughness: f32) -> Vec<[f32; 4]> {
         Camera { exposure: Exposure::unit(), ..Default::default() },
         Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
     ));
-    let settings = RenderSettings { msaa: 1, ..Default::default() };
+    let settings = RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() };
     app.insert_resource(Renderer::new(gpu(), settings).unwrap());
     app.insert_resource(RenderOutput::Headless { width: SIZE, height: SIZE });
     app.update();

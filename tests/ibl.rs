@@ -27,6 +27,8 @@ fn settings(cube_size: u32, specular_samples: u32) -> RenderSettings {
     RenderSettings {
         msaa: 1,
         environment: EnvironmentSettings { cube_size: Some(cube_size), specular_samples },
+        // The tests read HDR colour.
+        keep_hdr: true,
         ..Default::default()
     }
 }

@@ -13,7 +13,8 @@ use common::{add_ies_profile, floor_radiance, hdr_of, render_app, scene_app, top
 const SIZE: u32 = 64;
 
 fn settings() -> RenderSettings {
-    RenderSettings { msaa: 1, ..Default::default() }
+    // The tests read HDR colour.
+    RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() }
 }
 
 /// Vertical angles 0–90° by 15°, planes at 0, 90, 180, 270 and 360°: a different brightness in

@@ -55,7 +55,7 @@ fn a_profile_beside_the_scene_lights_the_floor_as_the_node_points_it() {
     assert_eq!((light.scale, light.color), (0.01, Vec3::new(1.0, 0.5, 1.0)), "colour clamped to [0, 1]");
     let profiles = app.world.resource::<Assets<IesProfile>>();
     assert_eq!(profiles.get(light.profile).unwrap().label, "scene.gltf#lamp");
-    render_app(&mut app, (32, 32), RenderSettings { msaa: 1, ..Default::default() });
+    render_app(&mut app, (32, 32), RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() });
     let hdr = hdr_of(&app);
     // Straight below and 45° out: 800 and 400 cd, times 0.01 and the colour.
     for (x, y) in [(16, 16), (24, 16)] {

@@ -15,7 +15,8 @@ mod common;
 use common::{flip_mean, floor_radiance, hdr_of, render_app, scene_app, spawn_mesh, top_down};
 
 fn settings(walk: LightWalk) -> RenderSettings {
-    RenderSettings { msaa: 1, light_walk: walk, ..Default::default() }
+    // The tests read HDR colour.
+    RenderSettings { msaa: 1, light_walk: walk, keep_hdr: true, ..Default::default() }
 }
 
 /// The GPU's lists of the last frame against the CPU reference. Rounding may legitimately

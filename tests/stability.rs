@@ -153,7 +153,7 @@ fn a_near_plane_of_1e_minus_4_resolves_walls_a_million_units_away() {
     facing_quad(&mut app, 2e6, Vec3::new(0.0, 0.0, -1e6), unlit(Vec3::X));
     facing_quad(&mut app, 4e6, Vec3::new(0.0, 0.0, -1e6 - 100.0), unlit(Vec3::Y));
     facing_quad(&mut app, 1e-4, Vec3::new(0.0, 0.0, -2e-4), unlit(Vec3::Z));
-    render_app(&mut app, SIZE, RenderSettings { msaa: 1, ..Default::default() });
+    render_app(&mut app, SIZE, RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() });
     let hdr = hdr_of(&app);
     assert_finite_hdr(&hdr, "near plane 1e-4");
     let at = |x: u32, y: u32| hdr[(y * SIZE.0 + x) as usize];
@@ -284,7 +284,7 @@ fn ten_thousand_lights_in_one_cluster_add_up() {
             ));
         }
         app.world.spawn(unit_camera(Transform::from_xyz(0.0, 3.0, 0.01).looking_at(Vec3::ZERO, Vec3::Y), 0.1));
-        render_app(&mut app, (48, 48), RenderSettings { msaa: 1, ..Default::default() });
+        render_app(&mut app, (48, 48), RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() });
         let stats = app.world.resource::<Renderer>().stats().clone();
         (hdr_of(&app), stats.local_lights)
     };

@@ -42,6 +42,7 @@ pub enum Pass {
     /// Compute: luminance histogram and the adapted exposure the tonemap pass applies.
     AutoExposure,
     /// HDR to display: exposure is already applied; tonemap and sRGB-encode into the output.
+    /// Left out when nothing reads the HDR colour: the opaque pass then tonemaps itself.
     Tonemap,
     /// FXAA from the tonemapped image into the output.
     Fxaa,
@@ -76,7 +77,8 @@ impl Pass {
             Pass::Shadows => "casters' vertices and instances, cascade matrices -> shadow atlas layers",
             Pass::Opaque => {
                 "view, mesh pool, instances, materials, textures, light store [, cluster lists] \
-                 [, shadow atlas] [, environment maps] -> HDR colour, depth"
+                 [, shadow atlas] [, environment maps] -> HDR colour (or the output, tonemapped), \
+                 depth"
             }
             Pass::Background => "environment cube (or its blurred level), HDR alpha -> HDR colour",
             Pass::OcclusionLate => "depth -> depth pyramid -> late cull -> second opaque draws",
@@ -125,6 +127,8 @@ pub struct SceneNeeds {
     pub fxaa: bool,
     /// Vertices of the gizmo lines to draw.
     pub gizmo_vertices: u32,
+    /// Nothing reads the HDR colour: the forward pass tonemaps into the output itself.
+    pub direct_output: bool,
 }
 
 impl FramePlan {
@@ -144,6 +148,7 @@ impl FramePlan {
             auto_exposure,
             fxaa,
             gizmo_vertices,
+            direct_output,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -189,7 +194,9 @@ impl FramePlan {
         if auto_exposure {
             passes.push((Pass::AutoExposure, "automatic exposure is on"));
         }
-        passes.push((Pass::Tonemap, "every frame ends in the output target"));
+        if !direct_output {
+            passes.push((Pass::Tonemap, "the HDR colour is tonemapped into the output"));
+        }
         if fxaa {
             passes.push((Pass::Fxaa, "FXAA is on"));
         }
@@ -216,7 +223,12 @@ impl FramePlan {
                     Pass::ClusterBin if n.binned_lights == 0 => "no local lights reach the fragment shader's lists",
                     Pass::ClusterBin => "nothing to light",
                     Pass::Shadows => "no shadowed light's casters reach what the camera sees",
-                    Pass::Opaque | Pass::Tonemap => "always runs",
+                    Pass::Tonemap => {
+                        "nothing reads the HDR colour (MSAA 1; no post-processing, environment \
+                         background, blended draws, gizmos, deferred lights or HDR readback): \
+                         the opaque pass tonemaps and draws into the output"
+                    }
+                    Pass::Opaque => "always runs",
                     Pass::Background => "no environment to show (none, or a solid background colour)",
                     Pass::OcclusionLate => {
                         "occlusion culling off (auto: fewer than 10 000 opaque instances or a CPU adapter)"
@@ -256,6 +268,14 @@ mod tests {
         assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Transparent));
         assert!(plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::Transparent));
         assert!(plan(SceneNeeds { ..Default::default() }).runs(Pass::Tonemap));
+    }
+
+    #[test]
+    fn tonemap_pass_only_when_the_frame_has_hdr_colour() {
+        let direct = plan(SceneNeeds { has_opaque: true, direct_output: true, ..Default::default() });
+        let order: Vec<Pass> = direct.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::Opaque]);
+        assert!(direct.left_out().iter().any(|(p, why)| *p == Pass::Tonemap && why.contains("nothing reads")));
     }
 
     #[test]

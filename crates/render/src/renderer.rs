@@ -82,6 +82,11 @@ pub struct RenderSettings {
     pub environment: EnvironmentSettings,
     /// Bloom, automatic exposure, FXAA (all off by default).
     pub post: PostSettings,
+    /// Always render into the HDR target, so that [`Renderer::read_hdr`] can read it. Without
+    /// it a frame that nothing else reads HDR colour for (MSAA 1, no post-processing, no
+    /// environment background, no blended draws, no gizmos, no deferred lights) skips the HDR
+    /// target and the tonemap pass: the forward shader tonemaps and draws into the output.
+    pub keep_hdr: bool,
 }
 
 /// When occlusion culling runs (it needs GPU culling).
@@ -160,6 +165,7 @@ impl Default for RenderSettings {
             occlusion_culling: OcclusionCulling::Auto,
             environment: EnvironmentSettings::default(),
             post: PostSettings::default(),
+            keep_hdr: false,
         }
     }
 }
@@ -736,7 +742,14 @@ impl Renderer {
     /// not opacity: with deferred local lights it held surface roughness (see gbuffer.wgsl).
     pub fn read_hdr(&self) -> Result<Vec<[f32; 4]>, ReadbackError> {
         let targets = self.targets.as_ref().ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
-        let bytes = readback::read_texture(&self.ctx.device, &self.ctx.queue, &targets.hdr, 8)?;
+        let hdr = targets.hdr.as_ref().ok_or_else(|| {
+            ReadbackError::Map(
+                "the last frame had no HDR target (it drew straight into the output); set \
+                 RenderSettings::keep_hdr to read HDR colour"
+                    .into(),
+            )
+        })?;
+        let bytes = readback::read_texture(&self.ctx.device, &self.ctx.queue, &hdr.texture, 8)?;
         Ok(bytes
             .chunks_exact(8)
             .map(|px| std::array::from_fn(|c| readback::f16_to_f32(u16::from_le_bytes([px[2 * c], px[2 * c + 1]]))))
@@ -775,12 +788,6 @@ impl Renderer {
             // Every pipeline key changes.
             self.ibl_active = env_frame.active;
             self.batches_dirty = true;
-        }
-        if self.targets.as_ref().is_none_or(|t| {
-            t.size != size || t.samples != self.settings.msaa || t.deferred.is_some() != self.deferred_lights
-        }) {
-            let params = self.deferred_lights.then_some(&self.deferred_params);
-            self.targets = Some(FrameTargets::new(&device, &self.pipelines, size, self.settings.msaa, params));
         }
         self.apply_draw_changes(scene, in_step);
         let t = Instant::now();
@@ -884,10 +891,46 @@ impl Renderer {
             self.view_bind_group = Some(self.create_view_bind_group(&device));
         }
 
+        // Without a camera there is nothing to draw lines for.
+        let gizmo_vertices = match scene.view {
+            Some(v) => self.gizmos.prepare(&device, &queue, &scene.gizmos, v.world_from_view.translation.into()),
+            None => 0,
+        };
+        let background = env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some();
+        // Direct output: when nothing but the tonemap pass would read the HDR colour, the
+        // forward shader tonemaps and draws straight into the output; neither the HDR target
+        // nor the tonemap pass exists. Not with MSAA: a resolve of tonemapped samples would
+        // differ from the tonemap of resolved radiance at every edge.
+        let post_settings = &self.settings.post;
+        let direct = self.settings.msaa == 1
+            && !self.settings.keep_hdr
+            && !self.deferred_lights
+            && blend_batches.is_empty()
+            && !background
+            && gizmo_vertices == 0
+            && post_settings.bloom.is_none()
+            && post_settings.auto_exposure.is_none()
+            && !post_settings.fxaa;
+        if self.targets.as_ref().is_none_or(|t| {
+            t.size != size
+                || t.samples != self.settings.msaa
+                || t.deferred.is_some() != self.deferred_lights
+                || t.hdr.is_none() != direct
+        }) {
+            let params = self.deferred_lights.then_some(&self.deferred_params);
+            self.targets = Some(FrameTargets::new(&device, &self.pipelines, size, self.settings.msaa, params, !direct));
+        }
+
         let mut batches = self.opaque_batches.clone();
         let blend_first = opaque_len as u32;
         for (i, (batch, _)) in blend_batches.iter().enumerate() {
             batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
+        }
+        if direct {
+            for b in &mut batches {
+                b.key.color_format = FormatKey(output_format);
+                b.key.tonemap = Some(self.settings.tonemapper);
+            }
         }
         let camera_exposure = scene.view.map_or(1.0, |v| v.exposure);
         let post = self.post.prepare(
@@ -901,11 +944,6 @@ impl Renderer {
         );
         let binned = if self.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
         let shadow_layers = self.shadows.frame().rendered_layers();
-        // Without a camera there is nothing to draw lines for.
-        let gizmo_vertices = match scene.view {
-            Some(v) => self.gizmos.prepare(&device, &queue, &scene.gizmos, v.world_from_view.translation.into()),
-            None => 0,
-        };
         let plan = FramePlan::new(SceneNeeds {
             binned_lights: binned,
             shadow_layers,
@@ -916,11 +954,12 @@ impl Renderer {
             occlusion,
             environment_changed: env_frame.prefilter,
             deform_jobs: deform_frame.jobs,
-            background: env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some(),
+            background,
             bloom: post.bloom,
             auto_exposure: post.auto_exposure,
             fxaa: post.fxaa,
             gizmo_vertices,
+            direct_output: direct,
         });
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
@@ -969,10 +1008,15 @@ impl Renderer {
         // Handles (reference-counted), so the culling owner stays free to encode between passes.
         let (early_args, late_args) = (self.culling.args().clone(), self.culling.late_args().clone());
         // A solid background is the clear colour, exposed like the scene (f16-clamped).
-        let [r, g, b] = match env_frame.solid_background {
+        let mut clear = match env_frame.solid_background {
             Some(c) => c.map(|v| (v * camera_exposure).clamp(0.0, 65504.0) as f64),
             None => self.settings.clear_color,
         };
+        if direct {
+            // No shader touches the clear colour: it gets the display transform here.
+            clear = tonemap::display_color(self.settings.tonemapper, clear, !output_format.is_srgb());
+        }
+        let [r, g, b] = clear;
         let view_bind_group = self.view_bind_group.as_ref().expect("made above");
         // The background is composited over the resolved frame (one sample a pixel, after the
         // surfaces left their coverage in alpha), except with deferred local lights, whose
@@ -980,6 +1024,7 @@ impl Renderer {
         let composite_background = plan.runs(Pass::Background) && !self.deferred_lights;
         let inputs = ForwardInputs {
             targets,
+            output,
             view_bind_group,
             mesh_pool: &self.mesh_pool,
             materials: &self.materials,
@@ -1087,18 +1132,21 @@ impl Renderer {
                 .err();
         }
         // With FXAA the tonemap pass writes the intermediate FXAA reads.
-        let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, output_format);
-        let tonemap_output =
-            tonemap::Output { view: self.post.tonemap_target().unwrap_or(output), format: tonemap_key.format };
-        let mut tonemap_result = tonemap::encode(
-            &mut encoder,
-            &device,
-            &mut self.pipelines,
-            self.post.tonemap_group(),
-            tonemap_key,
-            tonemap_output,
-            self.timer.as_mut(),
-        );
+        let mut tonemap_result = Ok(());
+        if plan.runs(Pass::Tonemap) {
+            let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, output_format);
+            let tonemap_output =
+                tonemap::Output { view: self.post.tonemap_target().unwrap_or(output), format: tonemap_key.format };
+            tonemap_result = tonemap::encode(
+                &mut encoder,
+                &device,
+                &mut self.pipelines,
+                self.post.tonemap_group(),
+                tonemap_key,
+                tonemap_output,
+                self.timer.as_mut(),
+            );
+        }
         if plan.runs(Pass::Fxaa) {
             let fxaa = self.post.encode_fxaa(
                 &mut encoder,
@@ -1538,8 +1586,10 @@ impl Renderer {
             cull_back_faces: !m.double_sided,
             front_face_cw: d.mirrored,
             sample_count: self.settings.msaa,
+            // Direct output frames replace these two per frame (see `render`).
             color_format: FormatKey(HDR_FORMAT),
             depth_format: FormatKey(DEPTH_FORMAT),
+            tonemap: None,
         })
     }
 

@@ -44,6 +44,9 @@ impl std::ops::AddAssign for DrawCounts {
 
 pub struct ForwardInputs<'a> {
     pub targets: &'a FrameTargets,
+    /// The frame's output: drawn into (with the tonemap in the fragment shader) when the
+    /// targets have no HDR colour.
+    pub output: &'a wgpu::TextureView,
     pub view_bind_group: &'a wgpu::BindGroup,
     pub mesh_pool: &'a MeshPool,
     pub materials: &'a MaterialTable,
@@ -101,7 +104,7 @@ pub fn encode(
     {
         error = Some(e);
     }
-    let (color, resolve) = inputs.targets.color_attachment();
+    let (color, resolve) = inputs.targets.color_attachment(inputs.output);
     let split = inputs.targets.deferred.as_ref();
     if split.is_none()
         && phase != OpaquePhase::Early
@@ -192,7 +195,7 @@ pub fn encode_after_deferred(
     if let Some(e) = compile_gizmos(device, pipelines, inputs) {
         error = Some(e);
     }
-    let (color, resolve) = targets.color_attachment();
+    let (color, resolve) = targets.color_attachment(inputs.output);
     let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("deferred composite and blended draws"),
@@ -341,11 +344,13 @@ pub fn encode_background(
     view_bind_group: &wgpu::BindGroup,
     timer: Option<&mut GpuTimer>,
 ) -> Result<(), ShaderError> {
+    // A frame without HDR colour (direct output) has no background to composite.
+    let Some(hdr_view) = targets.hdr_view() else { return Ok(()) };
     let pipeline = pipelines.background(device, BackgroundMode::Composite)?;
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("background"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &targets.hdr_view,
+            view: hdr_view,
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },

@@ -223,13 +223,24 @@ impl PostProcess {
         camera_exposure: f32,
     ) -> PostFrame {
         let frame = targets.size;
+        let Some(hdr_view) = targets.hdr_view() else {
+            // The frame draws straight into the output (nothing post-processes it): no effect
+            // runs and there is no tonemap pass to feed.
+            self.bloom = None;
+            self.ldr = None;
+            self.tonemap_group = None;
+            self.exposure_group = None;
+            self.exposure_fresh = true;
+            self.frame = PostFrame::default();
+            return self.frame;
+        };
         match &settings.bloom {
             Some(b) => {
                 let levels = bloom_levels(frame, b.levels);
                 if self.bloom.as_ref().is_none_or(|c| c.frame != frame || c.views.len() as u32 != levels) {
-                    self.bloom = Some(BloomChain::new(device, pipelines, &self.sampler, targets, levels));
+                    self.bloom = Some(BloomChain::new(device, pipelines, &self.sampler, frame, hdr_view, levels));
                 } else if let Some(chain) = &mut self.bloom {
-                    chain.rebind_source(device, pipelines, &self.sampler, targets);
+                    chain.rebind_source(device, pipelines, &self.sampler, hdr_view);
                 }
             }
             None => self.bloom = None,
@@ -242,17 +253,13 @@ impl PostProcess {
             self.ldr = None;
         }
         let bloom_view = self.bloom.as_ref().map(|b| b.views[0].clone());
-        let stale =
-            self.tonemap_group.as_ref().is_none_or(|(_, hdr, bloom)| *hdr != targets.hdr_view || *bloom != bloom_view);
+        let stale = self.tonemap_group.as_ref().is_none_or(|(_, hdr, bloom)| hdr != hdr_view || *bloom != bloom_view);
         if stale {
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("tonemap inputs"),
                 layout: &pipelines.tonemap_layout,
                 entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(&targets.hdr_view),
-                    },
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr_view) },
                     wgpu::BindGroupEntry {
                         binding: 1,
                         resource: wgpu::BindingResource::TextureView(
@@ -263,23 +270,20 @@ impl PostProcess {
                     wgpu::BindGroupEntry { binding: 3, resource: self.params.as_entire_binding() },
                 ],
             });
-            self.tonemap_group = Some((group, targets.hdr_view.clone(), bloom_view));
+            self.tonemap_group = Some((group, hdr_view.clone(), bloom_view));
         }
         if settings.auto_exposure.is_some() {
-            if self.exposure_group.as_ref().is_none_or(|(_, hdr)| *hdr != targets.hdr_view) {
+            if self.exposure_group.as_ref().is_none_or(|(_, hdr)| hdr != hdr_view) {
                 let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("automatic exposure"),
                     layout: pipelines.exposure_layout(),
                     entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::TextureView(&targets.hdr_view),
-                        },
+                        wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr_view) },
                         wgpu::BindGroupEntry { binding: 1, resource: self.histogram.as_entire_binding() },
                         wgpu::BindGroupEntry { binding: 2, resource: self.params.as_entire_binding() },
                     ],
                 });
-                self.exposure_group = Some((group, targets.hdr_view.clone()));
+                self.exposure_group = Some((group, hdr_view.clone()));
             }
         } else {
             self.exposure_group = None;
@@ -449,10 +453,10 @@ impl BloomChain {
         device: &wgpu::Device,
         pipelines: &PipelineCache,
         sampler: &wgpu::Sampler,
-        targets: &FrameTargets,
+        frame: (u32, u32),
+        hdr_view: &wgpu::TextureView,
         levels: u32,
     ) -> Self {
-        let frame = targets.size;
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("bloom"),
             size: wgpu::Extent3d {
@@ -476,12 +480,12 @@ impl BloomChain {
                 })
             })
             .collect();
-        let mut down_groups = vec![sampled_group(device, pipelines, sampler, &targets.hdr_view, "bloom from frame")];
+        let mut down_groups = vec![sampled_group(device, pipelines, sampler, hdr_view, "bloom from frame")];
         for v in &views[..views.len() - 1] {
             down_groups.push(sampled_group(device, pipelines, sampler, v, "bloom down"));
         }
         let up_groups = views[1..].iter().map(|v| sampled_group(device, pipelines, sampler, v, "bloom up")).collect();
-        Self { frame, texture, views, down_groups, up_groups, source: targets.hdr_view.clone() }
+        Self { frame, texture, views, down_groups, up_groups, source: hdr_view.clone() }
     }
 
     /// The first group reads the frame: remade when the frame's HDR target was replaced at the
@@ -491,11 +495,11 @@ impl BloomChain {
         device: &wgpu::Device,
         pipelines: &PipelineCache,
         sampler: &wgpu::Sampler,
-        targets: &FrameTargets,
+        hdr_view: &wgpu::TextureView,
     ) {
-        if self.source != targets.hdr_view {
-            self.down_groups[0] = sampled_group(device, pipelines, sampler, &targets.hdr_view, "bloom from frame");
-            self.source = targets.hdr_view.clone();
+        if self.source != *hdr_view {
+            self.down_groups[0] = sampled_group(device, pipelines, sampler, hdr_view, "bloom from frame");
+            self.source = hdr_view.clone();
         }
     }
 }

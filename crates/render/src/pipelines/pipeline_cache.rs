@@ -75,6 +75,9 @@ pub struct PipelineKey {
     pub sample_count: u32,
     pub color_format: FormatKey,
     pub depth_format: FormatKey,
+    /// The fragment shader tonemaps (with this curve) and writes the output itself, when
+    /// nothing reads the HDR colour (`color_format` is then the output's format).
+    pub tonemap: Option<Tonemapper>,
 }
 
 impl PipelineKey {
@@ -108,6 +111,10 @@ impl PipelineKey {
             .with("DEBUG_CASCADES", self.debug == DebugView::Cascades)
             .with("DEBUG_NORMALS", self.debug == DebugView::Normals)
             .with("DEBUG_UVS", self.debug == DebugView::Uvs)
+            .with("TONEMAP_IN_FORWARD", self.tonemap.is_some())
+            .with("TONEMAP_NEUTRAL", self.tonemap == Some(Tonemapper::Neutral))
+            .with("TONEMAP_ACES", self.tonemap == Some(Tonemapper::Aces))
+            .with("ENCODE_SRGB", self.tonemap.is_some() && !self.color_format.0.is_srgb())
     }
 }
 
@@ -220,7 +227,7 @@ impl Ord for FormatKey {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Tonemapper {
     /// Khronos PBR Neutral: hue-preserving, base colours reproduce as authored. The default.
     Neutral,

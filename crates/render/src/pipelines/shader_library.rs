@@ -48,6 +48,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("shadow_caster.wgsl", include_str!("../../../../shaders/shadow_caster.wgsl")),
     ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
     ("deferred_composite.wgsl", include_str!("../../../../shaders/deferred_composite.wgsl")),
+    ("display.wgsl", include_str!("../../../../shaders/display.wgsl")),
     ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
     ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
     ("env_source.wgsl", include_str!("../../../../shaders/env_source.wgsl")),

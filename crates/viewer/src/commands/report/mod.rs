@@ -77,7 +77,9 @@ pub fn run(args: ReportArgs) -> Result<()> {
         let file = scene::load(Some(&s.path), &SceneArgs::default())?;
         for &preset in &args.presets {
             bar.set_message(format!("{} at {preset}", s.name));
-            let settings = RenderSettings { clear_color: [0.0; 3], gpu_timing: true, ..preset.settings() };
+            // PSNR is measured on the HDR colour: keep it even where the frame could skip it.
+            let settings =
+                RenderSettings { clear_color: [0.0; 3], gpu_timing: true, keep_hdr: true, ..preset.settings() };
             let renderer = Renderer::new(ctx.clone(), settings)?;
             // Exposure scale exactly 1: the HDR target holds radiance, as the references do.
             let unit = Some(Exposure::unit().ev100);
@@ -224,7 +226,7 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/reference/scenes/spheres.gltf");
         let file = scene::load(Some(&path), &SceneArgs::default()).unwrap();
         let ctx = GpuContext::new_headless(&AdapterRequest::default()).unwrap_or_else(|e| panic!("{e}"));
-        let renderer = Renderer::new(ctx, RenderSettings { msaa: 1, ..Default::default() }).unwrap();
+        let renderer = Renderer::new(ctx, RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() }).unwrap();
         let shot = ShotSettings {
             size: Some((64, 64)),
             camera: CameraChoice::Gltf(0),
