@@ -15,9 +15,12 @@
 //!   That difference is what leaving unused work out saves.
 //!
 //! Both pipeline frames the same way (at most two in flight, no readback) and report the median
-//! wall time per frame, the CPU time on the calling thread per frame and the GPU time per frame
-//! (timestamp queries around every pass: the first pass's beginning to the last pass's end). Run: `cargo bench --bench triangle [-- --frames N
-//! --size WxH --no-helmet]`.
+//! wall time per frame and the CPU time on the calling thread per frame, measured without
+//! timestamp queries, then the GPU time per frame from as many frames again with them
+//! (around every pass: the first pass's beginning to the last pass's end). Penumbra's CPU time
+//! is split by stage (its schedules; the render stage's prepare, encode and submit). Run: `cargo bench --bench triangle [-- --frames N
+//! --size WxH --no-helmet --variants]` (`--variants`: the minimal program also with a depth
+//! attachment and with a copyable target, Penumbra's forward pass's other costs).
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -68,7 +71,17 @@ fn fs() -> @location(0) vec4<f32> {
 "#;
 
 /// The hand-written program: everything it needs, nothing else.
-fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
+/// What the minimal program adds to its one pass, to find what Penumbra's forward pass pays
+/// for (`--variants`).
+#[derive(Clone, Copy, Default)]
+struct Extras {
+    /// A `Depth32Float` attachment, cleared and discarded, depth-tested (reverse-Z).
+    depth: bool,
+    /// The colour target can also be copied from (a headless output is read back).
+    copy_src: bool,
+}
+
+fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
     let adapter = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
         .into_iter()
@@ -92,10 +105,28 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        usage: if extras.copy_src {
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC
+        } else {
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+        },
         view_formats: &[],
     });
     let view = target.create_view(&Default::default());
+    let depth_view = extras.depth.then(|| {
+        device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("depth"),
+                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Depth32Float,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default())
+    });
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("triangle"),
         source: wgpu::ShaderSource::Wgsl(SHADER.into()),
@@ -110,7 +141,13 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
             buffers: &[],
         },
         primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: None,
+        depth_stencil: extras.depth.then(|| wgpu::DepthStencilState {
+            format: wgpu::TextureFormat::Depth32Float,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Greater),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
         multisample: wgpu::MultisampleState::default(),
         fragment: Some(wgpu::FragmentState {
             module: &module,
@@ -147,7 +184,11 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
     let mut times =
         Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new(), cpu_parts: Vec::new() };
     let mut last = Instant::now();
-    for frame in 0..total {
+    // Frames 0..total are timed on the CPU without timestamp queries; the next `frames` write
+    // them, for the GPU time.
+    for frame in 0..total + frames {
+        let timestamped = frame >= total;
+        let query = 2 * (frame - if timestamped { total } else { 0 }) as u32;
         let start = Instant::now();
         let mut encoder = device.create_command_encoder(&Default::default());
         {
@@ -162,11 +203,17 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
                         store: wgpu::StoreOp::Store,
                     },
                 })],
-                depth_stencil_attachment: None,
-                timestamp_writes: queries.as_ref().map(|(set, ..)| wgpu::RenderPassTimestampWrites {
-                    query_set: set,
-                    beginning_of_pass_write_index: Some(2 * frame as u32),
-                    end_of_pass_write_index: Some(2 * frame as u32 + 1),
+                depth_stencil_attachment: depth_view.as_ref().map(|view| wgpu::RenderPassDepthStencilAttachment {
+                    view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: queries.as_ref().filter(|_| timestamped).map(|(set, ..)| {
+                    wgpu::RenderPassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: Some(query),
+                        end_of_pass_write_index: Some(query + 1),
+                    }
                 }),
                 occlusion_query_set: None,
                 multiview_mask: None,
@@ -181,7 +228,7 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
             let _ = device.poll(wgpu::PollType::Wait { submission_index: Some(oldest), timeout: None });
         }
         let now = Instant::now();
-        if frame >= WARMUP {
+        if (WARMUP..total).contains(&frame) {
             times.wall.push((now - last).as_secs_f64() * 1e3);
             times.cpu.push(cpu);
         }
@@ -197,8 +244,9 @@ fn minimal(size: (u32, u32), frames: usize) -> (String, Times) {
         let data = readback.slice(..).get_mapped_range().expect("mapped above");
         let ticks: &[u64] = bytemuck::cast_slice(&data);
         let period = queue.get_timestamp_period() as f64;
-        times.gpu =
-            (WARMUP..total).map(|f| (ticks[2 * f + 1].wrapping_sub(ticks[2 * f])) as f64 * period / 1e6).collect();
+        times.gpu = (WARMUP.min(frames / 2)..frames)
+            .map(|f| (ticks[2 * f + 1].wrapping_sub(ticks[2 * f])) as f64 * period / 1e6)
+            .collect();
     }
     let info = adapter.get_info();
     (format!("{} ({:?})", info.name, info.backend), times)
@@ -263,20 +311,27 @@ fn spawn_caster(app: &mut App) {
 /// Pipelined frames of `app` at `size`, timed.
 fn run(mut app: App, settings: RenderSettings, size: (u32, u32), frames: usize) -> Times {
     let ctx = penumbra::render::GpuContext::new_headless(&Default::default()).unwrap_or_else(|e| panic!("{e}"));
-    let settings = RenderSettings { gpu_timing: true, ..settings };
-    app.insert_resource(Renderer::new(ctx, settings).expect("a renderer"));
+    app.insert_resource(Renderer::new(ctx, settings.clone()).expect("a renderer"));
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     let mut in_flight = VecDeque::new();
     let mut times =
         Times { wall: Vec::new(), cpu: Vec::new(), gpu: Vec::new(), passes: Vec::new(), cpu_parts: Vec::new() };
     let mut last = Instant::now();
     let mut last_gpu_frame = 0;
-    for frame in 0..WARMUP + frames {
+    // As with the minimal program: frames timed on the CPU first, with GPU timing off (its
+    // per-frame query resolve and read-back are not part of a frame), then `frames` more with it
+    // on, for the GPU times.
+    let total = WARMUP + frames;
+    for frame in 0..total + frames {
+        if frame == total {
+            let timed = RenderSettings { gpu_timing: true, ..settings.clone() };
+            app.world.resource_mut::<Renderer>().set_settings(timed).expect("valid settings");
+        }
         let start = Instant::now();
         let stages = app.update_timed();
         let cpu = start.elapsed().as_secs_f64() * 1e3;
         let renderer = app.world.resource::<Renderer>();
-        if frame >= WARMUP {
+        if (WARMUP..total).contains(&frame) {
             for (label, ms) in &stages {
                 push(&mut times.cpu_parts, &format!("{label:?}"), *ms);
             }
@@ -294,17 +349,19 @@ fn run(mut app: App, settings: RenderSettings, size: (u32, u32), frames: usize) 
                 renderer.context().device.poll(wgpu::PollType::Wait { submission_index: Some(oldest), timeout: None });
         }
         let now = Instant::now();
-        if frame >= WARMUP {
+        if (WARMUP..total).contains(&frame) {
             times.wall.push((now - last).as_secs_f64() * 1e3);
             times.cpu.push(cpu);
-            if let Some(t) = renderer.stats().gpu.as_ref().filter(|t| t.frame > last_gpu_frame) {
-                last_gpu_frame = t.frame;
-                times.gpu.push(t.span_ms);
-                for (label, ms) in &t.passes {
-                    match times.passes.iter_mut().find(|(l, _)| l == label) {
-                        Some((_, v)) => v.push(*ms),
-                        None => times.passes.push((label, vec![*ms])),
-                    }
+        }
+        if frame >= total + WARMUP.min(frames / 2)
+            && let Some(t) = renderer.stats().gpu.as_ref().filter(|t| t.frame > last_gpu_frame)
+        {
+            last_gpu_frame = t.frame;
+            times.gpu.push(t.span_ms);
+            for (label, ms) in &t.passes {
+                match times.passes.iter_mut().find(|(l, _)| l == label) {
+                    Some((_, v)) => v.push(*ms),
+                    None => times.passes.push((label, vec![*ms])),
                 }
             }
         }
@@ -322,12 +379,19 @@ fn main() {
         .unwrap_or((1920, 1080));
     // `--no-helmet`: the triangle rows only (the helmet takes most of a run on lavapipe).
     let helmets = !args.iter().any(|a| a == "--no-helmet");
-    let (adapter, base) = minimal(size, frames);
-    let mut runs = vec![
-        ("minimal wgpu", "1 pass, sRGB8 target", base),
+    let (adapter, base) = minimal(size, frames, Extras::default());
+    let mut runs = vec![("minimal wgpu", "1 pass, sRGB8 target", base)];
+    if args.iter().any(|a| a == "--variants") {
+        let depth = Extras { depth: true, ..Default::default() };
+        let copy_src = Extras { copy_src: true, ..Default::default() };
+        runs.push(("minimal wgpu", "+ depth", minimal(size, frames, depth).1));
+        runs.push(("minimal wgpu", "+ COPY_SRC target", minimal(size, frames, copy_src).1));
+        runs.push(("minimal wgpu", "+ both", minimal(size, frames, Extras { depth: true, copy_src: true }).1));
+    }
+    runs.extend([
         ("penumbra", "MSAA 1", penumbra(size, frames, 1)),
         ("penumbra", "MSAA 4 (default)", penumbra(size, frames, 4)),
-    ];
+    ]);
     if helmets {
         runs.push(("helmet", "as planned", helmet(size, frames, false)));
         runs.push(("helmet", "unused features on", helmet(size, frames, true)));

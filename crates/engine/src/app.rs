@@ -3,11 +3,17 @@
 //! One update runs the schedules in [`App::schedule_order`]: `Startup` (first update only), then
 //! `Update` (user systems), `PostUpdate` (transform propagation, visibility, bounds), followed by
 //! whatever later stages plugins append (the render crate appends its extract and render stages).
-//! `Time` ticks before anything runs. How updates are driven is the runner's business: a window
+//! `Time` ticks before anything runs.
+//!
+//! Executors: `Startup` and `Update` hold user systems and run them in parallel where their
+//! data allows (bevy's multi-threaded executor). `PostUpdate` and appended stages run their
+//! systems in order on the calling thread: the engine's systems there form one chain, so a
+//! thread pool could only add hand-off cost (measured on the H100 machine: 0.1 ms a frame for
+//! an empty scene). A system that has much work splits it itself (`par_iter`). How updates are driven is the runner's business: a window
 //! event loop, a headless loop of N fixed steps, or a test calling `update` by hand.
 
 use bevy_ecs::intern::Interned;
-use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleLabel, Schedules};
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleLabel, Schedules, SingleThreadedExecutor};
 use bevy_ecs::system::ScheduleSystem;
 use bevy_ecs::world::World;
 
@@ -60,10 +66,9 @@ impl App {
         let mut app =
             Self { world, schedule_order: Vec::new(), startup_done: false, plugin_names: Vec::new(), runner: None };
         app.add_schedule(Schedule::new(Startup));
-        for label in [Update.intern(), PostUpdate.intern()] {
-            app.add_schedule(Schedule::new(label));
-            app.schedule_order.push(label);
-        }
+        app.add_schedule(Schedule::new(Update));
+        app.schedule_order.push(Update.intern());
+        app.add_stage(PostUpdate);
         app
     }
 
@@ -71,11 +76,14 @@ impl App {
         self.world.resource_mut::<Schedules>().insert(schedule);
     }
 
-    /// Appends a schedule that runs every update after the ones already in the order.
+    /// Appends a schedule that runs every update after the ones already in the order; its
+    /// systems run in order on the calling thread (see the module doc).
     pub fn add_stage(&mut self, label: impl ScheduleLabel) -> &mut Self {
         let label = label.intern();
         if !self.schedule_order.contains(&label) {
-            self.add_schedule(Schedule::new(label));
+            let mut schedule = Schedule::new(label);
+            schedule.set_executor(SingleThreadedExecutor::new());
+            self.add_schedule(schedule);
             self.schedule_order.push(label);
         }
         self
