@@ -72,8 +72,54 @@ fn one_unlit_triangle_at_msaa_1_draws_straight_into_the_output() {
     let (passes, defs, mem, explain) = plan_with(unlit_triangle(), RenderSettings { msaa: 1, ..Default::default() });
     assert_eq!(passes, [Pass::Cull, Pass::Opaque], "{explain}");
     assert_eq!(defs, ["TONEMAP_IN_FORWARD", "TONEMAP_NEUTRAL", "UNLIT"], "{explain}");
-    assert_eq!(mem.targets, (SIZE.0 * SIZE.1 * 4) as u64, "depth only: {explain}");
+    assert_eq!(mem.targets, 0, "no HDR colour, and one triangle needs no depth: {explain}");
     assert!(explain.contains("Tonemap: nothing reads the HDR colour"), "{explain}");
+    assert!(explain.contains("no depth target"), "{explain}");
+}
+
+/// `mesh` alone in front of the camera, rendered (MSAA 4), and the same with a second instance
+/// far behind the camera (culled, so the image cannot change, but two instances keep depth).
+fn alone_and_with_company(mesh: Mesh, material: StandardMaterial) -> [(Vec<u8>, u64); 2] {
+    [false, true].map(|company| {
+        let mut app = scene_app();
+        camera(&mut app);
+        app.world.spawn((
+            DirectionalLight { shadows: false, ..Default::default() },
+            Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+        ));
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(mesh.clone());
+        let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(material.clone());
+        app.world.spawn((Mesh3d(mesh.clone()), MeshMaterial3d(material.clone()), Transform::default()));
+        if company {
+            app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::from_xyz(0.0, 0.0, 50.0)));
+        }
+        let pixels = render_app(&mut app, SIZE, RenderSettings::default());
+        (pixels, app.world.resource::<Renderer>().memory().targets)
+    })
+}
+
+#[test]
+fn one_convex_object_needs_no_depth_and_draws_the_same_image() {
+    let material = StandardMaterial::from_color(Vec4::new(0.8, 0.6, 0.4, 1.0), 0.4);
+    let [(alone, alone_bytes), (with, with_bytes)] = alone_and_with_company(Mesh::uv_sphere(0.8, 24, 12), material);
+    let depth = (SIZE.0 * SIZE.1 * 4 * 4) as u64;
+    assert_eq!(alone_bytes + depth, with_bytes, "only the depth target is left out");
+    assert_eq!(alone, with, "the image does not change");
+    assert!(alone.chunks_exact(4).any(|p| p[0] > 100), "the sphere is lit");
+}
+
+#[test]
+fn overlapping_front_faces_keep_depth() {
+    let material = StandardMaterial::from_color(Vec4::ONE, 0.5);
+    // Not convex.
+    let [(_, torus), _] = alone_and_with_company(Mesh::torus(0.7, 0.25, 24, 12), material.clone());
+    // Convex, but both faces drawn.
+    let double_sided = StandardMaterial { double_sided: true, ..material };
+    let [(_, cube), _] = alone_and_with_company(Mesh::cuboid(Vec3::ONE), double_sided);
+    let depth = (SIZE.0 * SIZE.1 * 4 * 4) as u64;
+    for (what, bytes) in [("torus", torus), ("double-sided cube", cube)] {
+        assert!(bytes >= depth, "{what}: {bytes} bytes of targets, no depth");
+    }
 }
 
 #[test]

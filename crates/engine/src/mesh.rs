@@ -390,6 +390,129 @@ impl bevy_mikktspace::Geometry for TangentGeometry<'_> {
     }
 }
 
+/// Whether the front faces of a mesh can cover one pixel twice (see
+/// [`Mesh::self_overlap`]); where they cannot, a frame that draws only this mesh, once, needs
+/// no depth buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum SelfOverlap {
+    /// Never, from any viewpoint: a single triangle.
+    Never,
+    /// Never while back faces are culled: a convex surface wound outwards (every vertex on or
+    /// behind every triangle's plane), flat ones included, with no two triangles overlapping.
+    WhenBackFacesCulled,
+    /// Possibly (or not worth proving: see [`OVERLAP_TEST_BUDGET`]).
+    #[default]
+    Possible,
+}
+
+/// Most triangle × vertex plane tests [`Mesh::self_overlap`] spends before answering
+/// `Possible` (about 4 ms on one core).
+pub const OVERLAP_TEST_BUDGET: usize = 1 << 22;
+
+impl Mesh {
+    /// Whether this mesh's front faces can overlap on screen. Skinned and morphed meshes change
+    /// shape, and lines and points have no faces: `Possible`. Triangles of zero area cover no
+    /// pixel and are ignored.
+    pub fn self_overlap(&self) -> SelfOverlap {
+        if self.topology != Topology::TriangleList
+            || !self.joints.is_empty()
+            || !self.morph_targets.is_empty()
+            || self.positions.iter().any(|p| !p.is_finite())
+        {
+            return SelfOverlap::Possible;
+        }
+        let corners: Vec<[Vec3; 3]> = match &self.indices {
+            Some(idx) => idx
+                .chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]].map(|i| self.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO)))
+                .collect(),
+            None => self.positions.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        };
+        let faces: Vec<([Vec3; 3], Vec3)> = corners
+            .into_iter()
+            .map(|c| (c, (c[1] - c[0]).cross(c[2] - c[0])))
+            .filter(|(_, n)| *n != Vec3::ZERO)
+            .collect();
+        match faces.len() {
+            0 | 1 => return SelfOverlap::Never,
+            n if n.saturating_mul(self.positions.len()) > OVERLAP_TEST_BUDGET => return SelfOverlap::Possible,
+            _ => {}
+        }
+        let aabb = self.aabb();
+        // 1e-4 of the mesh's size (a dent shallower than that counts as flat: it could only
+        // show at grazing angles, as slivers under a pixel), plus what f32 positions this far
+        // out are rounded by (a mesh too small for its distance from its origin answers
+        // `Possible`).
+        let far = aabb.min.abs().max(aabb.max.abs()).max_element() as f64;
+        let size = (aabb.max - aabb.min).max_element() as f64;
+        let rounding = 16.0 * f32::EPSILON as f64 * far;
+        if rounding > 1e-3 * size {
+            return SelfOverlap::Possible;
+        }
+        let tolerance = 1e-4 * size + rounding;
+        // Convex, wound outwards: nothing in front of any face's plane. In f64 about the
+        // bounds' centre, so that distance from the origin costs no precision here.
+        let centre = (0.5 * (aabb.min + aabb.max)).as_dvec3();
+        let local: Vec<glam::DVec3> = self.positions.iter().map(|p| p.as_dvec3() - centre).collect();
+        for (c, _) in &faces {
+            let [a, b, d] = c.map(|p| p.as_dvec3() - centre);
+            let n = (b - a).cross(d - a).normalize();
+            if local.iter().any(|p| n.dot(*p - a) > tolerance) {
+                return SelfOverlap::Possible;
+            }
+        }
+        // On a convex surface, faces with one outward normal share one supporting plane; there
+        // they must tile, not overlap: their areas add up to at most their hull's.
+        let mut planes: std::collections::HashMap<[i64; 3], (glam::DVec3, f64, Vec<glam::DVec3>)> = Default::default();
+        for (c, _) in &faces {
+            let [a, b, d] = c.map(|p| p.as_dvec3() - centre);
+            let n = (b - a).cross(d - a);
+            let unit = n.normalize();
+            let key = (unit * 1e4).round().as_i64vec3().to_array();
+            let plane = planes.entry(key).or_insert((unit, 0.0, Vec::new()));
+            plane.1 += 0.5 * n.length();
+            plane.2.extend_from_slice(&[a, b, d]);
+        }
+        for (normal, area, points) in planes.values() {
+            if *area > hull_area(*normal, points) * (1.0 + 1e-4) + tolerance * tolerance {
+                return SelfOverlap::Possible;
+            }
+        }
+        SelfOverlap::WhenBackFacesCulled
+    }
+}
+
+/// Area of the convex hull of `points` (all in one plane of this normal), by Andrew's monotone
+/// chain in the plane's own 2D coordinates.
+fn hull_area(normal: glam::DVec3, points: &[glam::DVec3]) -> f64 {
+    let u = normal.any_orthonormal_vector();
+    let v = normal.cross(u);
+    let mut p: Vec<(f64, f64)> = points.iter().map(|q| (q.dot(u), q.dot(v))).collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    p.dedup();
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
+    let mut hull: Vec<(f64, f64)> = Vec::with_capacity(2 * p.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let mut points = p.clone();
+        if pass == 1 {
+            points.reverse();
+        }
+        for q in points {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    let n = hull.len();
+    0.5 * (0..n).map(|i| hull[i].0 * hull[(i + 1) % n].1 - hull[(i + 1) % n].0 * hull[i].1).sum::<f64>().abs()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -458,5 +581,46 @@ mod tests {
         m.positions[2].x = f32::INFINITY;
         assert_eq!(m.sanitize(), 2);
         assert!(m.normals.iter().all(|n| n.is_finite()));
+    }
+
+    #[test]
+    fn self_overlap_is_proved_only_for_convex_outward_surfaces_and_single_triangles() {
+        let triangle = Mesh { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], ..Default::default() };
+        assert_eq!(triangle.self_overlap(), SelfOverlap::Never);
+        assert_eq!(Mesh::cuboid(Vec3::new(1.0, 2.0, 3.0)).self_overlap(), SelfOverlap::WhenBackFacesCulled);
+        assert_eq!(Mesh::uv_sphere(0.5, 24, 12).self_overlap(), SelfOverlap::WhenBackFacesCulled);
+        assert_eq!(Mesh::plane(2.0).self_overlap(), SelfOverlap::WhenBackFacesCulled, "flat counts");
+        // Tiny, and away from its origin: the tolerance follows the mesh's size and distance.
+        let mut tiny = Mesh::uv_sphere(1e-3, 16, 8);
+        tiny.positions.iter_mut().for_each(|p| *p += Vec3::splat(0.5));
+        assert_eq!(tiny.self_overlap(), SelfOverlap::WhenBackFacesCulled);
+        let mut away = Mesh::uv_sphere(1.0, 16, 8);
+        away.positions.iter_mut().for_each(|p| *p += Vec3::splat(100.0));
+        assert_eq!(away.self_overlap(), SelfOverlap::WhenBackFacesCulled);
+        // So small for its distance that f32 rounding bends it: not proved, depth stays.
+        let mut rounded = Mesh::uv_sphere(1e-3, 16, 8);
+        rounded.positions.iter_mut().for_each(|p| *p += Vec3::splat(1e3));
+        assert_eq!(rounded.self_overlap(), SelfOverlap::Possible);
+        assert_eq!(Mesh::torus(1.0, 0.3, 16, 8).self_overlap(), SelfOverlap::Possible, "not convex");
+        let mut inside_out = Mesh::cuboid(Vec3::ONE);
+        inside_out.indices.as_mut().unwrap().chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+        assert_eq!(inside_out.self_overlap(), SelfOverlap::Possible, "wound inwards");
+        // Two quads in one plane, one over the other: convex by the plane test, but overlapping.
+        let mut doubled = Mesh::plane(2.0);
+        let mut second = Mesh::plane(1.0);
+        let base = doubled.positions.len() as u32;
+        doubled.positions.append(&mut second.positions);
+        let extra: Vec<u32> = second.indices.unwrap().iter().map(|i| i + base).collect();
+        doubled.indices.as_mut().unwrap().extend(extra);
+        assert_eq!(doubled.self_overlap(), SelfOverlap::Possible, "coplanar overlap");
+        let mut lines = Mesh::cuboid(Vec3::ONE);
+        lines.topology = Topology::LineList;
+        assert_eq!(lines.self_overlap(), SelfOverlap::Possible);
+        let mut nan = Mesh::cuboid(Vec3::ONE);
+        nan.positions[0].x = f32::NAN;
+        assert_eq!(nan.self_overlap(), SelfOverlap::Possible);
+        let mut morphed = Mesh::cuboid(Vec3::ONE);
+        morphed.morph_targets.push(MorphTarget::default());
+        assert_eq!(morphed.self_overlap(), SelfOverlap::Possible);
     }
 }

@@ -77,8 +77,8 @@ impl Pass {
             Pass::Shadows => "casters' vertices and instances, cascade matrices -> shadow atlas layers",
             Pass::Opaque => {
                 "view, mesh pool, instances, materials, textures, light store [, cluster lists] \
-                 [, shadow atlas] [, environment maps] -> HDR colour (or the output, tonemapped), \
-                 depth"
+                 [, shadow atlas] [, environment maps] -> HDR colour (or the output, tonemapped) \
+                 [, depth]"
             }
             Pass::Background => "environment cube (or its blurred level), HDR alpha -> HDR colour",
             Pass::OcclusionLate => "depth -> depth pyramid -> late cull -> second opaque draws",
@@ -129,6 +129,8 @@ pub struct SceneNeeds {
     pub gizmo_vertices: u32,
     /// Nothing reads the HDR colour: the forward pass tonemaps into the output itself.
     pub direct_output: bool,
+    /// The frame has a depth target (not when nothing drawn can cover a pixel twice).
+    pub depth: bool,
 }
 
 impl FramePlan {
@@ -149,6 +151,7 @@ impl FramePlan {
             fxaa,
             gizmo_vertices,
             direct_output,
+            depth,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -168,7 +171,14 @@ impl FramePlan {
         }
         passes.push((
             Pass::Opaque,
-            if has_opaque { "opaque or masked draws exist" } else { "clears the targets (no opaque draws)" },
+            match (has_opaque, depth) {
+                (true, true) => "opaque or masked draws exist",
+                (true, false) => {
+                    "opaque or masked draws exist (one instance whose front faces cannot overlap: no \
+                     depth target)"
+                }
+                (false, _) => "clears the targets (no opaque draws)",
+            },
         ));
         if background {
             passes.push((Pass::Background, "the scene has an environment, shown where no surface is"));

@@ -16,7 +16,7 @@ use glam::{Mat4, Vec3};
 use penumbra_engine::Handle;
 use penumbra_engine::bounds::Aabb;
 use penumbra_engine::components::Projection;
-use penumbra_engine::mesh::Mesh;
+use penumbra_engine::mesh::{Mesh, SelfOverlap};
 
 use crate::context::GpuContext;
 use crate::entity_table::{EntityTable, Replaced};
@@ -911,14 +911,39 @@ impl Renderer {
             && post_settings.bloom.is_none()
             && post_settings.auto_exposure.is_none()
             && !post_settings.fxaa;
+        // No depth target when nothing drawn can cover a pixel twice: at most one opaque
+        // instance, of a mesh whose front faces cannot overlap (a single triangle; a convex
+        // surface with back faces culled), and nothing else that tests or reads depth.
+        let depth_free = blend_batches.is_empty()
+            && !occlusion
+            && !self.deferred_lights
+            && gizmo_vertices == 0
+            && match self.opaque_batches.as_slice() {
+                [] => true,
+                [only] if only.count == 1 => self.mesh_pool.entry(only.mesh_id).is_some_and(|e| match e.self_overlap {
+                    SelfOverlap::Never => true,
+                    SelfOverlap::WhenBackFacesCulled => only.key.cull_back_faces,
+                    SelfOverlap::Possible => false,
+                }),
+                _ => false,
+            };
         if self.targets.as_ref().is_none_or(|t| {
             t.size != size
                 || t.samples != self.settings.msaa
                 || t.deferred.is_some() != self.deferred_lights
                 || t.hdr.is_none() != direct
+                || t.depth_view.is_none() != depth_free
         }) {
             let params = self.deferred_lights.then_some(&self.deferred_params);
-            self.targets = Some(FrameTargets::new(&device, &self.pipelines, size, self.settings.msaa, params, !direct));
+            self.targets = Some(FrameTargets::new(
+                &device,
+                &self.pipelines,
+                size,
+                self.settings.msaa,
+                params,
+                !direct,
+                !depth_free,
+            ));
         }
 
         let mut batches = self.opaque_batches.clone();
@@ -926,10 +951,13 @@ impl Renderer {
         for (i, (batch, _)) in blend_batches.iter().enumerate() {
             batches.push(Batch { first: blend_first + i as u32, count: 1, ..*batch });
         }
-        if direct {
-            for b in &mut batches {
+        for b in &mut batches {
+            if direct {
                 b.key.color_format = FormatKey(output_format);
                 b.key.tonemap = Some(self.settings.tonemapper);
+            }
+            if depth_free {
+                b.key.depth_format = None;
             }
         }
         let camera_exposure = scene.view.map_or(1.0, |v| v.exposure);
@@ -960,6 +988,7 @@ impl Renderer {
             fxaa: post.fxaa,
             gizmo_vertices,
             direct_output: direct,
+            depth: !depth_free,
         });
 
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
@@ -1047,7 +1076,7 @@ impl Renderer {
                 OpaquePhase::Early,
                 self.timer.as_mut(),
             );
-            let depth = (&targets.depth_view, targets.samples);
+            let depth = (targets.depth_view.as_ref().expect("occlusion culling keeps depth"), targets.samples);
             self.culling.encode_late(&mut encoder, &device, &self.pipelines, &cull_inputs, depth, self.timer.as_mut());
             let late_inputs =
                 ForwardInputs { indirect: Some(IndirectDraws { args: &late_args, batches: opaque_count }), ..inputs };
@@ -1586,9 +1615,9 @@ impl Renderer {
             cull_back_faces: !m.double_sided,
             front_face_cw: d.mirrored,
             sample_count: self.settings.msaa,
-            // Direct output frames replace these two per frame (see `render`).
+            // Frames with direct output or without depth replace these per frame (see `render`).
             color_format: FormatKey(HDR_FORMAT),
-            depth_format: FormatKey(DEPTH_FORMAT),
+            depth_format: Some(FormatKey(DEPTH_FORMAT)),
             tonemap: None,
         })
     }

@@ -16,7 +16,8 @@ pub struct FrameTargets {
     pub samples: u32,
     /// `None`: the frame draws straight into the output.
     pub hdr: Option<HdrTargets>,
-    pub depth_view: wgpu::TextureView,
+    /// `None`: nothing drawn this frame can cover a pixel twice (see `Renderer::render`).
+    pub depth_view: Option<wgpu::TextureView>,
     pub deferred: Option<DeferredTargets>,
 }
 
@@ -44,7 +45,7 @@ pub struct DeferredTargets {
 
 impl FrameTargets {
     /// `deferred_params`: the deferred-lights pass's uniform when lights are deferred (which
-    /// needs the HDR target). Without `hdr` only depth is made.
+    /// needs the HDR target and depth). Without `hdr` and `depth` nothing at all is made.
     pub fn new(
         device: &wgpu::Device,
         pipelines: &PipelineCache,
@@ -52,6 +53,7 @@ impl FrameTargets {
         samples: u32,
         deferred_params: Option<&wgpu::Buffer>,
         hdr: bool,
+        depth: bool,
     ) -> Self {
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
@@ -84,8 +86,9 @@ impl FrameTargets {
         });
         // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid.
         let depth_usage = attach | sampled;
-        let depth_view = tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default());
-        let deferred = deferred_params.zip(hdr.as_ref()).map(|(params, hdr)| {
+        let depth_view = (depth || deferred_params.is_some())
+            .then(|| tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default()));
+        let deferred = deferred_params.zip(hdr.as_ref().zip(depth_view.as_ref())).map(|(params, (hdr, depth_view))| {
             let view = |t: wgpu::Texture| t.create_view(&Default::default());
             let surface_shape_view = view(tex("surface shape", SURFACE_SHAPE_FORMAT, samples, attach | sampled));
             let local_light_view =
@@ -96,7 +99,7 @@ impl FrameTargets {
                 entries: &[
                     view_entry(0, hdr.msaa_view.as_ref().unwrap_or(&hdr.view)),
                     view_entry(1, &surface_shape_view),
-                    view_entry(2, &depth_view),
+                    view_entry(2, depth_view),
                     view_entry(3, &local_light_view),
                     wgpu::BindGroupEntry { binding: 4, resource: params.as_entire_binding() },
                 ],
@@ -134,8 +137,9 @@ impl FrameTargets {
         let samples = self.samples as u64;
         // Depth 4 B per sample; HDR 8 B per sample plus the single-sampled resolve target;
         // deferred lights add 8 B of surface per sample and 8 B of local light per pixel.
+        let depth = if self.depth_view.is_some() { px * 4 * samples } else { 0 };
         let hdr = if self.hdr.is_some() { px * 8 * samples + if samples > 1 { px * 8 } else { 0 } } else { 0 };
         let deferred = if self.deferred.is_some() { px * (8 * samples + 8) } else { 0 };
-        px * 4 * samples + hdr + deferred
+        depth + hdr + deferred
     }
 }

@@ -139,14 +139,16 @@ pub fn encode(
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("forward"),
         color_attachments: &attachments,
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: &inputs.targets.depth_view,
-            // Reverse-Z: the far plane is 0.
-            depth_ops: Some(wgpu::Operations {
-                load: if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) },
-                store: if ends { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
-            }),
-            stencil_ops: None,
+        depth_stencil_attachment: inputs.targets.depth_view.as_ref().map(|view| {
+            wgpu::RenderPassDepthStencilAttachment {
+                view,
+                // Reverse-Z: the far plane is 0.
+                depth_ops: Some(wgpu::Operations {
+                    load: if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) },
+                    store: if ends { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
+                }),
+                stencil_ops: None,
+            }
         }),
         timestamp_writes: timer.and_then(|t| t.pass(if late { "forward late" } else { "forward" })),
         occlusion_query_set: None,
@@ -205,8 +207,8 @@ pub fn encode_after_deferred(
             resolve_target: resolve,
             ops: wgpu::Operations { load: wgpu::LoadOp::Load, store },
         })],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: &targets.depth_view,
+        depth_stencil_attachment: targets.depth_view.as_ref().map(|view| wgpu::RenderPassDepthStencilAttachment {
+            view,
             depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Discard }),
             stencil_ops: None,
         }),

@@ -74,7 +74,8 @@ pub struct PipelineKey {
     pub front_face_cw: bool,
     pub sample_count: u32,
     pub color_format: FormatKey,
-    pub depth_format: FormatKey,
+    /// `None`: the frame has no depth target (its draws cannot cover a pixel twice).
+    pub depth_format: Option<FormatKey>,
     /// The fragment shader tonemaps (with this curve) and writes the output itself, when
     /// nothing reads the HDR colour (`color_format` is then the output's format).
     pub tonemap: Option<Tonemapper>,
@@ -824,8 +825,8 @@ impl PipelineCache {
                     polygon_mode: wgpu::PolygonMode::Fill,
                     conservative: false,
                 },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: key.depth_format.0,
+                depth_stencil: key.depth_format.map(|depth| wgpu::DepthStencilState {
+                    format: depth.0,
                     // Blended surfaces are sorted back to front and must not hide what lies
                     // behind them in later draws.
                     depth_write_enabled: Some(key.alpha != AlphaKey::Blend),

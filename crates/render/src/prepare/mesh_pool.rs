@@ -22,7 +22,7 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use penumbra_engine::Handle;
 use penumbra_engine::bounds::Aabb;
-use penumbra_engine::mesh::{Mesh, Topology};
+use penumbra_engine::mesh::{Mesh, SelfOverlap, Topology};
 use range_alloc::RangeAllocator;
 
 use crate::world::Snapshot;
@@ -67,6 +67,9 @@ pub struct PoolEntry {
     pub indices: Option<Range<u32>>,
     pub topology: Topology,
     pub aabb: Aabb,
+    /// Whether its front faces can overlap on screen (a frame drawing only this entry, once,
+    /// may then leave out depth; see `Renderer::render`).
+    pub self_overlap: SelfOverlap,
     hash: blake3::Hash,
     /// A deformed draw's vertex copy: its index range belongs to the source entry.
     derived: bool,
@@ -252,7 +255,14 @@ impl MeshPool {
         let src = self.entry(source)?.clone();
         let count = src.vertices.len() as u32;
         let range = self.allocate(device, queue, true, count.max(1));
-        let entry = PoolEntry { vertices: range.start..range.start + count, derived: true, asset_refs: 0, ..src };
+        // A pose can bend any shape.
+        let entry = PoolEntry {
+            vertices: range.start..range.start + count,
+            derived: true,
+            asset_refs: 0,
+            self_overlap: SelfOverlap::Possible,
+            ..src
+        };
         Some(self.insert_entry(entry))
     }
 
@@ -313,6 +323,7 @@ impl MeshPool {
             indices: irange,
             topology: mesh.topology,
             aabb: mesh.aabb(),
+            self_overlap: mesh.self_overlap(),
             hash,
             derived: false,
             asset_refs: 0,
