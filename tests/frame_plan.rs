@@ -89,7 +89,7 @@ fn alone_and_with_company(mesh: Mesh, material: StandardMaterial) -> [(Vec<u8>, 
         ));
         let mesh = app.world.resource_mut::<Assets<Mesh>>().add(mesh.clone());
         let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(material.clone());
-        app.world.spawn((Mesh3d(mesh.clone()), MeshMaterial3d(material.clone()), Transform::default()));
+        app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::default()));
         if company {
             app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::from_xyz(0.0, 0.0, 50.0)));
         }
