@@ -146,6 +146,10 @@ fn empty_renamed_and_deleted_files_are_errors_until_the_file_is_whole() {
 fn an_imported_module_rebuilds_exactly_its_dependents() {
     let dir = shader_folder("reload-imports");
     let mut app = app_with_shaders(&dir);
+    // With the HDR target kept, the frame has a tonemap pipeline beside the forward one.
+    let mut r = app.world.resource_mut::<Renderer>();
+    let settings = RenderSettings { keep_hdr: true, ..r.settings().clone() };
+    r.set_settings(settings).unwrap();
     render_app(&mut app, SIZE, RenderSettings::default());
     let forward_pipelines = renderer(&app).forward_pipeline_keys().len();
     assert!(forward_pipelines >= 1);

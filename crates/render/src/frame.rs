@@ -111,7 +111,9 @@ pub struct SceneNeeds {
     pub has_blend: bool,
     /// A compute pass shades local lights for opaque surfaces.
     pub deferred: bool,
-    /// GPU culling runs (on, supported, and opaque draws to cull).
+    /// Opaque and masked instances.
+    pub opaque_instances: usize,
+    /// GPU culling runs (on, supported, and more than one opaque instance to cull).
     pub culled: bool,
     /// So does occlusion culling.
     pub occlusion: bool,
@@ -141,6 +143,7 @@ impl FramePlan {
             has_opaque,
             has_blend,
             deferred,
+            opaque_instances: _,
             culled,
             occlusion,
             environment_changed,
@@ -229,6 +232,9 @@ impl FramePlan {
                     Pass::EnvironmentPrefilter => "no environment changed (or none exists)",
                     Pass::Deform => "no skinned or morphed draw changed pose",
                     Pass::Cull if !n.has_opaque => "no opaque draws",
+                    Pass::Cull if n.opaque_instances == 1 => {
+                        "one opaque instance: culling it could only save a frame that shows nothing"
+                    }
                     Pass::Cull => "GPU culling off or unsupported by the adapter",
                     Pass::ClusterBin if n.binned_lights == 0 => "no local lights reach the fragment shader's lists",
                     Pass::ClusterBin => "nothing to light",
