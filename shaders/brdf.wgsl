@@ -100,8 +100,8 @@ fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
 
 // Radiance reflected towards the eye from light arriving along `l` with illuminance `e`
 // (measured perpendicular to the light): BRDF · E · N·L, where the dielectric's diffuse lobe is
-// weighted by 1 − F(0.04). Schlick's F is linear in f0_color, so the specular lobes of glTF's mix
-// combine into F(f0_color mixed).
+// weighted by `diffuse_share`. Schlick's F is linear in f0_color, so the specular lobes of
+// glTF's mix combine into F(f0_color mixed).
 fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(s.n, l);
     if n_dot_l <= 0.0 {
@@ -112,17 +112,25 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let f = f_schlick(s.f0_color, v_dot_h) * specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
     let spec = f * (d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
-    let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
+    let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
+}
+
+// What the dielectric's specular layer leaves to its diffuse base, seen from the eye:
+// 1 − its directional albedo (single and multiple scattering, as `ambient` uses), the layering
+// of Cycles' Principled BSDF and OpenPBR. The per-light 1 − F(V·H) of glTF's sample
+// implementation darkened rough surfaces seen at grazing angles by up to 8 % against the
+// Cycles references (tests/reference, sun_csm's distant ground).
+fn diffuse_share(s: Surface) -> vec3<f32> {
+    let ab = env_brdf_approx(s.n_dot_v, s.perceptual_roughness);
+    return vec3<f32>(1.0) - specular_albedo(DIELECTRIC_F0, ab);
 }
 
 // The two lobes of `direct` apart, for lights whose diffuse and specular parts are seen in
 // different directions (sphere and tube lights). The diffuse BRDF without N·L (the caller's
-// irradiance includes it):
+// irradiance includes it; `l` does not change it, the share depends on the view):
 fn diffuse_brdf(s: Surface, l: vec3<f32>) -> vec3<f32> {
-    let h = safe_normalize(l + s.v, s.n);
-    let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    return (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, v_dot_h)) * s.diffuse_color / PI;
+    return diffuse_share(s) * s.diffuse_color / PI;
 }
 
 // The specular BRDF times N·L, towards `l`.

@@ -17,7 +17,7 @@
 #define_import_path penumbra::ltc
 
 #import penumbra::common::{PI, safe_normalize}
-#import penumbra::brdf::{Surface, DIELECTRIC_F0, f_schlick, multiscatter_scale}
+#import penumbra::brdf::{Surface, diffuse_share, multiscatter_scale}
 #import penumbra::light_data::{Light, LIGHT_DISK, range_window}
 
 const LTC_SIZE: u32 = 64u;
@@ -236,6 +236,6 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let ms = multiscatter_scale(s.f0_color, cell.magnitude.x + cell.magnitude.y);
     let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(1.0) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
     // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
-    let diffuse = (vec3<f32>(1.0) - f_schlick(DIELECTRIC_F0, s.n_dot_v)) * s.diffuse_color / PI * diffuse_integral;
+    let diffuse = diffuse_share(s) * s.diffuse_color / PI * diffuse_integral;
     return (diffuse + specular) * light.color * window;
 }

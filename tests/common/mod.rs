@@ -184,7 +184,9 @@ pub fn assert_finite_hdr(hdr: &[[f32; 4]], what: &str) {
 }
 
 /// The white, fully rough floor's radiance under a light arriving along `l` with illuminance
-/// `e` (perpendicular to the light), seen from straight above: glTF's BRDF written out.
+/// `e` (perpendicular to the light), seen from straight above: Penumbra's BRDF written out
+/// (glTF's metal-rough model; the diffuse base gets what the specular layer's directional
+/// albedo leaves, `brdf.wgsl`'s `diffuse_share`).
 pub fn floor_radiance(l: Vec3, e: f32) -> f32 {
     let n = Vec3::Y;
     let v = Vec3::Y;
@@ -198,8 +200,19 @@ pub fn floor_radiance(l: Vec3, e: f32) -> f32 {
     let pi = std::f32::consts::PI;
     // α = 1: D = 1/π; height-correlated Smith V = 0.5 / (N·L + N·V).
     let spec = fresnel * (1.0 / pi) * (0.5 / (n_dot_l + 1.0));
-    let diffuse = (1.0 - fresnel) / pi;
+    let diffuse = (1.0 - dielectric_albedo_from_above()) / pi;
     (diffuse + spec) * e * n_dot_l
+}
+
+/// The directional albedo of a fully rough dielectric's specular layer (F0 0.04) seen along its
+/// normal: Karis's split-sum fit (A, B) at N·V = 1, roughness 1, with Fdez-Agüera's multiple
+/// scattering, as `brdf.wgsl` computes it.
+fn dielectric_albedo_from_above() -> f32 {
+    let (a, b) = (-1.04 * 0.015 + 0.468, 1.04 * 0.015 - 0.018);
+    let fss_ess = 0.04 * a + b;
+    let ems = 1.0 - (a + b);
+    let f_avg = 0.04 + 0.96 / 21.0;
+    fss_ess + ems * fss_ess * f_avg / (1.0 - ems * f_avg)
 }
 
 /// An orthographic camera looking straight down at a white floor, `half` metres each side of
