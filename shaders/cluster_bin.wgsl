@@ -5,8 +5,15 @@
 //   prefix_sum    one workgroup: exclusive scan of the counts into (offset, count) ranges, and the
 //                 counts turned into write cursors
 //   fill_lists    one invocation per light: the same walk, writing its index at its cluster's cursor
-//   sort_lists    one invocation per cluster: sort its list, so lighting sums in a fixed order and
-//                 frames are deterministic whatever order the atomics ran in
+//   sort_short    one invocation per cluster: sort its list (insertion sort) if it holds at most
+//                 SHORT_LIST lights, else queue the cluster for sort_long; sorted lists make
+//                 lighting sum in a fixed order, so frames are deterministic whatever order the
+//                 atomics ran in
+//   sort_long     one workgroup per queued cluster (an indirect dispatch the queue sizes): a
+//                 bitonic sort of its long list
+//
+// (One 256-thread workgroup per cluster sorted every list before: 8192 workgroups that mostly
+// returned at once cost lavapipe 30 ms a frame, its workgroup barriers being coroutines.)
 //
 // The index buffer is sized on the CPU by an upper bound of the total (the sum of each light's
 // candidate box, see passes/clusters/grid.rs), so lists never overflow, on the first frame too.
@@ -20,6 +27,20 @@
 @group(0) @binding(2) var<storage, read_write> counts: array<atomic<u32>>;
 @group(0) @binding(3) var<storage, read_write> ranges: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> indices: array<u32>;
+
+// The clusters sort_short leaves to sort_long. The first three words are sort_long's indirect
+// dispatch (x = queued clusters, at most MAX_DISPATCH; sort_long strides over the rest).
+struct LongLists {
+    x: atomic<u32>,
+    y: u32,
+    z: u32,
+    count: atomic<u32>,
+    clusters: array<u32>,
+};
+@group(0) @binding(5) var<storage, read_write> long_lists: LongLists;
+const MAX_DISPATCH: u32 = 65535u;
+// Longest list sort_short sorts itself (at most SHORT_LIST² / 2 steps in one invocation).
+const SHORT_LIST: u32 = 64u;
 
 // A light's sphere (and cone) of influence in (x, y, d) view coordinates.
 struct Bounds {
@@ -204,6 +225,12 @@ fn prefix_sum(@builtin(local_invocation_index) t: u32) {
         partial[t] += add;
         workgroupBarrier();
     }
+    if t == 0u {
+        atomicStore(&long_lists.x, 0u);
+        long_lists.y = 1u;
+        long_lists.z = 1u;
+        atomicStore(&long_lists.count, 0u);
+    }
     var offset = partial[t] - sum;
     for (var c = first; c < end; c++) {
         let n = atomicLoad(&counts[c]);
@@ -220,6 +247,35 @@ fn fill_lists(
     @builtin(local_invocation_index) t: u32,
 ) {
     bin_light(wg.x + wg.y * groups.x, t, true);
+}
+
+@compute @workgroup_size(64)
+fn sort_short(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let cluster = id.x + id.y * groups.x * 64u;
+    let total = grid.dims.x * grid.dims.y * grid.dims.z;
+    if cluster >= total {
+        return;
+    }
+    let base = ranges[cluster].x;
+    let n = ranges[cluster].y;
+    if n <= 1u {
+        return;
+    }
+    if n > SHORT_LIST {
+        let slot = atomicAdd(&long_lists.count, 1u);
+        long_lists.clusters[slot] = cluster;
+        atomicMax(&long_lists.x, min(slot + 1u, MAX_DISPATCH));
+        return;
+    }
+    for (var i = 1u; i < n; i++) {
+        let key = indices[base + i];
+        var j = i;
+        while j > 0u && indices[base + j - 1u] > key {
+            indices[base + j] = indices[base + j - 1u];
+            j -= 1u;
+        }
+        indices[base + j] = key;
+    }
 }
 
 // One workgroup sorts one cluster's list with a bitonic network in which every comparator
@@ -240,17 +296,25 @@ fn sort_partner(i: u32, k: u32, j: u32) -> u32 {
     return i ^ j;
 }
 
+var<workgroup> long_count: u32;
+
 @compute @workgroup_size(256)
-fn sort_lists(
+fn sort_long(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) t: u32,
 ) {
-    let cluster = wg.x + wg.y * groups.x;
-    let total = grid.dims.x * grid.dims.y * grid.dims.z;
-    if cluster >= total {
-        return;
+    if t == 0u {
+        long_count = atomicLoad(&long_lists.count);
     }
+    let queued = workgroupUniformLoad(&long_count);
+    for (var q = wg.x; q < queued; q += groups.x) {
+        sort_one(long_lists.clusters[q], t);
+    }
+}
+
+// Bitonic sort of one cluster's list by the 256 threads of a workgroup (sort_long).
+fn sort_one(cluster: u32, t: u32) {
     let base = ranges[cluster].x;
     if t == 0u {
         sort_count = ranges[cluster].y;

@@ -206,6 +206,37 @@ fn clustered_render_equals_brute_force_for_10000_lights_in_one_cluster() {
     assert!(entries >= 10_000, "{entries} entries");
 }
 
+/// Every sorting path of the binning: lists of at most 64 lights are sorted by one invocation,
+/// longer ones are queued for a workgroup's bitonic sort, in workgroup memory up to 2048 and in
+/// the index buffer beyond (the 10 000-light test above).
+#[test]
+fn short_and_long_cluster_lists_come_out_sorted_and_exact() {
+    for (count, spread) in [(40, 0.02), (300, 0.02), (1500, 0.02), (600, 2.0)] {
+        let mut app = scene_app();
+        floor(&mut app, 10.0);
+        let mut rng = SplitMix64(count as u64);
+        for _ in 0..count {
+            let at = Vec3::new(rng.uniform(-spread, spread), rng.uniform(0.1, 0.14), rng.uniform(-spread, spread));
+            app.world.spawn((
+                PointLight { intensity: 0.001, range: Some(0.6), shadows: false, ..Default::default() },
+                Transform::from_translation(at),
+            ));
+        }
+        camera(&mut app, Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, perspective());
+        render_app(&mut app, (64, 64), settings(LightWalk::Clustered));
+        let what = format!("{count} lights within {spread} m");
+        let (_, entries) = assert_lists_match_reference(&app, &what);
+        assert!(entries >= count, "{what}: {entries} entries");
+        let renderer = app.world.resource::<Renderer>();
+        let ctx = renderer.context();
+        let longest = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).unwrap().iter().map(Vec::len).max();
+        let longest = longest.unwrap_or(0);
+        // Crowded: one cluster holds them all. Spread: lists on both sides of 64.
+        let wanted = if spread < 0.1 { count } else { 65 };
+        assert!(longest >= wanted, "{what}: longest list {longest}");
+    }
+}
+
 #[test]
 fn point_light_irradiance_follows_the_inverse_square_law() {
     let mut app = scene_app();

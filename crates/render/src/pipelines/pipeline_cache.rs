@@ -177,7 +177,8 @@ pub enum ClusterEntry {
     Count,
     PrefixSum,
     Fill,
-    Sort,
+    SortShort,
+    SortLong,
 }
 
 impl ClusterEntry {
@@ -186,7 +187,8 @@ impl ClusterEntry {
             ClusterEntry::Count => "count_lights",
             ClusterEntry::PrefixSum => "prefix_sum",
             ClusterEntry::Fill => "fill_lists",
-            ClusterEntry::Sort => "sort_lists",
+            ClusterEntry::SortShort => "sort_short",
+            ClusterEntry::SortLong => "sort_long",
         }
     }
 }
@@ -437,6 +439,7 @@ impl PipelineCache {
                 buffer_entry(2, compute, read_write),
                 buffer_entry(3, compute, read_write),
                 buffer_entry(4, compute, read_write),
+                buffer_entry(5, compute, read_write),
             ],
         });
         let material_entries: Vec<_> = (0..5u32).flat_map(|i| [texture(2 * i, true), sampler(2 * i + 1)]).collect();

@@ -3,7 +3,8 @@
 //! Each frame with local lights: `prepare` builds the grid from the view and the light store's
 //! bounds, sizes the index buffer by a CPU upper bound of the total list length (cached while
 //! neither the view nor the lights change), and writes the grid uniform; `encode` records
-//! clear → count → prefix sum → fill → sort (see `shaders/cluster_bin.wgsl`). The forward pass
+//! clear → count → prefix sum → fill → sort short lists (queueing long ones) → sort long lists
+//! (an indirect dispatch, in a second compute pass) (see `shaders/cluster_bin.wgsl`). The forward pass
 //! then reads `grid`, `ranges` (offset, count per cluster) and `indices` (light slots).
 //!
 //! A scene without local lights calls neither: the buffers stay as created (a few bytes) and
@@ -43,6 +44,11 @@ pub struct ClusterBinner {
     /// Per-cluster (offset, count) into `indices`.
     ranges: GrowableBuffer,
     indices: GrowableBuffer,
+    /// Clusters whose lists are too long for `sort_short`, after the words of the indirect
+    /// dispatch that sorts them.
+    long_lists: GrowableBuffer,
+    /// Those words, copied out: a buffer bound for writing cannot also drive the dispatch.
+    long_dispatch: wgpu::Buffer,
     bind_group: Option<wgpu::BindGroup>,
     grid: Option<ClusterGrid>,
     light_count: u32,
@@ -66,6 +72,13 @@ impl ClusterBinner {
             counts: GrowableBuffer::new(device, "cluster counts", storage, 256),
             ranges: GrowableBuffer::new(device, "cluster ranges", storage | wgpu::BufferUsages::COPY_SRC, 256),
             indices: GrowableBuffer::new(device, "cluster indices", storage | wgpu::BufferUsages::COPY_SRC, 256),
+            long_lists: GrowableBuffer::new(device, "cluster long lists", storage | wgpu::BufferUsages::COPY_SRC, 256),
+            long_dispatch: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("cluster long-list dispatch"),
+                size: 16,
+                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
             bind_group: None,
             grid: None,
             light_count: 0,
@@ -88,7 +101,11 @@ impl ClusterBinner {
     }
 
     pub fn gpu_bytes(&self) -> u64 {
-        self.grid_buffer.size() + self.counts.capacity() + self.ranges.capacity() + self.indices.capacity()
+        self.grid_buffer.size()
+            + self.counts.capacity()
+            + self.ranges.capacity()
+            + self.indices.capacity()
+            + self.long_lists.capacity()
     }
 
     /// This frame's grid (after `prepare`).
@@ -130,6 +147,8 @@ impl ClusterBinner {
         let mut grew = self.counts.reserve(device, clusters * 4);
         grew |= self.ranges.reserve(device, clusters * 8);
         grew |= self.indices.reserve(device, index_bytes);
+        // The indirect dispatch and queue count, then one slot per cluster.
+        grew |= self.long_lists.reserve(device, 16 + clusters * 4);
         self.light_count = store.local_count();
         let gpu = grid.to_gpu(store.global_count(), self.light_count);
         queue.write_buffer(&self.grid_buffer, 0, bytemuck::bytes_of(&gpu));
@@ -163,6 +182,7 @@ impl ClusterBinner {
                 entry(2, self.counts.buffer()),
                 entry(3, self.ranges.buffer()),
                 entry(4, self.indices.buffer()),
+                entry(5, self.long_lists.buffer()),
             ],
         })
     }
@@ -191,15 +211,22 @@ impl ClusterBinner {
         timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
         let (Some(grid), Some(bind_group)) = (&self.grid, &self.bind_group) else { return Ok(()) };
-        let entries = [ClusterEntry::Count, ClusterEntry::PrefixSum, ClusterEntry::Fill, ClusterEntry::Sort];
+        let entries = [
+            ClusterEntry::Count,
+            ClusterEntry::PrefixSum,
+            ClusterEntry::Fill,
+            ClusterEntry::SortShort,
+            ClusterEntry::SortLong,
+        ];
         for e in entries {
             pipelines.cluster(device, e)?;
         }
         let clusters = grid.cluster_count();
         encoder.clear_buffer(self.counts.buffer(), 0, Some(clusters as u64 * 4));
+        let mut timer = timer;
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("cluster binning"),
-            timestamp_writes: timer.and_then(|t| t.compute_pass("clusters")),
+            timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("clusters")),
         });
         pass.set_bind_group(0, bind_group, &[]);
         // One workgroup of 64 threads per light (they share its candidate clusters).
@@ -208,13 +235,23 @@ impl ClusterBinner {
             (ClusterEntry::Count, light_groups),
             (ClusterEntry::PrefixSum, 1),
             (ClusterEntry::Fill, light_groups),
-            // One workgroup per cluster.
-            (ClusterEntry::Sort, clusters),
+            // One invocation per cluster, 64 to a workgroup.
+            (ClusterEntry::SortShort, clusters.div_ceil(64)),
         ] {
             let pipeline = pipelines.cluster_cached(entry).expect("created above");
             pass.set_pipeline(pipeline);
             dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
         }
+        drop(pass);
+        // One workgroup per cluster sort_short queued (its list is long), sized on the GPU.
+        encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("cluster long-list sort"),
+            timestamp_writes: timer.and_then(|t| t.compute_pass("cluster sort")),
+        });
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.set_pipeline(pipelines.cluster_cached(ClusterEntry::SortLong).expect("created above"));
+        pass.dispatch_workgroups_indirect(&self.long_dispatch, 0);
         Ok(())
     }
 }

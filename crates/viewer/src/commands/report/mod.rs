@@ -117,6 +117,10 @@ pub fn run(args: ReportArgs) -> Result<()> {
             let (w, h) = args.timing_size;
             app.insert_resource(RenderOutput::Headless { width: w, height: h });
             let times = time_frames(&mut app, args.warmup, args.frames);
+            // Where the GPU time goes (RUST_LOG=info): the CSV keeps the frame's span only.
+            let split: Vec<String> =
+                times.passes.iter().map(|(l, v)| format!("{l} {:.3}", percentile(v, 0.5))).collect();
+            tracing::info!("{} at {preset}: GPU ms by pass (median): {}", s.name, split.join(", "));
             let cpu: Vec<f64> = (0..times.cpu.len()).map(|i| times.cpu_frame(i)).collect();
             let bytes = app.world.resource::<Renderer>().memory().total();
             rows.push(Row {
