@@ -99,7 +99,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let median = |v: Option<&[f64]>| v.filter(|v| !v.is_empty()).map(|v| percentile(v, 0.5));
         rows.push(Row {
             lights: n,
-            clusters_ms: median(t.pass("clusters")),
+            // Binning is two compute passes: count, scan, fill and short sorts; long sorts.
+            clusters_ms: median(t.pass("clusters")).map(|c| c + median(t.pass("cluster sort")).unwrap_or(0.0)),
             forward_ms: median(t.pass("forward")),
             compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
