@@ -46,7 +46,7 @@ use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
-use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT};
+use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT, OpaqueDraws, TargetNeeds};
 use crate::timing::{FrameTimings, GpuTimer};
 use crate::world::{LightKind, RenderScene};
 
@@ -899,36 +899,29 @@ impl Renderer {
             None => 0,
         };
         let background = env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some();
-        // Direct output: when nothing but the tonemap pass would read the HDR colour, the
-        // forward shader tonemaps and draws straight into the output; neither the HDR target
-        // nor the tonemap pass exists. Not with MSAA: a resolve of tonemapped samples would
-        // differ from the tonemap of resolved radiance at every edge.
         let post_settings = &self.settings.post;
-        let direct = self.settings.msaa == 1
-            && !self.settings.keep_hdr
-            && !self.deferred_lights
-            && blend_batches.is_empty()
-            && !background
-            && gizmo_vertices == 0
-            && post_settings.bloom.is_none()
-            && post_settings.auto_exposure.is_none()
-            && !post_settings.fxaa;
-        // No depth target when nothing drawn can cover a pixel twice: at most one opaque
-        // instance, of a mesh whose front faces cannot overlap (a single triangle; a convex
-        // surface with back faces culled), and nothing else that tests or reads depth.
-        let depth_free = blend_batches.is_empty()
-            && !occlusion
-            && !self.deferred_lights
-            && gizmo_vertices == 0
-            && match self.opaque_batches.as_slice() {
-                [] => true,
-                [only] if only.count == 1 => self.mesh_pool.entry(only.mesh_id).is_some_and(|e| match e.self_overlap {
-                    SelfOverlap::Never => true,
-                    SelfOverlap::WhenBackFacesCulled => only.key.cull_back_faces,
-                    SelfOverlap::Possible => false,
-                }),
-                _ => false,
-            };
+        let needs = TargetNeeds {
+            msaa: self.settings.msaa,
+            keep_hdr: self.settings.keep_hdr,
+            deferred_lights: self.deferred_lights,
+            blended_draws: !blend_batches.is_empty(),
+            background,
+            gizmos: gizmo_vertices > 0,
+            post_processing: post_settings.bloom.is_some()
+                || post_settings.auto_exposure.is_some()
+                || post_settings.fxaa,
+            occlusion_culling: occlusion,
+            opaque: match self.opaque_batches.as_slice() {
+                [] => OpaqueDraws::None,
+                [only] if only.count == 1 => OpaqueDraws::One {
+                    overlap: self.mesh_pool.entry(only.mesh_id).map_or(SelfOverlap::Possible, |e| e.self_overlap),
+                    cull_back_faces: only.key.cull_back_faces,
+                },
+                _ => OpaqueDraws::Many,
+            },
+        };
+        // Direct output (no HDR target, no tonemap pass) and no depth target: see TargetNeeds.
+        let (direct, depth_free) = (!needs.hdr(), !needs.depth());
         if self.targets.as_ref().is_none_or(|t| {
             t.size != size
                 || t.samples != self.settings.msaa

@@ -1,15 +1,77 @@
 //! Frame targets: the linear HDR colour target (`Rgba16Float`), its MSAA twin when multisampling,
 //! and the reverse-Z depth target (`Depth32Float`, cleared to 0); with deferred local lights also
 //! the surface targets opaque fragments write, and the local light the compute pass writes (see
-//! `passes/deferred_lights.rs`). A frame whose HDR colour nothing reads (see
-//! `Renderer::render`'s direct output) has no HDR target at all: the forward pass tonemaps and
-//! draws into the output. Recreated only when the size, the sample count, whether lights are
-//! deferred or whether there is an HDR target changes.
+//! `passes/deferred_lights.rs`). A frame whose HDR colour nothing reads has no HDR target at all
+//! (the forward pass tonemaps and draws into the output), and a frame whose draws cannot cover a
+//! pixel twice has no depth target; [`TargetNeeds`] decides both. Recreated only when the size,
+//! the sample count, whether lights are deferred or whether there is an HDR or a depth target
+//! changes.
+
+use penumbra_engine::mesh::SelfOverlap;
 
 use crate::pipelines::pipeline_cache::{LOCAL_LIGHT_FORMAT, PipelineCache, SURFACE_SHAPE_FORMAT};
 
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// What decides whether a frame has an HDR colour target and a depth target.
+#[derive(Debug, Clone, Copy)]
+pub struct TargetNeeds {
+    pub msaa: u32,
+    /// `RenderSettings::keep_hdr`: HDR colour is read back.
+    pub keep_hdr: bool,
+    pub deferred_lights: bool,
+    pub blended_draws: bool,
+    /// The environment is shown behind the scene.
+    pub background: bool,
+    pub gizmos: bool,
+    /// Bloom, automatic exposure or FXAA.
+    pub post_processing: bool,
+    pub occlusion_culling: bool,
+    pub opaque: OpaqueDraws,
+}
+
+/// The frame's opaque and masked draws, as far as depth is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OpaqueDraws {
+    None,
+    /// One instance: whether its mesh's front faces can overlap, and whether back faces are
+    /// culled.
+    One {
+        overlap: SelfOverlap,
+        cull_back_faces: bool,
+    },
+    Many,
+}
+
+impl TargetNeeds {
+    /// Whether anything but the tonemap pass reads the HDR colour. Without, the forward shader
+    /// tonemaps and draws straight into the output (no HDR target, no tonemap pass). Not with
+    /// MSAA: a resolve of tonemapped samples would differ from the tonemap of resolved radiance
+    /// at every edge.
+    pub fn hdr(&self) -> bool {
+        self.msaa != 1
+            || self.keep_hdr
+            || self.deferred_lights
+            || self.blended_draws
+            || self.background
+            || self.gizmos
+            || self.post_processing
+    }
+
+    /// Whether anything drawn can cover a pixel twice, or reads depth. Not when the only opaque
+    /// instance's front faces cannot overlap (a single triangle; a convex surface with back
+    /// faces culled) and nothing else is drawn.
+    pub fn depth(&self) -> bool {
+        let opaque_overlaps = match self.opaque {
+            OpaqueDraws::None => false,
+            OpaqueDraws::One { overlap: SelfOverlap::Never, .. } => false,
+            OpaqueDraws::One { overlap: SelfOverlap::WhenBackFacesCulled, cull_back_faces } => !cull_back_faces,
+            OpaqueDraws::One { overlap: SelfOverlap::Possible, .. } | OpaqueDraws::Many => true,
+        };
+        opaque_overlaps || self.blended_draws || self.occlusion_culling || self.deferred_lights || self.gizmos
+    }
+}
 
 pub struct FrameTargets {
     pub size: (u32, u32),
@@ -141,5 +203,61 @@ impl FrameTargets {
         let hdr = if self.hdr.is_some() { px * 8 * samples + if samples > 1 { px * 8 } else { 0 } } else { 0 };
         let deferred = if self.deferred.is_some() { px * (8 * samples + 8) } else { 0 };
         depth + hdr + deferred
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plain() -> TargetNeeds {
+        TargetNeeds {
+            msaa: 1,
+            keep_hdr: false,
+            deferred_lights: false,
+            blended_draws: false,
+            background: false,
+            gizmos: false,
+            post_processing: false,
+            occlusion_culling: false,
+            opaque: OpaqueDraws::Many,
+        }
+    }
+
+    #[test]
+    fn hdr_colour_only_when_something_reads_it() {
+        assert!(!plain().hdr());
+        for needs in [
+            TargetNeeds { msaa: 4, ..plain() },
+            TargetNeeds { keep_hdr: true, ..plain() },
+            TargetNeeds { deferred_lights: true, ..plain() },
+            TargetNeeds { blended_draws: true, ..plain() },
+            TargetNeeds { background: true, ..plain() },
+            TargetNeeds { gizmos: true, ..plain() },
+            TargetNeeds { post_processing: true, ..plain() },
+        ] {
+            assert!(needs.hdr(), "{needs:?}");
+        }
+    }
+
+    #[test]
+    fn depth_only_when_draws_can_overlap_or_something_reads_it() {
+        let one =
+            |overlap, cull_back_faces| TargetNeeds { opaque: OpaqueDraws::One { overlap, cull_back_faces }, ..plain() };
+        assert!(!TargetNeeds { opaque: OpaqueDraws::None, ..plain() }.depth());
+        assert!(!one(SelfOverlap::Never, false).depth());
+        assert!(!one(SelfOverlap::WhenBackFacesCulled, true).depth());
+        assert!(one(SelfOverlap::WhenBackFacesCulled, false).depth(), "double-sided convex");
+        assert!(one(SelfOverlap::Possible, true).depth());
+        assert!(plain().depth(), "many instances");
+        let convex = one(SelfOverlap::WhenBackFacesCulled, true);
+        for needs in [
+            TargetNeeds { blended_draws: true, ..convex },
+            TargetNeeds { occlusion_culling: true, ..convex },
+            TargetNeeds { deferred_lights: true, ..convex },
+            TargetNeeds { gizmos: true, ..convex },
+        ] {
+            assert!(needs.depth(), "{needs:?}");
+        }
     }
 }
