@@ -424,6 +424,7 @@ pub struct Renderer {
 impl Renderer {
     pub fn new(ctx: GpuContext, settings: RenderSettings) -> Result<Self, RendererError> {
         settings.validate()?;
+        let settings = degrade_for_backend(settings, &ctx);
         let device = &ctx.device;
         let (shaders, shader_error, shader_watcher) = match &settings.shaders {
             ShaderSource::Embedded => (ShaderLibrary::embedded()?, None, None),
@@ -565,6 +566,7 @@ impl Renderer {
     /// Changes settings; targets and pipelines follow on the next frame.
     pub fn set_settings(&mut self, settings: RenderSettings) -> Result<(), SettingsError> {
         settings.validate()?;
+        let settings = degrade_for_backend(settings, &self.ctx);
         if settings.gpu_timing && self.timer.is_none() && self.ctx.caps.timestamps {
             self.timer = Some(GpuTimer::new(&self.ctx.device, &self.ctx.queue));
         }
@@ -1784,6 +1786,20 @@ impl Renderer {
 /// The scene's brightest directional light (by luminance) as (direction towards it,
 /// illuminance in lux): the sun the procedural sky is made for. Default lights do not count:
 /// the default key light turns with the camera.
+/// What a backend cannot do as asked, done the way it can, with a warning (never silently).
+/// wgpu's GL backend draws multisampled frames black (seen on Mesa's llvmpipe GL, 22.3.6:
+/// every MSAA 4 frame, while MSAA 1 matches Vulkan; tests/backend_parity.rs): it gets MSAA 1.
+fn degrade_for_backend(mut settings: RenderSettings, ctx: &GpuContext) -> RenderSettings {
+    if ctx.info.backend == wgpu::Backend::Gl && settings.msaa > 1 {
+        tracing::warn!(
+            "MSAA {} is not supported on the GL backend (its multisampled frames come out black): using MSAA 1",
+            settings.msaa
+        );
+        settings.msaa = 1;
+    }
+    settings
+}
+
 fn sun(scene: &RenderScene) -> Option<(Vec3, f32)> {
     let luminance = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
     scene
