@@ -53,7 +53,7 @@ fn sphere_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let l = to_light / dist;
     let falloff = window / max(dist2, radius * radius / MAX_CAP_SIN2);
     let sin2 = min(radius * radius / dist2, MAX_CAP_SIN2);
-    let diffuse = diffuse_brdf(s, l) * cap_irradiance_ratio(dot(s.n, l), sin2);
+    let diffuse = diffuse_brdf(s) * cap_irradiance_ratio(dot(s.n, l), sin2);
 
     let l_spec = safe_normalize(nearest_on_ball(to_light, radius, reflect(-s.v, s.n)), l);
     let widened = s.alpha / clamp(s.alpha + radius / (2.0 * dist), 0.0, 1.0);
@@ -97,7 +97,7 @@ fn tube_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let len_b = max(length(b), 1e-30);
     let mean = (dot(s.n, a) / len_a + dot(s.n, b) / len_b) / max(len_a * len_b + dot(a, b), 1e-30);
     let kept = select(1.0, kept_len / (2.0 * half_len), half_len > 0.0);
-    let diffuse = diffuse_brdf(s, safe_normalize(to_nearest, s.n)) * (max(mean, 0.0) * kept * window);
+    let diffuse = diffuse_brdf(s) * (max(mean, 0.0) * kept * window);
 
     // Specular: the point of the kept segment nearest the reflected ray, then of the tube's
     // round section around it.

@@ -128,8 +128,8 @@ fn diffuse_share(s: Surface) -> vec3<f32> {
 
 // The two lobes of `direct` apart, for lights whose diffuse and specular parts are seen in
 // different directions (sphere and tube lights). The diffuse BRDF without N·L (the caller's
-// irradiance includes it; `l` does not change it, the share depends on the view):
-fn diffuse_brdf(s: Surface, l: vec3<f32>) -> vec3<f32> {
+// irradiance includes it; it does not depend on the light's direction, only on the view's):
+fn diffuse_brdf(s: Surface) -> vec3<f32> {
     return diffuse_share(s) * s.diffuse_color / PI;
 }
 

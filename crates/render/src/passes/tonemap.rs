@@ -45,7 +45,9 @@ pub fn encode(
 }
 
 /// `display.wgsl`'s `display_rgb` on the CPU: the display colour of an exposed linear HDR colour,
-/// sRGB-encoded only when `encode_srgb` (an output format the hardware does not encode).
+/// sRGB-encoded only when `encode_srgb` (an output format the hardware does not encode). The one
+/// CPU copy of the curves: direct output's clear colour, and `penumbra report`'s reference images
+/// (whose test holds this equal to the GPU's tonemap pass).
 pub fn display_color(tonemapper: Tonemapper, rgb: [f64; 3], encode_srgb: bool) -> [f64; 3] {
     let c = rgb.map(|v| if v.is_nan() { 0.0 } else { v.max(0.0) });
     let mapped = match tonemapper {

@@ -1,36 +1,18 @@
 //! Image error against a reference: FLIP (mean and 99th percentile) on the display-referred
 //! images, PSNR on the linear HDR ones. The reference's display image is made here on the CPU
-//! with the same curve `shaders/tonemap.wgsl` applies (Khronos PBR Neutral, then sRGB), so both
-//! images reach FLIP through identical tonemapping; a test holds the two curves equal.
+//! with the renderer's own CPU copy of the display transform (`passes::tonemap::display_color`:
+//! Khronos PBR Neutral, then sRGB), so both images reach FLIP through identical tonemapping; a
+//! test holds it equal to the GPU's.
 
-/// Khronos PBR Neutral, as `pbr_neutral` in `shaders/tonemap.wgsl`.
-pub fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
-    const START: f32 = 0.8 - 0.04;
-    const DESATURATION: f32 = 0.15;
-    let x = c[0].min(c[1]).min(c[2]);
-    let offset = if x < 0.08 { x - 6.25 * x * x } else { 0.04 };
-    let c = c.map(|v| v - offset);
-    let peak = c[0].max(c[1]).max(c[2]);
-    if peak < START {
-        return c;
-    }
-    let d = 1.0 - START;
-    let new_peak = 1.0 - d * d / (peak + d - START);
-    let g = 1.0 - 1.0 / (DESATURATION * (peak - new_peak) + 1.0);
-    c.map(|v| v * new_peak / peak * (1.0 - g) + new_peak * g)
-}
-
-pub fn srgb_encode(v: f32) -> f32 {
-    let v = v.clamp(0.0, 1.0);
-    if v <= 0.003_130_8 { v * 12.92 } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
-}
+use penumbra_render::Tonemapper;
+use penumbra_render::passes::tonemap::display_color;
 
 /// Linear exposed radiance to 8-bit RGB as Penumbra's neutral tonemap pass writes it.
 pub fn display_rgb8(hdr: &[[f32; 3]]) -> Vec<u8> {
     hdr.iter()
         .flat_map(|&p| {
-            let p = p.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 });
-            pbr_neutral(p).map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8)
+            let p = p.map(|v| if v.is_finite() { v.max(0.0) as f64 } else { 0.0 });
+            display_color(Tonemapper::Neutral, p, true).map(|v| (v * 255.0 + 0.5) as u8)
         })
         .collect()
 }
@@ -77,16 +59,6 @@ pub fn compare(reference: &[[f32; 3]], test_hdr: &[[f32; 3]], test_rgb8: &[u8], 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn neutral_leaves_dark_colours_and_compresses_bright_ones() {
-        // Below the knee only the small offset applies.
-        let c = pbr_neutral([0.3, 0.2, 0.1]);
-        assert!((c[0] - 0.26).abs() < 1e-6 && (c[2] - 0.06).abs() < 1e-6, "{c:?}");
-        let white = pbr_neutral([100.0, 100.0, 100.0]);
-        assert!(white.iter().all(|v| *v > 0.99 && *v <= 1.0), "{white:?}");
-        assert_eq!(pbr_neutral([0.0; 3]), [0.0; 3]);
-    }
 
     #[test]
     fn identical_images_have_no_error_and_noise_has_some() {
