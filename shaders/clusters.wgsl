@@ -36,12 +36,17 @@ fn slice_depth(grid: ClusterGrid, k: u32) -> f32 {
     return grid.near * exp2(f32(k) / grid.slice_scale);
 }
 
-// The slice holding depth d, unclamped (negative in front of the near plane).
+// The slice holding depth d (negative in front of the near plane), clamped to ±2³⁰ so that a huge
+// depth converts to a huge slice on every backend: WGSL's float-to-int conversion saturates, but
+// the GLSL that naga writes for wgpu's GL backend converts out-of-range values to i32's minimum.
 fn slice_of(grid: ClusterGrid, d: f32) -> i32 {
+    var s: f32;
     if grid.is_orthographic != 0u {
-        return i32(floor((d - grid.near) * grid.slice_scale));
+        s = floor((d - grid.near) * grid.slice_scale);
+    } else {
+        s = floor(log2(max(d, 1e-30) / grid.near) * grid.slice_scale);
     }
-    return i32(floor(log2(max(d, 1e-30) / grid.near) * grid.slice_scale));
+    return i32(clamp(s, -1073741824.0, 1073741824.0));
 }
 
 fn cluster_id(grid: ClusterGrid, c: vec3<u32>) -> u32 {

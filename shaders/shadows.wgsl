@@ -60,7 +60,9 @@ struct Shadows {
     filter_mode: u32,
     // PCSS: the widest kernel, in texels.
     max_kernel: f32,
-    _pad: u32,
+    // Added to a receiver's depth before comparing: 0, or a few steps where the backend rounds
+    // depth coarsely (GL; `Capabilities::exact_depth`).
+    depth_tolerance: f32,
 };
 
 struct LocalShadow {
@@ -80,6 +82,9 @@ struct LocalShadow {
 @group(0) @binding(12) var shadow_sampler: sampler_comparison;
 @group(0) @binding(13) var<storage, read> local_shadows: array<LocalShadow>;
 @group(0) @binding(14) var local_atlas: texture_depth_2d_array;
+// The directional atlas again, as plain floats: the blocker search loads depths, and a load from
+// a depth texture has no GLSL translation (wgpu's GL backend).
+@group(0) @binding(20) var shadow_depths: texture_2d_array<f32>;
 
 // Taps of a Vogel (golden-angle spiral) disk of unit radius, turned by `angle`.
 fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {
@@ -122,7 +127,7 @@ fn pcss_radius(layer: u32, uv: vec2<f32>, depth: f32, cascade: ShadowCascade, an
     for (var i = 0u; i < taps; i++) {
         let at = uv + vogel_tap(i, taps, angle) * (search / shadows.atlas_size);
         let texel = vec2<i32>(clamp(at * size, vec2<f32>(0.0), size - 1.0));
-        let d = textureLoad(shadow_atlas, texel, layer, 0);
+        let d = textureLoad(shadow_depths, texel, layer, 0).x;
         if d > depth {
             blockers += 1.0;
             blocker_depth += d;
@@ -150,14 +155,15 @@ fn cascade_visibility(c: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32, a
     if clip.z > 1.0 || any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
         return 1.0;
     }
+    let depth = clip.z + shadows.depth_tolerance;
     var radius = 1.0;
     if shadows.filter_mode == FILTER_PCSS {
-        radius = pcss_radius(c, uv, clip.z, cascade, angular_tan, angle);
+        radius = pcss_radius(c, uv, depth, cascade, angular_tan, angle);
         if radius == 0.0 {
             return 1.0;
         }
     }
-    return pcf(c, uv, clip.z, radius, angle);
+    return pcf(c, uv, depth, radius, angle);
 }
 
 // Visibility of directional light `slot` at `rel` (camera-relative) with geometric normal
@@ -232,11 +238,12 @@ fn local_shadow(light: Light, rel: vec3<f32>, normal: vec3<f32>, to_light: vec3<
         return 1.0;
     }
     let texel = 1.0 / vec2<f32>(textureDimensions(local_atlas));
+    let depth = ndc.z + shadows.depth_tolerance;
     var sum = 0.0;
     for (var y = -1; y <= 1; y++) {
         for (var x = -1; x <= 1; x++) {
             let at = uv + vec2<f32>(f32(x), f32(y)) * texel;
-            sum += textureSampleCompareLevel(local_atlas, shadow_sampler, at, layer, ndc.z);
+            sum += textureSampleCompareLevel(local_atlas, shadow_sampler, at, layer, depth);
         }
     }
     return sum / 9.0;

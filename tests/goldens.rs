@@ -1,123 +1,140 @@
 //! Golden images of the sample models, rendered headless on lavapipe and compared with FLIP.
 //! Each golden was looked at before it was committed; the README says how to regenerate them.
-
-use penumbra::render::RenderSettings;
-use penumbra::render::headless::{CameraChoice, ShotSettings};
+//! The frames are built in `common::golden_scenes` (tests/backend_parity.rs draws them on GL too).
 
 mod common;
-use common::{Tolerance, check_golden, render_asset};
+use common::golden_scenes::{SAMPLE_MODELS, sample_model};
+use common::{Tolerance, check_golden};
 
-const SIZE: (u32, u32) = (256, 256);
-
-fn golden(name: &str, rel: &str, camera: CameraChoice) {
-    let shot = ShotSettings { size: Some(SIZE), camera, exposure_ev100: None, animation: None };
-    let image = render_asset(rel, &shot, RenderSettings::default());
-    check_golden(name, &image, Tolerance::default());
+fn golden(name: &str) {
+    let shot = sample_model(name).render(common::gpu());
+    check_golden(name, &shot, Tolerance::default());
 }
 
-fn front(name: &str, rel: &str) {
-    golden(name, rel, CameraChoice::Auto);
+#[test]
+fn every_sample_golden_has_its_test() {
+    let tested = [
+        "DamagedHelmet",
+        "BoxTextured",
+        "MetalRoughSpheresNoTextures",
+        "NormalTangentMirrorTest",
+        "NormalTangentTest",
+        "AlphaBlendModeTest",
+        "OrientationTest",
+        "TextureCoordinateTest",
+        "TextureSettingsTest",
+        "VertexColorTest",
+        "CesiumMilkTruck",
+        "LightsPunctualLamp",
+        "Cameras-0",
+        "Cameras-1",
+        "MultiUVTest",
+        "UnlitTest",
+        "MeshPrimitiveModes",
+        "TextureTransformTest",
+        "EmissiveStrengthTest",
+        "BoxWithSpaces",
+    ];
+    let listed: Vec<&str> = SAMPLE_MODELS.iter().map(|(name, ..)| *name).collect();
+    assert_eq!(listed, tested);
 }
-
-/// From the front-right and above, so three faces of a model show.
-const THREE_QUARTER: CameraChoice = CameraChoice::Orbit { yaw: 35.0, pitch: 25.0 };
 
 #[test]
 fn damaged_helmet() {
-    front("DamagedHelmet", "DamagedHelmet/DamagedHelmet.glb");
+    golden("DamagedHelmet");
 }
 
 #[test]
 fn box_textured() {
-    golden("BoxTextured", "BoxTextured/BoxTextured.glb", THREE_QUARTER);
+    golden("BoxTextured");
 }
 
 #[test]
 fn metal_rough_spheres_no_textures() {
-    front("MetalRoughSpheresNoTextures", "MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb");
+    golden("MetalRoughSpheresNoTextures");
 }
 
 #[test]
 fn normal_tangent_mirror_test() {
-    front("NormalTangentMirrorTest", "NormalTangentMirrorTest/NormalTangentMirrorTest.glb");
+    golden("NormalTangentMirrorTest");
 }
 
 #[test]
 fn normal_tangent_test() {
-    front("NormalTangentTest", "NormalTangentTest/NormalTangentTest.glb");
+    golden("NormalTangentTest");
 }
 
 #[test]
 fn alpha_blend_mode_test() {
-    front("AlphaBlendModeTest", "AlphaBlendModeTest/AlphaBlendModeTest.glb");
+    golden("AlphaBlendModeTest");
 }
 
 #[test]
 fn orientation_test() {
-    golden("OrientationTest", "OrientationTest/OrientationTest.glb", THREE_QUARTER);
+    golden("OrientationTest");
 }
 
 #[test]
 fn texture_coordinate_test() {
-    front("TextureCoordinateTest", "TextureCoordinateTest/TextureCoordinateTest.glb");
+    golden("TextureCoordinateTest");
 }
 
 #[test]
 fn texture_settings_test() {
-    front("TextureSettingsTest", "TextureSettingsTest/TextureSettingsTest.glb");
+    golden("TextureSettingsTest");
 }
 
 #[test]
 fn vertex_color_test() {
-    front("VertexColorTest", "VertexColorTest/VertexColorTest.glb");
+    golden("VertexColorTest");
 }
 
 #[test]
 fn cesium_milk_truck() {
-    golden("CesiumMilkTruck", "CesiumMilkTruck/CesiumMilkTruck.glb", THREE_QUARTER);
+    golden("CesiumMilkTruck");
 }
 
 #[test]
 fn lights_punctual_lamp() {
-    golden("LightsPunctualLamp", "LightsPunctualLamp/LightsPunctualLamp.gltf", THREE_QUARTER);
+    golden("LightsPunctualLamp");
 }
 
 #[test]
 fn cameras_perspective() {
-    golden("Cameras-0", "Cameras/Cameras.gltf", CameraChoice::Gltf(0));
+    golden("Cameras-0");
 }
 
 #[test]
 fn cameras_orthographic() {
-    golden("Cameras-1", "Cameras/Cameras.gltf", CameraChoice::Gltf(1));
+    golden("Cameras-1");
 }
 
 #[test]
 fn multi_uv_test() {
-    front("MultiUVTest", "MultiUVTest/MultiUVTest.glb");
+    golden("MultiUVTest");
 }
 
 #[test]
 fn unlit_test() {
-    front("UnlitTest", "UnlitTest/UnlitTest.glb");
+    golden("UnlitTest");
 }
 
 #[test]
 fn mesh_primitive_modes() {
-    front("MeshPrimitiveModes", "MeshPrimitiveModes/MeshPrimitiveModes.gltf");
+    golden("MeshPrimitiveModes");
 }
 
 #[test]
 fn texture_transform_test() {
-    front("TextureTransformTest", "TextureTransformTest/TextureTransformTest.gltf");
+    golden("TextureTransformTest");
 }
 
 #[test]
 fn emissive_strength_test() {
-    front("EmissiveStrengthTest", "EmissiveStrengthTest/EmissiveStrengthTest.glb");
+    golden("EmissiveStrengthTest");
 }
 
 #[test]
 fn box_with_spaces() {
-    golden("BoxWithSpaces", "BoxWithSpaces/Box With Spaces.gltf", THREE_QUARTER);
+    golden("BoxWithSpaces");
 }

@@ -9,16 +9,8 @@ use penumbra::render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
+use common::golden_scenes::{grey, sun};
 use common::{brightness, render_app, scene_app, scratch_dir, spawn_mesh, top_down};
-
-/// A directional light at `elevation` degrees above the horizon, shining from azimuth
-/// `azimuth` degrees (0: from +Z toward −Z, 90: from +X toward −X).
-fn sun(elevation: f32, azimuth: f32) -> Transform {
-    let (e, a) = (elevation.to_radians(), azimuth.to_radians());
-    let towards_light = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
-    let up = if elevation.abs() > 89.0 { Vec3::Z } else { Vec3::Y };
-    Transform::from_translation(towards_light).looking_at(Vec3::ZERO, up)
-}
 
 fn settings(shadows: ShadowSettings) -> RenderSettings {
     RenderSettings { msaa: 1, shadows, ..Default::default() }
@@ -40,10 +32,6 @@ fn render(app: &mut App, size: (u32, u32), shadows: ShadowSettings) -> Vec<u8> {
 fn save(name: &str, px: &[u8], size: (u32, u32)) {
     let dir = scratch_dir(&format!("shadows-{name}"));
     image::save_buffer(dir.join("frame.png"), px, size.0, size.1, image::ColorType::Rgba8).unwrap();
-}
-
-fn grey(v: f32) -> StandardMaterial {
-    StandardMaterial::from_color(Vec4::new(v, v, v, 1.0), 1.0)
 }
 
 fn set_shadows(app: &mut App, on: bool) {
@@ -430,54 +418,18 @@ fn spot_and_point_lights_shadow_exactly_their_silhouette() {
     }
 }
 
-fn check_golden(app: &mut App, name: &str, size: (u32, u32), shadows: ShadowSettings) {
-    app.world.remove_resource::<Renderer>();
-    let settings = RenderSettings { msaa: 4, shadows, ..Default::default() };
-    let rgba8 = render_app(app, size, settings);
-    assert_eq!(app.world.resource::<Renderer>().shader_error(), None);
-    common::check_golden(name, &common::Shot { width: size.0, height: size.1, rgba8 }, common::Tolerance::default());
+fn check_golden(frame: &mut common::golden_scenes::GoldenFrame) {
+    let shot = frame.render(common::gpu());
+    common::check_golden(&frame.name, &shot, common::Tolerance::default());
 }
 
 /// Golden: a "night club" — 200 coloured point lights over a floor with pillars and balls, four
 /// of them casting cube shadows, under a dim moon with cascades.
 #[test]
 fn golden_night_club() {
-    let mut app = scene_app();
-    spawn_mesh(&mut app, Mesh::plane(30.0), grey(0.6), Transform::default());
-    let mut rng = penumbra::engine::scenes::SplitMix64(7);
-    for i in 0..12 {
-        let (x, z) = (rng.uniform(-8.0, 8.0), rng.uniform(-8.0, 4.0));
-        let t = if i % 2 == 0 {
-            Transform::from_xyz(x, 1.25, z).with_scale(Vec3::new(0.4, 2.5, 0.4))
-        } else {
-            Transform::from_xyz(x, 0.5, z).with_scale(Vec3::splat(0.5))
-        };
-        let mesh = if i % 2 == 0 { Mesh::cuboid(Vec3::ONE) } else { Mesh::uv_sphere(1.0, 24, 12) };
-        spawn_mesh(&mut app, mesh, grey(0.7), t);
-    }
-    for i in 0..200 {
-        let hue = rng.uniform(0.0, 360.0);
-        let c = penumbra::engine::scenes::hsl_to_srgb(hue, 1.0, 0.5);
-        let at = Vec3::new(rng.uniform(-10.0, 10.0), rng.uniform(0.3, 2.5), rng.uniform(-10.0, 6.0));
-        let shadows = i % 50 == 0;
-        let intensity = if shadows { 6.0 } else { 0.6 };
-        app.world.spawn((
-            PointLight {
-                color: c.map(penumbra::engine::scenes::srgb_to_linear),
-                intensity,
-                range: Some(if shadows { 8.0 } else { 2.5 }),
-                shadows,
-            },
-            Transform::from_translation(at),
-        ));
-    }
-    let moon = DirectionalLight { color: Vec3::new(0.6, 0.7, 1.0), illuminance: 0.15, ..Default::default() };
-    app.world.spawn((moon, sun(40.0, 200.0)));
-    app.world
-        .spawn((Camera::default(), Transform::from_xyz(0.0, 5.0, 12.0).looking_at(Vec3::new(0.0, 0.0, -1.0), Vec3::Y)));
-    let small = ShadowSettings { atlas_size: 1024, local_map_size: 256, ..Default::default() };
-    check_golden(&mut app, "shadows_night_club", (256, 160), small);
-    let frame = app.world.resource::<Renderer>().shadow_frame().clone();
+    let mut frame = common::golden_scenes::night_club();
+    check_golden(&mut frame);
+    let frame = frame.app.world.resource::<Renderer>().shadow_frame().clone();
     assert_eq!(frame.local.first_layers.len(), 4, "four cube-shadowed lights");
     assert!(frame.rendered.iter().any(|r| *r), "the moon's cascades");
 }
@@ -485,16 +437,7 @@ fn golden_night_club() {
 /// Golden: DamagedHelmet on a ground plane under a shadowed sun (PCSS).
 #[test]
 fn golden_damaged_helmet_under_the_sun() {
-    let mut app = scene_app();
-    let path = common::asset("DamagedHelmet/DamagedHelmet.glb");
-    load_scene(&mut app.world, &path, &ImportOptions::default()).unwrap();
-    spawn_mesh(&mut app, Mesh::plane(10.0), grey(0.7), Transform::from_xyz(0.0, -1.0, 0.0));
-    app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, sun(50.0, 35.0)));
-    app.world.spawn(AmbientLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 0.15 });
-    app.world
-        .spawn((Camera::default(), Transform::from_xyz(1.2, 1.2, 4.0).looking_at(Vec3::new(0.0, -0.3, 0.0), Vec3::Y)));
-    let pcss = ShadowSettings { atlas_size: 1024, filter: ShadowFilter::Pcss, ..Default::default() };
-    check_golden(&mut app, "shadows_damaged_helmet", (256, 192), pcss);
+    check_golden(&mut common::golden_scenes::helmet_under_the_sun());
 }
 
 /// A still camera over a still scene draws its shadow maps once: later frames skip the shadow

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod golden_scenes;
+
 use std::path::{Path, PathBuf};
 
 /// A test asset under `tests/assets/`.
@@ -81,26 +83,33 @@ pub fn check_golden(name: &str, shot: &Shot, tol: Tolerance) {
 /// [`check_golden`] against `dir/<name>.png`.
 pub fn check_golden_in(dir: &Path, name: &str, shot: &Shot, tol: Tolerance) {
     let golden = dir.join(format!("{name}.png"));
-    let save = |path: &Path, rgba: &[u8]| {
-        image::save_buffer(path, rgba, shot.width, shot.height, image::ColorType::Rgba8).unwrap();
-    };
     if std::env::var_os("PENUMBRA_UPDATE_GOLDENS").is_some() {
         std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
-        save(&golden, &shot.rgba8);
+        image::save_buffer(&golden, &shot.rgba8, shot.width, shot.height, image::ColorType::Rgba8).unwrap();
         eprintln!("updated golden {}", golden.display());
         return;
     }
+    if let Err(problem) = compare_with_golden(dir, name, "", shot, tol) {
+        panic!("{problem}");
+    }
+}
+
+/// Compares `shot` with `dir/<name>.png` using FLIP; a failure writes `<name><suffix>.actual.png`
+/// and `<name><suffix>.diff.png` (FLIP error, magma) beside the golden and says so. Never
+/// rewrites the golden.
+pub fn compare_with_golden(dir: &Path, name: &str, suffix: &str, shot: &Shot, tol: Tolerance) -> Result<(), String> {
+    let golden = dir.join(format!("{name}.png"));
+    let save = |path: &Path, rgba: &[u8]| {
+        image::save_buffer(path, rgba, shot.width, shot.height, image::ColorType::Rgba8).unwrap();
+    };
     let expected = image::open(&golden)
-        .unwrap_or_else(|e| {
-            panic!("cannot open golden {} ({e}); run with PENUMBRA_UPDATE_GOLDENS=1 to create it", golden.display())
-        })
+        .map_err(|e| {
+            format!("cannot open golden {} ({e}); run with PENUMBRA_UPDATE_GOLDENS=1 to create it", golden.display())
+        })?
         .into_rgba8();
-    assert_eq!(
-        (expected.width(), expected.height()),
-        (shot.width, shot.height),
-        "golden {} has another size",
-        golden.display()
-    );
+    if (expected.width(), expected.height()) != (shot.width, shot.height) {
+        return Err(format!("golden {} has another size", golden.display()));
+    }
     let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
     let reference = nv_flip::FlipImageRgb8::with_data(shot.width, shot.height, &rgb(expected.as_raw()));
     let test = nv_flip::FlipImageRgb8::with_data(shot.width, shot.height, &rgb(&shot.rgba8));
@@ -109,21 +118,22 @@ pub fn check_golden_in(dir: &Path, name: &str, shot: &Shot, tol: Tolerance) {
     let mean = pool.mean();
     let at = pool.get_percentile(tol.percentile, true);
     if mean > tol.mean || at > tol.at_percentile {
-        let actual = golden.with_extension("actual.png");
-        let diff = golden.with_extension("diff.png");
+        let actual = dir.join(format!("{name}{suffix}.actual.png"));
+        let diff = dir.join(format!("{name}{suffix}.diff.png"));
         save(&actual, &shot.rgba8);
         let magma = error.apply_color_lut(&nv_flip::magma_lut());
         image::save_buffer(&diff, &magma.to_vec(), shot.width, shot.height, image::ColorType::Rgb8).unwrap();
-        panic!(
-            "{name}: FLIP mean {mean:.5} (limit {}), {}th percentile {at:.4} (limit {})\n  expected: {}\n  actual:   {}\n  diff:     {}",
+        return Err(format!(
+            "{name}{suffix}: FLIP mean {mean:.5} (limit {}), {}th percentile {at:.4} (limit {})\n  expected: {}\n  actual:   {}\n  diff:     {}",
             tol.mean,
             tol.percentile * 100.0,
             tol.at_percentile,
             golden.display(),
             actual.display(),
             diff.display()
-        );
+        ));
     }
+    Ok(())
 }
 
 use penumbra::prelude::*;

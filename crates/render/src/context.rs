@@ -32,6 +32,15 @@ pub struct Capabilities {
     /// Indirect draws that honour their first instance, which GPU culling's draws need
     /// (Vulkan, Metal, DX12; not GL).
     pub indirect_first_instance: bool,
+    /// The deferred-lights compute pass (`LightWalk::ClusteredCompute`): not on GL, where naga
+    /// cannot translate its depth loads and wgpu cannot render into a multisampled target that
+    /// is also bound for sampling. Local lights are then shaded in the fragment shader.
+    pub deferred_lights: bool,
+    /// Depth reaches the depth buffer as the vertex shader computed it. Not on GL: wgpu's GL
+    /// backend rewrites clip z to z·2 − w (GL's −1..1 depth range), which rounds depth at about
+    /// 2⁻²⁴ of 1 instead of 2⁻²⁴ of itself, so reverse-Z's extra precision far away is lost
+    /// there and shadow lookups need a small depth tolerance (`ShadowOrchestrator`).
+    pub exact_depth: bool,
 }
 
 #[derive(Clone)]
@@ -109,6 +118,8 @@ impl GpuContext {
         let timestamps = available.contains(wgpu::Features::TIMESTAMP_QUERY);
         let indirect_first_instance = available.contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)
             && adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION);
+        let deferred_lights = info.backend != wgpu::Backend::Gl;
+        let exact_depth = info.backend != wgpu::Backend::Gl;
         let mut features = wgpu::Features::empty();
         if timestamps {
             features |= wgpu::Features::TIMESTAMP_QUERY;
@@ -149,7 +160,7 @@ impl GpuContext {
             device,
             queue,
             info: Arc::new(info),
-            caps: Capabilities { timestamps, indirect_first_instance },
+            caps: Capabilities { timestamps, indirect_first_instance, deferred_lights, exact_depth },
             lost,
             request: request.clone(),
         })

@@ -10,6 +10,7 @@
 //!   run) and `passes/` (forward, tonemap).
 //! - [`RenderPlugin`] wires extraction and (for headless targets) rendering into the `App`.
 
+pub mod array_layers;
 pub mod context;
 pub mod entity_table;
 pub mod environment;

@@ -18,6 +18,7 @@ use penumbra_engine::bounds::Aabb;
 use penumbra_engine::components::Projection;
 use penumbra_engine::mesh::{Mesh, SelfOverlap};
 
+use crate::array_layers::ArrayLayers;
 use crate::context::GpuContext;
 use crate::entity_table::{EntityTable, Replaced};
 use crate::environment::{EnvironmentLighting, EnvironmentSettings};
@@ -46,7 +47,7 @@ use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
-use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT, OpaqueDraws, TargetNeeds};
+use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT, OpaqueDraws, TargetNeeds, TargetsMade};
 use crate::timing::{FrameTimings, GpuTimer};
 use crate::world::{LightKind, RenderScene};
 
@@ -449,6 +450,7 @@ impl Renderer {
             mapped_at_creation: false,
         });
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
+        let array_layers = ArrayLayers::for_backend(ctx.info.backend);
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             deformer: MeshDeformer::new(device),
@@ -457,8 +459,8 @@ impl Renderer {
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),
             clusters: ClusterBinner::new(device),
-            shadows: ShadowOrchestrator::new(device),
-            environment: EnvironmentLighting::new(device),
+            shadows: ShadowOrchestrator::new(device, array_layers, ctx.caps.exact_depth),
+            environment: EnvironmentLighting::new(device, array_layers),
             post: PostProcess::new(device),
             ibl_active: false,
             shadows_active: false,
@@ -930,6 +932,7 @@ impl Renderer {
                 || t.deferred.is_some() != self.deferred_lights
                 || t.hdr.is_none() != direct
                 || t.depth_view.is_none() != depth_free
+                || t.depth_sampled != occlusion
         }) {
             let params = self.deferred_lights.then_some(&self.deferred_params);
             self.targets = Some(FrameTargets::new(
@@ -938,8 +941,7 @@ impl Renderer {
                 size,
                 self.settings.msaa,
                 params,
-                !direct,
-                !depth_free,
+                TargetsMade { hdr: !direct, depth: !depth_free, depth_sampled: occlusion },
             ));
         }
 
@@ -1297,7 +1299,10 @@ impl Renderer {
             _ => false,
         };
         // The heat view colours fragments by their cluster, which only the forward shader does.
-        let deferred = walk == LocalLights::Clustered && wants_compute && self.settings.debug_view == DebugView::None;
+        let deferred = walk == LocalLights::Clustered
+            && wants_compute
+            && self.ctx.caps.deferred_lights
+            && self.settings.debug_view == DebugView::None;
         if walk != self.local_lights || shapes != self.light_shapes || deferred != self.deferred_lights {
             self.local_lights = walk;
             self.light_shapes = shapes;
@@ -1778,28 +1783,32 @@ impl Renderer {
                     binding: 19,
                     resource: wgpu::BindingResource::Sampler(self.environment.sampler()),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 20,
+                    resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
+                },
             ],
         })
     }
 }
 
-/// The scene's brightest directional light (by luminance) as (direction towards it,
-/// illuminance in lux): the sun the procedural sky is made for. Default lights do not count:
-/// the default key light turns with the camera.
-/// What a backend cannot do as asked, done the way it can, with a warning (never silently).
-/// wgpu's GL backend draws multisampled frames black (seen on Mesa's llvmpipe GL, 22.3.6:
-/// every MSAA 4 frame, while MSAA 1 matches Vulkan; tests/backend_parity.rs): it gets MSAA 1.
+/// What a backend cannot do as asked, done the way it can, with a warning (never silently):
+/// see `Capabilities`. (What the renderer picks on its own, such as `LightWalk::Auto`'s path,
+/// it picks among what the backend can do.)
 fn degrade_for_backend(mut settings: RenderSettings, ctx: &GpuContext) -> RenderSettings {
-    if ctx.info.backend == wgpu::Backend::Gl && settings.msaa > 1 {
+    if !ctx.caps.deferred_lights && settings.light_walk == LightWalk::ClusteredCompute {
         tracing::warn!(
-            "MSAA {} is not supported on the GL backend (its multisampled frames come out black): using MSAA 1",
-            settings.msaa
+            "local lights cannot be shaded in a compute pass on the {:?} backend: shading them in the fragment shader",
+            ctx.info.backend
         );
-        settings.msaa = 1;
+        settings.light_walk = LightWalk::Clustered;
     }
     settings
 }
 
+/// The scene's brightest directional light (by luminance) as (direction towards it,
+/// illuminance in lux): the sun the procedural sky is made for. Default lights do not count:
+/// the default key light turns with the camera.
 fn sun(scene: &RenderScene) -> Option<(Vec3, f32)> {
     let luminance = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
     scene

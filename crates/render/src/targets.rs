@@ -73,6 +73,16 @@ impl TargetNeeds {
     }
 }
 
+/// Which of the optional targets to make (see [`TargetNeeds`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TargetsMade {
+    /// The HDR colour target (else the frame draws straight into the output).
+    pub hdr: bool,
+    pub depth: bool,
+    /// Depth bound for sampling too (occlusion culling's depth pyramid).
+    pub depth_sampled: bool,
+}
+
 pub struct FrameTargets {
     pub size: (u32, u32),
     pub samples: u32,
@@ -80,6 +90,8 @@ pub struct FrameTargets {
     pub hdr: Option<HdrTargets>,
     /// `None`: nothing drawn this frame can cover a pixel twice (see `Renderer::render`).
     pub depth_view: Option<wgpu::TextureView>,
+    /// The depth target can be bound for sampling (occlusion culling, deferred lights).
+    pub depth_sampled: bool,
     pub deferred: Option<DeferredTargets>,
 }
 
@@ -107,16 +119,16 @@ pub struct DeferredTargets {
 
 impl FrameTargets {
     /// `deferred_params`: the deferred-lights pass's uniform when lights are deferred (which
-    /// needs the HDR target and depth). Without `hdr` and `depth` nothing at all is made.
+    /// needs the HDR target and depth). Without `made.hdr` and `made.depth` nothing at all is made.
     pub fn new(
         device: &wgpu::Device,
         pipelines: &PipelineCache,
         size: (u32, u32),
         samples: u32,
         deferred_params: Option<&wgpu::Buffer>,
-        hdr: bool,
-        depth: bool,
+        made: TargetsMade,
     ) -> Self {
+        let TargetsMade { hdr, depth, depth_sampled } = made;
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -146,8 +158,10 @@ impl FrameTargets {
                 .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
             HdrTargets { texture, view, msaa_view }
         });
-        // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid.
-        let depth_usage = attach | sampled;
+        // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid; otherwise
+        // only an attachment, which wgpu's GL backend needs of a multisampled texture (it cannot
+        // render into a multisampled texture that is also bound for sampling: the frame is lost).
+        let depth_usage = if depth_sampled || deferred_params.is_some() { attach | sampled } else { attach };
         let depth_view = (depth || deferred_params.is_some())
             .then(|| tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default()));
         let deferred = deferred_params.zip(hdr.as_ref().zip(depth_view.as_ref())).map(|(params, (hdr, depth_view))| {
@@ -173,7 +187,7 @@ impl FrameTargets {
             });
             DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
         });
-        Self { size, samples, hdr, depth_view, deferred }
+        Self { size, samples, hdr, depth_view, depth_sampled, deferred }
     }
 
     /// The single-sampled HDR colour, if the frame has one.

@@ -31,6 +31,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
 
+use crate::array_layers::ArrayLayers;
 use crate::pipelines::pipeline_cache::{ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep, PipelineCache};
 use crate::pipelines::shader_library::ShaderError;
 use crate::timing::GpuTimer;
@@ -169,6 +170,10 @@ struct Maps {
     size: u32,
     source: wgpu::Texture,
     specular: wgpu::Texture,
+    /// Where the steps write, when not into the cubes themselves: on GL, where a texture is a
+    /// cube map or an array for good (`ArrayLayers`), the steps write 2D arrays that are then
+    /// copied face by face into the cubes. `None` elsewhere.
+    work: Option<WorkArrays>,
     specular_view: wgpu::TextureView,
     source_params: wgpu::Buffer,
     filter_params: wgpu::Buffer,
@@ -178,6 +183,15 @@ struct Maps {
     sh_face: u32,
     /// Bind group of the source step (it holds the image, so it is made per source).
     source_group: Option<wgpu::BindGroup>,
+}
+
+/// The arrays the steps write on a backend whose cubes cannot also be bound as arrays.
+struct WorkArrays {
+    /// One single-level array per source level: the downsample step reads one level while it
+    /// writes the next, and GL drops image stores to a level outside the range a texture is
+    /// being sampled at (wgpu's GL backend sets that range on the texture itself).
+    source: Vec<wgpu::Texture>,
+    specular: wgpu::Texture,
 }
 
 /// What [`EnvironmentLighting::prepare`] decided.
@@ -213,6 +227,7 @@ pub struct EnvironmentLighting {
     refused: Option<String>,
     /// An image's storage scale, which needs a pass over every texel: computed once per image.
     image_scale: Option<(Arc<EnvironmentImage>, f32)>,
+    array_layers: ArrayLayers,
 }
 
 fn texture_bytes(t: &wgpu::Texture) -> u64 {
@@ -225,7 +240,7 @@ fn texture_bytes(t: &wgpu::Texture) -> u64 {
 }
 
 impl EnvironmentLighting {
-    pub fn new(device: &wgpu::Device) -> Self {
+    pub fn new(device: &wgpu::Device, array_layers: ArrayLayers) -> Self {
         let stand_in = |label, layers, dimension| {
             let t = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -271,6 +286,7 @@ impl EnvironmentLighting {
             prefilters: 0,
             refused: None,
             image_scale: None,
+            array_layers,
         }
     }
 
@@ -296,7 +312,13 @@ impl EnvironmentLighting {
 
     /// GPU memory held by the maps and the table.
     pub fn bytes(&self) -> u64 {
-        let maps = self.maps.as_ref().map_or(0, |m| texture_bytes(&m.source) + texture_bytes(&m.specular));
+        let maps = self.maps.as_ref().map_or(0, |m| {
+            let work = m
+                .work
+                .as_ref()
+                .map_or(0, |w| w.source.iter().map(texture_bytes).sum::<u64>() + texture_bytes(&w.specular));
+            texture_bytes(&m.source) + texture_bytes(&m.specular) + work
+        });
         maps + self.lut.as_ref().map_or(0, |(t, _)| texture_bytes(t))
     }
 
@@ -355,7 +377,7 @@ impl EnvironmentLighting {
         let key = MapsKey { source, cube_size, specular_samples: settings.specular_samples };
         let mut rebind = false;
         if self.maps.as_ref().is_none_or(|m| m.size != cube_size) {
-            self.maps = Some(Maps::new(device, pipelines, &self.sh, cube_size));
+            self.maps = Some(Maps::new(device, pipelines, &self.sh, cube_size, self.array_layers));
             rebind = true;
             self.key = None;
         }
@@ -467,6 +489,17 @@ impl EnvironmentLighting {
                 let (x, y, z) = groups((maps.size >> (i + 1)).max(1));
                 pass.dispatch_workgroups(x, y, z);
             }
+            if let Some(work) = &maps.work {
+                // The specular step samples the source as a cube: the cube must be whole first.
+                drop(pass);
+                for (level, written) in work.source.iter().enumerate() {
+                    copy_faces(encoder, (written, 0), (&maps.source, level as u32), maps.size >> level);
+                }
+                pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("environment prefilter (specular)"),
+                    timestamp_writes: None,
+                });
+            }
             pass.set_pipeline(step(EnvStep::Specular));
             for (i, group) in maps.specular_groups.iter().enumerate() {
                 pass.set_bind_group(0, group, &[]);
@@ -478,11 +511,13 @@ impl EnvironmentLighting {
             pass.dispatch_workgroups(1, 1, 1);
             drop(pass);
             // The sharpest specular level is the source itself.
-            encoder.copy_texture_to_texture(
-                maps.source.as_image_copy(),
-                maps.specular.as_image_copy(),
-                wgpu::Extent3d { width: maps.size, height: maps.size, depth_or_array_layers: 6 },
-            );
+            let level0 = maps.work.as_ref().map_or(&maps.source, |w| &w.source[0]);
+            copy_faces(encoder, (level0, 0), (&maps.specular, 0), maps.size);
+            if let Some(work) = &maps.work {
+                for level in 1..maps.specular.mip_level_count() {
+                    copy_faces(encoder, (&work.specular, level), (&maps.specular, level), maps.size >> level);
+                }
+            }
             self.pending = false;
             self.prefilters += 1;
         }
@@ -513,6 +548,21 @@ fn image_scale(img: &EnvironmentImage) -> f32 {
     (peak / 60_000.0).max(1.0)
 }
 
+/// Copies the six faces of (texture, mip level) `from` to `to`, faces `side` texels square, one
+/// face per copy: wgpu's GL backend copies only the first layer of a many-layer copy.
+fn copy_faces(encoder: &mut wgpu::CommandEncoder, from: (&wgpu::Texture, u32), to: (&wgpu::Texture, u32), side: u32) {
+    let side = side.max(1);
+    for face in 0..6 {
+        let origin = wgpu::Origin3d { x: 0, y: 0, z: face };
+        let aspect = wgpu::TextureAspect::All;
+        encoder.copy_texture_to_texture(
+            wgpu::TexelCopyTextureInfo { texture: from.0, mip_level: from.1, origin, aspect },
+            wgpu::TexelCopyTextureInfo { texture: to.0, mip_level: to.1, origin, aspect },
+            wgpu::Extent3d { width: side, height: side, depth_or_array_layers: 1 },
+        );
+    }
+}
+
 fn tex(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
 }
@@ -533,12 +583,19 @@ fn make_lut_texture(device: &wgpu::Device) -> (wgpu::Texture, wgpu::TextureView)
 }
 
 impl Maps {
-    fn new(device: &wgpu::Device, pipelines: &PipelineCache, sh: &wgpu::Buffer, size: u32) -> Self {
+    fn new(
+        device: &wgpu::Device,
+        pipelines: &PipelineCache,
+        sh: &wgpu::Buffer,
+        size: u32,
+        array_layers: ArrayLayers,
+    ) -> Self {
         let levels = size.ilog2() + 1;
-        let cube = |label, mips, usage| {
+        let specular_levels = SPECULAR_LEVELS.min(levels);
+        let texture_of = |label, side: u32, layers, mips, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
-                size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 6 },
+                size: wgpu::Extent3d { width: side, height: side, depth_or_array_layers: layers },
                 mip_level_count: mips,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -547,16 +604,48 @@ impl Maps {
                 view_formats: &[],
             })
         };
-        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING;
-        let source = cube("environment source", levels, usage | wgpu::TextureUsages::COPY_SRC);
-        let specular = cube("environment specular", SPECULAR_LEVELS.min(levels), usage | wgpu::TextureUsages::COPY_DST);
+        let texture = |label, layers, mips, usage| texture_of(label, size, layers, mips, usage);
+        use wgpu::TextureUsages as U;
+        let written = U::TEXTURE_BINDING | U::STORAGE_BINDING;
+        let work_layers = array_layers.allocate(6, size, size);
+        let (source, specular, work) = if work_layers == 6 {
+            let source = texture("environment source", 6, levels, written | U::COPY_SRC);
+            let specular = texture("environment specular", 6, specular_levels, written | U::COPY_DST);
+            (source, specular, None)
+        } else {
+            let work = WorkArrays {
+                source: (0..levels)
+                    .map(|level| {
+                        let side = (size >> level).max(1);
+                        texture_of("environment source level (written)", side, work_layers, 1, written | U::COPY_SRC)
+                    })
+                    .collect(),
+                specular: texture(
+                    "environment specular (written)",
+                    work_layers,
+                    specular_levels,
+                    written | U::COPY_SRC,
+                ),
+            };
+            let source = texture("environment source", 6, levels, U::TEXTURE_BINDING | U::COPY_DST);
+            let specular = texture("environment specular", 6, specular_levels, U::TEXTURE_BINDING | U::COPY_DST);
+            (source, specular, Some(work))
+        };
+        let specular_writes = work.as_ref().map_or(&specular, |w| &w.specular);
         let level_view = |t: &wgpu::Texture, level: u32| {
             t.create_view(&wgpu::TextureViewDescriptor {
                 dimension: Some(wgpu::TextureViewDimension::D2Array),
                 base_mip_level: level,
                 mip_level_count: Some(1),
+                base_array_layer: 0,
+                array_layer_count: Some(6),
                 ..Default::default()
             })
+        };
+        // The source step and the downsample write these; the harmonics read one.
+        let source_level = |level: u32| match &work {
+            Some(w) => level_view(&w.source[level as usize], 0),
+            None => level_view(&source, level),
         };
         let buffer = |label, size| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -581,7 +670,7 @@ impl Maps {
                 device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("environment downsample"),
                     layout: pipelines.env_layout(EnvStep::Downsample),
-                    entries: &[tex(0, &level_view(&source, level - 1)), tex(1, &level_view(&source, level))],
+                    entries: &[tex(0, &source_level(level - 1)), tex(1, &source_level(level))],
                 })
             })
             .collect();
@@ -605,7 +694,7 @@ impl Maps {
                         params_at(level),
                         tex(1, &source_cube),
                         wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&filter_sampler) },
-                        tex(3, &level_view(&specular, level)),
+                        tex(3, &level_view(specular_writes, level)),
                     ],
                 })
             })
@@ -616,7 +705,7 @@ impl Maps {
             layout: pipelines.env_layout(EnvStep::IrradianceSh),
             entries: &[
                 params_at(SPECULAR_LEVELS),
-                tex(1, &level_view(&source, sh_level)),
+                tex(1, &source_level(sh_level)),
                 wgpu::BindGroupEntry { binding: 2, resource: sh.as_entire_binding() },
             ],
         });
@@ -629,6 +718,7 @@ impl Maps {
             sh_face: (size >> sh_level).max(1),
             source,
             specular,
+            work,
             specular_view,
             source_params,
             filter_params,
@@ -637,6 +727,12 @@ impl Maps {
             sh_group,
             source_group: None,
         }
+    }
+
+    /// The texture whose first level the source step writes (the source cube, or the work
+    /// array of its level 0).
+    fn written_source(&self) -> &wgpu::Texture {
+        self.work.as_ref().map_or(&self.source, |w| &w.source[0])
     }
 
     /// Writes the source step's parameters and, for an image, uploads it; makes the source
@@ -680,10 +776,12 @@ impl Maps {
                 placeholder.create_view(&Default::default())
             }
         };
-        let level0 = self.source.create_view(&wgpu::TextureViewDescriptor {
+        let level0 = self.written_source().create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             base_mip_level: 0,
             mip_level_count: Some(1),
+            base_array_layer: 0,
+            array_layer_count: Some(6),
             ..Default::default()
         });
         self.source_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {

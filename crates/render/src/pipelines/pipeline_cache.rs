@@ -427,6 +427,17 @@ impl PipelineCache {
                 },
                 texture(18, true),
                 sampler(19),
+                // The directional shadow atlas as floats, for the PCSS blocker search's loads.
+                wgpu::BindGroupLayoutEntry {
+                    binding: 20,
+                    visibility: lit,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;

@@ -19,6 +19,7 @@ use penumbra_engine::bounds::Aabb;
 use super::cascades::{self, Cascade, CascadeCamera};
 use super::local::{LocalCandidate, LocalFrame, LocalShadows};
 use super::{ShadowFilter, ShadowSettings};
+use crate::array_layers::ArrayLayers;
 use crate::passes::forward::Batch;
 use crate::pipelines::pipeline_cache::{CasterKey, PipelineCache, TopologyKey};
 use crate::pipelines::shader_library::ShaderError;
@@ -90,7 +91,7 @@ struct GpuShadows {
     atlas_size: f32,
     filter: u32,
     max_kernel: f32,
-    _pad: u32,
+    depth_tolerance: f32,
 }
 
 /// Mirrors `LocalShadow` in `shaders/shadows.wgsl`.
@@ -165,13 +166,16 @@ struct Atlas {
     array_view: wgpu::TextureView,
     layer_views: Vec<wgpu::TextureView>,
     size: u32,
+    /// Layers in use (the texture may have a spare one: `ArrayLayers`).
+    layers: u32,
 }
 
 impl Atlas {
-    fn new(device: &wgpu::Device, size: u32, layers: u32) -> Self {
+    fn new(device: &wgpu::Device, rule: ArrayLayers, size: u32, layers: u32) -> Self {
+        let allocated = rule.allocate(layers, size, size);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("shadow atlas"),
-            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: layers },
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: allocated },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -194,17 +198,24 @@ impl Atlas {
                 })
             })
             .collect();
-        Self { texture, array_view, layer_views, size }
+        Self { texture, array_view, layer_views, size, layers }
     }
 
     fn layers(&self) -> u32 {
-        self.texture.depth_or_array_layers()
+        self.layers
     }
 
     fn bytes(&self) -> u64 {
-        self.size as u64 * self.size as u64 * 4 * self.layers() as u64
+        self.size as u64 * self.size as u64 * 4 * self.texture.depth_or_array_layers() as u64
     }
 }
+
+/// A receiver's depth tolerance on a backend that rounds depth at 2⁻²⁴ of 1 (GL, see
+/// `Capabilities::exact_depth`): eight such steps. Without it a surface facing the light, whose
+/// slope-scaled bias is zero, shadows itself there wherever the rounding goes the wrong way (a
+/// disc around a spot light's axis). 4.8e-7 of reverse-Z depth is 4.8e-7 × d² / near metres at
+/// distance d from a local light, and 4.8e-7 of a cascade's depth range.
+pub const INEXACT_DEPTH_TOLERANCE: f32 = 8.0 / 16_777_216.0;
 
 pub struct ShadowOrchestrator {
     uniform: wgpu::Buffer,
@@ -219,6 +230,10 @@ pub struct ShadowOrchestrator {
     /// Fills the atlas binding while no light casts (nothing samples it then).
     placeholder: Atlas,
     sampler: wgpu::Sampler,
+    array_layers: ArrayLayers,
+    /// Added to a receiver's depth before comparing it with the map: 0 where depth is exact;
+    /// [`INEXACT_DEPTH_TOLERANCE`] where the backend rounds it (`Capabilities::exact_depth`).
+    depth_tolerance: f32,
     frame: ShadowFrame,
     /// The caster bind group and the buffers it was made with (instances, draw slots,
     /// materials), compared by identity to notice growth.
@@ -232,7 +247,8 @@ pub struct ShadowOrchestrator {
 }
 
 impl ShadowOrchestrator {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// `exact_depth`: see `Capabilities::exact_depth`.
+    pub fn new(device: &wgpu::Device, array_layers: ArrayLayers, exact_depth: bool) -> Self {
         Self {
             uniform: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("shadows"),
@@ -245,7 +261,9 @@ impl ShadowOrchestrator {
             local: LocalShadows::default(),
             local_atlas: None,
             local_buffer: local_buffer(device, 1),
-            placeholder: Atlas::new(device, 1, 1),
+            placeholder: Atlas::new(device, array_layers, 1, 1),
+            array_layers,
+            depth_tolerance: if exact_depth { 0.0 } else { INEXACT_DEPTH_TOLERANCE },
             // Reverse-Z: a receiver is lit where its depth is at least the nearest caster's.
             sampler: device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("shadow comparison"),
@@ -350,7 +368,7 @@ impl ShadowOrchestrator {
         let has = self.atlas.as_ref().map(|a| (a.size, a.layers()));
         let mut changed = needs != has;
         if changed {
-            self.atlas = needs.map(|(size, layers)| Atlas::new(device, size, layers));
+            self.atlas = needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
         }
         // A fresh atlas holds nothing.
         if changed {
@@ -371,7 +389,7 @@ impl ShadowOrchestrator {
         let local_has = self.local_atlas.as_ref().map(|a| (a.size, a.layers()));
         if local_needs != local_has {
             changed = true;
-            self.local_atlas = local_needs.map(|(size, layers)| Atlas::new(device, size, layers));
+            self.local_atlas = local_needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
             if local_has.is_some() {
                 // The layers' contents are gone: every map renders again.
                 self.local = LocalShadows::default();
@@ -497,6 +515,7 @@ impl ShadowOrchestrator {
             ShadowFilter::Pcss => 1,
         };
         gpu.max_kernel = settings.max_penumbra_texels;
+        gpu.depth_tolerance = self.depth_tolerance;
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&gpu));
         let caster_view = |clip_from_rel: &glam::Mat4| GpuCasterView {
             clip_from_rel: clip_from_rel.to_cols_array_2d(),

@@ -1,0 +1,181 @@
+//! The golden frames that every backend must draw alike, built in one place: the sample models
+//! (tests/goldens.rs), the environment goldens (tests/ibl.rs) and the shadow goldens
+//! (tests/shadows.rs) take their frames from here, and tests/backend_parity.rs draws every one
+//! of them again on wgpu's GL backend and holds it to the same golden and threshold.
+
+use penumbra::engine::environment::Environment;
+use penumbra::engine::import::{GltfScene, ImportOptions};
+use penumbra::prelude::*;
+use penumbra::render::environment::EnvironmentSettings;
+use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stage_scene};
+use penumbra::render::passes::shadows::{ShadowFilter, ShadowSettings};
+use penumbra::render::{GpuContext, RenderSettings, Renderer};
+
+use super::{Shot, asset, scene_app, spawn_mesh};
+
+/// From the front-right and above, so three faces of a model show.
+pub const THREE_QUARTER: CameraChoice = CameraChoice::Orbit { yaw: 35.0, pitch: 25.0 };
+const FRONT: CameraChoice = CameraChoice::Auto;
+
+/// The sample-model goldens: (golden name, asset, camera), each at 256 × 256 with the default
+/// settings.
+pub const SAMPLE_MODELS: &[(&str, &str, CameraChoice)] = &[
+    ("DamagedHelmet", "DamagedHelmet/DamagedHelmet.glb", FRONT),
+    ("BoxTextured", "BoxTextured/BoxTextured.glb", THREE_QUARTER),
+    ("MetalRoughSpheresNoTextures", "MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", FRONT),
+    ("NormalTangentMirrorTest", "NormalTangentMirrorTest/NormalTangentMirrorTest.glb", FRONT),
+    ("NormalTangentTest", "NormalTangentTest/NormalTangentTest.glb", FRONT),
+    ("AlphaBlendModeTest", "AlphaBlendModeTest/AlphaBlendModeTest.glb", FRONT),
+    ("OrientationTest", "OrientationTest/OrientationTest.glb", THREE_QUARTER),
+    ("TextureCoordinateTest", "TextureCoordinateTest/TextureCoordinateTest.glb", FRONT),
+    ("TextureSettingsTest", "TextureSettingsTest/TextureSettingsTest.glb", FRONT),
+    ("VertexColorTest", "VertexColorTest/VertexColorTest.glb", FRONT),
+    ("CesiumMilkTruck", "CesiumMilkTruck/CesiumMilkTruck.glb", THREE_QUARTER),
+    ("LightsPunctualLamp", "LightsPunctualLamp/LightsPunctualLamp.gltf", THREE_QUARTER),
+    ("Cameras-0", "Cameras/Cameras.gltf", CameraChoice::Gltf(0)),
+    ("Cameras-1", "Cameras/Cameras.gltf", CameraChoice::Gltf(1)),
+    ("MultiUVTest", "MultiUVTest/MultiUVTest.glb", FRONT),
+    ("UnlitTest", "UnlitTest/UnlitTest.glb", FRONT),
+    ("MeshPrimitiveModes", "MeshPrimitiveModes/MeshPrimitiveModes.gltf", FRONT),
+    ("TextureTransformTest", "TextureTransformTest/TextureTransformTest.gltf", FRONT),
+    ("EmissiveStrengthTest", "EmissiveStrengthTest/EmissiveStrengthTest.glb", FRONT),
+    ("BoxWithSpaces", "BoxWithSpaces/Box With Spaces.gltf", THREE_QUARTER),
+];
+
+/// A scene ready to draw one golden frame.
+pub struct GoldenFrame {
+    pub name: String,
+    pub app: App,
+    pub size: (u32, u32),
+    pub settings: RenderSettings,
+}
+
+impl GoldenFrame {
+    /// Draws the frame on `ctx` with a fresh renderer (the renderer stays in the app).
+    pub fn render(&mut self, ctx: GpuContext) -> Shot {
+        self.app.world.remove_resource::<Renderer>();
+        let renderer = Renderer::new(ctx, self.settings.clone()).unwrap_or_else(|e| panic!("{}: {e}", self.name));
+        let rgba8 =
+            render_frames(&mut self.app, renderer, self.size, 1).unwrap_or_else(|e| panic!("{}: {e}", self.name));
+        assert_eq!(self.app.world.resource::<Renderer>().shader_error(), None, "{}", self.name);
+        Shot { width: self.size.0, height: self.size.1, rgba8 }
+    }
+}
+
+fn staged(name: &str, rel: &str, camera: CameraChoice, size: (u32, u32), settings: RenderSettings) -> GoldenFrame {
+    let scene = GltfScene::load(&asset(rel), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let shot = ShotSettings { size: Some(size), camera, exposure_ev100: None, animation: None };
+    let (app, size) = stage_scene(&scene, &shot).unwrap_or_else(|e| panic!("{e}"));
+    GoldenFrame { name: name.to_string(), app, size, settings }
+}
+
+/// The sample model of [`SAMPLE_MODELS`] called `name`.
+pub fn sample_model(name: &str) -> GoldenFrame {
+    let &(name, rel, camera) =
+        SAMPLE_MODELS.iter().find(|(n, ..)| *n == name).unwrap_or_else(|| panic!("no sample golden {name}"));
+    staged(name, rel, camera, (256, 256), RenderSettings::default())
+}
+
+/// The environment goldens' names.
+pub const ENVIRONMENT_GOLDENS: &[&str] =
+    &["DamagedHelmet-studio", "MetalRoughSpheresNoTextures-studio", "MetalRoughSpheresNoTextures-sky"];
+
+/// A model under the default environment (the studio gradient, or with `-sky` the sky made
+/// for a low sun from the front-left), 128² cubes.
+pub fn environment_golden(name: &str) -> GoldenFrame {
+    let (rel, sun) = match name {
+        "DamagedHelmet-studio" => ("DamagedHelmet/DamagedHelmet.glb", false),
+        "MetalRoughSpheresNoTextures-studio" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", false),
+        "MetalRoughSpheresNoTextures-sky" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", true),
+        _ => panic!("no environment golden {name}"),
+    };
+    let settings = RenderSettings {
+        environment: EnvironmentSettings { cube_size: Some(128), ..Default::default() },
+        ..Default::default()
+    };
+    let mut frame = staged(name, rel, CameraChoice::Auto, (256, 256), settings);
+    if sun {
+        // Low and from the front-left, so the sky has a bright side.
+        frame.app.world.spawn((
+            DirectionalLight { illuminance: 4.0, ..Default::default() },
+            Transform::IDENTITY.looking_at(Vec3::new(1.0, -0.5, -1.0), Vec3::Y),
+        ));
+    }
+    frame.app.insert_resource(Environment::default());
+    frame
+}
+
+/// A directional light at `elevation` degrees above the horizon, shining from azimuth
+/// `azimuth` degrees (0: from +Z toward −Z, 90: from +X toward −X).
+pub fn sun(elevation: f32, azimuth: f32) -> Transform {
+    let (e, a) = (elevation.to_radians(), azimuth.to_radians());
+    let towards_light = Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
+    let up = if elevation.abs() > 89.0 { Vec3::Z } else { Vec3::Y };
+    Transform::from_translation(towards_light).looking_at(Vec3::ZERO, up)
+}
+
+pub fn grey(v: f32) -> StandardMaterial {
+    StandardMaterial::from_color(Vec4::new(v, v, v, 1.0), 1.0)
+}
+
+fn shadow_golden(name: &str, app: App, size: (u32, u32), shadows: ShadowSettings) -> GoldenFrame {
+    GoldenFrame {
+        name: name.to_string(),
+        app,
+        size,
+        settings: RenderSettings { msaa: 4, shadows, ..Default::default() },
+    }
+}
+
+/// "Night club": 200 coloured point lights over a floor with pillars and balls, four of them
+/// casting cube shadows, under a dim moon with cascades.
+pub fn night_club() -> GoldenFrame {
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(30.0), grey(0.6), Transform::default());
+    let mut rng = penumbra::engine::scenes::SplitMix64(7);
+    for i in 0..12 {
+        let (x, z) = (rng.uniform(-8.0, 8.0), rng.uniform(-8.0, 4.0));
+        let t = if i % 2 == 0 {
+            Transform::from_xyz(x, 1.25, z).with_scale(Vec3::new(0.4, 2.5, 0.4))
+        } else {
+            Transform::from_xyz(x, 0.5, z).with_scale(Vec3::splat(0.5))
+        };
+        let mesh = if i % 2 == 0 { Mesh::cuboid(Vec3::ONE) } else { Mesh::uv_sphere(1.0, 24, 12) };
+        spawn_mesh(&mut app, mesh, grey(0.7), t);
+    }
+    for i in 0..200 {
+        let hue = rng.uniform(0.0, 360.0);
+        let c = penumbra::engine::scenes::hsl_to_srgb(hue, 1.0, 0.5);
+        let at = Vec3::new(rng.uniform(-10.0, 10.0), rng.uniform(0.3, 2.5), rng.uniform(-10.0, 6.0));
+        let shadows = i % 50 == 0;
+        let intensity = if shadows { 6.0 } else { 0.6 };
+        app.world.spawn((
+            PointLight {
+                color: c.map(penumbra::engine::scenes::srgb_to_linear),
+                intensity,
+                range: Some(if shadows { 8.0 } else { 2.5 }),
+                shadows,
+            },
+            Transform::from_translation(at),
+        ));
+    }
+    let moon = DirectionalLight { color: Vec3::new(0.6, 0.7, 1.0), illuminance: 0.15, ..Default::default() };
+    app.world.spawn((moon, sun(40.0, 200.0)));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(0.0, 5.0, 12.0).looking_at(Vec3::new(0.0, 0.0, -1.0), Vec3::Y)));
+    let small = ShadowSettings { atlas_size: 1024, local_map_size: 256, ..Default::default() };
+    shadow_golden("shadows_night_club", app, (256, 160), small)
+}
+
+/// DamagedHelmet on a ground plane under a shadowed sun (PCSS).
+pub fn helmet_under_the_sun() -> GoldenFrame {
+    let mut app = scene_app();
+    load_scene(&mut app.world, &asset("DamagedHelmet/DamagedHelmet.glb"), &ImportOptions::default()).unwrap();
+    spawn_mesh(&mut app, Mesh::plane(10.0), grey(0.7), Transform::from_xyz(0.0, -1.0, 0.0));
+    app.world.spawn((DirectionalLight { illuminance: 3.0, ..Default::default() }, sun(50.0, 35.0)));
+    app.world.spawn(AmbientLight { color: Vec3::new(0.6, 0.7, 1.0), intensity: 0.15 });
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(1.2, 1.2, 4.0).looking_at(Vec3::new(0.0, -0.3, 0.0), Vec3::Y)));
+    let pcss = ShadowSettings { atlas_size: 1024, filter: ShadowFilter::Pcss, ..Default::default() };
+    shadow_golden("shadows_damaged_helmet", app, (256, 192), pcss)
+}
