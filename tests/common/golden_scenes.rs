@@ -42,6 +42,13 @@ pub const SAMPLE_MODELS: &[(&str, &str, CameraChoice)] = &[
     ("BoxWithSpaces", "BoxWithSpaces/Box With Spaces.gltf", THREE_QUARTER),
 ];
 
+/// The defaults, with what the renderer would otherwise choose per adapter pinned: anisotropic
+/// filtering off, as on the software rasteriser the goldens are made on, so that a GPU draws
+/// the same frame.
+pub fn golden_settings() -> RenderSettings {
+    RenderSettings { max_anisotropy: Some(1), ..Default::default() }
+}
+
 /// A scene ready to draw one golden frame.
 pub struct GoldenFrame {
     pub name: String,
@@ -73,7 +80,7 @@ fn staged(name: &str, rel: &str, camera: CameraChoice, size: (u32, u32), setting
 pub fn sample_model(name: &str) -> GoldenFrame {
     let &(name, rel, camera) =
         SAMPLE_MODELS.iter().find(|(n, ..)| *n == name).unwrap_or_else(|| panic!("no sample golden {name}"));
-    staged(name, rel, camera, (256, 256), RenderSettings::default())
+    staged(name, rel, camera, (256, 256), golden_settings())
 }
 
 /// The environment goldens' names.
@@ -91,7 +98,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
     };
     let settings = RenderSettings {
         environment: EnvironmentSettings { cube_size: Some(128), ..Default::default() },
-        ..Default::default()
+        ..golden_settings()
     };
     let mut frame = staged(name, rel, CameraChoice::Auto, (256, 256), settings);
     if sun {
@@ -123,7 +130,7 @@ fn shadow_golden(name: &str, app: App, size: (u32, u32), shadows: ShadowSettings
         name: name.to_string(),
         app,
         size,
-        settings: RenderSettings { msaa: 4, shadows, ..Default::default() },
+        settings: RenderSettings { msaa: 4, shadows, ..golden_settings() },
     }
 }
 

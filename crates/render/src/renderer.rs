@@ -88,6 +88,10 @@ pub struct RenderSettings {
     /// environment background, no blended draws, no gizmos, no deferred lights) skips the HDR
     /// target and the tonemap pass: the forward shader tonemaps and draws into the output.
     pub keep_hdr: bool,
+    /// Anisotropic filtering of trilinear material samplers, 1 (off) to 16. `None`: 8 on a GPU,
+    /// 1 on a CPU rasteriser (see [`auto_anisotropy`]). Frames meant to match across adapters
+    /// (the goldens) set it, since the automatic choice differs between them.
+    pub max_anisotropy: Option<u16>,
 }
 
 /// When occlusion culling runs (it needs GPU culling).
@@ -167,6 +171,7 @@ impl Default for RenderSettings {
             environment: EnvironmentSettings::default(),
             post: PostSettings::default(),
             keep_hdr: false,
+            max_anisotropy: None,
         }
     }
 }
@@ -185,6 +190,8 @@ pub enum SettingsError {
     Environment(String),
     #[error("{0}")]
     Post(String),
+    #[error("anisotropy {0} must lie in 1..=16")]
+    Anisotropy(u16),
 }
 
 impl RenderSettings {
@@ -199,6 +206,11 @@ impl RenderSettings {
         self.shadows.validate()?;
         self.environment.validate().map_err(SettingsError::Environment)?;
         self.post.validate().map_err(SettingsError::Post)?;
+        if let Some(n) = self.max_anisotropy
+            && !(1..=16).contains(&n)
+        {
+            return Err(SettingsError::Anisotropy(n));
+        }
         Ok(())
     }
 }
@@ -343,8 +355,12 @@ pub enum RendererError {
 /// 8× anisotropic filtering keeps textures sharp at grazing angles on GPUs, where it is nearly
 /// free. On CPU rasterisers it is not: llvmpipe's anisotropic path made a 256² DamagedHelmet
 /// frame take over two minutes instead of 0.3 s (measured here), so software adapters get none.
-fn max_anisotropy(ctx: &GpuContext) -> u16 {
+pub fn auto_anisotropy(ctx: &GpuContext) -> u16 {
     if ctx.info.device_type == wgpu::DeviceType::Cpu { 1 } else { 8 }
+}
+
+fn max_anisotropy(ctx: &GpuContext, settings: &RenderSettings) -> u16 {
+    settings.max_anisotropy.unwrap_or_else(|| auto_anisotropy(ctx))
 }
 
 #[derive(Resource)]
@@ -454,7 +470,7 @@ impl Renderer {
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             deformer: MeshDeformer::new(device),
-            textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx)),
+            textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx, &settings)),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),
@@ -574,6 +590,11 @@ impl Renderer {
         }
         if !settings.gpu_timing {
             self.timer = None;
+        }
+        let anisotropy = max_anisotropy(&self.ctx, &settings);
+        if anisotropy != max_anisotropy(&self.ctx, &self.settings) {
+            self.textures.set_max_anisotropy(anisotropy);
+            self.materials.forget_bind_groups();
         }
         // The sample count and debug view are part of every batch's pipeline key.
         if settings.msaa != self.settings.msaa || settings.debug_view != self.settings.debug_view {

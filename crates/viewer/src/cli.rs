@@ -133,6 +133,10 @@ pub struct LookArgs {
     /// comparison; culling never changes the image).
     #[arg(long)]
     pub no_culling: bool,
+    /// Anisotropic filtering of material textures, 1 (off) to 16. Default: 8 on a GPU, 1 on a
+    /// CPU rasteriser such as lavapipe (where it is very slow).
+    #[arg(long, value_name = "1..16")]
+    pub anisotropy: Option<u16>,
     /// Occlusion culling (with GPU culling): `auto` runs it with 10 000 opaque instances or
     /// more, on a GPU (not on CPU rasterisers such as lavapipe).
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
@@ -558,6 +562,7 @@ impl LookArgs {
             },
             shadows: ShadowSettings { max_distance: self.shadow_distance, ..Default::default() },
             gpu_culling: !self.no_culling,
+            max_anisotropy: self.anisotropy,
             occlusion_culling: match self.occlusion {
                 OcclusionArg::Auto => OcclusionCulling::Auto,
                 OcclusionArg::On => OcclusionCulling::On,
@@ -607,6 +612,7 @@ impl LookArgs {
                 SettingsError::Environment(_) => "--env-size",
                 SettingsError::Post(m) if m.contains("bloom") => "--bloom",
                 SettingsError::Post(_) => "--auto-exposure / --ev-range / --exposure-compensation",
+                SettingsError::Anisotropy(_) => "--anisotropy",
                 SettingsError::Shadows(s) => match s.name {
                     "atlas_size" => "--shadow-atlas",
                     "cascades" => "--cascades",

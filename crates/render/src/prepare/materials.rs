@@ -208,6 +208,14 @@ impl MaterialTable {
 
     /// Frees the slots (and bind groups, which hold textures alive) of materials whose asset is
     /// gone or that no draw uses.
+    /// Makes every material's bind group again on its next `prepare` (its samplers changed).
+    pub fn forget_bind_groups(&mut self) {
+        for e in self.entries.values_mut() {
+            // No image has this version (0 is the null texture), so the entry reads as stale.
+            e.texture_versions = [u64::MAX; 5];
+        }
+    }
+
     pub fn retain(&mut self, scene: &RenderScene, used: impl Fn(&MaterialKey) -> bool) {
         let free = &mut self.free_slots;
         self.warned_missing.retain(|(k, _)| k.is_none_or(|h| scene.materials.contains_key(&h)));

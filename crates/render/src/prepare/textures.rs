@@ -68,6 +68,13 @@ impl TextureCache {
         }
     }
 
+    /// Changes the anisotropy of trilinear samplers: the cached samplers go (bind groups holding
+    /// them must be made again: `MaterialTable::forget_bind_groups`).
+    pub fn set_max_anisotropy(&mut self, max_anisotropy: u16) {
+        self.max_anisotropy = max_anisotropy.clamp(1, 16);
+        self.samplers.clear();
+    }
+
     /// White 1×1: multiplies by one in every slot that the shader samples unconditionally.
     pub fn null_view(&self) -> &wgpu::TextureView {
         &self.null_view
