@@ -141,7 +141,7 @@ fn auto_exposure_meters_mid_grey_then_adapts_at_its_rate() {
     let auto = AutoExposure::default();
     let s = RenderSettings {
         msaa: 1,
-        environment: EnvironmentSettings { cube_size: Some(32), specular_samples: 4 },
+        environment: EnvironmentSettings { cube_size: Some(32), specular_samples: Some(4) },
         post: PostSettings { auto_exposure: Some(auto.clone()), ..Default::default() },
         ..Default::default()
     };

@@ -97,6 +97,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {
+        // Pinned, not left to the adapter: a GPU would make 512² cubes.
         environment: EnvironmentSettings { cube_size: Some(128), ..Default::default() },
         ..golden_settings()
     };
