@@ -442,6 +442,13 @@ impl Renderer {
     pub fn new(ctx: GpuContext, settings: RenderSettings) -> Result<Self, RendererError> {
         settings.validate()?;
         let settings = degrade_for_backend(settings, &ctx);
+        if !ctx.caps.exact_depth {
+            tracing::warn!(
+                "the {:?} backend rounds depth at 2^-24 of 1 (wgpu rewrites it for GL's -1..1 range): far surfaces \
+                 close together can z-fight where Vulkan keeps them apart",
+                ctx.info.backend
+            );
+        }
         let device = &ctx.device;
         let (shaders, shader_error, shader_watcher) = match &settings.shaders {
             ShaderSource::Embedded => (ShaderLibrary::embedded()?, None, None),
