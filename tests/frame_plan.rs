@@ -74,7 +74,8 @@ fn one_unlit_triangle_compiles_only_the_unlit_shader() {
 fn one_unlit_triangle_at_msaa_1_draws_straight_into_the_output() {
     let (passes, defs, mem, explain) = plan_with(unlit_triangle(), RenderSettings { msaa: 1, ..Default::default() });
     assert_eq!(passes, [Pass::Opaque], "{explain}");
-    assert_eq!(defs, ["TONEMAP_IN_FORWARD", "TONEMAP_NEUTRAL", "UNLIT"], "{explain}");
+    // The headless output is Rgba8Unorm: the shader encodes sRGB itself (Renderer::render_headless).
+    assert_eq!(defs, ["ENCODE_SRGB", "TONEMAP_IN_FORWARD", "TONEMAP_NEUTRAL", "UNLIT"], "{explain}");
     assert_eq!(mem.targets, 0, "no HDR colour, and one triangle needs no depth: {explain}");
     assert!(explain.contains("Tonemap: nothing reads the HDR colour"), "{explain}");
     assert!(explain.contains("no depth target"), "{explain}");

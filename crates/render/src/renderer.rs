@@ -737,7 +737,10 @@ impl Renderer {
         Ok((f(0), f(1)))
     }
 
-    /// Renders into the renderer's own offscreen output (`Rgba8UnormSrgb`) of `size`.
+    /// Renders into the renderer's own offscreen output (`Rgba8Unorm`, sRGB-encoded by the
+    /// shaders: display.wgsl's exact curve, so a screenshot does not depend on a driver's sRGB
+    /// encoder; NVIDIA's and lavapipe's round differently, which alone put FLIP 0.016 between
+    /// the two on TextureCoordinateTest's flat colours) of `size`.
     pub fn render_headless(&mut self, scene: &RenderScene, size: (u32, u32)) {
         if self.is_device_lost() && !self.recover_headless() {
             return;
@@ -753,7 +756,7 @@ impl Renderer {
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                format: wgpu::TextureFormat::Rgba8Unorm,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
                 view_formats: &[],
             });
@@ -761,10 +764,10 @@ impl Renderer {
             self.headless = Some((texture, view));
         }
         let view = self.headless.as_ref().expect("just made").1.clone();
-        self.render(scene, &view, wgpu::TextureFormat::Rgba8UnormSrgb, size);
+        self.render(scene, &view, wgpu::TextureFormat::Rgba8Unorm, size);
     }
 
-    /// The last headless frame as tightly packed sRGB RGBA8 rows.
+    /// The last headless frame as tightly packed sRGB-encoded RGBA8 rows.
     pub fn read_headless(&self) -> Result<Vec<u8>, ReadbackError> {
         let (texture, _) = self.headless.as_ref().ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
         readback::read_texture(&self.ctx.device, &self.ctx.queue, texture, 4)
