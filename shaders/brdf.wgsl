@@ -25,11 +25,16 @@ struct Surface {
     occlusion: f32,
 };
 
-// GGX / Trowbridge-Reitz normal distribution.
-fn d_ggx(n_dot_h: f32, alpha: f32) -> f32 {
-    let alpha_sq = alpha * alpha;
-    let f = n_dot_h * n_dot_h * (alpha_sq - 1.0) + 1.0;
-    return alpha_sq / (PI * f * f);
+// GGX / Trowbridge-Reitz normal distribution, α² / (π ((N·H)²(α² − 1) + 1)²) written as
+// (α / (|N × H|² + (N·H α)²))² / π: near the peak of a sharp lobe N·H is within a few f32 steps
+// of 1, and 1 − (N·H)² computed from it keeps none of the digits that shape the highlight
+// (drivers' rounding then decides it; the H100 and lavapipe differed there). |N × H|² keeps them
+// (as Filament computes it).
+fn d_ggx(n: vec3<f32>, h: vec3<f32>, n_dot_h: f32, alpha: f32) -> f32 {
+    let n_cross_h = cross(n, h);
+    let a = n_dot_h * alpha;
+    let k = alpha / max(dot(n_cross_h, n_cross_h) + a * a, 1e-30);
+    return k * k * (1.0 / PI);
 }
 
 // Height-correlated Smith visibility, V = G / (4 N·L N·V) (Heitz 2014).
@@ -111,7 +116,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let f = f_schlick(s.f0_color, v_dot_h) * specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
-    let spec = f * (d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
+    let spec = f * (d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
     let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
 }
@@ -142,7 +147,7 @@ fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let d_v = d_ggx(n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
+    let d_v = d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
     let ms = specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
     return f_schlick(s.f0_color, v_dot_h) * ms * (d_v * n_dot_l);
 }

@@ -1,28 +1,46 @@
-// Mip generation: each texel of level N+1 is a bilinear tap at the centre of the 2×2 block of
-// level N it covers, which is exactly the 2×2 box average for even sizes. For sRGB textures the
-// views are sRGB, so the hardware decodes before filtering and encodes after: averaging happens
-// in linear light.
+// Mip generation: each texel of level N+1 is the average of the 2×2 block of level N it covers
+// (clamped at an odd edge), in linear light for sRGB textures. With SRGB, texels are loaded and
+// stored through unorm views and the sRGB curve is applied here, not by the texture unit and the
+// render target: drivers round those conversions differently (NVIDIA's and lavapipe's a step
+// apart here and there), and down a chain the steps compound into frames that differ between
+// GPUs. Without unorm views (GL) sRGB textures are read and written through sRGB views and the
+// driver converts.
 
 #import penumbra::common::fullscreen_position
+#import penumbra::display::srgb_encode
 
 @group(0) @binding(0) var source: texture_2d<f32>;
-@group(0) @binding(1) var linear_clamp: sampler;
-
-struct VertexOut {
-    @builtin(position) position: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-};
 
 @vertex
-fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
-    var out: VertexOut;
-    out.position = fullscreen_position(i);
-    // Clip-space y is up, texture v is down.
-    out.uv = vec2<f32>(0.5 * out.position.x + 0.5, 0.5 - 0.5 * out.position.y);
-    return out;
+fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    return fullscreen_position(i);
+}
+
+fn srgb_decode(c: vec3<f32>) -> vec3<f32> {
+    let lo = c / 12.92;
+    let hi = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
+    return select(hi, lo, c <= vec3<f32>(0.04045));
+}
+
+fn texel(at: vec2<i32>, last: vec2<i32>) -> vec4<f32> {
+    let t = textureLoad(source, min(at, last), 0);
+#ifdef SRGB
+    return vec4<f32>(srgb_decode(t.rgb), t.a);
+#else
+    return t;
+#endif
 }
 
 @fragment
-fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    return textureSampleLevel(source, linear_clamp, in.uv, 0.0);
+fn fs_main(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let last = vec2<i32>(textureDimensions(source)) - 1;
+    let at = 2 * vec2<i32>(position.xy);
+    let sum = texel(at, last) + texel(at + vec2<i32>(1, 0), last) + texel(at + vec2<i32>(0, 1), last)
+        + texel(at + vec2<i32>(1, 1), last);
+    let mean = 0.25 * sum;
+#ifdef SRGB
+    return vec4<f32>(srgb_encode(mean.rgb), mean.a);
+#else
+    return mean;
+#endif
 }

@@ -477,7 +477,12 @@ impl Renderer {
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             deformer: MeshDeformer::new(device),
-            textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx, &settings)),
+            textures: TextureCache::new(
+                device,
+                &ctx.queue,
+                max_anisotropy(&ctx, &settings),
+                ctx.adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS),
+            ),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),

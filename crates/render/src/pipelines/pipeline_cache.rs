@@ -255,12 +255,16 @@ pub struct PipelineCache {
     pub view_layout: wgpu::BindGroupLayout,
     pub material_layout: wgpu::BindGroupLayout,
     pub tonemap_layout: wgpu::BindGroupLayout,
+    /// One level of a texture, loaded texel by texel (mip generation).
     pub mipmap_layout: wgpu::BindGroupLayout,
+    /// A texture and a linear clamping sampler (bloom, FXAA).
+    pub filtered_source_layout: wgpu::BindGroupLayout,
     pub cluster_layout: wgpu::BindGroupLayout,
     cluster_pipeline_layout: wgpu::PipelineLayout,
     forward_layout: wgpu::PipelineLayout,
     tonemap_pipeline_layout: wgpu::PipelineLayout,
     mipmap_pipeline_layout: wgpu::PipelineLayout,
+    filtered_source_pipeline_layout: wgpu::PipelineLayout,
     forward: HashMap<PipelineKey, wgpu::RenderPipeline>,
     tonemap: HashMap<TonemapKey, wgpu::RenderPipeline>,
     post_layouts: post::PostLayouts,
@@ -268,7 +272,8 @@ pub struct PipelineCache {
     exposure: HashMap<ExposureStep, wgpu::ComputePipeline>,
     /// Keyed by output format.
     fxaa: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
-    mipmap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    /// By the format of the views drawn through, and whether the shader converts sRGB.
+    mipmap: HashMap<(wgpu::TextureFormat, bool), wgpu::RenderPipeline>,
     cluster: HashMap<ClusterEntry, wgpu::ComputePipeline>,
     /// Inputs of the deferred-lights pass, single-sampled and multisampled.
     pub deferred_layouts: [wgpu::BindGroupLayout; 2],
@@ -465,6 +470,10 @@ impl PipelineCache {
         });
         let mipmap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mipmap"),
+            entries: &[texture(0, false)],
+        });
+        let filtered_source_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("filtered source"),
             entries: &[texture(0, true), sampler(1)],
         });
         let layout = |label, groups: &[Option<&wgpu::BindGroupLayout>]| {
@@ -477,6 +486,7 @@ impl PipelineCache {
         let forward_layout = layout("forward", &[Some(&view_layout), Some(&material_layout)]);
         let tonemap_pipeline_layout = layout("tonemap", &[Some(&tonemap_layout)]);
         let mipmap_pipeline_layout = layout("mipmap", &[Some(&mipmap_layout)]);
+        let filtered_source_pipeline_layout = layout("filtered source", &[Some(&filtered_source_layout)]);
         let cluster_pipeline_layout = layout("cluster binning", &[Some(&cluster_layout)]);
         let deferred_layouts = [false, true].map(|multisampled| {
             let surface = |binding, sample_type| wgpu::BindGroupLayoutEntry {
@@ -557,9 +567,11 @@ impl PipelineCache {
             material_layout,
             tonemap_layout,
             mipmap_layout,
+            filtered_source_layout,
             forward_layout,
             tonemap_pipeline_layout,
             mipmap_pipeline_layout,
+            filtered_source_pipeline_layout,
             forward: HashMap::new(),
             tonemap: HashMap::new(),
             mipmap: HashMap::new(),
@@ -603,17 +615,21 @@ impl PipelineCache {
         Ok(&self.tonemap[&key])
     }
 
-    /// The pipeline that writes one mip level of a texture of `format` from the level above.
+    /// The pipeline that writes one mip level of a texture from the level above, through views
+    /// of `format` (`shader_srgb`: the views are unorm views of an sRGB texture, and the shader
+    /// decodes and encodes the sRGB curve itself).
     pub fn mipmap(
         &mut self,
         device: &wgpu::Device,
         format: wgpu::TextureFormat,
+        shader_srgb: bool,
     ) -> Result<&wgpu::RenderPipeline, ShaderError> {
-        if !self.mipmap.contains_key(&format) {
-            let p = self.create_mipmap(device, &mut None, format)?;
-            self.mipmap.insert(format, p);
+        let key = (format, shader_srgb);
+        if !self.mipmap.contains_key(&key) {
+            let p = self.create_mipmap(device, &mut None, format, shader_srgb)?;
+            self.mipmap.insert(key, p);
         }
-        Ok(&self.mipmap[&format])
+        Ok(&self.mipmap[&key])
     }
 
     /// A cluster-binning compute pipeline, compiling it on first use.
@@ -695,7 +711,7 @@ impl PipelineCache {
         }
         if mipmap_hit {
             for key in self.mipmap.keys().copied().collect::<Vec<_>>() {
-                mipmap.push((key, self.create_mipmap(device, &mut candidate, key)?));
+                mipmap.push((key, self.create_mipmap(device, &mut candidate, key.0, key.1)?));
             }
         }
         let mut cluster = Vec::new();
@@ -891,8 +907,10 @@ impl PipelineCache {
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
         format: wgpu::TextureFormat,
+        shader_srgb: bool,
     ) -> Result<wgpu::RenderPipeline, ShaderError> {
-        let module = self.library(candidate).create_module(device, "mipmap.wgsl", &ShaderDefs::default())?;
+        let defs = ShaderDefs::default().with("SRGB", shader_srgb);
+        let module = self.library(candidate).create_module(device, "mipmap.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "mipmap.wgsl", || {
             fullscreen_pipeline(device, &self.mipmap_pipeline_layout, &module, format, "mipmap")

@@ -429,7 +429,7 @@ mod tests {
         }
         let brdf = EMBEDDED.iter().find(|(f, _)| *f == "brdf.wgsl").unwrap().1;
         let line = brdf.lines().position(|l| l.starts_with("fn d_ggx")).unwrap() + 2;
-        let broken = brdf.replacen("let alpha_sq = alpha * alpha;", "let alpha_sq = alpha * ;", 1);
+        let broken = brdf.replacen("let n_cross_h = cross(n, h);", "let n_cross_h = cross(n, );", 1);
         assert_ne!(broken, brdf, "the test's edit must apply");
         std::fs::write(dir.join("brdf.wgsl"), broken).unwrap();
         // Registering a module defers parsing; composing an entry that imports it fails.

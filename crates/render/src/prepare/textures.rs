@@ -3,8 +3,9 @@
 //!
 //! An `Image` is colour-space agnostic; the material slot decides (base colour and emissive are
 //! sRGB, the rest linear), so the cache is keyed by (image, sRGB). Only level 0 is uploaded; the
-//! mip chain is rendered on the GPU (`shaders/mipmap.wgsl`), through sRGB views for sRGB
-//! textures so averaging happens in linear light. Textures are created when an image first
+//! mip chain is rendered on the GPU (`shaders/mipmap.wgsl`) through unorm views, the shader
+//! converting sRGB textures to linear light to average them (and back), so that every driver
+//! makes the same chain. Textures are created when an image first
 //! appears or changes; they never sit on the per-frame path.
 
 use std::collections::HashMap;
@@ -35,13 +36,16 @@ pub struct TextureCache {
     textures: HashMap<(Handle<Image>, bool), GpuTexture>,
     samplers: HashMap<Sampler, wgpu::Sampler>,
     null_view: wgpu::TextureView,
-    mip_sampler: wgpu::Sampler,
     max_anisotropy: u16,
+    /// The device can view an sRGB texture as unorm (not GL): mip generation then converts the
+    /// sRGB curve in its shader rather than through the texture unit and render target.
+    unorm_views: bool,
 }
 
 impl TextureCache {
     /// `max_anisotropy` applies to trilinear samplers (1 disables anisotropic filtering).
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, max_anisotropy: u16) -> Self {
+    /// `unorm_views`: the adapter has `DownlevelFlags::VIEW_FORMATS`.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, max_anisotropy: u16, unorm_views: bool) -> Self {
         let null = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("null texture"),
             size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
@@ -53,18 +57,12 @@ impl TextureCache {
             view_formats: &[],
         });
         write_level(queue, &null, 0, 1, 1, &[255; 4]);
-        let mip_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("mip generation"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
         Self {
             textures: HashMap::new(),
             samplers: HashMap::new(),
             null_view: null.create_view(&Default::default()),
-            mip_sampler,
             max_anisotropy: max_anisotropy.clamp(1, 16),
+            unorm_views,
         }
     }
 
@@ -180,6 +178,10 @@ impl TextureCache {
             image
         };
         let format = if srgb { wgpu::TextureFormat::Rgba8UnormSrgb } else { wgpu::TextureFormat::Rgba8Unorm };
+        // Where unorm views of sRGB textures exist, mips are made through them with the curve
+        // applied in the shader; elsewhere (GL) through sRGB views, the driver converting.
+        let shader_srgb = srgb && self.unorm_views;
+        let view_format = if shader_srgb { wgpu::TextureFormat::Rgba8Unorm } else { format };
         let levels = mip_level_count(image.width, image.height);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some(&image.label),
@@ -191,11 +193,13 @@ impl TextureCache {
             usage: wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_DST
                 | wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
+            // Mip generation reads and writes sRGB textures as unorm and converts itself.
+            view_formats: if shader_srgb { &[wgpu::TextureFormat::Rgba8Unorm] } else { &[] },
         });
         write_level(queue, &texture, 0, image.width, image.height, &image.rgba8);
         let level_view = |level: u32| {
             texture.create_view(&wgpu::TextureViewDescriptor {
+                format: Some(view_format),
                 base_mip_level: level,
                 mip_level_count: Some(1),
                 ..Default::default()
@@ -207,12 +211,9 @@ impl TextureCache {
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("mipmap source"),
                 layout: &pipelines.mipmap_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&source) },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.mip_sampler) },
-                ],
+                entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&source) }],
             });
-            let pipeline = match pipelines.mipmap(device, format) {
+            let pipeline = match pipelines.mipmap(device, view_format, shader_srgb) {
                 Ok(p) => p,
                 Err(e) => {
                     tracing::error!("mip generation skipped for {}: {e}", image.label);

@@ -143,7 +143,7 @@ impl PipelineCache {
         checked_pipeline(device, "bloom.wgsl", || {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("bloom"),
-                layout: Some(&self.mipmap_pipeline_layout),
+                layout: Some(&self.filtered_source_pipeline_layout),
                 vertex: wgpu::VertexState {
                     module: &module,
                     entry_point: Some("vs_main"),
@@ -196,7 +196,7 @@ impl PipelineCache {
         let module = self.library(candidate).create_module(device, "fxaa.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "fxaa.wgsl", || {
-            fullscreen_pipeline(device, &self.mipmap_pipeline_layout, &module, format, "fxaa")
+            fullscreen_pipeline(device, &self.filtered_source_pipeline_layout, &module, format, "fxaa")
         })
     }
 
