@@ -10,16 +10,22 @@
 #import penumbra::display::srgb_encode
 
 @group(0) @binding(0) var source: texture_2d<f32>;
+// The sRGB curve's inverse at the 256 stored values, four to an entry (computed exactly on the
+// CPU: a table costs a load where pow costs a software rasteriser dearly).
+@group(0) @binding(1) var<uniform> srgb_to_linear: array<vec4<f32>, 64>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     return fullscreen_position(i);
 }
 
+fn decode(stored: f32) -> f32 {
+    let i = u32(stored * 255.0 + 0.5);
+    return srgb_to_linear[i >> 2u][i & 3u];
+}
+
 fn srgb_decode(c: vec3<f32>) -> vec3<f32> {
-    let lo = c / 12.92;
-    let hi = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
-    return select(hi, lo, c <= vec3<f32>(0.04045));
+    return vec3<f32>(decode(c.r), decode(c.g), decode(c.b));
 }
 
 fn texel(at: vec2<i32>, last: vec2<i32>) -> vec4<f32> {

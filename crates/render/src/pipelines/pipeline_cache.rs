@@ -255,7 +255,8 @@ pub struct PipelineCache {
     pub view_layout: wgpu::BindGroupLayout,
     pub material_layout: wgpu::BindGroupLayout,
     pub tonemap_layout: wgpu::BindGroupLayout,
-    /// One level of a texture, loaded texel by texel (mip generation).
+    /// One level of a texture, loaded texel by texel, and the sRGB decoding table (mip
+    /// generation).
     pub mipmap_layout: wgpu::BindGroupLayout,
     /// A texture and a linear clamping sampler (bloom, FXAA).
     pub filtered_source_layout: wgpu::BindGroupLayout,
@@ -470,7 +471,10 @@ impl PipelineCache {
         });
         let mipmap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mipmap"),
-            entries: &[texture(0, false)],
+            entries: &[
+                texture(0, false),
+                buffer_entry(1, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
+            ],
         });
         let filtered_source_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("filtered source"),

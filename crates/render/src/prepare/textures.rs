@@ -40,6 +40,8 @@ pub struct TextureCache {
     /// The device can view an sRGB texture as unorm (not GL): mip generation then converts the
     /// sRGB curve in its shader rather than through the texture unit and render target.
     unorm_views: bool,
+    /// The linear value of each stored sRGB byte, for mip generation (shaders/mipmap.wgsl).
+    srgb_to_linear: wgpu::Buffer,
 }
 
 impl TextureCache {
@@ -63,6 +65,7 @@ impl TextureCache {
             null_view: null.create_view(&Default::default()),
             max_anisotropy: max_anisotropy.clamp(1, 16),
             unorm_views,
+            srgb_to_linear: srgb_table(device, queue),
         }
     }
 
@@ -211,7 +214,10 @@ impl TextureCache {
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("mipmap source"),
                 layout: &pipelines.mipmap_layout,
-                entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&source) }],
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&source) },
+                    wgpu::BindGroupEntry { binding: 1, resource: self.srgb_to_linear.as_entire_binding() },
+                ],
             });
             let pipeline = match pipelines.mipmap(device, view_format, shader_srgb) {
                 Ok(p) => p,
@@ -268,6 +274,25 @@ fn fit_within(image: &Image, max: u32) -> Image {
     Image { width: w as u32, height: h as u32, rgba8: data, label: image.label.clone() }
 }
 
+/// The sRGB curve's inverse at each 8-bit value, in f64 then rounded once to f32.
+fn srgb_to_linear_values() -> [f32; 256] {
+    std::array::from_fn(|i| {
+        let c = i as f64 / 255.0;
+        (if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }) as f32
+    })
+}
+
+fn srgb_table(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Buffer {
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("sRGB decoding table"),
+        size: 256 * 4,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&srgb_to_linear_values()));
+    buffer
+}
+
 /// Levels down to 1×1: ⌊log2(max side)⌋ + 1.
 pub fn mip_level_count(width: u32, height: u32) -> u32 {
     32 - width.max(height).max(1).leading_zeros()
@@ -290,6 +315,15 @@ fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, level: u32, w: u32,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_srgb_table_is_the_curve_at_each_byte() {
+        let t = srgb_to_linear_values();
+        assert_eq!((t[0], t[255]), (0.0, 1.0));
+        assert!((t[10] - 10.0 / 255.0 / 12.92).abs() < 1e-9, "linear segment");
+        assert!((t[128] - 0.215_860_5).abs() < 1e-6, "0.5 encoded is 0.2159 linear");
+        assert!(t.windows(2).all(|w| w[0] < w[1]));
+    }
 
     #[test]
     fn oversized_images_are_halved_until_they_fit() {
