@@ -22,6 +22,11 @@
 //! peak over f16's range) that the uniform multiplies back, so no source clamps in the f16
 //! cubes. Without an environment the forward shaders are compiled without IBL, the maps are
 //! released, and the bindings hold 1 × 1 stand-ins.
+//!
+//! On GL a six-layer square texture is a cube map for good (wgpu-hal fixes the target from the
+//! shape; see `array_layers`), so it cannot also be written as a storage array: there the steps
+//! write 2D arrays (`WorkArrays`, one per source level) that are copied face by face into the
+//! cubes before the specular step samples them. Elsewhere the steps write the cubes directly.
 
 pub mod sky;
 
