@@ -10,7 +10,7 @@
 //! `TEXTURE_2D_ARRAY` (at most one spare layer, never sampled), elsewhere exactly the count asked
 //! for. Owners keep the count they asked for; the spare layer costs memory on GL only.
 
-/// The layer rule of the device's backend.
+/// The layer rule of the device's backend (`Capabilities::array_layers`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ArrayLayers {
     /// The backend guesses texture targets from their shape (GL).
@@ -20,11 +20,6 @@ pub struct ArrayLayers {
 impl ArrayLayers {
     pub fn for_backend(backend: wgpu::Backend) -> Self {
         Self { guesses_targets: backend == wgpu::Backend::Gl }
-    }
-
-    /// Whether [`allocate`](Self::allocate) can differ from the count asked for.
-    pub fn pads(&self) -> bool {
-        self.guesses_targets
     }
 
     /// Layers to create for an array texture of `layers` layers of `width × height`, so that every
@@ -58,14 +53,12 @@ mod tests {
                 assert!(gl_guess_is_array(n, w, h), "{layers} layers of {w}×{h} allocated as {n}");
             }
         }
-        assert!(gl.pads());
     }
 
     #[test]
     fn other_backends_allocate_what_is_asked() {
         for backend in [wgpu::Backend::Vulkan, wgpu::Backend::Metal, wgpu::Backend::Dx12] {
             let rule = ArrayLayers::for_backend(backend);
-            assert!(!rule.pads());
             for layers in [1, 6, 7, 12] {
                 assert_eq!(rule.allocate(layers, 64, 64), layers);
             }

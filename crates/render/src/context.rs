@@ -8,6 +8,8 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crate::array_layers::ArrayLayers;
+
 /// What to install when no adapter is found: the message every caller (CLI, tests) prints.
 pub const INSTALL_HINT: &str = "no GPU adapter found. Penumbra needs a Vulkan driver (or GL through EGL). \
 On Debian/Ubuntu without a GPU install the software Vulkan driver: `apt-get install -y mesa-vulkan-drivers`";
@@ -41,6 +43,12 @@ pub struct Capabilities {
     /// 2⁻²⁴ of 1 instead of 2⁻²⁴ of itself, so reverse-Z's extra precision far away is lost
     /// there and shadow lookups need a small depth tolerance (`ShadowOrchestrator`).
     pub exact_depth: bool,
+    /// How many layers array textures need so that the backend binds them as arrays (GL picks a
+    /// texture's kind from its shape).
+    pub array_layers: ArrayLayers,
+    /// An sRGB texture can be viewed as unorm (`DownlevelFlags::VIEW_FORMATS`; not GL): mip
+    /// generation then applies the sRGB curve in its shader, the same on every driver.
+    pub srgb_unorm_views: bool,
 }
 
 #[derive(Clone)]
@@ -120,6 +128,8 @@ impl GpuContext {
             && adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION);
         let deferred_lights = info.backend != wgpu::Backend::Gl;
         let exact_depth = info.backend != wgpu::Backend::Gl;
+        let array_layers = ArrayLayers::for_backend(info.backend);
+        let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
         let mut features = wgpu::Features::empty();
         if timestamps {
             features |= wgpu::Features::TIMESTAMP_QUERY;
@@ -160,7 +170,14 @@ impl GpuContext {
             device,
             queue,
             info: Arc::new(info),
-            caps: Capabilities { timestamps, indirect_first_instance, deferred_lights, exact_depth },
+            caps: Capabilities {
+                timestamps,
+                indirect_first_instance,
+                deferred_lights,
+                exact_depth,
+                array_layers,
+                srgb_unorm_views,
+            },
             lost,
             request: request.clone(),
         })

@@ -18,7 +18,6 @@ use penumbra_engine::bounds::Aabb;
 use penumbra_engine::components::Projection;
 use penumbra_engine::mesh::{Mesh, SelfOverlap};
 
-use crate::array_layers::ArrayLayers;
 use crate::context::GpuContext;
 use crate::entity_table::{EntityTable, Replaced};
 use crate::environment::{EnvironmentLighting, EnvironmentSettings};
@@ -89,7 +88,7 @@ pub struct RenderSettings {
     /// target and the tonemap pass: the forward shader tonemaps and draws into the output.
     pub keep_hdr: bool,
     /// Anisotropic filtering of trilinear material samplers, 1 (off) to 16. `None`: 8 on a GPU,
-    /// 1 on a CPU rasteriser (see [`auto_anisotropy`]). Frames meant to match across adapters
+    /// 1 on a CPU rasteriser (see `auto_anisotropy`). Frames meant to match across adapters
     /// (the goldens) set it, since the automatic choice differs between them.
     pub max_anisotropy: Option<u16>,
 }
@@ -355,7 +354,7 @@ pub enum RendererError {
 /// 8× anisotropic filtering keeps textures sharp at grazing angles on GPUs, where it is nearly
 /// free. On CPU rasterisers it is not: llvmpipe's anisotropic path made a 256² DamagedHelmet
 /// frame take over two minutes instead of 0.3 s (measured here), so software adapters get none.
-pub fn auto_anisotropy(ctx: &GpuContext) -> u16 {
+fn auto_anisotropy(ctx: &GpuContext) -> u16 {
     if ctx.info.device_type == wgpu::DeviceType::Cpu { 1 } else { 8 }
 }
 
@@ -473,22 +472,16 @@ impl Renderer {
             mapped_at_creation: false,
         });
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
-        let array_layers = ArrayLayers::for_backend(ctx.info.backend);
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             deformer: MeshDeformer::new(device),
-            textures: TextureCache::new(
-                device,
-                &ctx.queue,
-                max_anisotropy(&ctx, &settings),
-                ctx.adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS),
-            ),
+            textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx, &settings), ctx.caps.srgb_unorm_views),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),
             clusters: ClusterBinner::new(device),
-            shadows: ShadowOrchestrator::new(device, array_layers, ctx.caps.exact_depth),
-            environment: EnvironmentLighting::new(device, array_layers),
+            shadows: ShadowOrchestrator::new(device, ctx.caps.array_layers, ctx.caps.exact_depth),
+            environment: EnvironmentLighting::new(device, ctx.caps.array_layers),
             post: PostProcess::new(device),
             ibl_active: false,
             shadows_active: false,

@@ -527,8 +527,7 @@ impl EnvironmentLighting {
             pass.dispatch_workgroups(1, 1, 1);
             drop(pass);
             // The sharpest specular level is the source itself.
-            let level0 = maps.work.as_ref().map_or(&maps.source, |w| &w.source[0]);
-            copy_faces(encoder, (level0, 0), (&maps.specular, 0), maps.size);
+            copy_faces(encoder, (maps.written_source(), 0), (&maps.specular, 0), maps.size);
             if let Some(work) = &maps.work {
                 for level in 1..maps.specular.mip_level_count() {
                     copy_faces(encoder, (&work.specular, level), (&maps.specular, level), maps.size >> level);

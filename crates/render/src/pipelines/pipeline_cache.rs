@@ -335,13 +335,17 @@ fn texture(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// A depth 2D-array texture (the shadow atlases).
-fn depth_array(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+/// A 2D-array texture (the shadow atlases: as depth for comparisons, as floats for loads).
+fn array_texture(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    sample_type: wgpu::TextureSampleType,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
         ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Depth,
+            sample_type,
             view_dimension: wgpu::TextureViewDimension::D2Array,
             multisampled: false,
         },
@@ -407,7 +411,7 @@ impl PipelineCache {
                 storage(9, lit),
                 // Shadows (shaders/shadows.wgsl): the uniform, the atlas, the comparison sampler.
                 buffer_entry(10, lit, wgpu::BufferBindingType::Uniform),
-                depth_array(11, lit),
+                array_texture(11, lit, wgpu::TextureSampleType::Depth),
                 wgpu::BindGroupLayoutEntry {
                     binding: 12,
                     visibility: lit,
@@ -416,7 +420,7 @@ impl PipelineCache {
                 },
                 // Local lights' shadows: one entry per layer, and the layers.
                 storage(13, lit),
-                depth_array(14, lit),
+                array_texture(14, lit, wgpu::TextureSampleType::Depth),
                 // The environment (shaders/ibl.wgsl): parameters, irradiance harmonics, the
                 // specular cube, the split-sum table, their sampler.
                 buffer_entry(15, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
@@ -434,16 +438,7 @@ impl PipelineCache {
                 texture(18, true),
                 sampler(19),
                 // The directional shadow atlas as floats, for the PCSS blocker search's loads.
-                wgpu::BindGroupLayoutEntry {
-                    binding: 20,
-                    visibility: lit,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                array_texture(20, lit, wgpu::TextureSampleType::Float { filterable: false }),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;

@@ -14,6 +14,7 @@ use std::sync::Arc;
 use penumbra_engine::Handle;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
+use penumbra_engine::scenes::srgb_to_linear;
 
 use crate::pipelines::pipeline_cache::PipelineCache;
 
@@ -46,7 +47,7 @@ pub struct TextureCache {
 
 impl TextureCache {
     /// `max_anisotropy` applies to trilinear samplers (1 disables anisotropic filtering).
-    /// `unorm_views`: the adapter has `DownlevelFlags::VIEW_FORMATS`.
+    /// `unorm_views`: `Capabilities::srgb_unorm_views`.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, max_anisotropy: u16, unorm_views: bool) -> Self {
         let null = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("null texture"),
@@ -274,12 +275,9 @@ fn fit_within(image: &Image, max: u32) -> Image {
     Image { width: w as u32, height: h as u32, rgba8: data, label: image.label.clone() }
 }
 
-/// The sRGB curve's inverse at each 8-bit value, in f64 then rounded once to f32.
+/// The sRGB curve's inverse at each 8-bit value.
 fn srgb_to_linear_values() -> [f32; 256] {
-    std::array::from_fn(|i| {
-        let c = i as f64 / 255.0;
-        (if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }) as f32
-    })
+    std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0))
 }
 
 fn srgb_table(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Buffer {
