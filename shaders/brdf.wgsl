@@ -1,6 +1,13 @@
 // glTF 2.0's BRDF (spec appendix B): GGX microfacets with height-correlated Smith visibility and
 // Schlick Fresnel, Lambert diffuse, and the metal/dielectric mix; plus the response to uniform
 // ambient light with multiple scattering.
+//
+// Every lobe weight that depends on the whole lobe (multiple scattering, what the dielectric's
+// specular layer leaves to its diffuse base, the response to ambient light) comes from the
+// surface's directional albedo `Surface::dfg`, read once per fragment from the split-sum table
+// (brdf_lut.wgsl, `split_sum.wgsl`), never from a fit: Karis's analytic fit, used before, puts
+// a white lobe of roughness 1 seen head-on at 0.45 where the integral is 0.307, and rough metals
+// lit directly came out 15 % darker than the Cycles references (`penumbra report`).
 #define_import_path penumbra::brdf
 
 #import penumbra::common::{PI, safe_normalize}
@@ -23,6 +30,9 @@ struct Surface {
     v: vec3<f32>,
     n_dot_v: f32,
     occlusion: f32,
+    // The specular lobe's directional albedo as scale A and bias B on f0 (∫ f_spec·cosθ =
+    // f0·A + B) at (n_dot_v, perceptual_roughness): single scattering, from the split-sum table.
+    dfg: vec2<f32>,
 };
 
 // GGX / Trowbridge-Reitz normal distribution, α² / (π ((N·H)²(α² − 1) + 1)²) written as
@@ -51,19 +61,9 @@ fn f_schlick(f0_color: vec3<f32>, v_dot_h: f32) -> vec3<f32> {
     return f0_color + (vec3<f32>(1.0) - f0_color) * (x_sq * x_sq * x);
 }
 
-// Split-sum scale and bias (A, B) for ∫ f_spec cosθ under uniform light, by Karis's analytic fit
-// ("Physically Based Shading on Mobile", 2014). Issue #10 replaces it with a GPU-computed table.
-fn env_brdf_approx(n_dot_v: f32, perceptual_roughness: f32) -> vec2<f32> {
-    let c_a = vec4<f32>(-1.0, -0.0275, -0.572, 0.022);
-    let c_b = vec4<f32>(1.0, 0.0425, 1.04, -0.04);
-    let r = perceptual_roughness * c_a + c_b;
-    let a_term = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
-    return vec2<f32>(-1.04, 1.04) * a_term + r.zw;
-}
-
 // Directional albedo of the specular lobe, single plus multiple scattering: E = FssEss + Fms·Ems
 // (Fdez-Agüera 2019, "A Multiple-Scattering Microfacet Model for Real-Time Image-based
-// Lighting"), with (A, B) = `env_brdf_approx`. For f0_color = 1 it is exactly 1.
+// Lighting"), with (A, B) = `Surface::dfg`. For f0_color = 1 it is exactly 1.
 fn specular_albedo(f0_color: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
     let fss_ess = f0_color * ab.x + ab.y;
     let ems = 1.0 - (ab.x + ab.y);
@@ -79,9 +79,8 @@ fn specular_albedo(f0_color: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
 // multiple-scattering GGX (Cycles' Principled BSDF) keeps that energy too: without it, rough
 // metals lit directly were up to half as bright as the Cycles references of `penumbra report`
 // (tests/reference, spheres scene).
-fn specular_multiscatter(f0_color: vec3<f32>, n_dot_v: f32, perceptual_roughness: f32) -> vec3<f32> {
-    let ab = env_brdf_approx(n_dot_v, perceptual_roughness);
-    return multiscatter_scale(f0_color, ab.x + ab.y);
+fn specular_multiscatter(s: Surface) -> vec3<f32> {
+    return multiscatter_scale(s.f0_color, s.dfg.x + s.dfg.y);
 }
 
 // `specular_multiscatter` for a given single-scattering albedo of a white lobe.
@@ -95,9 +94,8 @@ fn multiscatter_scale(f0_color: vec3<f32>, ess: f32) -> vec3<f32> {
 // leaves, so a white surface returns exactly `l` whatever its roughness or metalness, which the
 // white-furnace test checks.
 fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
-    let ab = env_brdf_approx(s.n_dot_v, s.perceptual_roughness);
-    let dielectric_specular = specular_albedo(DIELECTRIC_F0, ab);
-    let metal_specular = specular_albedo(s.base_color, ab);
+    let dielectric_specular = specular_albedo(DIELECTRIC_F0, s.dfg);
+    let metal_specular = specular_albedo(s.base_color, s.dfg);
     let specular = mix(dielectric_specular, metal_specular, s.metallic);
     let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
     return (specular + diffuse) * l * s.occlusion;
@@ -115,7 +113,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let f = f_schlick(s.f0_color, v_dot_h) * specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
+    let f = f_schlick(s.f0_color, v_dot_h) * specular_multiscatter(s);
     let spec = f * (d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
     let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
@@ -127,8 +125,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
 // implementation darkened rough surfaces seen at grazing angles by up to 8 % against the
 // Cycles references (tests/reference, sun_csm's distant ground).
 fn diffuse_share(s: Surface) -> vec3<f32> {
-    let ab = env_brdf_approx(s.n_dot_v, s.perceptual_roughness);
-    return vec3<f32>(1.0) - specular_albedo(DIELECTRIC_F0, ab);
+    return vec3<f32>(1.0) - specular_albedo(DIELECTRIC_F0, s.dfg);
 }
 
 // The two lobes of `direct` apart, for lights whose diffuse and specular parts are seen in
@@ -148,6 +145,6 @@ fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let d_v = d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
-    let ms = specular_multiscatter(s.f0_color, s.n_dot_v, s.perceptual_roughness);
+    let ms = specular_multiscatter(s);
     return f_schlick(s.f0_color, v_dot_h) * ms * (d_v * n_dot_l);
 }

@@ -28,6 +28,9 @@
 #import penumbra::display::display_rgb
 #endif
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
+#ifndef UNLIT
+#import penumbra::split_sum::split_sum
+#endif
 #import penumbra::light_data::Light
 #import penumbra::draw_data::{Instance, Material, MATERIAL_DOUBLE_SIDED, UvSets, slot_coord, place_vertex}
 #import penumbra::lights::shade_light
@@ -219,6 +222,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     // 1e-4 floor: at grazing angles N·V → 0 and the visibility term divides by it.
     s.n_dot_v = max(dot(n, v), 1e-4);
     s.occlusion = 1.0;
+    s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
 #ifdef OCCLUSION_TEXTURE
     let aoc = slot_coord(mat, 3u, sets);
     let ao = textureSampleGrad(occlusion_texture, occlusion_sampler, aoc.uv, aoc.ddx, aoc.ddy);

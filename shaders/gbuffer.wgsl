@@ -12,6 +12,7 @@
 #define_import_path penumbra::gbuffer
 
 #import penumbra::brdf::{Surface, DIELECTRIC_F0}
+#import penumbra::split_sum::split_sum
 
 fn sign_not_zero(v: vec2<f32>) -> vec2<f32> {
     return select(vec2<f32>(-1.0), vec2<f32>(1.0), v >= vec2<f32>(0.0));
@@ -66,5 +67,6 @@ fn decode_surface(perceptual_roughness: f32, shape: vec4<u32>, v: vec3<f32>) -> 
     s.v = v;
     s.n_dot_v = max(dot(s.n, v), 1e-4);
     s.occlusion = 1.0;
+    s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
     return s;
 }

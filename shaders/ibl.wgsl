@@ -5,12 +5,14 @@
 //   (env_filter.wgsl), so a Lambertian surface of albedo 1 returns Σ c_i·Y_i(n).
 // - Specular: the split sum (Karis 2013): the GGX-prefiltered cube at the surface's roughness
 //   (mip = perceptual roughness × max_lod) times the directional albedo from the table of
-//   brdf_lut.wgsl, with multiple-scattering compensation (brdf.wgsl's specular_albedo), combined
+//   brdf_lut.wgsl (`Surface::dfg`), with multiple-scattering compensation (brdf.wgsl's
+//   specular_albedo), combined
 //   as glTF's metal/dielectric mix like the uniform ambient light: a white surface under a
 //   uniform environment returns exactly its radiance (the furnace test).
 #define_import_path penumbra::ibl
 
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, specular_albedo}
+#import penumbra::split_sum::linear_sampler
 
 struct EnvironmentParams {
     // cos and sin of the environment's turn about +Y.
@@ -29,8 +31,6 @@ struct EnvironmentParams {
 @group(0) @binding(15) var<uniform> environment: EnvironmentParams;
 @group(0) @binding(16) var<storage, read> irradiance_sh: array<vec4<f32>, 9>;
 @group(0) @binding(17) var specular_cube: texture_cube<f32>;
-@group(0) @binding(18) var brdf_lut: texture_2d<f32>;
-@group(0) @binding(19) var environment_sampler: sampler;
 
 // A world direction in the environment's own frame (turned back by its rotation).
 fn to_environment(d: vec3<f32>) -> vec3<f32> {
@@ -55,7 +55,7 @@ fn diffuse_irradiance(n_world: vec3<f32>) -> vec3<f32> {
 // Prefiltered radiance along `dir` at perceptual roughness `roughness`, scaled.
 fn prefiltered_radiance(dir: vec3<f32>, roughness: f32) -> vec3<f32> {
     let lod = roughness * environment.max_lod;
-    return textureSampleLevel(specular_cube, environment_sampler, to_environment(dir), lod).rgb * environment.intensity;
+    return textureSampleLevel(specular_cube, linear_sampler, to_environment(dir), lod).rgb * environment.intensity;
 }
 
 // Light the environment sends towards the eye from surface `s`.
@@ -65,9 +65,8 @@ fn environment_light(s: Surface) -> vec3<f32> {
     // PBR", §4.9.3): the prefiltered cube was made with n = v = r.
     let a = s.alpha;
     let dir = normalize(mix(s.n, r, (1.0 - a) * (sqrt(1.0 - a) + a)));
-    let ab = textureSampleLevel(brdf_lut, environment_sampler, vec2<f32>(s.n_dot_v, s.perceptual_roughness), 0.0).rg;
-    let dielectric_specular = specular_albedo(DIELECTRIC_F0, ab);
-    let metal_specular = specular_albedo(s.base_color, ab);
+    let dielectric_specular = specular_albedo(DIELECTRIC_F0, s.dfg);
+    let metal_specular = specular_albedo(s.base_color, s.dfg);
     let specular = mix(dielectric_specular, metal_specular, s.metallic);
     let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
     let light = specular * prefiltered_radiance(dir, s.perceptual_roughness) + diffuse * diffuse_irradiance(s.n);

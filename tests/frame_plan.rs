@@ -1,7 +1,8 @@
 //! The frame plan leaves out what the scene does not need: for five small scenes, the exact
 //! passes that run, the forward shader's feature switches, and the pools that stay empty; the
 //! targets left out (HDR colour at MSAA 1, depth for one convex object), with the same image.
-//! (A single opaque instance is not GPU-culled: most scenes here have one.)
+//! (A single opaque instance is not GPU-culled: most scenes here have one. A renderer's first
+//! frame with lit draws also makes the split-sum table they read: `EnvironmentPrefilter`.)
 
 use penumbra::prelude::*;
 use penumbra::render::RenderSettings;
@@ -68,6 +69,20 @@ fn one_unlit_triangle_compiles_only_the_unlit_shader() {
     assert!(explain.contains("Cull: one opaque instance"), "{explain}");
     assert_eq!(defs, ["UNLIT"], "{explain}");
     assert_eq!(mem.shadows, 0);
+    assert_eq!(mem.environment, 0, "unlit draws read no split-sum table: {explain}");
+}
+
+#[test]
+fn the_split_sum_table_is_made_once_for_lit_draws() {
+    let mut app = scene_app();
+    camera(&mut app);
+    lit_sphere(&mut app);
+    render_app(&mut app, SIZE, RenderSettings::default());
+    let passes =
+        |app: &App| app.world.resource::<Renderer>().stats().plan.passes.iter().map(|(p, _)| *p).collect::<Vec<_>>();
+    assert_eq!(passes(&app)[0], Pass::EnvironmentPrefilter);
+    app.update();
+    assert!(!passes(&app).contains(&Pass::EnvironmentPrefilter), "made again: {:?}", passes(&app));
 }
 
 #[test]
@@ -136,9 +151,11 @@ fn a_lit_scene_without_shadows_has_no_shadow_pass_or_lookups() {
         Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
     ));
     let (passes, defs, mem, explain) = plan_of(app);
-    assert_eq!(passes, [Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(passes, [Pass::EnvironmentPrefilter, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert!(explain.contains("split-sum table, made once (no environment"), "{explain}");
     assert!(defs.is_empty(), "the base lit shader: {defs:?}");
     assert_eq!(mem.shadows, 0, "no shadow atlas without a shadowed light");
+    assert_eq!(mem.environment, 64 * 64 * 8, "no environment maps, only the 64² split-sum table");
     assert!(explain.contains("Shadows: no shadowed light's casters"), "{explain}");
 }
 
@@ -155,7 +172,11 @@ fn one_directional_shadow_caster_adds_the_shadow_pass_and_lookups() {
     );
     app.world.spawn((DirectionalLight::default(), Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y)));
     let (passes, defs, mem, explain) = plan_of(app);
-    assert_eq!(passes, [Pass::Cull, Pass::Shadows, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(
+        passes,
+        [Pass::EnvironmentPrefilter, Pass::Cull, Pass::Shadows, Pass::Opaque, Pass::Tonemap],
+        "{explain}"
+    );
     assert_eq!(defs, ["SHADOWS"], "{explain}");
     assert!(mem.shadows > 0);
 }
@@ -169,7 +190,7 @@ fn local_lights_only_bin_clusters_and_compile_the_clustered_walk() {
         app.world.spawn((PointLight { shadows: false, ..Default::default() }, Transform::from_xyz(x, 1.0, 1.0)));
     }
     let (passes, defs, mem, explain) = plan_of(app);
-    assert_eq!(passes, [Pass::ClusterBin, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(passes, [Pass::EnvironmentPrefilter, Pass::ClusterBin, Pass::Opaque, Pass::Tonemap], "{explain}");
     assert_eq!(defs, ["CLUSTERED_LIGHTS", "LOCAL_LIGHTS"], "{explain}");
     assert_eq!(mem.shadows, 0);
 }

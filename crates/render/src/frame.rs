@@ -70,7 +70,10 @@ impl Pass {
     /// What the pass reads (buffers, textures) and writes, for `penumbra render --explain`.
     pub fn inputs(self) -> &'static str {
         match self {
-            Pass::EnvironmentPrefilter => "environment source (sky, studio or image) -> source cube, GGX levels, SH",
+            Pass::EnvironmentPrefilter => {
+                "environment source (sky, studio or image) -> source cube, GGX levels, SH [; the \
+                 split-sum table, once]"
+            }
             Pass::Deform => "mesh pool vertices, joint matrices, morph weights -> deformed vertex copies",
             Pass::Cull => "view, instance buffer, draw slots -> indirect draw arguments",
             Pass::ClusterBin => "view, light store (local lights) -> cluster counts, offsets, index lists",
@@ -119,6 +122,8 @@ pub struct SceneNeeds {
     pub occlusion: bool,
     /// The environment's maps must be (re)made this frame.
     pub environment_changed: bool,
+    /// The split-sum table lit surfaces read must be made this frame (once per renderer).
+    pub split_sum_table: bool,
     /// Deformed draws whose pose changed this frame.
     pub deform_jobs: usize,
     /// The scene has an environment to show behind it (not a solid colour: that is the clear).
@@ -147,6 +152,7 @@ impl FramePlan {
             culled,
             occlusion,
             environment_changed,
+            split_sum_table,
             deform_jobs,
             background,
             bloom,
@@ -159,6 +165,12 @@ impl FramePlan {
         let mut passes = Vec::new();
         if environment_changed {
             passes.push((Pass::EnvironmentPrefilter, "the environment changed (or is new): its maps are made"));
+        } else if split_sum_table {
+            passes.push((
+                Pass::EnvironmentPrefilter,
+                "lit draws read their specular albedo from the split-sum table, made once (no environment: \
+                 nothing else runs)",
+            ));
         }
         if deform_jobs > 0 {
             passes.push((Pass::Deform, "skinned or morphed draws changed pose: their vertices are recomputed"));

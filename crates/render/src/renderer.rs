@@ -860,6 +860,9 @@ impl Renderer {
             self.rebuild_batches();
         }
         let blend_batches = self.sort_blended(scene);
+        // Every lit surface reads its specular albedo from the split-sum table (brdf.wgsl).
+        let lit_draws = self.opaque_batches.iter().chain(blend_batches.iter().map(|(b, _)| b)).any(|b| !b.key.unlit);
+        rebind |= self.environment.require_table(&device, lit_draws);
 
         // Uploads: draw slots (opaque part only when rebuilt, blended part every frame).
         let opaque_len = self.opaque_slots.len();
@@ -1010,6 +1013,7 @@ impl Renderer {
             culled: self.culling_active,
             occlusion,
             environment_changed: env_frame.prefilter,
+            split_sum_table: self.environment.table_pending(),
             deform_jobs: deform_frame.jobs,
             background,
             bloom: post.bloom,

@@ -346,6 +346,10 @@ pub struct ReportArgs {
     /// tonemapper as DIR/SCENE.reference.png.
     #[arg(long, value_name = "DIR")]
     pub images: Option<PathBuf>,
+    /// Read WGSL from this folder instead of the embedded shaders (files missing there come from
+    /// the embedded set): what a shader edit does to the error and the time.
+    #[arg(long, value_name = "DIR")]
+    pub shader_dir: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

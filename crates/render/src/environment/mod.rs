@@ -15,7 +15,10 @@
 //!    prefiltered at perceptual roughness `level / (SPECULAR_LEVELS − 1)` with filtered
 //!    importance sampling;
 //! 4. nine irradiance harmonics from the source level whose faces are at most 32²;
-//! 5. once per renderer, the split-sum table (64², `brdf_lut.wgsl`).
+//! 5. once per renderer, the split-sum table (64², `brdf_lut.wgsl`). Every lit surface reads
+//!    its directional albedo there (`split_sum.wgsl`), with or without an environment, so the
+//!    renderer asks for it ([`EnvironmentLighting::require_table`]) whenever a frame has lit
+//!    draws; the table then stays. Without an environment only this step is compiled and run.
 //!
 //! Intensity, rotation and the background change only the uniform (`GpuEnvironment`), never
 //! the maps. Sources are stored divided by a scale (the sky's zenith luminance, an image's
@@ -321,6 +324,22 @@ impl EnvironmentLighting {
         self.maps.as_ref().map_or(&self.stand_in_cube, |m| &m.specular_view)
     }
 
+    /// Makes the split-sum table (filled by the next [`Self::encode`]) when the frame has lit
+    /// draws and it does not exist yet. Returns whether it is new: bind groups must then be
+    /// made again.
+    pub fn require_table(&mut self, device: &wgpu::Device, lit_draws: bool) -> bool {
+        if lit_draws && self.lut.is_none() {
+            self.lut = Some(make_lut_texture(device));
+            return true;
+        }
+        false
+    }
+
+    /// The table exists but is not filled yet: [`Self::encode`] must run this frame.
+    pub fn table_pending(&self) -> bool {
+        self.lut.is_some() && !self.lut_made
+    }
+
     pub fn lut_view(&self) -> &wgpu::TextureView {
         self.lut.as_ref().map_or(&self.stand_in_2d, |(_, v)| v)
     }
@@ -466,10 +485,11 @@ impl EnvironmentLighting {
         pipelines: &mut PipelineCache,
         timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
-        if !(self.pending || (!self.lut_made && self.lut.is_some())) {
+        if !(self.pending || self.table_pending()) {
             return Ok(());
         }
-        pipelines.compile_env_steps(device)?;
+        let steps: &[EnvStep] = if self.pending { &EnvStep::ALL } else { &[EnvStep::BrdfLut] };
+        pipelines.compile_env_steps(device, steps)?;
         let step = |s| pipelines.env_step_cached(s).expect("compiled above");
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("environment prefilter"),

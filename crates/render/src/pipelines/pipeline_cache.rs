@@ -422,7 +422,8 @@ impl PipelineCache {
                 storage(13, lit),
                 array_texture(14, lit, wgpu::TextureSampleType::Depth),
                 // The environment (shaders/ibl.wgsl): parameters, irradiance harmonics, the
-                // specular cube, the split-sum table, their sampler.
+                // specular cube; then the split-sum table every lit surface reads
+                // (shaders/split_sum.wgsl) and the sampler it shares with the cube.
                 buffer_entry(15, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
                 storage(16, wgpu::ShaderStages::FRAGMENT),
                 wgpu::BindGroupLayoutEntry {
@@ -435,8 +436,8 @@ impl PipelineCache {
                     },
                     count: None,
                 },
-                texture(18, true),
-                sampler(19),
+                wgpu::BindGroupLayoutEntry { visibility: lit, ..texture(18, true) },
+                wgpu::BindGroupLayoutEntry { visibility: lit, ..sampler(19) },
                 // The directional shadow atlas as floats, for the PCSS blocker search's loads.
                 array_texture(20, lit, wgpu::TextureSampleType::Float { filterable: false }),
             ],

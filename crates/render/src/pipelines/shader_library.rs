@@ -36,6 +36,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("ies.wgsl", include_str!("../../../../shaders/ies.wgsl")),
     ("shadows.wgsl", include_str!("../../../../shaders/shadows.wgsl")),
     ("cubemap.wgsl", include_str!("../../../../shaders/cubemap.wgsl")),
+    ("split_sum.wgsl", include_str!("../../../../shaders/split_sum.wgsl")),
     ("ibl.wgsl", include_str!("../../../../shaders/ibl.wgsl")),
     ("post_params.wgsl", include_str!("../../../../shaders/post_params.wgsl")),
     ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),

@@ -2,7 +2,8 @@
 //! folder, renders the scene continuously with that folder watched, and every 400 ms rewrites
 //! forward.wgsl with a different constant (so no driver cache can serve the new pipeline). Each
 //! edit is timed from just before the file write to the end of the first frame drawn with the new
-//! shader (GPU work included). Prints median and maximum.
+//! shader (GPU work included). Prints median and maximum. With `--shader-dir DIR` the copy is
+//! made from DIR's files (the embedded ones fill in what DIR lacks), to measure edited shaders.
 
 use std::time::{Duration, Instant};
 
@@ -17,10 +18,19 @@ use crate::scene;
 pub fn run(args: &BenchArgs) -> Result<()> {
     let dir = std::env::temp_dir().join(format!("penumbra-reload-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    for (file, source) in EMBEDDED {
-        std::fs::write(dir.join(file), source)?;
+    let mut original = String::new();
+    for (file, embedded) in EMBEDDED {
+        let source = match &args.look.shader_dir {
+            Some(from) if from.join(file).exists() => {
+                std::fs::read_to_string(from.join(file)).map_err(|e| anyhow!("{}: {e}", from.join(file).display()))?
+            }
+            _ => embedded.to_string(),
+        };
+        std::fs::write(dir.join(file), &source)?;
+        if *file == "forward.wgsl" {
+            original = source;
+        }
     }
-    let original = EMBEDDED.iter().find(|(f, _)| *f == "forward.wgsl").map(|(_, s)| *s).expect("embedded");
     let anchor = "var out = color * view.exposure;";
     if !original.contains(anchor) {
         bail!("forward.wgsl no longer contains `{anchor}`; update the reload benchmark's edit");

@@ -39,7 +39,7 @@ pub enum BackgroundMode {
 }
 
 impl EnvStep {
-    const ALL: [EnvStep; 5] =
+    pub const ALL: [EnvStep; 5] =
         [EnvStep::Source, EnvStep::Downsample, EnvStep::Specular, EnvStep::IrradianceSh, EnvStep::BrdfLut];
 
     fn file(self) -> &'static str {
@@ -152,9 +152,9 @@ impl PipelineCache {
         &self.env_layouts.steps[step.index()]
     }
 
-    /// Compiles every step's pipeline (first use only); the first error stops it.
-    pub fn compile_env_steps(&mut self, device: &wgpu::Device) -> Result<(), ShaderError> {
-        for step in EnvStep::ALL {
+    /// Compiles these steps' pipelines (first use only); the first error stops it.
+    pub fn compile_env_steps(&mut self, device: &wgpu::Device, steps: &[EnvStep]) -> Result<(), ShaderError> {
+        for &step in steps {
             if !self.env.contains_key(&step) {
                 let p = self.create_env_step(device, &mut None, step)?;
                 self.env.insert(step, p);

@@ -20,7 +20,9 @@ use std::io::Write as _;
 use anyhow::{Context, Result, bail};
 use penumbra_engine::components::Exposure;
 use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
-use penumbra_render::{AdapterRequest, GpuContext, QualityPreset, RenderOutput, RenderSettings, Renderer};
+use penumbra_render::{
+    AdapterRequest, GpuContext, QualityPreset, RenderOutput, RenderSettings, Renderer, ShaderSource,
+};
 
 use crate::cli::{ReportArgs, SceneArgs};
 use crate::commands::bench::{percentile, time_frames};
@@ -78,8 +80,16 @@ pub fn run(args: ReportArgs) -> Result<()> {
         for &preset in &args.presets {
             bar.set_message(format!("{} at {preset}", s.name));
             // PSNR is measured on the HDR colour: keep it even where the frame could skip it.
-            let settings =
-                RenderSettings { clear_color: [0.0; 3], gpu_timing: true, keep_hdr: true, ..preset.settings() };
+            let settings = RenderSettings {
+                clear_color: [0.0; 3],
+                gpu_timing: true,
+                keep_hdr: true,
+                shaders: match &args.shader_dir {
+                    Some(dir) => ShaderSource::Folder { dir: dir.clone(), watch: false },
+                    None => ShaderSource::Embedded,
+                },
+                ..preset.settings()
+            };
             let renderer = Renderer::new(ctx.clone(), settings)?;
             // Exposure scale exactly 1: the HDR target holds radiance, as the references do.
             let unit = Some(Exposure::unit().ev100);

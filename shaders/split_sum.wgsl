@@ -1,0 +1,14 @@
+// The split-sum table (brdf_lut.wgsl fills it once per renderer): the directional albedo of
+// glTF's specular lobe at (n·v, perceptual roughness), which every lit surface reads once
+// (forward.wgsl per fragment, gbuffer.wgsl per deferred sample) into `Surface::dfg` for
+// brdf.wgsl's lobe weights and ibl.wgsl's split sum.
+#define_import_path penumbra::split_sum
+
+@group(0) @binding(18) var brdf_lut: texture_2d<f32>;
+// Linear and clamped: the table, and the environment's cube (ibl.wgsl).
+@group(0) @binding(19) var linear_sampler: sampler;
+
+// (A, B): ∫ f_spec·cosθ = f0·A + B, single scattering.
+fn split_sum(n_dot_v: f32, perceptual_roughness: f32) -> vec2<f32> {
+    return textureSampleLevel(brdf_lut, linear_sampler, vec2<f32>(n_dot_v, perceptual_roughness), 0.0).rg;
+}
