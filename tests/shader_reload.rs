@@ -1,7 +1,8 @@
 //! Hot reload of WGSL from a shader folder, driven through the file watcher as an editor would:
 //! a broken shader is reported with its line and the last good pipelines keep drawing; a fixed
 //! one is used at once; empty files, rename-over saves and deletions are errors until the file is
-//! whole; an edit to an imported module rebuilds exactly the pipelines that import it.
+//! whole; an edit to an imported module rebuilds exactly the pipelines that import it; an edit to
+//! the split-sum table's shader makes the table again.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -182,4 +183,41 @@ fn a_scene_without_normal_maps_or_local_lights_compiles_neither() {
     app.world.spawn((PointLight { intensity: 5.0, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 1.0)));
     render_app(&mut app, SIZE, RenderSettings::default());
     assert!(renderer(&app).forward_pipeline_keys().iter().any(|k| k.shader_defs().0.contains("LOCAL_LIGHTS")));
+}
+
+#[test]
+fn an_edit_to_the_split_sum_table_remakes_the_table() {
+    let dir = shader_folder("reload-table");
+    // A grey rough metal under ambient light: what it reflects is its split-sum albedo.
+    let mut app = scene_app();
+    let mut quad = Mesh::plane(2.0);
+    for p in &mut quad.positions {
+        *p = Vec3::new(p.x, -p.z, 0.0);
+    }
+    quad.normals = vec![Vec3::Z; 4];
+    let metal = StandardMaterial { metallic: 1.0, ..StandardMaterial::from_color(Vec4::new(0.5, 0.5, 0.5, 1.0), 0.6) };
+    spawn_mesh(&mut app, quad, metal, Transform::IDENTITY);
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.8 });
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 3.0)));
+    let settings = RenderSettings {
+        msaa: 1,
+        shaders: ShaderSource::Folder { dir: dir.clone(), watch: true },
+        ..Default::default()
+    };
+    app.insert_resource(Renderer::new(common::gpu(), settings).unwrap());
+    let before = render_app(&mut app, SIZE, RenderSettings::default());
+    let lit = brightness(&before, SIZE.0, SIZE.0 / 2, SIZE.1 / 2);
+    assert!(lit > 20.0, "the metal is lit: {lit}");
+
+    // The table's single-scattering scale A, a quarter of what it integrates.
+    let table = std::fs::read_to_string(dir.join("brdf_lut.wgsl")).unwrap();
+    let edited = table.replacen("vec4<f32>(a / f32(LUT_SAMPLES)", "vec4<f32>(0.25 * a / f32(LUT_SAMPLES)", 1);
+    assert_ne!(edited, table, "the test's edit must apply");
+    let g = generation(renderer(&app));
+    std::fs::write(dir.join("brdf_lut.wgsl"), edited).unwrap();
+    let after = render_until(&mut app, "the edited table", |r| generation(r) > g && r.shader_error().is_none());
+    let plan = &renderer(&app).stats().plan;
+    assert!(plan.runs(penumbra::render::frame::Pass::EnvironmentPrefilter), "the table is made again: {plan}");
+    let dimmer = brightness(&after, SIZE.0, SIZE.0 / 2, SIZE.1 / 2);
+    assert!(dimmer < lit * 0.8, "the new table is what the surface reads: {lit} -> {dimmer}");
 }

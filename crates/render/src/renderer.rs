@@ -653,6 +653,9 @@ impl Renderer {
             Ok(report) => {
                 // A changed caster shader may draw other depths: every shadow map is redrawn.
                 self.shadows.invalidate();
+                if report.environment_steps {
+                    self.environment.remake();
+                }
                 tracing::info!(
                     "shaders reloaded ({}): {} pipelines rebuilt in {:.1} ms",
                     files.join(", "),

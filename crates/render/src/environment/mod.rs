@@ -335,6 +335,13 @@ impl EnvironmentLighting {
         false
     }
 
+    /// The steps' shaders changed (hot reload): the maps and the table are made again, with the
+    /// new code, on the next frame that has them.
+    pub fn remake(&mut self) {
+        self.key = None;
+        self.lut_made = false;
+    }
+
     /// The table exists but is not filled yet: [`Self::encode`] must run this frame.
     pub fn table_pending(&self) -> bool {
         self.lut.is_some() && !self.lut_made

@@ -248,6 +248,9 @@ pub struct ReloadReport {
     pub rebuilt: usize,
     /// Pipelines left alone.
     pub untouched: usize,
+    /// An environment step (the source, its filters or the split-sum table) was rebuilt: what
+    /// it made must be made again with the new code.
+    pub environment_steps: bool,
 }
 
 pub struct PipelineCache {
@@ -761,6 +764,7 @@ impl PipelineCache {
             }
         }
         let env = self.reload_env(device, &mut candidate, files)?;
+        let environment_steps = env.rebuilds_steps();
         let post = self.reload_post(device, &mut candidate, files)?;
         let total = self.env_pipeline_count()
             + self.post_pipeline_count()
@@ -802,7 +806,7 @@ impl PipelineCache {
         }
         let rebuilt = rebuilt + self.apply_env_reload(env) + self.apply_post_reload(post);
         self.generation += 1;
-        Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt })
+        Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt, environment_steps })
     }
 
     /// Compiles with `candidate` if given, else with the current library.

@@ -331,3 +331,9 @@ pub(super) struct EnvReload {
     steps: Vec<(EnvStep, wgpu::ComputePipeline)>,
     background: Vec<(BackgroundMode, wgpu::RenderPipeline)>,
 }
+
+impl EnvReload {
+    pub(super) fn rebuilds_steps(&self) -> bool {
+        !self.steps.is_empty()
+    }
+}
