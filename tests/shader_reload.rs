@@ -26,13 +26,18 @@ fn shader_folder(name: &str) -> PathBuf {
 
 /// A lit white quad filling the middle of the frame, rendered with shaders from `dir`.
 fn app_with_shaders(dir: &Path) -> App {
+    quad_app(dir, StandardMaterial::from_color(Vec4::ONE, 1.0))
+}
+
+/// A quad of `material` facing the camera under ambient light, with shaders from `dir`.
+fn quad_app(dir: &Path, material: StandardMaterial) -> App {
     let mut app = scene_app();
     let mut quad = Mesh::plane(2.0);
     for p in &mut quad.positions {
         *p = Vec3::new(p.x, -p.z, 0.0);
     }
     quad.normals = vec![Vec3::Z; 4];
-    spawn_mesh(&mut app, quad, StandardMaterial::from_color(Vec4::ONE, 1.0), Transform::IDENTITY);
+    spawn_mesh(&mut app, quad, material, Transform::IDENTITY);
     app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.8 });
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 3.0)));
     let settings = RenderSettings {
@@ -189,22 +194,8 @@ fn a_scene_without_normal_maps_or_local_lights_compiles_neither() {
 fn an_edit_to_the_split_sum_table_remakes_the_table() {
     let dir = shader_folder("reload-table");
     // A grey rough metal under ambient light: what it reflects is its split-sum albedo.
-    let mut app = scene_app();
-    let mut quad = Mesh::plane(2.0);
-    for p in &mut quad.positions {
-        *p = Vec3::new(p.x, -p.z, 0.0);
-    }
-    quad.normals = vec![Vec3::Z; 4];
     let metal = StandardMaterial { metallic: 1.0, ..StandardMaterial::from_color(Vec4::new(0.5, 0.5, 0.5, 1.0), 0.6) };
-    spawn_mesh(&mut app, quad, metal, Transform::IDENTITY);
-    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.8 });
-    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 3.0)));
-    let settings = RenderSettings {
-        msaa: 1,
-        shaders: ShaderSource::Folder { dir: dir.clone(), watch: true },
-        ..Default::default()
-    };
-    app.insert_resource(Renderer::new(common::gpu(), settings).unwrap());
+    let mut app = quad_app(&dir, metal);
     let before = render_app(&mut app, SIZE, RenderSettings::default());
     let lit = brightness(&before, SIZE.0, SIZE.0 / 2, SIZE.1 / 2);
     assert!(lit > 20.0, "the metal is lit: {lit}");

@@ -864,7 +864,8 @@ impl Renderer {
         }
         let blend_batches = self.sort_blended(scene);
         // Every lit surface reads its specular albedo from the split-sum table (brdf.wgsl).
-        let lit_draws = self.opaque_batches.iter().chain(blend_batches.iter().map(|(b, _)| b)).any(|b| !b.key.unlit);
+        let opaque = &self.opaque_batches;
+        let lit_draws = || opaque.iter().chain(blend_batches.iter().map(|(b, _)| b)).any(|b| !b.key.unlit);
         rebind |= self.environment.require_table(&device, lit_draws);
 
         // Uploads: draw slots (opaque part only when rebuilt, blended part every frame).

@@ -324,11 +324,11 @@ impl EnvironmentLighting {
         self.maps.as_ref().map_or(&self.stand_in_cube, |m| &m.specular_view)
     }
 
-    /// Makes the split-sum table (filled by the next [`Self::encode`]) when the frame has lit
-    /// draws and it does not exist yet. Returns whether it is new: bind groups must then be
-    /// made again.
-    pub fn require_table(&mut self, device: &wgpu::Device, lit_draws: bool) -> bool {
-        if lit_draws && self.lut.is_none() {
+    /// Makes the split-sum table (filled by the next [`Self::encode`]) when it does not exist
+    /// yet and the frame has lit draws (asked only then: once the table exists this is one
+    /// check per frame). Returns whether it is new: bind groups must then be made again.
+    pub fn require_table(&mut self, device: &wgpu::Device, lit_draws: impl FnOnce() -> bool) -> bool {
+        if self.lut.is_none() && lit_draws() {
             self.lut = Some(make_lut_texture(device));
             return true;
         }
@@ -423,10 +423,6 @@ impl EnvironmentLighting {
             rebind = true;
             self.key = None;
         }
-        if self.lut.is_none() {
-            self.lut = Some(make_lut_texture(device));
-            rebind = true;
-        }
         if self.key.as_ref() != Some(&key) {
             let maps = self.maps.as_mut().expect("made above");
             maps.upload_source(device, queue, pipelines, &key);
@@ -453,7 +449,8 @@ impl EnvironmentLighting {
             Background::Color(c) => Some(c),
             _ => None,
         };
-        EnvironmentFrame { active: true, prefilter: self.pending || !self.lut_made, rebind, solid_background }
+        // The split-sum table is the renderer's to ask for (`require_table`), environment or not.
+        EnvironmentFrame { active: true, prefilter: self.pending, rebind, solid_background }
     }
 
     fn write_filter_params(&self, queue: &wgpu::Queue, specular_samples: u32) {

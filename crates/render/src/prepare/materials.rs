@@ -206,8 +206,6 @@ impl MaterialTable {
         true
     }
 
-    /// Frees the slots (and bind groups, which hold textures alive) of materials whose asset is
-    /// gone or that no draw uses.
     /// Makes every material's bind group again on its next `prepare` (its samplers changed).
     pub fn forget_bind_groups(&mut self) {
         for e in self.entries.values_mut() {
@@ -216,6 +214,8 @@ impl MaterialTable {
         }
     }
 
+    /// Frees the slots (and bind groups, which hold textures alive) of materials whose asset is
+    /// gone or that no draw uses.
     pub fn retain(&mut self, scene: &RenderScene, used: impl Fn(&MaterialKey) -> bool) {
         let free = &mut self.free_slots;
         self.warned_missing.retain(|(k, _)| k.is_none_or(|h| scene.materials.contains_key(&h)));
