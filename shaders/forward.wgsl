@@ -8,7 +8,8 @@
 //
 // Variants (shader defs, set per pipeline by pipeline_cache.rs from what each draw uses; code a
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
-// METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, LOCAL_LIGHTS
+// METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, TRANSFORMED_UVS
+// (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
 // (directional lights read their cascaded shadow maps, shadows.wgsl), IBL (the environment's
@@ -140,6 +141,20 @@ fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
 }
 #endif
 
+// Material texture `slot`'s texel at this fragment. Without TRANSFORMED_UVS every texture reads
+// TEXCOORD_0 as it is and the sampler takes its own derivatives: explicit gradients cost more to
+// compile and to run (on llvmpipe about 13 ms more LLVM time per sample, which hot reload
+// waits for). With it, the coordinate and its gradients come from slot_coord. The normal map
+// is always sampled with explicit gradients (see fs_main).
+fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets: UvSets) -> vec4<f32> {
+#ifdef TRANSFORMED_UVS
+    let c = slot_coord(mat, slot, sets);
+    return textureSampleGrad(t, s, c.uv, c.ddx, c.ddy);
+#else
+    return textureSample(t, s, sets.first);
+#endif
+}
+
 struct FragmentOut {
     @location(0) color: vec4<f32>,
 #ifdef DEFERRED_LOCAL_LIGHTS
@@ -159,8 +174,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
     var base = mat.base_color * in.color;
 #ifdef BASE_COLOR_TEXTURE
-    let bc = slot_coord(mat, 0u, sets);
-    base *= textureSampleGrad(base_color_texture, base_color_sampler, bc.uv, bc.ddx, bc.ddy);
+    base *= material_texel(base_color_texture, base_color_sampler, mat, 0u, sets);
 #endif
 
 #ifdef ALPHA_MASK
@@ -176,6 +190,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     var n = safe_normalize(in.normal, v);
     let double_sided_back = (mat.flags & MATERIAL_DOUBLE_SIDED) != 0u && !front_facing;
 #ifdef NORMAL_MAP
+    // Explicit gradients in every variant: the normal decides where a sharp highlight lands.
+    // With implicit ones NormalTangentTest's frame on GL differed from Vulkan's by one highlight
+    // pixel (both llvmpipe; likely the level of detail, which implicit derivatives give per 2×2
+    // quad, and GL draws flipped); with explicit gradients the two agree.
     let nmc = slot_coord(mat, 2u, sets);
     let nm = textureSampleGrad(normal_texture, normal_sampler, nmc.uv, nmc.ddx, nmc.ddy);
     if dot(in.tangent.xyz, in.tangent.xyz) > 1e-12 {
@@ -202,8 +220,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     var metallic = mat.metallic;
     var roughness = mat.roughness;
 #ifdef METALLIC_ROUGHNESS_TEXTURE
-    let mrc = slot_coord(mat, 1u, sets);
-    let mr = textureSampleGrad(metallic_roughness_texture, metallic_roughness_sampler, mrc.uv, mrc.ddx, mrc.ddy);
+    let mr = material_texel(metallic_roughness_texture, metallic_roughness_sampler, mat, 1u, sets);
     metallic *= mr.b;
     roughness *= mr.g;
 #endif
@@ -224,8 +241,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
 #ifdef OCCLUSION_TEXTURE
-    let aoc = slot_coord(mat, 3u, sets);
-    let ao = textureSampleGrad(occlusion_texture, occlusion_sampler, aoc.uv, aoc.ddx, aoc.ddy);
+    let ao = material_texel(occlusion_texture, occlusion_sampler, mat, 3u, sets);
     s.occlusion = 1.0 + mat.occlusion_strength * (ao.r - 1.0);
 #endif
 
@@ -278,8 +294,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #endif
     var emissive = mat.emissive;
 #ifdef EMISSIVE_TEXTURE
-    let emc = slot_coord(mat, 4u, sets);
-    emissive *= textureSampleGrad(emissive_texture, emissive_sampler, emc.uv, emc.ddx, emc.ddy).rgb;
+    emissive *= material_texel(emissive_texture, emissive_sampler, mat, 4u, sets).rgb;
 #endif
     color += emissive;
 #endif

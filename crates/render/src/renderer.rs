@@ -650,20 +650,7 @@ impl Renderer {
         let start = Instant::now();
         let result = self.pipelines.reload(&self.ctx.device, files);
         match &result {
-            Ok(report) => {
-                // A changed caster shader may draw other depths: every shadow map is redrawn.
-                self.shadows.invalidate();
-                if report.environment_steps {
-                    self.environment.remake();
-                }
-                tracing::info!(
-                    "shaders reloaded ({}): {} pipelines rebuilt in {:.1} ms",
-                    files.join(", "),
-                    report.rebuilt,
-                    start.elapsed().as_secs_f64() * 1e3
-                );
-                self.shader_error = None;
-            }
+            Ok(report) => self.reloaded(report, start),
             Err(e) => {
                 tracing::error!("{e} (keeping the last good shaders)");
                 self.shader_error = Some(e.clone());
@@ -672,13 +659,48 @@ impl Renderer {
         result
     }
 
-    /// Applies the watcher's settled changes, if any; returns the reload's outcome.
+    /// What a successful reload changes beyond the pipelines.
+    fn reloaded(&mut self, report: &ReloadReport, start: Instant) {
+        // A changed caster shader may draw other depths: every shadow map is redrawn.
+        self.shadows.invalidate();
+        if report.environment_steps {
+            self.environment.remake();
+        }
+        tracing::info!(
+            "shaders reloaded ({}): {} pipelines rebuilt in {:.1} ms",
+            report.files.join(", "),
+            report.rebuilt,
+            start.elapsed().as_secs_f64() * 1e3
+        );
+        self.shader_error = None;
+    }
+
+    /// Applies the watcher's changes, if any; returns the outcome of a reload that changed
+    /// something or reported an error. A file is tried as soon as its event arrives and kept if
+    /// it compiles; one that does not is left alone until its events settle (a save may still be
+    /// under way), then reloaded again and its error reported (see `shader_watcher.rs`).
     pub fn poll_shader_changes(&mut self) -> Option<Result<ReloadReport, ShaderError>> {
-        let files = self.shader_watcher.as_mut()?.poll();
-        if files.is_empty() {
+        let changes = self.shader_watcher.as_mut()?.poll();
+        if !changes.settled.is_empty() {
+            return Some(self.reload_shaders(&changes.settled));
+        }
+        if changes.fresh.is_empty() {
             return None;
         }
-        Some(self.reload_shaders(&files))
+        let start = Instant::now();
+        match self.pipelines.reload(&self.ctx.device, &changes.fresh) {
+            Ok(report) => {
+                if let Some(w) = self.shader_watcher.as_mut() {
+                    w.accept(&changes.fresh);
+                }
+                self.reloaded(&report, start);
+                Some(Ok(report))
+            }
+            Err(e) => {
+                tracing::debug!("{e} (not reported yet: the save may still be under way)");
+                None
+            }
+        }
     }
 
     /// Whether file events are waiting to settle into a reload.

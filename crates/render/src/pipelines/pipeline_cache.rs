@@ -34,7 +34,8 @@ use crate::prepare::light_store::LightShapes;
 use crate::prepare::materials::AlphaKey;
 use crate::prepare::mesh_pool::GpuVertex;
 
-/// Which material textures a draw samples (bits in `StandardMaterial::textures()` order).
+/// Which material textures a draw samples (bits in `StandardMaterial::textures()` order), and
+/// whether any of them maps its coordinate (`TRANSFORMED_UVS`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub struct TextureSet(pub u8);
 
@@ -44,6 +45,9 @@ impl TextureSet {
     pub const NORMAL: u8 = 4;
     pub const OCCLUSION: u8 = 8;
     pub const EMISSIVE: u8 = 16;
+    /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
+    /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
+    pub const TRANSFORMED_UVS: u8 = 32;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -98,6 +102,7 @@ impl PipelineKey {
             .with("NORMAL_MAP", lit && t.has(TextureSet::NORMAL))
             .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
             .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
+            .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             .with("LOCAL_LIGHTS", local)
             .with("DEFERRED_LOCAL_LIGHTS", self.local_lights == LocalLights::Deferred)
             .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)
@@ -688,6 +693,12 @@ impl PipelineCache {
         let mut candidate = Some(self.shaders.reloaded(files)?);
         tracing::debug!("candidate shader library built in {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
         let lib = candidate.as_ref().expect("just built");
+        if lib.same_sources(&self.shaders) {
+            // An event that changed nothing (a save of the same text, a restored file, a second
+            // event of one save): the pipelines in use were compiled from exactly these sources.
+            let total = self.pipeline_count();
+            return Ok(ReloadReport { files: files.to_vec(), rebuilt: 0, untouched: total, environment_steps: false });
+        }
         let forward_hit = lib.depends_on("forward.wgsl", files);
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
         let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
@@ -766,19 +777,7 @@ impl PipelineCache {
         let env = self.reload_env(device, &mut candidate, files)?;
         let environment_steps = env.rebuilds_steps();
         let post = self.reload_post(device, &mut candidate, files)?;
-        let total = self.env_pipeline_count()
-            + self.post_pipeline_count()
-            + self.cull.len()
-            + self.hzb.len()
-            + self.deform.is_some() as usize
-            + self.caster.len()
-            + self.forward.len()
-            + self.tonemap.len()
-            + self.mipmap.len()
-            + self.cluster.len()
-            + self.deferred.len()
-            + self.composite.len()
-            + self.gizmo.len();
+        let total = self.pipeline_count();
         let rebuilt = cull.len()
             + hzb.len()
             + deform.is_some() as usize
@@ -807,6 +806,23 @@ impl PipelineCache {
         let rebuilt = rebuilt + self.apply_env_reload(env) + self.apply_post_reload(post);
         self.generation += 1;
         Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt, environment_steps })
+    }
+
+    /// Every pipeline compiled so far.
+    fn pipeline_count(&self) -> usize {
+        self.env_pipeline_count()
+            + self.post_pipeline_count()
+            + self.cull.len()
+            + self.hzb.len()
+            + self.deform.is_some() as usize
+            + self.caster.len()
+            + self.forward.len()
+            + self.tonemap.len()
+            + self.mipmap.len()
+            + self.cluster.len()
+            + self.deferred.len()
+            + self.composite.len()
+            + self.gizmo.len()
     }
 
     /// Compiles with `candidate` if given, else with the current library.

@@ -17,6 +17,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use naga_oil::compose::{
     ComposableModuleDescriptor, Composer, ComposerError, NagaModuleDescriptor, ShaderDefValue, ShaderLanguage,
@@ -158,7 +159,10 @@ pub struct ShaderLibrary {
     module_files: HashMap<String, String>,
     /// File to the module paths it imports.
     imports: HashMap<String, Vec<String>>,
-    composer: Composer,
+    /// Holds the composable modules (and the variants of them composed so far). Shared with the
+    /// library a reload replaces when no module changed: the modules are then the same, so the
+    /// candidate needs no composer of its own (building one parses every module again).
+    composer: Arc<Mutex<Composer>>,
 }
 
 impl ShaderLibrary {
@@ -179,19 +183,7 @@ impl ShaderLibrary {
 
     /// Every `*.wgsl` in `dir`; files missing there are taken from the embedded set.
     pub fn from_dir(dir: &Path) -> Result<Self, ShaderError> {
-        let mut sources: BTreeMap<String, String> =
-            EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
-        let entries = std::fs::read_dir(dir)
-            .map_err(|e| ShaderError::whole_file(&dir.display().to_string(), format!("cannot read the folder: {e}")))?;
-        for entry in entries.flatten() {
-            let path = entry.path();
-            if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
-                && let Some(name) = path.file_name().and_then(|n| n.to_str())
-            {
-                sources.insert(name.to_owned(), read_source(&path)?);
-            }
-        }
-        Self::from_sources(Some(dir.to_path_buf()), sources)
+        Self::from_sources(Some(dir.to_path_buf()), read_folder(dir)?)
     }
 
     fn from_sources(dir: Option<PathBuf>, sources: BTreeMap<String, String>) -> Result<Self, ShaderError> {
@@ -230,7 +222,7 @@ impl ShaderLibrary {
                 return Err(composer_error(&e, &composer, file));
             }
         }
-        Ok(Self { dir, sources, module_files, imports, composer })
+        Ok(Self { dir, sources, module_files, imports, composer: Arc::new(Mutex::new(composer)) })
     }
 
     pub fn dir(&self) -> Option<&Path> {
@@ -264,7 +256,33 @@ impl ShaderLibrary {
         for file in changed {
             read_source(&dir.join(file))?;
         }
-        Self::from_dir(dir)
+        let sources = read_folder(dir)?;
+        let is_module = |file: &str, source: &str| {
+            self.module_files.values().any(|f| f == file) || get_preprocessor_data(source).0.is_some()
+        };
+        let edited: Vec<&String> =
+            sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
+        if edited.iter().any(|f| is_module(f, &sources[*f])) || self.sources.keys().any(|f| !sources.contains_key(f)) {
+            return Self::from_sources(Some(dir.clone()), sources);
+        }
+        // Only entry files changed: same modules, same composer.
+        let mut imports = self.imports.clone();
+        for f in edited {
+            let (_, file_imports, _) = get_preprocessor_data(&sources[f]);
+            imports.insert(f.clone(), file_imports.into_iter().map(|i| i.import).collect());
+        }
+        Ok(Self {
+            dir: Some(dir.clone()),
+            sources,
+            module_files: self.module_files.clone(),
+            imports,
+            composer: Arc::clone(&self.composer),
+        })
+    }
+
+    /// Whether every file holds the same source here as in `other`.
+    pub fn same_sources(&self, other: &Self) -> bool {
+        self.sources == other.sources
     }
 
     /// Whether `entry` (transitively) includes any of `files`, itself included.
@@ -292,7 +310,9 @@ impl ShaderLibrary {
         if source.trim().is_empty() {
             return Err(ShaderError::whole_file(entry, "the file is empty"));
         }
-        self.composer
+        // A poisoned lock only means a panic elsewhere mid-composition; the modules are intact.
+        let mut composer = self.composer.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        composer
             .make_naga_module(NagaModuleDescriptor {
                 source,
                 file_path: entry,
@@ -300,7 +320,7 @@ impl ShaderLibrary {
                 shader_defs: defs.to_naga_oil(),
                 additional_imports: &[],
             })
-            .map_err(|e| composer_error(&e, &self.composer, entry))
+            .map_err(|e| composer_error(&e, &composer, entry))
     }
 
     /// Composes `entry` and creates the GPU module, catching validation errors wgpu would
@@ -330,6 +350,22 @@ impl ShaderLibrary {
             Some(e) => Err(ShaderError::whole_file(entry, e.to_string())),
         }
     }
+}
+
+/// Every `*.wgsl` in `dir` by file name, over the embedded set (which fills in what `dir` lacks).
+fn read_folder(dir: &Path) -> Result<BTreeMap<String, String>, ShaderError> {
+    let mut sources: BTreeMap<String, String> = EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| ShaderError::whole_file(&dir.display().to_string(), format!("cannot read the folder: {e}")))?;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
+            && let Some(name) = path.file_name().and_then(|n| n.to_str())
+        {
+            sources.insert(name.to_owned(), read_source(&path)?);
+        }
+    }
+    Ok(sources)
 }
 
 /// Reads a shader file. An empty file (editors often truncate before writing) or a missing one
@@ -367,6 +403,7 @@ mod tests {
         ];
         lib.compose("forward.wgsl", &defs(&[])).unwrap();
         lib.compose("forward.wgsl", &defs(&all)).unwrap();
+        lib.compose("forward.wgsl", &defs(&[&all[..], &["TRANSFORMED_UVS"]].concat())).unwrap();
         lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
         let shadowed = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "SHADOWS", "LOCAL_SHADOWS", "DEBUG_CASCADES"];
         lib.compose("forward.wgsl", &defs(&shadowed)).unwrap();
@@ -391,26 +428,44 @@ mod tests {
         }
     }
 
+    /// Texture samples the fragment entry point makes, each call of a sampling helper counted
+    /// once per call (helpers that sample return a value, so every call leaves a `CallResult`).
+    /// `gradients` counts only explicit-gradient samples.
+    fn fragment_samples(m: &naga::Module, gradients: bool) -> usize {
+        fn count(m: &naga::Module, f: &naga::Function, gradients: bool) -> usize {
+            f.expressions
+                .iter()
+                .map(|(_, e)| match e {
+                    naga::Expression::ImageSample { level, .. } => {
+                        usize::from(!gradients || matches!(level, naga::SampleLevel::Gradient { .. }))
+                    }
+                    naga::Expression::CallResult(h) => count(m, &m.functions[*h], gradients),
+                    _ => 0,
+                })
+                .sum()
+        }
+        let fs = m.entry_points.iter().find(|ep| ep.stage == naga::ShaderStage::Fragment).expect("fragment entry");
+        count(m, &fs.function, gradients)
+    }
+
     #[test]
     fn variants_leave_out_code_they_do_not_use() {
         let mut lib = ShaderLibrary::embedded().unwrap();
-        let samples = |m: &naga::Module| {
-            m.entry_points
-                .iter()
-                .flat_map(|ep| ep.function.expressions.iter())
-                .filter(|(_, e)| matches!(e, naga::Expression::ImageSample { .. }))
-                .count()
+        let mut samples = |list: &[&'static str], gradients: bool| {
+            fragment_samples(&lib.compose("forward.wgsl", &defs(list)).unwrap(), gradients)
         };
-        assert_eq!(samples(&lib.compose("forward.wgsl", &defs(&[])).unwrap()), 0);
-        assert_eq!(samples(&lib.compose("forward.wgsl", &defs(&["BASE_COLOR_TEXTURE"])).unwrap()), 1);
-        let all = defs(&[
-            "BASE_COLOR_TEXTURE",
-            "METALLIC_ROUGHNESS_TEXTURE",
-            "NORMAL_MAP",
-            "OCCLUSION_TEXTURE",
-            "EMISSIVE_TEXTURE",
-        ]);
-        assert_eq!(samples(&lib.compose("forward.wgsl", &all).unwrap()), 5);
+        // Unlit and untextured: nothing. Lit surfaces read the split-sum table once.
+        assert_eq!(samples(&["UNLIT"], false), 0);
+        assert_eq!(samples(&[], false), 1);
+        assert_eq!(samples(&["BASE_COLOR_TEXTURE"], false), 2);
+        let all =
+            ["BASE_COLOR_TEXTURE", "METALLIC_ROUGHNESS_TEXTURE", "NORMAL_MAP", "OCCLUSION_TEXTURE", "EMISSIVE_TEXTURE"];
+        assert_eq!(samples(&all, false), 6);
+        // Explicit gradients for the normal map, and for every texture where some texture maps
+        // its coordinate.
+        assert_eq!(samples(&all, true), 1);
+        let transformed = [&all[..], &["TRANSFORMED_UVS"]].concat();
+        assert_eq!(samples(&transformed, true), 5);
     }
 
     #[test]

@@ -1,9 +1,15 @@
-//! Watches a shader folder and reports which files changed, once their burst of events settles.
+//! Watches a shader folder and reports which files changed: at once, to try, and again once
+//! their burst of events settles, to report.
 //!
 //! Editors save in several steps (truncate then write, write a temporary file and rename it over
-//! the original, delete and recreate), each a file-system event; reacting to the first would read
-//! a half-written file. A file is reported once no event has touched it for [`DEBOUNCE`]. Events
-//! are keyed by file name, so a rename onto `forward.wgsl` counts as a change of `forward.wgsl`.
+//! the original, delete and recreate), each a file-system event, so the first event may find a
+//! half-written file. Waiting for the burst to settle before every reload would add that wait to
+//! every edit, so a changed file is offered twice: as *fresh* on the first poll after its event
+//! (the renderer tries it and keeps the result only if it compiles, saying nothing otherwise),
+//! and as *settled* once no event has touched it for [`DEBOUNCE`] (the renderer reloads it and
+//! reports what fails). A file accepted while fresh is not offered again until its next event.
+//! Events are keyed by file name, so a rename onto `forward.wgsl` counts as a change of
+//! `forward.wgsl`.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -13,11 +19,26 @@ use std::time::{Duration, Instant};
 
 use notify::{RecursiveMode, Watcher};
 
-/// Quiet time before a changed file is reloaded: longer than the gap between an editor's write
-/// steps (a few milliseconds), short enough to leave most of the 100 ms edit-to-frame budget to
-/// compilation. Should a slow save outlast it, the half-written file is reported as an error and
-/// its next event reloads it whole.
+/// Quiet time before a changed file that did not compile at once is reloaded and its error
+/// reported: longer than the gap between an editor's write steps (a few milliseconds). Should a
+/// slow save outlast it, the half-written file is reported as an error and its next event
+/// reloads it whole.
 pub const DEBOUNCE: Duration = Duration::from_millis(15);
+
+/// What one poll found.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct ShaderChanges {
+    /// Files whose events have settled (sorted): reload them and report errors.
+    pub settled: Vec<String>,
+    /// Files touched since the last poll that have not settled (sorted): try them quietly.
+    pub fresh: Vec<String>,
+}
+
+struct Pending {
+    last_event: Instant,
+    /// Offered as fresh since its last event.
+    tried: bool,
+}
 
 pub struct ShaderWatcher {
     _watcher: notify::RecommendedWatcher,
@@ -25,26 +46,38 @@ pub struct ShaderWatcher {
     // Each event with the time it arrived, so the quiet time counts from the write itself and
     // not from whenever the frame loop next polled.
     events: Mutex<Receiver<(Instant, notify::Result<notify::Event>)>>,
-    pending: HashMap<String, Instant>,
+    pending: HashMap<String, Pending>,
     dir: PathBuf,
+    quiet_time: Duration,
 }
 
 impl ShaderWatcher {
     pub fn new(dir: &Path) -> notify::Result<Self> {
+        Self::with_quiet_time(dir, DEBOUNCE)
+    }
+
+    /// A watcher that settles files after `quiet_time` instead of [`DEBOUNCE`].
+    pub fn with_quiet_time(dir: &Path, quiet_time: Duration) -> notify::Result<Self> {
         let (tx, events) = channel();
         let mut watcher = notify::recommended_watcher(move |e| {
             let _ = tx.send((Instant::now(), e));
         })?;
         watcher.watch(dir, RecursiveMode::NonRecursive)?;
-        Ok(Self { _watcher: watcher, events: Mutex::new(events), pending: HashMap::new(), dir: dir.to_path_buf() })
+        Ok(Self {
+            _watcher: watcher,
+            events: Mutex::new(events),
+            pending: HashMap::new(),
+            dir: dir.to_path_buf(),
+            quiet_time,
+        })
     }
 
     pub fn dir(&self) -> &Path {
         &self.dir
     }
 
-    /// Files whose events have settled since the last call (sorted, without repeats).
-    pub fn poll(&mut self) -> Vec<String> {
+    /// Files changed since the last call; settled files are forgotten once returned.
+    pub fn poll(&mut self) -> ShaderChanges {
         let now = Instant::now();
         let events = self.events.get_mut().unwrap_or_else(|poisoned| poisoned.into_inner());
         while let Ok((arrived, event)) = events.try_recv() {
@@ -56,22 +89,93 @@ impl ShaderWatcher {
                 if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
                     && let Some(name) = path.file_name().and_then(|n| n.to_str())
                 {
-                    let last = self.pending.entry(name.to_owned()).or_insert(arrived);
-                    *last = (*last).max(arrived);
+                    let p =
+                        self.pending.entry(name.to_owned()).or_insert(Pending { last_event: arrived, tried: false });
+                    p.last_event = p.last_event.max(arrived);
+                    p.tried = false;
                 }
             }
         }
-        let mut ready: Vec<String> =
-            self.pending.iter().filter(|(_, t)| now.duration_since(**t) >= DEBOUNCE).map(|(f, _)| f.clone()).collect();
-        ready.sort();
-        for f in &ready {
+        let mut changes = ShaderChanges::default();
+        for (file, p) in &mut self.pending {
+            if now.duration_since(p.last_event) >= self.quiet_time {
+                changes.settled.push(file.clone());
+            } else if !p.tried {
+                p.tried = true;
+                changes.fresh.push(file.clone());
+            }
+        }
+        changes.settled.sort();
+        changes.fresh.sort();
+        for f in &changes.settled {
             self.pending.remove(f);
         }
-        ready
+        changes
     }
 
-    /// Whether events are waiting to settle.
+    /// `files` compiled while fresh: they need no settled reload unless touched again.
+    pub fn accept(&mut self, files: &[String]) {
+        for f in files {
+            if self.pending.get(f).is_some_and(|p| p.tried) {
+                self.pending.remove(f);
+            }
+        }
+    }
+
+    /// Whether changed files wait to settle.
     pub fn busy(&self) -> bool {
         !self.pending.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Polls until a poll reports something (the event reaches the watcher's thread first).
+    fn next_changes(w: &mut ShaderWatcher) -> ShaderChanges {
+        let start = Instant::now();
+        loop {
+            let c = w.poll();
+            if c != ShaderChanges::default() {
+                return c;
+            }
+            assert!(start.elapsed() < Duration::from_secs(5), "no event");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    fn changes(settled: &[&str], fresh: &[&str]) -> ShaderChanges {
+        let own = |l: &[&str]| l.iter().map(|s| s.to_string()).collect();
+        ShaderChanges { settled: own(settled), fresh: own(fresh) }
+    }
+
+    #[test]
+    fn a_change_is_offered_at_once_then_again_when_it_settles_unless_accepted() {
+        let dir = std::env::temp_dir().join(format!("penumbra-watcher-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // A quiet time long enough that this thread's own delays cannot settle a file early.
+        let quiet = Duration::from_millis(400);
+        let mut w = ShaderWatcher::with_quiet_time(&dir, quiet).unwrap();
+
+        std::fs::write(dir.join("a.wgsl"), "fn a() {}").unwrap();
+        std::fs::write(dir.join("notes.txt"), "not a shader").unwrap();
+        // One write is several events (create, modify); let all of them reach the channel.
+        std::thread::sleep(Duration::from_millis(50));
+        assert_eq!(next_changes(&mut w), changes(&[], &["a.wgsl"]));
+        assert_eq!(w.poll(), ShaderChanges::default(), "offered once while fresh");
+        assert!(w.busy());
+        std::thread::sleep(quiet);
+        assert_eq!(w.poll(), changes(&["a.wgsl"], &[]), "not accepted: offered again, settled");
+        assert!(!w.busy());
+
+        std::fs::write(dir.join("b.wgsl"), "fn b() {}").unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        assert_eq!(next_changes(&mut w), changes(&[], &["b.wgsl"]));
+        w.accept(&["b.wgsl".to_owned()]);
+        assert!(!w.busy());
+        std::thread::sleep(quiet);
+        assert_eq!(w.poll(), ShaderChanges::default(), "accepted while fresh: done");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

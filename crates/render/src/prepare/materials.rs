@@ -9,7 +9,7 @@ use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
 use penumbra_engine::Handle;
-use penumbra_engine::material::{AlphaMode, StandardMaterial};
+use penumbra_engine::material::{AlphaMode, StandardMaterial, UvTransform};
 
 use super::buffer::GrowableBuffer;
 use super::textures::TextureCache;
@@ -193,14 +193,7 @@ impl MaterialTable {
                 alpha,
                 unlit: material.unlit,
                 double_sided: material.double_sided,
-                textures: TextureSet(
-                    material
-                        .textures()
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, t)| t.is_some())
-                        .fold(0, |bits, (i, _)| bits | 1 << i),
-                ),
+                textures: texture_set(&material),
             },
         );
         true
@@ -244,6 +237,20 @@ impl MaterialTable {
         queue.write_buffer(self.buffer.buffer(), 0, bytes);
         grew
     }
+}
+
+/// The textures `m` samples, and whether any maps its coordinate (the shader variant).
+fn texture_set(m: &StandardMaterial) -> TextureSet {
+    let mut bits = 0;
+    for (i, tex) in m.textures().iter().enumerate() {
+        if let Some(t) = tex {
+            bits |= 1 << i;
+            if t.uv_set != 0 || t.transform != UvTransform::default() {
+                bits |= TextureSet::TRANSFORMED_UVS;
+            }
+        }
+    }
+    TextureSet(bits)
 }
 
 fn pack(m: &StandardMaterial) -> GpuMaterial {
