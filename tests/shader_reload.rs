@@ -212,3 +212,36 @@ fn an_edit_to_the_split_sum_table_remakes_the_table() {
     let dimmer = brightness(&after, SIZE.0, SIZE.0 / 2, SIZE.1 / 2);
     assert!(dimmer < lit * 0.8, "the new table is what the surface reads: {lit} -> {dimmer}");
 }
+
+#[test]
+fn pipelines_sharing_a_variant_rebuild_together_and_a_pipeline_error_keeps_them_all() {
+    let dir = shader_folder("reload-many");
+    let mut app = app_with_shaders(&dir);
+    // A double-sided quad behind the single-sided one: the same variant, another pipeline.
+    let mut quad = Mesh::plane(1.0);
+    for p in &mut quad.positions {
+        *p = Vec3::new(p.x, -p.z, 0.0);
+    }
+    quad.normals = vec![Vec3::Z; 4];
+    let material = StandardMaterial { double_sided: true, ..StandardMaterial::from_color(Vec4::ONE, 1.0) };
+    spawn_mesh(&mut app, quad, material, Transform::from_xyz(0.0, 0.0, -0.5));
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let keys = renderer(&app).forward_pipeline_keys();
+    assert_eq!(keys.len(), 2, "{keys:?}");
+    assert_eq!(keys[0].shader_defs(), keys[1].shader_defs());
+    let original = forward(&dir);
+
+    // Composes, but no pipeline can be made from it: the error comes from pipeline creation.
+    let renamed = original.replacen("fn fs_main(", "fn fs_renamed(", 1);
+    assert_ne!(renamed, original);
+    std::fs::write(dir.join("forward.wgsl"), &renamed).unwrap();
+    let err = app.world.resource_mut::<Renderer>().reload_shaders(&["forward.wgsl".to_owned()]).unwrap_err();
+    assert_eq!(err.file, "forward.wgsl", "{err}");
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good, "both old pipelines still draw");
+
+    std::fs::write(dir.join("forward.wgsl"), scaled_output(&original, "0.0")).unwrap();
+    let report = app.world.resource_mut::<Renderer>().reload_shaders(&["forward.wgsl".to_owned()]).unwrap();
+    assert_eq!(report.rebuilt, 2, "both pipelines of the variant");
+    let px = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "the edited shader is in use");
+}

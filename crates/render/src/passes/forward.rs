@@ -245,13 +245,8 @@ fn draw_gizmos(pass: &mut wgpu::RenderPass<'_>, pipelines: &PipelineCache, input
 /// Creates the batches' pipelines before a pass borrows the cache immutably; returns the last
 /// error.
 fn compile(device: &wgpu::Device, pipelines: &mut PipelineCache, batches: &[Batch]) -> Option<ShaderError> {
-    let mut error = None;
-    for b in batches {
-        if let Err(e) = pipelines.forward(device, b.key) {
-            error = Some(e);
-        }
-    }
-    error
+    let keys: Vec<_> = batches.iter().map(|b| b.key).collect();
+    pipelines.prepare_forward(device, &keys)
 }
 
 /// Draws `batches`, the part of the frame's batch list that starts at index `start`.

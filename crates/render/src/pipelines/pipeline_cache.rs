@@ -379,6 +379,69 @@ impl Drop for PipelineTiming {
     }
 }
 
+/// The forward pipeline of `key` from its composed `module`.
+fn forward_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    key: PipelineKey,
+) -> Result<wgpu::RenderPipeline, ShaderError> {
+    let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
+    let label = format!("forward {key:?}");
+    let color = Some(wgpu::ColorTargetState { format: key.color_format.0, blend, write_mask: wgpu::ColorWrites::ALL });
+    let surface = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+    let targets = if key.local_lights == LocalLights::Deferred {
+        vec![color, surface(SURFACE_SHAPE_FORMAT)]
+    } else {
+        vec![color]
+    };
+    let _timing = PipelineTiming(std::time::Instant::now());
+    checked_pipeline(device, "forward.wgsl", || {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(&label),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(GpuVertex::layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: match key.topology {
+                    TopologyKey::Triangles => wgpu::PrimitiveTopology::TriangleList,
+                    TopologyKey::Lines => wgpu::PrimitiveTopology::LineList,
+                    TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
+                },
+                strip_index_format: None,
+                front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
+                cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
+                unclipped_depth: false,
+                polygon_mode: wgpu::PolygonMode::Fill,
+                conservative: false,
+            },
+            depth_stencil: key.depth_format.map(|depth| wgpu::DepthStencilState {
+                format: depth.0,
+                // Blended surfaces are sorted back to front and must not hide what lies
+                // behind them in later draws.
+                depth_write_enabled: Some(key.alpha != AlphaKey::Blend),
+                // Reverse-Z: nearer is greater.
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState { count: key.sample_count, mask: !0, alpha_to_coverage_enabled: false },
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    })
+}
+
 /// Creates a pipeline inside a validation error scope, so a shader that composes but does not
 /// fit the pipeline (a renamed entry point, a changed binding) is an error, not a crash.
 fn checked_pipeline<P>(device: &wgpu::Device, file: &str, create: impl FnOnce() -> P) -> Result<P, ShaderError> {
@@ -601,16 +664,7 @@ impl PipelineCache {
         self.forward.keys()
     }
 
-    /// The forward pipeline for `key`, compiling it on first use.
-    pub fn forward(&mut self, device: &wgpu::Device, key: PipelineKey) -> Result<&wgpu::RenderPipeline, ShaderError> {
-        if !self.forward.contains_key(&key) {
-            let p = self.create_forward(device, &mut None, key)?;
-            self.forward.insert(key, p);
-        }
-        Ok(&self.forward[&key])
-    }
-
-    /// A pipeline already created by [`PipelineCache::forward`].
+    /// A pipeline already created by [`PipelineCache::prepare_forward`].
     pub fn forward_cached(&self, key: &PipelineKey) -> Option<&wgpu::RenderPipeline> {
         self.forward.get(key)
     }
@@ -714,9 +768,8 @@ impl PipelineCache {
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
         if forward_hit {
-            for key in self.forward.keys().copied().collect::<Vec<_>>() {
-                forward.push((key, self.create_forward(device, &mut candidate, key)?));
-            }
+            let keys: Vec<PipelineKey> = self.forward.keys().copied().collect();
+            forward = self.create_forward_many(device, &mut candidate, &keys)?;
         }
         if tonemap_hit {
             for key in self.tonemap.keys().copied().collect::<Vec<_>>() {
@@ -833,73 +886,85 @@ impl PipelineCache {
         }
     }
 
-    fn create_forward(
+    /// The forward pipelines of `keys` (in that order); for a reload, so the first error, in
+    /// key order, fails it.
+    fn create_forward_many(
         &mut self,
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
-        key: PipelineKey,
-    ) -> Result<wgpu::RenderPipeline, ShaderError> {
-        let module = self.library(candidate).create_module(device, "forward.wgsl", &key.shader_defs())?;
-        let blend = (key.alpha == AlphaKey::Blend).then_some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING);
-        let label = format!("forward {key:?}");
-        let color =
-            Some(wgpu::ColorTargetState { format: key.color_format.0, blend, write_mask: wgpu::ColorWrites::ALL });
-        let surface = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
-        let targets = if key.local_lights == LocalLights::Deferred {
-            vec![color, surface(SURFACE_SHAPE_FORMAT)]
-        } else {
-            vec![color]
+        keys: &[PipelineKey],
+    ) -> Result<Vec<(PipelineKey, wgpu::RenderPipeline)>, ShaderError> {
+        self.build_forward(device, candidate, keys).into_iter().map(|(key, p)| p.map(|p| (key, p))).collect()
+    }
+
+    /// Compiles the forward pipelines of `keys` not compiled yet (a frame's new batches, at
+    /// once); returns the last error.
+    pub fn prepare_forward(&mut self, device: &wgpu::Device, keys: &[PipelineKey]) -> Option<ShaderError> {
+        let mut missing: Vec<PipelineKey> = keys.iter().filter(|k| !self.forward.contains_key(k)).copied().collect();
+        missing.sort();
+        missing.dedup();
+        let mut error = None;
+        for (key, pipeline) in self.build_forward(device, &mut None, &missing) {
+            match pipeline {
+                Ok(p) => {
+                    self.forward.insert(key, p);
+                }
+                Err(e) => error = Some(e),
+            }
+        }
+        error
+    }
+
+    /// Builds the forward pipelines of `keys`, each with its own outcome, in key order. Each
+    /// variant is composed once, however many keys share it (keys that differ only in raster
+    /// state: face culling, winding, topology). The pipelines are created on up to one thread
+    /// per core: a driver that compiles at creation (NVIDIA's takes about 70 ms for the lit
+    /// variant) would otherwise make a frame or a reload wait for the sum of those times.
+    fn build_forward(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        keys: &[PipelineKey],
+    ) -> Vec<(PipelineKey, Result<wgpu::RenderPipeline, ShaderError>)> {
+        let mut modules: HashMap<ShaderDefs, Result<wgpu::ShaderModule, ShaderError>> = HashMap::new();
+        for key in keys {
+            if let std::collections::hash_map::Entry::Vacant(slot) = modules.entry(key.shader_defs()) {
+                let module = self.library(candidate).create_module(device, "forward.wgsl", slot.key());
+                slot.insert(module);
+            }
+        }
+        self.compiled += keys.len();
+        let layout = &self.forward_layout;
+        let build = |key: &PipelineKey| match &modules[&key.shader_defs()] {
+            Ok(module) => forward_pipeline(device, layout, module, *key),
+            Err(e) => Err(e.clone()),
         };
-        self.compiled += 1;
-        let _timing = PipelineTiming(std::time::Instant::now());
-        checked_pipeline(device, "forward.wgsl", || {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(&label),
-                layout: Some(&self.forward_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(GpuVertex::layout())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: match key.topology {
-                        TopologyKey::Triangles => wgpu::PrimitiveTopology::TriangleList,
-                        TopologyKey::Lines => wgpu::PrimitiveTopology::LineList,
-                        TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
-                    },
-                    strip_index_format: None,
-                    front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
-                    cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
-                    unclipped_depth: false,
-                    polygon_mode: wgpu::PolygonMode::Fill,
-                    conservative: false,
-                },
-                depth_stencil: key.depth_format.map(|depth| wgpu::DepthStencilState {
-                    format: depth.0,
-                    // Blended surfaces are sorted back to front and must not hide what lies
-                    // behind them in later draws.
-                    depth_write_enabled: Some(key.alpha != AlphaKey::Blend),
-                    // Reverse-Z: nearer is greater.
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
-                multisample: wgpu::MultisampleState {
-                    count: key.sample_count,
-                    mask: !0,
-                    alpha_to_coverage_enabled: false,
-                },
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &targets,
-                }),
-                multiview_mask: None,
-                cache: None,
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(keys.len());
+        let mut built: Vec<(usize, Result<wgpu::RenderPipeline, ShaderError>)> = if threads <= 1 {
+            keys.iter().map(build).enumerate().collect()
+        } else {
+            let next = std::sync::atomic::AtomicUsize::new(0);
+            std::thread::scope(|scope| {
+                let workers: Vec<_> = (0..threads)
+                    .map(|_| {
+                        scope.spawn(|| {
+                            let mut mine = Vec::new();
+                            loop {
+                                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                                let Some(key) = keys.get(i) else { break mine };
+                                mine.push((i, build(key)));
+                            }
+                        })
+                    })
+                    .collect();
+                workers
+                    .into_iter()
+                    .flat_map(|w| w.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)))
+                    .collect()
             })
-        })
+        };
+        built.sort_by_key(|(i, _)| *i);
+        built.into_iter().map(|(i, pipeline)| (keys[i], pipeline)).collect()
     }
 
     fn create_tonemap(
