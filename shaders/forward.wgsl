@@ -9,7 +9,8 @@
 // Variants (shader defs, set per pipeline by pipeline_cache.rs from what each draw uses; code a
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, TRANSFORMED_UVS
-// (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel), LOCAL_LIGHTS
+// (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
+// OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
 // and LTC_LIGHTS add the code of lights with a size when the scene has them), SHADOWS
 // (directional lights read their cascaded shadow maps, shadows.wgsl), IBL (the environment's
@@ -241,7 +242,12 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
 #ifdef OCCLUSION_TEXTURE
+#ifdef OCCLUSION_IN_METALLIC_ROUGHNESS
+    // The same texel (glTF's ORM packing): occlusion is its red channel.
+    let ao = mr;
+#else
     let ao = material_texel(occlusion_texture, occlusion_sampler, mat, 3u, sets);
+#endif
     s.occlusion = 1.0 + mat.occlusion_strength * (ao.r - 1.0);
 #endif
 

@@ -48,6 +48,9 @@ impl TextureSet {
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
     pub const TRANSFORMED_UVS: u8 = 32;
+    /// The occlusion texture is the metallic-roughness texture (same image, sampler and
+    /// coordinates: glTF's ORM packing, occlusion in red), so one sample serves both.
+    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u8 = 64;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -103,6 +106,12 @@ impl PipelineKey {
             .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
             .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
+            .with(
+                "OCCLUSION_IN_METALLIC_ROUGHNESS",
+                lit && t.has(TextureSet::OCCLUSION)
+                    && t.has(TextureSet::METALLIC_ROUGHNESS)
+                    && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS),
+            )
             .with("LOCAL_LIGHTS", local)
             .with("DEFERRED_LOCAL_LIGHTS", self.local_lights == LocalLights::Deferred)
             .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)

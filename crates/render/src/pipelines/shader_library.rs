@@ -466,6 +466,8 @@ mod tests {
         assert_eq!(samples(&all, true), 1);
         let transformed = [&all[..], &["TRANSFORMED_UVS"]].concat();
         assert_eq!(samples(&transformed, true), 5);
+        // Occlusion packed in the metallic-roughness texture: one sample for both.
+        assert_eq!(samples(&[&all[..], &["OCCLUSION_IN_METALLIC_ROUGHNESS"]].concat(), false), 5);
     }
 
     #[test]

@@ -239,7 +239,8 @@ impl MaterialTable {
     }
 }
 
-/// The textures `m` samples, and whether any maps its coordinate (the shader variant).
+/// The textures `m` samples, whether any maps its coordinate, and whether occlusion shares the
+/// metallic-roughness texel (the shader variant).
 fn texture_set(m: &StandardMaterial) -> TextureSet {
     let mut bits = 0;
     for (i, tex) in m.textures().iter().enumerate() {
@@ -249,6 +250,9 @@ fn texture_set(m: &StandardMaterial) -> TextureSet {
                 bits |= TextureSet::TRANSFORMED_UVS;
             }
         }
+    }
+    if m.occlusion_texture.is_some() && m.occlusion_texture == m.metallic_roughness_texture {
+        bits |= TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS;
     }
     TextureSet(bits)
 }
@@ -289,6 +293,34 @@ fn pack(m: &StandardMaterial) -> GpuMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_texture_set_says_how_textures_are_sampled() {
+        use penumbra_engine::image::Image;
+        use penumbra_engine::material::TextureRef;
+        let mut images = penumbra_engine::Assets::new();
+        let orm = TextureRef::new(images.add(Image::solid([255; 4], "orm")));
+        let mut m = StandardMaterial {
+            base_color_texture: Some(TextureRef::new(images.add(Image::solid([255; 4], "base")))),
+            metallic_roughness_texture: Some(orm),
+            occlusion_texture: Some(orm),
+            ..Default::default()
+        };
+        let bits = TextureSet::BASE_COLOR
+            | TextureSet::METALLIC_ROUGHNESS
+            | TextureSet::OCCLUSION
+            | TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS;
+        assert_eq!(texture_set(&m), TextureSet(bits));
+        // Same image, other coordinates: two samples.
+        m.occlusion_texture = Some(TextureRef { uv_set: 1, ..orm });
+        let bits = TextureSet::BASE_COLOR
+            | TextureSet::METALLIC_ROUGHNESS
+            | TextureSet::OCCLUSION
+            | TextureSet::TRANSFORMED_UVS;
+        assert_eq!(texture_set(&m), TextureSet(bits));
+        m.occlusion_texture = None;
+        assert_eq!(texture_set(&m), TextureSet(TextureSet::BASE_COLOR | TextureSet::METALLIC_ROUGHNESS));
+    }
 
     #[test]
     fn gpu_material_matches_the_wgsl_layout() {
