@@ -661,8 +661,10 @@ impl Renderer {
 
     /// What a successful reload changes beyond the pipelines.
     fn reloaded(&mut self, report: &ReloadReport, start: Instant) {
-        // A changed caster shader may draw other depths: every shadow map is redrawn.
-        self.shadows.invalidate();
+        if report.rebuilt > 0 {
+            // A changed caster shader may draw other depths: every shadow map is redrawn.
+            self.shadows.invalidate();
+        }
         if report.environment_steps {
             self.environment.remake();
         }
