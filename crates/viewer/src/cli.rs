@@ -129,6 +129,13 @@ pub struct LookArgs {
     /// the caster, from the light's angular size). Default from --quality (pcss at ultra).
     #[arg(long, value_enum)]
     pub shadow_filter: Option<ShadowFilterArg>,
+    /// Shadow casters' depth bias, in multiples of their depth slope across one texel, 0 to 16:
+    /// more removes acne from steep surfaces and eats into contact shadows.
+    #[arg(long, default_value_t = ShadowSettings::default().slope_bias, value_name = "SLOPES")]
+    pub shadow_slope_bias: f32,
+    /// Shadow receivers' offset along their normal, in texels of the cascade they read, 0 to 16.
+    #[arg(long, default_value_t = ShadowSettings::default().normal_bias, value_name = "TEXELS")]
+    pub shadow_normal_bias: f32,
     /// Draw every opaque object instead of culling against the view on the GPU (for
     /// comparison; culling never changes the image).
     #[arg(long)]
@@ -602,6 +609,8 @@ impl LookArgs {
         if let Some(cascades) = self.cascades {
             settings.shadows.cascades = cascades;
         }
+        settings.shadows.slope_bias = self.shadow_slope_bias;
+        settings.shadows.normal_bias = self.shadow_normal_bias;
         if let Some(filter) = self.shadow_filter {
             settings.shadows.filter = match filter {
                 ShadowFilterArg::Pcf => ShadowFilter::Pcf,
@@ -621,6 +630,8 @@ impl LookArgs {
                     "atlas_size" => "--shadow-atlas",
                     "cascades" => "--cascades",
                     "max_distance" => "--shadow-distance",
+                    "slope_bias" => "--shadow-slope-bias",
+                    "normal_bias" => "--shadow-normal-bias",
                     _ => "shadow settings",
                 },
             };

@@ -82,8 +82,10 @@ fn a_missing_file_fails_with_its_name() {
 #[test]
 fn out_of_range_settings_name_their_flag() {
     let scene = asset("BoxTextured/BoxTextured.glb");
-    let cases: [(&[&str], &str); 14] = [
+    let cases: [(&[&str], &str); 16] = [
         (&["--msaa", "3"], "--msaa"),
+        (&["--shadow-slope-bias", "17"], "--shadow-slope-bias"),
+        (&["--shadow-normal-bias", "20"], "--shadow-normal-bias"),
         (&["--quality", "extreme"], "--quality"),
         (&["--light-cutoff", "0"], "--light-cutoff"),
         (&["--quality", "low", "--cascades", "9"], "--cascades"),

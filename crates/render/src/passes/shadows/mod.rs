@@ -69,7 +69,7 @@ impl Default for ShadowSettings {
             max_distance: 100.0,
             atlas_size: 4096,
             filter: ShadowFilter::Pcf,
-            slope_bias: 2.0,
+            slope_bias: 4.0,
             normal_bias: 1.5,
             cascade_blend: 0.1,
             max_penumbra_texels: 24.0,
