@@ -94,11 +94,26 @@ fn multiscatter_scale(f0_color: vec3<f32>, ess: f32) -> vec3<f32> {
 // leaves, so a white surface returns exactly `l` whatever its roughness or metalness, which the
 // white-furnace test checks.
 fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let w = lobe_weights(s);
+    return (w.specular + w.diffuse) * l * s.occlusion;
+}
+
+// What each lobe returns of light arriving evenly from the whole hemisphere (before
+// occlusion): the specular lobe's directional albedo, and the diffuse albedo scaled by what the
+// dielectric's specular layer leaves. `ambient` weights one radiance by both; the environment
+// (ibl.wgsl) weights its prefiltered and irradiance terms by each.
+struct LobeWeights {
+    specular: vec3<f32>,
+    diffuse: vec3<f32>,
+};
+
+fn lobe_weights(s: Surface) -> LobeWeights {
     let dielectric_specular = specular_albedo(DIELECTRIC_F0, s.dfg);
     let metal_specular = specular_albedo(s.base_color, s.dfg);
-    let specular = mix(dielectric_specular, metal_specular, s.metallic);
-    let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
-    return (specular + diffuse) * l * s.occlusion;
+    return LobeWeights(
+        mix(dielectric_specular, metal_specular, s.metallic),
+        s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular)
+    );
 }
 
 // Radiance reflected towards the eye from light arriving along `l` with illuminance `e`

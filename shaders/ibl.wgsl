@@ -5,13 +5,12 @@
 //   (env_filter.wgsl), so a Lambertian surface of albedo 1 returns Σ c_i·Y_i(n).
 // - Specular: the split sum (Karis 2013): the GGX-prefiltered cube at the surface's roughness
 //   (mip = perceptual roughness × max_lod) times the directional albedo from the table of
-//   brdf_lut.wgsl (`Surface::dfg`), with multiple-scattering compensation (brdf.wgsl's
-//   specular_albedo), combined
-//   as glTF's metal/dielectric mix like the uniform ambient light: a white surface under a
-//   uniform environment returns exactly its radiance (the furnace test).
+//   brdf_lut.wgsl (`Surface::dfg`), with multiple-scattering compensation, combined as glTF's
+//   metal/dielectric mix exactly as the uniform ambient light is (brdf.wgsl's lobe_weights): a
+//   white surface under a uniform environment returns exactly its radiance (the furnace test).
 #define_import_path penumbra::ibl
 
-#import penumbra::brdf::{Surface, DIELECTRIC_F0, specular_albedo}
+#import penumbra::brdf::{Surface, lobe_weights}
 #import penumbra::split_sum::linear_sampler
 
 struct EnvironmentParams {
@@ -65,10 +64,7 @@ fn environment_light(s: Surface) -> vec3<f32> {
     // PBR", §4.9.3): the prefiltered cube was made with n = v = r.
     let a = s.alpha;
     let dir = normalize(mix(s.n, r, (1.0 - a) * (sqrt(1.0 - a) + a)));
-    let dielectric_specular = specular_albedo(DIELECTRIC_F0, s.dfg);
-    let metal_specular = specular_albedo(s.base_color, s.dfg);
-    let specular = mix(dielectric_specular, metal_specular, s.metallic);
-    let diffuse = s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular);
-    let light = specular * prefiltered_radiance(dir, s.perceptual_roughness) + diffuse * diffuse_irradiance(s.n);
+    let w = lobe_weights(s);
+    let light = w.specular * prefiltered_radiance(dir, s.perceptual_roughness) + w.diffuse * diffuse_irradiance(s.n);
     return light * s.occlusion;
 }

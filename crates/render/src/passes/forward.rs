@@ -245,8 +245,7 @@ fn draw_gizmos(pass: &mut wgpu::RenderPass<'_>, pipelines: &PipelineCache, input
 /// Creates the batches' pipelines before a pass borrows the cache immutably; returns the last
 /// error.
 fn compile(device: &wgpu::Device, pipelines: &mut PipelineCache, batches: &[Batch]) -> Option<ShaderError> {
-    let keys: Vec<_> = batches.iter().map(|b| b.key).collect();
-    pipelines.prepare_forward(device, &keys)
+    pipelines.prepare_forward(device, batches.iter().map(|b| b.key))
 }
 
 /// Draws `batches`, the part of the frame's batch list that starts at index `start`.

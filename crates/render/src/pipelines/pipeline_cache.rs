@@ -106,12 +106,8 @@ impl PipelineKey {
             .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
             .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
-            .with(
-                "OCCLUSION_IN_METALLIC_ROUGHNESS",
-                lit && t.has(TextureSet::OCCLUSION)
-                    && t.has(TextureSet::METALLIC_ROUGHNESS)
-                    && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS),
-            )
+            // Set only with both textures (materials.rs).
+            .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))
             .with("LOCAL_LIGHTS", local)
             .with("DEFERRED_LOCAL_LIGHTS", self.local_lights == LocalLights::Deferred)
             .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)
@@ -908,8 +904,15 @@ impl PipelineCache {
 
     /// Compiles the forward pipelines of `keys` not compiled yet (a frame's new batches, at
     /// once); returns the last error.
-    pub fn prepare_forward(&mut self, device: &wgpu::Device, keys: &[PipelineKey]) -> Option<ShaderError> {
-        let mut missing: Vec<PipelineKey> = keys.iter().filter(|k| !self.forward.contains_key(k)).copied().collect();
+    pub fn prepare_forward(
+        &mut self,
+        device: &wgpu::Device,
+        keys: impl IntoIterator<Item = PipelineKey>,
+    ) -> Option<ShaderError> {
+        let mut missing: Vec<PipelineKey> = keys.into_iter().filter(|k| !self.forward.contains_key(k)).collect();
+        if missing.is_empty() {
+            return None;
+        }
         missing.sort();
         missing.dedup();
         let mut error = None;

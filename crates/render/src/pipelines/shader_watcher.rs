@@ -56,8 +56,8 @@ impl ShaderWatcher {
         Self::with_quiet_time(dir, DEBOUNCE)
     }
 
-    /// A watcher that settles files after `quiet_time` instead of [`DEBOUNCE`].
-    pub fn with_quiet_time(dir: &Path, quiet_time: Duration) -> notify::Result<Self> {
+    /// A watcher that settles files after `quiet_time` instead of [`DEBOUNCE`] (tests).
+    fn with_quiet_time(dir: &Path, quiet_time: Duration) -> notify::Result<Self> {
         let (tx, events) = channel();
         let mut watcher = notify::recommended_watcher(move |e| {
             let _ = tx.send((Instant::now(), e));
