@@ -19,7 +19,8 @@
 // local lights are shaded by a compute pass (deferred_lights.wgsl) instead, from the surface
 // each fragment also writes out. TONEMAP_IN_FORWARD (with display.wgsl's switches): nothing
 // reads the HDR colour, so the output is tonemapped here and drawn straight into the output
-// target; the tonemap pass does not run.
+// target; the tonemap pass does not run. LINE_QUADS: the draw is a line list held as quads
+// (prepare/line_quads.rs), widened to one pixel here (line_corner).
 
 #import penumbra::common::{F16_MAX, safe_normalize}
 #import penumbra::view::{View, eye_direction}
@@ -62,6 +63,12 @@
 @group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
 #endif
 
+#ifdef LINE_QUADS
+// The mesh pool's vertices (GpuVertex, 16 words each, position first): a line quad's corner
+// reads its segment's opposite endpoint here (prepare/line_quads.rs).
+@group(0) @binding(21) var<storage, read> pool_vertices: array<f32>;
+#endif
+
 @group(1) @binding(0) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(1) var base_color_sampler: sampler;
 @group(1) @binding(2) var metallic_roughness_texture: texture_2d<f32>;
@@ -75,6 +82,9 @@
 
 struct VertexIn {
     @builtin(instance_index) instance_index: u32,
+#ifdef LINE_QUADS
+    @builtin(vertex_index) vertex_index: u32,
+#endif
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) tangent: vec4<f32>,
@@ -101,6 +111,12 @@ fn vs_main(in: VertexIn) -> VertexOut {
 
     var out: VertexOut;
     out.clip_position = view.clip_from_rel * vec4<f32>(placed.rel, 1.0);
+#ifdef LINE_QUADS
+    let other_at = (in.vertex_index ^ 2u) * 16u;
+    let other = vec3<f32>(pool_vertices[other_at], pool_vertices[other_at + 1u], pool_vertices[other_at + 2u]);
+    let other_clip = view.clip_from_rel * vec4<f32>(place_vertex(inst, other, view.camera_position).rel, 1.0);
+    out.clip_position = line_corner(out.clip_position, other_clip, in.vertex_index);
+#endif
     out.rel_position = placed.rel;
     // Normalised here: the cofactor scales normals by the square of the object's scale, which for
     // a 1e-4 scale model would be 1e-8 before interpolation.
@@ -112,6 +128,38 @@ fn vs_main(in: VertexIn) -> VertexOut {
     out.material = inst.material;
     return out;
 }
+
+#ifdef LINE_QUADS
+// A corner of a segment's quad (prepare/line_quads.rs): the endpoint at `clip`, moved half a
+// pixel to its side of the segment towards `other_clip`, so the quad covers what a strict
+// hardware line of width 1 covers. The offset is made in clip space (times w), so it stays
+// half a pixel all along the segment once the rasteriser divides by w.
+fn line_corner(clip: vec4<f32>, other_clip: vec4<f32>, vertex_index: u32) -> vec4<f32> {
+    // Where the segment crosses behind the eye its direction on screen is taken from the part
+    // in front: an endpoint behind (w ≤ 0) is moved along the segment to just in front of the
+    // eye, and the rasteriser's near clipping cuts the quad where the line is cut.
+    let w_min = 1e-6 * max(abs(clip.w), abs(other_clip.w));
+    var p = clip;
+    var q = other_clip;
+    if p.w < w_min && q.w > w_min {
+        p = mix(q, p, (q.w - w_min) / (q.w - p.w));
+    } else if q.w < w_min && p.w > w_min {
+        q = mix(p, q, (p.w - w_min) / (p.w - q.w));
+    }
+    let pixels = 0.5 * view.target_size;
+    var along = (q.xy / q.w - p.xy / p.w) * pixels;
+    // Both quads' corners take the side from the segment's first endpoint towards its second.
+    if (vertex_index & 2u) != 0u {
+        along = -along;
+    }
+    let len2 = dot(along, along);
+    // A segment shorter than f32 can resolve covers nothing, as a hardware line of length 0.
+    let dir = select(vec2<f32>(0.0), along * inverseSqrt(len2), len2 > 1e-30 && len2 < 3e38);
+    let side = select(-0.5, 0.5, (vertex_index & 1u) != 0u);
+    let offset = vec2<f32>(-dir.y, dir.x) * side / pixels;
+    return vec4<f32>(p.xy + offset * p.w, p.zw);
+}
+#endif
 
 // Distance along the view direction.
 fn view_depth(rel: vec3<f32>) -> f32 {
@@ -189,7 +237,12 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #else
     let v = eye_direction(view, in.rel_position);
     var n = safe_normalize(in.normal, v);
+#ifdef LINE_QUADS
+    // A line has no back; its quad's winding follows the segment's direction on screen.
+    let double_sided_back = false;
+#else
     let double_sided_back = (mat.flags & MATERIAL_DOUBLE_SIDED) != 0u && !front_facing;
+#endif
 #ifdef NORMAL_MAP
     // Explicit gradients in every variant: the normal decides where a sharp highlight lands.
     // With implicit ones NormalTangentTest's frame on GL differed from Vulkan's by one highlight

@@ -14,8 +14,8 @@ struct View {
     // Slots 0 .. global_light_count of `lights` are global; local lights follow.
     global_light_count: u32,
     local_light_count: u32,
-    _pad_a: u32,
-    _pad_b: u32,
+    // The target's size in pixels.
+    target_size: vec2<f32>,
     // Inverse of clip_from_rel: the background's view rays.
     rel_from_clip: mat4x4<f32>,
 };

@@ -304,7 +304,8 @@ struct GpuView {
     is_orthographic: u32,
     global_light_count: u32,
     local_light_count: u32,
-    _pad: [u32; 2],
+    /// The target's size in pixels (line quads are a pixel wide).
+    target_size: [f32; 2],
     rel_from_clip: [[f32; 4]; 4],
 }
 
@@ -390,7 +391,8 @@ pub struct Renderer {
     bounds_cache: Option<(u64, SceneBounds)>,
     view_buffer: wgpu::Buffer,
     draw_slots: GrowableBuffer,
-    view_bind_group: Option<wgpu::BindGroup>,
+    /// With the mesh pool's vertex-buffer generation it binds (line quads read the pool).
+    view_bind_group: Option<(u64, wgpu::BindGroup)>,
     gizmos: crate::passes::gizmos::GizmoLines,
     draws: EntityTable<DrawState>,
     mesh_users: HashMap<Handle<Mesh>, u32>,
@@ -953,8 +955,9 @@ impl Renderer {
         let instance_upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
         rebind |= self.materials.upload(&device, &queue);
         self.write_view(scene, &queue, size);
-        if rebind || self.view_bind_group.is_none() {
-            self.view_bind_group = Some(self.create_view_bind_group(&device));
+        let vertices = self.mesh_pool.vertex_generation();
+        if rebind || self.view_bind_group.as_ref().is_none_or(|(g, _)| *g != vertices) {
+            self.view_bind_group = Some((vertices, self.create_view_bind_group(&device)));
         }
 
         // Without a camera there is nothing to draw lines for.
@@ -1107,7 +1110,7 @@ impl Renderer {
             clear = tonemap::display_color(self.settings.tonemapper, clear, !output_format.is_srgb());
         }
         let [r, g, b] = clear;
-        let view_bind_group = self.view_bind_group.as_ref().expect("made above");
+        let view_bind_group = &self.view_bind_group.as_ref().expect("made above").1;
         // The background is composited over the resolved frame (one sample a pixel, after the
         // surfaces left their coverage in alpha), except with deferred local lights, whose
         // colour alpha carries roughness: then the forward pass draws it where depth is clear.
@@ -1792,7 +1795,7 @@ impl Renderer {
                     is_orthographic: matches!(view.projection, Projection::Orthographic { .. }) as u32,
                     global_light_count: self.lights.global_count(),
                     local_light_count: self.lights.local_count(),
-                    _pad: [0; 2],
+                    target_size: [size.0 as f32, size.1 as f32],
                     rel_from_clip: clip_from_rel.inverse().to_cols_array_2d(),
                 }
             }
@@ -1848,6 +1851,7 @@ impl Renderer {
                     binding: 20,
                     resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
                 },
+                buf(21, self.mesh_pool.vertex_buffer()),
             ],
         })
     }

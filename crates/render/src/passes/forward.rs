@@ -287,7 +287,8 @@ fn draw(
         }
         let per_primitive = match b.key.topology {
             crate::pipelines::pipeline_cache::TopologyKey::Triangles => 3,
-            crate::pipelines::pipeline_cache::TopologyKey::Lines => 2,
+            // Each segment is a quad (prepare/line_quads.rs).
+            crate::pipelines::pipeline_cache::TopologyKey::Lines => 6,
             crate::pipelines::pipeline_cache::TopologyKey::Points => 1,
         };
         let culled = inputs.indirect.filter(|d| start + i < d.batches);

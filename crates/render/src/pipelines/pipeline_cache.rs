@@ -122,6 +122,7 @@ impl PipelineKey {
             .with("DEBUG_CASCADES", self.debug == DebugView::Cascades)
             .with("DEBUG_NORMALS", self.debug == DebugView::Normals)
             .with("DEBUG_UVS", self.debug == DebugView::Uvs)
+            .with("LINE_QUADS", self.topology == TopologyKey::Lines)
             .with("TONEMAP_IN_FORWARD", self.tonemap.is_some())
             .with("TONEMAP_NEUTRAL", self.tonemap == Some(Tonemapper::Neutral))
             .with("TONEMAP_ACES", self.tonemap == Some(Tonemapper::Aces))
@@ -412,14 +413,15 @@ fn forward_pipeline(
                 buffers: &[Some(GpuVertex::layout())],
             },
             primitive: wgpu::PrimitiveState {
+                // Lines are drawn as quads (prepare/line_quads.rs), which have no back: their
+                // winding follows the segment's direction on screen.
                 topology: match key.topology {
-                    TopologyKey::Triangles => wgpu::PrimitiveTopology::TriangleList,
-                    TopologyKey::Lines => wgpu::PrimitiveTopology::LineList,
+                    TopologyKey::Triangles | TopologyKey::Lines => wgpu::PrimitiveTopology::TriangleList,
                     TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
                 },
                 strip_index_format: None,
                 front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
-                cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
+                cull_mode: (key.cull_back_faces && key.topology != TopologyKey::Lines).then_some(wgpu::Face::Back),
                 unclipped_depth: false,
                 polygon_mode: wgpu::PolygonMode::Fill,
                 conservative: false,
@@ -516,6 +518,9 @@ impl PipelineCache {
                 wgpu::BindGroupLayoutEntry { visibility: lit, ..sampler(19) },
                 // The directional shadow atlas as floats, for the PCSS blocker search's loads.
                 array_texture(20, lit, wgpu::TextureSampleType::Float { filterable: false }),
+                // The mesh pool's vertices, where a line quad's corner finds its opposite
+                // endpoint (prepare/line_quads.rs).
+                storage(21, wgpu::ShaderStages::VERTEX),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;

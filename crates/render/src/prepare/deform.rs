@@ -41,6 +41,7 @@ use range_alloc::RangeAllocator;
 use crate::pipelines::pipeline_cache::PipelineCache;
 use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::buffer::GrowableBuffer;
+use crate::prepare::line_quads;
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::timing::GpuTimer;
 use crate::world::{ExtractedDeform, RenderScene};
@@ -340,6 +341,9 @@ impl MeshDeformer {
         if self.sources.contains_key(&key) {
             return true;
         }
+        // Deformed like the pool holds it (line segments as quads), vertex for vertex.
+        let quads = line_quads::expand(mesh).map(std::sync::Arc::new);
+        let mesh = quads.as_ref().unwrap_or(mesh);
         let n = mesh.vertex_count();
         if (!mesh.is_skinned() && mesh.morph_targets.is_empty()) || n == 0 {
             return false;

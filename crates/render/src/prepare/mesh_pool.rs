@@ -15,6 +15,9 @@
 //!   the deformation pass (`prepare::deform`), sharing its source's index range (the draw's base
 //!   vertex points at the copy). Their owner frees them; eviction and dedup leave them alone.
 //!   The vertex buffer is therefore also a storage buffer.
+//! - Lines: a `LineList` mesh is held as quads (`prepare::line_quads`), its first vertex (and
+//!   its deformed copies' first vertex) at a multiple of four, which the forward vertex shader
+//!   reads each corner's opposite endpoint by.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -25,6 +28,7 @@ use penumbra_engine::bounds::Aabb;
 use penumbra_engine::mesh::{Mesh, SelfOverlap, Topology};
 use range_alloc::RangeAllocator;
 
+use crate::prepare::line_quads;
 use crate::world::Snapshot;
 
 /// One interleaved vertex. Absent attributes are zero (colour: white).
@@ -254,7 +258,7 @@ impl MeshPool {
     pub fn allocate_derived(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, source: MeshId) -> Option<MeshId> {
         let src = self.entry(source)?.clone();
         let count = src.vertices.len() as u32;
-        let range = self.allocate(device, queue, true, count.max(1));
+        let range = self.allocate_vertices(device, queue, count.max(1), alignment(src.topology));
         // A pose can bend any shape.
         let entry = PoolEntry {
             vertices: range.start..range.start + count,
@@ -307,9 +311,11 @@ impl MeshPool {
         hash: blake3::Hash,
         frame: u64,
     ) -> MeshId {
+        let quads = line_quads::expand(mesh);
+        let mesh = quads.as_ref().unwrap_or(mesh);
         let vertices = interleave(mesh);
         let vcount = vertices.len() as u32;
-        let vrange = self.allocate(device, queue, true, vcount.max(1));
+        let vrange = self.allocate_vertices(device, queue, vcount.max(1), alignment(mesh.topology));
         queue.write_buffer(&self.vertex_buffer, vrange.start as u64 * VERTEX_SIZE, bytemuck::cast_slice(&vertices));
         self.stats.bytes_uploaded += vertices.len() as u64 * VERTEX_SIZE;
         let irange = mesh.indices.as_ref().map(|indices| {
@@ -332,6 +338,19 @@ impl MeshPool {
         let id = self.insert_entry(entry);
         self.by_hash.insert(hash, id);
         id
+    }
+
+    /// A range of `len` vertices starting at a multiple of `align`: over-allocates by
+    /// `align - 1` and returns the unused head and tail to the allocator.
+    fn allocate_vertices(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, len: u32, align: u32) -> Range<u32> {
+        let r = self.allocate(device, queue, true, len + align - 1);
+        let start = r.start.next_multiple_of(align);
+        for unused in [r.start..start, start + len..r.end] {
+            if !unused.is_empty() {
+                self.vertex_alloc.free_range(unused);
+            }
+        }
+        start..start + len
     }
 
     /// A range of `len` elements, growing the buffer when it does not fit.
@@ -362,6 +381,11 @@ impl MeshPool {
         tracing::debug!("{label}: grew to {new_end} elements");
         alloc.allocate_range(len).expect("grown to fit")
     }
+}
+
+/// Where an entry of this topology may start in the vertex buffer.
+fn alignment(topology: Topology) -> u32 {
+    if topology == Topology::LineList { line_quads::VERTEX_ALIGNMENT } else { 1 }
 }
 
 fn content_hash(mesh: &Mesh) -> blake3::Hash {

@@ -5,6 +5,7 @@ pub mod deform;
 pub mod ies_profiles;
 pub mod instances;
 pub mod light_store;
+pub mod line_quads;
 pub mod materials;
 pub mod mesh_pool;
 pub mod textures;
