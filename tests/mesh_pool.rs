@@ -95,3 +95,43 @@ fn released_entries_are_evicted_and_their_space_reused() {
     assert!(pool.entry(again).is_some());
     ctx.queue.submit([]);
 }
+
+#[test]
+fn line_entries_and_their_deformed_copies_start_at_a_multiple_of_four_vertices() {
+    let ctx = gpu();
+    let mut pool = MeshPool::new(&ctx.device);
+    let mut assets = Assets::<Mesh>::new();
+    let lines = Mesh {
+        topology: Topology::LineList,
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        indices: Some(vec![0, 1, 1, 2, 2, 0]),
+        ..Default::default()
+    };
+    let mut line_ids = Vec::new();
+    // Odd-sized entries between them, so a start of a multiple of four is no accident.
+    for (i, odd) in [1u32, 3, 5].into_iter().enumerate() {
+        let points = Mesh {
+            topology: Topology::PointList,
+            positions: (0..odd).map(|k| Vec3::splat((10 * i as u32 + k) as f32)).collect(),
+            ..Default::default()
+        };
+        let p = assets.add(points.clone());
+        pool.get_or_upload(&ctx.device, &ctx.queue, p, &snapshot(points, 1), 1);
+        let moved = Mesh { positions: lines.positions.iter().map(|p| *p + i as f32).collect(), ..lines.clone() };
+        let l = assets.add(moved.clone());
+        line_ids.push(pool.get_or_upload(&ctx.device, &ctx.queue, l, &snapshot(moved, 1), 1));
+    }
+    let derived = pool.allocate_derived(&ctx.device, &ctx.queue, line_ids[1]).unwrap();
+    ctx.queue.submit([]);
+    let vertices = read_vertices(&pool);
+    for (i, id) in line_ids.iter().enumerate() {
+        let e = pool.entry(*id).unwrap();
+        assert_eq!(e.vertices.start % 4, 0, "line entry {i} starts at {}", e.vertices.start);
+        // Three segments, four corners each, six indices each (two triangles).
+        assert_eq!((e.vertices.len(), e.element_count()), (12, 18));
+        // Corner 2 of the second segment (1 -> 2) is a copy of vertex 2.
+        assert_eq!(vertices[e.vertices.start as usize + 6].position, (Vec3::Y + i as f32).to_array());
+    }
+    let d = pool.entry(derived).unwrap();
+    assert_eq!((d.vertices.start % 4, d.vertices.len()), (0, 12), "a deformed copy of lines");
+}

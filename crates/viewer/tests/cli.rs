@@ -156,6 +156,18 @@ fn explain_prints_the_plan_and_quality_presets_change_it() {
 }
 
 #[test]
+fn the_reload_benchmark_refuses_shaders_that_do_not_build() {
+    let dir = out_dir("broken-shaders");
+    let shaders = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/forward.wgsl");
+    let broken = std::fs::read_to_string(shaders).unwrap() + "\nfn broken( {\n";
+    std::fs::write(dir.join("forward.wgsl"), broken).unwrap();
+    let o = penumbra(&["bench", "--shader-edits", "1", "--size", "16x16", "--shader-dir", dir.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("the shaders to edit do not build") && e.contains("forward.wgsl:"), "{e}");
+}
+
+#[test]
 fn view_without_a_display_points_to_render() {
     let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
         .arg("view")

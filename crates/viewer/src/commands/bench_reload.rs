@@ -52,6 +52,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         r.stats().shader_generation
     };
     frame(&mut app);
+    // A folder whose shaders do not build would time reloads of nothing (no pipeline to rebuild).
+    if let Some(e) = app.world.resource::<Renderer>().shader_error() {
+        bail!("the shaders to edit do not build: {e}");
+    }
 
     // Each edit a new constant, different from every earlier run's too (the driver's on-disk
     // cache outlives the process): the new pipeline cannot come from any cache. Steps of 1e-7
@@ -66,11 +70,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let start = Instant::now();
         std::fs::write(dir.join("forward.wgsl"), source)?;
         loop {
-            if frame(&mut app) > before {
-                break;
-            }
+            let reloaded = frame(&mut app) > before;
             if let Some(e) = app.world.resource::<Renderer>().shader_error() {
                 bail!("edit {edit} did not compile: {e}");
+            }
+            if reloaded {
+                break;
             }
             if start.elapsed() > Duration::from_secs(30) {
                 return Err(anyhow!("edit {edit}: no reload within 30 s"));
