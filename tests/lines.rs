@@ -5,7 +5,7 @@
 //! lavapipe and an NVIDIA driver at MSAA 4).
 
 use penumbra::prelude::*;
-use penumbra::render::RenderSettings;
+use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
 use common::{assert_finite_hdr, hdr_of, render_app, scene_app, spawn_mesh};
@@ -182,4 +182,23 @@ fn a_line_reaching_behind_the_camera_is_drawn_up_to_the_edge_of_the_view() {
     let first = (project(far).y) as u32;
     assert!(lit_rows.contains(&(first + 1)) && lit_rows.contains(&(SIZE - 1)), "rows lit: {lit_rows:?}");
     assert!(lit_rows.len() as u32 >= SIZE - 1 - first, "a gap in the line: rows {lit_rows:?}");
+}
+
+#[test]
+fn single_and_double_sided_and_mirrored_lines_share_one_pipeline() {
+    let mut app = scene_app();
+    pixel_camera(&mut app);
+    let line = line_mesh(&[(Vec2::new(-20.41, 0.42), Vec2::new(19.58, 0.43))]);
+    let double_sided = StandardMaterial { double_sided: true, ..unlit_white() };
+    spawn_mesh(&mut app, line.clone(), unlit_white(), Transform::IDENTITY);
+    spawn_mesh(&mut app, line.clone(), double_sided, Transform::from_xyz(0.0, 5.0, 0.0));
+    spawn_mesh(
+        &mut app,
+        line,
+        unlit_white(),
+        Transform::from_xyz(0.0, -5.0, 0.0).with_scale(Vec3::new(-1.0, 1.0, 1.0)),
+    );
+    render_app(&mut app, (SIZE, SIZE), settings(1));
+    let stats = app.world.resource::<Renderer>().stats();
+    assert_eq!(stats.pipelines, 1, "a line has no back to cull and no winding to flip");
 }

@@ -1663,6 +1663,7 @@ impl Renderer {
     fn pipeline_key(&self, d: &DrawState) -> Option<PipelineKey> {
         let m = self.materials.get(&d.material)?;
         let entry = self.mesh_pool.entry(*self.mesh_ids.get(&d.mesh)?)?;
+        let triangles = entry.topology == penumbra_engine::mesh::Topology::TriangleList;
         Some(PipelineKey {
             unlit: m.unlit,
             alpha: m.alpha,
@@ -1679,8 +1680,10 @@ impl Renderer {
             ibl: self.ibl_active,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
-            cull_back_faces: !m.double_sided,
-            front_face_cw: d.mirrored,
+            // Only triangles have a back (lines are drawn as quads whose winding follows the
+            // segment on screen; points face the viewer), so only their keys cull and wind.
+            cull_back_faces: !m.double_sided && triangles,
+            front_face_cw: d.mirrored && triangles,
             sample_count: self.settings.msaa,
             // Frames with direct output or without depth replace these per frame (see `render`).
             color_format: FormatKey(HDR_FORMAT),

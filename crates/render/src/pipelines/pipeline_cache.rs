@@ -413,15 +413,15 @@ fn forward_pipeline(
                 buffers: &[Some(GpuVertex::layout())],
             },
             primitive: wgpu::PrimitiveState {
-                // Lines are drawn as quads (prepare/line_quads.rs), which have no back: their
-                // winding follows the segment's direction on screen.
+                // Lines are drawn as quads (prepare/line_quads.rs); keys of lines and points
+                // never cull (see `Renderer::pipeline_key`).
                 topology: match key.topology {
                     TopologyKey::Triangles | TopologyKey::Lines => wgpu::PrimitiveTopology::TriangleList,
                     TopologyKey::Points => wgpu::PrimitiveTopology::PointList,
                 },
                 strip_index_format: None,
                 front_face: if key.front_face_cw { wgpu::FrontFace::Cw } else { wgpu::FrontFace::Ccw },
-                cull_mode: (key.cull_back_faces && key.topology != TopologyKey::Lines).then_some(wgpu::Face::Back),
+                cull_mode: key.cull_back_faces.then_some(wgpu::Face::Back),
                 unclipped_depth: false,
                 polygon_mode: wgpu::PolygonMode::Fill,
                 conservative: false,
