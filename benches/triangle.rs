@@ -20,7 +20,9 @@
 //! (around every pass: the first pass's beginning to the last pass's end). Penumbra's CPU time
 //! is split by stage (its schedules; the render stage's prepare, encode and submit). Run: `cargo bench --bench triangle [-- --frames N
 //! --size WxH --no-helmet --variants]` (`--variants`: the minimal program also with a depth
-//! attachment and with a copyable target, Penumbra's forward pass's other costs).
+//! attachment and with a copyable target, Penumbra's forward pass's other costs, and with four
+//! samples per pixel in a 16-bit float or an 8-bit sRGB target, resolved or stored: what
+//! multisampling itself costs on the adapter).
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -79,6 +81,10 @@ struct Extras {
     depth: bool,
     /// The colour target can also be copied from (a headless output is read back).
     copy_src: bool,
+    /// Four samples per pixel in a target of this format (what the triangle draws into),
+    /// resolved into a single-sample target of the same format by the render pass, or (`false`)
+    /// stored instead: what a multisampled target itself costs on the adapter.
+    msaa: Option<(wgpu::TextureFormat, bool)>,
 }
 
 fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
@@ -97,7 +103,23 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
         trace: wgpu::Trace::Off,
     }))
     .expect("a device");
-    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let format = extras.msaa.map_or(wgpu::TextureFormat::Rgba8UnormSrgb, |(f, _)| f);
+    let samples = if extras.msaa.is_some() { 4 } else { 1 };
+    let msaa_view = extras.msaa.map(|_| {
+        device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("multisampled"),
+                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default())
+    });
+    let resolve = extras.msaa.is_some_and(|(_, r)| r);
     let target = device.create_texture(&wgpu::TextureDescriptor {
         label: Some("target"),
         size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
@@ -119,7 +141,7 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
                 label: Some("depth"),
                 size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
                 mip_level_count: 1,
-                sample_count: 1,
+                sample_count: samples,
                 dimension: wgpu::TextureDimension::D2,
                 format: wgpu::TextureFormat::Depth32Float,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
@@ -148,7 +170,7 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
             stencil: Default::default(),
             bias: Default::default(),
         }),
-        multisample: wgpu::MultisampleState::default(),
+        multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
         fragment: Some(wgpu::FragmentState {
             module: &module,
             entry_point: Some("fs"),
@@ -195,12 +217,13 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("triangle"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
+                    view: msaa_view.as_ref().unwrap_or(&view),
                     depth_slice: None,
-                    resolve_target: None,
+                    resolve_target: resolve.then_some(&view),
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
+                        // A resolved multisampled target is not kept (as Penumbra's).
+                        store: if resolve { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
                     },
                 })],
                 depth_stencil_attachment: depth_view.as_ref().map(|view| wgpu::RenderPassDepthStencilAttachment {
@@ -386,7 +409,17 @@ fn main() {
         let copy_src = Extras { copy_src: true, ..Default::default() };
         runs.push(("minimal wgpu", "+ depth", minimal(size, frames, depth).1));
         runs.push(("minimal wgpu", "+ COPY_SRC target", minimal(size, frames, copy_src).1));
-        runs.push(("minimal wgpu", "+ both", minimal(size, frames, Extras { depth: true, copy_src: true }).1));
+        runs.push((
+            "minimal wgpu",
+            "+ both",
+            minimal(size, frames, Extras { depth: true, copy_src: true, msaa: None }).1,
+        ));
+        let msaa = |format, resolve| Extras { msaa: Some((format, resolve)), ..Default::default() };
+        let (hdr, srgb8) = (wgpu::TextureFormat::Rgba16Float, wgpu::TextureFormat::Rgba8UnormSrgb);
+        runs.push(("minimal wgpu", "MSAA 4 RGBA16F resolved", minimal(size, frames, msaa(hdr, true)).1));
+        runs.push(("minimal wgpu", "MSAA 4 RGBA16F stored", minimal(size, frames, msaa(hdr, false)).1));
+        runs.push(("minimal wgpu", "MSAA 4 sRGB8 resolved", minimal(size, frames, msaa(srgb8, true)).1));
+        runs.push(("minimal wgpu", "MSAA 4 sRGB8 stored", minimal(size, frames, msaa(srgb8, false)).1));
     }
     runs.extend([
         ("penumbra", "MSAA 1", penumbra(size, frames, 1)),

@@ -8,11 +8,15 @@
 //! - Into an output format the hardware does not sRGB-encode, the shader encodes: the same bytes.
 //! - A blended draw, bloom or `keep_hdr` brings the HDR target and the tonemap pass back, and
 //!   `read_hdr` says why it fails on a direct frame.
+//! - With MSAA and `MsaaResolve::Display` a frame is direct too: each sample is tonemapped and
+//!   the display colours are averaged (in linear light, through an sRGB target), where the
+//!   default resolve averages radiance and then tonemaps (an edge pixel half covered by a
+//!   surface brighter than white is white after the default resolve, mid-grey after this one).
 
 use penumbra::prelude::*;
 use penumbra::render::frame::Pass;
 use penumbra::render::passes::post::{BloomSettings, PostSettings};
-use penumbra::render::{RenderOutput, RenderScene, RenderSettings, Tonemapper};
+use penumbra::render::{MsaaResolve, RenderOutput, RenderScene, RenderSettings, Tonemapper};
 
 mod common;
 use common::{render_app, scene_app, spawn_mesh};
@@ -161,4 +165,63 @@ fn what_reads_hdr_colour_brings_the_hdr_target_back() {
         .unwrap();
     render_app(&mut app, SIZE, settings(Tonemapper::Neutral, false));
     assert!(passes(&app).contains(&Pass::Tonemap) && passes(&app).contains(&Pass::Bloom), "{:?}", passes(&app));
+}
+
+/// A surface of exposed radiance 4 (emissive, over a black clear) covering the left of the frame up to
+/// x = 20.5 pixels, seen by an orthographic camera whose world units are pixels: the pixels of
+/// column 20 have two of their four standard samples (x + 0.125 and x + 0.375) covered.
+fn half_covered_column(resolve: MsaaResolve) -> (Vec<u8>, App) {
+    let mut app = scene_app();
+    let projection = Projection::Orthographic { xmag: Some(16.0), ymag: 16.0, znear: 0.1, zfar: 100.0 };
+    app.world.spawn((Camera { projection, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 10.0)));
+    // A light, so no default key light is added; the black metal reflects nothing.
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.0 });
+    let (left, right) = (-40.0, 20.5 - 16.0);
+    let quad = Mesh {
+        positions: vec![
+            Vec3::new(left, -40.0, 0.0),
+            Vec3::new(right, -40.0, 0.0),
+            Vec3::new(right, 40.0, 0.0),
+            Vec3::new(left, 40.0, 0.0),
+        ],
+        normals: vec![Vec3::Z; 4],
+        indices: Some(vec![0, 1, 2, 0, 2, 3]),
+        ..Default::default()
+    };
+    let glowing = StandardMaterial {
+        base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+        metallic: 1.0,
+        emissive: Vec3::splat(4.8),
+        ..Default::default()
+    };
+    spawn_mesh(&mut app, quad, glowing, Transform::IDENTITY);
+    let settings = RenderSettings {
+        msaa: 4,
+        msaa_resolve: resolve,
+        tonemapper: Tonemapper::None,
+        clear_color: [0.0; 3],
+        ..Default::default()
+    };
+    let frame = render_app(&mut app, (32, 32), settings);
+    (frame, app)
+}
+
+#[test]
+fn resolving_display_colours_averages_tonemapped_samples_and_needs_no_hdr_target() {
+    let (display, display_app) = half_covered_column(MsaaResolve::Display);
+    assert!(!passes(&display_app).contains(&Pass::Tonemap), "{:?}", passes(&display_app));
+    let r = display_app.world.resource::<Renderer>();
+    // One 4-byte sRGB colour per sample, no depth (one convex surface), no HDR target.
+    assert_eq!(r.memory().targets, 32 * 32 * 4 * 4);
+    let (radiance, radiance_app) = half_covered_column(MsaaResolve::Radiance);
+    assert!(passes(&radiance_app).contains(&Pass::Tonemap));
+    let red = |frame: &[u8], x: usize| frame[(16 * 32 + x) * 4];
+    for (name, frame) in [("display", &display), ("radiance", &radiance)] {
+        assert_eq!((red(frame, 5), red(frame, 19), red(frame, 21)), (255, 255, 0), "{name}: inside and outside");
+    }
+    // Radiance 4 (emissive 4.8 at the default exposure, 1/1.2) on two samples of four: the
+    // mean radiance, 2, is still white after the curve; the mean of the samples' display colours (1 and 0) is
+    // 0.5 in linear light, 188 in sRGB.
+    assert_eq!(red(&radiance, 20), 255);
+    assert!((187..=189).contains(&red(&display, 20)), "display resolve: {}", red(&display, 20));
 }

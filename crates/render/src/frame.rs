@@ -252,9 +252,9 @@ impl FramePlan {
                     Pass::ClusterBin => "nothing to light",
                     Pass::Shadows => "no shadowed light's casters reach what the camera sees",
                     Pass::Tonemap => {
-                        "nothing reads the HDR colour (MSAA 1; no post-processing, environment \
-                         background, blended draws, gizmos, deferred lights or HDR readback): \
-                         the opaque pass tonemaps and draws into the output"
+                        "nothing reads the HDR colour (MSAA 1, or MSAA resolving display colours; no \
+                         post-processing, environment background, blended draws, gizmos, deferred \
+                         lights or HDR readback): the opaque pass tonemaps and draws into the output"
                     }
                     Pass::Opaque => "always runs",
                     Pass::Background => "no environment to show (none, or a solid background colour)",

@@ -37,6 +37,7 @@ pub use pipelines::pipeline_cache::Tonemapper;
 pub use pipelines::shader_library::ShaderError;
 pub use quality::QualityPreset;
 pub use renderer::{FrameStats, MemoryStats, RenderSettings, Renderer, RendererError, ShaderSource};
+pub use targets::MsaaResolve;
 pub use world::RenderScene;
 
 /// Runs after `PostUpdate`: reads the main world into `RenderScene`.

@@ -46,7 +46,7 @@ use crate::prepare::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS
 use crate::prepare::mesh_pool::{MeshId, MeshPool};
 use crate::prepare::textures::{TextureCache, TextureRequest};
 use crate::readback::{self, ReadbackError};
-use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT, OpaqueDraws, TargetNeeds, TargetsMade};
+use crate::targets::{DEPTH_FORMAT, FrameTargets, HDR_FORMAT, MsaaResolve, OpaqueDraws, TargetNeeds, TargetsMade};
 use crate::timing::{FrameTimings, GpuTimer};
 use crate::world::{LightKind, RenderScene};
 
@@ -87,6 +87,10 @@ pub struct RenderSettings {
     /// environment background, no blended draws, no gizmos, no deferred lights) skips the HDR
     /// target and the tonemap pass: the forward shader tonemaps and draws into the output.
     pub keep_hdr: bool,
+    /// Where multisampled frames average their samples: HDR radiance (the default, as the
+    /// path-traced references filter it) or display colours, which spares a frame that nothing
+    /// else needs HDR colour for its HDR target and tonemap pass (see [`MsaaResolve`]).
+    pub msaa_resolve: MsaaResolve,
     /// Anisotropic filtering of trilinear material samplers, 1 (off) to 16. `None`: 8 on a GPU,
     /// 1 on a CPU rasteriser (see `auto_anisotropy`). Frames meant to match across adapters
     /// (the goldens) set it, since the automatic choice differs between them.
@@ -170,6 +174,7 @@ impl Default for RenderSettings {
             environment: EnvironmentSettings::default(),
             post: PostSettings::default(),
             keep_hdr: false,
+            msaa_resolve: MsaaResolve::Radiance,
             max_anisotropy: None,
         }
     }
@@ -775,7 +780,15 @@ impl Renderer {
         // A 0×0 request draws into a 1×1 texture: compare with what was made, or it is made again
         // every frame.
         let size = (size.0.max(1), size.1.max(1));
-        let needs_new = self.headless.as_ref().is_none_or(|(t, _)| (t.width(), t.height()) != size);
+        // Resolving display colours averages them in linear light, through an sRGB target (the
+        // driver then encodes); otherwise the shaders encode into a unorm target.
+        let format = if self.settings.msaa > 1 && self.settings.msaa_resolve == MsaaResolve::Display {
+            wgpu::TextureFormat::Rgba8UnormSrgb
+        } else {
+            wgpu::TextureFormat::Rgba8Unorm
+        };
+        let needs_new =
+            self.headless.as_ref().is_none_or(|(t, _)| (t.width(), t.height()) != size || t.format() != format);
         if needs_new {
             let texture = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("headless output"),
@@ -783,7 +796,7 @@ impl Renderer {
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba8Unorm,
+                format,
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
                 view_formats: &[],
             });
@@ -791,7 +804,7 @@ impl Renderer {
             self.headless = Some((texture, view));
         }
         let view = self.headless.as_ref().expect("just made").1.clone();
-        self.render(scene, &view, wgpu::TextureFormat::Rgba8Unorm, size);
+        self.render(scene, &view, format, size);
     }
 
     /// The last headless frame as tightly packed sRGB-encoded RGBA8 rows.
@@ -969,6 +982,7 @@ impl Renderer {
         let post_settings = &self.settings.post;
         let needs = TargetNeeds {
             msaa: self.settings.msaa,
+            display_resolve: self.settings.msaa_resolve == MsaaResolve::Display && output_format.is_srgb(),
             keep_hdr: self.settings.keep_hdr,
             deferred_lights: self.deferred_lights,
             blended_draws: !blend_batches.is_empty(),
@@ -996,6 +1010,7 @@ impl Renderer {
                 || t.hdr.is_none() != direct
                 || t.depth_view.is_none() != depth_free
                 || t.depth_sampled != occlusion
+                || t.display_msaa.as_ref().is_some_and(|(f, _)| *f != output_format)
         }) {
             let params = self.deferred_lights.then_some(&self.deferred_params);
             self.targets = Some(FrameTargets::new(
@@ -1004,7 +1019,7 @@ impl Renderer {
                 size,
                 self.settings.msaa,
                 params,
-                TargetsMade { hdr: !direct, depth: !depth_free, depth_sampled: occlusion },
+                TargetsMade { hdr: !direct, depth: !depth_free, depth_sampled: occlusion, output_format },
             ));
         }
 

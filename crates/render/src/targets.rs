@@ -3,9 +3,11 @@
 //! the surface targets opaque fragments write, and the local light the compute pass writes (see
 //! `passes/deferred_lights.rs`). A frame whose HDR colour nothing reads has no HDR target at all
 //! (the forward pass tonemaps and draws into the output), and a frame whose draws cannot cover a
-//! pixel twice has no depth target; [`TargetNeeds`] decides both. Recreated only when the size,
-//! the sample count, whether lights are deferred or whether there is an HDR or a depth target
-//! changes.
+//! pixel twice has no depth target; [`TargetNeeds`] decides both. With MSAA and
+//! [`MsaaResolve::Display`], such a frame draws tonemapped samples into a multisampled target
+//! of the output's (sRGB) format instead, resolved into the output. Recreated only when the
+//! size, the sample count, whether lights are deferred or whether there is an HDR, a
+//! display-space multisampled or a depth target changes.
 
 use penumbra_engine::mesh::SelfOverlap;
 
@@ -14,10 +16,28 @@ use crate::pipelines::pipeline_cache::{LOCAL_LIGHT_FORMAT, PipelineCache, SURFAC
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
+/// Where multisampled frames average their samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MsaaResolve {
+    /// Average the samples' HDR radiance, then tonemap: an edge pixel is the display transform
+    /// of the mean radiance, as a path tracer's pixel filter makes it (the references).
+    #[default]
+    Radiance,
+    /// Tonemap each sample and average the display colours (in linear, through an sRGB
+    /// target): a frame that nothing else needs HDR colour for then has neither an HDR target
+    /// nor a tonemap pass, and half the bytes per sample (what Bevy draws without an HDR
+    /// camera). Edges against bright surfaces keep their coverage gradient instead of
+    /// saturating. Needs an sRGB output (a headless one is; a window surface without an sRGB
+    /// format resolves radiance).
+    Display,
+}
+
 /// What decides whether a frame has an HDR colour target and a depth target.
 #[derive(Debug, Clone, Copy)]
 pub struct TargetNeeds {
     pub msaa: u32,
+    /// Multisampled frames may resolve display colours ([`MsaaResolve::Display`], sRGB output).
+    pub display_resolve: bool,
     /// `RenderSettings::keep_hdr`: HDR colour is read back.
     pub keep_hdr: bool,
     pub deferred_lights: bool,
@@ -46,11 +66,11 @@ pub enum OpaqueDraws {
 
 impl TargetNeeds {
     /// Whether anything but the tonemap pass reads the HDR colour. Without, the forward shader
-    /// tonemaps and draws straight into the output (no HDR target, no tonemap pass). Not with
-    /// MSAA: a resolve of tonemapped samples would differ from the tonemap of resolved radiance
-    /// at every edge.
+    /// tonemaps and draws straight into the output (no HDR target, no tonemap pass). With MSAA
+    /// only when display colours may be resolved: a resolve of tonemapped samples differs from
+    /// the tonemap of resolved radiance at every edge.
     pub fn hdr(&self) -> bool {
-        self.msaa != 1
+        (self.msaa != 1 && !self.display_resolve)
             || self.keep_hdr
             || self.deferred_lights
             || self.blended_draws
@@ -81,6 +101,9 @@ pub struct TargetsMade {
     pub depth: bool,
     /// Depth bound for sampling too (occlusion culling's depth pyramid).
     pub depth_sampled: bool,
+    /// The output's format: that of the display-space multisampled target (see
+    /// [`FrameTargets::display_msaa`]).
+    pub output_format: wgpu::TextureFormat,
 }
 
 pub struct FrameTargets {
@@ -88,6 +111,9 @@ pub struct FrameTargets {
     pub samples: u32,
     /// `None`: the frame draws straight into the output.
     pub hdr: Option<HdrTargets>,
+    /// Without an HDR target but with MSAA: tonemapped samples, in the output's (sRGB) format,
+    /// resolved into the output.
+    pub display_msaa: Option<(wgpu::TextureFormat, wgpu::TextureView)>,
     /// `None`: nothing drawn this frame can cover a pixel twice (see `Renderer::render`).
     pub depth_view: Option<wgpu::TextureView>,
     /// The depth target can be bound for sampling (occlusion culling, deferred lights).
@@ -128,7 +154,7 @@ impl FrameTargets {
         deferred_params: Option<&wgpu::Buffer>,
         made: TargetsMade,
     ) -> Self {
-        let TargetsMade { hdr, depth, depth_sampled } = made;
+        let TargetsMade { hdr, depth, depth_sampled, output_format } = made;
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -157,6 +183,10 @@ impl FrameTargets {
             let msaa_view = (samples > 1)
                 .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
             HdrTargets { texture, view, msaa_view }
+        });
+        let display_msaa = (hdr.is_none() && samples > 1).then(|| {
+            let view = tex("display colour msaa", output_format, samples, attach).create_view(&Default::default());
+            (output_format, view)
         });
         // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid; otherwise
         // only an attachment, which wgpu's GL backend needs of a multisampled texture (it cannot
@@ -187,7 +217,7 @@ impl FrameTargets {
             });
             DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
         });
-        Self { size, samples, hdr, depth_view, depth_sampled, deferred }
+        Self { size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred }
     }
 
     /// The single-sampled HDR colour, if the frame has one.
@@ -196,7 +226,7 @@ impl FrameTargets {
     }
 
     /// Where the forward pass draws, and what it resolves into: the HDR targets, or else the
-    /// output (`direct`, single-sampled).
+    /// output (`direct`), drawn into or (display-space MSAA) resolved into.
     pub fn color_attachment<'a>(
         &'a self,
         direct: &'a wgpu::TextureView,
@@ -204,7 +234,10 @@ impl FrameTargets {
         match &self.hdr {
             Some(HdrTargets { view, msaa_view: Some(msaa), .. }) => (msaa, Some(view)),
             Some(HdrTargets { view, msaa_view: None, .. }) => (view, None),
-            None => (direct, None),
+            None => match &self.display_msaa {
+                Some((_, msaa)) => (msaa, Some(direct)),
+                None => (direct, None),
+            },
         }
     }
 
@@ -216,7 +249,8 @@ impl FrameTargets {
         let depth = if self.depth_view.is_some() { px * 4 * samples } else { 0 };
         let hdr = if self.hdr.is_some() { px * 8 * samples + if samples > 1 { px * 8 } else { 0 } } else { 0 };
         let deferred = if self.deferred.is_some() { px * (8 * samples + 8) } else { 0 };
-        depth + hdr + deferred
+        let display = if self.display_msaa.is_some() { px * 4 * samples } else { 0 };
+        depth + hdr + deferred + display
     }
 }
 
@@ -227,6 +261,7 @@ mod tests {
     fn plain() -> TargetNeeds {
         TargetNeeds {
             msaa: 1,
+            display_resolve: false,
             keep_hdr: false,
             deferred_lights: false,
             blended_draws: false,
@@ -252,6 +287,11 @@ mod tests {
         ] {
             assert!(needs.hdr(), "{needs:?}");
         }
+        // Resolving display colours, MSAA alone needs no HDR target; anything else still does.
+        let display = TargetNeeds { msaa: 4, display_resolve: true, ..plain() };
+        assert!(!display.hdr());
+        assert!(TargetNeeds { post_processing: true, ..display }.hdr());
+        assert!(TargetNeeds { background: true, ..display }.hdr());
     }
 
     #[test]

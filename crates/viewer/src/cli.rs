@@ -12,7 +12,7 @@ use penumbra_render::passes::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
 use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError};
-use penumbra_render::{QualityPreset, RenderSettings, ShaderSource, Tonemapper};
+use penumbra_render::{MsaaResolve, QualityPreset, RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
 #[command(name = "penumbra", version, about = "A real-time glTF renderer and viewer")]
@@ -86,6 +86,13 @@ pub struct LookArgs {
     /// MSAA samples (1 or 4; default from --quality).
     #[arg(long)]
     pub msaa: Option<u32>,
+    /// Where MSAA averages samples: `radiance` (HDR, then tonemapped: as the path-traced
+    /// references filter) or `display` (each sample tonemapped, display colours averaged: no
+    /// HDR target or tonemap pass where nothing else needs them). Default `radiance`; the
+    /// many-cubes and many-lights benchmarks default to `display`, as their recipe draws
+    /// without an HDR target.
+    #[arg(long, value_enum, value_name = "radiance|display")]
+    pub msaa_resolve: Option<MsaaResolveArg>,
     /// Exposure as EV100 (default: the camera's, EV100 0, which scales radiance by 1/1.2;
     /// −0.263 maps radiance 1 to 1).
     #[arg(long, allow_negative_numbers = true)]
@@ -469,6 +476,21 @@ pub struct BenchArgs {
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MsaaResolveArg {
+    Radiance,
+    Display,
+}
+
+impl From<MsaaResolveArg> for MsaaResolve {
+    fn from(r: MsaaResolveArg) -> Self {
+        match r {
+            MsaaResolveArg::Radiance => MsaaResolve::Radiance,
+            MsaaResolveArg::Display => MsaaResolve::Display,
+        }
+    }
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TonemapArg {
     Neutral,
     Aces,
@@ -596,6 +618,9 @@ impl LookArgs {
         self.quality.apply(&mut settings);
         if let Some(msaa) = self.msaa {
             settings.msaa = msaa;
+        }
+        if let Some(resolve) = self.msaa_resolve {
+            settings.msaa_resolve = resolve.into();
         }
         if let Some(clusters) = self.clusters {
             settings.clusters = clusters;

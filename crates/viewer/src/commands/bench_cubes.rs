@@ -34,7 +34,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         LayoutArg::Grid => CubeLayout::Grid,
         LayoutArg::Sphere => CubeLayout::Sphere,
     };
-    let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
+    let mut settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
+    // The recipe (notes/bench-scenes.md) draws without an HDR target: display colours resolved.
+    if args.look.msaa_resolve.is_none() {
+        settings.msaa_resolve = penumbra_render::MsaaResolve::Display;
+    }
     let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
     let mut rows = Vec::new();
     for &count in &args.count {
@@ -86,10 +90,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         layout
     );
     println!(
-        "settings  {}x{}, MSAA {}, GPU culling {}, occlusion culling {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
+        "settings  {}x{}, MSAA {} ({:?} resolve), GPU culling {}, occlusion culling {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
         args.size.0,
         args.size.1,
         settings.msaa,
+        settings.msaa_resolve,
         if settings.gpu_culling { "on" } else { "off" },
         settings.occlusion_culling,
         settings.tonemapper,
