@@ -105,10 +105,11 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
     .expect("a device");
     let format = extras.msaa.map_or(wgpu::TextureFormat::Rgba8UnormSrgb, |(f, _)| f);
     let samples = if extras.msaa.is_some() { 4 } else { 1 };
-    let msaa_view = extras.msaa.map(|_| {
+    // An attachment-only texture of the frame's size, as a view.
+    let attachment = |label, format, samples| {
         device
             .create_texture(&wgpu::TextureDescriptor {
-                label: Some("multisampled"),
+                label: Some(label),
                 size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
                 mip_level_count: 1,
                 sample_count: samples,
@@ -118,7 +119,8 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
                 view_formats: &[],
             })
             .create_view(&Default::default())
-    });
+    };
+    let msaa_view = extras.msaa.map(|_| attachment("multisampled", format, samples));
     let resolve = extras.msaa.is_some_and(|(_, r)| r);
     let target = device.create_texture(&wgpu::TextureDescriptor {
         label: Some("target"),
@@ -135,20 +137,7 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
         view_formats: &[],
     });
     let view = target.create_view(&Default::default());
-    let depth_view = extras.depth.then(|| {
-        device
-            .create_texture(&wgpu::TextureDescriptor {
-                label: Some("depth"),
-                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Depth32Float,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            })
-            .create_view(&Default::default())
-    });
+    let depth_view = extras.depth.then(|| attachment("depth", wgpu::TextureFormat::Depth32Float, samples));
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("triangle"),
         source: wgpu::ShaderSource::Wgsl(SHADER.into()),
