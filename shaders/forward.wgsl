@@ -111,12 +111,6 @@ fn vs_main(in: VertexIn) -> VertexOut {
 
     var out: VertexOut;
     out.clip_position = view.clip_from_rel * vec4<f32>(placed.rel, 1.0);
-#ifdef LINE_QUADS
-    let other_at = (in.vertex_index ^ 2u) * 16u;
-    let other = vec3<f32>(pool_vertices[other_at], pool_vertices[other_at + 1u], pool_vertices[other_at + 2u]);
-    let other_clip = view.clip_from_rel * vec4<f32>(place_vertex(inst, other, view.camera_position).rel, 1.0);
-    out.clip_position = line_corner(out.clip_position, other_clip, in.vertex_index);
-#endif
     out.rel_position = placed.rel;
     // Normalised here: the cofactor scales normals by the square of the object's scale, which for
     // a 1e-4 scale model would be 1e-8 before interpolation.
@@ -126,28 +120,55 @@ fn vs_main(in: VertexIn) -> VertexOut {
     out.uv1 = in.uv1;
     out.color = in.color;
     out.material = inst.material;
+#ifdef LINE_QUADS
+    // The segment's other end: the vertex whose index differs in bit 1 (prepare/line_quads.rs).
+    let at = (in.vertex_index ^ 2u) * 16u;
+    if at + 15u < arrayLength(&pool_vertices) {
+        let other = vec3<f32>(pool_vertices[at], pool_vertices[at + 1u], pool_vertices[at + 2u]);
+        let other_rel = place_vertex(inst, other, view.camera_position).rel;
+        let other_clip = view.clip_from_rel * vec4<f32>(other_rel, 1.0);
+        // An end behind the eye moves along the segment to just in front of it, with every
+        // attribute taken at that point: a quad with corners on both sides of the eye plane is
+        // no quad on screen, and the near plane then clips it where the line is cut.
+        let w_min = 1e-6 * max(abs(out.clip_position.w), abs(other_clip.w));
+        if out.clip_position.w < w_min && other_clip.w > w_min {
+            let t = (w_min - out.clip_position.w) / (other_clip.w - out.clip_position.w);
+            let n = vec3<f32>(pool_vertices[at + 3u], pool_vertices[at + 4u], pool_vertices[at + 5u]);
+            let tangent = vec3<f32>(pool_vertices[at + 6u], pool_vertices[at + 7u], pool_vertices[at + 8u]);
+            let color = vec4<f32>(unpack2x16unorm(bitcast<u32>(pool_vertices[at + 14u])), unpack2x16unorm(bitcast<u32>(pool_vertices[at + 15u])));
+            out.clip_position = mix(out.clip_position, other_clip, t);
+            out.rel_position = mix(placed.rel, other_rel, t);
+            out.normal = safe_normalize(placed.cofactor * mix(in.normal, n, t), vec3<f32>(0.0));
+            out.tangent = vec4<f32>(safe_normalize(placed.linear * mix(in.tangent.xyz, tangent, t), vec3<f32>(0.0)), out.tangent.w);
+            out.uv0 = mix(in.uv0, vec2<f32>(pool_vertices[at + 10u], pool_vertices[at + 11u]), t);
+            out.uv1 = mix(in.uv1, vec2<f32>(pool_vertices[at + 12u], pool_vertices[at + 13u]), t);
+            out.color = mix(in.color, color, t);
+        }
+        out.clip_position = line_corner(out.clip_position, other_clip, in.vertex_index);
+    } else {
+        // Beyond what the device binds for reading (the mesh pool warns): not drawn.
+        out.clip_position = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+#endif
     return out;
 }
 
 #ifdef LINE_QUADS
-// A corner of a segment's quad (prepare/line_quads.rs): the endpoint at `clip`, moved half a
-// pixel to its side of the segment towards `other_clip`, so the quad covers what a strict
-// hardware line of width 1 covers. The offset is made in clip space (times w), so it stays
-// half a pixel all along the segment once the rasteriser divides by w.
+// A corner of a segment's quad (prepare/line_quads.rs): the endpoint at `clip` (in front of
+// the eye, see vs_main), moved half a pixel to its side of the segment towards `other_clip`, so
+// the quad covers what a strict hardware line of width 1 covers. The offset is made in clip
+// space (times w), so it stays half a pixel all along the segment once the rasteriser divides
+// by w.
 fn line_corner(clip: vec4<f32>, other_clip: vec4<f32>, vertex_index: u32) -> vec4<f32> {
-    // Where the segment crosses behind the eye its direction on screen is taken from the part
-    // in front: an endpoint behind (w ≤ 0) is moved along the segment to just in front of the
-    // eye, and the rasteriser's near clipping cuts the quad where the line is cut.
+    // Where the other end is behind the eye, the direction on screen is that of the part in
+    // front: towards the point just in front of the eye where that end's corners will be.
     let w_min = 1e-6 * max(abs(clip.w), abs(other_clip.w));
-    var p = clip;
     var q = other_clip;
-    if p.w < w_min && q.w > w_min {
-        p = mix(q, p, (q.w - w_min) / (q.w - p.w));
-    } else if q.w < w_min && p.w > w_min {
-        q = mix(p, q, (p.w - w_min) / (p.w - q.w));
+    if q.w < w_min && clip.w >= w_min {
+        q = mix(clip, q, (clip.w - w_min) / (clip.w - q.w));
     }
     let pixels = 0.5 * view.target_size;
-    var along = (q.xy / q.w - p.xy / p.w) * pixels;
+    var along = (q.xy / q.w - clip.xy / clip.w) * pixels;
     // Both quads' corners take the side from the segment's first endpoint towards its second.
     if (vertex_index & 2u) != 0u {
         along = -along;
@@ -157,7 +178,7 @@ fn line_corner(clip: vec4<f32>, other_clip: vec4<f32>, vertex_index: u32) -> vec
     let dir = select(vec2<f32>(0.0), along * inverseSqrt(len2), len2 > 1e-30 && len2 < 3e38);
     let side = select(-0.5, 0.5, (vertex_index & 1u) != 0u);
     let offset = vec2<f32>(-dir.y, dir.x) * side / pixels;
-    return vec4<f32>(p.xy + offset * p.w, p.zw);
+    return vec4<f32>(clip.xy + offset * clip.w, clip.zw);
 }
 #endif
 

@@ -31,6 +31,10 @@ fn line_mesh(segments: &[(Vec2, Vec2)]) -> Mesh {
     }
 }
 
+fn three_points() -> Mesh {
+    Mesh { topology: Topology::PointList, positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], ..Default::default() }
+}
+
 /// A world point (x, y, 0) seen by the pixel camera: x right, y down, in pixels.
 fn to_pixels(p: Vec2) -> Vec2 {
     Vec2::new(p.x + SIZE as f32 / 2.0, SIZE as f32 / 2.0 - p.y)
@@ -78,9 +82,9 @@ fn segments() -> Vec<(Vec2, Vec2)> {
 fn check_coverage(msaa: u32, samples: &[(f32, f32)]) {
     let mut app = scene_app();
     pixel_camera(&mut app);
-    // Something of an odd vertex count first, so the lines' pool entry does not start where the
-    // pool does (line entries must start at a multiple of four vertices).
-    spawn_mesh(&mut app, Mesh::uv_sphere(0.01, 3, 2), unlit_white(), Transform::from_xyz(0.0, 0.0, -50.0));
+    // Three points first (behind the camera), so the lines' pool entry cannot start where the
+    // pool does by chance (line entries must start at a multiple of four vertices).
+    spawn_mesh(&mut app, three_points(), unlit_white(), Transform::from_xyz(0.0, 0.0, 50.0));
     spawn_mesh(&mut app, line_mesh(&segments()), unlit_white(), Transform::IDENTITY);
     render_app(&mut app, (SIZE, SIZE), settings(msaa));
     let hdr = hdr_of(&app);
@@ -131,7 +135,7 @@ fn with_four_samples_a_line_covers_the_standard_sample_positions_inside_that_rec
 fn a_morphed_line_is_drawn_where_its_pose_puts_it() {
     let mut app = scene_app();
     pixel_camera(&mut app);
-    spawn_mesh(&mut app, Mesh::uv_sphere(0.01, 3, 2), unlit_white(), Transform::from_xyz(0.0, 0.0, -50.0));
+    spawn_mesh(&mut app, three_points(), unlit_white(), Transform::from_xyz(0.0, 0.0, 50.0));
     let (a, b) = (Vec2::new(-20.41, 0.42), Vec2::new(19.58, 0.43));
     let mut mesh = line_mesh(&[(a, b)]);
     // The target lifts the first endpoint by 10 px and the second by 20: a sloped line.
@@ -201,4 +205,44 @@ fn single_and_double_sided_and_mirrored_lines_share_one_pipeline() {
     render_app(&mut app, (SIZE, SIZE), settings(1));
     let stats = app.world.resource::<Renderer>().stats();
     assert_eq!(stats.pipelines, 1, "a line has no back to cull and no winding to flip");
+}
+
+#[test]
+fn where_a_line_is_cut_by_the_near_plane_its_attributes_are_those_of_the_cut() {
+    let mut app = scene_app();
+    let projection = Projection::Perspective { yfov: 90f32.to_radians(), znear: 0.1, aspect_ratio: None };
+    app.world.spawn((Camera { projection, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 0.0)));
+    // Red 5 m ahead, blue 5 m behind: along the visible part the colour is their mix at each
+    // point's place on the segment (the fraction s of the way from the far end).
+    let (far, behind) = (Vec3::new(0.0, -1.0, -5.0), Vec3::new(0.0, -1.0, 5.0));
+    let mesh = Mesh {
+        topology: Topology::LineList,
+        positions: vec![far, behind],
+        colors: vec![Vec4::new(1.0, 0.0, 0.0, 1.0), Vec4::new(0.0, 0.0, 1.0, 1.0)],
+        ..Default::default()
+    };
+    spawn_mesh(&mut app, mesh, unlit_white(), Transform::IDENTITY);
+    render_app(&mut app, (SIZE, SIZE), settings(1));
+    let hdr = hdr_of(&app);
+    let mut checked = 0;
+    for y in 40..SIZE {
+        // The line runs down the column at x = 32, between columns 31 and 32: either may hold it.
+        let [r, _, b, _] = hdr[(y * SIZE + 31) as usize];
+        let [r2, _, b2, _] = hdr[(y * SIZE + 32) as usize];
+        let (r, b) = if r + b > 0.0 { (r, b) } else { (r2, b2) };
+        if r + b <= 0.0 {
+            continue;
+        }
+        // Row y sees the line at depth 1 / (y/32 − 1) (image y grows downwards).
+        let z = -1.0 / ((y as f32 + 0.5) / 32.0 - 1.0);
+        let s = (z - far.z) / (behind.z - far.z);
+        assert!(
+            (b / (r + b) - s).abs() < 0.03,
+            "row {y}: blue share {:.3}, the segment's mix there {s:.3}",
+            b / (r + b)
+        );
+        checked += 1;
+    }
+    // Down to the bottom edge, where the visible part ends 40 % of the way along.
+    assert!(checked >= 20, "{checked} rows of the line checked");
 }

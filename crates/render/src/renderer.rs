@@ -83,9 +83,10 @@ pub struct RenderSettings {
     /// Bloom, automatic exposure, FXAA (all off by default).
     pub post: PostSettings,
     /// Always render into the HDR target, so that [`Renderer::read_hdr`] can read it. Without
-    /// it a frame that nothing else reads HDR colour for (MSAA 1, no post-processing, no
-    /// environment background, no blended draws, no gizmos, no deferred lights) skips the HDR
-    /// target and the tonemap pass: the forward shader tonemaps and draws into the output.
+    /// it a frame that nothing else reads HDR colour for (MSAA 1 or display-colour resolve, no
+    /// post-processing, no environment background, no blended draws, no gizmos, no deferred
+    /// lights) skips the HDR target and the tonemap pass: the forward shader tonemaps and draws
+    /// into the output.
     pub keep_hdr: bool,
     /// Where multisampled frames average their samples: HDR radiance (the default, as the
     /// path-traced references filter it) or display colours, which spares a frame that nothing
@@ -769,10 +770,12 @@ impl Renderer {
         Ok((f(0), f(1)))
     }
 
-    /// Renders into the renderer's own offscreen output (`Rgba8Unorm`, sRGB-encoded by the
-    /// shaders: display.wgsl's exact curve, so a screenshot does not depend on a driver's sRGB
-    /// encoder; NVIDIA's and lavapipe's round differently, which alone put FLIP 0.016 between
-    /// the two on TextureCoordinateTest's flat colours) of `size`.
+    /// Renders into the renderer's own offscreen output of `size`: `Rgba8Unorm`, sRGB-encoded by
+    /// the shaders (display.wgsl's exact curve, so a screenshot does not depend on a driver's
+    /// sRGB encoder; NVIDIA's and lavapipe's round differently, which alone put FLIP 0.016
+    /// between the two on TextureCoordinateTest's flat colours). With MSAA resolving display
+    /// colours (`MsaaResolve::Display`) it is `Rgba8UnormSrgb` instead, encoded by the driver:
+    /// that resolve averages in linear light through sRGB targets.
     pub fn render_headless(&mut self, scene: &RenderScene, size: (u32, u32)) {
         if self.is_device_lost() && !self.recover_headless() {
             return;
@@ -1869,7 +1872,15 @@ impl Renderer {
                     binding: 20,
                     resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
                 },
-                buf(21, self.mesh_pool.vertex_buffer()),
+                // At most the largest storage binding the device allows (128 MiB on lavapipe).
+                wgpu::BindGroupEntry {
+                    binding: 21,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: self.mesh_pool.vertex_buffer(),
+                        offset: 0,
+                        size: std::num::NonZeroU64::new(self.mesh_pool.readable_vertex_bytes()),
+                    }),
+                },
             ],
         })
     }

@@ -145,7 +145,8 @@ pub struct DeferredTargets {
 
 impl FrameTargets {
     /// `deferred_params`: the deferred-lights pass's uniform when lights are deferred (which
-    /// needs the HDR target and depth). Without `made.hdr` and `made.depth` nothing at all is made.
+    /// needs the HDR target and depth). Without `made.hdr` and `made.depth` nothing is made but, with
+    /// MSAA, the display-colour target.
     pub fn new(
         device: &wgpu::Device,
         pipelines: &PipelineCache,

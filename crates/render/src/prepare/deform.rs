@@ -341,11 +341,8 @@ impl MeshDeformer {
         if self.sources.contains_key(&key) {
             return true;
         }
-        // Deformed like the pool holds it (line segments as quads), vertex for vertex.
-        let quads = line_quads::expand(mesh).map(std::sync::Arc::new);
-        let mesh = quads.as_ref().unwrap_or(mesh);
-        let n = mesh.vertex_count();
-        if (!mesh.is_skinned() && mesh.morph_targets.is_empty()) || n == 0 {
+        let key_mesh = mesh;
+        if (!mesh.is_skinned() && mesh.morph_targets.is_empty()) || mesh.vertex_count() == 0 {
             return false;
         }
         // Importers validate their meshes; a mesh built or edited in code might not be, and
@@ -354,6 +351,10 @@ impl MeshDeformer {
             tracing::error!("a skinned or morphed mesh is invalid ({e}); drawn in its bind pose");
             return false;
         }
+        // Deformed as the pool holds it (line segments as quads), vertex for vertex.
+        let quads = line_quads::expand(mesh);
+        let mesh = quads.as_ref().unwrap_or(mesh);
+        let n = mesh.vertex_count();
         if n.div_ceil(WORKGROUP as usize) > MAX_ROWS as usize {
             tracing::warn!("a mesh of {n} vertices is too large to deform on the GPU; drawn in its bind pose");
             return false;
@@ -363,7 +364,7 @@ impl MeshDeformer {
         let words = &mut self.data[range.start as usize..range.end as usize];
         // A reused range holds an older source's words; nothing stale may reach the shader.
         words.fill(0);
-        let source = pack_source(mesh, range.clone(), words);
+        let source = pack_source(mesh, key_mesh, range.clone(), words);
         self.mark_dirty(range);
         self.sources.insert(key, source);
         true
@@ -507,8 +508,9 @@ fn source_words(mesh: &Mesh) -> u32 {
 }
 
 /// Packs `mesh`'s joints, weights and morph displacements into `words` (which start at word
-/// `range.start` of the data buffer) and measures what bounds need.
-fn pack_source(mesh: &std::sync::Arc<Mesh>, range: Range<u32>, words: &mut [u32]) -> Source {
+/// `range.start` of the data buffer) and measures what bounds need. `key_mesh` is the snapshot
+/// the source is keyed by (its address), kept alive with it; `mesh` is what is drawn of it.
+fn pack_source(mesh: &Mesh, key_mesh: &std::sync::Arc<Mesh>, range: Range<u32>, words: &mut [u32]) -> Source {
     let n = mesh.vertex_count();
     let mut at = 0;
     let skin_offset = mesh.is_skinned().then_some(range.start);
@@ -563,7 +565,7 @@ fn pack_source(mesh: &std::sync::Arc<Mesh>, range: Range<u32>, words: &mut [u32]
         morph_extents.push(extent);
     }
     Source {
-        _mesh: mesh.clone(),
+        _mesh: key_mesh.clone(),
         range,
         vertex_count: n as u32,
         skin_offset,
@@ -627,7 +629,7 @@ mod tests {
         mesh.morph_targets.push(target);
         let words = source_words(&mesh);
         let mut data = vec![0u32; words as usize];
-        let source = pack_source(&std::sync::Arc::new(mesh.clone()), 0..words, &mut data);
+        let source = pack_source(&mesh, &std::sync::Arc::new(mesh.clone()), 0..words, &mut data);
         assert_eq!(source.joint_count, 5);
         for trial in 0..20 {
             let pose = ExtractedDeform {
@@ -667,7 +669,7 @@ mod tests {
         let words = source_words(&mesh);
         assert_eq!(words as usize, 2 * SKIN_WORDS + 2 * MORPH_WORDS);
         let mut data = vec![0u32; words as usize + 10];
-        let s = pack_source(&std::sync::Arc::new(mesh), 10..10 + words, &mut data[10..]);
+        let s = pack_source(&mesh, &std::sync::Arc::new(mesh.clone()), 10..10 + words, &mut data[10..]);
         assert_eq!((s.skin_offset, s.morph_offset), (Some(10), 10 + 2 * SKIN_WORDS as u32));
         let d = &data[10..];
         assert_eq!(d[0], 1 | 2 << 16);

@@ -40,7 +40,7 @@ pub fn expand(mesh: &Mesh) -> Option<Mesh> {
     // Corner k of segment s copies endpoint ends[2s + (k >> 1)].
     let sources: Vec<usize> = (0..segments * 4).map(|v| ends[2 * (v / 4) + (v % 4) / 2]).collect();
     // An index out of range (a mesh built in code and never validated) reads zeros rather than
-    // panicking; deformation validates its meshes before it packs them.
+    // panicking; deformation validates the mesh before expanding it.
     fn pick<T: Copy + Default>(values: &[T], sources: &[usize]) -> Vec<T> {
         if values.is_empty() {
             Vec::new()

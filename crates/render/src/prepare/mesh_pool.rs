@@ -116,6 +116,11 @@ pub struct MeshPool {
     stats: PoolStats,
     /// Incremented whenever the vertex buffer is replaced (bind groups holding it are stale).
     vertex_generation: u64,
+    /// Vertices the forward shader can read as storage (the device's largest storage binding):
+    /// line quads find their opposite endpoints there.
+    readable_vertices: u32,
+    /// A line entry lay beyond `readable_vertices` (warned once).
+    warned_unreadable_lines: bool,
 }
 
 const VERTEX_SIZE: u64 = std::mem::size_of::<GpuVertex>() as u64;
@@ -151,7 +156,16 @@ impl MeshPool {
             evict_after_frames: 300,
             stats: PoolStats::default(),
             vertex_generation: 0,
+            readable_vertices: (device.limits().max_storage_buffer_binding_size / VERTEX_SIZE).min(u32::MAX as u64)
+                as u32,
+            warned_unreadable_lines: false,
         }
+    }
+
+    /// The part of the vertex buffer the forward shader binds for reading (see
+    /// `readable_vertices`).
+    pub fn readable_vertex_bytes(&self) -> u64 {
+        self.vertex_buffer.size().min(self.readable_vertices as u64 * VERTEX_SIZE)
     }
 
     pub fn vertex_buffer(&self) -> &wgpu::Buffer {
@@ -240,9 +254,10 @@ impl MeshPool {
             };
             if stale {
                 let e = self.entries[i].take().expect("checked");
-                self.vertex_alloc.free_range(e.vertices);
+                // An empty mesh holds one element of each (ranges cannot be empty).
+                self.vertex_alloc.free_range(at_least_one(e.vertices));
                 if let Some(r) = e.indices {
-                    self.index_alloc.free_range(r);
+                    self.index_alloc.free_range(at_least_one(r));
                 }
                 self.by_hash.remove(&e.hash);
                 self.by_asset.retain(|_, (_, id)| id.0 as usize != i);
@@ -276,7 +291,7 @@ impl MeshPool {
             && e.as_ref().is_some_and(|e| e.derived)
         {
             let e = e.take().expect("checked");
-            self.vertex_alloc.free_range(e.vertices.start..e.vertices.start + (e.vertices.len() as u32).max(1));
+            self.vertex_alloc.free_range(at_least_one(e.vertices));
             self.free_ids.push(id.0);
         }
     }
@@ -344,11 +359,20 @@ impl MeshPool {
     /// `align - 1` and returns the unused head and tail to the allocator.
     fn allocate_vertices(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, len: u32, align: u32) -> Range<u32> {
         let r = self.allocate(device, queue, true, len + align - 1);
-        let start = r.start.next_multiple_of(align);
-        for unused in [r.start..start, start + len..r.end] {
-            if !unused.is_empty() {
-                self.vertex_alloc.free_range(unused);
-            }
+        let (start, unused) = align_within(r, len, align);
+        for unused in unused.into_iter().filter(|u| !u.is_empty()) {
+            self.vertex_alloc.free_range(unused);
+        }
+        if align == line_quads::VERTEX_ALIGNMENT
+            && start + len > self.readable_vertices
+            && !self.warned_unreadable_lines
+        {
+            self.warned_unreadable_lines = true;
+            tracing::warn!(
+                "a line mesh lies beyond the first {} vertices of the mesh pool, the most this adapter binds for \
+                 reading in a shader: its segments cannot find their other ends and are not drawn",
+                self.readable_vertices
+            );
         }
         start..start + len
     }
@@ -381,6 +405,18 @@ impl MeshPool {
         tracing::debug!("{label}: grew to {new_end} elements");
         alloc.allocate_range(len).expect("grown to fit")
     }
+}
+
+/// Where `len` elements aligned to `align` start within `r` (which holds `len + align - 1`),
+/// and the parts of `r` before and after them.
+fn align_within(r: Range<u32>, len: u32, align: u32) -> (u32, [Range<u32>; 2]) {
+    let start = r.start.next_multiple_of(align);
+    (start, [r.start..start, start + len..r.end])
+}
+
+/// The range an entry's allocation covers: its own, or one element for an empty one.
+fn at_least_one(r: Range<u32>) -> Range<u32> {
+    r.start..r.end.max(r.start + 1)
 }
 
 /// Where an entry of this topology may start in the vertex buffer.
@@ -425,6 +461,21 @@ fn interleave(mesh: &Mesh) -> Vec<GpuVertex> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_aligned_range_starts_at_a_multiple_and_returns_the_rest() {
+        for start in 0..9u32 {
+            for len in 1..6u32 {
+                let r = start..start + len + 3;
+                let (at, [head, tail]) = align_within(r.clone(), len, 4);
+                assert_eq!(at % 4, 0);
+                assert!(at >= r.start && at + len <= r.end, "{r:?} {len}: {at}");
+                assert_eq!((head.start, head.end, tail.start, tail.end), (r.start, at, at + len, r.end));
+            }
+        }
+        assert_eq!(at_least_one(5..5), 5..6);
+        assert_eq!(at_least_one(5..9), 5..9);
+    }
 
     #[test]
     fn gpu_vertex_is_64_bytes() {
