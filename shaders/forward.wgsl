@@ -20,7 +20,7 @@
 // each fragment also writes out. TONEMAP_IN_FORWARD (with display.wgsl's switches): nothing
 // reads the HDR colour, so the output is tonemapped here and drawn straight into the output
 // target; the tonemap pass does not run. LINE_QUADS: the draw is a line list held as quads
-// (prepare/line_quads.rs), widened to one pixel here (line_corner).
+// (prepare/line_quads.rs), widened to one pixel here (line_quads.wgsl).
 
 #import penumbra::common::{F16_MAX, safe_normalize}
 #import penumbra::view::{View, eye_direction}
@@ -49,6 +49,9 @@
 #endif
 #ifdef IBL
 #import penumbra::ibl::environment_light
+#endif
+#ifdef LINE_QUADS
+#import penumbra::line_quads::{behind_eye_fraction, line_corner}
 #endif
 
 @group(0) @binding(0) var<uniform> view: View;
@@ -128,11 +131,9 @@ fn vs_main(in: VertexIn) -> VertexOut {
         let other_rel = place_vertex(inst, other, view.camera_position).rel;
         let other_clip = view.clip_from_rel * vec4<f32>(other_rel, 1.0);
         // An end behind the eye moves along the segment to just in front of it, with every
-        // attribute taken at that point: a quad with corners on both sides of the eye plane is
-        // no quad on screen, and the near plane then clips it where the line is cut.
-        let w_min = 1e-6 * max(abs(out.clip_position.w), abs(other_clip.w));
-        if out.clip_position.w < w_min && other_clip.w > w_min {
-            let t = (w_min - out.clip_position.w) / (other_clip.w - out.clip_position.w);
+        // attribute taken at that point (see behind_eye_fraction).
+        let t = behind_eye_fraction(out.clip_position, other_clip);
+        if t > 0.0 {
             let n = vec3<f32>(pool_vertices[at + 3u], pool_vertices[at + 4u], pool_vertices[at + 5u]);
             let tangent = vec3<f32>(pool_vertices[at + 6u], pool_vertices[at + 7u], pool_vertices[at + 8u]);
             let color = vec4<f32>(unpack2x16unorm(bitcast<u32>(pool_vertices[at + 14u])), unpack2x16unorm(bitcast<u32>(pool_vertices[at + 15u])));
@@ -144,7 +145,8 @@ fn vs_main(in: VertexIn) -> VertexOut {
             out.uv1 = mix(in.uv1, vec2<f32>(pool_vertices[at + 12u], pool_vertices[at + 13u]), t);
             out.color = mix(in.color, color, t);
         }
-        out.clip_position = line_corner(out.clip_position, other_clip, in.vertex_index);
+        let side = select(-1.0, 1.0, (in.vertex_index & 1u) != 0u);
+        out.clip_position = line_corner(out.clip_position, other_clip, side, (in.vertex_index & 2u) != 0u, view.target_size);
     } else {
         // Beyond what the device binds for reading (the mesh pool warns): not drawn.
         out.clip_position = vec4<f32>(0.0, 0.0, 0.0, 1.0);
@@ -153,34 +155,6 @@ fn vs_main(in: VertexIn) -> VertexOut {
     return out;
 }
 
-#ifdef LINE_QUADS
-// A corner of a segment's quad (prepare/line_quads.rs): the endpoint at `clip` (in front of
-// the eye, see vs_main), moved half a pixel to its side of the segment towards `other_clip`, so
-// the quad covers what a strict hardware line of width 1 covers. The offset is made in clip
-// space (times w), so it stays half a pixel all along the segment once the rasteriser divides
-// by w.
-fn line_corner(clip: vec4<f32>, other_clip: vec4<f32>, vertex_index: u32) -> vec4<f32> {
-    // Where the other end is behind the eye, the direction on screen is that of the part in
-    // front: towards the point just in front of the eye where that end's corners will be.
-    let w_min = 1e-6 * max(abs(clip.w), abs(other_clip.w));
-    var q = other_clip;
-    if q.w < w_min && clip.w >= w_min {
-        q = mix(clip, q, (clip.w - w_min) / (clip.w - q.w));
-    }
-    let pixels = 0.5 * view.target_size;
-    var along = (q.xy / q.w - clip.xy / clip.w) * pixels;
-    // Both quads' corners take the side from the segment's first endpoint towards its second.
-    if (vertex_index & 2u) != 0u {
-        along = -along;
-    }
-    let len2 = dot(along, along);
-    // A segment shorter than f32 can resolve covers nothing, as a hardware line of length 0.
-    let dir = select(vec2<f32>(0.0), along * inverseSqrt(len2), len2 > 1e-30 && len2 < 3e38);
-    let side = select(-0.5, 0.5, (vertex_index & 1u) != 0u);
-    let offset = vec2<f32>(-dir.y, dir.x) * side / pixels;
-    return vec4<f32>(clip.xy + offset * clip.w, clip.zw);
-}
-#endif
 
 // Distance along the view direction.
 fn view_depth(rel: vec3<f32>) -> f32 {

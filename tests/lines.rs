@@ -79,13 +79,32 @@ fn segments() -> Vec<(Vec2, Vec2)> {
     ]
 }
 
-fn check_coverage(msaa: u32, samples: &[(f32, f32)]) {
+/// How the segments are drawn: as a line mesh, or as gizmo lines.
+#[derive(Clone, Copy, Debug)]
+enum Drawn {
+    Mesh,
+    Gizmos,
+}
+
+fn check_coverage(msaa: u32, samples: &[(f32, f32)], drawn: Drawn) {
     let mut app = scene_app();
     pixel_camera(&mut app);
-    // Three points first (behind the camera), so the lines' pool entry cannot start where the
-    // pool does by chance (line entries must start at a multiple of four vertices).
-    spawn_mesh(&mut app, three_points(), unlit_white(), Transform::from_xyz(0.0, 0.0, 50.0));
-    spawn_mesh(&mut app, line_mesh(&segments()), unlit_white(), Transform::IDENTITY);
+    match drawn {
+        Drawn::Mesh => {
+            // Three points first (behind the camera), so the lines' pool entry cannot start
+            // where the pool does by chance (line entries must start at a multiple of four
+            // vertices).
+            spawn_mesh(&mut app, three_points(), unlit_white(), Transform::from_xyz(0.0, 0.0, 50.0));
+            spawn_mesh(&mut app, line_mesh(&segments()), unlit_white(), Transform::IDENTITY);
+        }
+        Drawn::Gizmos => {
+            let mut gizmos = Gizmos::default();
+            for (a, b) in segments() {
+                gizmos.line(a.extend(0.0), b.extend(0.0), Vec3::ONE);
+            }
+            app.insert_resource(gizmos);
+        }
+    }
     render_app(&mut app, (SIZE, SIZE), settings(msaa));
     let hdr = hdr_of(&app);
     assert_finite_hdr(&hdr, "lines");
@@ -123,12 +142,18 @@ fn check_coverage(msaa: u32, samples: &[(f32, f32)]) {
 
 #[test]
 fn a_line_covers_the_pixel_centres_in_the_rectangle_one_pixel_wide_around_it() {
-    check_coverage(1, &[(0.5, 0.5)]);
+    check_coverage(1, &[(0.5, 0.5)], Drawn::Mesh);
 }
 
 #[test]
 fn with_four_samples_a_line_covers_the_standard_sample_positions_inside_that_rectangle() {
-    check_coverage(4, &SAMPLES_4);
+    check_coverage(4, &SAMPLES_4, Drawn::Mesh);
+}
+
+#[test]
+fn gizmo_lines_cover_the_same_rectangles() {
+    check_coverage(1, &[(0.5, 0.5)], Drawn::Gizmos);
+    check_coverage(4, &SAMPLES_4, Drawn::Gizmos);
 }
 
 #[test]
@@ -155,11 +180,17 @@ fn a_morphed_line_is_drawn_where_its_pose_puts_it() {
     }
 }
 
-#[test]
-fn a_line_reaching_behind_the_camera_is_drawn_up_to_the_edge_of_the_view() {
+/// A 90° camera at the origin looking down −Z, its near plane at 0.1.
+fn eye_at_origin() -> App {
     let mut app = scene_app();
     let projection = Projection::Perspective { yfov: 90f32.to_radians(), znear: 0.1, aspect_ratio: None };
     app.world.spawn((Camera { projection, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 0.0)));
+    app
+}
+
+#[test]
+fn a_line_reaching_behind_the_camera_is_drawn_up_to_the_edge_of_the_view() {
+    let mut app = eye_at_origin();
     // Below the eye, from 5 m ahead to 5 m behind: on screen it runs from the far end's image
     // down past the bottom edge.
     let (far, behind) = (Vec3::new(0.3, -1.0, -5.0), Vec3::new(0.3, -1.0, 5.0));
@@ -209,9 +240,7 @@ fn single_and_double_sided_and_mirrored_lines_share_one_pipeline() {
 
 #[test]
 fn where_a_line_is_cut_by_the_near_plane_its_attributes_are_those_of_the_cut() {
-    let mut app = scene_app();
-    let projection = Projection::Perspective { yfov: 90f32.to_radians(), znear: 0.1, aspect_ratio: None };
-    app.world.spawn((Camera { projection, ..Default::default() }, Transform::from_xyz(0.0, 0.0, 0.0)));
+    let mut app = eye_at_origin();
     // Red 5 m ahead, blue 5 m behind: along the visible part the colour is their mix at each
     // point's place on the segment (the fraction s of the way from the far end).
     let (far, behind) = (Vec3::new(0.0, -1.0, -5.0), Vec3::new(0.0, -1.0, 5.0));

@@ -1,5 +1,6 @@
-//! Gizmo lines: the extracted `Gizmos` (world-space segments) uploaded as camera-relative line
-//! vertices each frame they exist (the camera moves, and camera-relative positions keep lines
+//! Gizmo lines: the extracted `Gizmos` (world-space segments) uploaded as camera-relative quad
+//! vertices (six a line, each with both ends: `shaders/line_quads.wgsl` widens them to a pixel,
+//! as scene lines) each frame they exist (the camera moves, and camera-relative positions keep lines
 //! far from the origin as precise as the meshes they annotate), then drawn by the forward pass
 //! after the scene's draws, in the same render pass so they are depth-tested against it and
 //! multisampled with it. With no lines nothing is uploaded, compiled or drawn.
@@ -9,6 +10,16 @@ use penumbra_engine::gizmos::GizmoLine;
 
 use crate::pipelines::pipeline_cache::GIZMO_VERTEX_BYTES;
 use crate::prepare::buffer::GrowableBuffer;
+
+/// Mirrors `VertexIn` in `shaders/gizmo.wgsl` (`GIZMO_VERTEX_BYTES`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GizmoVertex {
+    rel_position: [f32; 3],
+    other_rel_position: [f32; 3],
+    color: [f32; 3],
+    corner: u32,
+}
 
 /// The frame's gizmo vertices, for the forward pass.
 #[derive(Clone, Copy)]
@@ -21,7 +32,7 @@ pub struct GizmoDraw<'a> {
 pub struct GizmoLines {
     buffer: Option<GrowableBuffer>,
     count: u32,
-    scratch: Vec<[f32; 6]>,
+    scratch: Vec<GizmoVertex>,
 }
 
 impl GizmoLines {
@@ -33,9 +44,16 @@ impl GizmoLines {
         }
         self.scratch.clear();
         for l in lines {
-            for p in [l.start, l.end] {
-                let rel = p - camera;
-                self.scratch.push([rel.x, rel.y, rel.z, l.color.x, l.color.y, l.color.z]);
+            let ends = [(l.start - camera).to_array(), (l.end - camera).to_array()];
+            // Two triangles over the corners (side in bit 0, end in bit 1).
+            for corner in [0u32, 1, 2, 2, 1, 3] {
+                let end = (corner >> 1) as usize;
+                self.scratch.push(GizmoVertex {
+                    rel_position: ends[end],
+                    other_rel_position: ends[1 - end],
+                    color: l.color.to_array(),
+                    corner,
+                });
             }
         }
         let bytes = self.scratch.len() as u64 * GIZMO_VERTEX_BYTES;

@@ -60,6 +60,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("bloom.wgsl", include_str!("../../../../shaders/bloom.wgsl")),
     ("exposure.wgsl", include_str!("../../../../shaders/exposure.wgsl")),
     ("fxaa.wgsl", include_str!("../../../../shaders/fxaa.wgsl")),
+    ("line_quads.wgsl", include_str!("../../../../shaders/line_quads.wgsl")),
     ("gizmo.wgsl", include_str!("../../../../shaders/gizmo.wgsl")),
 ];
 

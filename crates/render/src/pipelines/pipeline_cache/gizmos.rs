@@ -1,12 +1,13 @@
-//! The gizmo line pipeline (`shaders/gizmo.wgsl`), one per sample count: line lists drawn in
-//! the forward pass after the scene, depth-tested (reverse-Z) without writing depth. The part of
+//! The gizmo line pipeline (`shaders/gizmo.wgsl`), one per sample count: lines as quads a pixel
+//! wide (six vertices a line), drawn in the forward pass after the scene, depth-tested
+//! (reverse-Z) without writing depth. The part of
 //! the pipeline cache that serves `passes::gizmos`.
 
 use super::{PipelineCache, checked_pipeline};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
-/// Mirrors `VertexIn` in `gizmo.wgsl`: camera-relative position, then colour.
-pub const GIZMO_VERTEX_BYTES: u64 = 24;
+/// Mirrors `VertexIn` in `gizmo.wgsl`: camera-relative position, the other end's, colour, corner.
+pub const GIZMO_VERTEX_BYTES: u64 = 40;
 
 impl PipelineCache {
     /// The gizmo pipeline for `samples`, compiled on first use (a frame without gizmo lines
@@ -42,10 +43,10 @@ impl PipelineCache {
                     buffers: &[Some(wgpu::VertexBufferLayout {
                         array_stride: GIZMO_VERTEX_BYTES,
                         step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+                        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Uint32],
                     })],
                 },
-                primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::LineList, ..Default::default() },
+                primitive: wgpu::PrimitiveState { topology: wgpu::PrimitiveTopology::TriangleList, ..Default::default() },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: crate::targets::DEPTH_FORMAT,
                     depth_write_enabled: Some(false),
