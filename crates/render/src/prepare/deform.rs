@@ -212,7 +212,7 @@ impl MeshDeformer {
         self.joint_rows.clear();
         self.weights.clear();
         self.max_groups = 0;
-        if self.pool_too_large(device, pool, &mut frame) {
+        if self.pool_too_large(pool, &mut frame) {
             return frame;
         }
         let changed: HashSet<Entity> = scene.changed_deforms.iter().copied().collect();
@@ -281,7 +281,7 @@ impl MeshDeformer {
             frame.moved.push(output);
         }
         // Allocating copies may have grown the pool past what one binding can hold.
-        if self.pool_too_large(device, pool, &mut frame) {
+        if self.pool_too_large(pool, &mut frame) {
             return frame;
         }
         frame.jobs = self.jobs.len();
@@ -291,8 +291,9 @@ impl MeshDeformer {
 
     /// Past the adapter's storage binding limit the pool cannot be bound for writing: every
     /// deformed draw returns to its bind pose (with one logged error) and no job runs.
-    fn pool_too_large(&mut self, device: &wgpu::Device, pool: &mut MeshPool, frame: &mut DeformFrame) -> bool {
-        let limit = device.limits().max_storage_buffer_binding_size;
+    fn pool_too_large(&mut self, pool: &mut MeshPool, frame: &mut DeformFrame) -> bool {
+        // The pool decides how much of its vertex buffer a shader can bind.
+        let limit = pool.readable_vertex_bytes();
         if pool.vertex_buffer().size() <= limit {
             return false;
         }
