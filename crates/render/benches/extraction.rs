@@ -1,18 +1,18 @@
 //! Extraction cost per entity: a world of drawable entities, the render crate's extraction
-//! systems run on it, with every entity's transform changed (per changed entity) and with
-//! nothing changed (per unchanged entity: bevy's change-tick scan). Run with
+//! systems run on it, with every entity's transform changed (per changed entity: reading what
+//! propagation listed) and with nothing changed (per unchanged entity: nothing to read; the
+//! main world's `PostUpdate`, whose propagation scans change ticks, is timed too). Run with
 //! `cargo bench -p penumbra-render --bench extraction`; criterion reports time per frame, and
 //! the throughput line reads as entities per second.
 
 use std::time::{Duration, Instant};
 
-use bevy_ecs::world::World;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
-use penumbra_engine::components::{GlobalTransform, Mesh3d, MeshMaterial3d, Transform};
+use penumbra_engine::components::{Mesh3d, MeshMaterial3d, Transform};
 use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
-use penumbra_engine::{App, Assets, CorePlugin};
+use penumbra_engine::{App, Assets, CorePlugin, PostUpdate};
 use penumbra_render::{Extract, RenderPlugin, RenderScene};
 
 fn world_of(count: usize) -> App {
@@ -28,11 +28,13 @@ fn world_of(count: usize) -> App {
     app
 }
 
-fn touch_all(world: &mut World, turn: f32) {
-    let mut q = world.query::<&mut GlobalTransform>();
-    for mut g in q.iter_mut(world) {
-        g.0.matrix3 = glam::Mat3A::from_quat(Quat::from_rotation_y(turn));
+/// Turns every entity and derives the new placements (propagation records them for extraction).
+fn touch_all(app: &mut App, turn: f32) {
+    let mut q = app.world.query::<&mut Transform>();
+    for mut t in q.iter_mut(&mut app.world) {
+        t.rotation = Quat::from_rotation_y(turn);
     }
+    app.world.run_schedule(PostUpdate);
 }
 
 fn extraction(c: &mut Criterion) {
@@ -45,7 +47,7 @@ fn extraction(c: &mut Criterion) {
             b.iter_custom(|iters| {
                 let mut total = Duration::ZERO;
                 for i in 0..iters {
-                    touch_all(&mut app.world, i as f32 * 1e-3);
+                    touch_all(&mut app, i as f32 * 1e-3);
                     let start = Instant::now();
                     app.world.run_schedule(Extract);
                     total += start.elapsed();
@@ -59,6 +61,15 @@ fn extraction(c: &mut Criterion) {
                 app.world.run_schedule(Extract);
             })
         });
+        // The main world's share of a still frame: transform and visibility propagation find
+        // nothing changed.
+        group.bench_function(format!("{count} unchanged, main world PostUpdate"), |b| {
+            b.iter(|| {
+                app.world.run_schedule(PostUpdate);
+            })
+        });
+        // Holds whichever of the functions above a filter selected.
+        app.world.run_schedule(Extract);
         assert!(app.world.resource::<RenderScene>().changed_draws.is_empty());
     }
     group.finish();

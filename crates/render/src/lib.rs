@@ -63,6 +63,9 @@ pub struct RenderPlugin;
 impl Plugin for RenderPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<RenderScene>()
+            // Extraction's list of changed draws: propagation and the drawable components'
+            // hooks fill it from now on.
+            .init_resource::<penumbra_engine::components::DrawChanges>()
             .add_stage(Extract)
             .add_stage(Render)
             .add_systems(Extract, extract::systems())

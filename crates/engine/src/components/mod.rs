@@ -3,6 +3,7 @@
 //! by the `PostUpdate` systems in this module's children.
 
 pub mod camera;
+pub mod draw_changes;
 pub mod light;
 pub mod mesh;
 pub mod skin;
@@ -12,6 +13,7 @@ pub mod visibility;
 pub use bevy_ecs::hierarchy::{ChildOf, Children};
 pub use bevy_ecs::name::Name;
 pub use camera::{Camera, Exposure, Projection};
+pub use draw_changes::DrawChanges;
 pub use light::{
     AmbientLight, DirectionalLight, DiskLight, IesLight, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };

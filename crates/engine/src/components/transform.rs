@@ -11,6 +11,8 @@
 use bevy_ecs::prelude::*;
 use glam::{Affine3A, Mat3, Mat4, Quat, Vec3};
 
+use super::draw_changes::{DrawChanges, record_insert};
+
 /// Local placement relative to the parent (or the world for a root).
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
 #[require(GlobalTransform)]
@@ -105,8 +107,11 @@ impl Transform {
     }
 }
 
-/// World placement, derived by propagation. Do not write it; write `Transform`.
+/// World placement, derived by propagation. Do not write it; write `Transform`: the renderer
+/// learns of new placements from propagation (see [`super::draw_changes`]), so a direct write
+/// is not drawn, and propagation would overwrite it anyway. Inserting one is seen.
 #[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
+#[component(on_insert = record_insert)]
 pub struct GlobalTransform(pub Affine3A);
 
 impl GlobalTransform {
@@ -134,11 +139,12 @@ impl GlobalTransform {
 type ChangedLeaves<'w, 's> = Query<
     'w,
     's,
-    (&'static Transform, &'static mut GlobalTransform),
+    (Entity, &'static Transform, &'static mut GlobalTransform),
     (Changed<Transform>, Without<ChildOf>, Without<Children>),
 >;
 
-/// Derives `GlobalTransform` for every entity with a `Transform`.
+/// Derives `GlobalTransform` for every entity with a `Transform`, and records each entity whose
+/// `GlobalTransform` it writes in the [`DrawChanges`] feed (when the renderer keeps one).
 pub fn propagate_transforms(
     mut globals: ParamSet<(ChangedLeaves, Query<&mut GlobalTransform>)>,
     // A root without Transform (a bare grouping entity) places its children as the identity.
@@ -146,10 +152,27 @@ pub fn propagate_transforms(
     parentless: Query<&Transform, Without<ChildOf>>,
     nodes: Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
     mut unparented: RemovedComponents<ChildOf>,
+    mut feed: Option<ResMut<DrawChanges>>,
 ) {
     // Standalone entities need no walk: only the changed ones are visited, on all cores, so a
     // still scene of a million objects costs one parallel pass over change ticks.
-    globals.p0().par_iter_mut().for_each(|(transform, mut global)| global.0 = transform.to_affine());
+    {
+        let pass = feed.as_mut().map(|f| f.begin_pass());
+        globals.p0().par_iter_mut().for_each_init(
+            || pass.map(|p| p.task_recorder()),
+            |recorder, (entity, transform, mut global)| {
+                global.0 = transform.to_affine();
+                if let Some(r) = recorder {
+                    r.record(entity);
+                }
+            },
+        );
+    }
+    let mut record = |entity: Entity| {
+        if let Some(f) = feed.as_mut() {
+            f.record(entity);
+        }
+    };
     // An entity that lost its parent is a root whose world transform changed although its
     // `Transform` did not.
     let unparented: std::collections::HashSet<Entity> = unparented.read().collect();
@@ -157,6 +180,7 @@ pub fn propagate_transforms(
     for &entity in &unparented {
         if let (Ok(transform), Ok(mut g)) = (parentless.get(entity), globals.get_mut(entity)) {
             g.0 = transform.to_affine();
+            record(entity);
         }
     }
     for (entity, transform, children) in &roots {
@@ -164,9 +188,10 @@ pub fn propagate_transforms(
         let world = transform.map_or(Affine3A::IDENTITY, |t| t.to_affine());
         if dirty && let Ok(mut g) = globals.get_mut(entity) {
             g.0 = world;
+            record(entity);
         }
         for &child in children {
-            propagate_recursive(child, world, dirty, &nodes, &mut globals, 0);
+            propagate_recursive(child, world, dirty, &nodes, &mut globals, &mut record, 0);
         }
     }
 }
@@ -181,6 +206,7 @@ fn propagate_recursive(
     parent_dirty: bool,
     nodes: &Query<(Ref<Transform>, Ref<ChildOf>, Option<&Children>)>,
     globals: &mut Query<&mut GlobalTransform>,
+    record: &mut impl FnMut(Entity),
     depth: u32,
 ) {
     if depth > MAX_HIERARCHY_DEPTH {
@@ -194,10 +220,11 @@ fn propagate_recursive(
     let world = parent_world * transform.to_affine();
     if dirty && let Ok(mut g) = globals.get_mut(entity) {
         g.0 = world;
+        record(entity);
     }
     if let Some(children) = children {
         for &child in children {
-            propagate_recursive(child, world, dirty, nodes, globals, depth + 1);
+            propagate_recursive(child, world, dirty, nodes, globals, record, depth + 1);
         }
     }
 }

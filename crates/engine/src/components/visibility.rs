@@ -2,6 +2,8 @@
 
 use bevy_ecs::prelude::*;
 
+use super::draw_changes::{DrawChanges, record_insert};
+
 #[derive(Component, Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[require(InheritedVisibility)]
 pub enum Visibility {
@@ -12,8 +14,10 @@ pub enum Visibility {
     Hidden,
 }
 
-/// Whether the entity is shown after applying every ancestor's `Visibility`.
+/// Whether the entity is shown after applying every ancestor's `Visibility`. Derived by
+/// propagation: write `Visibility`, not this (see `GlobalTransform` for why).
 #[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[component(on_insert = record_insert)]
 pub struct InheritedVisibility(pub bool);
 
 impl Default for InheritedVisibility {
@@ -26,7 +30,7 @@ impl Default for InheritedVisibility {
 type ChangedStandalone<'w, 's> = Query<
     'w,
     's,
-    (&'static Visibility, &'static mut InheritedVisibility),
+    (Entity, &'static Visibility, &'static mut InheritedVisibility),
     (Changed<Visibility>, Without<ChildOf>, Without<Children>),
 >;
 
@@ -35,6 +39,8 @@ fn shown_alone(visibility: &Visibility) -> bool {
     *visibility != Visibility::Hidden
 }
 
+/// Derives `InheritedVisibility`, and records each entity whose `InheritedVisibility` changes in
+/// the [`DrawChanges`] feed (when the renderer keeps one).
 pub fn propagate_visibility(
     mut inherited: ParamSet<(ChangedStandalone, Query<&mut InheritedVisibility>)>,
     // A root without Visibility (a bare grouping entity) still passes its children's on.
@@ -43,18 +49,36 @@ pub fn propagate_visibility(
     hierarchy_changed: Query<(), (Or<(Changed<Visibility>, Changed<ChildOf>)>, Or<(With<ChildOf>, With<Children>)>)>,
     parentless: Query<&Visibility, Without<ChildOf>>,
     mut unparented: RemovedComponents<ChildOf>,
+    mut feed: Option<ResMut<DrawChanges>>,
 ) {
     // Standalone entities are their own answer: only the changed ones are visited, on all
     // cores, so a still scene of a million objects costs one parallel pass over change ticks.
-    inherited.p0().par_iter_mut().for_each(|(visibility, mut derived)| {
-        derived.set_if_neq(InheritedVisibility(shown_alone(visibility)));
-    });
+    {
+        let pass = feed.as_mut().map(|f| f.begin_pass());
+        inherited.p0().par_iter_mut().for_each_init(
+            || pass.map(|p| p.task_recorder()),
+            |recorder, (entity, visibility, mut derived)| {
+                if derived.set_if_neq(InheritedVisibility(shown_alone(visibility)))
+                    && let Some(r) = recorder
+                {
+                    r.record(entity);
+                }
+            },
+        );
+    }
+    let mut record = |entity: Entity| {
+        if let Some(f) = feed.as_mut() {
+            f.record(entity);
+        }
+    };
     let unparented: Vec<Entity> = unparented.read().collect();
     let mut inherited = inherited.p1();
     // An entity that lost its parent no longer inherits its parent's hiding.
     for &entity in &unparented {
-        if let (Ok(visibility), Ok(mut derived)) = (parentless.get(entity), inherited.get_mut(entity)) {
-            derived.set_if_neq(InheritedVisibility(shown_alone(visibility)));
+        if let (Ok(visibility), Ok(mut derived)) = (parentless.get(entity), inherited.get_mut(entity))
+            && derived.set_if_neq(InheritedVisibility(shown_alone(visibility)))
+        {
+            record(entity);
         }
     }
     // Hierarchies: nothing authored changed in any of them, nothing derived can change.
@@ -62,7 +86,7 @@ pub fn propagate_visibility(
         return;
     }
     for root in &roots {
-        walk(root, true, &nodes, &mut inherited, 0);
+        walk(root, true, &nodes, &mut inherited, &mut record, 0);
     }
 }
 
@@ -71,6 +95,7 @@ fn walk(
     parent_visible: bool,
     nodes: &Query<(Option<Ref<Visibility>>, Option<&Children>)>,
     inherited: &mut Query<&mut InheritedVisibility>,
+    record: &mut impl FnMut(Entity),
     depth: u32,
 ) {
     if depth > 4096 {
@@ -84,12 +109,14 @@ fn walk(
         Some(Visibility::Hidden) => false,
         Some(Visibility::Inherited) | None => parent_visible,
     };
-    if let Ok(mut iv) = inherited.get_mut(entity) {
-        iv.set_if_neq(InheritedVisibility(visible));
+    if let Ok(mut iv) = inherited.get_mut(entity)
+        && iv.set_if_neq(InheritedVisibility(visible))
+    {
+        record(entity);
     }
     if let Some(children) = children {
         for &child in children {
-            walk(child, visible, nodes, inherited, depth + 1);
+            walk(child, visible, nodes, inherited, record, depth + 1);
         }
     }
 }

@@ -2,10 +2,12 @@
 //! `PostUpdate` and writes [`RenderScene`]; it makes no GPU calls.
 //!
 //! - view: the active camera with the highest `order` (re-extracted every frame: one entity);
-//! - draws: change-detected; an unchanged entity costs nothing (beyond bevy's change-tick scan,
-//!   on all cores for large scenes); `changed_draws` lists each entity once, in no particular
-//!   order; losing its mesh, placement
-//!   (GlobalTransform) or visibility (InheritedVisibility) component removes it, as for lights;
+//! - draws: the entities the main world's `DrawChanges` feed lists (placement or visibility
+//!   written by propagation, mesh or material inserted; see `penumbra_engine::components::
+//!   draw_changes`), read again, on all cores when there are many; an unchanged entity costs
+//!   nothing, not even a change-tick check. `changed_draws` lists each entity once, in no
+//!   particular order; losing its mesh, placement (GlobalTransform) or visibility
+//!   (InheritedVisibility) component removes it, as for lights;
 //! - deforms: joint matrices and morph weights of skinned and morphed meshes, change-detected
 //!   like draws (`changed_deforms` / `removed_deforms`); non-finite weights count as 0;
 //! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
@@ -21,8 +23,8 @@ use bevy_ecs::prelude::*;
 use glam::{Affine3A, Vec3};
 use penumbra_engine::assets::Assets;
 use penumbra_engine::components::{
-    AmbientLight, Camera, DirectionalLight, DiskLight, GlobalTransform, IesLight, InheritedVisibility, JointMatrices,
-    Mesh3d, MeshMaterial3d, MorphWeights, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
+    AmbientLight, Camera, DirectionalLight, DiskLight, DrawChanges, GlobalTransform, IesLight, InheritedVisibility,
+    JointMatrices, Mesh3d, MeshMaterial3d, MorphWeights, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
 };
 use penumbra_engine::environment::Environment;
 use penumbra_engine::gizmos::Gizmos;
@@ -139,14 +141,16 @@ struct RemovedDrawParts<'w, 's> {
     visibility: RemovedComponents<'w, 's, InheritedVisibility>,
 }
 
+/// Draws: the entities the main world's [`DrawChanges`] feed lists (placement or visibility
+/// written by propagation, mesh or material inserted), read again; on the feed's first drain,
+/// every drawable entity. Nothing scans the change ticks of unchanged entities.
 fn extract_draws(
-    changed: Query<
-        (Entity, &GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility),
-        Or<(Changed<GlobalTransform>, Changed<Mesh3d>, Changed<MeshMaterial3d>, Changed<InheritedVisibility>)>,
-    >,
     all: Query<(&GlobalTransform, &Mesh3d, Option<&MeshMaterial3d>, &InheritedVisibility)>,
+    every: Query<Entity, (With<GlobalTransform>, With<Mesh3d>, With<InheritedVisibility>)>,
     mut removed: RemovedDrawParts,
     entities: &bevy_ecs::entity::Entities,
+    mut feed: ResMut<DrawChanges>,
+    mut seen: Local<SeenThisFrame>,
     mut scene: ResMut<RenderScene>,
 ) {
     let scene = &mut *scene;
@@ -157,18 +161,34 @@ fn extract_draws(
             scene.removed_draws.push(entity);
         }
     }
-    let item = |(entity, transform, mesh, material, visibility): DrawQueryItem| {
+    let (drained, first) = feed.drain();
+    let lists = if first {
+        // Entities that existed before the feed did were never recorded.
+        vec![every.iter().collect()]
+    } else if drained.unique {
+        drained.lists
+    } else {
+        // Hooks and several passes may list an entity more than once; the renderer writes
+        // each listed entity's record from one thread, so each is extracted once.
+        seen.next_frame();
+        let unique = drained.lists.into_iter().flatten().filter(|&e| seen.first_time(e)).collect();
+        vec![unique]
+    };
+    let read = |entity: Entity| {
+        let (transform, mesh, material, visibility) = all.get(entity).ok()?;
         let item = DrawItem {
             world_from_local: transform.0,
             mesh: mesh.0,
             material: material.map(|m| m.0),
             visible: visibility.0,
         };
-        (entity, item)
+        Some(item)
     };
-    if scene.draws.len() < PARALLEL_SCAN_MIN {
-        for q in &changed {
-            let (entity, item) = item(q);
+    let total: usize = lists.iter().map(Vec::len).sum();
+    if total < PARALLEL_EXTRACT_MIN {
+        for entity in lists.into_iter().flatten() {
+            // Not drawable (a camera, a light, an empty that moved) or already despawned.
+            let Some(item) = read(entity) else { continue };
             // A despawned entity whose index was reused this frame is gone even if its removal
             // has not been read yet.
             if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
@@ -177,31 +197,36 @@ fn extract_draws(
             scene.changed_draws.push(entity);
         }
     } else {
-        // The change-tick scan over every drawable entity runs on all cores, each task filing
-        // what changed straight into the table (each entity at its own index) and listing it.
-        // The order of `changed_draws` is therefore unspecified: the renderer orders what
-        // depends on it.
+        // On all cores, each task filing what it reads straight into the table (each entity at
+        // its own index) and listing it. The order of `changed_draws` is therefore unspecified:
+        // the renderer orders what depends on it.
         scene.draws.reserve_indices(entities.len() as usize);
-        let lists = std::sync::Mutex::new(Vec::new());
-        let leftovers = {
+        let sink = std::sync::Mutex::new(Vec::new());
+        {
             let writer = scene.draws.disjoint_writer();
-            changed.par_iter().for_each_init(
-                || TaskLists { lists: ChangeLists::default(), sink: &lists },
-                |task, q| {
-                    let (entity, item) = item(q);
-                    // SAFETY: a query yields each entity once, and live entities have distinct
-                    // indices.
-                    match unsafe { writer.insert(entity, item) } {
-                        Ok(Replaced::Other(old, _)) => task.lists.displaced.push(old),
-                        Ok(_) => {}
-                        Err(item) => task.lists.beyond.push((entity, item)),
-                    }
-                    task.lists.changed.push(entity);
-                },
-            );
-            lists.into_inner().unwrap_or_else(|e| e.into_inner())
-        };
-        for l in leftovers {
+            let pool = bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default);
+            let chunk = total.div_ceil(pool.thread_num().max(1) * 4).max(1024);
+            pool.scope(|s| {
+                for part in lists.iter().flat_map(|l| l.chunks(chunk)) {
+                    let (writer, sink, read) = (&writer, &sink, &read);
+                    s.spawn(async move {
+                        let mut task = TaskLists { lists: ChangeLists::default(), sink };
+                        for &entity in part {
+                            let Some(item) = read(entity) else { continue };
+                            // SAFETY: the lists hold each entity once (made unique above), and
+                            // live entities have distinct indices.
+                            match unsafe { writer.insert(entity, item) } {
+                                Ok(Replaced::Other(old, _)) => task.lists.displaced.push(old),
+                                Ok(_) => {}
+                                Err(item) => task.lists.beyond.push((entity, item)),
+                            }
+                            task.lists.changed.push(entity);
+                        }
+                    });
+                }
+            });
+        }
+        for l in sink.into_inner().unwrap_or_else(|e| e.into_inner()) {
             scene.changed_draws.extend(l.changed);
             scene.removed_draws.extend(l.displaced);
             // Not reachable while `Entities::len` bounds entity indices; kept correct anyway.
@@ -221,35 +246,57 @@ fn extract_draws(
             scene.removed_draws.push(entity);
         }
     }
-    // Losing only the material falls back to the default one. An entity the changed query
-    // already saw was extracted without its material and must not be listed twice (the
-    // renderer writes each listed entity's record from one thread).
-    // An entity whose material was removed twice since the last extraction is read twice.
-    let mut refiled = std::collections::HashSet::new();
-    for entity in removed.materials.read() {
-        if changed.contains(entity) || !refiled.insert(entity) {
-            continue;
-        }
-        if let Ok((transform, mesh, material, visibility)) = all.get(entity) {
-            let item = DrawItem {
-                world_from_local: transform.0,
-                mesh: mesh.0,
-                material: material.map(|m| m.0),
-                visible: visibility.0,
-            };
-            if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
-                scene.removed_draws.push(old);
+    // Losing only the material falls back to the default one. An entity extracted above was
+    // read without its material and must not be listed twice (the renderer writes each listed
+    // entity's record from one thread); nor may one whose material was removed twice.
+    let removed_materials: Vec<Entity> = removed.materials.read().collect();
+    if !removed_materials.is_empty() {
+        let mut listed: std::collections::HashSet<Entity> = scene.changed_draws.iter().copied().collect();
+        for entity in removed_materials {
+            if !listed.insert(entity) {
+                continue;
             }
-            scene.changed_draws.push(entity);
+            if let Some(item) = read(entity) {
+                if let Replaced::Other(old, _) = scene.draws.insert(entity, item) {
+                    scene.removed_draws.push(old);
+                }
+                scene.changed_draws.push(entity);
+            }
         }
     }
 }
 
-/// Scenes with at least this many draws scan for changes on all cores; below it, starting the
-/// tasks costs more than the scan.
-const PARALLEL_SCAN_MIN: usize = 20_000;
+/// Which entities one extraction has listed, to list each once: per entity index, the frame
+/// it was last listed in and the entity that held the index then.
+#[derive(Default)]
+struct SeenThisFrame {
+    frame: u32,
+    seen: Vec<(u32, Option<Entity>)>,
+}
 
-type DrawQueryItem<'a> = (Entity, &'a GlobalTransform, &'a Mesh3d, Option<&'a MeshMaterial3d>, &'a InheritedVisibility);
+impl SeenThisFrame {
+    fn next_frame(&mut self) {
+        self.frame = self.frame.wrapping_add(1);
+        if self.frame == 0 {
+            // Wrapped: stamps from 2^32 frames ago would read as this frame's.
+            self.seen.iter_mut().for_each(|s| *s = (0, None));
+            self.frame = 1;
+        }
+    }
+
+    fn first_time(&mut self, entity: Entity) -> bool {
+        let i = entity.index_u32() as usize;
+        if i >= self.seen.len() {
+            self.seen.resize((i + 1).next_power_of_two(), (0, None));
+        }
+        let stamp = (self.frame, Some(entity));
+        std::mem::replace(&mut self.seen[i], stamp) != stamp
+    }
+}
+
+/// Frames that change at least this many entities read them on all cores; below it, starting
+/// the tasks costs more than the reading.
+const PARALLEL_EXTRACT_MIN: usize = 20_000;
 
 /// What one parallel extraction task changed.
 #[derive(Default)]
@@ -594,4 +641,146 @@ fn extract_assets(
     sync_assets(&materials, &mut scene.materials);
     sync_assets(&images, &mut scene.images);
     sync_assets(&ies_profiles, &mut scene.ies_profiles);
+}
+
+#[cfg(test)]
+mod tests {
+    //! Extraction reads what the main world's change feed lists: these check that every way a
+    //! drawable entity changes reaches `changed_draws`, once, and that nothing else does.
+    use super::*;
+    use crate::RenderPlugin;
+    use penumbra_engine::components::{ChildOf, Transform, Visibility};
+    use penumbra_engine::{App, CorePlugin};
+
+    fn app() -> App {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+        app
+    }
+
+    fn handles(app: &mut App) -> (penumbra_engine::Handle<Mesh>, penumbra_engine::Handle<StandardMaterial>) {
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+        let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::default());
+        (mesh, material)
+    }
+
+    fn changed(app: &App) -> Vec<Entity> {
+        let mut list = app.world.resource::<RenderScene>().changed_draws.clone();
+        list.sort();
+        list
+    }
+
+    fn draw(app: &App, e: Entity) -> DrawItem {
+        app.world.resource::<RenderScene>().draws.get(e).cloned().expect("extracted")
+    }
+
+    #[test]
+    fn a_still_frame_lists_nothing_and_a_move_lists_the_mover_once() {
+        // Above PARALLEL_EXTRACT_MIN, so the frame that moves them all reads on all cores.
+        let mut app = app();
+        let (mesh, material) = handles(&mut app);
+        let cubes: Vec<Entity> = (0..25_000)
+            .map(|i| {
+                app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::from_xyz(i as f32, 0.0, 0.0))).id()
+            })
+            .collect();
+        let mut cubes = cubes;
+        cubes.sort();
+        app.update();
+        assert!(changed(&app) == cubes, "spawned: each listed once");
+        app.update();
+        assert!(changed(&app).is_empty());
+        for &c in &cubes {
+            app.world.get_mut::<Transform>(c).unwrap().translation.y = 2.0;
+        }
+        app.update();
+        assert!(changed(&app) == cubes);
+        assert_eq!(draw(&app, cubes[7]).world_from_local.translation.y, 2.0);
+        app.world.get_mut::<Transform>(cubes[3]).unwrap().translation.y = 5.0;
+        app.update();
+        assert_eq!(changed(&app), vec![cubes[3]]);
+        assert_eq!(draw(&app, cubes[3]).world_from_local.translation.y, 5.0);
+    }
+
+    #[test]
+    fn entities_spawned_before_the_renderer_existed_are_extracted() {
+        let mut app = App::new();
+        app.add_plugins(CorePlugin);
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+        let early = app.world.spawn((Mesh3d(mesh), Transform::default())).id();
+        app.update();
+        app.add_plugins(RenderPlugin);
+        app.update();
+        assert_eq!(changed(&app), vec![early]);
+        assert!(draw(&app, early).visible);
+    }
+
+    #[test]
+    fn inserting_a_mesh_or_material_lists_the_entity_once() {
+        let mut app = app();
+        let (mesh, material) = handles(&mut app);
+        let other = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::splat(2.0)));
+        let cube = app.world.spawn((Mesh3d(mesh), Transform::default())).id();
+        app.update();
+        app.world.entity_mut(cube).insert(Mesh3d(other));
+        app.update();
+        assert_eq!(changed(&app), vec![cube]);
+        assert_eq!(draw(&app, cube).mesh, other);
+        // Material, mesh and placement in one frame: still one entry.
+        app.world.entity_mut(cube).insert((MeshMaterial3d(material), Mesh3d(mesh)));
+        app.world.get_mut::<Transform>(cube).unwrap().translation.x = 1.0;
+        app.update();
+        assert_eq!(changed(&app), vec![cube]);
+        let item = draw(&app, cube);
+        assert_eq!((item.mesh, item.material), (mesh, Some(material)));
+        assert_eq!(item.world_from_local.translation.x, 1.0);
+    }
+
+    #[test]
+    fn hierarchy_changes_reach_the_children() {
+        let mut app = app();
+        let (mesh, _) = handles(&mut app);
+        let parent = app.world.spawn((Transform::from_xyz(10.0, 0.0, 0.0), Visibility::Inherited)).id();
+        let child = app.world.spawn((Mesh3d(mesh), Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(parent))).id();
+        let other_parent = app.world.spawn(Transform::from_xyz(0.0, 5.0, 0.0)).id();
+        app.update();
+        assert_eq!(draw(&app, child).world_from_local.translation.x, 11.0);
+        // Moving the parent moves the child.
+        app.world.get_mut::<Transform>(parent).unwrap().translation.x = 20.0;
+        app.update();
+        assert_eq!(changed(&app), vec![child]);
+        assert_eq!(draw(&app, child).world_from_local.translation.x, 21.0);
+        // Hiding the parent hides the child.
+        *app.world.get_mut::<Visibility>(parent).unwrap() = Visibility::Hidden;
+        app.update();
+        assert_eq!(changed(&app), vec![child]);
+        assert!(!draw(&app, child).visible);
+        // A new parent places the child anew.
+        app.world.entity_mut(child).insert(ChildOf(other_parent));
+        app.update();
+        assert_eq!(changed(&app), vec![child]);
+        let item = draw(&app, child);
+        assert_eq!(item.world_from_local.translation, glam::Vec3A::new(1.0, 5.0, 0.0));
+        assert!(item.visible);
+        // Unparented: its own transform alone.
+        app.world.entity_mut(child).remove::<ChildOf>();
+        app.update();
+        assert_eq!(changed(&app), vec![child]);
+        assert_eq!(draw(&app, child).world_from_local.translation, glam::Vec3A::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn a_placement_removed_and_inserted_again_is_drawn_again() {
+        let mut app = app();
+        let (mesh, _) = handles(&mut app);
+        let cube = app.world.spawn((Mesh3d(mesh), Transform::from_xyz(3.0, 0.0, 0.0))).id();
+        app.update();
+        app.world.entity_mut(cube).remove::<GlobalTransform>();
+        app.update();
+        assert!(app.world.resource::<RenderScene>().draws.get(cube).is_none());
+        app.world.entity_mut(cube).insert(GlobalTransform::default());
+        app.update();
+        assert_eq!(changed(&app), vec![cube]);
+        assert!(app.world.resource::<RenderScene>().draws.get(cube).is_some());
+    }
 }
