@@ -3,6 +3,7 @@
 //! by the `PostUpdate` systems in this module's children.
 
 pub mod camera;
+pub mod change_summary;
 pub mod draw_changes;
 pub mod light;
 pub mod mesh;

@@ -2,7 +2,8 @@
 //! system that derives the second from the first down the `ChildOf` hierarchy.
 //!
 //! Propagation runs in `PostUpdate`. Entities with neither parent nor children are visited only
-//! when their `Transform` changed (in parallel). Hierarchies are walked from every root; a
+//! when their `Transform` changed (in parallel), and not even their change ticks are read in a
+//! frame in which no table of them was written (`change_summary`). Hierarchies are walked from every root; a
 //! subtree is recomputed when its root's `Transform` or parent link changed, or when any
 //! ancestor was recomputed, and
 //! `GlobalTransform` is only written when it is recomputed, so change detection downstream
@@ -11,10 +12,13 @@
 use bevy_ecs::prelude::*;
 use glam::{Affine3A, Mat3, Mat4, Quat, Vec3};
 
+use super::change_summary::any_changed;
 use super::draw_changes::{DrawChanges, record_insert};
 
-/// Local placement relative to the parent (or the world for a root).
+/// Local placement relative to the parent (or the world for a root). Each table of them keeps a
+/// summary tick, so propagation skips a still frame without looking at each entity.
 #[derive(Component, Debug, Clone, Copy, PartialEq)]
+#[component(summary_tick)]
 #[require(GlobalTransform)]
 pub struct Transform {
     pub translation: Vec3,
@@ -143,10 +147,13 @@ type ChangedLeaves<'w, 's> = Query<
     (Changed<Transform>, Without<ChildOf>, Without<Children>),
 >;
 
+/// Every standalone entity's `Transform`, for its tables' summary ticks.
+type StandaloneProbe<'w, 's> = Query<'w, 's, Ref<'static, Transform>, (Without<ChildOf>, Without<Children>)>;
+
 /// Derives `GlobalTransform` for every entity with a `Transform`, and records each entity whose
 /// `GlobalTransform` it writes in the [`DrawChanges`] feed (when the renderer keeps one).
 pub fn propagate_transforms(
-    mut globals: ParamSet<(ChangedLeaves, Query<&mut GlobalTransform>)>,
+    mut globals: ParamSet<(ChangedLeaves, Query<&mut GlobalTransform>, StandaloneProbe)>,
     // A root without Transform (a bare grouping entity) places its children as the identity.
     roots: Query<(Entity, Option<Ref<Transform>>, &Children), Without<ChildOf>>,
     parentless: Query<&Transform, Without<ChildOf>>,
@@ -154,9 +161,9 @@ pub fn propagate_transforms(
     mut unparented: RemovedComponents<ChildOf>,
     mut feed: Option<ResMut<DrawChanges>>,
 ) {
-    // Standalone entities need no walk: only the changed ones are visited, on all cores, so a
-    // still scene of a million objects costs one parallel pass over change ticks.
-    {
+    // Standalone entities need no walk: only the changed ones are visited, on all cores; and
+    // when no table of them saw a write since the last frame (a still scene), none is.
+    if any_changed(&globals.p2()) {
         let pass = feed.as_mut().map(|f| f.begin_pass());
         globals.p0().par_iter_mut().for_each_init(
             || pass.map(|p| p.task_recorder()),

@@ -2,9 +2,12 @@
 
 use bevy_ecs::prelude::*;
 
+use super::change_summary::any_changed;
 use super::draw_changes::{DrawChanges, record_insert};
 
+/// Authored visibility. Each table of them keeps a summary tick (see `Transform`).
 #[derive(Component, Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[component(summary_tick)]
 #[require(InheritedVisibility)]
 pub enum Visibility {
     /// Visible if the parent is (roots: visible).
@@ -34,6 +37,9 @@ type ChangedStandalone<'w, 's> = Query<
     (Changed<Visibility>, Without<ChildOf>, Without<Children>),
 >;
 
+/// Every standalone entity's `Visibility`, for its tables' summary ticks.
+type StandaloneProbe<'w, 's> = Query<'w, 's, Ref<'static, Visibility>, (Without<ChildOf>, Without<Children>)>;
+
 /// Whether a root (or an entity without a parent) is shown.
 fn shown_alone(visibility: &Visibility) -> bool {
     *visibility != Visibility::Hidden
@@ -42,7 +48,7 @@ fn shown_alone(visibility: &Visibility) -> bool {
 /// Derives `InheritedVisibility`, and records each entity whose `InheritedVisibility` changes in
 /// the [`DrawChanges`] feed (when the renderer keeps one).
 pub fn propagate_visibility(
-    mut inherited: ParamSet<(ChangedStandalone, Query<&mut InheritedVisibility>)>,
+    mut inherited: ParamSet<(ChangedStandalone, Query<&mut InheritedVisibility>, StandaloneProbe)>,
     // A root without Visibility (a bare grouping entity) still passes its children's on.
     roots: Query<Entity, (With<Children>, Without<ChildOf>)>,
     nodes: Query<(Option<Ref<Visibility>>, Option<&Children>)>,
@@ -52,8 +58,8 @@ pub fn propagate_visibility(
     mut feed: Option<ResMut<DrawChanges>>,
 ) {
     // Standalone entities are their own answer: only the changed ones are visited, on all
-    // cores, so a still scene of a million objects costs one parallel pass over change ticks.
-    {
+    // cores; and when no table of them saw a write since the last frame, none is.
+    if any_changed(&inherited.p2()) {
         let pass = feed.as_mut().map(|f| f.begin_pass());
         inherited.p0().par_iter_mut().for_each_init(
             || pass.map(|p| p.task_recorder()),
