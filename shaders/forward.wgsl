@@ -103,7 +103,11 @@ struct VertexOut {
     @location(2) tangent: vec4<f32>,
     @location(3) uv0: vec2<f32>,
     @location(4) uv1: vec2<f32>,
+#ifdef VERTEX_COLORS
+    // Only meshes with colours other than white interpolate one: on GPUs that rasterise small
+    // triangles slowly, each interpolated value costs (a sixth of a million-cube frame).
     @location(5) color: vec4<f32>,
+#endif
     @location(6) @interpolate(flat) material: u32,
 };
 
@@ -121,7 +125,9 @@ fn vs_main(in: VertexIn) -> VertexOut {
     out.tangent = vec4<f32>(safe_normalize(placed.linear * in.tangent.xyz, vec3<f32>(0.0)), in.tangent.w * placed.mirror);
     out.uv0 = in.uv0;
     out.uv1 = in.uv1;
+#ifdef VERTEX_COLORS
     out.color = in.color;
+#endif
     out.material = inst.material;
 #ifdef LINE_QUADS
     // The segment's other end: the vertex whose index differs in bit 1 (prepare/line_quads.rs).
@@ -136,14 +142,16 @@ fn vs_main(in: VertexIn) -> VertexOut {
         if t > 0.0 {
             let n = vec3<f32>(pool_vertices[at + 3u], pool_vertices[at + 4u], pool_vertices[at + 5u]);
             let tangent = vec3<f32>(pool_vertices[at + 6u], pool_vertices[at + 7u], pool_vertices[at + 8u]);
-            let color = vec4<f32>(unpack2x16unorm(bitcast<u32>(pool_vertices[at + 14u])), unpack2x16unorm(bitcast<u32>(pool_vertices[at + 15u])));
             out.clip_position = mix(out.clip_position, other_clip, t);
             out.rel_position = mix(placed.rel, other_rel, t);
             out.normal = safe_normalize(placed.cofactor * mix(in.normal, n, t), vec3<f32>(0.0));
             out.tangent = vec4<f32>(safe_normalize(placed.linear * mix(in.tangent.xyz, tangent, t), vec3<f32>(0.0)), out.tangent.w);
             out.uv0 = mix(in.uv0, vec2<f32>(pool_vertices[at + 10u], pool_vertices[at + 11u]), t);
             out.uv1 = mix(in.uv1, vec2<f32>(pool_vertices[at + 12u], pool_vertices[at + 13u]), t);
+#ifdef VERTEX_COLORS
+            let color = vec4<f32>(unpack2x16unorm(bitcast<u32>(pool_vertices[at + 14u])), unpack2x16unorm(bitcast<u32>(pool_vertices[at + 15u])));
             out.color = mix(in.color, color, t);
+#endif
         }
         let side = select(-1.0, 1.0, (in.vertex_index & 1u) != 0u);
         out.clip_position = line_corner(out.clip_position, other_clip, side, (in.vertex_index & 2u) != 0u, view.target_size);
@@ -216,7 +224,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     var surface_alpha = 0.0;
     let mat = materials[in.material];
     let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
-    var base = mat.base_color * in.color;
+    var base = mat.base_color;
+#ifdef VERTEX_COLORS
+    base *= in.color;
+#endif
 #ifdef BASE_COLOR_TEXTURE
     base *= material_texel(base_color_texture, base_color_sampler, mat, 0u, sets);
 #endif

@@ -31,7 +31,15 @@ fn plan_with(
     mut app: App,
     settings: RenderSettings,
 ) -> (Vec<Pass>, Vec<String>, penumbra::render::MemoryStats, String) {
-    render_app(&mut app, SIZE, settings);
+    plan_of_keeping(&mut app, settings)
+}
+
+/// `plan_with` for an app the caller keeps.
+fn plan_of_keeping(
+    app: &mut App,
+    settings: RenderSettings,
+) -> (Vec<Pass>, Vec<String>, penumbra::render::MemoryStats, String) {
+    render_app(app, SIZE, settings);
     let r = app.world.resource::<Renderer>();
     let passes = r.stats().plan.passes.iter().map(|(p, _)| *p).collect();
     let defs = r.forward_pipeline_keys().iter().flat_map(|k| k.shader_defs().0).map(str::to_string).collect();
@@ -98,6 +106,26 @@ fn one_unlit_triangle_at_msaa_1_draws_straight_into_the_output() {
 
 /// `mesh` alone in front of the camera, rendered (MSAA 4), and the same with a second instance
 /// far behind the camera (culled, so the image cannot change, but two instances keep depth).
+#[test]
+fn only_meshes_with_vertex_colours_interpolate_them() {
+    let red = Vec4::new(1.0, 0.0, 0.0, 1.0);
+    let mut renders = Vec::new();
+    for (colors, interpolated) in [(vec![], false), (vec![Vec4::ONE; 3], false), (vec![red; 3], true)] {
+        let mut app = unlit_triangle();
+        let mut meshes = app.world.resource_mut::<Assets<Mesh>>();
+        let handle = meshes.iter().next().expect("the triangle").0;
+        meshes.get_mut(handle).expect("live").colors = colors;
+        let (_, defs, _, explain) = plan_of_keeping(&mut app, RenderSettings::default());
+        assert_eq!(defs.contains(&"VERTEX_COLORS".to_string()), interpolated, "{defs:?} {explain}");
+        renders.push(render_app(&mut app, SIZE, RenderSettings::default()));
+    }
+    assert_eq!(renders[0], renders[1], "white vertex colours change nothing");
+    let centre = ((SIZE.1 / 2 * SIZE.0 + SIZE.0 / 2) * 4) as usize;
+    let white = &renders[0][centre..centre + 3];
+    assert!(white[0] > 200 && white[0] == white[1] && white[1] == white[2], "{white:?}");
+    assert!(renders[2][centre] > 200 && renders[2][centre + 1] < 10, "{:?}", &renders[2][centre..centre + 4]);
+}
+
 fn alone_and_with_company(mesh: Mesh, material: StandardMaterial) -> [(Vec<u8>, u64); 2] {
     [false, true].map(|company| {
         let mut app = scene_app();

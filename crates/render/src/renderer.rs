@@ -1698,6 +1698,7 @@ impl Renderer {
             ibl: self.ibl_active,
             debug: self.settings.debug_view,
             topology: entry.topology.into(),
+            vertex_colors: entry.vertex_colors,
             // Only triangles have a back (lines are drawn as quads whose winding follows the
             // segment on screen; points face the viewer), so only their keys cull and wind.
             cull_back_faces: !m.double_sided && triangles,

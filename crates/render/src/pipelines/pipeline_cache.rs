@@ -75,6 +75,8 @@ pub struct PipelineKey {
     pub ibl: bool,
     pub debug: DebugView,
     pub topology: TopologyKey,
+    /// The mesh has vertex colours other than white (`PoolEntry::vertex_colors`).
+    pub vertex_colors: bool,
     /// Double-sided materials draw both faces.
     pub cull_back_faces: bool,
     /// Mirrored instances (negative determinant) wind clockwise.
@@ -123,6 +125,7 @@ impl PipelineKey {
             .with("DEBUG_NORMALS", self.debug == DebugView::Normals)
             .with("DEBUG_UVS", self.debug == DebugView::Uvs)
             .with("LINE_QUADS", self.topology == TopologyKey::Lines)
+            .with("VERTEX_COLORS", self.vertex_colors)
             .with("TONEMAP_IN_FORWARD", self.tonemap.is_some())
             .with("TONEMAP_NEUTRAL", self.tonemap == Some(Tonemapper::Neutral))
             .with("TONEMAP_ACES", self.tonemap == Some(Tonemapper::Aces))

@@ -74,6 +74,10 @@ pub struct PoolEntry {
     /// Whether its front faces can overlap on screen (a frame drawing only this entry, once,
     /// may then leave out depth; see `Renderer::render`).
     pub self_overlap: SelfOverlap,
+    /// Some vertex has a colour other than opaque white: its draws multiply by vertex colour.
+    /// Without, the forward shader has no colour to interpolate, which on GPUs that rasterise
+    /// small triangles slowly is a sixth of a million-cube frame (README, Performance).
+    pub vertex_colors: bool,
     hash: blake3::Hash,
     /// A deformed draw's vertex copy: its index range belongs to the source entry.
     derived: bool,
@@ -345,6 +349,7 @@ impl MeshPool {
             topology: mesh.topology,
             aabb: mesh.aabb(),
             self_overlap: mesh.self_overlap(),
+            vertex_colors: vertices.iter().any(|v| v.color != [u16::MAX; 4]),
             hash,
             derived: false,
             asset_refs: 0,
