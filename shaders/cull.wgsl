@@ -38,7 +38,9 @@ struct CullParams {
     late_base: u32,
     // Mip levels of the hierarchical depth buffer.
     hzb_levels: u32,
-    _pad: u32,
+    // The word of `args` after the late draws' arguments, where the late phase counts the
+    // entries in view that the depth pyramid hid.
+    hidden_word: u32,
 };
 
 @group(0) @binding(0) var<uniform> view: View;
@@ -89,6 +91,13 @@ fn box_in_view(center: vec3<f32>, half_extent: vec3<f32>) -> bool {
     return true;
 }
 
+#ifdef OCCLUSION_LATE
+// Entries of this workgroup in view that the depth pyramid hid. Counted here and added once per
+// workgroup to `args[params.hidden_word]`: the renderer reads the total back, a few frames late,
+// to judge whether occlusion culling pays (`OcclusionCulling::Auto`).
+var<workgroup> hidden_in_group: atomic<u32>;
+#endif
+
 @compute @workgroup_size(64)
 fn cull_instances(
     @builtin(workgroup_id) group: vec3<u32>,
@@ -97,8 +106,26 @@ fn cull_instances(
 ) {
     // Dispatched as a 2D grid when one dimension's workgroup limit is too small.
     let i = (group.y * groups.x + group.x) * 64u + lane;
+    let hidden = cull_entry(i);
+#ifdef OCCLUSION_LATE
+    if hidden {
+        atomicAdd(&hidden_in_group, 1u);
+    }
+    workgroupBarrier();
+    if lane == 0u {
+        let n = atomicLoad(&hidden_in_group);
+        if n > 0u {
+            atomicAdd(&args[params.hidden_word], n);
+        }
+    }
+#endif
+}
+
+// Culls draw-list entry `i`; returns whether it was in view but hidden by the depth pyramid
+// (late phase only).
+fn cull_entry(i: u32) -> bool {
     if i >= params.item_count {
-        return;
+        return false;
     }
     let slot = draw_slots[i];
     let b = item_batch[i];
@@ -114,22 +141,25 @@ fn cull_instances(
     let rel_center = vec3<f32>(dot(m0, c), dot(m1, c), dot(m2, c)) + t_rel;
     let world_half = vec3<f32>(dot(abs(m0), h), dot(abs(m1), h), dot(abs(m2), h));
     var visible = box_in_view(rel_center, world_half);
+    var hidden = false;
 #ifdef OCCLUSION_EARLY
     visible = visible && was_visible[i] != 0u;
 #endif
     var base = 0u;
 #ifdef OCCLUSION_LATE
     let drawn_early = visible && was_visible[i] != 0u;
-    visible = visible && !box_occluded(rel_center, world_half);
+    hidden = visible && box_occluded(rel_center, world_half);
+    visible = visible && !hidden;
     was_visible[i] = u32(visible);
     visible = visible && !drawn_early;
     base = params.late_base;
 #endif
     if !visible {
-        return;
+        return hidden;
     }
     let k = atomicAdd(&args[b * 5u + 1u], 1u);
     visible_slots[base + batch.first + k] = slot;
+    return false;
 }
 
 #ifdef OCCLUSION_LATE

@@ -248,6 +248,17 @@ fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
             let plan = &culled.world.resource::<Renderer>().stats().plan;
             assert!(plan.runs(penumbra::render::frame::Pass::OcclusionLate), "MSAA {msaa}: occlusion culling ran");
             counts.push(visible_total(&culled).expect("culling ran"));
+            // What `OcclusionCulling::Auto` reads back: entries in view the pyramid hid, of the
+            // 127 opaque ones (wall, 120 behind it, 6 in front), measured from frame 1 on.
+            let mut renderer = culled.world.resource_mut::<Renderer>();
+            renderer.finish();
+            let hidden = renderer.occlusion_measure().map(|m| (m.hidden, m.entries));
+            let expected = match frame {
+                0 => None,
+                1 | 2 => Some((120, 127)),
+                _ => Some((0, 127)),
+            };
+            assert_eq!(hidden, expected, "MSAA {msaa}, frame {frame}");
         }
         // Frame 0 draws everything in view (it has no history): the wall, 120 cubes behind it
         // and the 4 of the 6 cubes in front that the view reaches. From frame 1 the hidden

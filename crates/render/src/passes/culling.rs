@@ -19,7 +19,9 @@
 //! indirect draws (its own arguments, and a region of `visible_slots` after the blended
 //! entries). See `shaders/cull.wgsl` for why nothing visible can be lost.
 //!
-//! No CPU work per draw per frame, and nothing read back. Within a batch, visible instances are
+//! No CPU work per draw per frame. The one thing read back is the late cull's count of hidden
+//! entries, a few frames late and without waiting, for `OcclusionCulling::Auto`
+//! (`occlusion_feedback.rs`). Within a batch, visible instances are
 //! drawn in the order the GPU appended them, which varies: only coplanar, overlapping instances
 //! of one batch could tell (depth ties). Shadow passes keep drawing the full list: a caster
 //! outside the view still casts into it.
@@ -32,6 +34,7 @@ use std::collections::HashMap;
 use bytemuck::{Pod, Zeroable};
 
 use crate::passes::forward::Batch;
+use crate::passes::occlusion_feedback::{Advisor, Feedback, OcclusionMeasure};
 use crate::pipelines::pipeline_cache::{CullPhase, HzbStep, PipelineCache};
 use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::buffer::GrowableBuffer;
@@ -131,6 +134,12 @@ pub struct GpuCulling {
     late_base: u32,
     /// Whether the last frame ran the occlusion phases (which arguments hold its counts).
     occlusion: bool,
+    /// The frame `prepare_frame` was last called for, and the last one that ran occlusion culling.
+    frame: u64,
+    last_occlusion_frame: Option<u64>,
+    /// Hidden counts on their way back, and what they decide for `OcclusionCulling::Auto`.
+    feedback: Feedback,
+    advisor: Advisor,
     /// Bind groups by phase with the resources they were made of: remade only when one of them
     /// was replaced (no `create_*` per frame on the hot path).
     groups: HashMap<CullPhase, (Vec<wgpu::Buffer>, Option<wgpu::TextureView>, wgpu::BindGroup)>,
@@ -160,6 +169,10 @@ impl GpuCulling {
             batch_count: 0,
             late_base: 0,
             occlusion: false,
+            frame: 0,
+            last_occlusion_frame: None,
+            feedback: Feedback::new(device),
+            advisor: Advisor::default(),
             groups: HashMap::new(),
         }
     }
@@ -231,6 +244,8 @@ impl GpuCulling {
             words[if indexed { 4 } else { 3 }] += late_base;
         }
         self.late_base = late_base;
+        // The word after the late arguments counts what the late cull hid (`hidden_word`).
+        late.push(0);
         self.late_template.reserve(device, late.len() as u64 * 4);
         self.late_args.reserve(device, late.len() as u64 * 4);
         self.was_visible.reserve(device, item_batch.len() as u64 * 4);
@@ -267,8 +282,10 @@ impl GpuCulling {
         queue: &wgpu::Queue,
         draw_list_len: usize,
         occlusion: Option<(u32, u32)>,
+        frame: u64,
     ) -> bool {
         self.occlusion = occlusion.is_some();
+        self.frame = frame;
         let levels = match occlusion {
             Some(size) => {
                 if self.hzb.as_ref().is_none_or(|h| h.frame_size != size) {
@@ -281,7 +298,8 @@ impl GpuCulling {
                 1
             }
         };
-        let params = [self.item_count, self.late_base, levels, 0];
+        let hidden_word = self.batch_count * ARGS_WORDS as u32;
+        let params = [self.item_count, self.late_base, levels, hidden_word];
         if self.written_params != Some(params) {
             queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&params));
             self.written_params = Some(params);
@@ -384,9 +402,40 @@ impl GpuCulling {
         }
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
         if args_bytes > 0 {
-            encoder.copy_buffer_to_buffer(self.late_template.buffer(), 0, self.late_args.buffer(), 0, args_bytes);
+            // With the hidden count after them.
+            encoder.copy_buffer_to_buffer(self.late_template.buffer(), 0, self.late_args.buffer(), 0, args_bytes + 4);
         }
         self.dispatch(encoder, device, pipelines, inputs, CullPhase::Late, timer);
+        // Measured only after a frame that also culled by occlusion: its visible set is what the
+        // early pass drew, so the pyramid holds what a steady state would.
+        if args_bytes > 0 && self.last_occlusion_frame == Some(self.frame.wrapping_sub(1)) {
+            self.feedback.record(encoder, self.late_args.buffer(), args_bytes, self.frame, self.item_count);
+        }
+        self.last_occlusion_frame = Some(self.frame);
+    }
+
+    /// For `OcclusionCulling::Auto`, once per frame that could cull by occlusion: whether it
+    /// should (see `occlusion_feedback.rs`).
+    pub fn occlusion_wanted(&mut self) -> bool {
+        self.advisor.wants()
+    }
+
+    /// Reads the hidden counts that came back, without waiting, and lets the newest decide.
+    pub fn collect_feedback(&mut self, device: &wgpu::Device) {
+        if let Some(m) = self.feedback.collect(device) {
+            self.advisor.report(m);
+        }
+    }
+
+    /// After the frame's submission: starts reading back what the frame measured.
+    pub fn after_submit(&mut self) {
+        self.feedback.after_submit();
+    }
+
+    /// The newest measured frame's hidden count (entries in view that occlusion culling left
+    /// out) and opaque entries.
+    pub fn occlusion_measure(&self) -> Option<OcclusionMeasure> {
+        self.feedback.latest()
     }
 
     fn dispatch(

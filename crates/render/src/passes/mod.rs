@@ -4,6 +4,7 @@ pub mod culling;
 pub mod deferred_lights;
 pub mod forward;
 pub mod gizmos;
+pub mod occlusion_feedback;
 pub mod post;
 pub mod shadows;
 pub mod tonemap;
