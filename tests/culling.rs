@@ -246,6 +246,11 @@ fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
             let b = render_app(&mut reference, SIZE, occlusion_settings(msaa, OcclusionCulling::Off));
             assert!(a == b, "MSAA {msaa}, frame {frame}: occlusion culling changed the image");
             let plan = &culled.world.resource::<Renderer>().stats().plan;
+            if !common::gpu().caps.occlusion_culling {
+                // GL (WGPU_BACKEND=gl): no depth pyramid there; `On` culls by the view only.
+                assert!(!plan.runs(penumbra::render::frame::Pass::OcclusionLate), "{plan}");
+                continue;
+            }
             assert!(plan.runs(penumbra::render::frame::Pass::OcclusionLate), "MSAA {msaa}: occlusion culling ran");
             counts.push(visible_total(&culled).expect("culling ran"));
             // What `OcclusionCulling::Auto` reads back: entries in view the pyramid hid, of the
@@ -263,6 +268,8 @@ fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
         // Frame 0 draws everything in view (it has no history): the wall, 120 cubes behind it
         // and the 4 of the 6 cubes in front that the view reaches. From frame 1 the hidden
         // cubes stay out; when the wall goes, they are back in that frame.
-        assert_eq!(counts, [125, 5, 5, 124], "MSAA {msaa}: instances drawn per frame");
+        if common::gpu().caps.occlusion_culling {
+            assert_eq!(counts, [125, 5, 5, 124], "MSAA {msaa}: instances drawn per frame");
+        }
     }
 }

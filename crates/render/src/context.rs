@@ -38,6 +38,9 @@ pub struct Capabilities {
     /// cannot translate its depth loads and wgpu cannot render into a multisampled target that
     /// is also bound for sampling. Local lights are then shaded in the fragment shader.
     pub deferred_lights: bool,
+    /// Occlusion culling's depth pyramid: not on GL, where naga cannot translate its loads from
+    /// the depth texture. Frustum culling still runs there.
+    pub occlusion_culling: bool,
     /// Depth reaches the depth buffer as the vertex shader computed it. Not on GL: wgpu's GL
     /// backend rewrites clip z to z·2 − w (GL's −1..1 depth range), which rounds depth at about
     /// 2⁻²⁴ of 1 instead of 2⁻²⁴ of itself, so reverse-Z's extra precision far away is lost
@@ -127,6 +130,7 @@ impl GpuContext {
         let indirect_first_instance = available.contains(wgpu::Features::INDIRECT_FIRST_INSTANCE)
             && adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::INDIRECT_EXECUTION);
         let deferred_lights = info.backend != wgpu::Backend::Gl;
+        let occlusion_culling = info.backend != wgpu::Backend::Gl;
         let exact_depth = info.backend != wgpu::Backend::Gl;
         let array_layers = ArrayLayers::for_backend(info.backend);
         let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
@@ -174,6 +178,7 @@ impl GpuContext {
                 timestamps,
                 indirect_first_instance,
                 deferred_lights,
+                occlusion_culling,
                 exact_depth,
                 array_layers,
                 srgb_unorm_views,

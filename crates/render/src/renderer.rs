@@ -946,7 +946,8 @@ impl Renderer {
                 OcclusionCulling::Off => false,
                 OcclusionCulling::On => true,
                 OcclusionCulling::Auto => {
-                    opaque_len >= OCCLUSION_AUTO_MIN
+                    self.ctx.caps.occlusion_culling
+                        && opaque_len >= OCCLUSION_AUTO_MIN
                         && self.ctx.info.device_type != wgpu::DeviceType::Cpu
                         && self.culling.occlusion_wanted()
                 }
@@ -1912,6 +1913,13 @@ fn degrade_for_backend(mut settings: RenderSettings, ctx: &GpuContext) -> Render
             ctx.info.backend
         );
         settings.light_walk = LightWalk::Clustered;
+    }
+    if !ctx.caps.occlusion_culling && settings.occlusion_culling == OcclusionCulling::On {
+        tracing::warn!(
+            "occlusion culling's depth pyramid cannot be built on the {:?} backend: culling by the view only",
+            ctx.info.backend
+        );
+        settings.occlusion_culling = OcclusionCulling::Off;
     }
     settings
 }
