@@ -20,7 +20,8 @@
 // each fragment also writes out. TONEMAP_IN_FORWARD (with display.wgsl's switches): nothing
 // reads the HDR colour, so the output is tonemapped here and drawn straight into the output
 // target; the tonemap pass does not run. LINE_QUADS: the draw is a line list held as quads
-// (prepare/line_quads.rs), widened to one pixel here (line_quads.wgsl).
+// (prepare/line_quads.rs), widened to one pixel here (line_quads.wgsl). VERTEX_COLORS: the mesh
+// has vertex colours other than white, so the colour is interpolated and multiplied in.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
 #import penumbra::view::{View, eye_direction}

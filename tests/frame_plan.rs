@@ -104,8 +104,6 @@ fn one_unlit_triangle_at_msaa_1_draws_straight_into_the_output() {
     assert!(explain.contains("no depth target"), "{explain}");
 }
 
-/// `mesh` alone in front of the camera, rendered (MSAA 4), and the same with a second instance
-/// far behind the camera (culled, so the image cannot change, but two instances keep depth).
 #[test]
 fn only_meshes_with_vertex_colours_interpolate_them() {
     let red = Vec4::new(1.0, 0.0, 0.0, 1.0);
@@ -126,6 +124,8 @@ fn only_meshes_with_vertex_colours_interpolate_them() {
     assert!(renders[2][centre] > 200 && renders[2][centre + 1] < 10, "{:?}", &renders[2][centre..centre + 4]);
 }
 
+/// `mesh` alone in front of the camera, rendered (MSAA 4), and the same with a second instance
+/// far behind the camera (culled, so the image cannot change, but two instances keep depth).
 fn alone_and_with_company(mesh: Mesh, material: StandardMaterial) -> [(Vec<u8>, u64); 2] {
     [false, true].map(|company| {
         let mut app = scene_app();

@@ -132,8 +132,8 @@ impl<T> DisjointWriter<'_, T> {
     ///
     /// # Safety
     /// No other call with an entity of the same index may run at the same time (through this
-    /// writer). Entities yielded by one query iteration satisfy this: each appears once, and
-    /// two live entities never share an index.
+    /// writer). A list of distinct live entities satisfies this (two live entities never share an
+    /// index), as do entities yielded by one query iteration.
     pub unsafe fn insert(&self, entity: Entity, value: T) -> Result<Replaced<T>, T> {
         let i = entity.index_u32() as usize;
         if i >= self.capacity {

@@ -26,6 +26,10 @@ use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
 use bevy_ecs::world::DeferredWorld;
 
+/// Entries kept (per list kind) before the feed gives up listing and asks its reader to read
+/// everything: 128 MB of entity ids.
+const MAX_PENDING: usize = 1 << 24;
+
 /// Entities whose drawable state may have changed since the last [`DrawChanges::drain`].
 #[derive(Resource, Default)]
 pub struct DrawChanges {
@@ -59,14 +63,30 @@ impl Drained {
 impl DrawChanges {
     /// Records one entity from the calling thread.
     pub fn record(&mut self, entity: Entity) {
+        if self.serial.len() >= MAX_PENDING {
+            self.overflow();
+        }
         self.serial.push(entity);
     }
 
     /// Starts a parallel recording pass: tasks record into their own [`TaskRecorder`]s, which
     /// are handed over when dropped. A pass must record each entity at most once.
     pub fn begin_pass(&mut self) -> &Self {
+        let parallel: usize =
+            self.parallel.get_mut().unwrap_or_else(|e| e.into_inner()).iter().map(|(_, l)| l.len()).sum();
+        if parallel >= MAX_PENDING {
+            self.overflow();
+        }
         self.pass = self.pass.wrapping_add(1);
         self
+    }
+
+    /// Too much recorded and not drained (an app that updates without extracting): the lists
+    /// go, and the next reader reads every drawable entity instead.
+    fn overflow(&mut self) {
+        self.serial = Vec::new();
+        *self.parallel.get_mut().unwrap_or_else(|e| e.into_inner()) = Vec::new();
+        self.primed = false;
     }
 
     /// A task-local list for the pass begun by [`begin_pass`](Self::begin_pass).
@@ -75,7 +95,8 @@ impl DrawChanges {
     }
 
     /// Hands over everything recorded since the last drain. The second value is whether this
-    /// is the first drain: a reader must then read every drawable entity, recorded or not.
+    /// is the first drain (or the lists overflowed): a reader must then read every drawable
+    /// entity, recorded or not.
     pub fn drain(&mut self) -> (Drained, bool) {
         let tagged = std::mem::take(self.parallel.get_mut().unwrap_or_else(|e| e.into_inner()));
         let unique = self.serial.is_empty() && tagged.iter().all(|(pass, _)| *pass == tagged[0].0);

@@ -169,9 +169,12 @@ fn extract_draws(
         drained.lists
     } else {
         // Hooks and several passes may list an entity more than once; the renderer writes
-        // each listed entity's record from one thread, so each is extracted once.
+        // each listed entity's record from one thread, so each is extracted once. Entities
+        // despawned since they were listed go first: their index may now be a live entity's,
+        // and among live entities an index names one entity.
         seen.next_frame();
-        let unique = drained.lists.into_iter().flatten().filter(|&e| seen.first_time(e)).collect();
+        let unique =
+            drained.lists.into_iter().flatten().filter(|&e| entities.contains(e) && seen.first_time(e)).collect();
         vec![unique]
     };
     let read = |entity: Entity| {
@@ -266,12 +269,12 @@ fn extract_draws(
     }
 }
 
-/// Which entities one extraction has listed, to list each once: per entity index, the frame
-/// it was last listed in and the entity that held the index then.
+/// Which entity indices one extraction has listed, to list each live entity once: per index, the
+/// frame it was last listed in.
 #[derive(Default)]
 struct SeenThisFrame {
     frame: u32,
-    seen: Vec<(u32, Option<Entity>)>,
+    seen: Vec<u32>,
 }
 
 impl SeenThisFrame {
@@ -279,7 +282,7 @@ impl SeenThisFrame {
         self.frame = self.frame.wrapping_add(1);
         if self.frame == 0 {
             // Wrapped: stamps from 2^32 frames ago would read as this frame's.
-            self.seen.iter_mut().for_each(|s| *s = (0, None));
+            self.seen.iter_mut().for_each(|s| *s = 0);
             self.frame = 1;
         }
     }
@@ -287,10 +290,9 @@ impl SeenThisFrame {
     fn first_time(&mut self, entity: Entity) -> bool {
         let i = entity.index_u32() as usize;
         if i >= self.seen.len() {
-            self.seen.resize((i + 1).next_power_of_two(), (0, None));
+            self.seen.resize((i + 1).next_power_of_two(), 0);
         }
-        let stamp = (self.frame, Some(entity));
-        std::mem::replace(&mut self.seen[i], stamp) != stamp
+        std::mem::replace(&mut self.seen[i], self.frame) != self.frame
     }
 }
 
@@ -767,6 +769,50 @@ mod tests {
         app.update();
         assert_eq!(changed(&app), vec![child]);
         assert_eq!(draw(&app, child).world_from_local.translation, glam::Vec3A::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn despawning_and_spawning_between_frames_lists_each_live_entity_once() {
+        let mut app = app();
+        let (mesh, material) = handles(&mut app);
+        let spawn =
+            |app: &mut App| app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::default())).id();
+        let first: Vec<Entity> = (0..1000).map(|_| spawn(&mut app)).collect();
+        app.update();
+        // Churn within one frame: despawned entities' indices go to new ones, some of which go
+        // again; hooks and propagation both list the survivors.
+        for &e in &first {
+            app.world.despawn(e);
+        }
+        let second: Vec<Entity> = (0..1000).map(|_| spawn(&mut app)).collect();
+        for &e in &second[..500] {
+            app.world.despawn(e);
+        }
+        let third: Vec<Entity> = (0..600).map(|_| spawn(&mut app)).collect();
+        app.update();
+        let mut live: Vec<Entity> = second[500..].iter().chain(&third).copied().collect();
+        live.sort();
+        let listed = changed(&app);
+        let mut unique = listed.clone();
+        unique.dedup();
+        assert_eq!(listed.len(), unique.len(), "an entity listed twice");
+        assert!(listed == live, "{} listed, {} live", listed.len(), live.len());
+        let scene = app.world.resource::<RenderScene>();
+        assert_eq!(scene.draws.len(), live.len());
+        assert!(live.iter().all(|&e| scene.draws.get(e).is_some()));
+    }
+
+    #[test]
+    fn a_feed_nobody_drains_stops_growing_and_is_read_whole() {
+        let mut feed = DrawChanges::default();
+        let _ = feed.drain();
+        let e = Entity::from_raw_u32(5).unwrap();
+        for _ in 0..(1 << 24) + 1 {
+            feed.record(e);
+        }
+        let (lists, everything) = feed.drain();
+        assert!(everything, "overflowed: the reader reads every drawable entity");
+        assert!(lists.len() <= 1);
     }
 
     #[test]
