@@ -1,6 +1,72 @@
-//! Reading textures back to the CPU: the tonemapped output (for screenshots) and the linear HDR
-//! target (for tests that check radiance before tonemapping). Rows are copied at wgpu's 256-byte
-//! alignment and unpadded here.
+//! Reading back to the CPU: textures (the tonemapped output for screenshots, the linear HDR
+//! target for tests that check radiance before tonemapping; rows are copied at wgpu's 256-byte
+//! alignment and unpadded here) and buffers, blocking; and [`AsyncSlot`], the state of a
+//! readback buffer read a frame or two late without waiting (GPU timings, occlusion feedback).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+/// Where a non-blocking readback buffer is in its cycle: free; claimed by the frame being
+/// recorded (which copies into it); mapping after that frame's submission; mapped (read it,
+/// unmap, [`AsyncSlot::release`]); or failed (release it).
+#[derive(Clone)]
+pub struct AsyncSlot(Arc<AtomicU8>);
+
+/// What [`AsyncSlot::arrived`] finds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arrival {
+    /// Free, claimed or still mapping.
+    NotYet,
+    Mapped,
+    Failed,
+}
+
+impl Default for AsyncSlot {
+    fn default() -> Self {
+        Self(Arc::new(AtomicU8::new(Self::FREE)))
+    }
+}
+
+impl AsyncSlot {
+    const FREE: u8 = 0;
+    const CLAIMED: u8 = 1;
+    const MAPPING: u8 = 2;
+    const MAPPED: u8 = 3;
+    const FAILED: u8 = 4;
+
+    pub fn is_free(&self) -> bool {
+        self.0.load(Ordering::Acquire) == Self::FREE
+    }
+
+    /// Claims a free slot for the frame being recorded.
+    pub fn claim(&self) {
+        self.0.store(Self::CLAIMED, Ordering::Release);
+    }
+
+    /// Frees the slot: read and unmapped, failed, or claimed but given nothing to read.
+    pub fn release(&self) {
+        self.0.store(Self::FREE, Ordering::Release);
+    }
+
+    /// After the claiming frame's submission: maps `slice` (of the buffer the frame copied into)
+    /// once the GPU is done with it.
+    pub fn map_after_submit(&self, slice: wgpu::BufferSlice<'_>) {
+        self.0.store(Self::MAPPING, Ordering::Release);
+        let state = self.0.clone();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            state.store(if r.is_ok() { Self::MAPPED } else { Self::FAILED }, Ordering::Release);
+        });
+    }
+
+    /// Whether the map has completed, without waiting (the device must be polled for it to).
+    pub fn arrived(&self) -> Arrival {
+        match self.0.load(Ordering::Acquire) {
+            Self::MAPPED => Arrival::Mapped,
+            Self::FAILED => Arrival::Failed,
+            _ => Arrival::NotYet,
+        }
+    }
+}
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReadbackError {

@@ -6,14 +6,7 @@
 //! the GPU, and the stats show the most recent finished frame (usually one or two behind).
 //! Enabled on request (stats panel, `penumbra bench`).
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, Ordering};
-
-const FREE: u8 = 0;
-const RECORDING: u8 = 1;
-const MAPPING: u8 = 2;
-const MAPPED: u8 = 3;
-const FAILED: u8 = 4;
+use crate::readback::{Arrival, AsyncSlot};
 
 struct Slot {
     query_set: wgpu::QuerySet,
@@ -21,7 +14,7 @@ struct Slot {
     readback: wgpu::Buffer,
     labels: Vec<&'static str>,
     frame: u64,
-    state: Arc<AtomicU8>,
+    state: AsyncSlot,
 }
 
 /// Per-pass GPU milliseconds of one frame.
@@ -73,7 +66,7 @@ impl GpuTimer {
                 }),
                 labels: Vec::new(),
                 frame: 0,
-                state: Arc::new(AtomicU8::new(FREE)),
+                state: AsyncSlot::default(),
             })
             .collect();
         Self { slots, current: None, period_ns: queue.get_timestamp_period() as f64, latest: None }
@@ -83,12 +76,12 @@ impl GpuTimer {
     /// slot still waits for the GPU: that frame goes untimed rather than stalling.
     pub fn begin_frame(&mut self, device: &wgpu::Device, frame: u64) -> bool {
         self.collect(device);
-        self.current = self.slots.iter().position(|s| s.state.load(Ordering::Acquire) == FREE);
+        self.current = self.slots.iter().position(|s| s.state.is_free());
         if let Some(i) = self.current {
             let slot = &mut self.slots[i];
             slot.labels.clear();
             slot.frame = frame;
-            slot.state.store(RECORDING, Ordering::Release);
+            slot.state.claim();
         }
         self.current.is_some()
     }
@@ -134,22 +127,18 @@ impl GpuTimer {
         let slot = &self.slots[i];
         let n = slot.labels.len() as u64 * 2;
         if n == 0 {
-            slot.state.store(FREE, Ordering::Release);
+            slot.state.release();
             return;
         }
-        slot.state.store(MAPPING, Ordering::Release);
-        let state = slot.state.clone();
-        slot.readback.slice(0..n * 8).map_async(wgpu::MapMode::Read, move |r| {
-            state.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
-        });
+        slot.state.map_after_submit(slot.readback.slice(0..n * 8));
     }
 
     /// Reads every completed slot without blocking; remembers the newest frame's timings.
     pub fn collect(&mut self, device: &wgpu::Device) {
         let _ = device.poll(wgpu::PollType::Poll);
         for slot in &self.slots {
-            match slot.state.load(Ordering::Acquire) {
-                MAPPED => {
+            match slot.state.arrived() {
+                Arrival::Mapped => {
                     let n = slot.labels.len() * 2;
                     if let Ok(data) = slot.readback.slice(0..n as u64 * 8).get_mapped_range() {
                         let ticks: &[u64] = bytemuck::cast_slice(&data);
@@ -170,10 +159,10 @@ impl GpuTimer {
                         }
                     }
                     slot.readback.unmap();
-                    slot.state.store(FREE, Ordering::Release);
+                    slot.state.release();
                 }
-                FAILED => slot.state.store(FREE, Ordering::Release),
-                _ => {}
+                Arrival::Failed => slot.state.release(),
+                Arrival::NotYet => {}
             }
         }
     }

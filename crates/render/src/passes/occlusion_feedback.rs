@@ -16,8 +16,7 @@
 //! hides 3.4 % of a million cubes (the sphere layout) it saves 0.6 ms (README, Performance).
 //! Either way the image is the same: both modes draw exactly what is visible.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, Ordering};
+use crate::readback::{Arrival, AsyncSlot};
 
 /// Frames between two tries while occlusion culling is off.
 pub const PROBE_EVERY: u32 = 60;
@@ -70,15 +69,9 @@ impl Advisor {
     }
 }
 
-const FREE: u8 = 0;
-const RECORDED: u8 = 1;
-const MAPPING: u8 = 2;
-const MAPPED: u8 = 3;
-const FAILED: u8 = 4;
-
 struct Slot {
     buffer: wgpu::Buffer,
-    state: Arc<AtomicU8>,
+    state: AsyncSlot,
     frame: u64,
     entries: u32,
 }
@@ -103,7 +96,7 @@ impl Feedback {
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 }),
-                state: Arc::new(AtomicU8::new(FREE)),
+                state: AsyncSlot::default(),
                 frame: 0,
                 entries: 0,
             })
@@ -121,10 +114,10 @@ impl Feedback {
         frame: u64,
         entries: u32,
     ) {
-        let Some(i) = self.slots.iter().position(|s| s.state.load(Ordering::Acquire) == FREE) else { return };
+        let Some(i) = self.slots.iter().position(|s| s.state.is_free()) else { return };
         let slot = &mut self.slots[i];
         encoder.copy_buffer_to_buffer(source, offset, &slot.buffer, 0, 4);
-        slot.state.store(RECORDED, Ordering::Release);
+        slot.state.claim();
         slot.frame = frame;
         slot.entries = entries;
         self.recorded = Some(i);
@@ -134,11 +127,7 @@ impl Feedback {
     pub fn after_submit(&mut self) {
         let Some(i) = self.recorded.take() else { return };
         let slot = &self.slots[i];
-        slot.state.store(MAPPING, Ordering::Release);
-        let state = slot.state.clone();
-        slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-            state.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
-        });
+        slot.state.map_after_submit(slot.buffer.slice(..));
     }
 
     /// Reads every slot that arrived, without waiting; returns the newest measure among them.
@@ -146,22 +135,22 @@ impl Feedback {
         let _ = device.poll(wgpu::PollType::Poll);
         let mut newest: Option<(u64, OcclusionMeasure)> = None;
         for slot in &self.slots {
-            match slot.state.load(Ordering::Acquire) {
-                MAPPED => {
+            match slot.state.arrived() {
+                Arrival::Mapped => {
                     let hidden = match slot.buffer.slice(..).get_mapped_range() {
                         Ok(data) => Some(u32::from_le_bytes([data[0], data[1], data[2], data[3]])),
                         Err(_) => None,
                     };
                     slot.buffer.unmap();
-                    slot.state.store(FREE, Ordering::Release);
+                    slot.state.release();
                     if let Some(hidden) = hidden
                         && newest.is_none_or(|(f, _)| f < slot.frame)
                     {
                         newest = Some((slot.frame, OcclusionMeasure { hidden, entries: slot.entries }));
                     }
                 }
-                FAILED => slot.state.store(FREE, Ordering::Release),
-                _ => {}
+                Arrival::Failed => slot.state.release(),
+                Arrival::NotYet => {}
             }
         }
         let newest = newest.filter(|(f, _)| self.latest.is_none_or(|(l, _)| l < *f))?;
