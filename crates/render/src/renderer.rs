@@ -1028,7 +1028,7 @@ impl Renderer {
                 || t.hdr.is_none() != direct
                 || t.depth_view.is_none() != depth_free
                 || t.depth_sampled != occlusion
-                || t.display_msaa.as_ref().is_some_and(|(f, _)| *f != output_format)
+                || t.display_msaa.as_ref().is_some_and(|v| v.texture().format() != output_format)
         }) {
             let params = self.deferred_lights.then_some(&self.deferred_params);
             self.targets = Some(FrameTargets::new(

@@ -113,7 +113,7 @@ pub struct FrameTargets {
     pub hdr: Option<HdrTargets>,
     /// Without an HDR target but with MSAA: tonemapped samples, in the output's (sRGB) format,
     /// resolved into the output.
-    pub display_msaa: Option<(wgpu::TextureFormat, wgpu::TextureView)>,
+    pub display_msaa: Option<wgpu::TextureView>,
     /// `None`: nothing drawn this frame can cover a pixel twice (see `Renderer::render`).
     pub depth_view: Option<wgpu::TextureView>,
     /// The depth target can be bound for sampling (occlusion culling, deferred lights).
@@ -185,10 +185,8 @@ impl FrameTargets {
                 .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
             HdrTargets { texture, view, msaa_view }
         });
-        let display_msaa = (hdr.is_none() && samples > 1).then(|| {
-            let view = tex("display colour msaa", output_format, samples, attach).create_view(&Default::default());
-            (output_format, view)
-        });
+        let display_msaa = (hdr.is_none() && samples > 1)
+            .then(|| tex("display colour msaa", output_format, samples, attach).create_view(&Default::default()));
         // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid; otherwise
         // only an attachment, which wgpu's GL backend needs of a multisampled texture (it cannot
         // render into a multisampled texture that is also bound for sampling: the frame is lost).
@@ -236,7 +234,7 @@ impl FrameTargets {
             Some(HdrTargets { view, msaa_view: Some(msaa), .. }) => (msaa, Some(view)),
             Some(HdrTargets { view, msaa_view: None, .. }) => (view, None),
             None => match &self.display_msaa {
-                Some((_, msaa)) => (msaa, Some(direct)),
+                Some(msaa) => (msaa, Some(direct)),
                 None => (direct, None),
             },
         }

@@ -132,6 +132,10 @@ impl Feedback {
 
     /// Reads every slot that arrived, without waiting; returns the newest measure among them.
     pub fn collect(&mut self, device: &wgpu::Device) -> Option<OcclusionMeasure> {
+        // Most frames of most scenes cull nothing by occlusion: nothing to poll for.
+        if self.slots.iter().all(|s| s.state.is_free()) {
+            return None;
+        }
         let _ = device.poll(wgpu::PollType::Poll);
         let mut newest: Option<(u64, OcclusionMeasure)> = None;
         for slot in &self.slots {

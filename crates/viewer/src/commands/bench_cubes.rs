@@ -7,9 +7,9 @@
 
 use anyhow::{Result, anyhow};
 use penumbra_engine::scenes::{BENCH_EV100, CubeLayout, spawn_many_cubes, spin_cubes};
-use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
+use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, Renderer};
 
-use super::bench::{percentile, time_frames};
+use super::bench::{percentile, recipe_settings, time_frames};
 use crate::cli::{BenchArgs, LayoutArg};
 
 struct Row {
@@ -34,11 +34,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         LayoutArg::Grid => CubeLayout::Grid,
         LayoutArg::Sphere => CubeLayout::Sphere,
     };
-    let mut settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
-    // The recipe (notes/bench-scenes.md) draws without an HDR target: display colours resolved.
-    if args.look.msaa_resolve.is_none() {
-        settings.msaa_resolve = penumbra_render::MsaaResolve::Display;
-    }
+    let settings = recipe_settings(args)?;
     let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
     let mut rows = Vec::new();
     for &count in &args.count {

@@ -8,7 +8,7 @@ use penumbra_engine::scenes::{BENCH_EV100, spawn_many_lights};
 use penumbra_render::renderer::LightWalk;
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
-use super::bench::{percentile, time_frames};
+use super::bench::{percentile, recipe_settings, time_frames};
 use crate::cli::BenchArgs;
 
 struct Row {
@@ -76,11 +76,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.lights.is_empty() {
         return Err(anyhow!("--lights: give at least one count"));
     }
-    let mut base = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
-    // The recipe (notes/bench-scenes.md) draws without an HDR target: display colours resolved.
-    if args.look.msaa_resolve.is_none() {
-        base.msaa_resolve = penumbra_render::MsaaResolve::Display;
-    }
+    let base = recipe_settings(args)?;
     let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
     let range = args.light_range.0;
     let mut rows = Vec::new();
