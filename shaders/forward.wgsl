@@ -67,9 +67,10 @@
 @group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
 #endif
 
-#ifdef LINE_QUADS
-// The mesh pool's vertices (GpuVertex, 16 words each, position first): a line quad's corner
-// reads its segment's opposite endpoint here (prepare/line_quads.rs).
+#ifdef POOL_VERTICES
+// The mesh pool's vertices (GpuVertex, 16 words each: position, normal, tangent, uv0, uv1,
+// colour as four unorm16): a line quad's corner reads its segment's opposite endpoint here
+// (prepare/line_quads.rs), and a triangle-culled draw all of its vertices (PULLED_VERTICES).
 @group(0) @binding(21) var<storage, read> pool_vertices: array<f32>;
 #endif
 
@@ -84,6 +85,15 @@
 @group(1) @binding(8) var emissive_texture: texture_2d<f32>;
 @group(1) @binding(9) var emissive_sampler: sampler;
 
+#ifdef PULLED_VERTICES
+// A triangle-culled draw (cull.wgsl, TRIANGLE_CULLING): each index names its instance and
+// vertex (`slot << 8 | vertex`), and the draw's first instance is the mesh's first vertex in
+// the pool. The vertex is read from the pool, not from a vertex buffer.
+struct VertexIn {
+    @builtin(instance_index) instance_index: u32,
+    @builtin(vertex_index) vertex_index: u32,
+};
+#else
 struct VertexIn {
     @builtin(instance_index) instance_index: u32,
 #ifdef LINE_QUADS
@@ -96,6 +106,33 @@ struct VertexIn {
     @location(4) uv1: vec2<f32>,
     @location(5) color: vec4<f32>,
 };
+#endif
+
+struct VertexAttributes {
+    position: vec3<f32>,
+    normal: vec3<f32>,
+    tangent: vec4<f32>,
+    uv0: vec2<f32>,
+    uv1: vec2<f32>,
+    color: vec4<f32>,
+};
+
+#ifdef PULLED_VERTICES
+fn pool_vertex(vertex: u32) -> VertexAttributes {
+    let at = vertex * 16u;
+    return VertexAttributes(
+        vec3<f32>(pool_vertices[at], pool_vertices[at + 1u], pool_vertices[at + 2u]),
+        vec3<f32>(pool_vertices[at + 3u], pool_vertices[at + 4u], pool_vertices[at + 5u]),
+        vec4<f32>(pool_vertices[at + 6u], pool_vertices[at + 7u], pool_vertices[at + 8u], pool_vertices[at + 9u]),
+        vec2<f32>(pool_vertices[at + 10u], pool_vertices[at + 11u]),
+        vec2<f32>(pool_vertices[at + 12u], pool_vertices[at + 13u]),
+        vec4<f32>(
+            unpack2x16unorm(bitcast<u32>(pool_vertices[at + 14u])),
+            unpack2x16unorm(bitcast<u32>(pool_vertices[at + 15u])),
+        ),
+    );
+}
+#endif
 
 struct VertexOut {
     @builtin(position) clip_position: vec4<f32>,
@@ -114,20 +151,26 @@ struct VertexOut {
 
 @vertex
 fn vs_main(in: VertexIn) -> VertexOut {
+#ifdef PULLED_VERTICES
+    let inst = instances[in.vertex_index >> 8u];
+    let v = pool_vertex(in.instance_index + (in.vertex_index & 255u));
+#else
     let inst = instances[draw_slots[in.instance_index]];
-    let placed = place_vertex(inst, in.position, view.camera_position);
+    let v = VertexAttributes(in.position, in.normal, in.tangent, in.uv0, in.uv1, in.color);
+#endif
+    let placed = place_vertex(inst, v.position, view.camera_position);
 
     var out: VertexOut;
     out.clip_position = view.clip_from_rel * vec4<f32>(placed.rel, 1.0);
     out.rel_position = placed.rel;
     // Normalised here: the cofactor scales normals by the square of the object's scale, which for
     // a 1e-4 scale model would be 1e-8 before interpolation.
-    out.normal = safe_normalize(placed.cofactor * in.normal, vec3<f32>(0.0));
-    out.tangent = vec4<f32>(safe_normalize(placed.linear * in.tangent.xyz, vec3<f32>(0.0)), in.tangent.w * placed.mirror);
-    out.uv0 = in.uv0;
-    out.uv1 = in.uv1;
+    out.normal = safe_normalize(placed.cofactor * v.normal, vec3<f32>(0.0));
+    out.tangent = vec4<f32>(safe_normalize(placed.linear * v.tangent.xyz, vec3<f32>(0.0)), v.tangent.w * placed.mirror);
+    out.uv0 = v.uv0;
+    out.uv1 = v.uv1;
 #ifdef VERTEX_COLORS
-    out.color = in.color;
+    out.color = v.color;
 #endif
     out.material = inst.material;
 #ifdef LINE_QUADS
@@ -145,13 +188,13 @@ fn vs_main(in: VertexIn) -> VertexOut {
             let tangent = vec3<f32>(pool_vertices[at + 6u], pool_vertices[at + 7u], pool_vertices[at + 8u]);
             out.clip_position = mix(out.clip_position, other_clip, t);
             out.rel_position = mix(placed.rel, other_rel, t);
-            out.normal = safe_normalize(placed.cofactor * mix(in.normal, n, t), vec3<f32>(0.0));
-            out.tangent = vec4<f32>(safe_normalize(placed.linear * mix(in.tangent.xyz, tangent, t), vec3<f32>(0.0)), out.tangent.w);
-            out.uv0 = mix(in.uv0, vec2<f32>(pool_vertices[at + 10u], pool_vertices[at + 11u]), t);
-            out.uv1 = mix(in.uv1, vec2<f32>(pool_vertices[at + 12u], pool_vertices[at + 13u]), t);
+            out.normal = safe_normalize(placed.cofactor * mix(v.normal, n, t), vec3<f32>(0.0));
+            out.tangent = vec4<f32>(safe_normalize(placed.linear * mix(v.tangent.xyz, tangent, t), vec3<f32>(0.0)), out.tangent.w);
+            out.uv0 = mix(v.uv0, vec2<f32>(pool_vertices[at + 10u], pool_vertices[at + 11u]), t);
+            out.uv1 = mix(v.uv1, vec2<f32>(pool_vertices[at + 12u], pool_vertices[at + 13u]), t);
 #ifdef VERTEX_COLORS
             let color = vec4<f32>(unpack2x16unorm(bitcast<u32>(pool_vertices[at + 14u])), unpack2x16unorm(bitcast<u32>(pool_vertices[at + 15u])));
-            out.color = mix(in.color, color, t);
+            out.color = mix(v.color, color, t);
 #endif
         }
         let side = select(-1.0, 1.0, (in.vertex_index & 1u) != 0u);

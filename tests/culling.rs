@@ -273,3 +273,102 @@ fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
         }
     }
 }
+
+/// Cubes for triangle culling: a far field of cubes too small to cover a sample each (some
+/// turned, some mirrored, some double-sided), a row near enough to show three faces each, and
+/// cubes crossing the view's edges. Returns the far field's cube count.
+fn small_cubes_scene(app: &mut App, origin: Vec3) -> usize {
+    let paint = palette(app);
+    let two_sided = app.world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial {
+        double_sided: true,
+        ..StandardMaterial::from_color(Vec4::new(0.9, 0.8, 0.2, 1.0), 0.5)
+    });
+    let cube = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    let spawn = |app: &mut App, material: Handle<StandardMaterial>, t: Transform| {
+        let t = Transform { translation: t.translation + origin, ..t };
+        app.world.spawn((Mesh3d(cube), MeshMaterial3d(material), t));
+    };
+    let mut far = 0;
+    for gx in -20i32..20 {
+        for gz in 0..20 {
+            let at = Vec3::new(gx as f32 * 3.1, -6.0 + 0.37 * (gz % 3) as f32, -60.0 - gz as f32 * 4.3);
+            let mut t = Transform::from_translation(at).with_rotation(Quat::from_rotation_y(0.21 * (gx + gz) as f32));
+            t.scale = Vec3::splat(0.2 + 0.15 * ((gx * 7 + gz) % 4) as f32);
+            if (gx + gz) % 5 == 0 {
+                t.scale.x = -t.scale.x;
+            }
+            let material = if (gx * 3 + gz) % 7 == 0 { two_sided } else { paint[(gx + gz).rem_euclid(3) as usize] };
+            spawn(app, material, t);
+            far += 1;
+        }
+    }
+    for i in 0..5 {
+        let t = Transform::from_xyz(i as f32 * 1.6 - 3.2, -0.8 + 0.4 * i as f32, -6.0)
+            .with_rotation(Quat::from_rotation_x(0.4) * Quat::from_rotation_y(0.3 * i as f32));
+        spawn(app, paint[i % 3], t);
+    }
+    // Across the left and right edges, and one cut by the near plane.
+    spawn(app, paint[0], Transform::from_xyz(-5.3, 0.0, -7.0));
+    spawn(app, paint[1], Transform::from_xyz(5.3, 0.5, -7.0).with_rotation(Quat::from_rotation_x(0.6)));
+    spawn(app, paint[2], Transform::from_xyz(0.3, -0.4, -0.3).with_scale(Vec3::splat(0.5)));
+    app.world.spawn((
+        Camera {
+            projection: Projection::Perspective { yfov: 60f32.to_radians(), znear: 0.1, aspect_ratio: None },
+            ..Default::default()
+        },
+        Transform::from_translation(origin),
+    ));
+    app.world.spawn((
+        DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
+        Transform::from_xyz(0.3, 1.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
+    far
+}
+
+/// Triangle culling draws only triangles that can cover a sample, so its frames equal the
+/// frames drawn without any culling, at one and four samples, near and far from the origin,
+/// on the stress scene (whose spheres stay instanced beside its triangle-culled cubes) and on
+/// a field of sub-pixel cubes, most of whose triangles it leaves out.
+#[test]
+fn triangle_culled_frames_equal_unculled_frames() {
+    use penumbra::render::renderer::TriangleCulling;
+    for (origin, msaa) in [(Vec3::ZERO, 1), (Vec3::ZERO, 4), (Vec3::new(1.0e5, -3.0e4, 2.0e5), 4)] {
+        let triangles = RenderSettings {
+            msaa,
+            occlusion_culling: OcclusionCulling::Off,
+            triangle_culling: TriangleCulling::On,
+            ..Default::default()
+        };
+        let reference_settings = RenderSettings { msaa, gpu_culling: false, ..Default::default() };
+        let mut culled = scene_app();
+        let mut reference = scene_app();
+        let far = small_cubes_scene(&mut culled, origin);
+        small_cubes_scene(&mut reference, origin);
+        let a = render_app(&mut culled, SIZE, triangles.clone());
+        let b = render_app(&mut reference, SIZE, reference_settings.clone());
+        assert!(a == b, "origin {origin}, MSAA {msaa}: the triangle-culled frame differs from the unculled one");
+        let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap().expect("triangles culled");
+        let drawn: u32 = counts.iter().flatten().sum();
+        let submitted = 12 * (far + 8) as u32;
+        assert!(counts.iter().any(Option::is_some), "the cubes' batches are triangle-culled: {counts:?}");
+        // At most three faces of a cube face the camera; the far field's cubes cover a few
+        // samples at most.
+        assert!(
+            drawn > 0 && drawn < submitted / 4,
+            "origin {origin}, MSAA {msaa}: {drawn} of {submitted} triangles drawn"
+        );
+        let visible: u32 = culled.world.resource::<Renderer>().visible_instance_counts().unwrap().unwrap().iter().sum();
+        assert!(visible > far as u32 / 2, "{visible} instances visible");
+
+        let mut culled = scene_app();
+        let mut reference = scene_app();
+        stress_scene(&mut culled, origin);
+        stress_scene(&mut reference, origin);
+        let a = render_app(&mut culled, SIZE, triangles);
+        let b = render_app(&mut reference, SIZE, reference_settings);
+        assert!(a == b, "origin {origin}, MSAA {msaa}: the triangle-culled stress frame differs from the unculled one");
+        let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap().expect("triangles culled");
+        assert!(counts.iter().any(Option::is_some) && counts.iter().any(Option::is_none), "{counts:?}");
+    }
+}

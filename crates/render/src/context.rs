@@ -52,6 +52,28 @@ pub struct Capabilities {
     /// An sRGB texture can be viewed as unorm (`DownlevelFlags::VIEW_FORMATS`; not GL): mip
     /// generation then applies the sRGB curve in its shader, the same on every driver.
     pub srgb_unorm_views: bool,
+    /// Bits of sub-pixel precision the rasteriser snaps vertices to: how far triangle culling
+    /// must allow a vertex to move (`passes::culling`). The driver's own figure on Vulkan;
+    /// elsewhere 4, the least Vulkan allows (D3D12 requires 8).
+    pub subpixel_bits: u32,
+}
+
+/// The rasteriser's sub-pixel precision, as the driver reports it (Vulkan), else a lower bound.
+fn subpixel_bits(adapter: &wgpu::Adapter) -> u32 {
+    match adapter.get_info().backend {
+        wgpu::Backend::Vulkan => {
+            // SAFETY: the adapter is Vulkan (checked above); only its properties are read.
+            let bits = unsafe {
+                adapter.as_hal::<wgpu::hal::api::Vulkan>().map(|a| {
+                    let instance = a.shared_instance().raw_instance();
+                    instance.get_physical_device_properties(a.raw_physical_device()).limits.sub_pixel_precision_bits
+                })
+            };
+            bits.unwrap_or(4).clamp(4, 16)
+        }
+        wgpu::Backend::Dx12 => 8,
+        _ => 4,
+    }
 }
 
 #[derive(Clone)]
@@ -134,6 +156,7 @@ impl GpuContext {
         let exact_depth = info.backend != wgpu::Backend::Gl;
         let array_layers = ArrayLayers::for_backend(info.backend);
         let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
+        let subpixel_bits = subpixel_bits(&adapter);
         let mut features = wgpu::Features::empty();
         if timestamps {
             features |= wgpu::Features::TIMESTAMP_QUERY;
@@ -150,7 +173,13 @@ impl GpuContext {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?;
-        tracing::info!("GPU: {} ({:?}, {:?}, driver {})", info.name, info.backend, info.device_type, info.driver_info);
+        tracing::info!(
+            "GPU: {} ({:?}, {:?}, driver {}; {subpixel_bits} sub-pixel bits)",
+            info.name,
+            info.backend,
+            info.device_type,
+            info.driver_info
+        );
         let lost = Arc::new(AtomicBool::new(false));
         let flag = lost.clone();
         device.set_device_lost_callback(move |reason, message| {
@@ -182,6 +211,7 @@ impl GpuContext {
                 exact_depth,
                 array_layers,
                 srgb_unorm_views,
+                subpixel_bits,
             },
             lost,
             request: request.clone(),

@@ -24,7 +24,7 @@ use crate::environment::{EnvironmentLighting, EnvironmentSettings};
 use crate::frame::{FramePlan, Pass, SceneNeeds};
 use crate::passes::clusters::grid::ClusterConfig;
 use crate::passes::clusters::{BinningTooLarge, ClusterBinner};
-use crate::passes::culling::{CullInputs, GpuCulling};
+use crate::passes::culling::{CullInputs, GpuCulling, RasterTarget};
 use crate::passes::deferred_lights::{self, GpuDeferredParams};
 use crate::passes::forward::{self, Batch, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase};
 use crate::passes::post::{PostProcess, PostSettings};
@@ -78,6 +78,9 @@ pub struct RenderSettings {
     /// Occlusion culling on top of GPU culling: two-phase, against a hierarchical depth buffer
     /// of what this frame drew (see `passes::culling`).
     pub occlusion_culling: OcclusionCulling,
+    /// Triangle culling on top of GPU culling, in frames without occlusion culling: batches of
+    /// small meshes draw only the triangles that can cover a sample (see `passes::culling`).
+    pub triangle_culling: TriangleCulling,
     /// How the scene's `Environment` (if it has one) is prefiltered.
     pub environment: EnvironmentSettings,
     /// Bloom, automatic exposure, FXAA (all off by default).
@@ -108,6 +111,17 @@ pub enum OcclusionCulling {
     /// it is tried again for two frames in every 60: `passes::occlusion_feedback`). The depth
     /// pyramid, the late cull and the split render pass cost 0.29 ms on an H200 at 1920×1080;
     /// on a CPU rasteriser (lavapipe) 36 ms, more than hidden objects save there.
+    #[default]
+    Auto,
+}
+
+/// When triangle culling runs (it needs GPU culling, and frames without occlusion culling).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TriangleCulling {
+    Off,
+    On,
+    /// On a GPU; off on a CPU rasteriser, where the cull pass's work is the rasteriser's own
+    /// (its cores do both) and instanced draws skip what covers nothing as cheaply.
     #[default]
     Auto,
 }
@@ -174,6 +188,7 @@ impl Default for RenderSettings {
             shadows: ShadowSettings::default(),
             gpu_culling: true,
             occlusion_culling: OcclusionCulling::Auto,
+            triangle_culling: TriangleCulling::Auto,
             environment: EnvironmentSettings::default(),
             post: PostSettings::default(),
             keep_hdr: false,
@@ -417,6 +432,8 @@ pub struct Renderer {
     culling: GpuCulling,
     /// The batches changed since `culling` last saw them.
     cull_batches_dirty: bool,
+    /// Whether the cull batches were last prepared with triangle culling.
+    cull_triangles_marked: bool,
     /// Whether this frame's opaque draws were culled (the view bind group binds the culled list).
     culling_active: bool,
     blend_entities: Vec<Entity>,
@@ -519,6 +536,7 @@ impl Renderer {
             opaque_slots_dirty: true,
             culling: GpuCulling::new(device),
             cull_batches_dirty: true,
+            cull_triangles_marked: false,
             culling_active: false,
             blend_entities: Vec::new(),
             batches_dirty: true,
@@ -771,6 +789,16 @@ impl Renderer {
         self.culling.read_visible_counts(&self.ctx.device, &self.ctx.queue).map(Some)
     }
 
+    /// Triangles each opaque batch drew in the last frame, for batches the cull pass culled
+    /// triangle by triangle (`None` where a batch drew instances; `Ok(None)`: the frame culled
+    /// no triangles). Reads back (waits for the GPU): for tests and tools.
+    pub fn triangle_culled_counts(&self) -> Result<Option<Vec<Option<u32>>>, ReadbackError> {
+        if !self.culling_active {
+            return Ok(None);
+        }
+        self.culling.read_triangle_counts(&self.ctx.device, &self.ctx.queue)
+    }
+
     /// Automatic exposure's state after the last frame: (the correction the tonemap pass
     /// applied on top of the camera's exposure, the adapted EV100). Reads back (waits for the
     /// GPU): for tests and tools.
@@ -954,9 +982,15 @@ impl Renderer {
             };
         // A culling shader that does not compile (a broken shader folder) leaves this frame to
         // direct draws of the full list rather than to stale indirect arguments.
+        let triangles = culling
+            && match self.settings.triangle_culling {
+                TriangleCulling::Off => false,
+                TriangleCulling::On => true,
+                TriangleCulling::Auto => self.ctx.info.device_type != wgpu::DeviceType::Cpu,
+            };
         let mut cull_error = None;
         let culling = culling && {
-            let ready = GpuCulling::compile(&device, &mut self.pipelines, occlusion, self.settings.msaa);
+            let ready = GpuCulling::compile(&device, &mut self.pipelines, occlusion, triangles, self.settings.msaa);
             cull_error = ready.err();
             cull_error.is_none()
         };
@@ -970,13 +1004,23 @@ impl Renderer {
                     }
                 }
             }
-            if self.cull_batches_dirty {
+            if self.cull_batches_dirty || self.cull_triangles_marked != triangles {
                 // The late draws' region follows every blended entry there can be.
                 let late_base = (opaque_len + self.blend_entities.len()) as u32;
-                self.culling.prepare_batches(&device, &queue, &self.opaque_batches, &self.mesh_pool, late_base);
+                let max_slot = triangles.then(|| self.opaque_slots.iter().copied().max().unwrap_or(0));
+                self.culling.prepare_batches(
+                    &device,
+                    &queue,
+                    &self.opaque_batches,
+                    &self.mesh_pool,
+                    late_base,
+                    max_slot,
+                );
                 self.cull_batches_dirty = false;
+                self.cull_triangles_marked = triangles;
             }
-            rebind |= self.culling.prepare_frame(&device, &queue, total, occlusion.then_some(size), self.frame);
+            let target = RasterTarget { size, samples: self.settings.msaa, subpixel_bits: self.ctx.caps.subpixel_bits };
+            rebind |= self.culling.prepare_frame(&device, &queue, total, occlusion.then_some(size), target, self.frame);
         }
         // The view bind group binds the culled list or the full one.
         rebind |= culling != self.culling_active;
@@ -1112,6 +1156,8 @@ impl Renderer {
             instances: self.instances.buffer(),
             draw_slots: self.draw_slots.buffer(),
             blended: opaque_len as u32..total as u32,
+            pool_indices: self.mesh_pool.index_buffer(),
+            pool_vertices: self.mesh_pool.vertex_buffer(),
         };
         if plan.runs(Pass::Cull) {
             self.culling.encode(&mut encoder, &device, &self.pipelines, &cull_inputs, self.timer.as_mut());
@@ -1133,6 +1179,7 @@ impl Renderer {
         let targets = self.targets.as_ref().expect("made above");
         // Handles (reference-counted), so the culling owner stays free to encode between passes.
         let (early_args, late_args) = (self.culling.args().clone(), self.culling.late_args().clone());
+        let triangle_draws = self.culling.triangle_draws();
         // A solid background is the clear colour, exposed like the scene (f16-clamped).
         let mut clear = match env_frame.solid_background {
             Some(c) => c.map(|v| (v * camera_exposure).clamp(0.0, 65504.0) as f64),
@@ -1155,9 +1202,11 @@ impl Renderer {
             mesh_pool: &self.mesh_pool,
             materials: &self.materials,
             clear_color: if composite_background { wgpu::Color::TRANSPARENT } else { wgpu::Color { r, g, b, a: 1.0 } },
-            indirect: self
-                .culling_active
-                .then_some(IndirectDraws { args: &early_args, batches: self.opaque_batches.len() }),
+            indirect: self.culling_active.then_some(IndirectDraws {
+                args: &early_args,
+                batches: self.opaque_batches.len(),
+                triangles: triangle_draws.as_ref(),
+            }),
             background: plan.runs(Pass::Background) && !composite_background,
             gizmos: if plan.runs(Pass::Gizmos) { self.gizmos.draw() } else { None },
         };
@@ -1175,8 +1224,10 @@ impl Renderer {
             );
             let depth = (targets.depth_view.as_ref().expect("occlusion culling keeps depth"), targets.samples);
             self.culling.encode_late(&mut encoder, &device, &self.pipelines, &cull_inputs, depth, self.timer.as_mut());
-            let late_inputs =
-                ForwardInputs { indirect: Some(IndirectDraws { args: &late_args, batches: opaque_count }), ..inputs };
+            let late_inputs = ForwardInputs {
+                indirect: Some(IndirectDraws { args: &late_args, batches: opaque_count, triangles: None }),
+                ..inputs
+            };
             let (late, error) = forward::encode(
                 &mut encoder,
                 &device,
@@ -1724,6 +1775,7 @@ impl Renderer {
             color_format: FormatKey(HDR_FORMAT),
             depth_format: Some(FormatKey(DEPTH_FORMAT)),
             tonemap: None,
+            pulled_vertices: false,
         })
     }
 

@@ -11,7 +11,7 @@ use penumbra_render::passes::clusters::grid::ClusterConfig;
 use penumbra_render::passes::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
-use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError};
+use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError, TriangleCulling};
 use penumbra_render::{MsaaResolve, QualityPreset, RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
@@ -155,6 +155,11 @@ pub struct LookArgs {
     /// more, on a GPU (not on CPU rasterisers such as lavapipe).
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub occlusion: OcclusionArg,
+    /// Triangle culling (with GPU culling, in frames without occlusion culling): batches of
+    /// small meshes draw only the triangles that can cover a sample. `auto`: on a GPU, not on
+    /// CPU rasterisers such as lavapipe.
+    #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
+    pub triangle_culling: OcclusionArg,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a
     /// neutral studio gradient when it has none), `sky`, `studio`, `none`, or an
     /// equirectangular Radiance .hdr or OpenEXR file.
@@ -507,6 +512,7 @@ impl From<TonemapArg> for Tonemapper {
     }
 }
 
+/// Off, on, or where it pays (occlusion and triangle culling).
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OcclusionArg {
     Auto,
@@ -600,6 +606,11 @@ impl LookArgs {
                 OcclusionArg::Auto => OcclusionCulling::Auto,
                 OcclusionArg::On => OcclusionCulling::On,
                 OcclusionArg::Off => OcclusionCulling::Off,
+            },
+            triangle_culling: match self.triangle_culling {
+                OcclusionArg::Auto => TriangleCulling::Auto,
+                OcclusionArg::On => TriangleCulling::On,
+                OcclusionArg::Off => TriangleCulling::Off,
             },
             environment: EnvironmentSettings { cube_size: self.env_size.0, ..Default::default() },
             post: PostSettings {

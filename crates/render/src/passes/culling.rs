@@ -28,6 +28,16 @@
 //!
 //! Needs indirect draws with a first instance (`Features::INDIRECT_FIRST_INSTANCE`); without it
 //! (GL, some mobile GPUs) the renderer draws the full list directly, as with culling off.
+//!
+//! Triangle culling (`TriangleCulling`, frames without occlusion culling): batches of meshes
+//! with at most [`MAX_TRIANGLES`] triangles and 256 vertices are marked when batches are
+//! rebuilt, each with a region of `triangle_indices` as large as all its instances' triangles.
+//! The cull pass then tests each visible instance's triangles and writes those that can cover
+//! a sample there (see `shaders/cull.wgsl`); the batch's arguments become one indexed draw of
+//! its region (index count counted by the pass, one instance whose index is the mesh's first
+//! vertex), which the forward pass draws with the pulled-vertex pipeline.
+
+use std::sync::Arc;
 
 use std::collections::HashMap;
 
@@ -35,6 +45,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::passes::forward::Batch;
 use crate::passes::occlusion_feedback::{Advisor, Feedback, OcclusionMeasure};
+use crate::pipelines::pipeline_cache::TopologyKey;
 use crate::pipelines::pipeline_cache::{CullPhase, HzbStep, PipelineCache};
 use crate::pipelines::shader_library::ShaderError;
 use crate::prepare::buffer::GrowableBuffer;
@@ -45,6 +56,18 @@ use crate::timing::GpuTimer;
 /// Words of indirect arguments per batch (`DrawIndexedIndirectArgs`).
 pub const ARGS_WORDS: u64 = 5;
 const WORKGROUP: u32 = 64;
+/// Triangles a mesh may have for its batches to be triangle-culled (one bit each in the pass).
+pub const MAX_TRIANGLES: u32 = 64;
+/// Vertices a mesh may have for it: an index names its vertex in 8 bits.
+const MAX_VERTICES: u32 = 256;
+/// Instance slots a triangle-culled index can name (the other 24 bits).
+const MAX_SLOT: u32 = 1 << 24;
+/// Indices the culled lists may hold in all (256 MiB); batches past it draw instances.
+const TRIANGLE_INDEX_BUDGET: u64 = 64 << 20;
+/// `CullBatch::triangles_first` of a batch that draws instances.
+const NO_TRIANGLES: u32 = u32::MAX;
+const CULL_BACK: u32 = 1;
+const FRONT_CW: u32 = 2;
 
 /// Mirrors `struct CullBatch` in `shaders/cull.wgsl`.
 #[repr(C)]
@@ -53,16 +76,75 @@ struct GpuCullBatch {
     center: [f32; 3],
     first: u32,
     half_extent: [f32; 3],
-    _pad: u32,
+    triangles_first: u32,
+    index_start: u32,
+    triangle_count: u32,
+    vertex_start: u32,
+    flags: u32,
 }
 
-fn cull_batch(b: &Batch, mesh_pool: &MeshPool) -> GpuCullBatch {
-    let bounds =
-        mesh_pool.entry(b.mesh_id).map(|e| e.aabb).filter(|a| !a.is_empty() && a.min.is_finite() && a.max.is_finite());
+/// `first`: the batch's region in `triangle_indices` when it is triangle-culled.
+fn cull_batch(b: &Batch, mesh_pool: &MeshPool, triangles_first: Option<u32>) -> GpuCullBatch {
+    let entry = mesh_pool.entry(b.mesh_id);
+    let bounds = entry.map(|e| e.aabb).filter(|a| !a.is_empty() && a.min.is_finite() && a.max.is_finite());
     // Without usable bounds a batch is never culled.
     let (center, half_extent) =
         bounds.map_or(([0.0; 3], [f32::MAX / 16.0; 3]), |a| (a.center().to_array(), a.half_extents().to_array()));
-    GpuCullBatch { center, first: b.first, half_extent, _pad: 0 }
+    let indices = entry.and_then(|e| e.indices.clone()).unwrap_or(0..0);
+    let flags = if b.key.cull_back_faces { CULL_BACK } else { 0 } | if b.key.front_face_cw { FRONT_CW } else { 0 };
+    GpuCullBatch {
+        center,
+        first: b.first,
+        half_extent,
+        triangles_first: triangles_first.unwrap_or(NO_TRIANGLES),
+        index_start: indices.start,
+        triangle_count: indices.len() as u32 / 3,
+        vertex_start: entry.map_or(0, |e| e.vertices.start),
+        flags,
+    }
+}
+
+/// Whether batch `b` can be triangle-culled: triangles of a small indexed mesh of its own
+/// (not a deformed copy, whose vertices the deformation pass rewrites), with every instance
+/// slot nameable in an index.
+fn triangle_cullable(b: &Batch, mesh_pool: &MeshPool, max_slot: u32) -> bool {
+    let Some(entry) = mesh_pool.entry(b.mesh_id) else { return false };
+    let Some(indices) = &entry.indices else { return false };
+    b.key.topology == TopologyKey::Triangles
+        && b.count > 0
+        && !entry.is_derived()
+        && indices.len() % 3 == 0
+        && (1..=MAX_TRIANGLES as usize * 3).contains(&indices.len())
+        && entry.vertices.len() <= MAX_VERTICES as usize
+        && max_slot < MAX_SLOT
+}
+
+/// The frame triangle culling tests against.
+#[derive(Debug, Clone, Copy)]
+pub struct RasterTarget {
+    pub size: (u32, u32),
+    pub samples: u32,
+    /// The rasteriser's sub-pixel precision (`Capabilities::subpixel_bits`).
+    pub subpixel_bits: u32,
+}
+
+impl RasterTarget {
+    /// How far the rasteriser may move a vertex from where the cull pass computes it, in
+    /// pixels on each axis: half a sub-pixel step, plus the rounding by which the pass and the
+    /// vertex shader (different compilations of the same arithmetic) and the pass's own
+    /// projection may differ (about 1e-4 pixel at 4K, taken 20 times over).
+    fn snap(&self) -> f32 {
+        0.5 / (1u32 << self.subpixel_bits.min(16)) as f32 + 2e-3
+    }
+}
+
+/// What the forward pass needs to draw triangle-culled batches.
+#[derive(Clone)]
+pub struct TriangleDraws {
+    /// The culled index lists, batch by batch.
+    pub indices: wgpu::Buffer,
+    /// Per opaque batch (in batch order): whether it draws from `indices`.
+    pub culled: Arc<[bool]>,
 }
 
 /// The hierarchical depth buffer: level 0 is the largest power of two within the frame.
@@ -113,6 +195,9 @@ pub struct CullInputs<'a> {
     pub draw_slots: &'a wgpu::Buffer,
     /// Entries of the draw list after the culled ones (blended draws), copied as they are.
     pub blended: std::ops::Range<u32>,
+    /// The mesh pool's buffers, which triangle culling reads.
+    pub pool_indices: &'a wgpu::Buffer,
+    pub pool_vertices: &'a wgpu::Buffer,
 }
 
 pub struct GpuCulling {
@@ -125,9 +210,17 @@ pub struct GpuCulling {
     /// One word per draw-list entry: whether it passed the late test last frame.
     was_visible: GrowableBuffer,
     visible_slots: GrowableBuffer,
+    /// Triangle culling: the arguments' template with the marked batches' draws of their
+    /// regions, and the regions.
+    triangle_template: GrowableBuffer,
+    triangle_indices: GrowableBuffer,
+    /// Which batches the last `prepare_batches` marked (empty: none).
+    triangle_batches: Arc<[bool]>,
+    /// Whether this frame culls triangles (marked batches, and no occlusion culling).
+    triangles_active: bool,
     params: wgpu::Buffer,
     /// What `params` holds, so that a still frame writes nothing.
-    written_params: Option<[u32; 4]>,
+    written_params: Option<[u32; 8]>,
     hzb: Option<Hzb>,
     item_count: u32,
     batch_count: u32,
@@ -157,9 +250,13 @@ impl GpuCulling {
             late_args: GrowableBuffer::new(device, "late indirect args", U::STORAGE | U::INDIRECT | U::COPY_SRC, 256),
             was_visible: GrowableBuffer::new(device, "visible last frame", U::STORAGE, 256),
             visible_slots: GrowableBuffer::new(device, "visible draw slots", U::STORAGE | U::COPY_SRC, 4096 * 4),
+            triangle_template: GrowableBuffer::new(device, "triangle-culled args template", U::COPY_SRC, 256),
+            triangle_indices: GrowableBuffer::new(device, "triangle-culled indices", U::STORAGE | U::INDEX, 256),
+            triangle_batches: Arc::from([]),
+            triangles_active: false,
             params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("cull params"),
-                size: 16,
+                size: 32,
                 usage: U::UNIFORM | U::COPY_DST,
                 mapped_at_creation: false,
             }),
@@ -202,11 +299,45 @@ impl GpuCulling {
             + self.late_template.capacity()
             + self.late_args.capacity()
             + self.was_visible.capacity()
+            + self.triangle_template.capacity()
+            + self.triangle_indices.capacity()
+    }
+
+    /// The triangle-culled draws of this frame, if it culls triangles.
+    pub fn triangle_draws(&self) -> Option<TriangleDraws> {
+        self.triangles_active.then(|| TriangleDraws {
+            indices: self.triangle_indices.buffer().clone(),
+            culled: self.triangle_batches.clone(),
+        })
+    }
+
+    /// Triangles each opaque batch drew in the last frame that culled triangles (`None` for a
+    /// batch drawing instances). Reads back; tests and tools.
+    pub fn read_triangle_counts(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Option<Vec<Option<u32>>>, ReadbackError> {
+        if !self.triangles_active || self.batch_count == 0 {
+            return Ok(None);
+        }
+        let bytes = self.batch_count as u64 * ARGS_WORDS * 4;
+        let words: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, self.args.buffer(), bytes)?);
+        Ok(Some(
+            words
+                .chunks_exact(ARGS_WORDS as usize)
+                .zip(self.triangle_batches.iter())
+                .map(|(w, &culled)| culled.then_some(w[0] / 3))
+                .collect(),
+        ))
     }
 
     /// After the batches were rebuilt: what the cull pass needs to know about them.
     /// `late_base`: where the late draws' region starts in the visible list (after the opaque
     /// and the most blended entries there can be). Every entry counts as visible last frame.
+    /// `triangles`: mark the batches that can be triangle-culled, given the largest instance
+    /// slot of the draw list (`None`: mark none).
     pub fn prepare_batches(
         &mut self,
         device: &wgpu::Device,
@@ -214,14 +345,28 @@ impl GpuCulling {
         batches: &[Batch],
         mesh_pool: &MeshPool,
         late_base: u32,
+        triangles: Option<u32>,
     ) {
         let mut item_batch = Vec::new();
         let mut gpu_batches = Vec::with_capacity(batches.len());
         let mut template = Vec::with_capacity(batches.len() * ARGS_WORDS as usize);
+        let mut triangle_template = Vec::new();
+        let mut marked = Vec::with_capacity(batches.len());
+        let mut triangle_indices = 0u64;
         for (i, b) in batches.iter().enumerate() {
             item_batch.extend(std::iter::repeat_n(i as u32, b.count as usize));
             let entry = mesh_pool.entry(b.mesh_id);
-            gpu_batches.push(cull_batch(b, mesh_pool));
+            let region = entry.and_then(|e| e.indices.as_ref()).map(|r| r.len() as u64 * b.count as u64).filter(|&n| {
+                triangles.is_some_and(|max_slot| triangle_cullable(b, mesh_pool, max_slot))
+                    && triangle_indices + n <= TRIANGLE_INDEX_BUDGET
+            });
+            let first = region.map(|n| {
+                let first = triangle_indices as u32;
+                triangle_indices += n;
+                first
+            });
+            gpu_batches.push(cull_batch(b, mesh_pool, first));
+            marked.push(first.is_some());
             let words: [u32; ARGS_WORDS as usize] = match entry {
                 Some(e) => match &e.indices {
                     Some(r) => [r.len() as u32, 0, r.start, e.vertices.start, b.first],
@@ -230,13 +375,28 @@ impl GpuCulling {
                 None => [0; ARGS_WORDS as usize],
             };
             template.extend(words);
+            // The region as one draw: its index count is what the pass keeps, its one instance
+            // is the mesh's first vertex (forward.wgsl, PULLED_VERTICES).
+            let triangle_words = match (first, entry) {
+                (Some(first), Some(e)) => [0, 1, first, 0, e.vertices.start],
+                _ => words,
+            };
+            triangle_template.extend(triangle_words);
         }
         self.item_count = item_batch.len() as u32;
         self.batch_count = batches.len() as u32;
         self.item_batch.reserve(device, item_batch.len() as u64 * 4);
         self.batches.reserve(device, std::mem::size_of_val(gpu_batches.as_slice()) as u64);
         self.args_template.reserve(device, template.len() as u64 * 4);
-        self.args.reserve(device, template.len() as u64 * 4);
+        // The hidden-count word, then one visible-instance count per batch (triangle culling).
+        triangle_template.extend(std::iter::repeat_n(0, 1 + batches.len()));
+        self.args.reserve(device, triangle_template.len() as u64 * 4);
+        self.triangle_batches = if triangle_indices > 0 { Arc::from(marked) } else { Arc::from([]) };
+        if triangle_indices > 0 {
+            self.triangle_template.reserve(device, triangle_template.len() as u64 * 4);
+            self.triangle_indices.reserve(device, triangle_indices * 4);
+            queue.write_buffer(self.triangle_template.buffer(), 0, bytemuck::cast_slice(&triangle_template));
+        }
         // The late draws' first instance is in their own region.
         let mut late = template.clone();
         for (words, b) in late.chunks_exact_mut(ARGS_WORDS as usize).zip(batches) {
@@ -268,23 +428,28 @@ impl GpuCulling {
         if index >= self.batch_count as usize {
             return;
         }
-        let gpu = cull_batch(batch, mesh_pool);
+        // Deformed copies, the only batches updated here, are never triangle-culled.
+        let gpu = cull_batch(batch, mesh_pool, None);
         let offset = (index * std::mem::size_of::<GpuCullBatch>()) as u64;
         queue.write_buffer(self.batches.buffer(), offset, bytemuck::bytes_of(&gpu));
     }
 
     /// Every frame: the parameters, the depth pyramid for a frame of `frame_size` when
     /// `occlusion` runs, and room for the whole visible list (`draw_list_len` entries, plus the
-    /// late region). Returns whether `visible_slots` was replaced.
+    /// late region). `target`: the frame's size and samples per pixel, which triangle culling
+    /// tests against (it runs in frames without occlusion culling when batches are marked).
+    /// Returns whether `visible_slots` was replaced.
     pub fn prepare_frame(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         draw_list_len: usize,
         occlusion: Option<(u32, u32)>,
+        target: RasterTarget,
         frame: u64,
     ) -> bool {
         self.occlusion = occlusion.is_some();
+        self.triangles_active = !self.occlusion && !self.triangle_batches.is_empty();
         self.frame = frame;
         let levels = match occlusion {
             Some(size) => {
@@ -299,7 +464,16 @@ impl GpuCulling {
             }
         };
         let hidden_word = self.batch_count * ARGS_WORDS as u32;
-        let params = [self.item_count, self.late_base, levels, hidden_word];
+        let params = [
+            self.item_count,
+            self.late_base,
+            levels,
+            hidden_word,
+            (target.size.0 as f32).to_bits(),
+            (target.size.1 as f32).to_bits(),
+            target.samples,
+            target.snap().to_bits(),
+        ];
         if self.written_params != Some(params) {
             queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&params));
             self.written_params = Some(params);
@@ -315,9 +489,13 @@ impl GpuCulling {
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
         occlusion: bool,
+        triangles: bool,
         samples: u32,
     ) -> Result<(), ShaderError> {
         if !occlusion {
+            if triangles {
+                pipelines.cull(device, CullPhase::FrustumTriangles)?;
+            }
             return pipelines.cull(device, CullPhase::Frustum).map(|_| ());
         }
         pipelines.cull(device, CullPhase::Early)?;
@@ -337,9 +515,17 @@ impl GpuCulling {
         inputs: &CullInputs,
         timer: Option<&mut GpuTimer>,
     ) {
-        let phase = if self.occlusion { CullPhase::Early } else { CullPhase::Frustum };
+        let phase = match (self.occlusion, self.triangles_active) {
+            (true, _) => CullPhase::Early,
+            (false, true) => CullPhase::FrustumTriangles,
+            (false, false) => CullPhase::Frustum,
+        };
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
-        if args_bytes > 0 {
+        if self.triangles_active {
+            // With the hidden-count word and the visible-instance counts after the arguments.
+            let bytes = args_bytes + 4 * (1 + self.batch_count as u64);
+            encoder.copy_buffer_to_buffer(self.triangle_template.buffer(), 0, self.args.buffer(), 0, bytes);
+        } else if args_bytes > 0 {
             encoder.copy_buffer_to_buffer(self.args_template.buffer(), 0, self.args.buffer(), 0, args_bytes);
         }
         if !inputs.blended.is_empty() {
@@ -462,8 +648,16 @@ impl GpuCulling {
             self.visible_slots.buffer().clone(),
             self.params.clone(),
         ];
-        if phase != CullPhase::Frustum {
+        if matches!(phase, CullPhase::Early | CullPhase::Late) {
             buffers.push(self.was_visible.buffer().clone());
+        }
+        if phase == CullPhase::FrustumTriangles {
+            // Bindings 10 to 12 (binding 8 and 9 are occlusion culling's).
+            buffers.extend([
+                inputs.pool_indices.clone(),
+                inputs.pool_vertices.clone(),
+                self.triangle_indices.buffer().clone(),
+            ]);
         }
         let hzb_view = if phase == CullPhase::Late { self.hzb.as_ref().map(|h| h.full_view.clone()) } else { None };
         let stale = self.groups.get(&phase).is_none_or(|(b, v, _)| *b != buffers || *v != hzb_view);
@@ -472,7 +666,10 @@ impl GpuCulling {
             let mut entries: Vec<wgpu::BindGroupEntry> = buffers
                 .iter()
                 .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+                .map(|(i, b)| {
+                    let binding = if phase == CullPhase::FrustumTriangles && i >= 8 { i as u32 + 2 } else { i as u32 };
+                    wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
+                })
                 .collect();
             if let Some(view) = &hzb_view {
                 entries.push(wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(view) });
@@ -507,6 +704,23 @@ impl GpuCulling {
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, buffer, bytes)?);
             Ok(words.chunks_exact(ARGS_WORDS as usize).map(|w| w[1]).collect())
         };
+        if self.triangles_active {
+            // A triangle-culled batch counts its visible instances after the hidden-count word.
+            let n = self.batch_count as u64;
+            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(
+                device,
+                queue,
+                self.args.buffer(),
+                bytes + 4 * (1 + n),
+            )?);
+            let visible = &words[(n * ARGS_WORDS + 1) as usize..];
+            return Ok(words
+                .chunks_exact(ARGS_WORDS as usize)
+                .take(n as usize)
+                .zip(self.triangle_batches.iter().zip(visible))
+                .map(|(w, (&culled, &v))| if culled { v } else { w[1] })
+                .collect());
+        }
         let mut drawn = counts(self.args.buffer())?;
         if self.occlusion {
             for (d, late) in drawn.iter_mut().zip(counts(self.late_args.buffer())?) {

@@ -8,6 +8,7 @@
 use penumbra_engine::Handle;
 use penumbra_engine::mesh::Mesh;
 
+use crate::passes::culling::TriangleDraws;
 use crate::passes::gizmos::GizmoDraw;
 use crate::pipelines::pipeline_cache::{BackgroundMode, PipelineCache, PipelineKey};
 use crate::pipelines::shader_library::ShaderError;
@@ -66,6 +67,22 @@ pub struct ForwardInputs<'a> {
 pub struct IndirectDraws<'a> {
     pub args: &'a wgpu::Buffer,
     pub batches: usize,
+    /// Batches the cull pass culled triangle by triangle: each draws its culled index list
+    /// (whose arguments are in `args` as well) with the pulled-vertex variant of its pipeline.
+    pub triangles: Option<&'a TriangleDraws>,
+}
+
+impl IndirectDraws<'_> {
+    /// Whether batch `i` (of the whole list) draws triangle-culled.
+    fn triangle_culled(&self, i: usize) -> bool {
+        i < self.batches && self.triangles.is_some_and(|t| t.culled.get(i).copied().unwrap_or(false))
+    }
+}
+
+/// The pipeline a batch draws with: its key, or that key's pulled-vertex variant when it is
+/// triangle-culled.
+fn draw_key(b: &Batch, indirect: Option<IndirectDraws>, i: usize) -> PipelineKey {
+    PipelineKey { pulled_vertices: indirect.is_some_and(|d| d.triangle_culled(i)), ..b.key }
 }
 
 /// Encodes the pass. A batch whose pipeline cannot be compiled (a broken shader folder at
@@ -97,7 +114,7 @@ pub fn encode(
     phase: OpaquePhase,
     timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
-    let mut error = compile(device, pipelines, batches);
+    let mut error = compile(device, pipelines, batches, 0, inputs.indirect);
     let samples = inputs.targets.samples;
     if inputs.background
         && let Err(e) = pipelines.background(device, BackgroundMode::InPass { samples })
@@ -189,8 +206,9 @@ pub fn encode_after_deferred(
 ) -> (DrawCounts, Option<ShaderError>) {
     let targets = inputs.targets;
     let Some(deferred) = targets.deferred.as_ref() else { return (DrawCounts::default(), None) };
-    let blended = &batches[opaque_count.min(batches.len())..];
-    let mut error = compile(device, pipelines, blended);
+    let start = opaque_count.min(batches.len());
+    let blended = &batches[start..];
+    let mut error = compile(device, pipelines, blended, start, inputs.indirect);
     if let Err(e) = pipelines.composite(device, targets.samples, crate::targets::DEPTH_FORMAT) {
         error = Some(e);
     }
@@ -242,10 +260,16 @@ fn draw_gizmos(pass: &mut wgpu::RenderPass<'_>, pipelines: &PipelineCache, input
     pass.draw(0..g.count, 0..1);
 }
 
-/// Creates the batches' pipelines before a pass borrows the cache immutably; returns the last
-/// error.
-fn compile(device: &wgpu::Device, pipelines: &mut PipelineCache, batches: &[Batch]) -> Option<ShaderError> {
-    pipelines.prepare_forward(device, batches.iter().map(|b| b.key))
+/// Creates the pipelines of `batches` (the part of the frame's list from index `start`) before
+/// a pass borrows the cache immutably; returns the last error.
+fn compile(
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    batches: &[Batch],
+    start: usize,
+    indirect: Option<IndirectDraws>,
+) -> Option<ShaderError> {
+    pipelines.prepare_forward(device, batches.iter().enumerate().map(|(i, b)| draw_key(b, indirect, start + i)))
 }
 
 /// Draws `batches`, the part of the frame's batch list that starts at index `start`.
@@ -265,6 +289,8 @@ fn draw(
     pass.set_index_buffer(inputs.mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
     let mut bound_key = None;
     let mut bound_material = None;
+    // Whether the culled index list is bound in place of the pool's indices.
+    let mut triangle_indices_bound = false;
     let mut i = 0;
     while i < batches.len() {
         let b = &batches[i];
@@ -273,13 +299,14 @@ fn draw(
             i += 1;
             continue;
         };
-        if bound_key != Some(b.key) {
-            let Some(pipeline) = pipelines.forward_cached(&b.key) else {
+        let key = draw_key(b, inputs.indirect, start + i);
+        if bound_key != Some(key) {
+            let Some(pipeline) = pipelines.forward_cached(&key) else {
                 i += 1;
                 continue;
             };
             pass.set_pipeline(pipeline);
-            bound_key = Some(b.key);
+            bound_key = Some(key);
         }
         if bound_material != Some(b.material) {
             pass.set_bind_group(1, &material.bind_group, &[]);
@@ -292,13 +319,23 @@ fn draw(
             crate::pipelines::pipeline_cache::TopologyKey::Points => 1,
         };
         let culled = inputs.indirect.filter(|d| start + i < d.batches);
+        let triangles = culled.and_then(|d| d.triangles.filter(|_| d.triangle_culled(start + i)));
+        if triangles.is_some() != triangle_indices_bound {
+            let indices = triangles.map_or(inputs.mesh_pool.index_buffer(), |t| &t.indices);
+            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+            triangle_indices_bound = triangles.is_some();
+        }
         let mut run = 1;
         match (culled, &entry.indices) {
+            (Some(d), Some(_)) if triangles.is_some() => {
+                pass.draw_indexed_indirect(d.args, (start + i) as u64 * crate::passes::culling::ARGS_WORDS * 4);
+            }
             (Some(d), Some(_)) => {
                 // Consecutive indexed batches with this pipeline and material differ only in
                 // mesh: one multi-draw (the mesh pool shares one vertex and index buffer).
                 while i + run < batches.len()
                     && start + i + run < d.batches
+                    && !d.triangle_culled(start + i + run)
                     && batches[i + run].key == b.key
                     && batches[i + run].material == b.material
                     && inputs.mesh_pool.entry(batches[i + run].mesh_id).is_some_and(|e| e.indices.is_some())

@@ -88,6 +88,9 @@ pub struct PipelineKey {
     /// The fragment shader tonemaps (with this curve) and writes the output itself, when
     /// nothing reads the HDR colour (`color_format` is then the output's format).
     pub tonemap: Option<Tonemapper>,
+    /// A triangle-culled draw: the vertex shader reads its vertices from the mesh pool, named
+    /// by the culled index list (`passes::culling`), instead of from a vertex buffer.
+    pub pulled_vertices: bool,
 }
 
 impl PipelineKey {
@@ -125,6 +128,8 @@ impl PipelineKey {
             .with("DEBUG_NORMALS", self.debug == DebugView::Normals)
             .with("DEBUG_UVS", self.debug == DebugView::Uvs)
             .with("LINE_QUADS", self.topology == TopologyKey::Lines)
+            .with("PULLED_VERTICES", self.pulled_vertices)
+            .with("POOL_VERTICES", self.pulled_vertices || self.topology == TopologyKey::Lines)
             .with("VERTEX_COLORS", self.vertex_colors)
             .with("TONEMAP_IN_FORWARD", self.tonemap.is_some())
             .with("TONEMAP_NEUTRAL", self.tonemap == Some(Tonemapper::Neutral))
@@ -404,6 +409,7 @@ fn forward_pipeline(
     } else {
         vec![color]
     };
+    let vertex_buffers = [Some(GpuVertex::layout())];
     let _timing = PipelineTiming(std::time::Instant::now());
     checked_pipeline(device, "forward.wgsl", || {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -413,7 +419,7 @@ fn forward_pipeline(
                 module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
-                buffers: &[Some(GpuVertex::layout())],
+                buffers: if key.pulled_vertices { &[] } else { &vertex_buffers },
             },
             primitive: wgpu::PrimitiveState {
                 // Lines are drawn as quads (prepare/line_quads.rs); keys of lines and points

@@ -131,6 +131,8 @@ const VERTEX_SIZE: u64 = std::mem::size_of::<GpuVertex>() as u64;
 /// Vertex-buffer usage: drawn from, and written by the deformation pass.
 const VERTEX_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::VERTEX.union(wgpu::BufferUsages::STORAGE);
 const INDEX_SIZE: u64 = 4;
+/// Index-buffer usage: drawn from, and read by triangle culling (`shaders/cull.wgsl`).
+const INDEX_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::INDEX.union(wgpu::BufferUsages::STORAGE);
 
 fn create_buffer(device: &wgpu::Device, label: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
@@ -148,7 +150,7 @@ impl MeshPool {
         let (v, i) = (64 * 1024u32, 256 * 1024u32);
         Self {
             vertex_buffer: create_buffer(device, "mesh pool vertices", v as u64 * VERTEX_SIZE, VERTEX_USAGE),
-            index_buffer: create_buffer(device, "mesh pool indices", i as u64 * INDEX_SIZE, wgpu::BufferUsages::INDEX),
+            index_buffer: create_buffer(device, "mesh pool indices", i as u64 * INDEX_SIZE, INDEX_USAGE),
             vertex_alloc: RangeAllocator::new(0..v),
             index_alloc: RangeAllocator::new(0..i),
             entries: Vec::new(),
@@ -387,7 +389,7 @@ impl MeshPool {
         let (alloc, buffer, elem, label, usage) = if vertex {
             (&mut self.vertex_alloc, &mut self.vertex_buffer, VERTEX_SIZE, "mesh pool vertices", VERTEX_USAGE)
         } else {
-            (&mut self.index_alloc, &mut self.index_buffer, INDEX_SIZE, "mesh pool indices", wgpu::BufferUsages::INDEX)
+            (&mut self.index_alloc, &mut self.index_buffer, INDEX_SIZE, "mesh pool indices", INDEX_USAGE)
         };
         if let Ok(r) = alloc.allocate_range(len) {
             return r;

@@ -20,6 +20,8 @@ struct Row {
     instances: u32,
     /// After GPU culling, in the last frame (`None`: not culled).
     visible: Option<u32>,
+    /// Triangles the triangle-culled batches drew (triangle culling ran in the last frame).
+    triangles: Option<u32>,
     instances_mib: f64,
 }
 
@@ -76,6 +78,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
                 visible: renderer.visible_instance_counts()?.map(|c| c.iter().sum()),
+                triangles: renderer.triangle_culled_counts()?.map(|c| c.iter().flatten().sum()),
                 instances_mib: renderer.memory().instances as f64 / 1048576.0,
             });
         }
@@ -86,22 +89,23 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         layout
     );
     println!(
-        "settings  {}x{}, MSAA {} ({:?} resolve), GPU culling {}, occlusion culling {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
+        "settings  {}x{}, MSAA {} ({:?} resolve), GPU culling {}, occlusion culling {:?}, triangle culling {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
         args.size.0,
         args.size.1,
         settings.msaa,
         settings.msaa_resolve,
         if settings.gpu_culling { "on" } else { "off" },
         settings.occlusion_culling,
+        settings.triangle_culling,
         settings.tonemapper,
         args.warmup,
         args.frames
     );
     println!();
     println!(
-        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | GPU MiB instances and draw lists |"
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | triangles after triangle culling | GPU MiB instances and draw lists |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let [
             main,
@@ -133,12 +137,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         );
         let gpu = ms(gpu);
         println!(
-            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} ({upload:.3}) | {encode:.3} | {submit:.3} | {cpu:.3} | {passes} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {:.1} |",
+            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} ({upload:.3}) | {encode:.3} | {submit:.3} | {cpu:.3} | {passes} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {} | {:.1} |",
             r.count,
             r.moving,
             r.draw_calls,
             r.instances,
             r.visible.map_or("not culled".to_owned(), |v| v.to_string()),
+            r.triangles.map_or("-".to_owned(), |v| v.to_string()),
             r.instances_mib
         );
     }

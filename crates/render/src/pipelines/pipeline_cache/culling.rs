@@ -5,12 +5,14 @@
 use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline, storage};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
-/// Which cull pass: without occlusion culling, or its early or late half.
+/// Which cull pass: without occlusion culling, or its early or late half; or without occlusion
+/// culling and with triangle culling for the batches marked for it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum CullPhase {
     Frustum,
     Early,
     Late,
+    FrustumTriangles,
 }
 
 /// Which reduction of the hierarchical depth buffer.
@@ -23,9 +25,9 @@ pub enum HzbStep {
 }
 
 pub(super) struct CullLayouts {
-    /// Bind group layouts by `CullPhase` (`Frustum`, `Early`, `Late`).
-    pub cull: [wgpu::BindGroupLayout; 3],
-    cull_pipeline: [wgpu::PipelineLayout; 3],
+    /// Bind group layouts by `CullPhase` (`Frustum`, `Early`, `Late`, `FrustumTriangles`).
+    pub cull: [wgpu::BindGroupLayout; 4],
+    cull_pipeline: [wgpu::PipelineLayout; 4],
     /// `FromDepth` single-sampled, multisampled, then `Reduce`.
     pub hzb: [wgpu::BindGroupLayout; 3],
     hzb_pipeline: [wgpu::PipelineLayout; 3],
@@ -48,7 +50,8 @@ impl HzbStep {
 
 /// The layouts, in `cull.wgsl`'s binding order: view, instances, draw list, entry → batch,
 /// batches, indirect args (written), visible list (written), params; the early phase adds
-/// last frame's visibility, the late phase rewrites it and reads the depth pyramid.
+/// last frame's visibility, the late phase rewrites it and reads the depth pyramid; triangle
+/// culling adds the mesh pool's indices and vertices and the culled index list (written).
 pub(super) fn cull_layouts(device: &wgpu::Device) -> CullLayouts {
     let compute = wgpu::ShaderStages::COMPUTE;
     let read_write = wgpu::BufferBindingType::Storage { read_only: false };
@@ -66,6 +69,9 @@ pub(super) fn cull_layouts(device: &wgpu::Device) -> CullLayouts {
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
     };
     let frustum = layout("cull", &entries);
+    let mut triangle_entries = entries.clone();
+    triangle_entries.extend([storage(10, compute), storage(11, compute), buffer_entry(12, compute, read_write)]);
+    let triangles = layout("cull triangles", &triangle_entries);
     entries.push(storage(8, compute));
     let early = layout("cull early", &entries);
     entries.pop();
@@ -102,8 +108,9 @@ pub(super) fn cull_layouts(device: &wgpu::Device) -> CullLayouts {
             pipeline_layout("cull", &frustum),
             pipeline_layout("cull early", &early),
             pipeline_layout("cull late", &late),
+            pipeline_layout("cull triangles", &triangles),
         ],
-        cull: [frustum, early, late],
+        cull: [frustum, early, late, triangles],
         hzb_pipeline: [
             pipeline_layout("hzb", &hzb[0]),
             pipeline_layout("hzb msaa", &hzb[1]),
@@ -165,7 +172,8 @@ impl PipelineCache {
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
         let defs = ShaderDefs::default()
             .with("OCCLUSION_EARLY", phase == CullPhase::Early)
-            .with("OCCLUSION_LATE", phase == CullPhase::Late);
+            .with("OCCLUSION_LATE", phase == CullPhase::Late)
+            .with("TRIANGLE_CULLING", phase == CullPhase::FrustumTriangles);
         let module = self.library(candidate).create_module(device, "cull.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "cull.wgsl", || {
