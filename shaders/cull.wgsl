@@ -20,7 +20,7 @@
 // than a margin relative to the magnitudes involved (so rounding cannot remove a visible
 // object), and NaN anywhere fails every comparison and keeps the object.
 //
-// Triangle culling (shader def TRIANGLE_CULLING, frustum phase only): batches of small meshes
+// Triangle culling (shader def TRIANGLE_CULLING, in any phase): batches of small meshes
 // that the renderer marked (`triangles_first`) do not draw instances. A visible instance of
 // such a batch tests each of its mesh's triangles here and keeps only those that can cover a
 // sample of the frame: not facing away, not outside the target, and not so small that they
@@ -185,8 +185,10 @@ fn cull_instances(
     if kept.count > 0u {
         write_triangles(kept, at);
     }
+    let hidden = kept.hidden;
 #else
     let hidden = cull_entry(i);
+#endif
 #ifdef OCCLUSION_LATE
     if hidden {
         atomicAdd(&hidden_in_group, 1u);
@@ -198,7 +200,6 @@ fn cull_instances(
             atomicAdd(&args[params.hidden_word], n);
         }
     }
-#endif
 #endif
 }
 
@@ -226,11 +227,29 @@ fn cull_entry(i: u32) -> bool {
     if i >= params.item_count {
         return false;
     }
+    let e = test_entry(i);
+    if e.draw {
+        append_instance(e);
+    }
+    return e.hidden;
+}
+
+// What this phase does with a draw-list entry.
+struct EntryTest {
+    slot: u32,
+    batch: u32,
+    // Draw it in this phase's draws.
+    draw: bool,
+    // In view but hidden by the depth pyramid (late phase).
+    hidden: bool,
+};
+
+// Tests entry `i` (< params.item_count) against the frustum and, with occlusion culling, last
+// frame's visibility (early) or the depth pyramid (late, which records the answer).
+fn test_entry(i: u32) -> EntryTest {
     let slot = draw_slots[i];
     let b = item_batch[i];
-    let batch = batches[b];
-    let inst = instances[slot];
-    let bounds = world_box(inst, batch);
+    let bounds = world_box(instances[slot], batches[b]);
     let rel_center = bounds.center;
     let world_half = bounds.half_extent;
     var visible = box_in_view(rel_center, world_half);
@@ -238,21 +257,25 @@ fn cull_entry(i: u32) -> bool {
 #ifdef OCCLUSION_EARLY
     visible = visible && was_visible[i] != 0u;
 #endif
-    var base = 0u;
 #ifdef OCCLUSION_LATE
     let drawn_early = visible && was_visible[i] != 0u;
     hidden = visible && box_occluded(rel_center, world_half);
     visible = visible && !hidden;
     was_visible[i] = u32(visible);
     visible = visible && !drawn_early;
+#endif
+    return EntryTest(slot, b, visible, hidden);
+}
+
+// Appends the entry's instance to its batch's region of `visible_slots` (the late draws' own
+// region in the late phase) and counts it.
+fn append_instance(e: EntryTest) {
+    var base = 0u;
+#ifdef OCCLUSION_LATE
     base = params.late_base;
 #endif
-    if !visible {
-        return hidden;
-    }
-    let k = atomicAdd(&args[b * 5u + 1u], 1u);
-    visible_slots[base + batch.first + k] = slot;
-    return false;
+    let k = atomicAdd(&args[e.batch * 5u + 1u], 1u);
+    visible_slots[base + batches[e.batch].first + k] = e.slot;
 }
 
 #ifdef OCCLUSION_LATE
@@ -330,6 +353,8 @@ struct KeptTriangles {
     mask: vec2<u32>,
     count: u32,
     visible: bool,
+    // In view but hidden by the depth pyramid (late phase).
+    hidden: bool,
 };
 
 // Sample `s`'s position within its pixel (framebuffer coordinates, y down): Vulkan's standard
@@ -453,29 +478,30 @@ fn triangle_may_cover(a: vec4<f32>, b: vec4<f32>, c: vec4<f32>, flags: u32) -> b
 }
 
 // Culls draw-list entry `i` (TRIANGLE_CULLING): an entry of an instanced batch as
-// `cull_entry` does; an entry of a triangle-culled batch returns the triangles it keeps.
+// `cull_entry` does; an entry of a triangle-culled batch that this phase draws returns the
+// triangles it keeps. The late phase writes its triangles over the early phase's region, which
+// the early draws have read by then, and counts them in its own arguments.
 fn cull_entry_triangles(i: u32) -> KeptTriangles {
-    var kept = KeptTriangles(NO_TRIANGLES, 0u, vec2<u32>(0u), 0u, false);
+    var kept = KeptTriangles(NO_TRIANGLES, 0u, vec2<u32>(0u), 0u, false, false);
     if i >= params.item_count {
         return kept;
     }
-    let slot = draw_slots[i];
-    let b = item_batch[i];
+    let e = test_entry(i);
+    kept.hidden = e.hidden;
+    let b = e.batch;
     let batch = batches[b];
-    let inst = instances[slot];
-    let bounds = world_box(inst, batch);
-    let visible = box_in_view(bounds.center, bounds.half_extent);
     if batch.triangles_first == NO_TRIANGLES {
-        if visible {
-            let k = atomicAdd(&args[b * 5u + 1u], 1u);
-            visible_slots[batch.first + k] = slot;
+        if e.draw {
+            append_instance(e);
         }
         return kept;
     }
+    let slot = e.slot;
+    let inst = instances[slot];
     kept.batch = b;
     kept.slot = slot;
-    kept.visible = visible;
-    if !visible {
+    kept.visible = e.draw;
+    if !e.draw {
         return kept;
     }
     let n = min(batch.triangle_count, MAX_TRIANGLES);

@@ -7,7 +7,7 @@
 //! equals it drawn one draw per entity.
 
 use penumbra::prelude::*;
-use penumbra::render::renderer::OcclusionCulling;
+use penumbra::render::renderer::{OcclusionCulling, TriangleCulling};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
@@ -221,15 +221,16 @@ fn wall_scene(app: &mut App) -> Entity {
     wall
 }
 
-fn occlusion_settings(msaa: u32, occlusion: OcclusionCulling) -> RenderSettings {
-    RenderSettings { msaa, occlusion_culling: occlusion, ..Default::default() }
+fn occlusion_settings(msaa: u32, occlusion: OcclusionCulling, triangles: TriangleCulling) -> RenderSettings {
+    RenderSettings { msaa, occlusion_culling: occlusion, triangle_culling: triangles, ..Default::default() }
 }
 
 /// Occlusion culling leaves out the cubes behind the wall from the second frame on, and draws
 /// them in the very frame the wall moves away; every frame equals the frame drawn without it.
+/// The same with triangle culling, which culls the cubes' triangles in both phases.
 #[test]
 fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
-    for msaa in [1, 4] {
+    for (msaa, triangles) in [(1, TriangleCulling::Off), (4, TriangleCulling::Off), (4, TriangleCulling::On)] {
         let mut culled = scene_app();
         let mut reference = scene_app();
         let wall = wall_scene(&mut culled);
@@ -242,9 +243,14 @@ fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
                     app.world.get_mut::<Transform>(wall).unwrap().translation.x = 200.0;
                 }
             }
-            let a = render_app(&mut culled, SIZE, occlusion_settings(msaa, OcclusionCulling::On));
-            let b = render_app(&mut reference, SIZE, occlusion_settings(msaa, OcclusionCulling::Off));
-            assert!(a == b, "MSAA {msaa}, frame {frame}: occlusion culling changed the image");
+            let a = render_app(&mut culled, SIZE, occlusion_settings(msaa, OcclusionCulling::On, triangles));
+            let b =
+                render_app(&mut reference, SIZE, occlusion_settings(msaa, OcclusionCulling::Off, TriangleCulling::Off));
+            assert!(a == b, "MSAA {msaa}, {triangles:?}, frame {frame}: occlusion culling changed the image");
+            if triangles == TriangleCulling::On && common::gpu().caps.occlusion_culling {
+                let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap();
+                assert!(counts.is_some_and(|c| c.iter().all(Option::is_some)), "frame {frame}: triangles culled");
+            }
             let plan = &culled.world.resource::<Renderer>().stats().plan;
             if !common::gpu().caps.occlusion_culling {
                 // GL (WGPU_BACKEND=gl): no depth pyramid there; `On` culls by the view only.
@@ -328,15 +334,21 @@ fn small_cubes_scene(app: &mut App, origin: Vec3) -> usize {
 
 /// Triangle culling draws only triangles that can cover a sample, so its frames equal the
 /// frames drawn without any culling, at one and four samples, near and far from the origin,
-/// on the stress scene (whose spheres stay instanced beside its triangle-culled cubes) and on
-/// a field of sub-pixel cubes, most of whose triangles it leaves out.
+/// alone and with occlusion culling, on the stress scene (whose spheres stay instanced beside
+/// its triangle-culled cubes) and on a field of sub-pixel cubes, most of whose triangles it
+/// leaves out.
 #[test]
 fn triangle_culled_frames_equal_unculled_frames() {
-    use penumbra::render::renderer::TriangleCulling;
-    for (origin, msaa) in [(Vec3::ZERO, 1), (Vec3::ZERO, 4), (Vec3::new(1.0e5, -3.0e4, 2.0e5), 4)] {
+    let far_away = Vec3::new(1.0e5, -3.0e4, 2.0e5);
+    for (origin, msaa, occlusion) in [
+        (Vec3::ZERO, 1, OcclusionCulling::Off),
+        (Vec3::ZERO, 4, OcclusionCulling::Off),
+        (far_away, 4, OcclusionCulling::Off),
+        (Vec3::ZERO, 4, OcclusionCulling::On),
+    ] {
         let triangles = RenderSettings {
             msaa,
-            occlusion_culling: OcclusionCulling::Off,
+            occlusion_culling: occlusion,
             triangle_culling: TriangleCulling::On,
             ..Default::default()
         };
@@ -345,9 +357,15 @@ fn triangle_culled_frames_equal_unculled_frames() {
         let mut reference = scene_app();
         let far = small_cubes_scene(&mut culled, origin);
         small_cubes_scene(&mut reference, origin);
-        let a = render_app(&mut culled, SIZE, triangles.clone());
-        let b = render_app(&mut reference, SIZE, reference_settings.clone());
-        assert!(a == b, "origin {origin}, MSAA {msaa}: the triangle-culled frame differs from the unculled one");
+        // Occlusion culling draws what was visible last frame early, the rest late.
+        for frame in 0..2 {
+            let a = render_app(&mut culled, SIZE, triangles.clone());
+            let b = render_app(&mut reference, SIZE, reference_settings.clone());
+            assert!(
+                a == b,
+                "origin {origin}, MSAA {msaa}, {occlusion:?}, frame {frame}: the triangle-culled frame differs from the unculled one"
+            );
+        }
         let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap().expect("triangles culled");
         let drawn: u32 = counts.iter().flatten().sum();
         let submitted = 12 * (far + 8) as u32;
@@ -356,7 +374,7 @@ fn triangle_culled_frames_equal_unculled_frames() {
         // samples at most.
         assert!(
             drawn > 0 && drawn < submitted / 4,
-            "origin {origin}, MSAA {msaa}: {drawn} of {submitted} triangles drawn"
+            "origin {origin}, MSAA {msaa}, {occlusion:?}: {drawn} of {submitted} triangles drawn"
         );
         let visible: u32 = culled.world.resource::<Renderer>().visible_instance_counts().unwrap().unwrap().iter().sum();
         assert!(visible > far as u32 / 2, "{visible} instances visible");
@@ -365,9 +383,14 @@ fn triangle_culled_frames_equal_unculled_frames() {
         let mut reference = scene_app();
         stress_scene(&mut culled, origin);
         stress_scene(&mut reference, origin);
-        let a = render_app(&mut culled, SIZE, triangles);
-        let b = render_app(&mut reference, SIZE, reference_settings);
-        assert!(a == b, "origin {origin}, MSAA {msaa}: the triangle-culled stress frame differs from the unculled one");
+        for frame in 0..2 {
+            let a = render_app(&mut culled, SIZE, triangles.clone());
+            let b = render_app(&mut reference, SIZE, reference_settings.clone());
+            assert!(
+                a == b,
+                "origin {origin}, MSAA {msaa}, {occlusion:?}, frame {frame}: the triangle-culled stress frame differs"
+            );
+        }
         let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap().expect("triangles culled");
         assert!(counts.iter().any(Option::is_some) && counts.iter().any(Option::is_none), "{counts:?}");
     }

@@ -1225,7 +1225,11 @@ impl Renderer {
             let depth = (targets.depth_view.as_ref().expect("occlusion culling keeps depth"), targets.samples);
             self.culling.encode_late(&mut encoder, &device, &self.pipelines, &cull_inputs, depth, self.timer.as_mut());
             let late_inputs = ForwardInputs {
-                indirect: Some(IndirectDraws { args: &late_args, batches: opaque_count, triangles: None }),
+                indirect: Some(IndirectDraws {
+                    args: &late_args,
+                    batches: opaque_count,
+                    triangles: triangle_draws.as_ref(),
+                }),
                 ..inputs
             };
             let (late, error) = forward::encode(

@@ -29,13 +29,15 @@
 //! Needs indirect draws with a first instance (`Features::INDIRECT_FIRST_INSTANCE`); without it
 //! (GL, some mobile GPUs) the renderer draws the full list directly, as with culling off.
 //!
-//! Triangle culling (`TriangleCulling`, frames without occlusion culling): batches of meshes
-//! with at most [`MAX_TRIANGLES`] triangles and 256 vertices are marked when batches are
-//! rebuilt, each with a region of `triangle_indices` as large as all its instances' triangles.
-//! The cull pass then tests each visible instance's triangles and writes those that can cover
-//! a sample there (see `shaders/cull.wgsl`); the batch's arguments become one indexed draw of
-//! its region (index count counted by the pass, one instance whose index is the mesh's first
-//! vertex), which the forward pass draws with the pulled-vertex pipeline.
+//! Triangle culling (`TriangleCulling`): batches of meshes with at most [`MAX_TRIANGLES`]
+//! triangles and 256 vertices are marked when batches are rebuilt, each with a region of
+//! `triangle_indices` as large as all its instances' triangles. The cull pass (every phase)
+//! then tests each instance it draws triangle by triangle and writes those that can cover a
+//! sample to the region (see `shaders/cull.wgsl`); the batch's arguments become one indexed
+//! draw of its region (index count counted by the pass, one instance whose index is the mesh's
+//! first vertex), which the forward pass draws with the pulled-vertex pipeline. After the
+//! hidden-count word each argument buffer holds one word per batch: the instances a
+//! triangle-culled batch drew.
 
 use std::sync::Arc;
 
@@ -210,13 +212,14 @@ pub struct GpuCulling {
     /// One word per draw-list entry: whether it passed the late test last frame.
     was_visible: GrowableBuffer,
     visible_slots: GrowableBuffer,
-    /// Triangle culling: the arguments' template with the marked batches' draws of their
-    /// regions, and the regions.
+    /// Triangle culling: the arguments' templates (early or only, and late) with the marked
+    /// batches' draws of their regions, and the regions.
     triangle_template: GrowableBuffer,
+    late_triangle_template: GrowableBuffer,
     triangle_indices: GrowableBuffer,
     /// Which batches the last `prepare_batches` marked (empty: none).
     triangle_batches: Arc<[bool]>,
-    /// Whether this frame culls triangles (marked batches, and no occlusion culling).
+    /// Whether this frame culls triangles (some batch is marked).
     triangles_active: bool,
     params: wgpu::Buffer,
     /// What `params` holds, so that a still frame writes nothing.
@@ -251,6 +254,7 @@ impl GpuCulling {
             was_visible: GrowableBuffer::new(device, "visible last frame", U::STORAGE, 256),
             visible_slots: GrowableBuffer::new(device, "visible draw slots", U::STORAGE | U::COPY_SRC, 4096 * 4),
             triangle_template: GrowableBuffer::new(device, "triangle-culled args template", U::COPY_SRC, 256),
+            late_triangle_template: GrowableBuffer::new(device, "late triangle-culled args template", U::COPY_SRC, 256),
             triangle_indices: GrowableBuffer::new(device, "triangle-culled indices", U::STORAGE | U::INDEX, 256),
             triangle_batches: Arc::from([]),
             triangles_active: false,
@@ -300,6 +304,7 @@ impl GpuCulling {
             + self.late_args.capacity()
             + self.was_visible.capacity()
             + self.triangle_template.capacity()
+            + self.late_triangle_template.capacity()
             + self.triangle_indices.capacity()
     }
 
@@ -322,15 +327,18 @@ impl GpuCulling {
             return Ok(None);
         }
         let bytes = self.batch_count as u64 * ARGS_WORDS * 4;
-        let words: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, self.args.buffer(), bytes)?);
-        Ok(Some(
-            words
-                .chunks_exact(ARGS_WORDS as usize)
-                .zip(self.triangle_batches.iter())
-                .map(|(w, &culled)| culled.then_some(w[0] / 3))
-                .collect(),
-        ))
+        let counts = |buffer: &wgpu::Buffer| -> Result<Vec<u32>, ReadbackError> {
+            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, buffer, bytes)?);
+            // A batch's index count is its triangles' indices.
+            Ok(words.chunks_exact(ARGS_WORDS as usize).map(|w| w[0] / 3).collect())
+        };
+        let mut drawn = counts(self.args.buffer())?;
+        if self.occlusion {
+            for (d, late) in drawn.iter_mut().zip(counts(self.late_args.buffer())?) {
+                *d += late;
+            }
+        }
+        Ok(Some(drawn.into_iter().zip(self.triangle_batches.iter()).map(|(n, &culled)| culled.then_some(n)).collect()))
     }
 
     /// After the batches were rebuilt: what the cull pass needs to know about them.
@@ -391,23 +399,37 @@ impl GpuCulling {
         // The hidden-count word, then one visible-instance count per batch (triangle culling).
         triangle_template.extend(std::iter::repeat_n(0, 1 + batches.len()));
         self.args.reserve(device, triangle_template.len() as u64 * 4);
-        self.triangle_batches = if triangle_indices > 0 { Arc::from(marked) } else { Arc::from([]) };
-        if triangle_indices > 0 {
-            self.triangle_template.reserve(device, triangle_template.len() as u64 * 4);
-            self.triangle_indices.reserve(device, triangle_indices * 4);
-            queue.write_buffer(self.triangle_template.buffer(), 0, bytemuck::cast_slice(&triangle_template));
-        }
         // The late draws' first instance is in their own region.
         let mut late = template.clone();
         for (words, b) in late.chunks_exact_mut(ARGS_WORDS as usize).zip(batches) {
             let indexed = mesh_pool.entry(b.mesh_id).is_some_and(|e| e.indices.is_some());
             words[if indexed { 4 } else { 3 }] += late_base;
         }
+        // Triangle-culled batches draw their region again (rewritten by the late cull).
+        let mut late_triangles = late.clone();
+        for ((words, triangle_words), &m) in late_triangles
+            .chunks_exact_mut(ARGS_WORDS as usize)
+            .zip(triangle_template.chunks_exact(ARGS_WORDS as usize))
+            .zip(&marked)
+        {
+            if m {
+                words.copy_from_slice(triangle_words);
+            }
+        }
+        late_triangles.extend(std::iter::repeat_n(0, 1 + batches.len()));
         self.late_base = late_base;
         // The word after the late arguments counts what the late cull hid (`hidden_word`).
         late.push(0);
         self.late_template.reserve(device, late.len() as u64 * 4);
-        self.late_args.reserve(device, late.len() as u64 * 4);
+        self.late_args.reserve(device, late_triangles.len() as u64 * 4);
+        self.triangle_batches = if triangle_indices > 0 { Arc::from(marked) } else { Arc::from([]) };
+        if triangle_indices > 0 {
+            self.triangle_template.reserve(device, triangle_template.len() as u64 * 4);
+            self.late_triangle_template.reserve(device, late_triangles.len() as u64 * 4);
+            self.triangle_indices.reserve(device, triangle_indices * 4);
+            queue.write_buffer(self.triangle_template.buffer(), 0, bytemuck::cast_slice(&triangle_template));
+            queue.write_buffer(self.late_triangle_template.buffer(), 0, bytemuck::cast_slice(&late_triangles));
+        }
         self.was_visible.reserve(device, item_batch.len() as u64 * 4);
         let all_visible = vec![1u32; item_batch.len()];
         for (buffer, bytes) in [
@@ -449,7 +471,7 @@ impl GpuCulling {
         frame: u64,
     ) -> bool {
         self.occlusion = occlusion.is_some();
-        self.triangles_active = !self.occlusion && !self.triangle_batches.is_empty();
+        self.triangles_active = !self.triangle_batches.is_empty();
         self.frame = frame;
         let levels = match occlusion {
             Some(size) => {
@@ -492,14 +514,18 @@ impl GpuCulling {
         triangles: bool,
         samples: u32,
     ) -> Result<(), ShaderError> {
-        if !occlusion {
+        // With and without triangles when they are wanted: whether any batch is marked is
+        // known only once the batches are prepared.
+        let phases: &[CullPhase] = if occlusion { &[CullPhase::Early, CullPhase::Late] } else { &[CullPhase::Frustum] };
+        for &phase in phases {
+            pipelines.cull(device, phase)?;
             if triangles {
-                pipelines.cull(device, CullPhase::FrustumTriangles)?;
+                pipelines.cull(device, phase.with_triangles(true))?;
             }
-            return pipelines.cull(device, CullPhase::Frustum).map(|_| ());
         }
-        pipelines.cull(device, CullPhase::Early)?;
-        pipelines.cull(device, CullPhase::Late)?;
+        if !occlusion {
+            return Ok(());
+        }
         pipelines.hzb(device, HzbStep::FromDepth { multisampled: samples > 1 })?;
         pipelines.hzb(device, HzbStep::Reduce).map(|_| ())
     }
@@ -515,11 +541,8 @@ impl GpuCulling {
         inputs: &CullInputs,
         timer: Option<&mut GpuTimer>,
     ) {
-        let phase = match (self.occlusion, self.triangles_active) {
-            (true, _) => CullPhase::Early,
-            (false, true) => CullPhase::FrustumTriangles,
-            (false, false) => CullPhase::Frustum,
-        };
+        let phase = if self.occlusion { CullPhase::Early } else { CullPhase::Frustum };
+        let phase = phase.with_triangles(self.triangles_active);
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
         if self.triangles_active {
             // With the hidden-count word and the visible-instance counts after the arguments.
@@ -587,11 +610,16 @@ impl GpuCulling {
             }
         }
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
-        if args_bytes > 0 {
+        if self.triangles_active {
+            // With the hidden count and the visible-instance counts after them.
+            let bytes = args_bytes + 4 * (1 + self.batch_count as u64);
+            encoder.copy_buffer_to_buffer(self.late_triangle_template.buffer(), 0, self.late_args.buffer(), 0, bytes);
+        } else if args_bytes > 0 {
             // With the hidden count after them.
             encoder.copy_buffer_to_buffer(self.late_template.buffer(), 0, self.late_args.buffer(), 0, args_bytes + 4);
         }
-        self.dispatch(encoder, device, pipelines, inputs, CullPhase::Late, timer);
+        let phase = CullPhase::Late.with_triangles(self.triangles_active);
+        self.dispatch(encoder, device, pipelines, inputs, phase, timer);
         // Measured only after a frame that also culled by occlusion: its visible set is what the
         // early pass drew, so the pyramid holds what a steady state would.
         if args_bytes > 0 && self.last_occlusion_frame == Some(self.frame.wrapping_sub(1)) {
@@ -637,7 +665,8 @@ impl GpuCulling {
         if self.item_count == 0 {
             return;
         }
-        let args = if phase == CullPhase::Late { self.late_args.buffer() } else { self.args.buffer() };
+        let late = phase.occlusion_late();
+        let args = if late { self.late_args.buffer() } else { self.args.buffer() };
         let mut buffers = vec![
             inputs.view.clone(),
             inputs.instances.clone(),
@@ -648,18 +677,19 @@ impl GpuCulling {
             self.visible_slots.buffer().clone(),
             self.params.clone(),
         ];
-        if matches!(phase, CullPhase::Early | CullPhase::Late) {
+        if phase.occlusion_early() || late {
             buffers.push(self.was_visible.buffer().clone());
         }
-        if phase == CullPhase::FrustumTriangles {
-            // Bindings 10 to 12 (binding 8 and 9 are occlusion culling's).
+        // Bindings 10 to 12 (8 and 9 are occlusion culling's).
+        let first_triangle_buffer = buffers.len();
+        if phase.triangles() {
             buffers.extend([
                 inputs.pool_indices.clone(),
                 inputs.pool_vertices.clone(),
                 self.triangle_indices.buffer().clone(),
             ]);
         }
-        let hzb_view = if phase == CullPhase::Late { self.hzb.as_ref().map(|h| h.full_view.clone()) } else { None };
+        let hzb_view = if late { self.hzb.as_ref().map(|h| h.full_view.clone()) } else { None };
         let stale = self.groups.get(&phase).is_none_or(|(b, v, _)| *b != buffers || *v != hzb_view);
         if stale {
             // Other owners' buffers (instances, draw list, view) and ours grow by replacement.
@@ -667,7 +697,8 @@ impl GpuCulling {
                 .iter()
                 .enumerate()
                 .map(|(i, b)| {
-                    let binding = if phase == CullPhase::FrustumTriangles && i >= 8 { i as u32 + 2 } else { i as u32 };
+                    let binding =
+                        if i >= first_triangle_buffer { (10 + i - first_triangle_buffer) as u32 } else { i as u32 };
                     wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
                 })
                 .collect();
@@ -682,7 +713,7 @@ impl GpuCulling {
             self.groups.insert(phase, (buffers, hzb_view, group));
         }
         let bind_group = &self.groups[&phase].2;
-        let label = if phase == CullPhase::Late { "cull late" } else { "cull" };
+        let label = if late { "cull late" } else { "cull" };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(label),
             timestamp_writes: timer.and_then(|t| t.compute_pass(label)),
@@ -699,28 +730,24 @@ impl GpuCulling {
         if self.batch_count == 0 {
             return Ok(Vec::new());
         }
-        let bytes = self.batch_count as u64 * ARGS_WORDS * 4;
+        let n = self.batch_count as u64;
+        // Without triangle culling only the arguments; with it, after the hidden-count word,
+        // each triangle-culled batch's count of the instances it drew.
+        let tail = if self.triangles_active { 4 * (1 + n) } else { 0 };
         let counts = |buffer: &wgpu::Buffer| -> Result<Vec<u32>, ReadbackError> {
+            let bytes = n * ARGS_WORDS * 4 + tail;
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, buffer, bytes)?);
-            Ok(words.chunks_exact(ARGS_WORDS as usize).map(|w| w[1]).collect())
-        };
-        if self.triangles_active {
-            // A triangle-culled batch counts its visible instances after the hidden-count word.
-            let n = self.batch_count as u64;
-            let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(
-                device,
-                queue,
-                self.args.buffer(),
-                bytes + 4 * (1 + n),
-            )?);
-            let visible = &words[(n * ARGS_WORDS + 1) as usize..];
-            return Ok(words
+            let (args, rest) = words.split_at((n * ARGS_WORDS) as usize);
+            let drawn = rest.get(1..).unwrap_or(&[]);
+            Ok(args
                 .chunks_exact(ARGS_WORDS as usize)
-                .take(n as usize)
-                .zip(self.triangle_batches.iter().zip(visible))
-                .map(|(w, (&culled, &v))| if culled { v } else { w[1] })
-                .collect());
-        }
+                .enumerate()
+                .map(|(i, w)| match (self.triangle_batches.get(i), drawn.get(i)) {
+                    (Some(true), Some(&d)) if self.triangles_active => d,
+                    _ => w[1],
+                })
+                .collect())
+        };
         let mut drawn = counts(self.args.buffer())?;
         if self.occlusion {
             for (d, late) in drawn.iter_mut().zip(counts(self.late_args.buffer())?) {

@@ -5,14 +5,16 @@
 use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline, storage};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
-/// Which cull pass: without occlusion culling, or its early or late half; or without occlusion
-/// culling and with triangle culling for the batches marked for it.
+/// Which cull pass: without occlusion culling, or its early or late half; each also with
+/// triangle culling for the batches marked for it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum CullPhase {
     Frustum,
     Early,
     Late,
     FrustumTriangles,
+    EarlyTriangles,
+    LateTriangles,
 }
 
 /// Which reduction of the hierarchical depth buffer.
@@ -25,9 +27,9 @@ pub enum HzbStep {
 }
 
 pub(super) struct CullLayouts {
-    /// Bind group layouts by `CullPhase` (`Frustum`, `Early`, `Late`, `FrustumTriangles`).
-    pub cull: [wgpu::BindGroupLayout; 4],
-    cull_pipeline: [wgpu::PipelineLayout; 4],
+    /// Bind group layouts by `CullPhase`, in its order.
+    pub cull: [wgpu::BindGroupLayout; 6],
+    cull_pipeline: [wgpu::PipelineLayout; 6],
     /// `FromDepth` single-sampled, multisampled, then `Reduce`.
     pub hzb: [wgpu::BindGroupLayout; 3],
     hzb_pipeline: [wgpu::PipelineLayout; 3],
@@ -36,6 +38,46 @@ pub(super) struct CullLayouts {
 impl CullPhase {
     fn index(self) -> usize {
         self as usize
+    }
+
+    /// The phase with triangle culling, or without.
+    pub fn with_triangles(self, triangles: bool) -> Self {
+        use CullPhase::*;
+        match (self, triangles) {
+            (Frustum | FrustumTriangles, t) => {
+                if t {
+                    FrustumTriangles
+                } else {
+                    Frustum
+                }
+            }
+            (Early | EarlyTriangles, t) => {
+                if t {
+                    EarlyTriangles
+                } else {
+                    Early
+                }
+            }
+            (Late | LateTriangles, t) => {
+                if t {
+                    LateTriangles
+                } else {
+                    Late
+                }
+            }
+        }
+    }
+
+    pub fn occlusion_early(self) -> bool {
+        matches!(self, CullPhase::Early | CullPhase::EarlyTriangles)
+    }
+
+    pub fn occlusion_late(self) -> bool {
+        matches!(self, CullPhase::Late | CullPhase::LateTriangles)
+    }
+
+    pub fn triangles(self) -> bool {
+        matches!(self, CullPhase::FrustumTriangles | CullPhase::EarlyTriangles | CullPhase::LateTriangles)
     }
 }
 
@@ -68,16 +110,18 @@ pub(super) fn cull_layouts(device: &wgpu::Device) -> CullLayouts {
     let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
     };
+    let triangle_entries = [storage(10, compute), storage(11, compute), buffer_entry(12, compute, read_write)];
+    let with_triangles = |entries: &[wgpu::BindGroupLayoutEntry]| [entries, &triangle_entries[..]].concat();
     let frustum = layout("cull", &entries);
-    let mut triangle_entries = entries.clone();
-    triangle_entries.extend([storage(10, compute), storage(11, compute), buffer_entry(12, compute, read_write)]);
-    let triangles = layout("cull triangles", &triangle_entries);
+    let frustum_triangles = layout("cull triangles", &with_triangles(&entries));
     entries.push(storage(8, compute));
     let early = layout("cull early", &entries);
+    let early_triangles = layout("cull early triangles", &with_triangles(&entries));
     entries.pop();
     entries.push(buffer_entry(8, compute, read_write));
     entries.push(texture_entry(9, wgpu::TextureSampleType::Float { filterable: false }, false));
     let late = layout("cull late", &entries);
+    let late_triangles = layout("cull late triangles", &with_triangles(&entries));
     let storage_out = wgpu::BindGroupLayoutEntry {
         binding: 1,
         visibility: compute,
@@ -108,9 +152,11 @@ pub(super) fn cull_layouts(device: &wgpu::Device) -> CullLayouts {
             pipeline_layout("cull", &frustum),
             pipeline_layout("cull early", &early),
             pipeline_layout("cull late", &late),
-            pipeline_layout("cull triangles", &triangles),
+            pipeline_layout("cull triangles", &frustum_triangles),
+            pipeline_layout("cull early triangles", &early_triangles),
+            pipeline_layout("cull late triangles", &late_triangles),
         ],
-        cull: [frustum, early, late, triangles],
+        cull: [frustum, early, late, frustum_triangles, early_triangles, late_triangles],
         hzb_pipeline: [
             pipeline_layout("hzb", &hzb[0]),
             pipeline_layout("hzb msaa", &hzb[1]),
@@ -171,9 +217,9 @@ impl PipelineCache {
         phase: CullPhase,
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
         let defs = ShaderDefs::default()
-            .with("OCCLUSION_EARLY", phase == CullPhase::Early)
-            .with("OCCLUSION_LATE", phase == CullPhase::Late)
-            .with("TRIANGLE_CULLING", phase == CullPhase::FrustumTriangles);
+            .with("OCCLUSION_EARLY", phase.occlusion_early())
+            .with("OCCLUSION_LATE", phase.occlusion_late())
+            .with("TRIANGLE_CULLING", phase.triangles());
         let module = self.library(candidate).create_module(device, "cull.wgsl", &defs)?;
         self.compiled += 1;
         checked_pipeline(device, "cull.wgsl", || {
