@@ -75,7 +75,9 @@ impl Pass {
                  split-sum table, once]"
             }
             Pass::Deform => "mesh pool vertices, joint matrices, morph weights -> deformed vertex copies",
-            Pass::Cull => "view, instance buffer, draw slots -> indirect draw arguments",
+            Pass::Cull => {
+                "view, instance buffer, draw slots [, mesh pool indices and vertices] -> indirect draw arguments [, triangle lists of small meshes]"
+            }
             Pass::ClusterBin => "view, light store (local lights) -> cluster counts, offsets, index lists",
             Pass::Shadows => "casters' vertices and instances, cascade matrices -> shadow atlas layers",
             Pass::Opaque => {
