@@ -29,9 +29,9 @@
 // draws them as one indexed draw whose vertex shader fetches its vertices (PULLED_VERTICES in
 // forward.wgsl). Graphics units set up and rasterise only what can show; on GPUs with few of
 // them (the H100 and H200 rasterise on 2 of their 66 TPCs) a million small objects are bound
-// by exactly that work. Every test leaves a margin for the rasteriser's snapping (Vulkan
-// allows as little as 4 bits of sub-pixel precision), so a triangle that could cover a sample
-// is never dropped; the image is the one the instances would draw.
+// by exactly that work. Every test leaves a margin for the rasteriser's snapping (`params.snap`:
+// half its sub-pixel step, as the driver reports it, plus rounding), so a triangle that could
+// cover a sample is never dropped; the image is the one the instances would draw.
 
 #import penumbra::view::View
 #import penumbra::draw_data::Instance

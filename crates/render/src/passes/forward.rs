@@ -1,5 +1,7 @@
-//! Forward pass: every batch as one instanced draw. Opaque and masked batches first (sorted by
-//! pipeline, material and mesh so state changes are minimal), then blended draws back to front.
+//! Forward pass: every batch as one instanced draw, or, when the cull pass culled its triangles
+//! (`passes::culling`), as one indexed draw of its culled triangle list through the
+//! pulled-vertex variant of its pipeline. Opaque and masked batches first (sorted by pipeline,
+//! material and mesh so state changes are minimal), then blended draws back to front.
 //! With deferred local lights the pass splits around the deferred-lights compute pass: opaque
 //! batches (also writing their surface), then the composite of the local light and the blended
 //! batches. Gizmo lines, if any, end whichever pass ends the frame's drawing (after the blended
