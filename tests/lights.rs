@@ -206,9 +206,10 @@ fn clustered_render_equals_brute_force_for_10000_lights_in_one_cluster() {
     assert!(entries >= 10_000, "{entries} entries");
 }
 
-/// Every sorting path of the binning: lists of at most 64 lights are sorted by one invocation,
-/// longer ones are queued for a workgroup's bitonic sort, in workgroup memory up to 2048 and in
-/// the index buffer beyond (the 10 000-light test above).
+/// Every sorting path of the binning: lists of at most 16 lights are sorted by one invocation,
+/// longer ones are queued for a workgroup's bitonic sort, in workgroup memory up to 2048 (8192
+/// where the device has 32 KiB of it) and in the index buffer beyond (the 10 000-light test
+/// above).
 #[test]
 fn short_and_long_cluster_lists_come_out_sorted_and_exact() {
     for (count, spread) in [(40, 0.02), (300, 0.02), (1500, 0.02), (600, 2.0)] {

@@ -11,11 +11,16 @@ use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, Re
 use super::bench::{percentile, recipe_settings, time_frames};
 use crate::cli::BenchArgs;
 
+/// The binning passes as the cluster binner labels them: count, scan, fill, sorts of short
+/// lists (one invocation each), sorts of long lists (a workgroup each).
+const BINNING_PASSES: [&str; 5] =
+    ["cluster count", "cluster scan", "cluster fill", "cluster short sort", "cluster sort"];
+
 struct Row {
     lights: usize,
     clusters_ms: Option<f64>,
-    /// Of `clusters_ms`, the pass that sorts lists too long for one invocation.
-    long_sort_ms: Option<f64>,
+    /// Of `clusters_ms`, each pass (`BINNING_PASSES`).
+    binning_ms: [Option<f64>; 5],
     forward_ms: Option<f64>,
     /// The deferred-lights compute pass and its composite (`--light-walk compute`).
     deferred_ms: Option<f64>,
@@ -101,9 +106,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let median = |v: Option<&[f64]>| v.filter(|v| !v.is_empty()).map(|v| percentile(v, 0.5));
         rows.push(Row {
             lights: n,
-            // Binning is two compute passes: count, scan, fill and short sorts; long sorts.
-            clusters_ms: median(t.pass("clusters")).map(|c| c + median(t.pass("cluster sort")).unwrap_or(0.0)),
-            long_sort_ms: median(t.pass("cluster sort")),
+            // Binning is five compute passes: count, scan, fill, short sorts, long sorts.
+            binning_ms: BINNING_PASSES.map(|p| median(t.pass(p))),
+            clusters_ms: median(t.pass("cluster count"))
+                .map(|c| c + BINNING_PASSES[1..].iter().filter_map(|p| median(t.pass(p))).sum::<f64>()),
             forward_ms: median(t.pass("forward")),
             compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
@@ -144,7 +150,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | lights shaded in | GPU binning (ms) | of which long-list sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | of which count / scan / fill / short sorts / long sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
     println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
@@ -153,7 +159,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             r.lights,
             if r.compute { "compute" } else { "fragments" },
             ms(r.clusters_ms),
-            ms(r.long_sort_ms),
+            r.binning_ms.map(ms).join(" / "),
             ms(r.forward_ms),
             ms(r.deferred_ms),
             ms(r.gpu_ms),

@@ -224,25 +224,26 @@ impl ClusterBinner {
         let clusters = grid.cluster_count();
         encoder.clear_buffer(self.counts.buffer(), 0, Some(clusters as u64 * 4));
         let mut timer = timer;
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("cluster binning"),
-            timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("clusters")),
-        });
-        pass.set_bind_group(0, bind_group, &[]);
-        // One workgroup of 64 threads per light (they share its candidate clusters).
-        let light_groups = self.light_count;
-        for (entry, groups) in [
-            (ClusterEntry::Count, light_groups),
-            (ClusterEntry::PrefixSum, 1),
-            (ClusterEntry::Fill, light_groups),
+        // 8 lights to a workgroup of 64 threads (they share the lights' candidate clusters). A compute
+        // pass each, so that the benchmark times them one by one (a pass boundary costs about
+        // what the barrier between two dispatches does).
+        let light_groups = self.light_count.div_ceil(8);
+        for (entry, groups, label) in [
+            (ClusterEntry::Count, light_groups, "cluster count"),
+            (ClusterEntry::PrefixSum, 1, "cluster scan"),
+            (ClusterEntry::Fill, light_groups, "cluster fill"),
             // One invocation per cluster, 64 to a workgroup.
-            (ClusterEntry::SortShort, clusters.div_ceil(64)),
+            (ClusterEntry::SortShort, clusters.div_ceil(64), "cluster short sort"),
         ] {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass(label)),
+            });
+            pass.set_bind_group(0, bind_group, &[]);
             let pipeline = pipelines.cluster_cached(entry).expect("created above");
             pass.set_pipeline(pipeline);
             dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
         }
-        drop(pass);
         // One workgroup per cluster sort_short queued (its list is long), sized on the GPU.
         encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
