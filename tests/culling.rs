@@ -70,6 +70,12 @@ fn stress_scene(app: &mut App, origin: Vec3) -> (Vec<Entity>, usize) {
     // A large box the near plane cuts through, and one far away and huge.
     spawn(app, cube, i, Transform::from_xyz(0.8, 0.6, -0.05).with_scale(Vec3::new(0.3, 0.3, 0.3)));
     spawn(app, sphere, i + 1, Transform::from_xyz(40.0, 20.0, -900.0).with_scale(Vec3::splat(120.0)));
+    view_and_lights(app, origin);
+    (entities, behind)
+}
+
+/// A camera at `origin` looking down −Z with a 60° field of view, a sun and ambient light.
+fn view_and_lights(app: &mut App, origin: Vec3) {
     app.world.spawn((
         Camera {
             projection: Projection::Perspective { yfov: 60f32.to_radians(), znear: 0.1, aspect_ratio: None },
@@ -82,7 +88,6 @@ fn stress_scene(app: &mut App, origin: Vec3) -> (Vec<Entity>, usize) {
         Transform::from_xyz(0.3, 1.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
     ));
     app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
-    (entities, behind)
 }
 
 fn visible_total(app: &App) -> Option<u32> {
@@ -317,18 +322,7 @@ fn small_cubes_scene(app: &mut App, origin: Vec3) -> usize {
     spawn(app, paint[0], Transform::from_xyz(-5.3, 0.0, -7.0));
     spawn(app, paint[1], Transform::from_xyz(5.3, 0.5, -7.0).with_rotation(Quat::from_rotation_x(0.6)));
     spawn(app, paint[2], Transform::from_xyz(0.3, -0.4, -0.3).with_scale(Vec3::splat(0.5)));
-    app.world.spawn((
-        Camera {
-            projection: Projection::Perspective { yfov: 60f32.to_radians(), znear: 0.1, aspect_ratio: None },
-            ..Default::default()
-        },
-        Transform::from_translation(origin),
-    ));
-    app.world.spawn((
-        DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
-        Transform::from_xyz(0.3, 1.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
-    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 0.3 });
+    view_and_lights(app, origin);
     far
 }
 
