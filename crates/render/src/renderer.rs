@@ -78,7 +78,7 @@ pub struct RenderSettings {
     /// Occlusion culling on top of GPU culling: two-phase, against a hierarchical depth buffer
     /// of what this frame drew (see `passes::culling`).
     pub occlusion_culling: OcclusionCulling,
-    /// Triangle culling on top of GPU culling, in frames without occlusion culling: batches of
+    /// Triangle culling on top of GPU culling (and in occlusion culling's phases): batches of
     /// small meshes draw only the triangles that can cover a sample (see `passes::culling`).
     pub triangle_culling: TriangleCulling,
     /// How the scene's `Environment` (if it has one) is prefiltered.
@@ -115,7 +115,7 @@ pub enum OcclusionCulling {
     Auto,
 }
 
-/// When triangle culling runs (it needs GPU culling, and frames without occlusion culling).
+/// When triangle culling runs (it needs GPU culling).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TriangleCulling {
     Off,

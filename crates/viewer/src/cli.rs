@@ -155,9 +155,8 @@ pub struct LookArgs {
     /// more, on a GPU (not on CPU rasterisers such as lavapipe).
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub occlusion: OcclusionArg,
-    /// Triangle culling (with GPU culling, in frames without occlusion culling): batches of
-    /// small meshes draw only the triangles that can cover a sample. `auto`: on a GPU, not on
-    /// CPU rasterisers such as lavapipe.
+    /// Triangle culling (with GPU culling): batches of small meshes draw only the triangles that
+    /// can cover a sample. `auto`: on a GPU, not on CPU rasterisers such as lavapipe.
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub triangle_culling: OcclusionArg,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a

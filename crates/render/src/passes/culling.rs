@@ -459,7 +459,7 @@ impl GpuCulling {
     /// Every frame: the parameters, the depth pyramid for a frame of `frame_size` when
     /// `occlusion` runs, and room for the whole visible list (`draw_list_len` entries, plus the
     /// late region). `target`: the frame's size and samples per pixel, which triangle culling
-    /// tests against (it runs in frames without occlusion culling when batches are marked).
+    /// tests against (it runs whenever batches are marked).
     /// Returns whether `visible_slots` was replaced.
     pub fn prepare_frame(
         &mut self,
