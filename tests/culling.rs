@@ -326,6 +326,16 @@ fn small_cubes_scene(app: &mut App, origin: Vec3) -> usize {
     far
 }
 
+/// Two frames of each app (occlusion culling draws what was visible last frame early, the rest
+/// late) must be byte for byte the same.
+fn assert_same_frames(culled: &mut App, reference: &mut App, a: &RenderSettings, b: &RenderSettings, what: &str) {
+    for frame in 0..2 {
+        let x = render_app(culled, SIZE, a.clone());
+        let y = render_app(reference, SIZE, b.clone());
+        assert!(x == y, "{what}, frame {frame}: the triangle-culled frame differs from the unculled one");
+    }
+}
+
 /// Triangle culling draws only triangles that can cover a sample, so its frames equal the
 /// frames drawn without any culling, at one and four samples, near and far from the origin,
 /// alone and with occlusion culling, on the stress scene (whose spheres stay instanced beside
@@ -351,15 +361,8 @@ fn triangle_culled_frames_equal_unculled_frames() {
         let mut reference = scene_app();
         let far = small_cubes_scene(&mut culled, origin);
         small_cubes_scene(&mut reference, origin);
-        // Occlusion culling draws what was visible last frame early, the rest late.
-        for frame in 0..2 {
-            let a = render_app(&mut culled, SIZE, triangles.clone());
-            let b = render_app(&mut reference, SIZE, reference_settings.clone());
-            assert!(
-                a == b,
-                "origin {origin}, MSAA {msaa}, {occlusion:?}, frame {frame}: the triangle-culled frame differs from the unculled one"
-            );
-        }
+        let what = format!("origin {origin}, MSAA {msaa}, {occlusion:?}, small cubes");
+        assert_same_frames(&mut culled, &mut reference, &triangles, &reference_settings, &what);
         let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap().expect("triangles culled");
         let drawn: u32 = counts.iter().flatten().sum();
         let submitted = 12 * (far + 8) as u32;
@@ -377,14 +380,8 @@ fn triangle_culled_frames_equal_unculled_frames() {
         let mut reference = scene_app();
         stress_scene(&mut culled, origin);
         stress_scene(&mut reference, origin);
-        for frame in 0..2 {
-            let a = render_app(&mut culled, SIZE, triangles.clone());
-            let b = render_app(&mut reference, SIZE, reference_settings.clone());
-            assert!(
-                a == b,
-                "origin {origin}, MSAA {msaa}, {occlusion:?}, frame {frame}: the triangle-culled stress frame differs"
-            );
-        }
+        let what = format!("origin {origin}, MSAA {msaa}, {occlusion:?}, stress scene");
+        assert_same_frames(&mut culled, &mut reference, &triangles, &reference_settings, &what);
         let counts = culled.world.resource::<Renderer>().triangle_culled_counts().unwrap().expect("triangles culled");
         assert!(counts.iter().any(Option::is_some) && counts.iter().any(Option::is_none), "{counts:?}");
     }

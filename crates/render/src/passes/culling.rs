@@ -219,8 +219,6 @@ pub struct GpuCulling {
     triangle_indices: GrowableBuffer,
     /// Which batches the last `prepare_batches` marked (empty: none).
     triangle_batches: Arc<[bool]>,
-    /// Whether this frame culls triangles (some batch is marked).
-    triangles_active: bool,
     params: wgpu::Buffer,
     /// What `params` holds, so that a still frame writes nothing.
     written_params: Option<[u32; 8]>,
@@ -257,7 +255,6 @@ impl GpuCulling {
             late_triangle_template: GrowableBuffer::new(device, "late triangle-culled args template", U::COPY_SRC, 256),
             triangle_indices: GrowableBuffer::new(device, "triangle-culled indices", U::STORAGE | U::INDEX, 256),
             triangle_batches: Arc::from([]),
-            triangles_active: false,
             params: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("cull params"),
                 size: 32,
@@ -308,9 +305,14 @@ impl GpuCulling {
             + self.triangle_indices.capacity()
     }
 
+    /// Whether frames cull triangles: some batch is marked.
+    fn triangles_active(&self) -> bool {
+        !self.triangle_batches.is_empty()
+    }
+
     /// The triangle-culled draws of this frame, if it culls triangles.
     pub fn triangle_draws(&self) -> Option<TriangleDraws> {
-        self.triangles_active.then(|| TriangleDraws {
+        self.triangles_active().then(|| TriangleDraws {
             indices: self.triangle_indices.buffer().clone(),
             culled: self.triangle_batches.clone(),
         })
@@ -323,7 +325,7 @@ impl GpuCulling {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Result<Option<Vec<Option<u32>>>, ReadbackError> {
-        if !self.triangles_active || self.batch_count == 0 {
+        if !self.triangles_active() || self.batch_count == 0 {
             return Ok(None);
         }
         let bytes = self.batch_count as u64 * ARGS_WORDS * 4;
@@ -471,7 +473,6 @@ impl GpuCulling {
         frame: u64,
     ) -> bool {
         self.occlusion = occlusion.is_some();
-        self.triangles_active = !self.triangle_batches.is_empty();
         self.frame = frame;
         let levels = match occlusion {
             Some(size) => {
@@ -542,9 +543,9 @@ impl GpuCulling {
         timer: Option<&mut GpuTimer>,
     ) {
         let phase = if self.occlusion { CullPhase::Early } else { CullPhase::Frustum };
-        let phase = phase.with_triangles(self.triangles_active);
+        let phase = phase.with_triangles(self.triangles_active());
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
-        if self.triangles_active {
+        if self.triangles_active() {
             // With the hidden-count word and the visible-instance counts after the arguments.
             let bytes = args_bytes + 4 * (1 + self.batch_count as u64);
             encoder.copy_buffer_to_buffer(self.triangle_template.buffer(), 0, self.args.buffer(), 0, bytes);
@@ -610,7 +611,7 @@ impl GpuCulling {
             }
         }
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
-        if self.triangles_active {
+        if self.triangles_active() {
             // With the hidden count and the visible-instance counts after them.
             let bytes = args_bytes + 4 * (1 + self.batch_count as u64);
             encoder.copy_buffer_to_buffer(self.late_triangle_template.buffer(), 0, self.late_args.buffer(), 0, bytes);
@@ -618,7 +619,7 @@ impl GpuCulling {
             // With the hidden count after them.
             encoder.copy_buffer_to_buffer(self.late_template.buffer(), 0, self.late_args.buffer(), 0, args_bytes + 4);
         }
-        let phase = CullPhase::Late.with_triangles(self.triangles_active);
+        let phase = CullPhase::Late.with_triangles(self.triangles_active());
         self.dispatch(encoder, device, pipelines, inputs, phase, timer);
         // Measured only after a frame that also culled by occlusion: its visible set is what the
         // early pass drew, so the pyramid holds what a steady state would.
@@ -733,7 +734,7 @@ impl GpuCulling {
         let n = self.batch_count as u64;
         // Without triangle culling only the arguments; with it, after the hidden-count word,
         // each triangle-culled batch's count of the instances it drew.
-        let tail = if self.triangles_active { 4 * (1 + n) } else { 0 };
+        let tail = if self.triangles_active() { 4 * (1 + n) } else { 0 };
         let counts = |buffer: &wgpu::Buffer| -> Result<Vec<u32>, ReadbackError> {
             let bytes = n * ARGS_WORDS * 4 + tail;
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&readback::read_buffer(device, queue, buffer, bytes)?);
@@ -743,7 +744,7 @@ impl GpuCulling {
                 .chunks_exact(ARGS_WORDS as usize)
                 .enumerate()
                 .map(|(i, w)| match (self.triangle_batches.get(i), drawn.get(i)) {
-                    (Some(true), Some(&d)) if self.triangles_active => d,
+                    (Some(true), Some(&d)) if self.triangles_active() => d,
                     _ => w[1],
                 })
                 .collect())

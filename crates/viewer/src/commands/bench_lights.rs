@@ -9,12 +9,9 @@ use penumbra_render::renderer::LightWalk;
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
 use super::bench::{percentile, recipe_settings, time_frames};
-use crate::cli::BenchArgs;
+use penumbra_render::passes::clusters::BINNING_PASSES;
 
-/// The binning passes as the cluster binner labels them: count, scan, fill, sorts of short
-/// lists (one invocation each), sorts of long lists (a workgroup each).
-const BINNING_PASSES: [&str; 5] =
-    ["cluster count", "cluster scan", "cluster fill", "cluster short sort", "cluster sort"];
+use crate::cli::BenchArgs;
 
 struct Row {
     lights: usize,
@@ -104,12 +101,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             args.error_size,
         )?;
         let median = |v: Option<&[f64]>| v.filter(|v| !v.is_empty()).map(|v| percentile(v, 0.5));
+        let binning_ms = BINNING_PASSES.map(|p| median(t.pass(p)));
         rows.push(Row {
             lights: n,
             // Binning is five compute passes: count, scan, fill, short sorts, long sorts.
-            binning_ms: BINNING_PASSES.map(|p| median(t.pass(p))),
-            clusters_ms: median(t.pass("cluster count"))
-                .map(|c| c + BINNING_PASSES[1..].iter().filter_map(|p| median(t.pass(p))).sum::<f64>()),
+            binning_ms,
+            clusters_ms: binning_ms[0].map(|c| c + binning_ms[1..].iter().flatten().sum::<f64>()),
             forward_ms: median(t.pass("forward")),
             compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),

@@ -229,11 +229,11 @@ impl ClusterBinner {
         // what the barrier between two dispatches does).
         let light_groups = self.light_count.div_ceil(8);
         for (entry, groups, label) in [
-            (ClusterEntry::Count, light_groups, "cluster count"),
-            (ClusterEntry::PrefixSum, 1, "cluster scan"),
-            (ClusterEntry::Fill, light_groups, "cluster fill"),
+            (ClusterEntry::Count, light_groups, BINNING_PASSES[0]),
+            (ClusterEntry::PrefixSum, 1, BINNING_PASSES[1]),
+            (ClusterEntry::Fill, light_groups, BINNING_PASSES[2]),
             // One invocation per cluster, 64 to a workgroup.
-            (ClusterEntry::SortShort, clusters.div_ceil(64), "cluster short sort"),
+            (ClusterEntry::SortShort, clusters.div_ceil(64), BINNING_PASSES[3]),
         ] {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(label),
@@ -248,7 +248,7 @@ impl ClusterBinner {
         encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("cluster long-list sort"),
-            timestamp_writes: timer.and_then(|t| t.compute_pass("cluster sort")),
+            timestamp_writes: timer.and_then(|t| t.compute_pass(BINNING_PASSES[4])),
         });
         pass.set_bind_group(0, bind_group, &[]);
         pass.set_pipeline(pipelines.cluster_cached(ClusterEntry::SortLong).expect("created above"));
@@ -256,6 +256,11 @@ impl ClusterBinner {
         Ok(())
     }
 }
+
+/// The binning passes' timer labels, in order: count, scan, fill, sorts of short lists (one
+/// invocation each), sorts of long lists (a workgroup each).
+pub const BINNING_PASSES: [&str; 5] =
+    ["cluster count", "cluster scan", "cluster fill", "cluster short sort", "cluster sort"];
 
 /// Dispatches at least `groups` workgroups of 64, spilling into y past the per-dimension limit
 /// (the shaders flatten the id and skip the surplus).
