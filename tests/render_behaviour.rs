@@ -233,6 +233,7 @@ fn golden_primitives() {
         height: 64,
         rgba8: checker,
         label: "checker".into(),
+        mips: None,
     });
     let material =
         StandardMaterial { base_color_texture: Some(TextureRef::new(image)), roughness: 0.5, ..Default::default() };
@@ -382,6 +383,7 @@ fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
         height: side,
         rgba8,
         label: "checker".into(),
+        mips: None,
     });
     let mut texture = penumbra::engine::material::TextureRef::new(image);
     texture.transform.scale = Vec2::splat(8.0);
@@ -418,6 +420,52 @@ fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
         app.world.resource_mut::<Renderer>().set_settings(RenderSettings { max_anisotropy: Some(0), ..settings() });
     assert!(err.unwrap_err().to_string().contains("1..=16"));
     assert!(RenderSettings { max_anisotropy: Some(17), ..settings() }.validate().is_err());
+}
+
+/// An image that carries its mip chain (as imported images do, made on the decoding thread) is
+/// uploaded with it; one without has its chain rendered on the GPU; both draw the same floor.
+#[test]
+fn mip_chains_made_on_the_cpu_draw_what_the_gpu_makes() {
+    use penumbra::engine::mip_chain::{MipChain, MipLevel};
+    let side = 64u32;
+    // Noise of every colour, so that every level of the chain differs from its neighbours.
+    let mut rng = penumbra::engine::scenes::SplitMix64(7);
+    let rgba8: Vec<u8> = (0..side * side * 4).map(|_| (rng.next_u64() >> 56) as u8).collect();
+    let texture_of =
+        |mips: Option<MipChain>| Image { width: side, height: side, rgba8: rgba8.clone(), label: "noise".into(), mips };
+    let floor = |mips: Option<MipChain>| {
+        let mut app = scene_app();
+        app.world.spawn((
+            Camera::default(),
+            Transform::from_xyz(0.0, 0.6, 4.0).looking_at(Vec3::new(0.0, 0.0, -4.0), Vec3::Y),
+        ));
+        app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
+        let image = app.world.resource_mut::<Assets<Image>>().add(texture_of(mips));
+        let texture = penumbra::engine::material::TextureRef::new(image);
+        let material = StandardMaterial { base_color_texture: Some(texture), unlit: true, ..white() };
+        spawn_mesh(&mut app, Mesh::plane(16.0), material, Transform::IDENTITY);
+        render_app(&mut app, (48, 32), settings())
+    };
+    let gpu = floor(None);
+    let cpu = floor(Some(MipChain::build(&texture_of(None), true)));
+    // The GPU chain encodes each mean with the shader's sRGB curve, the CPU one exactly: a stored
+    // level may differ by one step here and there.
+    let worst = gpu.iter().zip(&cpu).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+    assert!(worst <= 2, "CPU and GPU chains differ by up to {worst}/255");
+    // A chain for the other colour space is not used: the GPU makes the sRGB one.
+    assert_eq!(floor(Some(MipChain::build(&texture_of(None), false))), gpu);
+    // The chain uploaded is the one drawn: black levels blacken the far floor (rows 15..20; the
+    // horizon is at row 15) and leave the near rows, which read level 0, as they were.
+    let mut black = MipChain::build(&texture_of(None), true);
+    for level in &mut black.levels {
+        *level = MipLevel { rgba8: [0, 0, 0, 255].repeat(level.rgba8.len() / 4), ..level.clone() };
+    }
+    let dark = floor(Some(black));
+    let rows = |px: &[u8], ys: std::ops::Range<u32>| -> f32 {
+        ys.flat_map(|y| (0..48).map(move |x| (x, y))).map(|(x, y)| brightness(px, 48, x, y)).sum()
+    };
+    assert!(rows(&gpu, 15..20) > 0.0 && rows(&dark, 15..20) == 0.0, "far rows read the black levels");
+    assert_eq!(rows(&dark, 24..32), rows(&gpu, 24..32), "near rows read level 0");
 }
 
 /// 70 000 instances moved in one frame (4.5 MB of records, copied into wgpu's staging memory on

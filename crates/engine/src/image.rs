@@ -2,6 +2,8 @@
 //! is not a property of the image but of the material slot that samples it (base colour and
 //! emissive are sRGB, the others linear), so the render side picks the view format per use.
 
+use crate::mip_chain::MipChain;
+
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Image {
     pub width: u32,
@@ -10,11 +12,14 @@ pub struct Image {
     pub rgba8: Vec<u8>,
     /// Where it came from, for error messages and debugging (`scene.glb#image3`).
     pub label: String,
+    /// Levels 1.. made where the image was decoded, for the colour space its material slots
+    /// read it in (`mip_chain`); `None`: the renderer makes the chain on the GPU.
+    pub mips: Option<MipChain>,
 }
 
 impl Image {
     /// A 1×1 image of one colour.
     pub fn solid(rgba: [u8; 4], label: impl Into<String>) -> Self {
-        Self { width: 1, height: 1, rgba8: rgba.to_vec(), label: label.into() }
+        Self { width: 1, height: 1, rgba8: rgba.to_vec(), label: label.into(), mips: None }
     }
 }

@@ -18,6 +18,7 @@ pub mod image;
 pub mod import;
 pub mod material;
 pub mod mesh;
+pub mod mip_chain;
 pub mod parallel;
 pub mod picking;
 pub mod primitives;

@@ -154,6 +154,10 @@ impl StandardMaterial {
         Self { base_color, metallic: 0.0, roughness, ..Default::default() }
     }
 
+    /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour and emissive, as
+    /// glTF defines them); the others are read as stored.
+    pub const SRGB_SLOTS: [bool; 5] = [true, false, false, false, true];
+
     /// Every texture slot in the fixed order the renderer binds them.
     pub fn textures(&self) -> [Option<&TextureRef>; 5] {
         [

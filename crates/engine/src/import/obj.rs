@@ -41,6 +41,7 @@ use crate::components::{Mesh3d, MeshMaterial3d, Name, Transform};
 use crate::image::Image;
 use crate::material::{AlphaMode, Sampler, StandardMaterial, TextureRef, UvTransform, WrapMode};
 use crate::mesh::{Mesh, Topology};
+use crate::mip_chain::MipChain;
 
 /// A texture an MTL names: which decoded image, and how it is mapped.
 #[derive(Debug, Clone)]
@@ -518,7 +519,11 @@ fn convert_material(
                     .map_err(|k| ImportError::new(scene, k))?;
                 let label = t.file.clone();
                 let n = textures.images.len();
-                let image = decode(&bytes, n, &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
+                let mut image = decode(&bytes, n, &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
+                // The chain for the slot that first reads the image (another slot's colour
+                // space has it made on the GPU).
+                let srgb = matches!(srgb_hint, "base colour" | "emissive");
+                image.mips = Some(MipChain::build(&image, srgb));
                 textures.images.push(Arc::new(image));
                 textures.index.insert(path, n);
                 n

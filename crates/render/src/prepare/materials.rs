@@ -17,7 +17,7 @@ use crate::pipelines::pipeline_cache::TextureSet;
 use crate::world::RenderScene;
 
 /// Which of `StandardMaterial::textures()` hold colour (sRGB): base colour and emissive.
-pub const SRGB_SLOTS: [bool; 5] = [true, false, false, false, true];
+pub const SRGB_SLOTS: [bool; 5] = StandardMaterial::SRGB_SLOTS;
 
 pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
 pub const FLAG_DOUBLE_SIDED: u32 = 2;

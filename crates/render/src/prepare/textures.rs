@@ -2,11 +2,13 @@
 //! deduplicated by their state, and the 1×1 null texture bound to every empty material slot.
 //!
 //! An `Image` is colour-space agnostic; the material slot decides (base colour and emissive are
-//! sRGB, the rest linear), so the cache is keyed by (image, sRGB). Only level 0 is uploaded; the
-//! mip chain is rendered on the GPU (`shaders/mipmap.wgsl`) through unorm views, the shader
-//! converting sRGB textures to linear light to average them (and back), so that every driver
-//! makes the same chain. Textures are created when an image first
-//! appears or changes; they never sit on the per-frame path.
+//! sRGB, the rest linear), so the cache is keyed by (image, sRGB). An image that carries its mip
+//! chain for that colour space (made where it was decoded: `penumbra_engine::mip_chain`) is
+//! uploaded level by level. Otherwise only level 0 is uploaded and the chain is rendered on the
+//! GPU (`shaders/mipmap.wgsl`, the same 2×2 means) through unorm views, the shader converting
+//! sRGB textures to linear light to average them (and back), so that every driver makes the
+//! same chain. Textures are created when an image first appears or changes; they never sit on
+//! the per-frame path.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -14,9 +16,13 @@ use std::sync::Arc;
 use penumbra_engine::Handle;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
+pub use penumbra_engine::mip_chain::mip_level_count;
 use penumbra_engine::scenes::srgb_to_linear;
 
 use crate::pipelines::pipeline_cache::PipelineCache;
+
+/// Staged texture bytes above which uploads are submitted before the frame.
+const EARLY_SUBMIT_BYTES: u64 = 4 << 20;
 
 pub struct GpuTexture {
     pub view: wgpu::TextureView,
@@ -105,12 +111,21 @@ impl TextureCache {
         pipelines: &mut PipelineCache,
         requests: &[TextureRequest],
     ) {
+        let mut unsubmitted = 0;
         for r in requests {
             if !self.is_stale(r.image, r.srgb, r.version) {
                 continue;
             }
             let (view, bytes) = self.create_texture(device, queue, encoder, pipelines, &r.data, r.srgb);
             self.textures.insert((r.image, r.srgb), GpuTexture { view, version: r.version, bytes });
+            // Hand large uploads to the driver now rather than with the frame: it copies them
+            // into the textures while this thread stages the next (on a CPU rasteriser the two
+            // copies of a scene's textures then take two cores, not one after the other).
+            unsubmitted += bytes;
+            if unsubmitted >= EARLY_SUBMIT_BYTES {
+                queue.submit(std::iter::empty());
+                unsubmitted = 0;
+            }
         }
     }
 
@@ -187,6 +202,8 @@ impl TextureCache {
         let shader_srgb = srgb && self.unorm_views;
         let view_format = if shader_srgb { wgpu::TextureFormat::Rgba8Unorm } else { format };
         let levels = mip_level_count(image.width, image.height);
+        // The chain decoding made, if it is for this colour space (a fitted image has none).
+        let made = image.mips.as_ref().filter(|m| m.srgb == srgb && m.fits(image));
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some(&image.label),
             size: wgpu::Extent3d { width: image.width, height: image.height, depth_or_array_layers: 1 },
@@ -194,13 +211,25 @@ impl TextureCache {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_DST
-                | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            usage: if made.is_some() {
+                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST
+            } else {
+                wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_DST
+                    | wgpu::TextureUsages::RENDER_ATTACHMENT
+            },
             // Mip generation reads and writes sRGB textures as unorm and converts itself.
-            view_formats: if shader_srgb { &[wgpu::TextureFormat::Rgba8Unorm] } else { &[] },
+            view_formats: if shader_srgb && made.is_none() { &[wgpu::TextureFormat::Rgba8Unorm] } else { &[] },
         });
         write_level(queue, &texture, 0, image.width, image.height, &image.rgba8);
+        // A full chain adds a third to level 0.
+        let bytes = image.rgba8.len() as u64 * 4 / 3;
+        if let Some(chain) = made {
+            for (level, m) in (1..).zip(&chain.levels) {
+                write_level(queue, &texture, level, m.width, m.height, &m.rgba8);
+            }
+            return (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes);
+        }
         let level_view = |level: u32| {
             texture.create_view(&wgpu::TextureViewDescriptor {
                 format: Some(view_format),
@@ -247,8 +276,6 @@ impl TextureCache {
             pass.set_bind_group(0, &bind_group, &[]);
             pass.draw(0..3, 0..1);
         }
-        // A full chain adds a third to level 0.
-        let bytes = image.rgba8.len() as u64 * 4 / 3;
         (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes)
     }
 }
@@ -272,7 +299,7 @@ fn fit_within(image: &Image, max: u32) -> Image {
         }
         (w, h, data) = (nw, nh, out);
     }
-    Image { width: w as u32, height: h as u32, rgba8: data, label: image.label.clone() }
+    Image { width: w as u32, height: h as u32, rgba8: data, label: image.label.clone(), mips: None }
 }
 
 /// The sRGB curve's inverse at each 8-bit value.
@@ -289,11 +316,6 @@ fn srgb_table(device: &wgpu::Device, queue: &wgpu::Queue) -> wgpu::Buffer {
     });
     queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&srgb_to_linear_values()));
     buffer
-}
-
-/// Levels down to 1×1: ⌊log2(max side)⌋ + 1.
-pub fn mip_level_count(width: u32, height: u32) -> u32 {
-    32 - width.max(height).max(1).leading_zeros()
 }
 
 fn write_level(queue: &wgpu::Queue, texture: &wgpu::Texture, level: u32, w: u32, h: u32, data: &[u8]) {
@@ -325,17 +347,9 @@ mod tests {
 
     #[test]
     fn oversized_images_are_halved_until_they_fit() {
-        let img = Image { width: 10, height: 3, rgba8: vec![200; 10 * 3 * 4], label: "t".into() };
+        let img = Image { width: 10, height: 3, rgba8: vec![200; 10 * 3 * 4], label: "t".into(), mips: None };
         let fitted = fit_within(&img, 4);
         assert_eq!((fitted.width, fitted.height), (2, 1));
         assert!(fitted.rgba8.iter().all(|&b| b == 200));
-    }
-
-    #[test]
-    fn mip_chains_reach_one_by_one() {
-        assert_eq!(mip_level_count(1, 1), 1);
-        assert_eq!(mip_level_count(2048, 2048), 12);
-        assert_eq!(mip_level_count(211, 211), 8);
-        assert_eq!(mip_level_count(5, 3), 3);
     }
 }

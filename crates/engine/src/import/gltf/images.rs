@@ -92,7 +92,7 @@ pub(crate) fn decode(
         other => err(format!("cannot decode: {other}")),
     })?;
     let rgba = decoded.into_rgba8();
-    Ok(Image { width: rgba.width(), height: rgba.height(), rgba8: rgba.into_raw(), label })
+    Ok(Image { width: rgba.width(), height: rgba.height(), rgba8: rgba.into_raw(), label, mips: None })
 }
 
 /// `Ok(None)`: a JPEG zune-jpeg cannot turn into RGBA (CMYK, say); the caller falls back to the
@@ -120,5 +120,5 @@ fn decode_jpeg_rgba(bytes: &[u8], label: &str, options: &ImportOptions) -> Resul
     }
     let mut rgba8 = vec![0u8; size as usize];
     decoder.decode_into(&mut rgba8).map_err(|e| format!("cannot decode JPEG: {e}"))?;
-    Ok(Some(Image { width: w as u32, height: h as u32, rgba8, label: label.to_owned() }))
+    Ok(Some(Image { width: w as u32, height: h as u32, rgba8, label: label.to_owned(), mips: None }))
 }

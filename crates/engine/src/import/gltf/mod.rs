@@ -33,6 +33,7 @@ use crate::image::Image;
 use crate::import::{ImportError, ImportErrorKind, ImportLimits, Limit};
 use crate::material::{StandardMaterial, TextureRef};
 use crate::mesh::Mesh;
+use crate::mip_chain::MipChain;
 use accessor::Buffers;
 use materials::MaterialDesc;
 
@@ -729,16 +730,23 @@ fn decode_images(
     reads: &source::ReadBudget,
 ) -> Result<Vec<Option<Arc<Image>>>, ImportErrorKind> {
     let mut used = vec![false; document.images().len()];
-    for t in materials.iter().flat_map(|m| m.textures.iter().flatten()) {
-        if let Some(u) = used.get_mut(t.image) {
-            *u = true;
+    // Read as sRGB by some slot: its mip chain averages in linear light.
+    let mut srgb = vec![false; used.len()];
+    for m in materials {
+        for (slot, t) in m.textures.iter().enumerate() {
+            if let Some(t) = t
+                && let Some(u) = used.get_mut(t.image)
+            {
+                *u = true;
+                srgb[t.image] |= StandardMaterial::SRGB_SLOTS[slot];
+            }
         }
     }
     let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     // Images naming the same source (URI or bufferView) are read and decoded once.
     let mut by_source: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     let mut job_of: Vec<Option<usize>> = vec![None; used.len()];
-    let mut jobs = Vec::new();
+    let mut jobs: Vec<(usize, String, String, images::ImageBytes, bool)> = Vec::new();
     let mut total = 0u64;
     for image in document.images().filter(|i| used[i.index()]) {
         let (uri, key) = match image.source() {
@@ -751,6 +759,7 @@ fn decode_images(
         };
         if let Some(&job) = by_source.get(&key) {
             job_of[image.index()] = Some(job);
+            jobs[job].4 |= srgb[image.index()];
             continue;
         }
         let label = format!("{file}#{}", image.name().map_or_else(|| format!("image{}", image.index()), str::to_owned));
@@ -764,17 +773,21 @@ fn decode_images(
         options.limits.check(Limit::TotalImageBytes, "the decoded size of all images", total)?;
         by_source.insert(key, jobs.len());
         job_of[image.index()] = Some(jobs.len());
-        jobs.push((image.index(), uri, label, bytes));
+        jobs.push((image.index(), uri, label, bytes, srgb[image.index()]));
     }
     if let Some(p) = &options.progress {
         p.enter(super::ImportStage::Images, jobs.len());
     }
-    let decoded = crate::parallel::parallel_map(&jobs, |(index, uri, label, bytes)| {
+    let decoded = crate::parallel::parallel_map(&jobs, |(index, uri, label, bytes, srgb)| {
         let bytes = match bytes {
             images::ImageBytes::Slice(s) => s,
             images::ImageBytes::Owned(v) => v.as_slice(),
         };
-        let image = images::decode(bytes, *index, uri, label.clone(), options);
+        // The chain is made here, on the thread that decoded the image, while it is fresh.
+        let image = images::decode(bytes, *index, uri, label.clone(), options).map(|mut image| {
+            image.mips = Some(MipChain::build(&image, *srgb));
+            image
+        });
         if let Some(p) = &options.progress {
             p.step();
         }
