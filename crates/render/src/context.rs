@@ -56,6 +56,13 @@ pub struct Capabilities {
     /// must allow a vertex to move (`passes::culling`). The driver's own figure on Vulkan;
     /// elsewhere 4, the least Vulkan allows (D3D12 requires 8).
     pub subpixel_bits: u32,
+    /// Multisampled colour is resolved by a pass of Penumbra's own (`shaders/resolve.wgsl`)
+    /// rather than by the render pass. On CPU rasterisers through Vulkan: lavapipe (Mesa 22.3)
+    /// resolves through a blit shader it builds anew in every process, outside its shader cache
+    /// (about 30 ms of LLVM per process, a tenth of a headless screenshot); the pass's shader
+    /// is cached like every other. Not on GL, where wgpu cannot render into a multisampled
+    /// texture that is also bound for sampling; GPUs resolve faster themselves.
+    pub shader_msaa_resolve: bool,
 }
 
 /// The rasteriser's sub-pixel precision, as the driver reports it (Vulkan), else a lower bound.
@@ -167,6 +174,7 @@ impl GpuContext {
         let occlusion_culling = info.backend != wgpu::Backend::Gl;
         let exact_depth = info.backend != wgpu::Backend::Gl;
         let array_layers = ArrayLayers::for_backend(info.backend);
+        let shader_msaa_resolve = info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Vulkan;
         let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
         let subpixel_bits = subpixel_bits(&adapter);
         let mut features = wgpu::Features::empty();
@@ -223,6 +231,7 @@ impl GpuContext {
                 exact_depth,
                 array_layers,
                 srgb_unorm_views,
+                shader_msaa_resolve,
                 subpixel_bits,
             },
             lost,

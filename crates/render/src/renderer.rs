@@ -1081,7 +1081,13 @@ impl Renderer {
                 size,
                 self.settings.msaa,
                 params,
-                TargetsMade { hdr: !direct, depth: !depth_free, depth_sampled: occlusion, output_format },
+                TargetsMade {
+                    hdr: !direct,
+                    depth: !depth_free,
+                    depth_sampled: occlusion,
+                    output_format,
+                    shader_resolve: self.ctx.caps.shader_msaa_resolve,
+                },
             ));
         }
 

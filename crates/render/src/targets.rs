@@ -104,6 +104,8 @@ pub struct TargetsMade {
     /// The output's format: that of the display-space multisampled target (see
     /// [`FrameTargets::display_msaa`]).
     pub output_format: wgpu::TextureFormat,
+    /// `Capabilities::shader_msaa_resolve`: multisampled colour is bound for the resolve pass.
+    pub shader_resolve: bool,
 }
 
 pub struct FrameTargets {
@@ -119,6 +121,18 @@ pub struct FrameTargets {
     /// The depth target can be bound for sampling (occlusion culling, deferred lights).
     pub depth_sampled: bool,
     pub deferred: Option<DeferredTargets>,
+    /// Multisampled colour is resolved by `passes::resolve`, not by the render pass
+    /// (`Capabilities::shader_msaa_resolve`).
+    pub shader_resolve: bool,
+}
+
+/// Where a pass that ends the frame's drawing draws its colour and how it is resolved.
+pub struct ColorAttachment<'a> {
+    pub draw: &'a wgpu::TextureView,
+    /// The render pass's resolve target.
+    pub pass_resolve: Option<&'a wgpu::TextureView>,
+    /// Resolved by `passes::resolve` after the pass instead (`draw` is then stored).
+    pub shader_resolve: Option<&'a wgpu::TextureView>,
 }
 
 pub struct HdrTargets {
@@ -155,7 +169,7 @@ impl FrameTargets {
         deferred_params: Option<&wgpu::Buffer>,
         made: TargetsMade,
     ) -> Self {
-        let TargetsMade { hdr, depth, depth_sampled, output_format } = made;
+        let TargetsMade { hdr, depth, depth_sampled, output_format, shader_resolve } = made;
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -179,14 +193,16 @@ impl FrameTargets {
                 attach | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
             );
             let view = texture.create_view(&Default::default());
-            // The deferred-lights pass reads the colour's alpha.
-            let msaa_usage = if deferred_params.is_some() { attach | sampled } else { attach };
+            // The deferred-lights pass reads the colour's alpha; a shader resolve all of it.
+            let msaa_usage = if deferred_params.is_some() || shader_resolve { attach | sampled } else { attach };
             let msaa_view = (samples > 1)
                 .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
             HdrTargets { texture, view, msaa_view }
         });
-        let display_msaa = (hdr.is_none() && samples > 1)
-            .then(|| tex("display colour msaa", output_format, samples, attach).create_view(&Default::default()));
+        let display_usage = if shader_resolve { attach | sampled } else { attach };
+        let display_msaa = (hdr.is_none() && samples > 1).then(|| {
+            tex("display colour msaa", output_format, samples, display_usage).create_view(&Default::default())
+        });
         // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid; otherwise
         // only an attachment, which wgpu's GL backend needs of a multisampled texture (it cannot
         // render into a multisampled texture that is also bound for sampling: the frame is lost).
@@ -216,7 +232,7 @@ impl FrameTargets {
             });
             DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
         });
-        Self { size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred }
+        Self { size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred, shader_resolve }
     }
 
     /// The single-sampled HDR colour, if the frame has one.
@@ -226,7 +242,13 @@ impl FrameTargets {
 
     /// Where the forward pass draws, and what it resolves into: the HDR targets, or else the
     /// output (`direct`), drawn into or (display-space MSAA) resolved into.
-    pub fn color_attachment<'a>(
+    pub fn color_attachment<'a>(&'a self, direct: &'a wgpu::TextureView) -> ColorAttachment<'a> {
+        let (draw, resolve) = self.draw_and_resolve(direct);
+        let (pass_resolve, shader_resolve) = if self.shader_resolve { (None, resolve) } else { (resolve, None) };
+        ColorAttachment { draw, pass_resolve, shader_resolve }
+    }
+
+    fn draw_and_resolve<'a>(
         &'a self,
         direct: &'a wgpu::TextureView,
     ) -> (&'a wgpu::TextureView, Option<&'a wgpu::TextureView>) {

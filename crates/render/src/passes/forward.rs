@@ -123,7 +123,8 @@ pub fn encode(
     {
         error = Some(e);
     }
-    let (color, resolve) = inputs.targets.color_attachment(inputs.output);
+    let attachment = inputs.targets.color_attachment(inputs.output);
+    let (color, resolve) = (attachment.draw, attachment.pass_resolve);
     let split = inputs.targets.deferred.as_ref();
     if split.is_none()
         && phase != OpaquePhase::Early
@@ -189,6 +190,10 @@ pub fn encode(
     if ends {
         counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
         draw_gizmos(&mut pass, pipelines, inputs);
+        drop(pass);
+        if let Some(e) = super::resolve::encode(encoder, device, pipelines, &attachment) {
+            error = Some(e);
+        }
     }
     (counts, error)
 }
@@ -217,7 +222,8 @@ pub fn encode_after_deferred(
     if let Some(e) = compile_gizmos(device, pipelines, inputs) {
         error = Some(e);
     }
-    let (color, resolve) = targets.color_attachment(inputs.output);
+    let attachment = targets.color_attachment(inputs.output);
+    let (color, resolve) = (attachment.draw, attachment.pass_resolve);
     let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("deferred composite and blended draws"),
@@ -245,6 +251,10 @@ pub fn encode_after_deferred(
     }
     let counts = draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len()));
     draw_gizmos(&mut pass, pipelines, inputs);
+    drop(pass);
+    if let Some(e) = super::resolve::encode(encoder, device, pipelines, &attachment) {
+        error = Some(e);
+    }
     (counts, error)
 }
 

@@ -6,5 +6,6 @@ pub mod forward;
 pub mod gizmos;
 pub mod occlusion_feedback;
 pub mod post;
+pub mod resolve;
 pub mod shadows;
 pub mod tonemap;

@@ -280,6 +280,8 @@ pub struct PipelineCache {
     /// One level of a texture, loaded texel by texel, and the sRGB decoding table (mip
     /// generation).
     pub mipmap_layout: wgpu::BindGroupLayout,
+    /// The multisampled colour a shader resolve reads.
+    pub resolve_layout: wgpu::BindGroupLayout,
     /// A texture and a linear clamping sampler (bloom, FXAA).
     pub filtered_source_layout: wgpu::BindGroupLayout,
     pub cluster_layout: wgpu::BindGroupLayout,
@@ -287,6 +289,7 @@ pub struct PipelineCache {
     forward_layout: wgpu::PipelineLayout,
     tonemap_pipeline_layout: wgpu::PipelineLayout,
     mipmap_pipeline_layout: wgpu::PipelineLayout,
+    resolve_pipeline_layout: wgpu::PipelineLayout,
     filtered_source_pipeline_layout: wgpu::PipelineLayout,
     forward: HashMap<PipelineKey, wgpu::RenderPipeline>,
     tonemap: HashMap<TonemapKey, wgpu::RenderPipeline>,
@@ -297,6 +300,8 @@ pub struct PipelineCache {
     fxaa: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     /// By the format of the views drawn through, and whether the shader converts sRGB.
     mipmap: HashMap<(wgpu::TextureFormat, bool), wgpu::RenderPipeline>,
+    /// Shader MSAA resolves, by the format written.
+    resolve: HashMap<FormatKey, wgpu::RenderPipeline>,
     cluster: HashMap<ClusterEntry, wgpu::ComputePipeline>,
     /// Inputs of the deferred-lights pass, single-sampled and multisampled.
     pub deferred_layouts: [wgpu::BindGroupLayout; 2],
@@ -562,6 +567,17 @@ impl PipelineCache {
                 buffer_entry(1, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
             ],
         });
+        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("resolve"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: true,
+                },
+                ..texture(0, false)
+            }],
+        });
         let filtered_source_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("filtered source"),
             entries: &[texture(0, true), sampler(1)],
@@ -576,6 +592,7 @@ impl PipelineCache {
         let forward_layout = layout("forward", &[Some(&view_layout), Some(&material_layout)]);
         let tonemap_pipeline_layout = layout("tonemap", &[Some(&tonemap_layout)]);
         let mipmap_pipeline_layout = layout("mipmap", &[Some(&mipmap_layout)]);
+        let resolve_pipeline_layout = layout("resolve", &[Some(&resolve_layout)]);
         let filtered_source_pipeline_layout = layout("filtered source", &[Some(&filtered_source_layout)]);
         let cluster_pipeline_layout = layout("cluster binning", &[Some(&cluster_layout)]);
         let deferred_layouts = [false, true].map(|multisampled| {
@@ -657,14 +674,17 @@ impl PipelineCache {
             material_layout,
             tonemap_layout,
             mipmap_layout,
+            resolve_layout,
             filtered_source_layout,
             forward_layout,
             tonemap_pipeline_layout,
             mipmap_pipeline_layout,
+            resolve_pipeline_layout,
             filtered_source_pipeline_layout,
             forward: HashMap::new(),
             tonemap: HashMap::new(),
             mipmap: HashMap::new(),
+            resolve: HashMap::new(),
             compiled: 0,
             generation: 0,
         }
@@ -711,6 +731,20 @@ impl PipelineCache {
             self.mipmap.insert(key, p);
         }
         Ok(&self.mipmap[&key])
+    }
+
+    /// The pipeline that resolves a multisampled colour target into one of `format`.
+    pub fn resolve(
+        &mut self,
+        device: &wgpu::Device,
+        format: wgpu::TextureFormat,
+    ) -> Result<&wgpu::RenderPipeline, ShaderError> {
+        let key = FormatKey(format);
+        if !self.resolve.contains_key(&key) {
+            let p = self.create_resolve(device, &mut None, format)?;
+            self.resolve.insert(key, p);
+        }
+        Ok(&self.resolve[&key])
     }
 
     /// A cluster-binning compute pipeline, compiling it on first use.
@@ -775,6 +809,7 @@ impl PipelineCache {
         let forward_hit = lib.depends_on("forward.wgsl", files);
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
         let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
+        let resolve_hit = lib.depends_on("resolve.wgsl", files);
         let cluster_hit = lib.depends_on("cluster_bin.wgsl", files);
         let deferred_hit = lib.depends_on("deferred_lights.wgsl", files);
         let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
@@ -798,6 +833,12 @@ impl PipelineCache {
         if mipmap_hit {
             for key in self.mipmap.keys().copied().collect::<Vec<_>>() {
                 mipmap.push((key, self.create_mipmap(device, &mut candidate, key.0, key.1)?));
+            }
+        }
+        let mut resolve = Vec::new();
+        if resolve_hit {
+            for key in self.resolve.keys().copied().collect::<Vec<_>>() {
+                resolve.push((key, self.create_resolve(device, &mut candidate, key.0)?));
             }
         }
         let mut cluster = Vec::new();
@@ -857,6 +898,7 @@ impl PipelineCache {
             + forward.len()
             + tonemap.len()
             + mipmap.len()
+            + resolve.len()
             + cluster.len()
             + deferred.len()
             + composite.len()
@@ -865,6 +907,7 @@ impl PipelineCache {
         self.forward.extend(forward);
         self.tonemap.extend(tonemap);
         self.mipmap.extend(mipmap);
+        self.resolve.extend(resolve);
         self.cluster.extend(cluster);
         self.deferred.extend(deferred);
         self.composite.extend(composite);
@@ -891,6 +934,7 @@ impl PipelineCache {
             + self.forward.len()
             + self.tonemap.len()
             + self.mipmap.len()
+            + self.resolve.len()
             + self.cluster.len()
             + self.deferred.len()
             + self.composite.len()
@@ -1010,6 +1054,19 @@ impl PipelineCache {
         self.compiled += 1;
         checked_pipeline(device, "tonemap.wgsl", || {
             fullscreen_pipeline(device, &self.tonemap_pipeline_layout, &module, format, "tonemap")
+        })
+    }
+
+    fn create_resolve(
+        &mut self,
+        device: &wgpu::Device,
+        candidate: &mut Option<ShaderLibrary>,
+        format: wgpu::TextureFormat,
+    ) -> Result<wgpu::RenderPipeline, ShaderError> {
+        let module = self.library(candidate).create_module(device, "resolve.wgsl", &ShaderDefs::default())?;
+        self.compiled += 1;
+        checked_pipeline(device, "resolve.wgsl", || {
+            fullscreen_pipeline(device, &self.resolve_pipeline_layout, &module, format, "resolve")
         })
     }
 

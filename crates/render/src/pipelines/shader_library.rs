@@ -53,6 +53,7 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("display.wgsl", include_str!("../../../../shaders/display.wgsl")),
     ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
     ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
+    ("resolve.wgsl", include_str!("../../../../shaders/resolve.wgsl")),
     ("env_source.wgsl", include_str!("../../../../shaders/env_source.wgsl")),
     ("env_filter.wgsl", include_str!("../../../../shaders/env_filter.wgsl")),
     ("brdf_lut.wgsl", include_str!("../../../../shaders/brdf_lut.wgsl")),
