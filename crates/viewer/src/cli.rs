@@ -20,8 +20,28 @@ pub struct Cli {
     /// Log progress (info level; RUST_LOG overrides).
     #[arg(short, long, global = true)]
     pub verbose: bool,
+    /// How a CPU rasteriser (lavapipe) compiles shaders: `optimized`, or `fast` (LLVM without
+    /// optimisation: shaders and hot reloads compile in about half the time, frames take about
+    /// 1.75 times as long). GPU drivers ignore it.
+    #[arg(long, global = true, value_enum, default_value_t = CpuCompileArg::Optimized)]
+    pub cpu_shader_compile: CpuCompileArg,
     #[command(subcommand)]
     pub command: Command,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CpuCompileArg {
+    Optimized,
+    Fast,
+}
+
+impl CpuCompileArg {
+    pub fn mode(self) -> penumbra_render::context::CpuShaderCompiles {
+        match self {
+            CpuCompileArg::Optimized => penumbra_render::context::CpuShaderCompiles::Optimized,
+            CpuCompileArg::Fast => penumbra_render::context::CpuShaderCompiles::Fast,
+        }
+    }
 }
 
 #[derive(Subcommand, Debug)]

@@ -21,6 +21,10 @@ fn main() -> ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
+    // SAFETY: no other thread exists yet, and no GPU instance.
+    if let Some(applied) = unsafe { args.cpu_shader_compile.mode().apply() } {
+        tracing::info!("CPU rasteriser shaders compile without optimisation ({applied})");
+    }
     let result = match args.command {
         cli::Command::Render(a) => commands::render::run(a),
         cli::Command::Bench(a) => commands::bench::run(a),

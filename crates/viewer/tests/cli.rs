@@ -49,6 +49,36 @@ fn two_renders_write_identical_bytes() {
     assert_eq!((img.width(), img.height()), (96, 64));
 }
 
+/// `--cpu-shader-compile fast` asks Mesa's llvmpipe for unoptimised shader code (same pixels,
+/// quicker compiles); a `GALLIVM_PERF` the user set wins.
+#[test]
+fn fast_cpu_shader_compiles_draw_the_same_pixels_and_respect_the_users_setting() {
+    let dir = out_dir("cpu-compile");
+    let shot = |name: &str, extra: &[&str], user_env: bool| {
+        let out = dir.join(name);
+        let mut args: Vec<&str> = extra.to_vec();
+        let scene = asset("BoxTextured/BoxTextured.glb");
+        args.extend(["-v", "render", scene.as_str(), "--out", out.to_str().unwrap(), "--size", "64x48"]);
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_penumbra"));
+        cmd.args(&args).env_remove("GALLIVM_PERF");
+        if user_env {
+            cmd.env("GALLIVM_PERF", "no_quad_lod");
+        }
+        let o = cmd.output().expect("the binary runs");
+        assert!(o.status.success(), "{}", stderr(&o));
+        (std::fs::read(out).unwrap(), stderr(&o).contains("compile without optimisation (GALLIVM_PERF=nopt)"))
+    };
+    let (optimized, logged) = shot("optimized.png", &[], false);
+    assert!(!logged, "optimised compiles are the default");
+    let (fast, logged) = shot("fast.png", &["--cpu-shader-compile", "fast"], false);
+    assert!(logged, "the fast mode is applied and logged");
+    assert_eq!(fast, optimized, "the same pixels either way");
+    let (_, logged) = shot("user.png", &["--cpu-shader-compile", "fast"], true);
+    assert!(!logged, "a GALLIVM_PERF in the environment is left alone");
+    let o = penumbra(&["--cpu-shader-compile", "fastest", "render", "x.glb", "--out", "/tmp/never.png"]);
+    assert!(!o.status.success() && stderr(&o).contains("--cpu-shader-compile"), "{}", stderr(&o));
+}
+
 #[test]
 fn camera_aspect_sets_the_default_size() {
     let dir = out_dir("aspect");
