@@ -468,6 +468,43 @@ fn mip_chains_made_on_the_cpu_draw_what_the_gpu_makes() {
     assert_eq!(rows(&dark, 24..32), rows(&gpu, 24..32), "near rows read level 0");
 }
 
+/// Texels imported where they lie (`host_memory`; lavapipe has VK_EXT_external_memory_host): the
+/// buffer reads exactly the bytes, from a start that is not aligned, and holds their owner until
+/// the GPU is done with it. Every textured golden on lavapipe goes through this path too; GL
+/// (`backend_parity`) through staging copies, against the same goldens.
+#[test]
+fn host_memory_imports_read_the_bytes_where_they_lie() {
+    use std::sync::Arc;
+    let ctx = common::gpu();
+    let Some(alignment) = ctx.caps.host_import_alignment else {
+        let lavapipe = ctx.info.backend == wgpu::Backend::Vulkan && ctx.info.device_type == wgpu::DeviceType::Cpu;
+        assert!(!lavapipe, "lavapipe imports host memory; the capability should be found");
+        return;
+    };
+    let owner: Arc<Vec<u8>> =
+        Arc::new((0..3_000_000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8).collect());
+    let len = 2_000_000;
+    let bytes = &owner[12..12 + len];
+    let (buffer, offset) =
+        penumbra::render::host_memory::import(&ctx.device, alignment, bytes, owner.clone() as Arc<dyn Send + Sync>)
+            .expect("the driver imports the bytes");
+    assert_eq!(Arc::strong_count(&owner), 2, "the buffer holds the bytes' owner");
+    let copy = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("copy of the import"),
+        size: len as u64,
+        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(&buffer, offset, &copy, 0, len as u64);
+    ctx.queue.submit([encoder.finish()]);
+    drop(buffer);
+    let back = penumbra::render::readback::read_buffer(&ctx.device, &ctx.queue, &copy, len as u64).unwrap();
+    assert!(back == bytes, "the copy reads the bytes in place");
+    let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+    assert_eq!(Arc::strong_count(&owner), 1, "released once the GPU is done");
+}
+
 /// 70 000 instances moved in one frame (4.5 MB of records, copied into wgpu's staging memory on
 /// several threads; `prepare::instances` tests the copy byte for byte): the moved scene draws
 /// exactly what a scene built in the moved places draws.

@@ -95,6 +95,9 @@ pub struct Capabilities {
     /// is cached like every other. Not on GL, where wgpu cannot render into a multisampled
     /// texture that is also bound for sampling; GPUs resolve faster themselves.
     pub shader_msaa_resolve: bool,
+    /// Texels can be copied from where they were decoded (`host_memory`): the import
+    /// alignment, on a CPU rasteriser whose Vulkan driver has VK_EXT_external_memory_host.
+    pub host_import_alignment: Option<u64>,
 }
 
 /// The rasteriser's sub-pixel precision, as the driver reports it (Vulkan), else a lower bound.
@@ -216,15 +219,34 @@ impl GpuContext {
         if indirect_first_instance {
             features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
         }
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        let desc = wgpu::DeviceDescriptor {
             label: Some("penumbra"),
             required_features: features,
             required_limits: adapter.limits(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
-        }))
-        .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?;
+        };
+        // With host-memory imports where the Vulkan driver has them (`host_memory`); a device
+        // that cannot be opened so is made the ordinary way, without them.
+        let mut host_import_alignment = crate::host_memory::import_alignment(&adapter);
+        // SAFETY: `import_alignment` found a Vulkan adapter with the extension.
+        let opened =
+            host_import_alignment.and_then(|_| match unsafe { crate::host_memory::open_device(&adapter, &desc) } {
+                Ok(pair) => Some(pair),
+                Err(e) => {
+                    tracing::warn!("device with host-memory imports: {e}; uploading textures through staging copies");
+                    None
+                }
+            });
+        if opened.is_none() {
+            host_import_alignment = None;
+        }
+        let (device, queue) = match opened {
+            Some(pair) => pair,
+            None => pollster::block_on(adapter.request_device(&desc))
+                .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?,
+        };
         tracing::info!(
             "GPU: {} ({:?}, {:?}, driver {}; {subpixel_bits} sub-pixel bits)",
             info.name,
@@ -264,6 +286,7 @@ impl GpuContext {
                 array_layers,
                 srgb_unorm_views,
                 shader_msaa_resolve,
+                host_import_alignment,
                 subpixel_bits,
             },
             lost,

@@ -18,6 +18,7 @@ pub mod explain;
 pub mod extract;
 pub mod frame;
 pub mod headless;
+pub mod host_memory;
 pub mod passes;
 pub mod pipelines;
 pub mod prepare;

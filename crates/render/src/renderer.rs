@@ -502,7 +502,13 @@ impl Renderer {
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             deformer: MeshDeformer::new(device),
-            textures: TextureCache::new(device, &ctx.queue, max_anisotropy(&ctx, &settings), ctx.caps.srgb_unorm_views),
+            textures: TextureCache::new(
+                device,
+                &ctx.queue,
+                max_anisotropy(&ctx, &settings),
+                ctx.caps.srgb_unorm_views,
+                ctx.caps.host_import_alignment,
+            ),
             materials: MaterialTable::new(device),
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),

@@ -8,7 +8,10 @@
 //! GPU (`shaders/mipmap.wgsl`, the same 2×2 means) through unorm views, the shader converting
 //! sRGB textures to linear light to average them (and back), so that every driver makes the
 //! same chain. Textures are created when an image first appears or changes; they never sit on
-//! the per-frame path.
+//! the per-frame path. Where the device can import host memory (`host_memory`), the large
+//! levels of an image are copied from where they were decoded; the rest, and everything on
+//! other devices, through `Queue::write_texture`'s staging copy. Uploads are submitted every few
+//! MiB, so that the driver places one texture while the next is prepared.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -21,8 +24,11 @@ use penumbra_engine::scenes::srgb_to_linear;
 
 use crate::pipelines::pipeline_cache::PipelineCache;
 
-/// Staged texture bytes above which uploads are submitted before the frame.
+/// Texture bytes after which uploads are submitted, before the frame.
 const EARLY_SUBMIT_BYTES: u64 = 4 << 20;
+/// Levels smaller than this go through a staging copy even where imports exist: an import is a
+/// few driver calls and whole pages, not worth it for small images.
+const IMPORT_MIN_BYTES: usize = 256 << 10;
 
 pub struct GpuTexture {
     pub view: wgpu::TextureView,
@@ -49,12 +55,21 @@ pub struct TextureCache {
     unorm_views: bool,
     /// The linear value of each stored sRGB byte, for mip generation (shaders/mipmap.wgsl).
     srgb_to_linear: wgpu::Buffer,
+    /// `Capabilities::host_import_alignment`.
+    host_import_alignment: Option<u64>,
 }
 
 impl TextureCache {
     /// `max_anisotropy` applies to trilinear samplers (1 disables anisotropic filtering).
-    /// `unorm_views`: `Capabilities::srgb_unorm_views`.
-    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, max_anisotropy: u16, unorm_views: bool) -> Self {
+    /// `unorm_views`: `Capabilities::srgb_unorm_views`; `host_import_alignment`: the
+    /// capability of that name.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        max_anisotropy: u16,
+        unorm_views: bool,
+        host_import_alignment: Option<u64>,
+    ) -> Self {
         let null = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("null texture"),
             size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
@@ -73,6 +88,7 @@ impl TextureCache {
             max_anisotropy: max_anisotropy.clamp(1, 16),
             unorm_views,
             srgb_to_linear: srgb_table(device, queue),
+            host_import_alignment,
         }
     }
 
@@ -112,20 +128,25 @@ impl TextureCache {
         requests: &[TextureRequest],
     ) {
         let mut unsubmitted = 0;
+        // Copies from imported memory, submitted with the staged writes.
+        let mut copies = None;
         for r in requests {
             if !self.is_stale(r.image, r.srgb, r.version) {
                 continue;
             }
-            let (view, bytes) = self.create_texture(device, queue, encoder, pipelines, &r.data, r.srgb);
+            let (view, bytes) = self.create_texture(device, queue, encoder, &mut copies, pipelines, &r.data, r.srgb);
             self.textures.insert((r.image, r.srgb), GpuTexture { view, version: r.version, bytes });
             // Hand large uploads to the driver now rather than with the frame: it copies them
-            // into the textures while this thread stages the next (on a CPU rasteriser the two
-            // copies of a scene's textures then take two cores, not one after the other).
+            // into the textures while this thread prepares the next (on a CPU rasteriser the
+            // two then take two cores, not one after the other).
             unsubmitted += bytes;
             if unsubmitted >= EARLY_SUBMIT_BYTES {
-                queue.submit(std::iter::empty());
+                queue.submit(copies.take().map(|c: wgpu::CommandEncoder| c.finish()));
                 unsubmitted = 0;
             }
+        }
+        if let Some(c) = copies {
+            queue.submit([c.finish()]);
         }
     }
 
@@ -171,15 +192,18 @@ impl TextureCache {
         })
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn create_texture(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
+        copies: &mut Option<wgpu::CommandEncoder>,
         pipelines: &mut PipelineCache,
-        image: &Image,
+        owner: &Arc<Image>,
         srgb: bool,
     ) -> (wgpu::TextureView, u64) {
+        let image: &Image = owner;
         let max = device.limits().max_texture_dimension_2d;
         let fitted;
         let image = if image.width > max || image.height > max {
@@ -221,12 +245,50 @@ impl TextureCache {
             // Mip generation reads and writes sRGB textures as unorm and converts itself.
             view_formats: if shader_srgb && made.is_none() { &[wgpu::TextureFormat::Rgba8Unorm] } else { &[] },
         });
-        write_level(queue, &texture, 0, image.width, image.height, &image.rgba8);
+        // Texels from where they lie where the device imports host memory, for the image as
+        // decoded (not one fitted to the device here).
+        let import = self.host_import_alignment.filter(|_| std::ptr::eq(image, &**owner));
+        let upload = |copies: &mut Option<wgpu::CommandEncoder>, level: u32, w: u32, h: u32, texels: &[u8]| {
+            let imported = import
+                .filter(|_| {
+                    texels.len() >= IMPORT_MIN_BYTES && (4 * w).is_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+                })
+                .and_then(|alignment| {
+                    crate::host_memory::import(device, alignment, texels, owner.clone() as Arc<dyn Send + Sync>)
+                });
+            match imported {
+                Some((buffer, offset)) => {
+                    let c = copies.get_or_insert_with(|| {
+                        device
+                            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("texture uploads") })
+                    });
+                    c.copy_buffer_to_texture(
+                        wgpu::TexelCopyBufferInfo {
+                            buffer: &buffer,
+                            layout: wgpu::TexelCopyBufferLayout {
+                                offset,
+                                bytes_per_row: Some(4 * w),
+                                rows_per_image: Some(h),
+                            },
+                        },
+                        wgpu::TexelCopyTextureInfo {
+                            texture: &texture,
+                            mip_level: level,
+                            origin: wgpu::Origin3d::ZERO,
+                            aspect: wgpu::TextureAspect::All,
+                        },
+                        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                    );
+                }
+                None => write_level(queue, &texture, level, w, h, texels),
+            }
+        };
+        upload(copies, 0, image.width, image.height, &image.rgba8);
         // A full chain adds a third to level 0.
         let bytes = image.rgba8.len() as u64 * 4 / 3;
         if let Some(chain) = made {
             for (level, m) in (1..).zip(&chain.levels) {
-                write_level(queue, &texture, level, m.width, m.height, &m.rgba8);
+                upload(copies, level, m.width, m.height, &m.rgba8);
             }
             return (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes);
         }
