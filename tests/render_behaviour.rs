@@ -487,9 +487,12 @@ fn host_memory_imports_read_the_bytes_where_they_lie() {
         Arc::new((0..3_000_000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8).collect());
     let len = 2_000_000;
     let bytes = &owner[12..12 + len];
-    let (buffer, offset) =
+    // SAFETY: the context's device was opened with imports (the capability says so), and the
+    // bytes lie in `owner`, which nothing writes.
+    let (buffer, offset) = unsafe {
         penumbra::render::host_memory::import(&ctx.device, alignment, bytes, owner.clone() as Arc<dyn Send + Sync>)
-            .expect("the driver imports the bytes");
+    }
+    .expect("the driver imports the bytes");
     assert_eq!(Arc::strong_count(&owner), 2, "the buffer holds the bytes' owner");
     let copy = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("copy of the import"),

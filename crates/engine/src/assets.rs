@@ -228,13 +228,31 @@ impl<T: Clone + Send + Sync + 'static> Assets<T> {
         let version = self.bump_version();
         let slot = &mut self.slots[handle.index as usize];
         slot.version = version;
-        Ok(Arc::make_mut(slot.value.as_mut().expect("checked by slot()")))
+        let value = Arc::make_mut(slot.value.as_mut().expect("checked by slot()"));
+        // What was derived from the content goes with an edit of it: an image's mip chain was
+        // made from the texels the caller is about to change (the renderer then makes the chain
+        // itself, `Image::mips`).
+        if let Some(image) = (value as &mut dyn std::any::Any).downcast_mut::<crate::image::Image>() {
+            image.mips = None;
+        }
+        Ok(value)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn editing_an_image_drops_the_mip_chain_made_from_its_texels() {
+        let mut images = Assets::new();
+        let mut image = crate::image::Image::solid([10, 20, 30, 255], "t");
+        image.mips = Some(crate::mip_chain::MipChain::build(&image, true));
+        let h = images.add(image);
+        assert!(images.get(h).unwrap().mips.is_some());
+        images.get_mut(h).unwrap().rgba8[0] = 200;
+        assert!(images.get(h).unwrap().mips.is_none(), "a stale chain would show the old texels far away");
+    }
 
     #[test]
     fn removed_handle_is_stale_even_after_slot_reuse() {

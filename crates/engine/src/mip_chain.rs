@@ -4,9 +4,9 @@
 //!
 //! Import builds the chain on the decoding thread for the colour space the image's material
 //! slots read it in ([`StandardMaterial::SRGB_SLOTS`](crate::material::StandardMaterial)), and
-//! the renderer uploads it with level 0. Only images without one (made at run time, or read in
-//! both colour spaces) have their chain rendered on the GPU (`shaders/mipmap.wgsl`, the same
-//! means). Why on the CPU: on a software rasteriser the GPU *is* the CPU, and there the shader
+//! the renderer uploads it with level 0. Only images without one (made at run time, or edited
+//! since: `Assets::get_mut` drops it), and the linear texture of an image also read as sRGB,
+//! have their chain rendered on the GPU (`shaders/mipmap.wgsl`, the same means). Why on the CPU: on a software rasteriser the GPU *is* the CPU, and there the shader
 //! cost several times the plain loop below (DamagedHelmet's five 2048² chains: about 70 ms of
 //! lavapipe against 23 ms of CPU here), after decoding had already finished; on a GPU machine
 //! the chain adds about a sixth to the decoding threads' work (140 ms of JPEG decoding).

@@ -41,7 +41,9 @@ pub fn import_alignment(adapter: &wgpu::Adapter) -> Option<u64> {
         let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut host);
         instance.get_physical_device_properties2(phd, &mut props);
         let alignment = host.min_imported_host_pointer_alignment;
-        (alignment.is_power_of_two()).then_some(alignment)
+        // An import covers whole alignment blocks around the bytes: within the bytes' own pages
+        // only while a block is no larger than the smallest page (4 KiB).
+        (alignment.is_power_of_two() && alignment <= 4096).then_some(alignment)
     }
 }
 
@@ -75,7 +77,11 @@ pub unsafe fn open_device(
 /// A `COPY_SRC` buffer over `bytes` where they lie, and the offset of `bytes` in it; `None`
 /// where the driver refuses the import (the caller then uploads a copy). `owner` (what keeps
 /// `bytes` alive and in place) is held until the GPU is done with the buffer.
-pub fn import(
+///
+/// # Safety
+/// - `device` was made by [`open_device`], and `alignment` is its [`import_alignment`];
+/// - `bytes` lie inside `owner`, which neither frees, moves nor writes them while it lives.
+pub unsafe fn import(
     device: &wgpu::Device,
     alignment: u64,
     bytes: &[u8],
@@ -85,10 +91,11 @@ pub fn import(
     let base = start & !(alignment - 1);
     let size = (start + bytes.len() as u64).next_multiple_of(alignment) - base;
     let handle_type = vk::ExternalMemoryHandleTypeFlags::HOST_ALLOCATION_EXT;
-    // SAFETY: `base..base + size` covers whole pages of this process's memory that hold
-    // `bytes` (the import alignment is a multiple of the page size); the GPU only reads it, and
-    // `owner` keeps it allocated until the buffer is destroyed. Every Vulkan object made here is
-    // destroyed on every path, by the drop callback once wgpu owns the buffer.
+    // SAFETY: `base..base + size` lies within the pages that hold `bytes` (the alignment is at
+    // most the smallest page size, `import_alignment`), so it is mapped memory of this process;
+    // the GPU only reads it, and `owner` keeps it in place until the buffer is destroyed (the
+    // caller's contract). The device has the extension (the contract). Every Vulkan object made
+    // here is destroyed on every path, by the drop callback once wgpu owns the buffer.
     unsafe {
         let hal = device.as_hal::<Vulkan>()?;
         let raw = hal.raw_device().clone();

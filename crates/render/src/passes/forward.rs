@@ -123,7 +123,11 @@ pub fn encode(
     {
         error = Some(e);
     }
-    let attachment = inputs.targets.color_attachment(inputs.output);
+    let (attachment, resolve_error) =
+        super::resolve::prepare(device, pipelines, inputs.targets.color_attachment(inputs.output));
+    if resolve_error.is_some() {
+        error = resolve_error;
+    }
     let (color, resolve) = (attachment.draw, attachment.pass_resolve);
     let split = inputs.targets.deferred.as_ref();
     if split.is_none()
@@ -191,9 +195,7 @@ pub fn encode(
         counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
         draw_gizmos(&mut pass, pipelines, inputs);
         drop(pass);
-        if let Some(e) = super::resolve::encode(encoder, device, pipelines, &attachment) {
-            error = Some(e);
-        }
+        super::resolve::encode(encoder, device, pipelines, &attachment);
     }
     (counts, error)
 }
@@ -222,7 +224,11 @@ pub fn encode_after_deferred(
     if let Some(e) = compile_gizmos(device, pipelines, inputs) {
         error = Some(e);
     }
-    let attachment = targets.color_attachment(inputs.output);
+    let (attachment, resolve_error) =
+        super::resolve::prepare(device, pipelines, targets.color_attachment(inputs.output));
+    if resolve_error.is_some() {
+        error = resolve_error;
+    }
     let (color, resolve) = (attachment.draw, attachment.pass_resolve);
     let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -252,9 +258,7 @@ pub fn encode_after_deferred(
     let counts = draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len()));
     draw_gizmos(&mut pass, pipelines, inputs);
     drop(pass);
-    if let Some(e) = super::resolve::encode(encoder, device, pipelines, &attachment) {
-        error = Some(e);
-    }
+    super::resolve::encode(encoder, device, pipelines, &attachment);
     (counts, error)
 }
 

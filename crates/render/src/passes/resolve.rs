@@ -9,38 +9,46 @@ use crate::pipelines::pipeline_cache::PipelineCache;
 use crate::pipelines::shader_library::ShaderError;
 use crate::targets::ColorAttachment;
 
-/// Resolves `attachment.draw` into `attachment.shader_resolve`, if the frame resolves by shader.
+/// Before the pass that draws into `attachment`: compiles the resolve pipeline, or, if its
+/// shader does not build, has the render pass resolve instead (so a broken `resolve.wgsl`
+/// costs no frame), returning the error.
+pub fn prepare<'a>(
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    attachment: ColorAttachment<'a>,
+) -> (ColorAttachment<'a>, Option<ShaderError>) {
+    if attachment.shader_resolve.is_none() {
+        return (attachment, None);
+    }
+    match pipelines.resolve(device, format(&attachment)) {
+        Ok(_) => (attachment, None),
+        Err(e) => {
+            let ColorAttachment { draw, shader_resolve, .. } = attachment;
+            (ColorAttachment { draw, pass_resolve: shader_resolve, shader_resolve: None }, Some(e))
+        }
+    }
+}
+
+/// The format written: the multisampled target's, which is made in the format of the view it
+/// resolves into (`FrameTargets`).
+fn format(attachment: &ColorAttachment) -> wgpu::TextureFormat {
+    attachment.draw.texture().format()
+}
+
+/// Resolves `attachment.draw` into `attachment.shader_resolve`, if the frame resolves by shader
+/// (after [`prepare`]).
 pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     device: &wgpu::Device,
-    pipelines: &mut PipelineCache,
+    pipelines: &PipelineCache,
     attachment: &ColorAttachment,
-) -> Option<ShaderError> {
-    let target = attachment.shader_resolve?;
-    let pipeline = match pipelines.resolve(device, target.texture().format()) {
-        Ok(p) => p.clone(),
-        Err(e) => return Some(e),
-    };
+) {
+    let Some(target) = attachment.shader_resolve else { return };
+    let Some(pipeline) = pipelines.resolve_cached(format(attachment)) else { return };
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("resolve"),
         layout: &pipelines.resolve_layout,
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(attachment.draw) }],
     });
-    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("resolve"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: target,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
-    pass.set_pipeline(&pipeline);
-    pass.set_bind_group(0, &bind_group, &[]);
-    pass.draw(0..3, 0..1);
-    None
+    super::draw_fullscreen(encoder, "resolve", target, pipeline, &bind_group);
 }

@@ -747,6 +747,10 @@ impl PipelineCache {
         Ok(&self.resolve[&key])
     }
 
+    pub fn resolve_cached(&self, format: wgpu::TextureFormat) -> Option<&wgpu::RenderPipeline> {
+        self.resolve.get(&FormatKey(format))
+    }
+
     /// A cluster-binning compute pipeline, compiling it on first use.
     pub fn cluster(
         &mut self,

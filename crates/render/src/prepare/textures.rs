@@ -118,7 +118,10 @@ impl TextureCache {
         self.textures.get(&(image, srgb)).map(|t| (&t.view, t.version))
     }
 
-    /// Uploads every stale request's level 0 and encodes its mip generation into `encoder`.
+    /// Uploads every stale request: level 0 and the chain the image brought, or level 0 and a
+    /// GPU mip generation encoded into `encoder` (to be submitted after the uploads, which this
+    /// submits as it goes: staged writes, and copies from imported memory in an encoder of
+    /// their own).
     pub fn upload_many(
         &mut self,
         device: &wgpu::Device,
@@ -249,13 +252,16 @@ impl TextureCache {
         // decoded (not one fitted to the device here).
         let import = self.host_import_alignment.filter(|_| std::ptr::eq(image, &**owner));
         let upload = |copies: &mut Option<wgpu::CommandEncoder>, level: u32, w: u32, h: u32, texels: &[u8]| {
-            let imported = import
-                .filter(|_| {
-                    texels.len() >= IMPORT_MIN_BYTES && (4 * w).is_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-                })
-                .and_then(|alignment| {
-                    crate::host_memory::import(device, alignment, texels, owner.clone() as Arc<dyn Send + Sync>)
-                });
+            // Copies need rows at the copy alignment and texels at a multiple of 4 bytes into
+            // the buffer.
+            let importable = texels.len() >= IMPORT_MIN_BYTES
+                && (4 * w).is_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+                && (texels.as_ptr() as usize).is_multiple_of(4);
+            let imported = import.filter(|_| importable).and_then(|alignment| {
+                // SAFETY: the device was opened with imports (the capability is set only then);
+                // the texels lie in the image `owner` holds, immutable behind its Arc.
+                unsafe { crate::host_memory::import(device, alignment, texels, owner.clone() as Arc<dyn Send + Sync>) }
+            });
             match imported {
                 Some((buffer, offset)) => {
                     let c = copies.get_or_insert_with(|| {
@@ -318,25 +324,7 @@ impl TextureCache {
                     break;
                 }
             };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("mipmap"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.draw(0..3, 0..1);
+            crate::passes::draw_fullscreen(encoder, "mipmap", &target, pipeline, &bind_group);
         }
         (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes)
     }
