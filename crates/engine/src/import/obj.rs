@@ -489,13 +489,15 @@ fn convert_material(
         alpha_mode: if alpha < 1.0 { AlphaMode::Blend } else { AlphaMode::Opaque },
         ..StandardMaterial::default()
     };
+    // `slot`: the texture's place in `StandardMaterial::textures`, which says its colour space.
     let mut texture = |statement: Option<&String>,
-                       srgb_hint: &str|
+                       what: &str,
+                       slot: usize|
      -> Result<Option<(TextureDesc, f32)>, ImportError> {
         let Some(statement) = statement else { return Ok(None) };
         let t = parse_texture_statement(statement);
         if t.file.is_empty() {
-            warnings.push(format!("material {:?}: {srgb_hint} texture statement names no file", m.name));
+            warnings.push(format!("material {:?}: {what} texture statement names no file", m.name));
             return Ok(None);
         }
         let path = resolve_inside(base_dir, &t.file, options.allow_outside_folder).map_err(|e| match e {
@@ -522,8 +524,7 @@ fn convert_material(
                 let mut image = decode(&bytes, n, &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
                 // The chain for the slot that first reads the image (another slot's colour
                 // space has it made on the GPU).
-                let srgb = matches!(srgb_hint, "base colour" | "emissive");
-                image.mips = Some(MipChain::build(&image, srgb));
+                image.mips = Some(MipChain::build(&image, StandardMaterial::SRGB_SLOTS[slot]));
                 textures.images.push(Arc::new(image));
                 textures.index.insert(path, n);
                 n
@@ -536,13 +537,13 @@ fn convert_material(
         let sampler = Sampler { wrap_u: wrap, wrap_v: wrap, ..Sampler::default() };
         Ok(Some((TextureDesc { image: index, sampler, transform }, t.bump_multiplier)))
     };
-    let base_color = texture(m.diffuse_texture.as_ref(), "base colour")?.map(|(t, _)| t);
+    let base_color = texture(m.diffuse_texture.as_ref(), "base colour", 0)?.map(|(t, _)| t);
     let normal_statement = m.unknown_param.get("norm").or(m.normal_texture.as_ref());
-    let normal = texture(normal_statement, "normal")?.map(|(t, bm)| {
+    let normal = texture(normal_statement, "normal", 2)?.map(|(t, bm)| {
         material.normal_scale = bm;
         t
     });
-    let emissive = texture(m.unknown_param.get("map_Ke"), "emissive")?.map(|(t, _)| t);
+    let emissive = texture(m.unknown_param.get("map_Ke"), "emissive", 4)?.map(|(t, _)| t);
     if emissive.is_some() && material.emissive == Vec3::ZERO {
         material.emissive = Vec3::ONE;
     }

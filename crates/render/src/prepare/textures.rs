@@ -252,52 +252,36 @@ impl TextureCache {
         // decoded (not one fitted to the device here).
         let import = self.host_import_alignment.filter(|_| std::ptr::eq(image, &**owner));
         let upload = |copies: &mut Option<wgpu::CommandEncoder>, level: u32, w: u32, h: u32, texels: &[u8]| {
-            // Copies need rows at the copy alignment and texels at a multiple of 4 bytes into
-            // the buffer.
-            let importable = texels.len() >= IMPORT_MIN_BYTES
-                && (4 * w).is_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-                && (texels.as_ptr() as usize).is_multiple_of(4);
-            let imported = import.filter(|_| importable).and_then(|alignment| {
-                // SAFETY: the device was opened with imports (the capability is set only then);
-                // the texels lie in the image `owner` holds, immutable behind its Arc.
-                unsafe { crate::host_memory::import(device, alignment, texels, owner.clone() as Arc<dyn Send + Sync>) }
-            });
-            match imported {
-                Some((buffer, offset)) => {
-                    let c = copies.get_or_insert_with(|| {
-                        device
-                            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("texture uploads") })
-                    });
-                    c.copy_buffer_to_texture(
-                        wgpu::TexelCopyBufferInfo {
-                            buffer: &buffer,
-                            layout: wgpu::TexelCopyBufferLayout {
-                                offset,
-                                bytes_per_row: Some(4 * w),
-                                rows_per_image: Some(h),
-                            },
-                        },
-                        wgpu::TexelCopyTextureInfo {
-                            texture: &texture,
-                            mip_level: level,
-                            origin: wgpu::Origin3d::ZERO,
-                            aspect: wgpu::TextureAspect::All,
-                        },
-                        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-                    );
-                }
-                None => write_level(queue, &texture, level, w, h, texels),
-            }
+            let level = Level { texture: &texture, level, width: w, height: h, texels };
+            upload_level(device, queue, copies, import.map(|a| (a, owner)), level);
         };
         upload(copies, 0, image.width, image.height, &image.rgba8);
         // A full chain adds a third to level 0.
         let bytes = image.rgba8.len() as u64 * 4 / 3;
-        if let Some(chain) = made {
-            for (level, m) in (1..).zip(&chain.levels) {
-                upload(copies, level, m.width, m.height, &m.rgba8);
+        match made {
+            Some(chain) => {
+                for (level, m) in (1..).zip(&chain.levels) {
+                    upload(copies, level, m.width, m.height, &m.rgba8);
+                }
             }
-            return (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes);
+            None => self.render_mip_chain(device, encoder, pipelines, &texture, view_format, shader_srgb, &image.label),
         }
+        (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes)
+    }
+
+    /// Levels 1.. of `texture` from level 0, on the GPU (`shaders/mipmap.wgsl`), through views of
+    /// `view_format`.
+    #[allow(clippy::too_many_arguments)]
+    fn render_mip_chain(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &mut PipelineCache,
+        texture: &wgpu::Texture,
+        view_format: wgpu::TextureFormat,
+        shader_srgb: bool,
+        label: &str,
+    ) {
         let level_view = |level: u32| {
             texture.create_view(&wgpu::TextureViewDescriptor {
                 format: Some(view_format),
@@ -306,7 +290,7 @@ impl TextureCache {
                 ..Default::default()
             })
         };
-        for level in 1..levels {
+        for level in 1..texture.mip_level_count() {
             let source = level_view(level - 1);
             let target = level_view(level);
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -320,14 +304,67 @@ impl TextureCache {
             let pipeline = match pipelines.mipmap(device, view_format, shader_srgb) {
                 Ok(p) => p,
                 Err(e) => {
-                    tracing::error!("mip generation skipped for {}: {e}", image.label);
+                    tracing::error!("mip generation skipped for {}: {e}", label);
                     break;
                 }
             };
             crate::passes::draw_fullscreen(encoder, "mipmap", &target, pipeline, &bind_group);
         }
-        (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes)
     }
+}
+
+/// One texture level's texels.
+struct Level<'a> {
+    texture: &'a wgpu::Texture,
+    level: u32,
+    width: u32,
+    height: u32,
+    texels: &'a [u8],
+}
+
+/// Uploads one level: copied by `copies` from where the texels lie when `import` (the
+/// alignment, and the image holding them) is given and the level qualifies, else staged by
+/// `Queue::write_texture`.
+fn upload_level(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    copies: &mut Option<wgpu::CommandEncoder>,
+    import: Option<(u64, &Arc<Image>)>,
+    l: Level,
+) {
+    // Copies need rows at the copy alignment and texels at a multiple of 4 bytes into the buffer.
+    let importable = l.texels.len() >= IMPORT_MIN_BYTES
+        && (4 * l.width).is_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        && (l.texels.as_ptr() as usize).is_multiple_of(4);
+    let imported = import.filter(|_| importable).and_then(|(alignment, owner)| {
+        // SAFETY: the device was opened with imports (the capability is set only then); the
+        // texels lie in the image `owner` holds, immutable behind its Arc.
+        unsafe { crate::host_memory::import(device, alignment, l.texels, owner.clone() as Arc<dyn Send + Sync>) }
+    });
+    let Some((buffer, offset)) = imported else {
+        write_level(queue, l.texture, l.level, l.width, l.height, l.texels);
+        return;
+    };
+    let c = copies.get_or_insert_with(|| {
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("texture uploads") })
+    });
+    c.copy_buffer_to_texture(
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset,
+                bytes_per_row: Some(4 * l.width),
+                rows_per_image: Some(l.height),
+            },
+        },
+        wgpu::TexelCopyTextureInfo {
+            texture: l.texture,
+            mip_level: l.level,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::Extent3d { width: l.width, height: l.height, depth_or_array_layers: 1 },
+    );
 }
 
 /// Halves `image` (2×2 box) until both sides fit `max`: the fallback for images larger than the
