@@ -401,13 +401,14 @@ fn decoded_image_totals_are_checked_from_headers_before_decoding() {
     let dir = path.parent().unwrap();
     std::fs::write(dir.join("a.png"), png(4, 4)).unwrap();
     std::fs::write(dir.join("b.png"), png(4, 4)).unwrap();
-    // 64 bytes each decoded.
+    // 64 bytes each decoded, and 20 of mip chain (2×2 and 1×1): 84 held.
     assert_limit(&load_expecting_error_with(&path, &with_limit("total-image-bytes=100")), Limit::TotalImageBytes);
-    load_ok(&path, &with_limit("total-image-bytes=128"), "128 bytes of images fit");
+    assert_limit(&load_expecting_error_with(&path, &with_limit("total-image-bytes=167")), Limit::TotalImageBytes);
+    load_ok(&path, &with_limit("total-image-bytes=168"), "168 bytes of images and chains fit");
     // One image named three times is read and decoded once: it counts once.
     let path = textured_triangle("imageshared", &["a.png", "a.png", "a.png"]);
     std::fs::write(path.parent().unwrap().join("a.png"), png(4, 4)).unwrap();
-    let app = load_ok(&path, &with_limit("total-image-bytes=64"), "one decode of 64 bytes");
+    let app = load_ok(&path, &with_limit("total-image-bytes=84"), "one decode of 84 bytes");
     assert_eq!(app.world.resource::<Assets<Image>>().len(), 1, "the three entries share one image");
 }
 

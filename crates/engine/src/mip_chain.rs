@@ -40,6 +40,12 @@ pub fn mip_level_count(width: u32, height: u32) -> u32 {
     32 - width.max(height).max(1).leading_zeros()
 }
 
+/// Bytes of levels 1.. of a `width`×`height` RGBA8 image: what a chain adds to the image (about
+/// a third of it).
+pub fn chain_bytes(width: u32, height: u32) -> u64 {
+    (1..mip_level_count(width, height)).map(|l| (width >> l).max(1) as u64 * (height >> l).max(1) as u64 * 4).sum()
+}
+
 impl MipChain {
     /// The chain below `image`'s level 0.
     pub fn build(image: &Image, srgb: bool) -> Self {
@@ -192,6 +198,17 @@ mod tests {
         let linear = MipChain::build(&img, false);
         assert_eq!(linear.levels[0].rgba8, vec![128, 128, 128, 128]);
         assert!(srgb.fits(&img));
+    }
+
+    #[test]
+    fn chain_bytes_count_every_level_below_the_image() {
+        assert_eq!(chain_bytes(2048, 2048), (1..=11).map(|l| (2048u64 >> l).pow(2) * 4).sum::<u64>());
+        // 5×3: 2×1 and 1×1.
+        assert_eq!(chain_bytes(5, 3), 12);
+        assert_eq!(chain_bytes(1, 1), 0);
+        let img = Image { width: 5, height: 3, rgba8: vec![0; 60], label: "odd".into(), mips: None };
+        let built: usize = MipChain::build(&img, false).levels.iter().map(|l| l.rgba8.len()).sum();
+        assert_eq!(chain_bytes(5, 3), built as u64);
     }
 
     #[test]

@@ -87,7 +87,7 @@ every count or size it declares is checked against these before memory is alloca
   nodes=4M                 nodes in a file
   image-dimension=16384    width or height of one image
   image-bytes=1G           decoded size of one image, and size of one image file
-  total-image-bytes=8G     decoded size of all images of a file
+  total-image-bytes=8G     decoded size of all images of a file, with their mip chains
 N may be written 100000, 1e8, 512M or 4G (K, M, G are powers of 1024).";
 
 fn parse_limit(s: &str) -> Result<String, String> {

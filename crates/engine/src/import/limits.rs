@@ -78,7 +78,7 @@ impl Limit {
             Limit::Nodes => "nodes in a scene file",
             Limit::ImageDimension => "width or height of one image, in pixels",
             Limit::ImageBytes => "decoded size of one image, and the size of one image file",
-            Limit::TotalImageBytes => "decoded size of all images of a scene file",
+            Limit::TotalImageBytes => "decoded size of all images of a scene file, with their mip chains",
         }
     }
 

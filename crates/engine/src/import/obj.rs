@@ -33,7 +33,7 @@ use bevy_ecs::prelude::*;
 use glam::{Vec2, Vec3, Vec4};
 
 use super::gltf::SceneRoot;
-use super::gltf::images::{decode, decoded_size};
+use super::gltf::images::{decode, held_size};
 use super::gltf::source::{ReadBudget, ReadLimit, UriError, read_file, resolve_inside};
 use super::{ImportError, ImportErrorKind, ImportOptions, Limit};
 use crate::assets::{Assets, Handle};
@@ -512,7 +512,7 @@ fn convert_material(
                 let bytes = read_file(&path, ReadLimit::image(options), &textures.reads).map_err(|e| {
                     ImportError::new(&path, e.into_kind(&t.file, |reason| ImportErrorKind::Obj { line: None, reason }))
                 })?;
-                textures.decoded = textures.decoded.saturating_add(decoded_size(&bytes).unwrap_or(0));
+                textures.decoded = textures.decoded.saturating_add(held_size(&bytes).unwrap_or(0));
                 let what = "the decoded size of all images";
                 let scene = &textures.scene;
                 options

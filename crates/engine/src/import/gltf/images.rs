@@ -48,8 +48,19 @@ pub(crate) fn image_bytes<'a>(
 /// The RGBA8 size an encoded image will decode to, from its header alone (`None` when the header
 /// cannot be read; decoding then reports why).
 pub(crate) fn decoded_size(bytes: &[u8]) -> Option<u64> {
-    let (w, h) = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().ok()?.into_dimensions().ok()?;
+    let (w, h) = dimensions(bytes)?;
     Some(w as u64 * h as u64 * 4)
+}
+
+/// What importing the encoded image holds once decoded: level 0 and the mip chain import makes
+/// (`TotalImageBytes` counts this), from the header alone.
+pub(crate) fn held_size(bytes: &[u8]) -> Option<u64> {
+    let (w, h) = dimensions(bytes)?;
+    Some(w as u64 * h as u64 * 4 + crate::mip_chain::chain_bytes(w, h))
+}
+
+fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
+    image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().ok()?.into_dimensions().ok()
 }
 
 pub(crate) fn decode(

@@ -764,12 +764,13 @@ fn decode_images(
         }
         let label = format!("{file}#{}", image.name().map_or_else(|| format!("image{}", image.index()), str::to_owned));
         let bytes = images::image_bytes(&image, buffers, base_dir, options, reads)?;
-        // The decoded size from the header, summed before anything is decoded.
+        // The decoded size with the mip chain, from the header, summed before anything is
+        // decoded.
         let encoded = match &bytes {
             images::ImageBytes::Slice(s) => *s,
             images::ImageBytes::Owned(v) => v.as_slice(),
         };
-        total = total.saturating_add(images::decoded_size(encoded).unwrap_or(0));
+        total = total.saturating_add(images::held_size(encoded).unwrap_or(0));
         options.limits.check(Limit::TotalImageBytes, "the decoded size of all images", total)?;
         by_source.insert(key, jobs.len());
         job_of[image.index()] = Some(jobs.len());
