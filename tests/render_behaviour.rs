@@ -546,3 +546,26 @@ fn moving_many_instances_at_once_uploads_every_record() {
     let expected = render_app(&mut fresh, size, RenderSettings::default());
     assert_eq!(after, expected);
 }
+
+#[test]
+fn a_multisampled_frame_times_its_resolve_where_the_shader_resolves() {
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    spawn_mesh(&mut app, facing_quad(), white(), Transform::default());
+    let timed = RenderSettings { msaa: 4, gpu_timing: true, ..Default::default() };
+    render_app(&mut app, SIZE, timed.clone());
+    render_app(&mut app, SIZE, timed);
+    let mut renderer = app.world.resource_mut::<Renderer>();
+    renderer.finish();
+    let caps = renderer.context().caps;
+    let Some(timings) = renderer.stats().gpu.clone() else {
+        // Without timestamp queries (wgpu's GL backend) frames are untimed, and say so.
+        assert!(!caps.timestamps, "the adapter has timestamp queries, yet no frame was timed");
+        return;
+    };
+    let passes: Vec<&str> = timings.passes.iter().map(|p| p.0).collect();
+    assert!(passes.contains(&"forward"), "{passes:?}");
+    // Where the frame resolves by its own pass (CPU rasterisers), that pass is timed too, so the
+    // passes add up to the frame.
+    assert_eq!(passes.contains(&"resolve"), caps.shader_msaa_resolve, "{passes:?}");
+}

@@ -114,7 +114,7 @@ pub fn encode(
     batches: &[Batch],
     opaque_count: usize,
     phase: OpaquePhase,
-    timer: Option<&mut GpuTimer>,
+    mut timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
     let mut error = compile(device, pipelines, batches, 0, inputs.indirect);
     let samples = inputs.targets.samples;
@@ -174,7 +174,7 @@ pub fn encode(
                 stencil_ops: None,
             }
         }),
-        timestamp_writes: timer.and_then(|t| t.pass(if late { "forward late" } else { "forward" })),
+        timestamp_writes: timer.as_deref_mut().and_then(|t| t.pass(if late { "forward late" } else { "forward" })),
         occlusion_query_set: None,
         multiview_mask: None,
     });
@@ -195,7 +195,7 @@ pub fn encode(
         counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
         draw_gizmos(&mut pass, pipelines, inputs);
         drop(pass);
-        super::resolve::encode(encoder, device, pipelines, &attachment);
+        super::resolve::encode(encoder, device, pipelines, &attachment, timer);
     }
     (counts, error)
 }
@@ -211,7 +211,7 @@ pub fn encode_after_deferred(
     batches: &[Batch],
     opaque_count: usize,
     add_local_light: bool,
-    timer: Option<&mut GpuTimer>,
+    mut timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
     let targets = inputs.targets;
     let Some(deferred) = targets.deferred.as_ref() else { return (DrawCounts::default(), None) };
@@ -244,7 +244,7 @@ pub fn encode_after_deferred(
             depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Discard }),
             stencil_ops: None,
         }),
-        timestamp_writes: timer.and_then(|t| t.pass("composite")),
+        timestamp_writes: timer.as_deref_mut().and_then(|t| t.pass("composite")),
         occlusion_query_set: None,
         multiview_mask: None,
     });
@@ -258,7 +258,7 @@ pub fn encode_after_deferred(
     let counts = draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len()));
     draw_gizmos(&mut pass, pipelines, inputs);
     drop(pass);
-    super::resolve::encode(encoder, device, pipelines, &attachment);
+    super::resolve::encode(encoder, device, pipelines, &attachment, timer);
     (counts, error)
 }
 

@@ -390,22 +390,8 @@ impl PostProcess {
     ) -> Result<(), ShaderError> {
         let Some(ldr) = &self.ldr else { return Ok(()) };
         pipelines.compile_post(device, false, false, Some(output_format))?;
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("fxaa"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: output,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: timer.and_then(|t| t.pass("fxaa")),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(pipelines.fxaa_cached(output_format).expect("compiled above"));
-        pass.set_bind_group(0, &ldr.group, &[]);
-        pass.draw(0..3, 0..1);
+        let pipeline = pipelines.fxaa_cached(output_format).expect("compiled above");
+        super::draw_fullscreen(encoder, "fxaa", output, pipeline, &ldr.group, timer.and_then(|t| t.pass("fxaa")));
         Ok(())
     }
 }

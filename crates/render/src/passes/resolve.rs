@@ -8,6 +8,7 @@
 use crate::pipelines::pipeline_cache::PipelineCache;
 use crate::pipelines::shader_library::ShaderError;
 use crate::targets::ColorAttachment;
+use crate::timing::GpuTimer;
 
 /// Before the pass that draws into `attachment`: compiles the resolve pipeline, or, if its
 /// shader does not build, has the render pass resolve instead (so a broken `resolve.wgsl`
@@ -42,6 +43,7 @@ pub fn encode(
     device: &wgpu::Device,
     pipelines: &PipelineCache,
     attachment: &ColorAttachment,
+    timer: Option<&mut GpuTimer>,
 ) {
     let Some(target) = attachment.shader_resolve else { return };
     let Some(pipeline) = pipelines.resolve_cached(format(attachment)) else { return };
@@ -50,5 +52,5 @@ pub fn encode(
         layout: &pipelines.resolve_layout,
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(attachment.draw) }],
     });
-    super::draw_fullscreen(encoder, "resolve", target, pipeline, &bind_group);
+    super::draw_fullscreen(encoder, "resolve", target, pipeline, &bind_group, timer.and_then(|t| t.pass("resolve")));
 }

@@ -306,7 +306,7 @@ impl TextureCache {
                     break;
                 }
             };
-            crate::passes::draw_fullscreen(encoder, "mipmap", &target, pipeline, &bind_group);
+            crate::passes::draw_fullscreen(encoder, "mipmap", &target, pipeline, &bind_group, None);
         }
     }
 }
