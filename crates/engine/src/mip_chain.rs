@@ -5,9 +5,10 @@
 //! Import builds the chain on the decoding thread for the colour space the image's material
 //! slots read it in ([`StandardMaterial::SRGB_SLOTS`](crate::material::StandardMaterial)), and
 //! the renderer uploads it with level 0. Only images without one (made at run time, or edited
-//! since: `Assets::get_mut` drops it), and the linear texture of an image also read as sRGB,
-//! have their chain rendered on the GPU (`shaders/mipmap.wgsl`, the same means). Why on the CPU: on a software rasteriser the GPU *is* the CPU, and there the shader
-//! cost several times the plain loop below (DamagedHelmet's five 2048² chains: about 70 ms of
+//! since: `Assets::get_mut` drops it), and the texture of an image read in both colour spaces
+//! whose chain was made for the other one, have their chain rendered on the GPU
+//! (`shaders/mipmap.wgsl`, the same means). Why on the CPU: on a software rasteriser the GPU
+//! *is* the CPU, and there the shader cost several times the plain loop below (DamagedHelmet's five 2048² chains: about 70 ms of
 //! lavapipe against 23 ms of CPU here), after decoding had already finished; on a GPU machine
 //! the chain adds about a sixth to the decoding threads' work (140 ms of JPEG decoding).
 //!
@@ -206,9 +207,12 @@ mod tests {
         // 5×3: 2×1 and 1×1.
         assert_eq!(chain_bytes(5, 3), 12);
         assert_eq!(chain_bytes(1, 1), 0);
-        let img = Image { width: 5, height: 3, rgba8: vec![0; 60], label: "odd".into(), mips: None };
-        let built: usize = MipChain::build(&img, false).levels.iter().map(|l| l.rgba8.len()).sum();
-        assert_eq!(chain_bytes(5, 3), built as u64);
+        for (w, h) in [(5, 3), (1, 8), (8, 1), (7, 2), (1, 1), (64, 16)] {
+            let img =
+                Image { width: w, height: h, rgba8: vec![0; (w * h * 4) as usize], label: "any".into(), mips: None };
+            let built: usize = MipChain::build(&img, false).levels.iter().map(|l| l.rgba8.len()).sum();
+            assert_eq!(chain_bytes(w, h), built as u64, "{w}×{h}");
+        }
     }
 
     #[test]

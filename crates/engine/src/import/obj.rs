@@ -437,12 +437,13 @@ struct ObjImages {
     images: Vec<Arc<Image>>,
     index: HashMap<PathBuf, usize>,
     reads: ReadBudget,
-    decoded: u64,
+    /// Decoded bytes held so far, mip chains included (`TotalImageBytes`).
+    held: u64,
 }
 
 impl ObjImages {
     fn new(scene: &Path, reads: ReadBudget) -> Self {
-        Self { scene: scene.to_path_buf(), images: Vec::new(), index: HashMap::new(), reads, decoded: 0 }
+        Self { scene: scene.to_path_buf(), images: Vec::new(), index: HashMap::new(), reads, held: 0 }
     }
 }
 
@@ -512,12 +513,12 @@ fn convert_material(
                 let bytes = read_file(&path, ReadLimit::image(options), &textures.reads).map_err(|e| {
                     ImportError::new(&path, e.into_kind(&t.file, |reason| ImportErrorKind::Obj { line: None, reason }))
                 })?;
-                textures.decoded = textures.decoded.saturating_add(held_size(&bytes).unwrap_or(0));
-                let what = "the decoded size of all images";
+                textures.held = textures.held.saturating_add(held_size(&bytes).unwrap_or(0));
+                let what = "the decoded size of all images with their mip chains";
                 let scene = &textures.scene;
                 options
                     .limits
-                    .check(Limit::TotalImageBytes, what, textures.decoded)
+                    .check(Limit::TotalImageBytes, what, textures.held)
                     .map_err(|k| ImportError::new(scene, k))?;
                 let label = t.file.clone();
                 let n = textures.images.len();

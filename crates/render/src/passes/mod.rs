@@ -11,7 +11,8 @@ pub mod shadows;
 pub mod tonemap;
 
 /// One full-screen triangle drawn by `pipeline` with `bind_group` into all of `target` (its
-/// previous contents cleared): the shape of the mip-generation and resolve passes.
+/// previous contents cleared), with the pass's timestamps if given: the shape of the
+/// mip-generation, resolve and FXAA passes.
 pub fn draw_fullscreen(
     encoder: &mut wgpu::CommandEncoder,
     label: &str,

@@ -10,12 +10,15 @@
 //! same chain. Textures are created when an image first appears or changes; they never sit on
 //! the per-frame path. Where the device can import host memory (`host_memory`), the large
 //! levels of an image are copied from where they were decoded; the rest, and everything on
-//! other devices, through `Queue::write_texture`'s staging copy. All of a frame's uploads go to
-//! the driver in one submission as soon as they are staged, ahead of the frame, so that it places
-//! the texels while the render thread builds pipelines. One, not several: wgpu chains
-//! submissions with semaphores, and lavapipe's `vkQueueSubmit` then blocks until the previous
-//! submission has run (`perf`'s scheduler stacks showed the render thread waiting there through
-//! a submission per 4 MiB; one submission took the helmet's screenshot from 0.33 to 0.30 s).
+//! other devices, through `Queue::write_texture`'s staging copy. A frame's uploads go to the
+//! driver as soon as they are staged, ahead of the frame, so that it places the texels while the
+//! render thread builds pipelines: in one submission, unless more than [`STAGING_SUBMIT_BYTES`]
+//! were staged, which bounds the staging memory alive at once (on GPUs every level is staged).
+//! Few submissions, not one per texture: wgpu chains submissions with semaphores, and
+//! lavapipe's `vkQueueSubmit` then blocks until the previous submission has run (`perf`'s
+//! scheduler stacks showed the render thread waiting there through a submission per 4 MiB; one
+//! submission took the helmet's screenshot from 0.33 to 0.30 s). With imports lavapipe stages
+//! only the small levels, so its uploads stay one submission.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -28,6 +31,10 @@ use penumbra_engine::scenes::srgb_to_linear;
 
 use crate::pipelines::pipeline_cache::PipelineCache;
 
+/// Staged texture bytes after which the uploads so far are submitted: wgpu frees a staging
+/// buffer once its submission has run, so this bounds the staging memory a scene's textures
+/// hold at once.
+const STAGING_SUBMIT_BYTES: u64 = 64 << 20;
 /// Levels smaller than this go through a staging copy even where imports exist: an import is a
 /// few driver calls and whole pages, not worth it for small images.
 const IMPORT_MIN_BYTES: usize = 256 << 10;
@@ -122,8 +129,8 @@ impl TextureCache {
 
     /// Uploads every stale request: level 0 and the chain the image brought, or level 0 and a
     /// GPU mip generation encoded into `encoder` (to be submitted after the uploads, which this
-    /// submits in one go: staged writes, and copies from imported memory in an encoder of their
-    /// own).
+    /// submits: staged writes, and copies from imported memory in an encoder of their own; in
+    /// one submission unless more than [`STAGING_SUBMIT_BYTES`] were staged).
     pub fn upload_many(
         &mut self,
         device: &wgpu::Device,
@@ -135,19 +142,26 @@ impl TextureCache {
         // Copies from imported memory, submitted with the staged writes.
         let mut copies = None;
         let mut uploaded = false;
+        let mut staged = 0;
         for r in requests {
             if !self.is_stale(r.image, r.srgb, r.version) {
                 continue;
             }
-            let (view, bytes) = self.create_texture(device, queue, encoder, &mut copies, pipelines, &r.data, r.srgb);
-            self.textures.insert((r.image, r.srgb), GpuTexture { view, version: r.version, bytes });
+            let upload = self.create_texture(device, queue, encoder, &mut copies, pipelines, &r.data, r.srgb);
+            let texture = GpuTexture { view: upload.view, version: r.version, bytes: upload.bytes };
+            self.textures.insert((r.image, r.srgb), texture);
             uploaded = true;
+            staged += upload.staged;
+            if staged >= STAGING_SUBMIT_BYTES {
+                queue.submit(copies.take().map(wgpu::CommandEncoder::finish));
+                (staged, uploaded) = (0, false);
+            }
         }
         // Handed to the driver now rather than with the frame: it copies the texels into place
         // while this thread prepares the rest of the frame (on a CPU rasteriser the two then
         // take two cores, not one after the other).
         if uploaded {
-            queue.submit(copies.map(|c: wgpu::CommandEncoder| c.finish()));
+            queue.submit(copies.map(wgpu::CommandEncoder::finish));
         }
     }
 
@@ -203,7 +217,7 @@ impl TextureCache {
         pipelines: &mut PipelineCache,
         owner: &Arc<Image>,
         srgb: bool,
-    ) -> (wgpu::TextureView, u64) {
+    ) -> Upload {
         let image: &Image = owner;
         let max = device.limits().max_texture_dimension_2d;
         let fitted;
@@ -249,9 +263,10 @@ impl TextureCache {
         // Texels from where they lie where the device imports host memory, for the image as
         // decoded (not one fitted to the device here).
         let import = self.host_import_alignment.filter(|_| std::ptr::eq(image, &**owner));
-        let upload = |copies: &mut Option<wgpu::CommandEncoder>, level: u32, w: u32, h: u32, texels: &[u8]| {
+        let mut staged = 0;
+        let mut upload = |copies: &mut Option<wgpu::CommandEncoder>, level: u32, w: u32, h: u32, texels: &[u8]| {
             let level = Level { texture: &texture, level, width: w, height: h, texels };
-            upload_level(device, queue, copies, import.map(|a| (a, owner)), level);
+            staged += upload_level(device, queue, copies, import.map(|a| (a, owner)), level);
         };
         upload(copies, 0, image.width, image.height, &image.rgba8);
         // A full chain adds a third to level 0.
@@ -264,7 +279,7 @@ impl TextureCache {
             }
             None => self.render_mip_chain(device, encoder, pipelines, &texture, view_format, shader_srgb, &image.label),
         }
-        (texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes)
+        Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged }
     }
 
     /// Levels 1.. of `texture` from level 0, on the GPU (`shaders/mipmap.wgsl`), through views of
@@ -311,6 +326,14 @@ impl TextureCache {
     }
 }
 
+/// A texture made by `create_texture`: its view, its bytes with the full chain, and the bytes
+/// of it that went through staging copies.
+struct Upload {
+    view: wgpu::TextureView,
+    bytes: u64,
+    staged: u64,
+}
+
 /// One texture level's texels.
 struct Level<'a> {
     texture: &'a wgpu::Texture,
@@ -322,14 +345,14 @@ struct Level<'a> {
 
 /// Uploads one level: copied by `copies` from where the texels lie when `import` (the
 /// alignment, and the image holding them) is given and the level qualifies, else staged by
-/// `Queue::write_texture`.
+/// `Queue::write_texture`. Returns the bytes staged.
 fn upload_level(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     copies: &mut Option<wgpu::CommandEncoder>,
     import: Option<(u64, &Arc<Image>)>,
     l: Level,
-) {
+) -> u64 {
     // Copies need rows at the copy alignment and texels at a multiple of 4 bytes into the buffer.
     let importable = l.texels.len() >= IMPORT_MIN_BYTES
         && (4 * l.width).is_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
@@ -341,7 +364,7 @@ fn upload_level(
     });
     let Some((buffer, offset)) = imported else {
         write_level(queue, l.texture, l.level, l.width, l.height, l.texels);
-        return;
+        return l.texels.len() as u64;
     };
     let c = copies.get_or_insert_with(|| {
         device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("texture uploads") })
@@ -363,6 +386,7 @@ fn upload_level(
         },
         wgpu::Extent3d { width: l.width, height: l.height, depth_or_array_layers: 1 },
     );
+    0
 }
 
 /// Halves `image` (2×2 box) until both sides fit `max`: the fallback for images larger than the

@@ -49,13 +49,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
     }
     // Freeing is part of the command's time: the decoded images (about 110 MB for
-    // DamagedHelmet) on a second thread while the device and its textures go on this one
-    // (about 10 and 30 ms on lavapipe, `-v`).
+    // DamagedHelmet, about 10 ms on lavapipe) on a second thread while the device and its
+    // textures (about 30 ms) go on this one (`-v`).
     let renderer = app.world.remove_resource::<Renderer>();
     let world = std::mem::take(&mut app.world);
     let freer = std::thread::spawn(move || drop((world, scene)));
     drop(renderer);
-    let _ = freer.join();
+    freer.join().map_err(|_| anyhow!("freeing the scene panicked"))?;
     step("freed");
     Ok(())
 }

@@ -771,7 +771,7 @@ fn decode_images(
             images::ImageBytes::Owned(v) => v.as_slice(),
         };
         total = total.saturating_add(images::held_size(encoded).unwrap_or(0));
-        options.limits.check(Limit::TotalImageBytes, "the decoded size of all images", total)?;
+        options.limits.check(Limit::TotalImageBytes, "the decoded size of all images with their mip chains", total)?;
         by_source.insert(key, jobs.len());
         job_of[image.index()] = Some(jobs.len());
         jobs.push((image.index(), uri, label, bytes, srgb[image.index()]));
