@@ -8,9 +8,10 @@
 //! since: `Assets::get_mut` drops it), and the texture of an image read in both colour spaces
 //! whose chain was made for the other one, have their chain rendered on the GPU
 //! (`shaders/mipmap.wgsl`, the same means). Why on the CPU: on a software rasteriser the GPU
-//! *is* the CPU, and there the shader cost several times the plain loop below (DamagedHelmet's five 2048² chains: about 70 ms of
-//! lavapipe against 23 ms of CPU here), after decoding had already finished; on a GPU machine
-//! the chain adds about a sixth to the decoding threads' work (140 ms of JPEG decoding).
+//! *is* the CPU, and there the shader cost several times the plain loop below (DamagedHelmet's
+//! five 2048² chains: about 70 ms of lavapipe against 23 ms of CPU here), after decoding had
+//! already finished; on a GPU machine the chain adds about a sixth to the decoding threads'
+//! work (140 ms of JPEG decoding).
 //!
 //! sRGB means are exact in integers: each stored byte's linear value is held as a 24-bit
 //! fraction, four of them summed, and the sum compared with the sums at which the sRGB curve
