@@ -221,7 +221,18 @@ impl<T: Send + Sync + 'static> Assets<T> {
     }
 }
 
-impl<T: Clone + Send + Sync + 'static> Assets<T> {
+/// What an asset type does before it is edited in place ([`Assets::get_mut`]): drop what it
+/// derived from the content the caller is about to change. Most types derive nothing; an
+/// image drops the mip chain made from its texels (`Image::mips`).
+pub trait AssetEdit {
+    fn before_edit(&mut self) {}
+}
+
+impl AssetEdit for crate::mesh::Mesh {}
+impl AssetEdit for crate::material::StandardMaterial {}
+impl AssetEdit for crate::ies::IesProfile {}
+
+impl<T: AssetEdit + Clone + Send + Sync + 'static> Assets<T> {
     /// Mutable access; stamps a new version so the render world re-uploads the asset.
     pub fn get_mut(&mut self, handle: Handle<T>) -> Result<&mut T, StaleHandle> {
         self.slot(handle)?;
@@ -229,12 +240,7 @@ impl<T: Clone + Send + Sync + 'static> Assets<T> {
         let slot = &mut self.slots[handle.index as usize];
         slot.version = version;
         let value = Arc::make_mut(slot.value.as_mut().expect("checked by slot()"));
-        // What was derived from the content goes with an edit of it: an image's mip chain was
-        // made from the texels the caller is about to change (the renderer then makes the chain
-        // itself, `Image::mips`).
-        if let Some(image) = (value as &mut dyn std::any::Any).downcast_mut::<crate::image::Image>() {
-            image.mips = None;
-        }
+        value.before_edit();
         Ok(value)
     }
 }
@@ -242,6 +248,8 @@ impl<T: Clone + Send + Sync + 'static> Assets<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    impl AssetEdit for Vec<u8> {}
 
     #[test]
     fn editing_an_image_drops_the_mip_chain_made_from_its_texels() {

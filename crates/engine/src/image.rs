@@ -23,3 +23,10 @@ impl Image {
         Self { width: 1, height: 1, rgba8: rgba.to_vec(), label: label.into(), mips: None }
     }
 }
+
+impl crate::assets::AssetEdit for Image {
+    /// The chain was made from the texels about to change: the renderer makes it anew.
+    fn before_edit(&mut self) {
+        self.mips = None;
+    }
+}

@@ -28,7 +28,7 @@ pub mod time;
 use bevy_ecs::schedule::IntoScheduleConfigs;
 
 pub use app::{App, Plugin, PostUpdate, Startup, Update};
-pub use assets::{Assets, Handle, StaleHandle};
+pub use assets::{AssetEdit, Assets, Handle, StaleHandle};
 pub use time::{Time, TimeMode};
 
 /// Registers the asset stores and the `PostUpdate` systems that derive world-space state.

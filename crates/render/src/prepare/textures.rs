@@ -26,7 +26,7 @@ use std::sync::Arc;
 use penumbra_engine::Handle;
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
-pub use penumbra_engine::mip_chain::mip_level_count;
+use penumbra_engine::mip_chain::{MipChain, mip_level_count};
 use penumbra_engine::scenes::srgb_to_linear;
 
 use crate::pipelines::pipeline_cache::PipelineCache;
@@ -222,7 +222,7 @@ impl TextureCache {
         let max = device.limits().max_texture_dimension_2d;
         let fitted;
         let image = if image.width > max || image.height > max {
-            fitted = fit_within(image, max);
+            fitted = fit_within(image, max, srgb);
             tracing::warn!(
                 "{}: {}×{} exceeds this GPU's texture limit of {max}; uploading it at {}×{}",
                 image.label,
@@ -389,26 +389,29 @@ fn upload_level(
     0
 }
 
-/// Halves `image` (2×2 box) until both sides fit `max`: the fallback for images larger than the
-/// GPU allows. Averages stored values (a slight darkening of sRGB detail is acceptable here:
-/// the image could not be shown at all otherwise).
-fn fit_within(image: &Image, max: u32) -> Image {
-    let (mut w, mut h, mut data) = (image.width as usize, image.height as usize, image.rgba8.clone());
-    while w > max as usize || h > max as usize {
-        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
-        let mut out = vec![0u8; nw * nh * 4];
-        for y in 0..nh {
-            for x in 0..nw {
-                for c in 0..4 {
-                    let at = |xx: usize, yy: usize| data[(yy.min(h - 1) * w + xx.min(w - 1)) * 4 + c] as u32;
-                    let sum = at(2 * x, 2 * y) + at(2 * x + 1, 2 * y) + at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1);
-                    out[(y * nw + x) * 4 + c] = ((sum + 2) / 4) as u8;
-                }
-            }
+/// The largest level of `image`'s mip chain for this colour space that fits `max`, with the
+/// levels below it as its own chain: the fallback for images larger than the GPU allows. The
+/// chain decoding made serves when it is for this colour space; otherwise one is built here
+/// (rare: sides over the device's limit, 8192 or 16384 texels).
+fn fit_within(image: &Image, max: u32, srgb: bool) -> Image {
+    let built;
+    let chain = match image.mips.as_ref().filter(|m| m.srgb == srgb && m.fits(image)) {
+        Some(chain) => chain,
+        None => {
+            built = MipChain::build(image, srgb);
+            &built
         }
-        (w, h, data) = (nw, nh, out);
+    };
+    // Every chain ends at 1×1, which fits any device.
+    let first = chain.levels.iter().position(|l| l.width <= max && l.height <= max).unwrap_or(chain.levels.len() - 1);
+    let level = &chain.levels[first];
+    Image {
+        width: level.width,
+        height: level.height,
+        rgba8: level.rgba8.clone(),
+        label: image.label.clone(),
+        mips: Some(MipChain { srgb, levels: chain.levels[first + 1..].to_vec() }),
     }
-    Image { width: w as u32, height: h as u32, rgba8: data, label: image.label.clone(), mips: None }
 }
 
 /// The sRGB curve's inverse at each 8-bit value.
@@ -457,8 +460,18 @@ mod tests {
     #[test]
     fn oversized_images_are_halved_until_they_fit() {
         let img = Image { width: 10, height: 3, rgba8: vec![200; 10 * 3 * 4], label: "t".into(), mips: None };
-        let fitted = fit_within(&img, 4);
+        let fitted = fit_within(&img, 4, false);
         assert_eq!((fitted.width, fitted.height), (2, 1));
         assert!(fitted.rgba8.iter().all(|&b| b == 200));
+        // The levels below come along as the fitted image's chain.
+        let chain = fitted.mips.as_ref().expect("a chain");
+        assert!(chain.fits(&fitted) && !chain.srgb);
+        // sRGB images average in linear light, as every other chain does: black and white
+        // columns meet at 188, not 128.
+        let stripes: Vec<u8> = (0..8 * 2).flat_map(|i| if i % 2 == 0 { [0, 0, 0, 255] } else { [255; 4] }).collect();
+        let img = Image { width: 8, height: 2, rgba8: stripes, label: "s".into(), mips: None };
+        let fitted = fit_within(&img, 4, true);
+        assert_eq!((fitted.width, fitted.height), (4, 1));
+        assert_eq!(&fitted.rgba8[..4], &[188, 188, 188, 255]);
     }
 }
