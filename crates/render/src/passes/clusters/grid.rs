@@ -108,28 +108,49 @@ impl ClusterBox {
     }
 }
 
+/// The nearest and farthest view depths of `bounds`' corners, `forward` being the unit view
+/// direction: the range of depths any point of the box can have. The near end is pulled in by
+/// the rounding of the camera-relative corners (far from the origin that is centimetres), so
+/// that no light in the box starts in front of it.
+fn light_depth_range(bounds: LightBounds, camera_position: Vec3, forward: Vec3) -> (f32, f32) {
+    let rel_min = bounds.min - camera_position;
+    let rel_max = bounds.max - camera_position;
+    let nearest = Vec3::select(forward.cmpge(Vec3::ZERO), rel_min, rel_max).dot(forward);
+    let farthest = Vec3::select(forward.cmpge(Vec3::ZERO), rel_max, rel_min).dot(forward);
+    // Each of the corner's subtraction, the light's own and the bounds' rounds by half an ulp
+    // of the largest coordinate; four ulps cover them, and 1e-5 of the depth the GPU's padding.
+    let magnitude = bounds.min.abs().max(bounds.max.abs()).max(camera_position.abs()).max_element();
+    (nearest - 4.0 * f32::EPSILON * magnitude - 1e-5 * nearest.abs(), farthest)
+}
+
 impl ClusterGrid {
-    /// The grid for `view` rendered at `viewport` pixels. Perspective slices end at the far
-    /// side of the local lights' bounds (nothing beyond needs lists); orthographic ones at zfar.
+    /// The grid for `view` rendered at `viewport` pixels. Perspective slices span the depths
+    /// the local lights' bounds reach, from their near side (or the near plane, if nearer) to
+    /// their far side: no light reaches a depth outside that range, so no list is lost by
+    /// slicing only it, and the slices are as thin as they can be. A fragment outside it looks
+    /// up the first or last slice, whose lists hold every light that could reach it. (Slicing
+    /// from the near plane spent most slices where no light reaches: on the many-lights bench
+    /// scene, 154 to 292 m from the eye, 28 of the 32 slices lay nearer than 154 m.)
+    /// Orthographic slices span the near plane to zfar.
     pub fn new(view: &ExtractedView, viewport: (u32, u32), config: ClusterConfig, bounds: Option<LightBounds>) -> Self {
         let rotation = Mat3::from(view.world_from_view.matrix3);
         let camera_position = Vec3::from(view.world_from_view.translation);
         let forward = (rotation * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
         let aspect = viewport.0.max(1) as f32 / viewport.1.max(1) as f32;
         let clip = view.projection.clip_from_view(aspect);
-        let near = view.projection.znear().max(f32::MIN_POSITIVE);
-        let (orthographic, far) = match view.projection {
-            Projection::Orthographic { zfar, .. } => (true, zfar.max(near * (1.0 + 1e-3))),
-            Projection::Perspective { .. } => {
-                let far = bounds.map_or(near * 2.0, |b| {
-                    let rel_min = b.min - camera_position;
-                    let rel_max = b.max - camera_position;
-                    // The farthest corner along the view direction.
-                    let corner = Vec3::select(forward.cmpge(Vec3::ZERO), rel_max, rel_min);
-                    corner.dot(forward)
-                });
-                (false, if far.is_finite() { far.max(near * 2.0) } else { f32::MAX / 4.0 })
-            }
+        let znear = view.projection.znear().max(f32::MIN_POSITIVE);
+        let (orthographic, near, far) = match view.projection {
+            Projection::Orthographic { zfar, .. } => (true, znear, zfar.max(znear * (1.0 + 1e-3))),
+            Projection::Perspective { .. } => match bounds.map(|b| light_depth_range(b, camera_position, forward)) {
+                Some((first, last)) if first.is_finite() && last.is_finite() => {
+                    let near = first.max(znear);
+                    // Lights all behind the eye have no depth range: the smallest grid in front.
+                    let far = if last > near { last.max(near * (1.0 + 1e-3)) } else { near * 2.0 };
+                    (false, near, far)
+                }
+                Some(_) => (false, znear, f32::MAX / 4.0),
+                None => (false, znear, znear * 2.0),
+            },
         };
         let slices = config.slices as f32;
         let slice_scale = if orthographic { slices / (far - near) } else { slices / (far / near).log2() };
@@ -307,5 +328,58 @@ impl ClusterGrid {
         }
         let chunks: Vec<&[GpuLight]> = lights.chunks(lights.len().div_ceil(8)).collect();
         penumbra_engine::parallel::parallel_map(&chunks, |c| bound(c)).into_iter().sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Affine3A;
+
+    use super::*;
+
+    /// A camera at `eye` looking down −Z.
+    fn view_at(eye: Vec3) -> ExtractedView {
+        ExtractedView {
+            world_from_view: Affine3A::from_translation(eye),
+            projection: Projection::default(),
+            exposure: 1.0,
+        }
+    }
+
+    fn grid(view: &ExtractedView, min: Vec3, max: Vec3) -> ClusterGrid {
+        ClusterGrid::new(view, (1920, 1080), ClusterConfig::default(), Some(LightBounds { min, max }))
+    }
+
+    #[test]
+    fn slices_span_the_depths_the_lights_reach() {
+        let view = view_at(Vec3::ZERO);
+        let g = grid(&view, Vec3::new(-5.0, -1.0, -110.0), Vec3::new(5.0, 1.0, -100.0));
+        assert!(g.near <= 100.0 && g.near > 99.99, "near {}", g.near);
+        assert_eq!(g.far, 110.0);
+        assert!((g.slice_depth(g.dims.z) - 110.0).abs() < 1e-3);
+        // Every depth in the lights' range has a slice of its own; nearer and farther ones clamp.
+        assert_eq!(g.slice_of(100.0), 0);
+        assert_eq!(g.slice_of(109.99), 31);
+        assert!(g.slice_of(50.0) < 0 && g.slice_of(200.0) >= 32);
+    }
+
+    #[test]
+    fn slices_start_at_the_near_plane_when_a_light_reaches_the_eye() {
+        let view = view_at(Vec3::ZERO);
+        let g = grid(&view, Vec3::splat(-3.0), Vec3::new(3.0, 3.0, -20.0).max(Vec3::splat(3.0)));
+        assert_eq!(g.near, 0.1);
+        // Lights all behind the eye: the smallest grid in front of it.
+        let g = grid(&view, Vec3::new(-1.0, -1.0, 5.0), Vec3::new(1.0, 1.0, 9.0));
+        assert_eq!((g.near, g.far), (0.1, 0.2));
+    }
+
+    #[test]
+    fn far_from_the_origin_the_first_slice_starts_in_front_of_every_light() {
+        // A million units out, f32 rounds camera-relative corners to about 6 cm.
+        let eye = Vec3::new(1e6, 0.0, 1e6);
+        let view = view_at(eye);
+        let near_side = eye.z - 30.0;
+        let g = grid(&view, Vec3::new(eye.x - 1.0, -1.0, eye.z - 40.0), Vec3::new(eye.x + 1.0, 1.0, near_side));
+        assert!(g.near < 30.0 - 0.06 && g.near > 29.0, "near {}", g.near);
     }
 }
