@@ -6,6 +6,7 @@
 use penumbra::engine::scenes::{SplitMix64, spawn_many_lights};
 use penumbra::prelude::*;
 use penumbra::render::frame::Pass;
+use penumbra::render::passes::clusters::grid::ClusterConfig;
 use penumbra::render::passes::clusters::reference;
 use penumbra::render::pipelines::pipeline_cache::{DebugView, LocalLights};
 use penumbra::render::renderer::LightWalk;
@@ -75,6 +76,21 @@ fn gpu_lists_equal_the_cpu_reference_in_a_stadium_of_1000_lights() {
     render_app(&mut app, (160, 90), settings(LightWalk::Clustered));
     let (occupied, entries) = assert_lists_match_reference(&app, "stadium");
     assert!(occupied > 50 && entries >= occupied, "{occupied} clusters hold {entries} entries");
+}
+
+/// The scan takes the counts in blocks of 256 clusters: grids of one partial block, of a few
+/// blocks with a partial last one, and of hundreds of blocks.
+#[test]
+fn gpu_lists_equal_the_cpu_reference_on_grids_of_any_size() {
+    for (tiles_x, tiles_y, slices) in [(5, 3, 7), (13, 7, 11), (64, 36, 40)] {
+        let mut app = scene_app();
+        spawn_many_lights(&mut app.world, 1000, Some(3.0));
+        let clusters = ClusterConfig { tiles_x, tiles_y, slices };
+        render_app(&mut app, (160, 90), RenderSettings { clusters, ..settings(LightWalk::Clustered) });
+        let what = format!("{tiles_x}x{tiles_y}x{slices} grid");
+        let (occupied, entries) = assert_lists_match_reference(&app, &what);
+        assert!(occupied > 10 && entries >= occupied, "{what}: {occupied} clusters hold {entries} entries");
+    }
 }
 
 #[test]

@@ -194,7 +194,8 @@ pub enum DebugView {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ClusterEntry {
     Count,
-    PrefixSum,
+    ScanBlocks,
+    ScanApply,
     Fill,
     SortShort,
     SortLong,
@@ -204,7 +205,8 @@ impl ClusterEntry {
     fn name(self) -> &'static str {
         match self {
             ClusterEntry::Count => "count_lights",
-            ClusterEntry::PrefixSum => "prefix_sum",
+            ClusterEntry::ScanBlocks => "scan_blocks",
+            ClusterEntry::ScanApply => "scan_apply",
             ClusterEntry::Fill => "fill_lists",
             ClusterEntry::SortShort => "sort_short",
             ClusterEntry::SortLong => "sort_long",

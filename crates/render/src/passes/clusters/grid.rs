@@ -26,8 +26,8 @@ impl Default for ClusterConfig {
     }
 }
 
-/// The most clusters a grid may have: the prefix sum runs in one workgroup of 256 threads,
-/// each scanning its share serially, which stays fast up to about this size.
+/// The most clusters a grid may have: each of the scan's 4096 workgroups then sums up to 4095
+/// block totals before its own.
 pub const MAX_CLUSTERS: u32 = 1 << 20;
 
 impl ClusterConfig {

@@ -147,8 +147,9 @@ impl ClusterBinner {
         let mut grew = self.counts.reserve(device, clusters * 4);
         grew |= self.ranges.reserve(device, clusters * 8);
         grew |= self.indices.reserve(device, index_bytes);
-        // The indirect dispatch and queue count, then one slot per cluster.
-        grew |= self.long_lists.reserve(device, 16 + clusters * 4);
+        // The indirect dispatch and queue count, one slot per cluster, then the scan's block
+        // totals.
+        grew |= self.long_lists.reserve(device, 16 + (clusters + clusters.div_ceil(SCAN_BLOCK)) * 4);
         self.light_count = store.local_count();
         let gpu = grid.to_gpu(store.global_count(), self.light_count);
         queue.write_buffer(&self.grid_buffer, 0, bytemuck::bytes_of(&gpu));
@@ -213,7 +214,8 @@ impl ClusterBinner {
         let (Some(grid), Some(bind_group)) = (&self.grid, &self.bind_group) else { return Ok(()) };
         let entries = [
             ClusterEntry::Count,
-            ClusterEntry::PrefixSum,
+            ClusterEntry::ScanBlocks,
+            ClusterEntry::ScanApply,
             ClusterEntry::Fill,
             ClusterEntry::SortShort,
             ClusterEntry::SortLong,
@@ -228,21 +230,25 @@ impl ClusterBinner {
         // pass each, so that the benchmark times them one by one (a pass boundary costs about
         // what the barrier between two dispatches does).
         let light_groups = self.light_count.div_ceil(8);
-        for (entry, groups, label) in [
-            (ClusterEntry::Count, light_groups, BINNING_PASSES[0]),
-            (ClusterEntry::PrefixSum, 1, BINNING_PASSES[1]),
-            (ClusterEntry::Fill, light_groups, BINNING_PASSES[2]),
+        let blocks = clusters.div_ceil(SCAN_BLOCK as u32);
+        let passes: [(&str, &[(ClusterEntry, u32)]); 4] = [
+            (BINNING_PASSES[0], &[(ClusterEntry::Count, light_groups)]),
+            // Blocks of 256 clusters, a workgroup each, then each block's base added.
+            (BINNING_PASSES[1], &[(ClusterEntry::ScanBlocks, blocks), (ClusterEntry::ScanApply, blocks)]),
+            (BINNING_PASSES[2], &[(ClusterEntry::Fill, light_groups)]),
             // One invocation per cluster, 64 to a workgroup.
-            (ClusterEntry::SortShort, clusters.div_ceil(64), BINNING_PASSES[3]),
-        ] {
+            (BINNING_PASSES[3], &[(ClusterEntry::SortShort, clusters.div_ceil(64))]),
+        ];
+        for (label, dispatches) in passes {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(label),
                 timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass(label)),
             });
             pass.set_bind_group(0, bind_group, &[]);
-            let pipeline = pipelines.cluster_cached(entry).expect("created above");
-            pass.set_pipeline(pipeline);
-            dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
+            for &(entry, groups) in dispatches {
+                pass.set_pipeline(pipelines.cluster_cached(entry).expect("created above"));
+                dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
+            }
         }
         // One workgroup per cluster sort_short queued (its list is long), sized on the GPU.
         encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
@@ -261,6 +267,9 @@ impl ClusterBinner {
 /// invocation each), sorts of long lists (a workgroup each).
 pub const BINNING_PASSES: [&str; 5] =
     ["cluster count", "cluster scan", "cluster fill", "cluster short sort", "cluster sort"];
+
+/// Clusters a workgroup of the scan takes (`SCAN_THREADS` in cluster_bin.wgsl).
+const SCAN_BLOCK: u64 = 256;
 
 /// Dispatches at least `groups` workgroups of 64, spilling into y past the per-dimension limit
 /// (the shaders flatten the id and skip the surplus).
