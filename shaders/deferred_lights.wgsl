@@ -19,6 +19,7 @@
 #import penumbra::lights::shade_light
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
 #import penumbra::gbuffer::{decode_surface, oct_decode}
+#import penumbra::brdf::Surface
 
 struct DeferredParams {
     // Inverse of view.clip_from_rel: clip-space sample positions back to camera-relative ones.
@@ -102,26 +103,54 @@ fn shade_samples(px: vec2<i32>, corner: vec2<f32>, centre: vec2<f32>) -> vec3<f3
     return total / f32(SAMPLES);
 }
 
+// A workgroup's 8×8 pixels mostly share one cluster. When every pixel it shades once does, the
+// workgroup walks that list together: each round its 64 threads load 64 lights' bounding
+// spheres into workgroup memory, and each pixel tests them from there, instead of waiting on
+// two dependent loads per light (the slot, then the light), mostly for lights that miss it. On
+// an H100 at 100 000 lights (lists of 489 on average) the pass went 4.27 -> 3.90 ms; the rest
+// is shading the lights that do reach (about 43 a pixel). The sums run in list order either
+// way, so the image is the same.
+const GROUP_PIXELS: u32 = 64u;
+const NO_CLUSTER: u32 = 0xffffffffu;
+var<workgroup> group_first: atomic<u32>;
+var<workgroup> group_last: atomic<u32>;
+var<workgroup> group_cluster: u32;
+var<workgroup> candidate_slot: array<u32, GROUP_PIXELS>;
+// Camera-relative centre and squared range of each candidate.
+var<workgroup> candidate_sphere: array<vec4<f32>, GROUP_PIXELS>;
+
 @compute @workgroup_size(8, 8)
-fn shade_local_lights(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= u32(params.viewport.x) || id.y >= u32(params.viewport.y) {
-        return;
+fn shade_local_lights(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) t: u32,
+) {
+    if t == 0u {
+        atomicStore(&group_first, NO_CLUSTER);
+        atomicStore(&group_last, 0u);
     }
+    workgroupBarrier();
+    let inside = id.x < u32(params.viewport.x) && id.y < u32(params.viewport.y);
     let px = vec2<i32>(id.xy);
     let corner = vec2<f32>(id.xy);
     let centre = corner + 0.5;
-    let roughness = textureLoad(surface_color, px, 0).a;
-    let shape = textureLoad(surface_shape, px, 0);
+    var roughness = 0.0;
+    var shape = vec4<u32>(0u);
     var one_surface = true;
-    for (var i = 1u; i < SAMPLES; i++) {
-        one_surface = one_surface && textureLoad(surface_color, px, i).a == roughness
-            && all(textureLoad(surface_shape, px, i) == shape);
+    if inside {
+        roughness = textureLoad(surface_color, px, 0).a;
+        shape = textureLoad(surface_shape, px, 0);
+        for (var i = 1u; i < SAMPLES; i++) {
+            one_surface = one_surface && textureLoad(surface_color, px, i).a == roughness
+                && all(textureLoad(surface_shape, px, i) == shape);
+        }
     }
-    var total = vec3<f32>(0.0);
+    // What this pixel needs: nothing, one shading at `rel` (planar), or one per sample.
+    var shade_once = false;
+    var per_sample = inside && !one_surface;
+    var rel = vec3<f32>(0.0);
     // Roughness is never below 0.045 on a lit surface; 0 marks unlit ones and the background.
-    if one_surface && roughness > 0.0 {
+    if inside && one_surface && roughness > 0.0 {
         var positions: array<vec3<f32>, 4>;
-        var rel = vec3<f32>(0.0);
         for (var i = 0u; i < SAMPLES; i++) {
             positions[i] = position_at(corner + sample_offset(i), textureLoad(depth, px, i));
             rel += positions[i];
@@ -136,13 +165,58 @@ fn shade_local_lights(@builtin(global_invocation_id) id: vec3<u32>) {
         for (var i = 0u; i < SAMPLES; i++) {
             off_plane = max(off_plane, abs(dot(n, positions[i] - rel)));
         }
-        if off_plane <= 1e-3 * length(rel) {
-            total = shade_at(rel, centre, roughness, shape);
-        } else {
-            total = shade_samples(px, corner, centre);
+        shade_once = off_plane <= 1e-3 * length(rel);
+        per_sample = !shade_once;
+    }
+    var cluster = NO_CLUSTER;
+    if shade_once {
+        cluster = fragment_cluster(grid, centre, dot(rel, view.camera_forward));
+        atomicMin(&group_first, cluster);
+        atomicMax(&group_last, cluster);
+    }
+    workgroupBarrier();
+    if t == 0u {
+        let first = atomicLoad(&group_first);
+        group_cluster = select(NO_CLUSTER, first, first == atomicLoad(&group_last));
+    }
+    let shared_cluster = workgroupUniformLoad(&group_cluster);
+
+    var total = vec3<f32>(0.0);
+    if shared_cluster != NO_CLUSTER {
+        let range = cluster_ranges[shared_cluster];
+        var s: Surface;
+        if shade_once {
+            s = decode_surface(roughness, shape, eye_direction(view, rel));
         }
-    } else if !one_surface {
+        for (var round = 0u; round < range.y; round += GROUP_PIXELS) {
+            if round + t < range.y {
+                let slot = cluster_lights[range.x + round + t];
+                let reach = lights[slot].range;
+                candidate_slot[t] = slot;
+                candidate_sphere[t] = vec4<f32>(lights[slot].position - view.camera_position, reach * reach);
+            }
+            workgroupBarrier();
+            if shade_once {
+                let count = min(GROUP_PIXELS, range.y - round);
+                for (var k = 0u; k < count; k++) {
+                    let sphere = candidate_sphere[k];
+                    let to_light = sphere.xyz - rel;
+                    // Negated as forward.wgsl's skip, so that NaN is treated alike.
+                    if !(dot(to_light, to_light) >= sphere.w) {
+                        total += shade_light(s, lights[candidate_slot[k]], rel, view.camera_position);
+                    }
+                }
+            }
+            workgroupBarrier();
+        }
+    } else if shade_once {
+        total = shade_at(rel, centre, roughness, shape);
+    }
+    if per_sample {
         total = shade_samples(px, corner, centre);
+    }
+    if !inside {
+        return;
     }
     var out = total * view.exposure;
     // As in forward.wgsl: no NaN, and half of f16's range, so the sum with the forward pass's
