@@ -333,6 +333,8 @@ fn scan_apply(
         atomicStore(&counts[c], offset);
     }
     if b == 0u && t == 0u {
+        // The range fragments in front of the first slice look up (see fragment_cluster).
+        ranges[total] = vec2<u32>(0u, 0u);
         atomicStore(&long_lists.x, 0u);
         long_lists.y = 1u;
         long_lists.z = 1u;

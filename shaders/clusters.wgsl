@@ -13,6 +13,7 @@ struct ClusterGrid {
     view_y: vec4<f32>,
     view_z: vec4<f32>,
     camera_position: vec3<f32>,
+    // Where the first slice begins: the local lights' near side, or the near plane if nearer.
     near: f32,
     // Tiles across, tiles down, depth slices.
     dims: vec3<u32>,
@@ -36,7 +37,7 @@ fn slice_depth(grid: ClusterGrid, k: u32) -> f32 {
     return grid.near * exp2(f32(k) / grid.slice_scale);
 }
 
-// The slice holding depth d (negative in front of the near plane), clamped to ±2³⁰ so that a huge
+// The slice holding depth d (negative in front of the first slice, grid.near), clamped to ±2³⁰ so that a huge
 // depth converts to a huge slice on every backend: WGSL's float-to-int conversion saturates, but
 // the GLSL that naga writes for wgpu's GL backend converts out-of-range values to i32's minimum.
 fn slice_of(grid: ClusterGrid, d: f32) -> i32 {
@@ -53,9 +54,15 @@ fn cluster_id(grid: ClusterGrid, c: vec3<u32>) -> u32 {
     return (c.z * grid.dims.y + c.y) * grid.dims.x + c.x;
 }
 
-// The cluster of a fragment at framebuffer position `frag_xy` and view depth `d`.
+// The cluster of a fragment at framebuffer position `frag_xy` and view depth `d`. In front of
+// the first slice no light reaches (slices start at the lights' near side, see grid.rs): such
+// a fragment gets the entry past the last cluster, whose range is always empty.
 fn fragment_cluster(grid: ClusterGrid, frag_xy: vec2<f32>, d: f32) -> u32 {
+    let s = slice_of(grid, d);
+    if s < 0 {
+        return grid.dims.x * grid.dims.y * grid.dims.z;
+    }
     let tile = min(vec2<u32>(max(frag_xy / grid.viewport * vec2<f32>(grid.dims.xy), vec2<f32>(0.0))), grid.dims.xy - 1u);
-    let slice = u32(clamp(slice_of(grid, d), 0, i32(grid.dims.z) - 1));
+    let slice = u32(min(s, i32(grid.dims.z) - 1));
     return cluster_id(grid, vec3<u32>(tile, slice));
 }

@@ -16,7 +16,7 @@
 #import penumbra::common::{F16_MAX}
 #import penumbra::view::{View, eye_direction}
 #import penumbra::light_data::Light
-#import penumbra::lights::shade_light
+#import penumbra::lights::{shade_light, within_reach}
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
 #import penumbra::gbuffer::{decode_surface, oct_decode}
 #import penumbra::brdf::Surface
@@ -79,13 +79,10 @@ fn shade_at(rel: vec3<f32>, frag_xy: vec2<f32>, roughness: f32, shape: vec4<u32>
     var total = vec3<f32>(0.0);
     for (var i = 0u; i < range.y; i++) {
         let slot = cluster_lights[range.x + i];
-        // As in forward.wgsl: skip lights whose bounding sphere misses, reading only it.
-        let to_light = (lights[slot].position - view.camera_position) - rel;
         let reach = lights[slot].range;
-        if dot(to_light, to_light) >= reach * reach {
-            continue;
+        if within_reach(lights[slot].position - view.camera_position, reach * reach, rel) {
+            total += shade_light(s, lights[slot], rel, view.camera_position);
         }
-        total += shade_light(s, lights[slot], rel, view.camera_position);
     }
     return total;
 }
@@ -200,9 +197,7 @@ fn shade_local_lights(
                 let count = min(GROUP_PIXELS, range.y - round);
                 for (var k = 0u; k < count; k++) {
                     let sphere = candidate_sphere[k];
-                    let to_light = sphere.xyz - rel;
-                    // Negated as forward.wgsl's skip, so that NaN is treated alike.
-                    if !(dot(to_light, to_light) >= sphere.w) {
+                    if within_reach(sphere.xyz, sphere.w, rel) {
                         total += shade_light(s, lights[candidate_slot[k]], rel, view.camera_position);
                     }
                 }

@@ -47,6 +47,7 @@
 #endif
 #ifdef CLUSTERED_LIGHTS
 #import penumbra::clusters::{ClusterGrid, fragment_cluster}
+#import penumbra::lights::within_reach
 #endif
 #ifdef IBL
 #import penumbra::ibl::environment_light
@@ -384,15 +385,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     let range = cluster_ranges[fragment_cluster(grid, in.clip_position.xy, view_depth(in.rel_position))];
     for (var i = 0u; i < range.y; i++) {
         let slot = cluster_lights[range.x + i];
-        // Most lights of a large far cluster do not reach this fragment: reading their position
-        // and bounding radius alone (not the whole light) to skip them halves the memory the
-        // loop reads. Lights past their bounding radius shade exactly 0, so nothing changes.
-        let to_light = (lights[slot].position - view.camera_position) - in.rel_position;
         let reach = lights[slot].range;
-        if dot(to_light, to_light) >= reach * reach {
-            continue;
+        if within_reach(lights[slot].position - view.camera_position, reach * reach, in.rel_position) {
+            color += shade_light(s, lights[slot], in.rel_position, view.camera_position);
         }
-        color += shade_light(s, lights[slot], in.rel_position, view.camera_position);
     }
 #else
     let local_end = view.global_light_count + view.local_light_count;

@@ -34,6 +34,15 @@ fn area_shadow(light: Light, rel_pos: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     return 1.0;
 }
 
+// Whether a light whose sphere of influence is centred at `center_rel` (camera-relative), with
+// squared radius `range2`, can reach the point `rel`. A light past its range shades exactly 0,
+// so the cluster walks skip it after reading only its position and range (most lights of a
+// large far cluster miss a given point). Written as a negation so that NaN is not skipped.
+fn within_reach(center_rel: vec3<f32>, range2: f32, rel: vec3<f32>) -> bool {
+    let d = center_rel - rel;
+    return !(dot(d, d) >= range2);
+}
+
 fn shade_light(s: Surface, light: Light, rel_pos: vec3<f32>, camera_position: vec3<f32>) -> vec3<f32> {
     if light.kind == LIGHT_AMBIENT {
         return ambient(s, light.color);

@@ -7,6 +7,7 @@
 use penumbra::engine::scenes::spawn_many_lights;
 use penumbra::prelude::*;
 use penumbra::render::frame::Pass;
+use penumbra::render::passes::clusters::grid::ClusterConfig;
 use penumbra::render::pipelines::pipeline_cache::LocalLights;
 use penumbra::render::prepare::materials::AlphaKey;
 use penumbra::render::renderer::LightWalk;
@@ -15,9 +16,16 @@ use penumbra::render::{RenderSettings, Renderer};
 mod common;
 use common::{assert_finite_hdr, flip_mean, hdr_of, render_app, scene_app, spawn_mesh};
 
-fn render(app: &mut App, size: (u32, u32), msaa: u32, walk: LightWalk) -> (Vec<u8>, Vec<[f32; 4]>) {
+fn render(
+    app: &mut App,
+    size: (u32, u32),
+    msaa: u32,
+    walk: LightWalk,
+    clusters: ClusterConfig,
+) -> (Vec<u8>, Vec<[f32; 4]>) {
     app.world.remove_resource::<Renderer>();
-    let px = render_app(app, size, RenderSettings { msaa, light_walk: walk, keep_hdr: true, ..Default::default() });
+    let settings = RenderSettings { msaa, light_walk: walk, keep_hdr: true, clusters, ..Default::default() };
+    let px = render_app(app, size, settings);
     (px, hdr_of(app))
 }
 
@@ -29,9 +37,13 @@ fn share_differing(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
 }
 
 fn assert_same_image(app: &mut App, size: (u32, u32), what: &str) {
+    assert_same_image_with(app, size, ClusterConfig::default(), what);
+}
+
+fn assert_same_image_with(app: &mut App, size: (u32, u32), clusters: ClusterConfig, what: &str) {
     for msaa in [1, 4] {
-        let (fragment, fragment_hdr) = render(app, size, msaa, LightWalk::Clustered);
-        let (compute, compute_hdr) = render(app, size, msaa, LightWalk::ClusteredCompute);
+        let (fragment, fragment_hdr) = render(app, size, msaa, LightWalk::Clustered, clusters);
+        let (compute, compute_hdr) = render(app, size, msaa, LightWalk::ClusteredCompute, clusters);
         assert_finite_hdr(&compute_hdr, what);
         let renderer = app.world.resource::<Renderer>();
         assert_eq!(renderer.shader_error(), None, "{what}");
@@ -59,6 +71,22 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_1000_lights() {
     let mut app = scene_app();
     spawn_many_lights(&mut app.world, 1000, Some(3.0));
     assert_same_image(&mut app, (192, 108), "1000 point lights");
+}
+
+/// With a coarse grid, nearly every 8×8 workgroup of the compute pass finds its pixels in one
+/// cluster and walks the list together, 64 lights a round: lists of hundreds take several
+/// rounds, the last one partial (the longest here holds 179).
+#[test]
+fn compute_shaded_lights_equal_fragment_shaded_ones_for_lists_walked_by_whole_workgroups() {
+    let mut app = scene_app();
+    spawn_many_lights(&mut app.world, 1000, Some(3.0));
+    let coarse = ClusterConfig { tiles_x: 2, tiles_y: 2, slices: 4 };
+    assert_same_image_with(&mut app, (192, 108), coarse, "1000 point lights in 16 clusters");
+    let renderer = app.world.resource::<Renderer>();
+    let ctx = renderer.context();
+    let lists = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let longest = lists.iter().map(Vec::len).max().unwrap_or(0);
+    assert!(longest > 2 * 64 && longest % 64 != 0, "longest list {longest}");
 }
 
 #[test]

@@ -151,15 +151,16 @@ pub enum LightWalk {
 }
 
 /// `LightWalk::Auto` moves local lights to the compute pass when the cluster lists' CPU bound
-/// (`ClusterBinner::index_bound`, which runs about 20 times the lists' real mean length on the
-/// many-lights scene) exceeds this many entries per cluster. Measured on an H100 at 1920×1080
-/// MSAA 4 (`penumbra bench many-lights`, README): 1000 lights (bound 13 per cluster) render in
-/// 4.8 ms in fragments and 5.8 ms in compute, 10 000 (bound 131) in 22.0 and 6.9 ms; the paths
-/// cross between those bounds (the threshold was set where they crossed when compute cost
-/// 7.6 ms at 1000 lights).
-pub const AUTO_COMPUTE_ENTER: f64 = 32.0;
+/// (`ClusterBinner::index_bound`, several times the lists' real mean length) exceeds this many
+/// entries per cluster. Measured on an H100 at 1920×1080 MSAA 4 (`penumbra bench many-lights`,
+/// README, release of 2299684): 1000 lights (bound 21.8 per cluster) render in 2.81 ms in
+/// fragments and 5.85 ms in compute, 10 000 (bound 218) in 9.90 and 6.59 ms. Both grow about
+/// linearly with the bound, so they cross near 116; the threshold sits below that, since a
+/// frame running long in fragments loses more than one running long in compute. (Before the
+/// depth slices followed the lights, the bounds were 13 and 131 and the threshold 32.)
+pub const AUTO_COMPUTE_ENTER: f64 = 96.0;
 /// Below this bound per cluster, `LightWalk::Auto` goes back to the fragment shader.
-pub const AUTO_COMPUTE_LEAVE: f64 = 16.0;
+pub const AUTO_COMPUTE_LEAVE: f64 = 48.0;
 
 /// Where the renderer's WGSL comes from.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]

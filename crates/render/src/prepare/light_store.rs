@@ -201,11 +201,13 @@ enum Which {
     Local,
 }
 
-/// World-space bounds of every local light's sphere of influence.
+/// World-space bounds of every local light's sphere of influence, and the spheres' mean radius
+/// (the cluster grid keeps its depth slices from getting much thinner than the lights).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightBounds {
     pub min: Vec3,
     pub max: Vec3,
+    pub mean_range: f32,
 }
 
 pub struct LightStore {
@@ -393,14 +395,21 @@ impl LightStore {
     pub fn local_bounds(&mut self) -> Option<LightBounds> {
         if self.bounds_stale {
             self.bounds_stale = false;
+            let mut count = 0u32;
+            let mut range_sum = 0.0f64;
             self.bounds = self.local.packed.iter().filter(|l| l.range > 0.0).fold(None, |b, l| {
                 let p = Vec3::from(l.position);
                 let (lo, hi) = (p - l.range, p + l.range);
+                count += 1;
+                range_sum += l.range as f64;
                 Some(match b {
-                    None => LightBounds { min: lo, max: hi },
-                    Some(b) => LightBounds { min: b.min.min(lo), max: b.max.max(hi) },
+                    None => LightBounds { min: lo, max: hi, mean_range: 0.0 },
+                    Some(b) => LightBounds { min: b.min.min(lo), max: b.max.max(hi), mean_range: 0.0 },
                 })
             });
+            if let Some(b) = &mut self.bounds {
+                b.mean_range = (range_sum / count as f64) as f32;
+            }
         }
         self.bounds
     }

@@ -76,6 +76,7 @@ pub struct ClusterGrid {
     pub dims: UVec3,
     pub orthographic: bool,
     pub proj_scale: Vec2,
+    /// Depths where the first slice begins and the last one ends (see `ClusterGrid::new`).
     pub near: f32,
     pub far: f32,
     pub slice_scale: f32,
@@ -124,14 +125,14 @@ fn light_depth_range(bounds: LightBounds, camera_position: Vec3, forward: Vec3) 
 }
 
 impl ClusterGrid {
-    /// The grid for `view` rendered at `viewport` pixels. Perspective slices span the depths
-    /// the local lights' bounds reach, from their near side (or the near plane, if nearer) to
-    /// their far side: no light reaches a depth outside that range, so no list is lost by
-    /// slicing only it, and the slices are as thin as they can be. A fragment outside it looks
-    /// up the first or last slice, whose lists hold every light that could reach it. (Slicing
-    /// from the near plane spent most slices where no light reaches: on the many-lights bench
-    /// scene, 154 to 292 m from the eye, 28 of the 32 slices lay nearer than 154 m.)
-    /// Orthographic slices span the near plane to zfar.
+    /// The grid for `view` rendered at `viewport` pixels. Perspective slices start at the near
+    /// side of the local lights' bounds (or the near plane, if nearer): no light reaches a
+    /// fragment in front of it, so such fragments look up no list at all (see
+    /// `fragment_cluster` in clusters.wgsl). Slicing from the near plane spent most slices where
+    /// no light reaches: on the many-lights bench scene, 154 to 292 m from the eye, 28 of the
+    /// 32 slices lay nearer than 154 m. They end at the lights' far side (a fragment beyond
+    /// looks up the last slice), unless that would make them much thinner than the lights
+    /// (`slice_scale` below). Orthographic slices span the near plane to zfar.
     pub fn new(view: &ExtractedView, viewport: (u32, u32), config: ClusterConfig, bounds: Option<LightBounds>) -> Self {
         let rotation = Mat3::from(view.world_from_view.matrix3);
         let camera_position = Vec3::from(view.world_from_view.translation);
@@ -153,7 +154,21 @@ impl ClusterGrid {
             },
         };
         let slices = config.slices as f32;
-        let slice_scale = if orthographic { slices / (far - near) } else { slices / (far / near).log2() };
+        let slice_scale = if orthographic {
+            slices / (far - near)
+        } else {
+            // Slices per octave of depth. Thinner slices shorten each fragment's list only while
+            // they are thicker than the lights; past that, every light lands in more clusters
+            // for little gain (lights crowded in a thin band of depth would each span most
+            // slices). So a slice at the near end is kept at least the lights' mean radius
+            // thick, unless the near plane's slicing was finer still.
+            let spanning = slices / (far / near).log2();
+            let from_near_plane = slices / (far / znear).log2();
+            let no_thinner_than_lights = bounds.map_or(spanning, |b| 1.0 / (1.0 + b.mean_range / near).log2());
+            spanning.min(from_near_plane.max(no_thinner_than_lights))
+        };
+        // Where the last slice ends (past the lights' far side when slices were kept thick).
+        let far = if orthographic { far } else { near * (slices / slice_scale).exp2() };
         Self {
             view_from_rel: rotation.transpose(),
             camera_position,
@@ -346,8 +361,9 @@ mod tests {
         }
     }
 
+    /// Lights of 0.1 radius within `min`..`max`.
     fn grid(view: &ExtractedView, min: Vec3, max: Vec3) -> ClusterGrid {
-        ClusterGrid::new(view, (1920, 1080), ClusterConfig::default(), Some(LightBounds { min, max }))
+        ClusterGrid::new(view, (1920, 1080), ClusterConfig::default(), Some(LightBounds { min, max, mean_range: 0.1 }))
     }
 
     #[test]
@@ -355,8 +371,7 @@ mod tests {
         let view = view_at(Vec3::ZERO);
         let g = grid(&view, Vec3::new(-5.0, -1.0, -110.0), Vec3::new(5.0, 1.0, -100.0));
         assert!(g.near <= 100.0 && g.near > 99.99, "near {}", g.near);
-        assert_eq!(g.far, 110.0);
-        assert!((g.slice_depth(g.dims.z) - 110.0).abs() < 1e-3);
+        assert!((g.far - 110.0).abs() < 1e-3, "far {}", g.far);
         // Every depth in the lights' range has a slice of its own; nearer and farther ones clamp.
         assert_eq!(g.slice_of(100.0), 0);
         assert_eq!(g.slice_of(109.99), 31);
@@ -366,11 +381,28 @@ mod tests {
     #[test]
     fn slices_start_at_the_near_plane_when_a_light_reaches_the_eye() {
         let view = view_at(Vec3::ZERO);
-        let g = grid(&view, Vec3::splat(-3.0), Vec3::new(3.0, 3.0, -20.0).max(Vec3::splat(3.0)));
+        let g = grid(&view, Vec3::new(-3.0, -3.0, -20.0), Vec3::splat(3.0));
         assert_eq!(g.near, 0.1);
+        assert!((g.far - 20.0).abs() < 1e-3, "far {}", g.far);
         // Lights all behind the eye: the smallest grid in front of it.
         let g = grid(&view, Vec3::new(-1.0, -1.0, 5.0), Vec3::new(1.0, 1.0, 9.0));
         assert_eq!((g.near, g.far), (0.1, 0.2));
+    }
+
+    #[test]
+    fn slices_stay_as_thick_as_the_lights_in_a_thin_band_of_depth() {
+        // Lights of 0.6 m radius between 3.4 and 5.1 m: 32 slices over that band would be 5 cm
+        // thick, and each light would span most of them.
+        let view = view_at(Vec3::ZERO);
+        let bounds = LightBounds { min: Vec3::new(-1.0, -1.0, -5.1), max: Vec3::new(1.0, 1.0, -3.4), mean_range: 0.6 };
+        let g = ClusterGrid::new(&view, (1920, 1080), ClusterConfig::default(), Some(bounds));
+        assert!(g.near > 3.39 && g.near <= 3.4, "near {}", g.near);
+        // As thick as slicing from the near plane made them (thicker than 0.6 m would be
+        // coarser than before): 32 slices from 0.1 to 5.1 m.
+        let before = 32.0 / (5.1f32 / 0.1).log2();
+        assert!((g.slice_scale - before).abs() < 1e-3 * before, "{} slices per octave", g.slice_scale);
+        assert!(g.slice_depth(1) - g.slice_depth(0) > 0.4, "first slice {} m", g.slice_depth(1) - g.slice_depth(0));
+        assert!(g.far > 5.1 && (g.slice_depth(32) - g.far).abs() < 1e-3 * g.far);
     }
 
     #[test]

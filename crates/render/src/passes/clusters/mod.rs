@@ -145,7 +145,8 @@ impl ClusterBinner {
         }
         let clusters = grid.cluster_count() as u64;
         let mut grew = self.counts.reserve(device, clusters * 4);
-        grew |= self.ranges.reserve(device, clusters * 8);
+        // One more, always empty, for fragments in front of the first slice.
+        grew |= self.ranges.reserve(device, (clusters + 1) * 8);
         grew |= self.indices.reserve(device, index_bytes);
         // The indirect dispatch and queue count, one slot per cluster, then the scan's block
         // totals.
@@ -276,4 +277,21 @@ const SCAN_BLOCK: u64 = 256;
 fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, limit: u32) {
     let x = groups.clamp(1, limit.max(1));
     pass.dispatch_workgroups(x, groups.div_ceil(x).max(1), 1);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SCAN_BLOCK;
+    use crate::pipelines::shader_library::EMBEDDED;
+
+    /// The long-list buffer is sized for one block total per SCAN_BLOCK clusters: the shader's
+    /// block must be the same.
+    #[test]
+    fn the_scan_block_is_the_shaders() {
+        let (_, source) = EMBEDDED.iter().find(|(file, _)| *file == "cluster_bin.wgsl").expect("embedded");
+        assert!(source.contains(&format!("const SCAN_THREADS: u32 = {SCAN_BLOCK}u;")));
+        for entry in ["scan_blocks", "scan_apply"] {
+            assert!(source.contains(&format!("@workgroup_size({SCAN_BLOCK})\nfn {entry}(")), "{entry}");
+        }
+    }
 }
