@@ -57,11 +57,14 @@ fn assert_same_image_with(app: &mut App, size: (u32, u32), clusters: ClusterConf
         eprintln!("{what}, MSAA {msaa}: FLIP mean {e:.5}, {:.2}% of pixels differ by over 1%", 100.0 * d);
         assert!(e <= 0.01, "{what}, MSAA {msaa}: FLIP mean {e} between compute- and fragment-shaded lights");
         // Without multisampling both shade the same point of each pixel, and differ only by
-        // rounding (the two halves of the light are rounded to f16 apart). With it, pixels on
-        // silhouettes differ: the forward shader shades every fragment at the pixel centre, off
-        // the surface for a fragment covering a sample or two, while the compute pass shades
-        // each of those samples where it lies.
-        let limit = if msaa == 1 { 0.0 } else { 0.02 };
+        // rounding (the two halves of the light are rounded to f16 apart, and the compute pass
+        // rebuilds the position from depth): on lavapipe no pixel by over 1%, on an NVIDIA H100
+        // two of the every-kind scene's 16 000 (0.01%), at 3a2f1e8 as now. A light dropped
+        // from one round of a list made 0.36% differ. With multisampling, pixels on silhouettes
+        // differ: the forward shader shades every fragment at the pixel centre, off the surface
+        // for a fragment covering a sample or two, while the compute pass shades each of those
+        // samples where it lies.
+        let limit = if msaa == 1 { 0.0005 } else { 0.02 };
         assert!(d <= limit, "{what}, MSAA {msaa}: {:.2}% of pixels differ by over 1%", 100.0 * d);
     }
 }
