@@ -37,9 +37,10 @@ fn slice_depth(grid: ClusterGrid, k: u32) -> f32 {
     return grid.near * exp2(f32(k) / grid.slice_scale);
 }
 
-// The slice holding depth d (negative in front of the first slice, grid.near), clamped to ±2³⁰ so that a huge
-// depth converts to a huge slice on every backend: WGSL's float-to-int conversion saturates, but
-// the GLSL that naga writes for wgpu's GL backend converts out-of-range values to i32's minimum.
+// The slice holding depth d (negative in front of the first slice, grid.near), clamped to ±2³⁰
+// so that a huge depth converts to a huge slice on every backend: WGSL's float-to-int conversion
+// saturates, but the GLSL that naga writes for wgpu's GL backend converts out-of-range values to
+// i32's minimum.
 fn slice_of(grid: ClusterGrid, d: f32) -> i32 {
     var s: f32;
     if grid.is_orthographic != 0u {
