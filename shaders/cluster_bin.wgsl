@@ -280,6 +280,14 @@ fn block_total_slot(b: u32) -> u32 {
     return cluster_total() + b;
 }
 
+// The block of SCAN_THREADS clusters workgroup `wg` scans, or NO_BLOCK for the surplus of a
+// dispatch spilled into y.
+const NO_BLOCK: u32 = 0xffffffffu;
+fn scan_block(wg: vec3<u32>, groups: vec3<u32>) -> u32 {
+    let b = wg.x + wg.y * groups.x;
+    return select(NO_BLOCK, b, b * SCAN_THREADS < cluster_total());
+}
+
 // Block `b` of SCAN_THREADS clusters: ranges get (offset within the block, count).
 @compute @workgroup_size(256)
 fn scan_blocks(
@@ -287,11 +295,11 @@ fn scan_blocks(
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) t: u32,
 ) {
-    let total = cluster_total();
-    let b = wg.x + wg.y * groups.x;
-    if b * SCAN_THREADS >= total {
+    let b = scan_block(wg, groups);
+    if b == NO_BLOCK {
         return;
     }
+    let total = cluster_total();
     let c = b * SCAN_THREADS + t;
     var n = 0u;
     if c < total {
@@ -314,11 +322,11 @@ fn scan_apply(
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) t: u32,
 ) {
-    let total = cluster_total();
-    let b = wg.x + wg.y * groups.x;
-    if b * SCAN_THREADS >= total {
+    let b = scan_block(wg, groups);
+    if b == NO_BLOCK {
         return;
     }
+    let total = cluster_total();
     var before = 0u;
     for (var i = t; i < b; i += SCAN_THREADS) {
         before += long_lists.clusters[block_total_slot(i)];

@@ -395,21 +395,15 @@ impl LightStore {
     pub fn local_bounds(&mut self) -> Option<LightBounds> {
         if self.bounds_stale {
             self.bounds_stale = false;
-            let mut count = 0u32;
-            let mut range_sum = 0.0f64;
-            self.bounds = self.local.packed.iter().filter(|l| l.range > 0.0).fold(None, |b, l| {
+            // (min, max, sum of ranges, count) over the lights that reach anywhere.
+            let mut acc: Option<(Vec3, Vec3, f64, u32)> = None;
+            for l in self.local.packed.iter().filter(|l| l.range > 0.0) {
                 let p = Vec3::from(l.position);
                 let (lo, hi) = (p - l.range, p + l.range);
-                count += 1;
-                range_sum += l.range as f64;
-                Some(match b {
-                    None => LightBounds { min: lo, max: hi, mean_range: 0.0 },
-                    Some(b) => LightBounds { min: b.min.min(lo), max: b.max.max(hi), mean_range: 0.0 },
-                })
-            });
-            if let Some(b) = &mut self.bounds {
-                b.mean_range = (range_sum / count as f64) as f32;
+                let (min, max, sum, n) = acc.unwrap_or((lo, hi, 0.0, 0));
+                acc = Some((min.min(lo), max.max(hi), sum + l.range as f64, n + 1));
             }
+            self.bounds = acc.map(|(min, max, sum, n)| LightBounds { min, max, mean_range: (sum / n as f64) as f32 });
         }
         self.bounds
     }
