@@ -27,6 +27,11 @@ struct ClusterGrid {
     // Local lights occupy slots light_first .. light_first + light_count of the light buffer.
     light_first: u32,
     light_count: u32,
+    // The binner counts each cluster's lights per block of block_lights consecutive lights
+    // (light_blocks blocks; see cluster_bin.wgsl).
+    light_blocks: u32,
+    block_lights: u32,
+    _pad: vec2<u32>,
 };
 
 // Depth of the near boundary of slice k (k = slices gives the far end).
@@ -42,12 +47,19 @@ fn slice_depth(grid: ClusterGrid, k: u32) -> f32 {
 // saturates, but the GLSL that naga writes for wgpu's GL backend converts out-of-range values to
 // i32's minimum.
 fn slice_of(grid: ClusterGrid, d: f32) -> i32 {
-    var s: f32;
+    return slice_index(floor(slice_coordinate(grid, d)));
+}
+
+// Depth d in slices from the first slice's start (not rounded down).
+fn slice_coordinate(grid: ClusterGrid, d: f32) -> f32 {
     if grid.is_orthographic != 0u {
-        s = floor((d - grid.near) * grid.slice_scale);
-    } else {
-        s = floor(log2(max(d, 1e-30) / grid.near) * grid.slice_scale);
+        return (d - grid.near) * grid.slice_scale;
     }
+    return log2(max(d, 1e-30) / grid.near) * grid.slice_scale;
+}
+
+// A whole number of slices as an index, clamped as slice_of says.
+fn slice_index(s: f32) -> i32 {
     return i32(clamp(s, -1073741824.0, 1073741824.0));
 }
 

@@ -78,11 +78,11 @@ fn gpu_lists_equal_the_cpu_reference_in_a_stadium_of_1000_lights() {
     assert!(occupied > 50 && entries >= occupied, "{occupied} clusters hold {entries} entries");
 }
 
-/// The scan takes the counts in blocks of 256 clusters: grids of one partial block, of a few
-/// blocks with a partial last one, and of hundreds of blocks.
+/// The scan takes the run counts in blocks of 1024 (one run per cluster at 1 000 lights): grids
+/// of one partial block, of a few blocks with a partial last one, and of tens of blocks.
 #[test]
 fn gpu_lists_equal_the_cpu_reference_on_grids_of_any_size() {
-    for (tiles_x, tiles_y, slices) in [(5, 3, 7), (13, 7, 11), (64, 36, 40)] {
+    for (tiles_x, tiles_y, slices) in [(5, 3, 7), (13, 7, 31), (64, 36, 40)] {
         let mut app = scene_app();
         spawn_many_lights(&mut app.world, 1000, Some(3.0));
         let clusters = ClusterConfig { tiles_x, tiles_y, slices };
@@ -255,15 +255,49 @@ fn clustered_render_equals_brute_force_for_10000_lights_in_one_cluster() {
     app.world.remove_resource::<Renderer>();
     render_app(&mut app, size, settings(LightWalk::Clustered));
     assert_eq!(app.world.resource::<Renderer>().stats().local_lights, 10_000);
-    // Lists longer than the workgroup-memory sort are sorted in place in the index buffer.
+    // The list comes out as ten runs, one per block of 1 024 lights, each sorted by a workgroup.
+    let blocks = app.world.resource::<Renderer>().cluster_binner().light_blocks();
+    assert_eq!((blocks.count, blocks.lights), (10, 1024));
     let (_, entries) = assert_lists_match_reference(&app, "10 000 lights in one cluster");
     assert!(entries >= 10_000, "{entries} entries");
 }
 
-/// Every sorting path of the binning: lists of at most 16 lights are sorted by one invocation,
-/// longer ones are queued for a workgroup's bitonic sort, in workgroup memory up to 2048 (8192
-/// where the device has 32 KiB of it) and in the index buffer beyond (the 10 000-light test
-/// above).
+/// On the largest grid (2²⁰ clusters) the run counters would outgrow their 16 MiB at 4 blocks of
+/// 1 024 lights, so blocks grow instead: 40 000 lights crowded into one cluster make 4 runs of
+/// 10 000, which the long-run sort orders through a mask of 10 000 bits.
+#[test]
+fn lists_stay_exact_when_light_blocks_grow_on_the_largest_grid() {
+    let mut app = scene_app();
+    floor(&mut app, 10.0);
+    let mut rng = SplitMix64(40);
+    for _ in 0..40_000 {
+        // Lights of 1 cm within 0.2 mm, 4 m away: each spans a few of the 1 024 tiles across,
+        // all of them the middle one. (Each light's several clusters are what scramble the
+        // order of the atomics on lavapipe, whose workgroups run their 8-lane groups one after
+        // another: lights of one cluster each would come out sorted, with no sort to test.)
+        let at = Vec3::new(rng.uniform(-2e-4, 2e-4), rng.uniform(0.1, 0.1004), rng.uniform(-2e-4, 2e-4));
+        app.world.spawn((
+            PointLight { intensity: 1e-6, range: Some(1e-2), shadows: false, ..Default::default() },
+            Transform::from_translation(at),
+        ));
+    }
+    camera(&mut app, Vec3::new(0.0, 3.0, 3.0), Vec3::new(0.0, 0.1, 0.0), perspective());
+    let clusters = ClusterConfig { tiles_x: 1024, tiles_y: 1024, slices: 1 };
+    render_app(&mut app, (64, 64), RenderSettings { clusters, ..settings(LightWalk::Clustered) });
+    let blocks = app.world.resource::<Renderer>().cluster_binner().light_blocks();
+    assert_eq!((blocks.count, blocks.lights), (4, 10_000));
+    let (_, entries) = assert_lists_match_reference(&app, "40 000 lights on 2^20 clusters");
+    assert!(entries >= 40_000, "{entries} entries");
+    let renderer = app.world.resource::<Renderer>();
+    let ctx = renderer.context();
+    let lists = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).unwrap();
+    assert_eq!(lists.iter().map(Vec::len).max(), Some(40_000), "one cluster holds every light");
+}
+
+/// Every sorting path of the binning: runs (one per cluster and block of 1 024 lights) of at
+/// most 16 lights are sorted by one invocation, longer ones are queued for a workgroup, which
+/// ranks up to 256 lights directly and sorts longer runs through a mask of the block's lights.
+/// 1 500 lights in one cluster make a list of two runs, 1 024 and 476 long.
 #[test]
 fn short_and_long_cluster_lists_come_out_sorted_and_exact() {
     for (count, spread) in [(40, 0.02), (300, 0.02), (1500, 0.02), (600, 2.0)] {

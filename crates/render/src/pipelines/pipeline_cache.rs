@@ -1178,10 +1178,7 @@ impl PipelineCache {
         candidate: &mut Option<ShaderLibrary>,
         entry: ClusterEntry,
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
-        // Long lists sort in workgroup memory up to 8192 lights where it holds them.
-        let large = device.limits().max_compute_workgroup_storage_size >= 8192 * 4 + 64;
-        let defs = ShaderDefs::default().with("LARGE_SORTS", large);
-        let module = self.library(candidate).create_module(device, "cluster_bin.wgsl", &defs)?;
+        let module = self.library(candidate).create_module(device, "cluster_bin.wgsl", &ShaderDefs::default())?;
         self.compiled += 1;
         checked_pipeline(device, "cluster_bin.wgsl", || {
             compute_pipeline(device, &self.cluster_pipeline_layout, &module, entry.name(), entry.name())

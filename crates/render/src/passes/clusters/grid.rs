@@ -26,8 +26,8 @@ impl Default for ClusterConfig {
     }
 }
 
-/// The most clusters a grid may have: each of the scan's 4096 workgroups then sums up to 4095
-/// block totals before its own.
+/// The most clusters a grid may have: with at least 4 light blocks there (see [`LightBlocks`]),
+/// each of the scan's at most 4096 workgroups sums up to 4095 block totals before its own.
 pub const MAX_CLUSTERS: u32 = 1 << 20;
 
 impl ClusterConfig {
@@ -48,6 +48,40 @@ impl ClusterConfig {
     }
 }
 
+/// How the binner splits the local lights into blocks of consecutive lights: each cluster's
+/// list is counted and filled per block, so that its list comes out as one run per block, in
+/// block order, and only the runs need sorting (see cluster_bin.wgsl).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LightBlocks {
+    pub count: u32,
+    /// Lights per block.
+    pub lights: u32,
+}
+
+impl LightBlocks {
+    /// Lights per block at most scenes' light counts: runs stay a few lights long up to
+    /// hundreds of thousands of lights (on the many-lights scene, 5 on average and 15 in the
+    /// longest list, at 100 000 lights).
+    pub const LIGHTS: u32 = 1024;
+    /// The most (cluster, block) runs: past it blocks grow instead, to keep the run counters
+    /// (a word each) within 16 MiB, up to [`Self::MAX_LIGHTS`].
+    pub const MAX_RUNS: u32 = 1 << 22;
+    /// The largest block: the long-run sort holds a bit per light of a block in its workgroup
+    /// memory (`MASK_WORDS` in cluster_bin.wgsl).
+    pub const MAX_LIGHTS: u32 = 2048 * 32;
+
+    pub fn new(light_count: u32, clusters: u32) -> Self {
+        let max_blocks = (Self::MAX_RUNS / clusters.max(1)).max(1);
+        let lights = Self::LIGHTS.max(light_count.div_ceil(max_blocks)).min(Self::MAX_LIGHTS);
+        Self { count: light_count.div_ceil(lights).max(1), lights }
+    }
+
+    /// The (cluster, block) runs of a grid of `clusters`.
+    pub fn runs(&self, clusters: u32) -> u64 {
+        self.count as u64 * clusters as u64
+    }
+}
+
 /// Mirrors `struct ClusterGrid` in `shaders/clusters.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -65,6 +99,9 @@ pub struct GpuClusterGrid {
     pub viewport: [f32; 2],
     pub light_first: u32,
     pub light_count: u32,
+    pub light_blocks: u32,
+    pub block_lights: u32,
+    pub _pad: [u32; 2],
 }
 
 /// One frame's grid.
@@ -81,6 +118,16 @@ pub struct ClusterGrid {
     pub far: f32,
     pub slice_scale: f32,
     pub viewport: Vec2,
+}
+
+/// How far past a light's exact projected bounds, in tiles or slices, its candidate box
+/// reaches: `CANDIDATE_MARGIN` in cluster_bin.wgsl, whose comment says why.
+pub const CANDIDATE_MARGIN: f32 = 0.01;
+
+/// A whole number of slices as an index (the GPU clamps to ±2³⁰, see `slice_of` in
+/// clusters.wgsl; both are far past any grid).
+fn slice_index(s: f32) -> i32 {
+    s.clamp(i32::MIN as f32, i32::MAX as f32) as i32
 }
 
 /// A light's influence in (x, y, d) view coordinates, d = −z_view (in front is positive).
@@ -186,7 +233,9 @@ impl ClusterGrid {
         self.dims.x * self.dims.y * self.dims.z
     }
 
-    pub fn to_gpu(&self, light_first: u32, light_count: u32) -> GpuClusterGrid {
+    /// The grid for the GPU, for `light_count` local lights from slot `light_first`, counted
+    /// in `blocks`.
+    pub fn to_gpu(&self, light_first: u32, light_count: u32, blocks: LightBlocks) -> GpuClusterGrid {
         let r = self.view_from_rel;
         let row = |i: usize| [r.col(0)[i], r.col(1)[i], r.col(2)[i], 0.0];
         GpuClusterGrid {
@@ -203,6 +252,9 @@ impl ClusterGrid {
             viewport: self.viewport.to_array(),
             light_first,
             light_count,
+            light_blocks: blocks.count,
+            block_lights: blocks.lights,
+            _pad: [0; 2],
         }
     }
 
@@ -219,12 +271,16 @@ impl ClusterGrid {
     }
 
     pub fn slice_of(&self, d: f32) -> i32 {
-        let s = if self.orthographic {
-            ((d - self.near) * self.slice_scale).floor()
+        slice_index(self.slice_coordinate(d).floor())
+    }
+
+    /// Depth `d` in slices from the first slice's start (not rounded down).
+    pub fn slice_coordinate(&self, d: f32) -> f32 {
+        if self.orthographic {
+            (d - self.near) * self.slice_scale
         } else {
-            ((d.max(1e-30) / self.near).log2() * self.slice_scale).floor()
-        };
-        s.clamp(i32::MIN as f32, i32::MAX as f32) as i32
+            (d.max(1e-30) / self.near).log2() * self.slice_scale
+        }
     }
 
     fn view_coords(&self, v: Vec3) -> Vec3 {
@@ -251,7 +307,8 @@ impl ClusterGrid {
         Bounds { center, radius, spot }
     }
 
-    /// Tiles covered along one axis, with `slack` extra tiles each side (the GPU walk uses 1).
+    /// Tiles covered along one axis, [`CANDIDATE_MARGIN`] wide of the exact bounds, with `slack`
+    /// extra tiles each side (the GPU walk uses none).
     fn tile_span(&self, c: f32, d: f32, r: f32, scale: f32, tiles: u32, slack: i32) -> (i32, i32) {
         let (mut lo, mut hi) = (-1.0f32, 1.0f32);
         if self.orthographic {
@@ -267,8 +324,8 @@ impl ClusterGrid {
         // NaN (a light so far off that c² or d² overflows) covers the whole screen: conservative.
         let lo = if lo >= -2.0 { lo.min(2.0) } else { -2.0 };
         let hi = if hi <= 2.0 { hi.max(-2.0) } else { 2.0 };
-        let first = ((lo + 1.0) * 0.5 * t).floor() as i32 - slack;
-        let last = ((hi + 1.0) * 0.5 * t).floor() as i32 + slack;
+        let first = ((lo + 1.0) * 0.5 * t - CANDIDATE_MARGIN).floor() as i32 - slack;
+        let last = ((hi + 1.0) * 0.5 * t + CANDIDATE_MARGIN).floor() as i32 + slack;
         (first.max(0), last.min(tiles as i32 - 1))
     }
 
@@ -277,9 +334,11 @@ impl ClusterGrid {
         let sx = self.tile_span(b.center.x, d, r, self.proj_scale.x, self.dims.x, slack);
         let sy = self.tile_span(b.center.y, d, r, self.proj_scale.y, self.dims.y, slack);
         let rows = self.dims.y as i32 - 1;
-        let k_first = self.slice_of((d - r).max(self.near)).saturating_sub(slack);
-        // Clamped before adding so that a huge range cannot overflow (as on the GPU).
-        let k_last = self.slice_of(d + r).min(self.dims.z as i32) + slack;
+        let k_first = slice_index((self.slice_coordinate((d - r).max(self.near)) - CANDIDATE_MARGIN).floor())
+            .saturating_sub(slack);
+        // Clamped before adding so that a huge range cannot overflow.
+        let k_last =
+            slice_index((self.slice_coordinate(d + r) + CANDIDATE_MARGIN).floor()).min(self.dims.z as i32) + slack;
         let mut hi = [sx.1, rows - sy.0, k_last.min(self.dims.z as i32 - 1)];
         if d + r < self.near || r.is_nan() || b.radius <= 0.0 {
             hi[2] = -1;
@@ -328,8 +387,9 @@ impl ClusterGrid {
     }
 
     /// An upper bound of the total list length the GPU can produce for `lights`: each light's
-    /// candidate box with one more tile and slice of slack than the GPU walk uses, so rounding
-    /// differences between CPU and GPU cannot make the GPU exceed it.
+    /// candidate box with two more tiles and slices of slack than the GPU walk uses, so rounding
+    /// differences between CPU and GPU cannot make the GPU exceed it. (The slack is also what
+    /// `auto`'s light-walk thresholds were measured against; see `LightWalk`.)
     pub fn index_bound(&self, lights: &[GpuLight]) -> u64 {
         let cap = self.cluster_count() as u64;
         let bound = |ls: &[GpuLight]| -> u64 {
@@ -364,6 +424,27 @@ mod tests {
     /// Lights of 0.1 radius within `min`..`max`.
     fn grid(view: &ExtractedView, min: Vec3, max: Vec3) -> ClusterGrid {
         ClusterGrid::new(view, (1920, 1080), ClusterConfig::default(), Some(LightBounds { min, max, mean_range: 0.1 }))
+    }
+
+    #[test]
+    fn light_blocks_are_1024_lights_until_the_runs_would_pass_their_cap() {
+        let blocks = |lights, clusters| {
+            let b = LightBlocks::new(lights, clusters);
+            (b.count, b.lights)
+        };
+        assert_eq!(blocks(0, 8192), (1, 1024));
+        assert_eq!(blocks(1000, 8192), (1, 1024));
+        assert_eq!(blocks(100_000, 8192), (98, 1024));
+        // 512 blocks of 8192 clusters are the cap: a million lights take blocks of 1954.
+        assert_eq!(blocks(1_000_000, 8192), (512, 1954));
+        assert_eq!(blocks(40_000, MAX_CLUSTERS), (4, 10_000));
+        // Blocks stop growing at the long-run sort's mask: the runs pass their cap instead.
+        assert_eq!(blocks(1_000_000, MAX_CLUSTERS), (16, 65_536));
+        for (lights, clusters) in [(1_000_000, 8192), (262_144, MAX_CLUSTERS), (5000, 1)] {
+            let b = LightBlocks::new(lights, clusters);
+            assert!(b.runs(clusters) <= LightBlocks::MAX_RUNS.max(clusters) as u64);
+            assert!(b.count as u64 * b.lights as u64 >= lights as u64);
+        }
     }
 
     #[test]

@@ -3,9 +3,11 @@
 //! Each frame with local lights: `prepare` builds the grid from the view and the light store's
 //! bounds, sizes the index buffer by a CPU upper bound of the total list length (cached while
 //! neither the view nor the lights change), and writes the grid uniform; `encode` records
-//! clear → count → prefix sum → fill → sort short lists (queueing long ones) → sort long lists
-//! (an indirect dispatch, in a second compute pass) (see `shaders/cluster_bin.wgsl`). The forward pass
-//! then reads `grid`, `ranges` (offset, count per cluster) and `indices` (light slots).
+//! clear → count → prefix sum → fill → sort short runs (queueing long ones, and writing each
+//! cluster's range) → sort long runs (an indirect dispatch, in a second compute pass); lists are
+//! counted and filled as one run per (cluster, block of lights), see [`LightBlocks`] and
+//! `shaders/cluster_bin.wgsl`. The forward pass then reads `grid`, `ranges` (offset, count per
+//! cluster) and `indices` (light slots).
 //!
 //! A scene without local lights calls neither: the buffers stay as created (a few bytes) and
 //! are bound only to satisfy the layout; the shader variant without `LOCAL_LIGHTS` never reads
@@ -14,7 +16,7 @@
 pub mod grid;
 pub mod reference;
 
-use grid::{ClusterConfig, ClusterGrid, GpuClusterGrid};
+use grid::{ClusterConfig, ClusterGrid, GpuClusterGrid, LightBlocks};
 
 use crate::context::GpuContext;
 use crate::pipelines::pipeline_cache::{ClusterEntry, PipelineCache};
@@ -39,19 +41,21 @@ pub struct BinningTooLarge {
 
 pub struct ClusterBinner {
     grid_buffer: wgpu::Buffer,
-    /// Per-cluster light counts, then (after the prefix sum) write cursors.
-    counts: GrowableBuffer,
+    /// Per (cluster, block of lights) run: its light count, then (after the prefix sum) its
+    /// write cursor.
+    runs: GrowableBuffer,
     /// Per-cluster (offset, count) into `indices`.
     ranges: GrowableBuffer,
     indices: GrowableBuffer,
-    /// Clusters whose lists are too long for `sort_short`, after the words of the indirect
-    /// dispatch that sorts them.
+    /// The words of the indirect dispatch that sorts long runs, then the scan's block totals,
+    /// then the runs too long for `sort_short`.
     long_lists: GrowableBuffer,
     /// Those words, copied out: a buffer bound for writing cannot also drive the dispatch.
     long_dispatch: wgpu::Buffer,
     bind_group: Option<wgpu::BindGroup>,
     grid: Option<ClusterGrid>,
     light_count: u32,
+    blocks: LightBlocks,
     /// (grid, light generation) the cached bound was computed for.
     bound_key: Option<(ClusterGrid, u64)>,
     bound: u64,
@@ -69,7 +73,7 @@ impl ClusterBinner {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            counts: GrowableBuffer::new(device, "cluster counts", storage, 256),
+            runs: GrowableBuffer::new(device, "cluster runs", storage, 256),
             ranges: GrowableBuffer::new(device, "cluster ranges", storage | wgpu::BufferUsages::COPY_SRC, 256),
             indices: GrowableBuffer::new(device, "cluster indices", storage | wgpu::BufferUsages::COPY_SRC, 256),
             long_lists: GrowableBuffer::new(device, "cluster long lists", storage | wgpu::BufferUsages::COPY_SRC, 256),
@@ -82,6 +86,7 @@ impl ClusterBinner {
             bind_group: None,
             grid: None,
             light_count: 0,
+            blocks: LightBlocks::new(0, 1),
             bound_key: None,
             bound: 0,
             last_bound_ms: 0.0,
@@ -102,7 +107,7 @@ impl ClusterBinner {
 
     pub fn gpu_bytes(&self) -> u64 {
         self.grid_buffer.size()
-            + self.counts.capacity()
+            + self.runs.capacity()
             + self.ranges.capacity()
             + self.indices.capacity()
             + self.long_lists.capacity()
@@ -111,6 +116,11 @@ impl ClusterBinner {
     /// This frame's grid (after `prepare`).
     pub fn grid(&self) -> Option<&ClusterGrid> {
         self.grid.as_ref()
+    }
+
+    /// How this frame's lights are split into blocks (after `prepare`).
+    pub fn light_blocks(&self) -> LightBlocks {
+        self.blocks
     }
 
     /// The CPU bound on the total list length that sized the index buffer.
@@ -144,15 +154,24 @@ impl ClusterBinner {
             return Err(BinningTooLarge { needed: index_bytes >> 20, limit: limit >> 20 });
         }
         let clusters = grid.cluster_count() as u64;
-        let mut grew = self.counts.reserve(device, clusters * 4);
+        let blocks = LightBlocks::new(store.local_count(), grid.cluster_count());
+        let runs = blocks.runs(grid.cluster_count());
+        let run_bytes = (runs * 4).next_multiple_of(256);
+        // (Also within u32 words, as the shaders count runs.)
+        if run_bytes > limit.min(u32::MAX as u64) {
+            return Err(BinningTooLarge { needed: run_bytes >> 20, limit: limit >> 20 });
+        }
+        self.light_count = store.local_count();
+        self.blocks = blocks;
+        let mut grew = self.runs.reserve(device, run_bytes);
         // One more, always empty, for fragments in front of the first slice.
         grew |= self.ranges.reserve(device, (clusters + 1) * 8);
         grew |= self.indices.reserve(device, index_bytes);
-        // The indirect dispatch and queue count, one slot per cluster, then the scan's block
-        // totals.
-        grew |= self.long_lists.reserve(device, 16 + (clusters + clusters.div_ceil(SCAN_BLOCK)) * 4);
-        self.light_count = store.local_count();
-        let gpu = grid.to_gpu(store.global_count(), self.light_count);
+        // The indirect dispatch and queue count, the scan's block totals, then the queue: each
+        // queued run holds more than SHORT_LIST lights, so the bound limits their number.
+        let long_runs = runs.min(self.bound / (SHORT_LIST + 1) + 1);
+        grew |= self.long_lists.reserve(device, 16 + (runs.div_ceil(SCAN_BLOCK) + long_runs) * 4);
+        let gpu = grid.to_gpu(store.global_count(), self.light_count, self.blocks);
         queue.write_buffer(&self.grid_buffer, 0, bytemuck::bytes_of(&gpu));
         self.grid = Some(grid);
         if grew || self.bind_group.is_none() {
@@ -181,7 +200,7 @@ impl ClusterBinner {
             entries: &[
                 entry(0, &self.grid_buffer),
                 entry(1, store.buffer()),
-                entry(2, self.counts.buffer()),
+                entry(2, self.runs.buffer()),
                 entry(3, self.ranges.buffer()),
                 entry(4, self.indices.buffer()),
                 entry(5, self.long_lists.buffer()),
@@ -224,21 +243,23 @@ impl ClusterBinner {
         for e in entries {
             pipelines.cluster(device, e)?;
         }
-        let clusters = grid.cluster_count();
-        encoder.clear_buffer(self.counts.buffer(), 0, Some(clusters as u64 * 4));
+        // At most 2²⁰ clusters × 2¹⁶ blocks (LightBlocks): runs fit a u32 where their counters
+        // fit a storage buffer (prepare checked).
+        let runs = self.blocks.runs(grid.cluster_count()) as u32;
+        encoder.clear_buffer(self.runs.buffer(), 0, Some(runs as u64 * 4));
         let mut timer = timer;
         // 8 lights to a workgroup of 64 threads (they share the lights' candidate clusters). A compute
         // pass each, so that the benchmark times them one by one (a pass boundary costs about
         // what the barrier between two dispatches does).
         let light_groups = self.light_count.div_ceil(8);
-        let blocks = clusters.div_ceil(SCAN_BLOCK as u32);
+        let blocks = runs.div_ceil(SCAN_BLOCK as u32);
         let passes: [(&str, &[(ClusterEntry, u32)]); 4] = [
             (BINNING_PASSES[0], &[(ClusterEntry::Count, light_groups)]),
-            // Blocks of 256 clusters, a workgroup each, then each block's base added.
+            // Blocks of SCAN_BLOCK runs, a workgroup each, then each block's base added.
             (BINNING_PASSES[1], &[(ClusterEntry::ScanBlocks, blocks), (ClusterEntry::ScanApply, blocks)]),
             (BINNING_PASSES[2], &[(ClusterEntry::Fill, light_groups)]),
-            // One invocation per cluster, 64 to a workgroup.
-            (BINNING_PASSES[3], &[(ClusterEntry::SortShort, clusters.div_ceil(64))]),
+            // One invocation per run, 64 to a workgroup.
+            (BINNING_PASSES[3], &[(ClusterEntry::SortShort, runs.div_ceil(64))]),
         ];
         for (label, dispatches) in passes {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -251,7 +272,7 @@ impl ClusterBinner {
                 dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
             }
         }
-        // One workgroup per cluster sort_short queued (its list is long), sized on the GPU.
+        // One workgroup per run sort_short queued (it is long), sized on the GPU.
         encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("cluster long-list sort"),
@@ -264,13 +285,16 @@ impl ClusterBinner {
     }
 }
 
-/// The binning passes' timer labels, in order: count, scan, fill, sorts of short lists (one
-/// invocation each), sorts of long lists (a workgroup each).
+/// The binning passes' timer labels, in order: count, scan, fill, sorts of short runs (one
+/// invocation each), sorts of long runs (a workgroup each).
 pub const BINNING_PASSES: [&str; 5] =
     ["cluster count", "cluster scan", "cluster fill", "cluster short sort", "cluster sort"];
 
-/// Clusters a workgroup of the scan takes (`SCAN_THREADS` in cluster_bin.wgsl).
-const SCAN_BLOCK: u64 = 256;
+/// Runs a workgroup of the scan takes (`SCAN_THREADS` × `SCAN_ITEMS` in cluster_bin.wgsl).
+const SCAN_BLOCK: u64 = 256 * 4;
+
+/// The longest run `sort_short` sorts itself (`SHORT_LIST` in cluster_bin.wgsl).
+const SHORT_LIST: u64 = 16;
 
 /// Dispatches at least `groups` workgroups of 64, spilling into y past the per-dimension limit
 /// (the shaders flatten the id and skip the surplus).
@@ -281,17 +305,19 @@ fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, limit: u32) {
 
 #[cfg(test)]
 mod tests {
-    use super::SCAN_BLOCK;
+    use super::{SCAN_BLOCK, SHORT_LIST};
     use crate::pipelines::shader_library::EMBEDDED;
 
-    /// The long-list buffer is sized for one block total per SCAN_BLOCK clusters: the shader's
-    /// block must be the same.
+    /// The long-run buffer is sized for one block total per SCAN_BLOCK runs and a queue bounded
+    /// through SHORT_LIST: the shader's must be the same.
     #[test]
-    fn the_scan_block_is_the_shaders() {
+    fn the_scan_block_and_short_list_are_the_shaders() {
         let (_, source) = EMBEDDED.iter().find(|(file, _)| *file == "cluster_bin.wgsl").expect("embedded");
-        assert!(source.contains(&format!("const SCAN_THREADS: u32 = {SCAN_BLOCK}u;")));
+        assert!(source.contains(&format!("const SCAN_THREADS: u32 = {}u;", SCAN_BLOCK / 4)));
+        assert!(source.contains("const SCAN_ITEMS: u32 = 4u;"));
+        assert!(source.contains(&format!("const SHORT_LIST: u32 = {SHORT_LIST}u;")));
         for entry in ["scan_blocks", "scan_apply"] {
-            assert!(source.contains(&format!("@workgroup_size({SCAN_BLOCK})\nfn {entry}(")), "{entry}");
+            assert!(source.contains(&format!("@workgroup_size({})\nfn {entry}(", SCAN_BLOCK / 4)), "{entry}");
         }
     }
 }
