@@ -3,7 +3,7 @@
 // grid.block_lights consecutive lights, in block order: a counter per (cluster, block) run
 // (`runs`, run r = cluster · light_blocks + block). Compute passes, in this order:
 //
-//   count_lights  8 lights per workgroup: atomically count each light in each run it falls in
+//   count_lights  BIN_LIGHTS lights per workgroup: atomically count each light in each run it falls in
 //   scan_blocks,  exclusive scan of the run counts into write cursors: each block of SCAN_ITEMS
 //   scan_apply    runs scanned by a workgroup, then the totals of the blocks before it added
 //   fill_lists    the same walk, writing each light's index at its run's cursor
@@ -176,7 +176,8 @@ fn touches(b: Bounds, c: vec3<u32>) -> bool {
     return true;
 }
 
-// Walks the candidate clusters of lights 8·w to 8·w + 7 with the 64 threads of workgroup w:
+// Walks the candidate clusters of lights BIN_LIGHTS·w to BIN_LIGHTS·(w + 1) − 1 with the 64
+// threads of workgroup w:
 // their boxes' cells are numbered one after another (a scan of the cell counts in workgroup
 // memory) and thread `t` takes every 64th cell, finding its light by binary search. A light is
 // counted into each cluster it touches, or (`fill`) writes its slot at each one's cursor; both
@@ -186,9 +187,11 @@ fn touches(b: Bounds, c: vec3<u32>) -> bool {
 // light fixed that but left 60 of its 64 threads idle for the small lights that most scenes
 // are made of (100 000 lights took 0.113 ms to count on an H200); sharing the workgroup's
 // cells among a few lights keeps its threads busy, while enough workgroups remain to fill the
-// GPU at a thousand lights (64 lights a workgroup took 0.030 ms to count 1 000 there).
+// GPU at a thousand lights (64 lights a workgroup took 0.030 ms to count 1 000 there). 16 lights
+// (8 before the candidate boxes were tightened) suit small boxes: see BIN_LIGHTS in
+// passes/clusters/mod.rs.
 const BIN_THREADS: u32 = 64u;
-const BIN_LIGHTS: u32 = 8u;
+const BIN_LIGHTS: u32 = 16u;
 var<workgroup> bin_bounds: array<Bounds, BIN_LIGHTS>;
 var<workgroup> bin_lo: array<vec3<u32>, BIN_LIGHTS>;
 var<workgroup> bin_size: array<vec3<u32>, BIN_LIGHTS>;

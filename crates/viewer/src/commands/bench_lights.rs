@@ -17,7 +17,7 @@ struct Row {
     lights: usize,
     clusters_ms: Option<f64>,
     /// Of `clusters_ms`, each pass (`BINNING_PASSES`).
-    binning_ms: [Option<f64>; 5],
+    binning_ms: [Option<f64>; 2],
     forward_ms: Option<f64>,
     /// The deferred-lights compute pass and its composite (`--light-walk compute`).
     deferred_ms: Option<f64>,
@@ -104,7 +104,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let binning_ms = BINNING_PASSES.map(|p| median(t.pass(p)));
         rows.push(Row {
             lights: n,
-            // Binning is five compute passes: count, scan, fill, short sorts, long sorts.
+            // Binning is two compute passes: count, scan, fill and short sorts, then long sorts.
             binning_ms,
             clusters_ms: binning_ms[0].map(|c| c + binning_ms[1..].iter().flatten().sum::<f64>()),
             forward_ms: median(t.pass("forward")),
@@ -147,7 +147,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | lights shaded in | GPU binning (ms) | of which count / scan / fill / short sorts / long sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | of which count to short sorts / long sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
     println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {

@@ -248,26 +248,30 @@ impl ClusterBinner {
         let runs = self.blocks.runs(grid.cluster_count()) as u32;
         encoder.clear_buffer(self.runs.buffer(), 0, Some(runs as u64 * 4));
         let mut timer = timer;
-        // 8 lights to a workgroup of 64 threads (they share the lights' candidate clusters). A compute
-        // pass each, so that the benchmark times them one by one (a pass boundary costs about
-        // what the barrier between two dispatches does).
-        let light_groups = self.light_count.div_ceil(8);
+        // BIN_LIGHTS lights to a workgroup of 64 threads (they share the lights' candidate
+        // clusters).
+        let light_groups = self.light_count.div_ceil(BIN_LIGHTS);
         let blocks = runs.div_ceil(SCAN_BLOCK as u32);
-        let passes: [(&str, &[(ClusterEntry, u32)]); 4] = [
-            (BINNING_PASSES[0], &[(ClusterEntry::Count, light_groups)]),
+        let dispatches = [
+            (ClusterEntry::Count, light_groups),
             // Blocks of SCAN_BLOCK runs, a workgroup each, then each block's base added.
-            (BINNING_PASSES[1], &[(ClusterEntry::ScanBlocks, blocks), (ClusterEntry::ScanApply, blocks)]),
-            (BINNING_PASSES[2], &[(ClusterEntry::Fill, light_groups)]),
+            (ClusterEntry::ScanBlocks, blocks),
+            (ClusterEntry::ScanApply, blocks),
+            (ClusterEntry::Fill, light_groups),
             // One invocation per run, 64 to a workgroup.
-            (BINNING_PASSES[3], &[(ClusterEntry::SortShort, runs.div_ceil(64))]),
+            (ClusterEntry::SortShort, runs.div_ceil(64)),
         ];
-        for (label, dispatches) in passes {
+        // One compute pass: the dispatches need the same barriers between them as between
+        // passes, and a pass of its own for each (as the benchmark timed them until 4a0cdc8)
+        // added about 6 µs of timestamps and pass boundary per pass on an H100, a third of the
+        // binning at 1 000 lights.
+        {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass(label)),
+                label: Some(BINNING_PASSES[0]),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass(BINNING_PASSES[0])),
             });
             pass.set_bind_group(0, bind_group, &[]);
-            for &(entry, groups) in dispatches {
+            for (entry, groups) in dispatches {
                 pass.set_pipeline(pipelines.cluster_cached(entry).expect("created above"));
                 dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
             }
@@ -276,7 +280,7 @@ impl ClusterBinner {
         encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("cluster long-list sort"),
-            timestamp_writes: timer.and_then(|t| t.compute_pass(BINNING_PASSES[4])),
+            timestamp_writes: timer.and_then(|t| t.compute_pass(BINNING_PASSES[1])),
         });
         pass.set_bind_group(0, bind_group, &[]);
         pass.set_pipeline(pipelines.cluster_cached(ClusterEntry::SortLong).expect("created above"));
@@ -285,10 +289,15 @@ impl ClusterBinner {
     }
 }
 
-/// The binning passes' timer labels, in order: count, scan, fill, sorts of short runs (one
-/// invocation each), sorts of long runs (a workgroup each).
-pub const BINNING_PASSES: [&str; 5] =
-    ["cluster count", "cluster scan", "cluster fill", "cluster short sort", "cluster sort"];
+/// The binning passes' timer labels, in order: the counting, scan, fill and sorts of short runs
+/// (one invocation each) in one pass, then the sorts of long runs (a workgroup each, an
+/// indirect dispatch the first pass sizes).
+pub const BINNING_PASSES: [&str; 2] = ["cluster binning", "cluster long sorts"];
+
+/// Lights a workgroup of the count and fill walks takes (`BIN_LIGHTS` in cluster_bin.wgsl). 16
+/// rather than 8: at 100 000 lights on the many-lights scene, count 0.024 -> 0.021 ms on an
+/// H100 (32: 0.020, but 0.010 instead of 0.008 at 1 000 lights, too few workgroups).
+const BIN_LIGHTS: u32 = 16;
 
 /// Runs a workgroup of the scan takes (`SCAN_THREADS` × `SCAN_ITEMS` in cluster_bin.wgsl).
 const SCAN_BLOCK: u64 = 256 * 4;
@@ -305,17 +314,19 @@ fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, limit: u32) {
 
 #[cfg(test)]
 mod tests {
-    use super::{SCAN_BLOCK, SHORT_LIST};
+    use super::{BIN_LIGHTS, SCAN_BLOCK, SHORT_LIST};
     use crate::pipelines::shader_library::EMBEDDED;
 
     /// The long-run buffer is sized for one block total per SCAN_BLOCK runs and a queue bounded
-    /// through SHORT_LIST: the shader's must be the same.
+    /// through SHORT_LIST, and the walks are dispatched for BIN_LIGHTS lights a workgroup: the
+    /// shader's must be the same.
     #[test]
     fn the_scan_block_and_short_list_are_the_shaders() {
         let (_, source) = EMBEDDED.iter().find(|(file, _)| *file == "cluster_bin.wgsl").expect("embedded");
         assert!(source.contains(&format!("const SCAN_THREADS: u32 = {}u;", SCAN_BLOCK / 4)));
         assert!(source.contains("const SCAN_ITEMS: u32 = 4u;"));
         assert!(source.contains(&format!("const SHORT_LIST: u32 = {SHORT_LIST}u;")));
+        assert!(source.contains(&format!("const BIN_LIGHTS: u32 = {BIN_LIGHTS}u;")));
         for entry in ["scan_blocks", "scan_apply"] {
             assert!(source.contains(&format!("@workgroup_size({})\nfn {entry}(", SCAN_BLOCK / 4)), "{entry}");
         }
