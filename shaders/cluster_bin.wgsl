@@ -1,19 +1,20 @@
 // Cluster binning: every frame, on the GPU, each local light is assigned to every froxel its
 // influence volume touches. Each cluster's list is built as one run per block of
 // grid.block_lights consecutive lights, in block order: a counter per (cluster, block) run
-// (`runs`, run r = cluster · light_blocks + block). Compute passes, in this order:
+// (`runs`, run r = cluster · light_blocks + block). Dispatches of one compute pass, then the
+// long-run sort in a second:
 //
 //   count_lights  BIN_LIGHTS lights per workgroup: atomically count each light in each run it falls in
 //   scan_blocks,  exclusive scan of the run counts into write cursors: each block of SCAN_ITEMS
 //   scan_apply    runs scanned by a workgroup, then the totals of the blocks before it added
 //   fill_lists    the same walk, writing each light's index at its run's cursor
-//   sort_short    one invocation per run: sort it (insertion sort) if it holds at most
+//   sort_short    one invocation per run: sort it (a sorting network) if it holds at most
 //                 SHORT_LIST lights, else queue it for sort_long; the last run of each
 //                 cluster writes the cluster's (offset, count). Runs sorted in block order make
 //                 each list sorted, so lighting sums in a fixed order and frames are
 //                 deterministic whatever order the atomics ran in
-//   sort_long     one workgroup per queued run (an indirect dispatch the queue sizes): a
-//                 bitonic sort of its long run
+//   sort_long     one workgroup per queued run (an indirect dispatch the queue sizes): a rank
+//                 sort of its long run, or a bitmask of its block's lights for the longest
 //
 // Lists used to be counted per cluster and sorted whole: at 100 000 lights on the many-lights
 // scene that meant bitonic sorts of 489 lights on average (up to 1 490), 0.16 ms on an H100.
@@ -48,9 +49,9 @@ struct LongLists {
 };
 @group(0) @binding(5) var<storage, read_write> long_lists: LongLists;
 const MAX_DISPATCH: u32 = 65535u;
-// Longest run sort_short sorts itself (at most SHORT_LIST² / 2 steps in one invocation). At
-// 64, lists of 20 to 60 lights (1 000 lights on the many-lights scene) kept one invocation each
-// sorting in memory for 0.128 ms on an H200; a workgroup sorts them in parallel.
+// Longest run sort_short sorts itself (a 16-key sorting network). Lists of 20 to 60 lights once
+// kept one invocation each sorting in memory for 0.128 ms on an H200 (1 000 lights on the
+// many-lights scene, when SHORT_LIST was 64); a workgroup sorts them in parallel.
 const SHORT_LIST: u32 = 16u;
 
 // A light's sphere (and cone) of influence in (x, y, d) view coordinates.
@@ -82,14 +83,18 @@ fn light_bounds(light: Light) -> Bounds {
 }
 
 // Tiles covered along one screen axis by a sphere at lateral offset c and depth d: the tangent
-// lines from the eye bound the projected circle exactly. `scale` maps view slope to NDC.
-fn tile_span(c: f32, d: f32, r: f32, scale: f32, tiles: u32) -> vec2<i32> {
+// lines from the eye bound the projected circle exactly. `scale` maps view slope to NDC. A
+// sphere whose near side is within NEAR_SIDE_GUARD of its radius from the eye plane covers the
+// whole axis: there d² − r² cancels, and its rounding (about 1e-7 / (d/r − 1) of the bounds,
+// relative) could pass the candidate margin on fine grids.
+const NEAR_SIDE_GUARD: f32 = 1.05;
+fn tile_span(c: f32, d: f32, r: f32, scale: f32, tiles: u32, pixels: f32) -> vec2<i32> {
     var lo = -1.0;
     var hi = 1.0;
     if grid.is_orthographic != 0u {
         lo = (c - r) * scale;
         hi = (c + r) * scale;
-    } else if d > r {
+    } else if d > r * NEAR_SIDE_GUARD {
         let root = r * sqrt(c * c + d * d - r * r);
         let den = d * d - r * r;
         lo = (c * d - root) / den * scale;
@@ -99,19 +104,25 @@ fn tile_span(c: f32, d: f32, r: f32, scale: f32, tiles: u32) -> vec2<i32> {
     // NaN (a light so far off that c² or d² overflows) covers the whole screen: conservative.
     lo = select(-2.0, min(lo, 2.0), lo >= -2.0);
     hi = select(2.0, max(hi, -2.0), hi <= 2.0);
-    // The tangent bounds are exact, so only their rounding needs a margin (CANDIDATE_MARGIN).
-    let first = i32(floor((lo + 1.0) * 0.5 * t - CANDIDATE_MARGIN));
-    let last = i32(floor((hi + 1.0) * 0.5 * t + CANDIDATE_MARGIN));
+    // The tangent bounds are exact, so the margin covers their rounding and where the cluster is
+    // looked up (see CANDIDATE_MARGIN).
+    let margin = CANDIDATE_MARGIN + LOOKUP_SLACK * t / pixels;
+    let first = i32(floor((lo + 1.0) * 0.5 * t - margin));
+    let last = i32(floor((hi + 1.0) * 0.5 * t + margin));
     return vec2<i32>(max(first, 0), min(last, i32(tiles) - 1));
 }
 
 // How far past a light's projected bounds, in tiles or slices, its candidate box reaches: far
-// more than the bounds' rounding (about 1e-6 of a tile), so a fragment whose position the light
-// reaches always finds the light in its tile and slice. The box used to take a whole tile and
+// more than the bounds' rounding (about 1e-6 of a tile), so a point the light reaches always
+// finds the light in its tile and slice. Across the screen the box reaches LOOKUP_SLACK pixels
+// further: a point may be shaded up to a pixel from where its cluster is looked up (the
+// deferred pass shades each sample where it lies, and looks up the pixel centre's cluster;
+// line quads shade half a pixel off their fragment). The box used to take a whole tile and
 // slice of slack each side, for the per-cluster test to decide: a light of the many-lights
 // scene (1 to 2 tiles and slices) then had about 46 candidates for 4 clusters it touches, and
 // the count and fill walks spent their time testing them.
 const CANDIDATE_MARGIN: f32 = 0.01;
+const LOOKUP_SLACK: f32 = 1.0;
 
 // Candidate box of clusters, inclusive: lo.xyz .. hi.xyz; empty when any hi < lo.
 struct ClusterBox {
@@ -123,15 +134,15 @@ fn candidate_box(b: Bounds) -> ClusterBox {
     var box: ClusterBox;
     let d = b.center.z;
     let r = b.radius;
-    let sx = tile_span(b.center.x, d, r, grid.proj_scale.x, grid.dims.x);
+    let sx = tile_span(b.center.x, d, r, grid.proj_scale.x, grid.dims.x, grid.viewport.x);
     // Tile rows count down from the top of the screen, NDC y counts up.
-    let sy = tile_span(b.center.y, d, r, grid.proj_scale.y, grid.dims.y);
+    let sy = tile_span(b.center.y, d, r, grid.proj_scale.y, grid.dims.y, grid.viewport.y);
     let rows = i32(grid.dims.y) - 1;
     let k_first = slice_index(floor(slice_coordinate(grid, max(d - r, grid.near)) - CANDIDATE_MARGIN));
     let k_last = slice_index(floor(slice_coordinate(grid, d + r) + CANDIDATE_MARGIN));
     box.lo = vec3<i32>(sx.x, rows - sy.y, max(k_first, 0));
     box.hi = vec3<i32>(sx.y, rows - sy.x, min(k_last, i32(grid.dims.z) - 1));
-    if d + r < grid.near || b.radius <= 0.0 {
+    if d + r < grid.near || !(b.radius > 0.0) {
         box.hi.z = -1;
     }
     return box;

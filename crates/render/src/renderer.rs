@@ -151,16 +151,17 @@ pub enum LightWalk {
 }
 
 /// `LightWalk::Auto` moves local lights to the compute pass when the cluster lists' CPU bound
-/// (`ClusterBinner::index_bound`, several times the lists' real mean length) exceeds this many
+/// (`ClusterBinner::index_bound`, a few times the lists' real mean length) exceeds this many
 /// entries per cluster. Measured on an H100 at 1920×1080 MSAA 4 (`penumbra bench many-lights`,
-/// README, release of 2299684): 1000 lights (bound 21.8 per cluster) render in 2.81 ms in
-/// fragments and 5.85 ms in compute, 10 000 (bound 218) in 9.90 and 6.59 ms. Both grow about
-/// linearly with the bound, so they cross near 116; the threshold sits below that, since a
-/// frame running long in fragments loses more than one running long in compute. (Before the
-/// depth slices followed the lights, the bounds were 13 and 131 and the threshold 32.)
-pub const AUTO_COMPUTE_ENTER: f64 = 96.0;
+/// README, release of 2299684): 1000 lights render in 2.81 ms in fragments and 5.85 ms in
+/// compute, 10 000 in 9.90 and 6.59 ms. Both grow about linearly with the lists, so they cross
+/// 48% of the way from 1000 to 10 000 lights. The bound there is 2.5 and 24.6 per cluster (the
+/// bench's "bound per cluster"; it was 21.8 and 218 before the bound's boxes were tightened from
+/// two tiles of slack to half a tile), so they cross near 13; the threshold sits below that,
+/// since a frame running long in fragments loses more than one running long in compute.
+pub const AUTO_COMPUTE_ENTER: f64 = 11.0;
 /// Below this bound per cluster, `LightWalk::Auto` goes back to the fragment shader.
-pub const AUTO_COMPUTE_LEAVE: f64 = 48.0;
+pub const AUTO_COMPUTE_LEAVE: f64 = 5.5;
 
 /// Where the renderer's WGSL comes from.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]

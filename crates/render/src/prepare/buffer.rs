@@ -32,7 +32,13 @@ impl GrowableBuffer {
         if bytes <= self.buffer.size() {
             return false;
         }
-        let size = bytes.max(self.buffer.size() * 2).next_multiple_of(256);
+        // Doubling stops at what the device can hold (and bind, for storage buffers), so that a
+        // request the caller checked against those limits never grows past them.
+        let mut limit = device.limits().max_buffer_size;
+        if self.usage.contains(wgpu::BufferUsages::STORAGE) {
+            limit = limit.min(device.limits().max_storage_buffer_binding_size);
+        }
+        let size = bytes.max((self.buffer.size() * 2).min(limit & !255)).next_multiple_of(256);
         self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(self.label),
             size,

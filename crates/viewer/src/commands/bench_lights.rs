@@ -28,6 +28,8 @@ struct Row {
     update_ms: f64,
     cpu_ms: f64,
     bound_ms: f64,
+    /// The CPU's bound on list entries over the cluster count: what `auto` decides by.
+    bound_per_cluster: f64,
     mean_per_cluster: f64,
     mean_per_occupied: f64,
     max_per_cluster: usize,
@@ -115,6 +117,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             update_ms: percentile(&t.update, 0.5),
             cpu_ms: percentile(&t.cpu, 0.5),
             bound_ms: renderer.cluster_binner().last_bound_ms,
+            bound_per_cluster: renderer.cluster_binner().index_bound() as f64 / lists.len().max(1) as f64,
             mean_per_cluster: total as f64 / lists.len().max(1) as f64,
             mean_per_occupied: total as f64 / occupied.max(1) as f64,
             max_per_cluster: lists.iter().map(Vec::len).max().unwrap_or(0),
@@ -147,12 +150,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | lights shaded in | GPU binning (ms) | of which count to short sorts / long sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | of which count to short sorts / long sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
-    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
             r.lights,
             if r.compute { "compute" } else { "fragments" },
             ms(r.clusters_ms),
@@ -164,6 +167,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             r.update_ms,
             r.cpu_ms,
             r.bound_ms,
+            r.bound_per_cluster,
             r.mean_per_cluster,
             r.mean_per_occupied,
             r.max_per_cluster,

@@ -26,8 +26,11 @@ impl Default for ClusterConfig {
     }
 }
 
-/// The most clusters a grid may have: with at least 4 light blocks there (see [`LightBlocks`]),
-/// each of the scan's at most 4096 workgroups sums up to 4095 block totals before its own.
+/// The most clusters a grid may have. Up to 2²² (cluster, block) runs (see [`LightBlocks`]: 4
+/// blocks at this many clusters), each of the scan's at most 4096 workgroups sums up to 4095
+/// block totals before its own; past 262 144 lights on such a grid, blocks stop growing at
+/// 65 536 lights, the runs pass 2²², and that part of the scan grows with the square of the
+/// block count.
 pub const MAX_CLUSTERS: u32 = 1 << 20;
 
 impl ClusterConfig {
@@ -60,8 +63,8 @@ pub struct LightBlocks {
 
 impl LightBlocks {
     /// Lights per block at most scenes' light counts: runs stay a few lights long up to
-    /// hundreds of thousands of lights (on the many-lights scene, 5 on average and 15 in the
-    /// longest list, at 100 000 lights).
+    /// hundreds of thousands of lights (on the many-lights scene at 100 000 lights, 5 on average
+    /// and 15 in the longest list's runs).
     pub const LIGHTS: u32 = 1024;
     /// The most (cluster, block) runs: past it blocks grow instead, to keep the run counters
     /// (a word each) within 16 MiB, up to [`Self::MAX_LIGHTS`].
@@ -123,6 +126,20 @@ pub struct ClusterGrid {
 /// How far past a light's exact projected bounds, in tiles or slices, its candidate box
 /// reaches: `CANDIDATE_MARGIN` in cluster_bin.wgsl, whose comment says why.
 pub const CANDIDATE_MARGIN: f32 = 0.01;
+
+/// How many pixels further across the screen candidate boxes reach: `LOOKUP_SLACK` in
+/// cluster_bin.wgsl, whose comment says why.
+pub const LOOKUP_SLACK: f32 = 1.0;
+
+/// How far past a light's exact bounds, in tiles or slices, the CPU's bound on its list entries
+/// reaches. It was two whole tiles and slices each side: about 40 times the lists' real length
+/// on the many-lights scene, whose cluster buffers took 68 MiB at 100 000 lights for 456 000
+/// entries.
+pub const BOUND_MARGIN: f32 = 0.5;
+
+/// A sphere this close to the eye plane (depth within this factor of its radius) covers a whole
+/// screen axis: `NEAR_SIDE_GUARD` in cluster_bin.wgsl, whose comment says why.
+pub const NEAR_SIDE_GUARD: f32 = 1.05;
 
 /// A whole number of slices as an index (the GPU clamps to ±2³⁰, see `slice_of` in
 /// clusters.wgsl; both are far past any grid).
@@ -307,14 +324,15 @@ impl ClusterGrid {
         Bounds { center, radius, spot }
     }
 
-    /// Tiles covered along one axis, [`CANDIDATE_MARGIN`] wide of the exact bounds, with `slack`
-    /// extra tiles each side (the GPU walk uses none).
-    fn tile_span(&self, c: f32, d: f32, r: f32, scale: f32, tiles: u32, slack: i32) -> (i32, i32) {
+    /// Tiles covered along one axis, `margin` tiles and [`LOOKUP_SLACK`] pixels wide of the exact
+    /// bounds (the GPU walk's margin is [`CANDIDATE_MARGIN`]).
+    fn tile_span(&self, axis: usize, c: f32, d: f32, r: f32, margin: f32) -> (i32, i32) {
+        let (scale, tiles, pixels) = (self.proj_scale[axis], self.dims[axis], self.viewport[axis]);
         let (mut lo, mut hi) = (-1.0f32, 1.0f32);
         if self.orthographic {
             lo = (c - r) * scale;
             hi = (c + r) * scale;
-        } else if d > r {
+        } else if d > r * NEAR_SIDE_GUARD {
             let root = r * (c * c + d * d - r * r).sqrt();
             let den = d * d - r * r;
             lo = (c * d - root) / den * scale;
@@ -324,21 +342,21 @@ impl ClusterGrid {
         // NaN (a light so far off that c² or d² overflows) covers the whole screen: conservative.
         let lo = if lo >= -2.0 { lo.min(2.0) } else { -2.0 };
         let hi = if hi <= 2.0 { hi.max(-2.0) } else { 2.0 };
-        let first = ((lo + 1.0) * 0.5 * t - CANDIDATE_MARGIN).floor() as i32 - slack;
-        let last = ((hi + 1.0) * 0.5 * t + CANDIDATE_MARGIN).floor() as i32 + slack;
+        let margin = margin + LOOKUP_SLACK * t / pixels;
+        let first = ((lo + 1.0) * 0.5 * t - margin).floor() as i32;
+        let last = ((hi + 1.0) * 0.5 * t + margin).floor() as i32;
         (first.max(0), last.min(tiles as i32 - 1))
     }
 
-    pub fn candidate_box(&self, b: &Bounds, slack: i32) -> ClusterBox {
+    /// The clusters within `margin` tiles and slices of the light's exact projected bounds (the
+    /// GPU walk's: [`CANDIDATE_MARGIN`]).
+    pub fn candidate_box(&self, b: &Bounds, margin: f32) -> ClusterBox {
         let (d, r) = (b.center.z, b.radius);
-        let sx = self.tile_span(b.center.x, d, r, self.proj_scale.x, self.dims.x, slack);
-        let sy = self.tile_span(b.center.y, d, r, self.proj_scale.y, self.dims.y, slack);
+        let sx = self.tile_span(0, b.center.x, d, r, margin);
+        let sy = self.tile_span(1, b.center.y, d, r, margin);
         let rows = self.dims.y as i32 - 1;
-        let k_first = slice_index((self.slice_coordinate((d - r).max(self.near)) - CANDIDATE_MARGIN).floor())
-            .saturating_sub(slack);
-        // Clamped before adding so that a huge range cannot overflow.
-        let k_last =
-            slice_index((self.slice_coordinate(d + r) + CANDIDATE_MARGIN).floor()).min(self.dims.z as i32) + slack;
+        let k_first = slice_index((self.slice_coordinate((d - r).max(self.near)) - margin).floor());
+        let k_last = slice_index((self.slice_coordinate(d + r) + margin).floor());
         let mut hi = [sx.1, rows - sy.0, k_last.min(self.dims.z as i32 - 1)];
         if d + r < self.near || r.is_nan() || b.radius <= 0.0 {
             hi[2] = -1;
@@ -387,15 +405,16 @@ impl ClusterGrid {
     }
 
     /// An upper bound of the total list length the GPU can produce for `lights`: each light's
-    /// candidate box with two more tiles and slices of slack than the GPU walk uses, so rounding
-    /// differences between CPU and GPU cannot make the GPU exceed it. (The slack is also what
-    /// `auto`'s light-walk thresholds were measured against; see `LightWalk`.)
+    /// candidate box reaching [`BOUND_MARGIN`] past its bounds, where the GPU's reaches
+    /// [`CANDIDATE_MARGIN`], so rounding differences between CPU and GPU (about 1e-6 of a tile,
+    /// see `NEAR_SIDE_GUARD`) cannot make the GPU exceed it. (It is also what `auto`'s
+    /// light-walk thresholds are measured against; see `LightWalk`.)
     pub fn index_bound(&self, lights: &[GpuLight]) -> u64 {
         let cap = self.cluster_count() as u64;
         let bound = |ls: &[GpuLight]| -> u64 {
             ls.iter()
                 .filter(|l| l.range > 0.0)
-                .map(|l| self.candidate_box(&self.light_bounds(l), 2).len().min(cap))
+                .map(|l| self.candidate_box(&self.light_bounds(l), BOUND_MARGIN).len().min(cap))
                 .sum()
         };
         if lights.len() < 20_000 {
@@ -424,6 +443,66 @@ mod tests {
     /// Lights of 0.1 radius within `min`..`max`.
     fn grid(view: &ExtractedView, min: Vec3, max: Vec3) -> ClusterGrid {
         ClusterGrid::new(view, (1920, 1080), ClusterConfig::default(), Some(LightBounds { min, max, mean_range: 0.1 }))
+    }
+
+    /// A point a light reaches is shaded up to 0.375 px (a sample's offset) from where its
+    /// cluster is looked up (the deferred pass looks up the pixel centre's): from there it must
+    /// find the light's candidate box. Points on each light's sphere, where its projection ends,
+    /// looked up from each sample offset, on a grid whose tile edges fall inside pixels (6.75
+    /// pixels a tile row).
+    #[test]
+    fn points_a_light_reaches_find_it_from_a_sample_away() {
+        let view = view_at(Vec3::ZERO);
+        let viewport = (192u32, 108u32);
+        let bounds =
+            LightBounds { min: Vec3::new(-30.0, -20.0, -60.0), max: Vec3::new(30.0, 20.0, -5.0), mean_range: 1.0 };
+        let g = ClusterGrid::new(&view, viewport, ClusterConfig::default(), Some(bounds));
+        let size = Vec2::new(viewport.0 as f32, viewport.1 as f32);
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut checked = 0;
+        for _ in 0..300 {
+            let mut light: GpuLight = bytemuck::Zeroable::zeroed();
+            let depth = 8.0 + 45.0 * next();
+            let center = Vec3::new((next() - 0.5) * depth, (next() - 0.5) * 0.6 * depth, -depth);
+            light.position = center.to_array();
+            light.range = 0.3 + 2.0 * next();
+            light.kind = crate::prepare::light_store::KIND_POINT;
+            let b = g.light_bounds(&light);
+            let bx = g.candidate_box(&b, CANDIDATE_MARGIN);
+            for k in 0..64 {
+                let (theta, z) = (k as f32 * 2.399_963, 1.0 - 2.0 * (k as f32 + 0.5) / 64.0);
+                let dir = Vec3::new((1.0 - z * z).sqrt() * theta.cos(), (1.0 - z * z).sqrt() * theta.sin(), z);
+                let v = g.view_coords(center + dir * light.range * 0.9999 - g.camera_position);
+                let ndc = Vec2::new(g.proj_scale.x * v.x / v.z, g.proj_scale.y * v.y / v.z);
+                let px = Vec2::new((ndc.x + 1.0) * 0.5 * size.x, (1.0 - ndc.y) * 0.5 * size.y);
+                for off in [
+                    Vec2::new(-0.375, -0.125),
+                    Vec2::new(0.125, -0.375),
+                    Vec2::new(-0.125, 0.375),
+                    Vec2::new(0.375, 0.125),
+                ] {
+                    let at = px + off;
+                    if at.cmplt(Vec2::ZERO).any() || at.cmpge(size).any() || g.slice_of(v.z) < 0 {
+                        continue;
+                    }
+                    let tile = (at / size * g.dims.truncate().as_vec2()).as_ivec2();
+                    let slice = g.slice_of(v.z).min(g.dims.z as i32 - 1);
+                    let inside = (0..2).all(|a| (bx.lo[a]..=bx.hi[a]).contains(&tile[a]))
+                        && (bx.lo[2]..=bx.hi[2]).contains(&slice);
+                    assert!(
+                        inside,
+                        "light at {center} r {}: point at pixel {px} looked up from {at} (tile {tile}, slice {slice}) is outside {bx:?}",
+                        light.range
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked} lookups");
     }
 
     #[test]

@@ -32,7 +32,8 @@ use crate::world::ExtractedView;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(
     "cluster lists would need up to {needed} MiB, more than this device's storage-buffer limit of {limit} MiB; \
-     shading every fragment with every light this frame (slow but exact); use fewer clusters or smaller light ranges"
+     shading every fragment with every light this frame (slow but exact); use fewer clusters, fewer local lights \
+     or smaller light ranges"
 )]
 pub struct BinningTooLarge {
     pub needed: u64,
@@ -314,12 +315,13 @@ fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, limit: u32) {
 
 #[cfg(test)]
 mod tests {
-    use super::{BIN_LIGHTS, SCAN_BLOCK, SHORT_LIST};
+    use super::{BIN_LIGHTS, LightBlocks, SCAN_BLOCK, SHORT_LIST, grid};
     use crate::pipelines::shader_library::EMBEDDED;
 
     /// The long-run buffer is sized for one block total per SCAN_BLOCK runs and a queue bounded
-    /// through SHORT_LIST, and the walks are dispatched for BIN_LIGHTS lights a workgroup: the
-    /// shader's must be the same.
+    /// through SHORT_LIST, the walks are dispatched for BIN_LIGHTS lights a workgroup, blocks are
+    /// capped at the mask's bits, and the CPU twin builds the same candidate boxes: the shader's
+    /// constants must be the same.
     #[test]
     fn the_scan_block_and_short_list_are_the_shaders() {
         let (_, source) = EMBEDDED.iter().find(|(file, _)| *file == "cluster_bin.wgsl").expect("embedded");
@@ -327,6 +329,16 @@ mod tests {
         assert!(source.contains("const SCAN_ITEMS: u32 = 4u;"));
         assert!(source.contains(&format!("const SHORT_LIST: u32 = {SHORT_LIST}u;")));
         assert!(source.contains(&format!("const BIN_LIGHTS: u32 = {BIN_LIGHTS}u;")));
+        // The long-run sort's mask holds a bit per light of the largest block.
+        assert!(source.contains(&format!("const MASK_WORDS: u32 = {}u;", LightBlocks::MAX_LIGHTS / 32)));
+        // The CPU twin's candidate boxes are the GPU walk's.
+        for (name, value) in [
+            ("CANDIDATE_MARGIN", grid::CANDIDATE_MARGIN),
+            ("LOOKUP_SLACK", grid::LOOKUP_SLACK),
+            ("NEAR_SIDE_GUARD", grid::NEAR_SIDE_GUARD),
+        ] {
+            assert!(source.contains(&format!("const {name}: f32 = {value:?};")), "{name}");
+        }
         for entry in ["scan_blocks", "scan_apply"] {
             assert!(source.contains(&format!("@workgroup_size({})\nfn {entry}(", SCAN_BLOCK / 4)), "{entry}");
         }

@@ -21,7 +21,7 @@ pub fn bin_scaled(grid: &ClusterGrid, lights: &[GpuLight], first: u32, range_sca
         let mut light = *light;
         light.range *= range_scale;
         let b = grid.light_bounds(&light);
-        let bx = grid.candidate_box(&b, 0);
+        let bx = grid.candidate_box(&b, super::grid::CANDIDATE_MARGIN);
         for k in bx.lo[2]..=bx.hi[2] {
             for j in bx.lo[1]..=bx.hi[1] {
                 for i_tile in bx.lo[0]..=bx.hi[0] {
