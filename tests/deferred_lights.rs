@@ -188,3 +188,34 @@ fn the_automatic_walk_moves_long_lists_to_compute_and_back() {
     assert!(!runs_compute(&app), "500 lights left: back to the fragment shader");
     assert_eq!(app.world.resource::<Renderer>().shader_error(), None);
 }
+
+/// The compute walk at MSAA 4 on a grid whose tile edges fall inside pixels (tiles of 2⅔
+/// pixels) equals the same walk on a single cluster, whose list holds every light, bit for bit.
+/// (The deferred pass shades each sample where it lies and looks up the pixel centre's cluster;
+/// that candidate boxes reach far enough for it is checked on the CPU twin, where a miss is
+/// not left to chance: grid.rs, `points_a_light_reaches_find_it_from_a_sample_away`.)
+#[test]
+fn samples_shaded_off_their_pixel_centre_find_every_light() {
+    let render = |(tiles_x, tiles_y, slices): (u32, u32, u32)| {
+        let mut app = scene_app();
+        spawn_many_lights(&mut app.world, 1000, Some(3.0));
+        let clusters = ClusterConfig { tiles_x, tiles_y, slices };
+        let frame = render_app(
+            &mut app,
+            (128, 72),
+            RenderSettings {
+                msaa: 4,
+                clusters,
+                keep_hdr: true,
+                light_walk: LightWalk::ClusteredCompute,
+                ..Default::default()
+            },
+        );
+        assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::DeferredLights));
+        frame
+    };
+    let fine = render((48, 27, 32));
+    let single = render((1, 1, 1));
+    let differing = fine.chunks_exact(4).zip(single.chunks_exact(4)).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 0, "{differing} pixels differ between tiles of 2⅔ pixels and one cluster");
+}
