@@ -1,8 +1,8 @@
 // Cluster binning: every frame, on the GPU, each local light is assigned to every froxel its
 // influence volume touches. Each cluster's list is built as one run per block of
 // grid.block_lights consecutive lights, in block order: a counter per (cluster, block) run
-// (`runs`, run r = cluster · light_blocks + block). Dispatches of one compute pass, then the
-// long-run sort in a second:
+// (`runs`, run r = cluster · light_blocks + block). Dispatches of one compute pass, in this
+// order:
 //
 //   count_lights  BIN_LIGHTS lights per workgroup: atomically count each light in each run it falls in
 //   scan_blocks,  exclusive scan of the run counts into write cursors: each block of SCAN_ITEMS
@@ -37,17 +37,22 @@
 @group(0) @binding(3) var<storage, read_write> ranges: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> indices: array<u32>;
 
-// The runs sort_short leaves to sort_long. The first three words are sort_long's indirect
-// dispatch (x = queued runs, at most MAX_DISPATCH; sort_long strides over the rest). The scan
-// parks its block totals in the first slots (scan_block_count of them); the queue follows.
+// The runs sort_short leaves to sort_long: how many, then the scan's block totals in the first
+// slots (scan_block_count of them), then the queue.
 struct LongLists {
-    x: atomic<u32>,
-    y: u32,
-    z: u32,
     count: atomic<u32>,
     slots: array<u32>,
 };
 @group(0) @binding(5) var<storage, read_write> long_lists: LongLists;
+// sort_long's indirect dispatch (x = queued runs, at most MAX_DISPATCH; sort_long strides over
+// the rest), in a buffer of its own: the dispatch that reads it as arguments binds a stand-in
+// there, so that sort_long runs in the same compute pass, with no copy of the arguments.
+struct DispatchArgs {
+    x: atomic<u32>,
+    y: u32,
+    z: u32,
+};
+@group(0) @binding(6) var<storage, read_write> long_dispatch: DispatchArgs;
 const MAX_DISPATCH: u32 = 65535u;
 // Longest run sort_short sorts itself (a 16-key sorting network). Lists of 20 to 60 lights once
 // kept one invocation each sorting in memory for 0.128 ms on an H200 (1 000 lights on the
@@ -381,9 +386,9 @@ fn scan_apply(
     if b == 0u && t == 0u {
         // The range fragments in front of the first slice look up (see fragment_cluster).
         ranges[cluster_total()] = vec2<u32>(0u, 0u);
-        atomicStore(&long_lists.x, 0u);
-        long_lists.y = 1u;
-        long_lists.z = 1u;
+        atomicStore(&long_dispatch.x, 0u);
+        long_dispatch.y = 1u;
+        long_dispatch.z = 1u;
         atomicStore(&long_lists.count, 0u);
     }
 }
@@ -451,7 +456,7 @@ fn sort_short(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     if n > SHORT_LIST {
         let slot = atomicAdd(&long_lists.count, 1u);
         long_lists.slots[scan_block_count() + slot] = r;
-        atomicMax(&long_lists.x, min(slot + 1u, MAX_DISPATCH));
+        atomicMax(&long_dispatch.x, min(slot + 1u, MAX_DISPATCH));
         return;
     }
     // Loaded at once (unrolled), sorted by a fixed network, stored: every index is a constant,

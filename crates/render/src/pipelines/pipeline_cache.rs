@@ -550,6 +550,7 @@ impl PipelineCache {
                 buffer_entry(3, compute, read_write),
                 buffer_entry(4, compute, read_write),
                 buffer_entry(5, compute, read_write),
+                buffer_entry(6, compute, read_write),
             ],
         });
         let material_entries: Vec<_> = (0..5u32).flat_map(|i| [texture(2 * i, true), sampler(2 * i + 1)]).collect();

@@ -9,15 +9,13 @@ use penumbra_render::renderer::LightWalk;
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
 use super::bench::{percentile, recipe_settings, time_frames};
-use penumbra_render::passes::clusters::BINNING_PASSES;
+use penumbra_render::passes::clusters::BINNING_PASS;
 
 use crate::cli::BenchArgs;
 
 struct Row {
     lights: usize,
     clusters_ms: Option<f64>,
-    /// Of `clusters_ms`, each pass (`BINNING_PASSES`).
-    binning_ms: [Option<f64>; 2],
     forward_ms: Option<f64>,
     /// The deferred-lights compute pass and its composite (`--light-walk compute`).
     deferred_ms: Option<f64>,
@@ -103,12 +101,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             args.error_size,
         )?;
         let median = |v: Option<&[f64]>| v.filter(|v| !v.is_empty()).map(|v| percentile(v, 0.5));
-        let binning_ms = BINNING_PASSES.map(|p| median(t.pass(p)));
         rows.push(Row {
             lights: n,
-            // Binning is two compute passes: count, scan, fill and short sorts, then long sorts.
-            binning_ms,
-            clusters_ms: binning_ms[0].map(|c| c + binning_ms[1..].iter().flatten().sum::<f64>()),
+            // Binning is one compute pass (see `BINNING_PASS`).
+            clusters_ms: median(t.pass(BINNING_PASS)),
             forward_ms: median(t.pass("forward")),
             compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
@@ -150,16 +146,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | lights shaded in | GPU binning (ms) | of which count to short sorts / long sorts (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
-    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
+            "| {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
             r.lights,
             if r.compute { "compute" } else { "fragments" },
             ms(r.clusters_ms),
-            r.binning_ms.map(ms).join(" / "),
             ms(r.forward_ms),
             ms(r.deferred_ms),
             ms(r.gpu_ms),

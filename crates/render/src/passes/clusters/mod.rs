@@ -48,12 +48,15 @@ pub struct ClusterBinner {
     /// Per-cluster (offset, count) into `indices`.
     ranges: GrowableBuffer,
     indices: GrowableBuffer,
-    /// The words of the indirect dispatch that sorts long runs, then the scan's block totals,
-    /// then the runs too long for `sort_short`.
+    /// How many runs are too long for `sort_short`, the scan's block totals, then those runs.
     long_lists: GrowableBuffer,
-    /// Those words, copied out: a buffer bound for writing cannot also drive the dispatch.
+    /// The indirect dispatch of `sort_long`, written by `sort_short` (binding 6).
     long_dispatch: wgpu::Buffer,
-    bind_group: Option<wgpu::BindGroup>,
+    /// Binds in `long_dispatch`'s place for the dispatch it drives: a buffer bound for writing
+    /// cannot also hold a dispatch's arguments.
+    dispatch_stand_in: wgpu::Buffer,
+    /// The binning's buffers; and the same with the stand-in for `long_dispatch`, for `sort_long`.
+    bind_group: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
     grid: Option<ClusterGrid>,
     light_count: u32,
     blocks: LightBlocks,
@@ -81,7 +84,13 @@ impl ClusterBinner {
             long_dispatch: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("cluster long-list dispatch"),
                 size: 16,
-                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+                usage: wgpu::BufferUsages::INDIRECT | storage,
+                mapped_at_creation: false,
+            }),
+            dispatch_stand_in: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("cluster long-list dispatch stand-in"),
+                size: 16,
+                usage: storage,
                 mapped_at_creation: false,
             }),
             bind_group: None,
@@ -168,15 +177,18 @@ impl ClusterBinner {
         // One more, always empty, for fragments in front of the first slice.
         grew |= self.ranges.reserve(device, (clusters + 1) * 8);
         grew |= self.indices.reserve(device, index_bytes);
-        // The indirect dispatch and queue count, the scan's block totals, then the queue: each
+        // The queue count, the scan's block totals, then the queue: each
         // queued run holds more than SHORT_LIST lights, so the bound limits their number.
         let long_runs = runs.min(self.bound / (SHORT_LIST + 1) + 1);
-        grew |= self.long_lists.reserve(device, 16 + (runs.div_ceil(SCAN_BLOCK) + long_runs) * 4);
+        grew |= self.long_lists.reserve(device, 4 + (runs.div_ceil(SCAN_BLOCK) + long_runs) * 4);
         let gpu = grid.to_gpu(store.global_count(), self.light_count, self.blocks);
         queue.write_buffer(&self.grid_buffer, 0, bytemuck::bytes_of(&gpu));
         self.grid = Some(grid);
         if grew || self.bind_group.is_none() {
-            self.bind_group = Some(self.create_bind_group(device, pipelines, store));
+            self.bind_group = Some((
+                self.create_bind_group(device, pipelines, store, &self.long_dispatch),
+                self.create_bind_group(device, pipelines, store, &self.dispatch_stand_in),
+            ));
         }
         Ok(grew)
     }
@@ -191,6 +203,7 @@ impl ClusterBinner {
         device: &wgpu::Device,
         pipelines: &PipelineCache,
         store: &LightStore,
+        dispatch: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
@@ -205,6 +218,7 @@ impl ClusterBinner {
                 entry(3, self.ranges.buffer()),
                 entry(4, self.indices.buffer()),
                 entry(5, self.long_lists.buffer()),
+                entry(6, dispatch),
             ],
         })
     }
@@ -232,7 +246,9 @@ impl ClusterBinner {
         pipelines: &mut PipelineCache,
         timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
-        let (Some(grid), Some(bind_group)) = (&self.grid, &self.bind_group) else { return Ok(()) };
+        let (Some(grid), Some((bind_group, sort_long_bind_group))) = (&self.grid, &self.bind_group) else {
+            return Ok(());
+        };
         let entries = [
             ClusterEntry::Count,
             ClusterEntry::ScanBlocks,
@@ -248,7 +264,6 @@ impl ClusterBinner {
         // fit a storage buffer (prepare checked).
         let runs = self.blocks.runs(grid.cluster_count()) as u32;
         encoder.clear_buffer(self.runs.buffer(), 0, Some(runs as u64 * 4));
-        let mut timer = timer;
         // BIN_LIGHTS lights to a workgroup of 64 threads (they share the lights' candidate
         // clusters).
         let light_groups = self.light_count.div_ceil(BIN_LIGHTS);
@@ -265,35 +280,28 @@ impl ClusterBinner {
         // One compute pass: the dispatches need the same barriers between them as between
         // passes, and a pass of its own for each (as the benchmark timed them until 4a0cdc8)
         // added about 6 µs of timestamps and pass boundary per pass on an H100, a third of the
-        // binning at 1 000 lights.
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(BINNING_PASSES[0]),
-                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass(BINNING_PASSES[0])),
-            });
-            pass.set_bind_group(0, bind_group, &[]);
-            for (entry, groups) in dispatches {
-                pass.set_pipeline(pipelines.cluster_cached(entry).expect("created above"));
-                dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
-            }
-        }
-        // One workgroup per run sort_short queued (it is long), sized on the GPU.
-        encoder.copy_buffer_to_buffer(self.long_lists.buffer(), 0, &self.long_dispatch, 0, 12);
+        // binning at 1 000 lights; the long sorts' pass and the copy of their arguments another
+        // 0.01 ms at 100 000 lights.
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("cluster long-list sort"),
-            timestamp_writes: timer.and_then(|t| t.compute_pass(BINNING_PASSES[1])),
+            label: Some(BINNING_PASS),
+            timestamp_writes: timer.and_then(|t| t.compute_pass(BINNING_PASS)),
         });
         pass.set_bind_group(0, bind_group, &[]);
+        for (entry, groups) in dispatches {
+            pass.set_pipeline(pipelines.cluster_cached(entry).expect("created above"));
+            dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
+        }
+        // One workgroup per run sort_short queued (it is long), sized on the GPU.
+        pass.set_bind_group(0, sort_long_bind_group, &[]);
         pass.set_pipeline(pipelines.cluster_cached(ClusterEntry::SortLong).expect("created above"));
         pass.dispatch_workgroups_indirect(&self.long_dispatch, 0);
         Ok(())
     }
 }
 
-/// The binning passes' timer labels, in order: the counting, scan, fill and sorts of short runs
-/// (one invocation each) in one pass, then the sorts of long runs (a workgroup each, an
-/// indirect dispatch the first pass sizes).
-pub const BINNING_PASSES: [&str; 2] = ["cluster binning", "cluster long sorts"];
+/// The binning pass's timer label: counting, scan, fill, sorts of short runs (one invocation
+/// each) and of long runs (a workgroup each, an indirect dispatch the short sorts size).
+pub const BINNING_PASS: &str = "cluster binning";
 
 /// Lights a workgroup of the count and fill walks takes (`BIN_LIGHTS` in cluster_bin.wgsl). 16
 /// rather than 8: at 100 000 lights on the many-lights scene, count 0.024 -> 0.021 ms on an
