@@ -4,7 +4,7 @@
 //! bounds, sizes the index buffer by a CPU upper bound of the total list length (cached while
 //! neither the view nor the lights change), and writes the grid uniform; `encode` records
 //! clear → count → prefix sum → fill → sort short runs (queueing long ones, and writing each
-//! cluster's range) → sort long runs (an indirect dispatch, in a second compute pass); lists are
+//! cluster's range) → sort long runs (an indirect dispatch), all in one compute pass; lists are
 //! counted and filled as one run per (cluster, block of lights), see [`LightBlocks`] and
 //! `shaders/cluster_bin.wgsl`. The forward pass then reads `grid`, `ranges` (offset, count per
 //! cluster) and `indices` (light slots).
@@ -59,7 +59,6 @@ pub struct ClusterBinner {
     bind_group: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
     grid: Option<ClusterGrid>,
     light_count: u32,
-    blocks: LightBlocks,
     /// (grid, light generation) the cached bound was computed for.
     bound_key: Option<(ClusterGrid, u64)>,
     bound: u64,
@@ -96,7 +95,6 @@ impl ClusterBinner {
             bind_group: None,
             grid: None,
             light_count: 0,
-            blocks: LightBlocks::new(0, 1),
             bound_key: None,
             bound: 0,
             last_bound_ms: 0.0,
@@ -130,7 +128,7 @@ impl ClusterBinner {
 
     /// How this frame's lights are split into blocks (after `prepare`).
     pub fn light_blocks(&self) -> LightBlocks {
-        self.blocks
+        LightBlocks::new(self.light_count, self.grid.map_or(1, |g| g.cluster_count()))
     }
 
     /// The CPU bound on the total list length that sized the index buffer.
@@ -172,7 +170,6 @@ impl ClusterBinner {
             return Err(BinningTooLarge { needed: run_bytes >> 20, limit: limit >> 20 });
         }
         self.light_count = store.local_count();
-        self.blocks = blocks;
         let mut grew = self.runs.reserve(device, run_bytes);
         // One more, always empty, for fragments in front of the first slice.
         grew |= self.ranges.reserve(device, (clusters + 1) * 8);
@@ -181,7 +178,7 @@ impl ClusterBinner {
         // queued run holds more than SHORT_LIST lights, so the bound limits their number.
         let long_runs = runs.min(self.bound / (SHORT_LIST + 1) + 1);
         grew |= self.long_lists.reserve(device, 4 + (runs.div_ceil(SCAN_BLOCK) + long_runs) * 4);
-        let gpu = grid.to_gpu(store.global_count(), self.light_count, self.blocks);
+        let gpu = grid.to_gpu(store.global_count(), self.light_count, blocks);
         queue.write_buffer(&self.grid_buffer, 0, bytemuck::bytes_of(&gpu));
         self.grid = Some(grid);
         if grew || self.bind_group.is_none() {
@@ -262,7 +259,7 @@ impl ClusterBinner {
         }
         // At most 2²⁰ clusters × 2¹⁶ blocks (LightBlocks): runs fit a u32 where their counters
         // fit a storage buffer (prepare checked).
-        let runs = self.blocks.runs(grid.cluster_count()) as u32;
+        let runs = self.light_blocks().runs(grid.cluster_count()) as u32;
         encoder.clear_buffer(self.runs.buffer(), 0, Some(runs as u64 * 4));
         // BIN_LIGHTS lights to a workgroup of 64 threads (they share the lights' candidate
         // clusters).
