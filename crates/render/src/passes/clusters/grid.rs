@@ -458,11 +458,8 @@ mod tests {
             LightBounds { min: Vec3::new(-30.0, -20.0, -60.0), max: Vec3::new(30.0, 20.0, -5.0), mean_range: 1.0 };
         let g = ClusterGrid::new(&view, viewport, ClusterConfig::default(), Some(bounds));
         let size = Vec2::new(viewport.0 as f32, viewport.1 as f32);
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = penumbra_engine::scenes::SplitMix64(7);
+        let mut next = || rng.uniform(0.0, 1.0);
         let mut checked = 0;
         for _ in 0..300 {
             let mut light: GpuLight = bytemuck::Zeroable::zeroed();
