@@ -22,6 +22,8 @@
 // target; the tonemap pass does not run. LINE_QUADS: the draw is a line list held as quads
 // (prepare/line_quads.rs), widened to one pixel here (line_quads.wgsl). VERTEX_COLORS: the mesh
 // has vertex colours other than white, so the colour is interpolated and multiplied in.
+// ALPHA_COVERAGE or ALPHA_SAMPLE_RATE (with ALPHA_MASK at MSAA 4): the alpha test runs at each
+// sample, see alpha_coverage.
 
 #import penumbra::common::{F16_MAX, safe_normalize}
 #import penumbra::view::{View, eye_direction}
@@ -36,7 +38,7 @@
 #import penumbra::split_sum::split_sum
 #endif
 #import penumbra::light_data::Light
-#import penumbra::draw_data::{Instance, Material, MATERIAL_DOUBLE_SIDED, UvSets, slot_coord, place_vertex}
+#import penumbra::draw_data::{Instance, Material, MATERIAL_DOUBLE_SIDED, TexCoord, UvSets, slot_coord, place_vertex}
 #import penumbra::lights::shade_light
 #ifdef SHADOWS
 #import penumbra::light_data::LIGHT_DIRECTIONAL
@@ -140,12 +142,23 @@ struct VertexOut {
     @location(0) rel_position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) tangent: vec4<f32>,
+#ifdef ALPHA_SAMPLE_RATE
+    // Interpolated at each sample, which makes the fragment shader run once per sample: its
+    // alpha test (and discard) then decides each sample on its own (see alpha_coverage).
+    @location(3) @interpolate(perspective, sample) uv0: vec2<f32>,
+    @location(4) @interpolate(perspective, sample) uv1: vec2<f32>,
+#else
     @location(3) uv0: vec2<f32>,
     @location(4) uv1: vec2<f32>,
+#endif
 #ifdef VERTEX_COLORS
     // Only meshes with colours other than white interpolate one: on GPUs that rasterise small
     // triangles slowly, each interpolated value costs (a sixth of a million-cube frame).
+#ifdef ALPHA_SAMPLE_RATE
+    @location(5) @interpolate(perspective, sample) color: vec4<f32>,
+#else
     @location(5) color: vec4<f32>,
+#endif
 #endif
     @location(6) @interpolate(flat) material: u32,
 };
@@ -252,8 +265,59 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #endif
 }
 
+#ifdef ALPHA_COVERAGE
+// Offsets from the pixel centre of the standard 4-sample positions (Vulkan's
+// standardSampleLocations; D3D and Metal use the same), in sample-index order.
+const SAMPLE_OFFSETS_4 = array<vec2<f32>, 4>(
+    vec2<f32>(-0.125, -0.375),
+    vec2<f32>(0.375, -0.125),
+    vec2<f32>(-0.375, 0.125),
+    vec2<f32>(0.125, 0.375),
+);
+
+// glTF's alpha test at each of the pixel's 4 samples instead of once at its centre: the alpha
+// (factor × vertex colour × base colour texel) is evaluated at each sample position, and the
+// samples where it reaches the cutoff are covered. A masked edge is then antialiased like a
+// geometric one. Computed here rather than by the hardware's alpha-to-coverage, whose dither
+// patterns differ between drivers, so the mask is the same on every adapter; and where the
+// filtered alpha sits at the cutoff (so that a driver's filtering precision decides it) a pixel
+// changes by one sample, not all at once. The texel is fetched at each sample with the pixel's
+// gradients, not extrapolated with derivatives of the alpha: the material comes from a storage
+// buffer, which llvmpipe does not read in helper invocations (see slot_coord). NaN alpha covers
+// nothing. Where a backend cannot write a sample mask, ALPHA_SAMPLE_RATE shades each sample
+// instead and the usual test below discards it.
+fn alpha_coverage(mat: Material, sets: UvSets, vertex_alpha: f32, vertex_alpha_gradient: vec2<f32>) -> u32 {
+#ifdef BASE_COLOR_TEXTURE
+#ifdef TRANSFORMED_UVS
+    let c = slot_coord(mat, 0u, sets);
+#else
+    let c = TexCoord(sets.first, sets.first_ddx, sets.first_ddy);
+#endif
+#endif
+    var mask = 0u;
+    for (var i = 0u; i < 4u; i++) {
+        let o = SAMPLE_OFFSETS_4[i];
+        var alpha = mat.base_color.a;
+#ifdef VERTEX_COLORS
+        alpha *= vertex_alpha + dot(vertex_alpha_gradient, o);
+#endif
+#ifdef BASE_COLOR_TEXTURE
+        let uv = c.uv + c.ddx * o.x + c.ddy * o.y;
+        alpha *= textureSampleGrad(base_color_texture, base_color_sampler, uv, c.ddx, c.ddy).a;
+#endif
+        if alpha >= mat.alpha_cutoff {
+            mask |= 1u << i;
+        }
+    }
+    return mask;
+}
+#endif
+
 struct FragmentOut {
     @location(0) color: vec4<f32>,
+#ifdef ALPHA_COVERAGE
+    @builtin(sample_mask) coverage: u32,
+#endif
 #ifdef DEFERRED_LOCAL_LIGHTS
     // The surface for the local-light pass (see gbuffer.wgsl, which also puts roughness in
     // `color`'s alpha); all zero for unlit surfaces.
@@ -278,9 +342,21 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #endif
 
 #ifdef ALPHA_MASK
+#ifdef ALPHA_COVERAGE
+#ifdef VERTEX_COLORS
+    let vertex_alpha_gradient = vec2<f32>(dpdxFine(in.color.a), dpdyFine(in.color.a));
+    frag.coverage = alpha_coverage(mat, sets, in.color.a, vertex_alpha_gradient);
+#else
+    frag.coverage = alpha_coverage(mat, sets, 1.0, vec2<f32>(0.0));
+#endif
+    if frag.coverage == 0u {
+        discard;
+    }
+#else
     if base.a < mat.alpha_cutoff {
         discard;
     }
+#endif
 #endif
 
 #ifdef UNLIT

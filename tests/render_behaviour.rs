@@ -162,6 +162,104 @@ fn changing_msaa_between_frames_rebuilds_what_depends_on_it() {
     );
 }
 
+/// Where a masked quad's alpha comes from; each ramps across the quad from left to right.
+#[derive(Debug, Clone, Copy)]
+enum AlphaRamp {
+    /// Vertex colours: alpha x / 64 at pixel x.
+    VertexColors,
+    /// A base colour texture of 16 texels in a row (alpha 0, 1/15, .. 1, exact in 8 bits).
+    Texture,
+    /// The same through KHR_texture_transform (TRANSFORMED_UVS): 52 texels (alpha i / 51),
+    /// half of them across the quad.
+    TransformedTexture,
+}
+
+impl AlphaRamp {
+    /// The alpha at pixel x (continuous, in pixels from the left edge).
+    fn alpha_at(self, x: f32) -> f32 {
+        match self {
+            AlphaRamp::VertexColors => x / 64.0,
+            // Texel i's centre sits at i + 0.5 texels; alpha is linear between centres.
+            AlphaRamp::Texture => (16.0 * x / 64.0 - 0.5) / 15.0,
+            AlphaRamp::TransformedTexture => (52.0 * 0.5 * x / 64.0 - 0.5) / 51.0,
+        }
+    }
+}
+
+/// The resolved radiance of pixel columns 31, 32 and 33 for a white, unlit, masked quad filling
+/// a 64² orthographic view over black, its alpha ramping from left to right as `ramp` says.
+/// Every row must agree (the quad's diagonal crosses the columns).
+fn masked_ramp_columns(ramp: AlphaRamp, msaa: u32, cutoff: f32) -> [f32; 3] {
+    let mut app = scene_app();
+    app.world.spawn((
+        Camera {
+            projection: Projection::Orthographic { xmag: Some(1.0), ymag: 1.0, znear: 0.1, zfar: 10.0 },
+            exposure: Exposure::unit(),
+            ..Default::default()
+        },
+        Transform::from_xyz(0.0, 0.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    let mut quad = facing_quad();
+    let mut material = StandardMaterial {
+        unlit: true,
+        alpha_mode: AlphaMode::Mask(cutoff),
+        ..StandardMaterial::from_color(Vec4::ONE, 1.0)
+    };
+    let texels = |n: u32| Image {
+        width: n,
+        height: 1,
+        rgba8: (0..n).flat_map(|i| [255, 255, 255, (i * 255 / (n - 1)) as u8]).collect(),
+        label: "alpha ramp".into(),
+        mips: None,
+    };
+    match ramp {
+        AlphaRamp::VertexColors => {
+            quad.colors = quad.positions.iter().map(|p| Vec4::new(1.0, 1.0, 1.0, (p.x + 1.0) / 2.0)).collect();
+        }
+        AlphaRamp::Texture => {
+            let image = app.world.resource_mut::<Assets<Image>>().add(texels(16));
+            material.base_color_texture = Some(TextureRef::new(image));
+        }
+        AlphaRamp::TransformedTexture => {
+            let image = app.world.resource_mut::<Assets<Image>>().add(texels(52));
+            let mut texture = TextureRef::new(image);
+            texture.transform.scale = Vec2::new(0.5, 1.0);
+            material.base_color_texture = Some(texture);
+        }
+    }
+    spawn_mesh(&mut app, quad, material, Transform::IDENTITY);
+    let settings = RenderSettings { msaa, keep_hdr: true, clear_color: [0.0; 3], ..Default::default() };
+    render_app(&mut app, SIZE, settings);
+    let hdr = common::hdr_of(&app);
+    [31, 32, 33].map(|x| {
+        let column: Vec<f32> = (0..SIZE.1 as usize).map(|y| hdr[y * SIZE.0 as usize + x][1]).collect();
+        assert!(
+            column.iter().all(|v| (v - column[0]).abs() < 1e-3),
+            "{ramp:?}, MSAA {msaa}, cutoff {cutoff}: column {x} varies: {column:?}"
+        );
+        column[0]
+    })
+}
+
+#[test]
+fn masked_edges_cover_the_samples_whose_alpha_reaches_the_cutoff() {
+    // Pixel 32's samples (the standard 4-sample positions) lie at x = 32.125, 32.375, 32.625 and
+    // 32.875. Where the alpha crosses the cutoff decides how many of them are covered; a pixel
+    // tested once, at its centre (32.5), is all or nothing.
+    for ramp in [AlphaRamp::VertexColors, AlphaRamp::Texture, AlphaRamp::TransformedTexture] {
+        for (crossing, covered) in [(32.2, 3.0), (32.45, 2.0), (32.7, 1.0)] {
+            let cutoff = ramp.alpha_at(crossing);
+            let [left, edge, right] = masked_ramp_columns(ramp, 4, cutoff);
+            let what = format!("{ramp:?}, alpha crossing the cutoff at x = {crossing}");
+            assert!(left < 1e-3 && (right - 1.0).abs() < 1e-3, "{what}: beside the edge {left}, {right}");
+            assert!((edge - covered / 4.0).abs() < 2e-3, "{what}: edge pixel {edge}, expected {covered} of 4 samples");
+            let [_, centre_only, _] = masked_ramp_columns(ramp, 1, cutoff);
+            let expected = if crossing <= 32.5 { 1.0 } else { 0.0 };
+            assert!((centre_only - expected).abs() < 1e-3, "{what}, MSAA 1: {centre_only}");
+        }
+    }
+}
+
 #[test]
 fn a_mesh_removed_and_reinserted_in_one_frame_stays_drawn() {
     let mut app = scene_app();

@@ -95,6 +95,12 @@ pub struct Capabilities {
     /// is cached like every other. Not on GL, where wgpu cannot render into a multisampled
     /// texture that is also bound for sampling; GPUs resolve faster themselves.
     pub shader_msaa_resolve: bool,
+    /// Fragment shaders can write a sample mask (`@builtin(sample_mask)`), with which masked
+    /// materials alpha-test each sample at MSAA 4 (`AlphaTest::SampleMask`). Not on GL, where
+    /// naga assigns the mask to GLSL's `int[]` output as a `uint` and the driver rejects the
+    /// shader (wgpu issue #6085): masked draws are shaded once per sample there instead
+    /// (`AlphaTest::SampleRate`), which tests the same samples at four times the fragment work.
+    pub sample_mask_output: bool,
     /// Texels can be copied from where they were decoded (`host_memory`): the import
     /// alignment, on a CPU rasteriser whose Vulkan driver has VK_EXT_external_memory_host.
     pub host_import_alignment: Option<u64>,
@@ -213,6 +219,7 @@ impl GpuContext {
         let deferred_lights = info.backend != wgpu::Backend::Gl;
         let occlusion_culling = info.backend != wgpu::Backend::Gl;
         let exact_depth = info.backend != wgpu::Backend::Gl;
+        let sample_mask_output = info.backend != wgpu::Backend::Gl;
         let array_layers = ArrayLayers::for_backend(info.backend);
         let shader_msaa_resolve = info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Vulkan;
         let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
@@ -291,6 +298,7 @@ impl GpuContext {
                 array_layers,
                 srgb_unorm_views,
                 shader_msaa_resolve,
+                sample_mask_output,
                 host_import_alignment,
                 subpixel_bits,
             },

@@ -33,7 +33,7 @@ use crate::passes::shadows::orchestrator::{DirectionalCandidate, SceneBounds, Sh
 use crate::passes::shadows::{ShadowSettings, ShadowSettingsError};
 use crate::passes::tonemap;
 use crate::pipelines::pipeline_cache::{
-    DebugView, DeferredKey, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper,
+    AlphaTest, DebugView, DeferredKey, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper,
 };
 use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
@@ -1789,6 +1789,7 @@ impl Renderer {
             cull_back_faces: !m.double_sided && triangles,
             front_face_cw: d.mirrored && triangles,
             sample_count: self.settings.msaa,
+            alpha_test: AlphaTest::choose(m.alpha, self.settings.msaa, self.ctx.caps.sample_mask_output),
             // Frames with direct output or without depth replace these per frame (see `render`).
             color_format: FormatKey(HDR_FORMAT),
             depth_format: Some(FormatKey(DEPTH_FORMAT)),

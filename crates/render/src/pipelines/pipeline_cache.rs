@@ -82,6 +82,8 @@ pub struct PipelineKey {
     /// Mirrored instances (negative determinant) wind clockwise.
     pub front_face_cw: bool,
     pub sample_count: u32,
+    /// Where a masked draw tests its alpha.
+    pub alpha_test: AlphaTest,
     pub color_format: FormatKey,
     /// `None`: the frame has no depth target (its draws cannot cover a pixel twice).
     pub depth_format: Option<FormatKey>,
@@ -103,6 +105,8 @@ impl PipelineKey {
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
+            .with("ALPHA_COVERAGE", self.alpha_test == AlphaTest::SampleMask)
+            .with("ALPHA_SAMPLE_RATE", self.alpha_test == AlphaTest::SampleRate)
             .with("ALPHA_BLEND", self.alpha == AlphaKey::Blend)
             .with("BASE_COLOR_TEXTURE", t.has(TextureSet::BASE_COLOR))
             // An unlit surface reads only its base colour.
@@ -135,6 +139,31 @@ impl PipelineKey {
             .with("TONEMAP_NEUTRAL", self.tonemap == Some(Tonemapper::Neutral))
             .with("TONEMAP_ACES", self.tonemap == Some(Tonemapper::Aces))
             .with("ENCODE_SRGB", self.tonemap.is_some() && !self.color_format.0.is_srgb())
+    }
+}
+
+/// Where a masked draw (glTF's alpha mode MASK) tests its alpha against the cutoff.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub enum AlphaTest {
+    /// Once, at the pixel's centre: not masked, or one sample per pixel.
+    #[default]
+    PerPixel,
+    /// At each of the 4 samples, by a sample mask the shader computes (`ALPHA_COVERAGE`,
+    /// forward.wgsl's `alpha_coverage`): masked edges are antialiased like geometric ones.
+    SampleMask,
+    /// At each of the 4 samples, by shading each sample (`ALPHA_SAMPLE_RATE`): the same test
+    /// where the backend cannot write a sample mask (`Capabilities::sample_mask_output`).
+    SampleRate,
+}
+
+impl AlphaTest {
+    /// The test for a draw with `alpha` mode in a frame of `samples` per pixel.
+    pub fn choose(alpha: AlphaKey, samples: u32, sample_mask_output: bool) -> Self {
+        match (alpha, samples) {
+            (AlphaKey::Mask, 4) if sample_mask_output => AlphaTest::SampleMask,
+            (AlphaKey::Mask, 4) => AlphaTest::SampleRate,
+            _ => AlphaTest::PerPixel,
+        }
     }
 }
 

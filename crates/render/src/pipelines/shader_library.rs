@@ -407,6 +407,8 @@ mod tests {
         lib.compose("forward.wgsl", &defs(&all)).unwrap();
         lib.compose("forward.wgsl", &defs(&[&all[..], &["TRANSFORMED_UVS"]].concat())).unwrap();
         lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
+        lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_COVERAGE", "DEFERRED_LOCAL_LIGHTS"])).unwrap();
+        lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_SAMPLE_RATE", "VERTEX_COLORS"])).unwrap();
         let shadowed = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "SHADOWS", "LOCAL_SHADOWS", "DEBUG_CASCADES"];
         lib.compose("forward.wgsl", &defs(&shadowed)).unwrap();
         for debug in ["DEBUG_NORMALS", "DEBUG_UVS", "DEBUG_CLUSTER_HEAT"] {
