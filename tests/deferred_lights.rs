@@ -1,14 +1,14 @@
 //! Deferred local lights (`LightWalk::ClusteredCompute`): a compute pass shades local lights for
 //! opaque surfaces from the surface each fragment writes out. It must give the image the
 //! fragment-shaded clustered path gives, with and without multisampling, for every kind of
-//! local light, under blended and unlit surfaces, and compile the forward shaders without the
-//! local-light loop for opaque draws.
+//! local light, under blended, alpha-masked and unlit surfaces, and compile the forward shaders
+//! without the local-light loop for opaque draws.
 
 use penumbra::engine::scenes::spawn_many_lights;
 use penumbra::prelude::*;
 use penumbra::render::frame::Pass;
 use penumbra::render::passes::clusters::grid::ClusterConfig;
-use penumbra::render::pipelines::pipeline_cache::LocalLights;
+use penumbra::render::pipelines::pipeline_cache::{AlphaTest, LocalLights};
 use penumbra::render::prepare::materials::AlphaKey;
 use penumbra::render::renderer::LightWalk;
 use penumbra::render::{RenderSettings, Renderer};
@@ -93,7 +93,7 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_lists_walked_by_whole_wo
 }
 
 #[test]
-fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended_and_unlit_surfaces() {
+fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended_masked_and_unlit_surfaces() {
     let mut app = scene_app();
     spawn_mesh(
         &mut app,
@@ -115,6 +115,25 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
         ..Default::default()
     };
     spawn_mesh(&mut app, Mesh::uv_sphere(0.5, 32, 16), glass, Transform::from_xyz(1.0, 0.5, 1.0));
+    // A fence: an upright quad cut out by a checker of alpha, so its edges cross pixels at MSAA 4
+    // and only some of their samples carry its surface to the compute pass.
+    let checker: Vec<u8> =
+        (0..64u32).flat_map(|i| [200, 220, 255, if (i % 8 + i / 8) % 2 == 0 { 255 } else { 0 }]).collect();
+    let image = app.world.resource_mut::<Assets<Image>>().add(Image {
+        width: 8,
+        height: 8,
+        rgba8: checker,
+        label: "alpha checker".into(),
+        mips: None,
+    });
+    let fence = StandardMaterial {
+        base_color_texture: Some(TextureRef::new(image)),
+        alpha_mode: AlphaMode::Mask(0.5),
+        double_sided: true,
+        ..StandardMaterial::from_color(Vec4::ONE, 0.5)
+    };
+    let upright = Transform::from_xyz(-1.5, 0.8, 1.2).with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    spawn_mesh(&mut app, Mesh::plane(1.6), fence, upright);
     let unlit = StandardMaterial { base_color: Vec4::new(1.0, 0.2, 0.2, 1.0), unlit: true, ..Default::default() };
     spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), unlit, Transform::from_xyz(0.5, 0.25, -1.5));
     app.world.spawn((
@@ -159,6 +178,8 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
     let keys: Vec<_> = renderer.forward_pipeline_keys();
     assert!(keys.iter().any(|k| k.alpha == AlphaKey::Blend && k.local_lights == LocalLights::Clustered));
     assert!(keys.iter().filter(|k| k.alpha != AlphaKey::Blend).all(|k| k.local_lights == LocalLights::Deferred));
+    // The last frame was at MSAA 4: the fence tests its alpha at each sample.
+    assert!(keys.iter().any(|k| k.alpha == AlphaKey::Mask && k.alpha_test == AlphaTest::SampleMask), "{keys:?}");
     // Local lights cast shadows (on by default; lights with a size from their centre): the
     // compute pass read their maps and still equals the fragment path. The 24-layer atlas holds
     // four of them here (the spot's one layer and three cubes); the rest light unshadowed.
