@@ -22,7 +22,8 @@
 //! --size WxH --no-helmet --variants]` (`--variants`: the minimal program also with a depth
 //! attachment and with a copyable target, Penumbra's forward pass's other costs, and with four
 //! samples per pixel in a 16-bit float or an 8-bit sRGB target, resolved or stored: what
-//! multisampling itself costs on the adapter).
+//! multisampling itself costs on the adapter; and with a triangle covering the whole target,
+//! with and without depth, at 4 and 1 samples: what a view-filling surface costs).
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -66,6 +67,13 @@ fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     return vec4<f32>(p[i], 0.0, 1.0);
 }
 
+// A triangle over the whole target: every sample written, as a ground plane filling the view.
+@vertex
+fn vs_cover(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    var p = array<vec2<f32>, 3>(vec2<f32>(-1.0, -1.0), vec2<f32>(3.0, -1.0), vec2<f32>(-1.0, 3.0));
+    return vec4<f32>(p[i], 0.5, 1.0);
+}
+
 @fragment
 fn fs() -> @location(0) vec4<f32> {
     return vec4<f32>(1.0, 0.5, 0.2, 1.0);
@@ -85,6 +93,8 @@ struct Extras {
     /// resolved into a single-sample target of the same format by the render pass, or (`false`)
     /// stored instead: what a multisampled target itself costs on the adapter.
     msaa: Option<(wgpu::TextureFormat, bool)>,
+    /// The triangle covers the whole target instead of an eighth of it.
+    cover: bool,
 }
 
 fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
@@ -147,7 +157,7 @@ fn minimal(size: (u32, u32), frames: usize, extras: Extras) -> (String, Times) {
         layout: None,
         vertex: wgpu::VertexState {
             module: &module,
-            entry_point: Some("vs"),
+            entry_point: Some(if extras.cover { "vs_cover" } else { "vs" }),
             compilation_options: Default::default(),
             buffers: &[],
         },
@@ -401,7 +411,7 @@ fn main() {
         runs.push((
             "minimal wgpu",
             "+ both",
-            minimal(size, frames, Extras { depth: true, copy_src: true, msaa: None }).1,
+            minimal(size, frames, Extras { depth: true, copy_src: true, ..Default::default() }).1,
         ));
         let msaa = |format, resolve| Extras { msaa: Some((format, resolve)), ..Default::default() };
         let (hdr, srgb8) = (wgpu::TextureFormat::Rgba16Float, wgpu::TextureFormat::Rgba8UnormSrgb);
@@ -409,6 +419,12 @@ fn main() {
         runs.push(("minimal wgpu", "MSAA 4 RGBA16F stored", minimal(size, frames, msaa(hdr, false)).1));
         runs.push(("minimal wgpu", "MSAA 4 sRGB8 resolved", minimal(size, frames, msaa(srgb8, true)).1));
         runs.push(("minimal wgpu", "MSAA 4 sRGB8 stored", minimal(size, frames, msaa(srgb8, false)).1));
+        // What the many-lights scene's ground asks of the adapter: every sample and its depth.
+        let covered = |depth| Extras { depth, cover: true, ..msaa(srgb8, true) };
+        runs.push(("minimal wgpu", "MSAA 4 sRGB8 resolved, covering", minimal(size, frames, covered(false)).1));
+        runs.push(("minimal wgpu", "+ depth, covering", minimal(size, frames, covered(true)).1));
+        let covered_1 = Extras { depth: true, cover: true, ..Default::default() };
+        runs.push(("minimal wgpu", "MSAA 1 sRGB8 + depth, covering", minimal(size, frames, covered_1).1));
     }
     runs.extend([
         ("penumbra", "MSAA 1", penumbra(size, frames, 1)),
@@ -418,27 +434,27 @@ fn main() {
         runs.push(("helmet", "as planned", helmet(size, frames, false)));
         runs.push(("helmet", "unused features on", helmet(size, frames, true)));
     }
-    println!("one unlit triangle at {}x{}, {frames} frames (median), {adapter}", size.0, size.1);
+    println!("one unlit triangle (covering: the whole target) at {}x{}, {frames} frames (median), {adapter}", size.0, size.1);
     println!(
-        "{:<14} {:<22} {:>9} {:>9} {:>9} {:>12}",
+        "{:<14} {:<32} {:>9} {:>9} {:>9} {:>12}",
         "program", "settings", "frame ms", "CPU ms", "GPU ms", "frame ratio"
     );
     let base_wall = median(&runs[0].2.wall);
     for (program, settings, t) in &runs {
         let wall = median(&t.wall);
         println!(
-            "{program:<14} {settings:<22} {wall:>9.3} {:>9.3} {:>9.3} {:>11.2}x",
+            "{program:<14} {settings:<32} {wall:>9.3} {:>9.3} {:>9.3} {:>11.2}x",
             median(&t.cpu),
             median(&t.gpu),
             wall / base_wall
         );
         if !t.passes.is_empty() {
             let split: Vec<String> = t.passes.iter().map(|(l, v)| format!("{l} {:.3}", median(v))).collect();
-            println!("{:<37} GPU ms by pass: {}", "", split.join(", "));
+            println!("{:<47} GPU ms by pass: {}", "", split.join(", "));
         }
         if !t.cpu_parts.is_empty() {
             let split: Vec<String> = t.cpu_parts.iter().map(|(l, v)| format!("{l} {:.3}", median(v))).collect();
-            println!("{:<37} CPU ms by stage: {}", "", split.join(", "));
+            println!("{:<47} CPU ms by stage: {}", "", split.join(", "));
         }
     }
 }
