@@ -22,8 +22,9 @@
 //! --size WxH --no-helmet --variants]` (`--variants`: the minimal program also with a depth
 //! attachment and with a copyable target, Penumbra's forward pass's other costs, and with four
 //! samples per pixel in a 16-bit float or an 8-bit sRGB target, resolved or stored: what
-//! multisampling itself costs on the adapter; and with a triangle covering the whole target,
-//! with and without depth, at 4 and 1 samples: what a view-filling surface costs).
+//! multisampling itself costs on the adapter; and with a triangle covering the whole target:
+//! at 4 samples without and with depth, and at 1 sample with depth: what a view-filling
+//! surface costs).
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -434,7 +435,10 @@ fn main() {
         runs.push(("helmet", "as planned", helmet(size, frames, false)));
         runs.push(("helmet", "unused features on", helmet(size, frames, true)));
     }
-    println!("one unlit triangle (covering: the whole target) at {}x{}, {frames} frames (median), {adapter}", size.0, size.1);
+    println!(
+        "one unlit triangle (covering: the whole target) at {}x{}, {frames} frames (median), {adapter}",
+        size.0, size.1
+    );
     println!(
         "{:<14} {:<32} {:>9} {:>9} {:>9} {:>12}",
         "program", "settings", "frame ms", "CPU ms", "GPU ms", "frame ratio"

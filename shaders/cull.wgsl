@@ -37,6 +37,7 @@
 #import penumbra::draw_data::Instance
 #ifdef TRIANGLE_CULLING
 #import penumbra::draw_data::place_vertex
+#import penumbra::common::STANDARD_SAMPLES_4
 #endif
 
 struct CullBatch {
@@ -363,13 +364,7 @@ fn sample_offset(s: u32) -> vec2<f32> {
     if params.samples != 4u {
         return vec2<f32>(0.5, 0.5);
     }
-    var offsets = array<vec2<f32>, 4>(
-        vec2<f32>(0.375, 0.125),
-        vec2<f32>(0.875, 0.375),
-        vec2<f32>(0.125, 0.625),
-        vec2<f32>(0.625, 0.875),
-    );
-    return offsets[s];
+    return STANDARD_SAMPLES_4[s];
 }
 
 fn vertex_clip(inst: Instance, vertex: u32) -> vec4<f32> {

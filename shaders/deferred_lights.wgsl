@@ -13,7 +13,7 @@
 // is what resolving the samples would give. Variants follow the forward shader's light kinds:
 // SPHERE_TUBE_LIGHTS, LTC_LIGHTS, IES_LIGHTS.
 
-#import penumbra::common::{F16_MAX}
+#import penumbra::common::{F16_MAX, STANDARD_SAMPLES_4}
 #import penumbra::view::{View, eye_direction}
 #import penumbra::light_data::Light
 #import penumbra::lights::{shade_light, within_reach}
@@ -49,17 +49,10 @@ const SAMPLES: u32 = 1u;
 @group(1) @binding(3) var local_light: texture_storage_2d<rgba16float, write>;
 @group(1) @binding(4) var<uniform> params: DeferredParams;
 
-// Where sample i sits in its pixel: the standard 4× pattern (Vulkan, D3D and Metal share it),
-// or the centre.
+// Where sample i sits in its pixel: the standard 4× pattern, or the centre.
 fn sample_offset(i: u32) -> vec2<f32> {
 #ifdef MULTISAMPLED
-    let pattern = array<vec2<f32>, 4>(
-        vec2<f32>(0.375, 0.125),
-        vec2<f32>(0.875, 0.375),
-        vec2<f32>(0.125, 0.625),
-        vec2<f32>(0.625, 0.875)
-    );
-    return pattern[i];
+    return STANDARD_SAMPLES_4[i];
 #else
     return vec2<f32>(0.5);
 #endif

@@ -25,7 +25,7 @@
 // ALPHA_COVERAGE or ALPHA_SAMPLE_RATE (with ALPHA_MASK at MSAA 4): the alpha test runs at each
 // sample, see alpha_coverage.
 
-#import penumbra::common::{F16_MAX, safe_normalize}
+#import penumbra::common::{F16_MAX, STANDARD_SAMPLES_4, safe_normalize}
 #import penumbra::view::{View, eye_direction}
 #ifdef DEFERRED_LOCAL_LIGHTS
 #import penumbra::gbuffer::encode_surface
@@ -266,26 +266,18 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 }
 
 #ifdef ALPHA_COVERAGE
-// Offsets from the pixel centre of the standard 4-sample positions (Vulkan's
-// standardSampleLocations; D3D and Metal use the same), in sample-index order.
-const SAMPLE_OFFSETS_4 = array<vec2<f32>, 4>(
-    vec2<f32>(-0.125, -0.375),
-    vec2<f32>(0.375, -0.125),
-    vec2<f32>(-0.375, 0.125),
-    vec2<f32>(0.125, 0.375),
-);
-
-// glTF's alpha test at each of the pixel's 4 samples instead of once at its centre: the alpha
-// (factor × vertex colour × base colour texel) is evaluated at each sample position, and the
-// samples where it reaches the cutoff are covered. A masked edge is then antialiased like a
-// geometric one. Computed here rather than by the hardware's alpha-to-coverage, whose dither
+// glTF's alpha test at each of the pixel's 4 samples (the standard positions) instead of once at
+// its centre: the alpha (factor × vertex colour × base colour texel) is evaluated at each sample,
+// and the samples where it reaches the cutoff are covered. A masked edge is then antialiased like
+// a geometric one. Computed here rather than by the hardware's alpha-to-coverage, whose dither
 // patterns differ between drivers, so the mask is the same on every adapter; and where the
 // filtered alpha sits at the cutoff (so that a driver's filtering precision decides it) a pixel
 // changes by one sample, not all at once. The texel is fetched at each sample with the pixel's
-// gradients, not extrapolated with derivatives of the alpha: the material comes from a storage
-// buffer, which llvmpipe does not read in helper invocations (see slot_coord). NaN alpha covers
-// nothing. Where a backend cannot write a sample mask, ALPHA_SAMPLE_RATE shades each sample
-// instead and the usual test below discards it.
+// gradients rather than extrapolated from the centre's along derivatives of the alpha: exact at
+// texel boundaries, and the alpha's derivatives would include the material's factor, read from a
+// storage buffer that llvmpipe does not read in helper invocations (see slot_coord). NaN alpha
+// covers nothing, as the per-pixel test below discards it. Where a backend cannot write a sample
+// mask, ALPHA_SAMPLE_RATE shades each sample instead and the per-pixel test discards it.
 fn alpha_coverage(mat: Material, sets: UvSets, vertex_alpha: f32, vertex_alpha_gradient: vec2<f32>) -> u32 {
 #ifdef BASE_COLOR_TEXTURE
 #ifdef TRANSFORMED_UVS
@@ -296,7 +288,7 @@ fn alpha_coverage(mat: Material, sets: UvSets, vertex_alpha: f32, vertex_alpha_g
 #endif
     var mask = 0u;
     for (var i = 0u; i < 4u; i++) {
-        let o = SAMPLE_OFFSETS_4[i];
+        let o = STANDARD_SAMPLES_4[i] - vec2<f32>(0.5);
         var alpha = mat.base_color.a;
 #ifdef VERTEX_COLORS
         alpha *= vertex_alpha + dot(vertex_alpha_gradient, o);
@@ -328,6 +320,9 @@ struct FragmentOut {
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> FragmentOut {
     var frag: FragmentOut;
+#ifdef ALPHA_COVERAGE
+    frag.coverage = 0xffffffffu;
+#endif
     // What the colour's alpha carries for deferred local lights (see gbuffer.wgsl): stays 0
     // for unlit surfaces.
     var surface_alpha = 0.0;
@@ -353,7 +348,8 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
         discard;
     }
 #else
-    if base.a < mat.alpha_cutoff {
+    // Written so that NaN alpha is cut out, as alpha_coverage leaves it uncovered.
+    if !(base.a >= mat.alpha_cutoff) {
         discard;
     }
 #endif

@@ -67,7 +67,8 @@ fn fs_main(in: VertexOut) {
     let bc = slot_coord(mat, 0u, sets);
     alpha *= textureSampleGrad(base_color_texture, base_color_sampler, bc.uv, bc.ddx, bc.ddy).a;
 #endif
-    if alpha < mat.alpha_cutoff {
+    // NaN alpha casts nothing, as forward.wgsl cuts it out.
+    if !(alpha >= mat.alpha_cutoff) {
         discard;
     }
 }

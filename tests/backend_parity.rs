@@ -7,7 +7,9 @@
 //! - a lit scene at the default settings gives the same image on both.
 //!
 //! What GL cannot do is degraded as `Capabilities` documents (no deferred-lights pass; depth
-//! rounded at 2⁻²⁴ of 1, which shadow lookups allow for). GL renders run one after another on
+//! rounded at 2⁻²⁴ of 1, which shadow lookups allow for; alpha-masked draws at MSAA 4 shaded
+//! once per sample instead of writing a sample mask, so AlphaBlendModeTest's masked bars are
+//! also textured and shaded at each sample there). GL renders run one after another on
 //! one context: wgpu's GL backend serialises a context behind a lock that gives up after a
 //! second, so renders from parallel test threads could time out.
 

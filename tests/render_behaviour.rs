@@ -3,6 +3,7 @@
 //! image vanished still draws, and frames are deterministic.
 
 use penumbra::prelude::*;
+use penumbra::render::pipelines::pipeline_cache::AlphaTest;
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
@@ -162,6 +163,28 @@ fn changing_msaa_between_frames_rebuilds_what_depends_on_it() {
     );
 }
 
+/// An orthographic camera whose 64² view spans x and y from −1 to 1 (a pixel is 1/32 wide),
+/// with HDR values equal to radiance.
+fn ortho_app() -> App {
+    let mut app = scene_app();
+    app.world.spawn((
+        Camera {
+            projection: Projection::Orthographic { xmag: Some(1.0), ymag: 1.0, znear: 0.1, zfar: 10.0 },
+            exposure: Exposure::unit(),
+            ..Default::default()
+        },
+        Transform::from_xyz(0.0, 0.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    app
+}
+
+/// One frame of `app` over a black clear colour: its resolved radiance, row by row.
+fn radiance_over_black(app: &mut App, msaa: u32) -> Vec<[f32; 4]> {
+    let settings = RenderSettings { msaa, keep_hdr: true, clear_color: [0.0; 3], ..Default::default() };
+    render_app(app, SIZE, settings);
+    common::hdr_of(app)
+}
+
 /// Where a masked quad's alpha comes from; each ramps across the quad from left to right.
 #[derive(Debug, Clone, Copy)]
 enum AlphaRamp {
@@ -190,15 +213,7 @@ impl AlphaRamp {
 /// a 64² orthographic view over black, its alpha ramping from left to right as `ramp` says.
 /// Every row must agree (the quad's diagonal crosses the columns).
 fn masked_ramp_columns(ramp: AlphaRamp, msaa: u32, cutoff: f32) -> [f32; 3] {
-    let mut app = scene_app();
-    app.world.spawn((
-        Camera {
-            projection: Projection::Orthographic { xmag: Some(1.0), ymag: 1.0, znear: 0.1, zfar: 10.0 },
-            exposure: Exposure::unit(),
-            ..Default::default()
-        },
-        Transform::from_xyz(0.0, 0.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
+    let mut app = ortho_app();
     let mut quad = facing_quad();
     let mut material = StandardMaterial {
         unlit: true,
@@ -228,9 +243,7 @@ fn masked_ramp_columns(ramp: AlphaRamp, msaa: u32, cutoff: f32) -> [f32; 3] {
         }
     }
     spawn_mesh(&mut app, quad, material, Transform::IDENTITY);
-    let settings = RenderSettings { msaa, keep_hdr: true, clear_color: [0.0; 3], ..Default::default() };
-    render_app(&mut app, SIZE, settings);
-    let hdr = common::hdr_of(&app);
+    let hdr = radiance_over_black(&mut app, msaa);
     [31, 32, 33].map(|x| {
         let column: Vec<f32> = (0..SIZE.1 as usize).map(|y| hdr[y * SIZE.0 as usize + x][1]).collect();
         assert!(
@@ -258,6 +271,53 @@ fn masked_edges_cover_the_samples_whose_alpha_reaches_the_cutoff() {
             assert!((centre_only - expected).abs() < 1e-3, "{what}, MSAA 1: {centre_only}");
         }
     }
+}
+
+#[test]
+fn masked_coverage_names_the_samples_it_tests() {
+    // The quad's right edge runs through pixel column 32 at x = 32.25, and its alpha ramps down
+    // the view (y / 64 in pixels) to cross the cutoff at y = 32.5. Pixel (32, 32)'s samples lie
+    // at (x, y) = s0 (32.375, 32.125), s1 (32.875, 32.375), s2 (32.125, 32.625) and
+    // s3 (32.625, 32.875): the edge covers s2 alone, the alpha s2 and s3, so one sample is both.
+    // A mask whose bits named other samples (reversed, or x and y swapped) would cover none.
+    let right = 32.25 / 32.0 - 1.0;
+    let mut app = ortho_app();
+    let mut quad = facing_quad();
+    for p in &mut quad.positions {
+        p.x = if p.x > 0.0 { right } else { p.x };
+    }
+    quad.colors = quad.positions.iter().map(|p| Vec4::new(1.0, 1.0, 1.0, (1.0 - p.y) / 2.0)).collect();
+    let material = StandardMaterial {
+        unlit: true,
+        alpha_mode: AlphaMode::Mask(32.5 / 64.0),
+        ..StandardMaterial::from_color(Vec4::ONE, 1.0)
+    };
+    spawn_mesh(&mut app, quad, material, Transform::IDENTITY);
+    let hdr = radiance_over_black(&mut app, 4);
+    let at = |x: usize, y: usize| hdr[y * SIZE.0 as usize + x][1];
+    // (x, y, samples covered of 4): inside the quad, the alpha's two lower samples; below the
+    // cutoff, the edge's one; above it, none.
+    for (x, y, covered) in [(32, 32, 1.0), (31, 32, 2.0), (32, 33, 1.0), (31, 33, 4.0), (32, 31, 0.0), (33, 32, 0.0)] {
+        assert!((at(x, y) - covered / 4.0).abs() < 2e-3, "pixel ({x}, {y}): {}, expected {covered} of 4", at(x, y));
+    }
+    let keys = app.world.resource::<Renderer>().forward_pipeline_keys();
+    assert!(keys.iter().all(|k| k.alpha_test != AlphaTest::PerPixel), "{keys:?}");
+}
+
+#[test]
+fn a_constant_alpha_is_tested_once_per_pixel() {
+    // No texture, no vertex colours: every sample passes or fails alike.
+    let mut app = ortho_app();
+    let material = StandardMaterial {
+        unlit: true,
+        alpha_mode: AlphaMode::Mask(0.5),
+        ..StandardMaterial::from_color(Vec4::new(1.0, 1.0, 1.0, 0.7), 1.0)
+    };
+    spawn_mesh(&mut app, facing_quad(), material, Transform::IDENTITY);
+    let hdr = radiance_over_black(&mut app, 4);
+    assert!(hdr.iter().all(|p| (p[1] - 1.0).abs() < 1e-3), "the quad covers the view");
+    let keys = app.world.resource::<Renderer>().forward_pipeline_keys();
+    assert!(keys.iter().all(|k| k.alpha_test == AlphaTest::PerPixel), "{keys:?}");
 }
 
 #[test]

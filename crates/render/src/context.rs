@@ -101,6 +101,10 @@ pub struct Capabilities {
     /// shader (wgpu issue #6085): masked draws are shaded once per sample there instead
     /// (`AlphaTest::SampleRate`), which tests the same samples at four times the fragment work.
     pub sample_mask_output: bool,
+    /// Fragment shaders can run once per sample (`DownlevelFlags::MULTISAMPLED_SHADING`: GL 4.0,
+    /// GLES 3.2 or OES_sample_variables on GL). Where neither this nor a sample mask is
+    /// available, masked draws test alpha once per pixel at every sample count.
+    pub sample_rate_shading: bool,
     /// Texels can be copied from where they were decoded (`host_memory`): the import
     /// alignment, on a CPU rasteriser whose Vulkan driver has VK_EXT_external_memory_host.
     pub host_import_alignment: Option<u64>,
@@ -220,6 +224,8 @@ impl GpuContext {
         let occlusion_culling = info.backend != wgpu::Backend::Gl;
         let exact_depth = info.backend != wgpu::Backend::Gl;
         let sample_mask_output = info.backend != wgpu::Backend::Gl;
+        let sample_rate_shading =
+            adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::MULTISAMPLED_SHADING);
         let array_layers = ArrayLayers::for_backend(info.backend);
         let shader_msaa_resolve = info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Vulkan;
         let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
@@ -299,6 +305,7 @@ impl GpuContext {
                 srgb_unorm_views,
                 shader_msaa_resolve,
                 sample_mask_output,
+                sample_rate_shading,
                 host_import_alignment,
                 subpixel_bits,
             },

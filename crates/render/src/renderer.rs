@@ -1789,7 +1789,12 @@ impl Renderer {
             cull_back_faces: !m.double_sided && triangles,
             front_face_cw: d.mirrored && triangles,
             sample_count: self.settings.msaa,
-            alpha_test: AlphaTest::choose(m.alpha, self.settings.msaa, self.ctx.caps.sample_mask_output),
+            alpha_test: AlphaTest::choose(
+                m.alpha,
+                self.settings.msaa,
+                m.textures.has(TextureSet::BASE_COLOR) || entry.vertex_colors,
+                &self.ctx.caps,
+            ),
             // Frames with direct output or without depth replace these per frame (see `render`).
             color_format: FormatKey(HDR_FORMAT),
             depth_format: Some(FormatKey(DEPTH_FORMAT)),

@@ -30,6 +30,7 @@ pub use post::{BloomStep, ExposureStep, TonemapKey};
 use penumbra_engine::mesh::Topology;
 
 use super::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
+use crate::context::Capabilities;
 use crate::prepare::light_store::LightShapes;
 use crate::prepare::materials::AlphaKey;
 use crate::prepare::mesh_pool::GpuVertex;
@@ -157,12 +158,18 @@ pub enum AlphaTest {
 }
 
 impl AlphaTest {
-    /// The test for a draw with `alpha` mode in a frame of `samples` per pixel.
-    pub fn choose(alpha: AlphaKey, samples: u32, sample_mask_output: bool) -> Self {
-        match (alpha, samples) {
-            (AlphaKey::Mask, 4) if sample_mask_output => AlphaTest::SampleMask,
-            (AlphaKey::Mask, 4) => AlphaTest::SampleRate,
-            _ => AlphaTest::PerPixel,
+    /// The test for a draw with `alpha` mode in a frame of `samples` per pixel. `alpha_varies`:
+    /// the draw's alpha can change within a pixel (a base colour texture or vertex colours);
+    /// a constant alpha passes or fails every sample alike, so it is tested once.
+    pub fn choose(alpha: AlphaKey, samples: u32, alpha_varies: bool, caps: &Capabilities) -> Self {
+        if alpha != AlphaKey::Mask || samples != 4 || !alpha_varies {
+            AlphaTest::PerPixel
+        } else if caps.sample_mask_output {
+            AlphaTest::SampleMask
+        } else if caps.sample_rate_shading {
+            AlphaTest::SampleRate
+        } else {
+            AlphaTest::PerPixel
         }
     }
 }

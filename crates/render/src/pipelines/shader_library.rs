@@ -409,6 +409,9 @@ mod tests {
         lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
         lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_COVERAGE", "DEFERRED_LOCAL_LIGHTS"])).unwrap();
         lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_SAMPLE_RATE", "VERTEX_COLORS"])).unwrap();
+        let coverage = ["ALPHA_MASK", "ALPHA_COVERAGE", "BASE_COLOR_TEXTURE", "VERTEX_COLORS"];
+        lib.compose("forward.wgsl", &defs(&coverage)).unwrap();
+        lib.compose("forward.wgsl", &defs(&[&coverage[..], &["TRANSFORMED_UVS"]].concat())).unwrap();
         let shadowed = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "SHADOWS", "LOCAL_SHADOWS", "DEBUG_CASCADES"];
         lib.compose("forward.wgsl", &defs(&shadowed)).unwrap();
         for debug in ["DEBUG_NORMALS", "DEBUG_UVS", "DEBUG_CLUSTER_HEAT"] {
