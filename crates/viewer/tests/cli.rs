@@ -198,6 +198,23 @@ fn the_reload_benchmark_refuses_shaders_that_do_not_build() {
 }
 
 #[test]
+fn the_reload_benchmark_splits_its_latency_at_the_submission() {
+    let o = penumbra(&["bench", "--shader-edits", "1", "--size", "16x16"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    // Each row: | measure | median | max |; with one edit the median is that edit.
+    let row = |prefix: &str| -> f64 {
+        let line = out.lines().find(|l| l.starts_with(&format!("| {prefix}"))).unwrap_or_else(|| panic!("{out}"));
+        line.split('|').nth(2).unwrap().trim().parse().unwrap()
+    };
+    let total = row("file write to first frame");
+    let submitted = row("of which: until that frame is submitted");
+    let on_device = row("of which: from submission");
+    assert!(submitted > 0.0 && on_device > 0.0, "{out}");
+    assert!((submitted + on_device - total).abs() <= 0.15, "the parts add up to the whole: {out}");
+}
+
+#[test]
 fn view_without_a_display_points_to_render() {
     let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
         .arg("view")
