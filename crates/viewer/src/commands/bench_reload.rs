@@ -15,6 +15,7 @@ use penumbra_render::headless::{ShotSettings, stage_scene};
 use penumbra_render::pipelines::shader_library::EMBEDDED;
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, Renderer, ShaderSource};
 
+use super::bench::percentile;
 use crate::cli::BenchArgs;
 use crate::scene;
 
@@ -108,15 +109,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         ("of which: until that frame is submitted, rebuilt pipelines and all (ms)", &submitted_after),
         ("of which: from submission until the device has drawn it, driver compile included (ms)", &on_device),
     ] {
-        let (median, max) = median_and_max(values);
-        println!("| {measure} | {median:.1} | {max:.1} |");
+        println!("| {measure} | {:.1} | {:.1} |", percentile(values, 0.5), percentile(values, 1.0));
     }
     Ok(())
-}
-
-/// The median (the upper one of an even count) and the largest of `values` (not empty).
-fn median_and_max(values: &[f64]) -> (f64, f64) {
-    let mut sorted = values.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    (sorted[sorted.len() / 2], sorted[sorted.len() - 1])
 }
