@@ -31,7 +31,10 @@
 #import penumbra::gbuffer::encode_surface
 #endif
 #ifdef TONEMAP_IN_FORWARD
-#import penumbra::display::display_rgb
+#import penumbra::display::{display_rgb, srgb_encode}
+#endif
+#ifdef VISIBILITY_TONEMAP
+#import penumbra::display::{display_rgb, srgb_encode}
 #endif
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
 #ifndef UNLIT
@@ -163,17 +166,9 @@ struct VertexOut {
     @location(6) @interpolate(flat) material: u32,
 };
 
-@vertex
-fn vs_main(in: VertexIn) -> VertexOut {
-#ifdef PULLED_VERTICES
-    let inst = instances[in.vertex_index >> 8u];
-    let v = pool_vertex(in.instance_index + (in.vertex_index & 255u));
-#else
-    let inst = instances[draw_slots[in.instance_index]];
-    let v = VertexAttributes(in.position, in.normal, in.tangent, in.uv0, in.uv1, in.color);
-#endif
+// A vertex as the rasteriser interpolates it: placed camera-relative by its instance.
+fn vertex_out(inst: Instance, v: VertexAttributes) -> VertexOut {
     let placed = place_vertex(inst, v.position, view.camera_position);
-
     var out: VertexOut;
     out.clip_position = view.clip_from_rel * vec4<f32>(placed.rel, 1.0);
     out.rel_position = placed.rel;
@@ -187,7 +182,21 @@ fn vs_main(in: VertexIn) -> VertexOut {
     out.color = v.color;
 #endif
     out.material = inst.material;
+    return out;
+}
+
+@vertex
+fn vs_main(in: VertexIn) -> VertexOut {
+#ifdef PULLED_VERTICES
+    let inst = instances[in.vertex_index >> 8u];
+    let v = pool_vertex(in.instance_index + (in.vertex_index & 255u));
+#else
+    let inst = instances[draw_slots[in.instance_index]];
+    let v = VertexAttributes(in.position, in.normal, in.tangent, in.uv0, in.uv1, in.color);
+#endif
+    var out = vertex_out(inst, v);
 #ifdef LINE_QUADS
+    let placed = place_vertex(inst, v.position, view.camera_position);
     // The segment's other end: the vertex whose index differs in bit 1 (prepare/line_quads.rs).
     let at = (in.vertex_index ^ 2u) * 16u;
     if at + 15u < arrayLength(&pool_vertices) {
@@ -261,7 +270,12 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
     let c = slot_coord(mat, slot, sets);
     return textureSampleGrad(t, s, c.uv, c.ddx, c.ddy);
 #else
+#ifdef VISIBILITY_SHADE
+    // Compute has no implicit derivatives: the shading pass computes the gradients.
+    return textureSampleGrad(t, s, sets.first, sets.first_ddx, sets.first_ddy);
+#else
     return textureSample(t, s, sets.first);
+#endif
 #endif
 }
 
@@ -319,6 +333,13 @@ struct FragmentOut {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> FragmentOut {
+    return shade(in, front_facing, UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1)));
+}
+
+// The fragment's colour (and with it, what masked and deferred variants add): shared by the
+// fragment shader and the visibility buffer's shading pass, which computes the UV gradients
+// itself.
+fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     var frag: FragmentOut;
 #ifdef ALPHA_COVERAGE
     frag.coverage = 0xffffffffu;
@@ -327,7 +348,6 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     // for unlit surfaces.
     var surface_alpha = 0.0;
     let mat = materials[in.material];
-    let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
     var base = mat.base_color;
 #ifdef VERTEX_COLORS
     base *= in.color;
@@ -521,3 +541,204 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 #endif
     return frag;
 }
+
+#ifdef VISIBILITY_SHADE
+// Shading from the visibility buffer (passes/visibility.rs): one thread per pixel finds the
+// triangles its samples hold (visibility_raster.wgsl numbered them), shades each triangle of
+// this dispatch's group once at the pixel's centre, as multisampling shades a fragment, and
+// weighs it by the samples it covers. The vertices are placed as vs_main places them and
+// interpolated perspective-correctly; the UV gradients are the interpolants' change over one
+// pixel, as the fragment shader's derivatives are. Groups (a pipeline variant and material
+// textures each) add into `partial`; the last writes the pixel, with the clear colour or the
+// environment (VISIBILITY_BACKGROUND) in the samples nothing covers.
+//
+// What it writes: HDR radiance (the frame goes on to post-processing and the tonemap pass), or,
+// with VISIBILITY_DISPLAY, the displayed colour itself, sRGB-encoded, which the renderer copies
+// into the output: each triangle's colour tonemapped before the samples are averaged (the
+// display resolve, TONEMAP_IN_FORWARD) or the averaged radiance tonemapped (VISIBILITY_TONEMAP).
+#import penumbra::visibility::{RasterBatch, FRONT_CW, NON_INDEXED, sample_empty}
+#ifdef VISIBILITY_BACKGROUND
+#import penumbra::ibl::{environment, prefiltered_radiance}
+#endif
+
+struct ShadeParams {
+    target_size: vec2<u32>,
+    samples: u32,
+    batch_count: u32,
+    // This dispatch's group; whether an earlier group's sums are in `partial`; whether this is
+    // the last group.
+    group: u32,
+    accumulate: u32,
+    last: u32,
+    // The environment shows where nothing is covered (else the clear colour).
+    background: u32,
+    // Exposed radiance shown where nothing is covered, without an environment.
+    clear: vec4<f32>,
+};
+
+@group(2) @binding(0) var<uniform> shade_params: ShadeParams;
+@group(2) @binding(1) var<storage, read> vis: array<vec2<u32>>;
+@group(2) @binding(2) var<storage, read> raster_batches: array<RasterBatch>;
+// Per batch its first triangle number, then the total (visibility_raster.wgsl).
+@group(2) @binding(3) var<storage, read> first_numbers: array<u32>;
+@group(2) @binding(4) var<storage, read> pool_indices: array<u32>;
+@group(2) @binding(5) var<storage, read_write> partial: array<vec4<f32>>;
+#ifdef VISIBILITY_DISPLAY
+@group(2) @binding(6) var shaded: texture_storage_2d<rgba8unorm, write>;
+#else
+@group(2) @binding(6) var shaded: texture_storage_2d<rgba16float, write>;
+#endif
+
+fn number_batch(number: u32) -> u32 {
+    var lo = 0u;
+    var hi = shade_params.batch_count;
+    while hi - lo > 1u {
+        let mid = (lo + hi) / 2u;
+        if first_numbers[mid] <= number {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}
+
+// Barycentric weights of the point at normalised device coordinates `ndc` on the triangle with
+// clip positions whose (x, y, w) are the rows' cross products `r` (perspective-correct: the
+// weights of the 3D point the pixel's ray meets).
+fn weights(r: array<vec3<f32>, 3>, ndc: vec2<f32>) -> vec3<f32> {
+    let s = vec3<f32>(ndc, 1.0);
+    let k = vec3<f32>(dot(r[0], s), dot(r[1], s), dot(r[2], s));
+    let sum = k.x + k.y + k.z;
+    return select(vec3<f32>(1.0 / 3.0), k / sum, abs(sum) > 0.0);
+}
+
+fn mix3_2(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, w: vec3<f32>) -> vec2<f32> {
+    return a * w.x + b * w.y + c * w.z;
+}
+
+// The colour of triangle `number` (of batch `b`) at the pixel whose centre is `frag_xy`.
+fn shade_triangle(number: u32, b: u32, frag_xy: vec2<f32>) -> vec3<f32> {
+    let batch = raster_batches[b];
+    let local = number - first_numbers[b];
+    let inst = instances[draw_slots[batch.first + local / batch.triangle_count]];
+    let triangle = local % batch.triangle_count;
+    var vertices: vec3<u32>;
+    if (batch.flags & NON_INDEXED) != 0u {
+        let v = batch.index_start + 3u * triangle;
+        vertices = vec3<u32>(v, v + 1u, v + 2u);
+    } else {
+        let at = batch.index_start + 3u * triangle;
+        vertices = batch.vertex_start + vec3<u32>(pool_indices[at], pool_indices[at + 1u], pool_indices[at + 2u]);
+    }
+    let a = vertex_out(inst, pool_vertex(vertices.x));
+    let bv = vertex_out(inst, pool_vertex(vertices.y));
+    let c = vertex_out(inst, pool_vertex(vertices.z));
+    let ca = a.clip_position.xyw;
+    let cb = bv.clip_position.xyw;
+    let cc = c.clip_position.xyw;
+    let r = array<vec3<f32>, 3>(cross(cb, cc), cross(cc, ca), cross(ca, cb));
+    let size = shade_params.target_size;
+    let to_ndc = vec2<f32>(2.0, -2.0) / vec2<f32>(size);
+    let ndc = vec2<f32>(-1.0, 1.0) + frag_xy * to_ndc;
+    let w = weights(r, ndc);
+    let wx = weights(r, ndc + vec2<f32>(to_ndc.x, 0.0));
+    let wy = weights(r, ndc + vec2<f32>(0.0, to_ndc.y));
+    // The winding as the rasteriser sees it: the determinant's sign is the projected
+    // triangle's orientation in normalised device coordinates (y up) when all w are positive.
+    let det = dot(ca, r[0]);
+    let front_facing = (det > 0.0) != ((batch.flags & FRONT_CW) != 0u);
+
+    var v: VertexOut;
+    v.clip_position = vec4<f32>(frag_xy, 0.0, 1.0);
+    v.rel_position = a.rel_position * w.x + bv.rel_position * w.y + c.rel_position * w.z;
+    v.normal = a.normal * w.x + bv.normal * w.y + c.normal * w.z;
+    v.tangent = a.tangent * w.x + bv.tangent * w.y + c.tangent * w.z;
+    v.uv0 = mix3_2(a.uv0, bv.uv0, c.uv0, w);
+    v.uv1 = mix3_2(a.uv1, bv.uv1, c.uv1, w);
+#ifdef VERTEX_COLORS
+    v.color = a.color * w.x + bv.color * w.y + c.color * w.z;
+#endif
+    v.material = inst.material;
+    let sets = UvSets(
+        v.uv0,
+        v.uv1,
+        mix3_2(a.uv0, bv.uv0, c.uv0, wx) - v.uv0,
+        mix3_2(a.uv0, bv.uv0, c.uv0, wy) - v.uv0,
+        mix3_2(a.uv1, bv.uv1, c.uv1, wx) - v.uv1,
+        mix3_2(a.uv1, bv.uv1, c.uv1, wy) - v.uv1,
+    );
+    return shade(v, front_facing, sets).color.rgb;
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = shade_params.target_size;
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let pixel = id.y * size.x + id.x;
+    let samples = shade_params.samples;
+    let frag_xy = vec2<f32>(id.xy) + 0.5;
+    var sum = vec4<f32>(0.0);
+    if shade_params.accumulate != 0u {
+        sum = partial[pixel];
+    }
+    // Samples already shaded (with an earlier sample of the same triangle) or empty.
+    var done = 0u;
+    let weight = 1.0 / f32(samples);
+    for (var i = 0u; i < samples; i++) {
+        if (done & (1u << i)) != 0u {
+            continue;
+        }
+        let v = vis[pixel * samples + i];
+        if sample_empty(v) {
+            continue;
+        }
+        var count = 0u;
+        for (var j = i; j < samples; j++) {
+            let u = vis[pixel * samples + j];
+            if !sample_empty(u) && u.x == v.x {
+                done |= 1u << j;
+                count++;
+            }
+        }
+        let b = number_batch(v.x);
+        if raster_batches[b].shade_group != shade_params.group {
+            continue;
+        }
+        sum += vec4<f32>(shade_triangle(v.x, b, frag_xy), 1.0) * (f32(count) * weight);
+    }
+    if shade_params.last == 0u {
+        partial[pixel] = sum;
+        return;
+    }
+    // What nothing covered shows the environment or the clear colour, as the background pass
+    // or the cleared samples of a resolve do.
+    var behind = shade_params.clear.rgb;
+#ifdef VISIBILITY_BACKGROUND
+    if shade_params.background != 0u {
+        let ndc = vec2<f32>(-1.0, 1.0) + frag_xy * vec2<f32>(2.0, -2.0) / vec2<f32>(size);
+        let near = view.rel_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+        var dir = safe_normalize(near.xyz / near.w, view.camera_forward);
+        if view.is_orthographic != 0u {
+            dir = view.camera_forward;
+        }
+        let radiance = prefiltered_radiance(dir, environment.background_lod / max(environment.max_lod, 1.0)) * view.exposure;
+        behind = select(vec3<f32>(0.0), clamp(radiance, vec3<f32>(0.0), vec3<f32>(F16_MAX)), radiance == radiance);
+    }
+#endif
+#ifdef TONEMAP_IN_FORWARD
+    // The display resolve: the covered samples hold tonemapped colours already.
+    behind = display_rgb(behind);
+#endif
+    var rgb = sum.rgb + behind * (1.0 - sum.a);
+#ifdef VISIBILITY_TONEMAP
+    rgb = display_rgb(rgb);
+#endif
+#ifdef VISIBILITY_DISPLAY
+    rgb = srgb_encode(clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0)));
+#endif
+    textureStore(shaded, id.xy, vec4<f32>(rgb, 1.0));
+}
+#endif

@@ -108,6 +108,11 @@ pub struct Capabilities {
     /// Texels can be copied from where they were decoded (`host_memory`): the import
     /// alignment, on a CPU rasteriser whose Vulkan driver has VK_EXT_external_memory_host.
     pub host_import_alignment: Option<u64>,
+    /// 64-bit integers with atomic min and max in storage buffers
+    /// (`Features::SHADER_INT64_ATOMIC_MIN_MAX`: Vulkan with VK_KHR_shader_atomic_int64,
+    /// lavapipe included; DX12 SM 6.6; Metal): the visibility buffer (`Raster::Compute`). Where
+    /// it is missing (GL), frames rasterise in hardware whatever the setting says.
+    pub visibility_raster: bool,
 }
 
 /// The rasteriser's sub-pixel precision, as the driver reports it (Vulkan), else a lower bound.
@@ -230,7 +235,12 @@ impl GpuContext {
         let shader_msaa_resolve = info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Vulkan;
         let srgb_unorm_views = adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::VIEW_FORMATS);
         let subpixel_bits = subpixel_bits(&adapter);
+        let int64_atomics = wgpu::Features::SHADER_INT64 | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX;
+        let visibility_raster = available.contains(int64_atomics);
         let mut features = wgpu::Features::empty();
+        if visibility_raster {
+            features |= int64_atomics;
+        }
         if timestamps {
             features |= wgpu::Features::TIMESTAMP_QUERY;
         }
@@ -298,6 +308,7 @@ impl GpuContext {
             caps: Capabilities {
                 timestamps,
                 indirect_first_instance,
+                visibility_raster,
                 deferred_lights,
                 occlusion_culling,
                 exact_depth,

@@ -21,6 +21,12 @@ pub enum Pass {
     Shadows,
     /// Opaque and alpha-masked draws, front to back by batch.
     Opaque,
+    /// Compute: opaque draws rasterised into the visibility buffer (each sample's nearest
+    /// triangle), in place of `Opaque` (`Raster::Compute`).
+    VisibilityRaster,
+    /// Compute: each pixel's triangles in the visibility buffer shaded and resolved into the
+    /// HDR colour.
+    VisibilityShade,
     /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
     /// opaque draws (depth test: only where the depth is still the far plane).
     Background,
@@ -49,13 +55,15 @@ pub enum Pass {
 }
 
 impl Pass {
-    pub const ALL: [Pass; 15] = [
+    pub const ALL: [Pass; 17] = [
         Pass::EnvironmentPrefilter,
         Pass::Deform,
         Pass::Cull,
         Pass::ClusterBin,
         Pass::Shadows,
         Pass::Opaque,
+        Pass::VisibilityRaster,
+        Pass::VisibilityShade,
         Pass::Background,
         Pass::OcclusionLate,
         Pass::DeferredLights,
@@ -84,6 +92,14 @@ impl Pass {
                 "view, mesh pool, instances, materials, textures, light store [, cluster lists] \
                  [, shadow atlas] [, environment maps] -> HDR colour (or the output, tonemapped) \
                  [, depth]"
+            }
+            Pass::VisibilityRaster => {
+                "view, visible instances and their counts, mesh pool indices and vertices -> visibility \
+                 buffer (depth and triangle number per sample)"
+            }
+            Pass::VisibilityShade => {
+                "visibility buffer, mesh pool, instances, materials, textures, light store [, cluster \
+                 lists] [, shadow atlas] [, environment maps] -> HDR colour (resolved)"
             }
             Pass::Background => "environment cube (or its blurred level), HDR alpha -> HDR colour",
             Pass::OcclusionLate => "depth -> depth pyramid -> late cull -> second opaque draws",
@@ -122,6 +138,8 @@ pub struct SceneNeeds {
     pub culled: bool,
     /// So does occlusion culling.
     pub occlusion: bool,
+    /// Opaque draws are rasterised and shaded in compute (`Raster::Compute`).
+    pub visibility: bool,
     /// The environment's maps must be (re)made this frame.
     pub environment_changed: bool,
     /// The split-sum table lit surfaces read must be made this frame (once per renderer).
@@ -153,6 +171,7 @@ impl FramePlan {
             opaque_instances: _,
             culled,
             occlusion,
+            visibility,
             environment_changed,
             split_sum_table,
             deform_jobs,
@@ -186,18 +205,23 @@ impl FramePlan {
         if shadow_layers > 0 {
             passes.push((Pass::Shadows, "a shadowed light's casters reach what the camera sees"));
         }
-        passes.push((
-            Pass::Opaque,
-            match (has_opaque, depth) {
-                (true, true) => "opaque or masked draws exist",
-                (true, false) => {
-                    "opaque or masked draws exist (one instance whose front faces cannot overlap: no \
+        if visibility {
+            passes.push((Pass::VisibilityRaster, "opaque draws, rasterised in compute (--raster compute)"));
+            passes.push((Pass::VisibilityShade, "the visibility buffer's samples to shade"));
+        } else {
+            passes.push((
+                Pass::Opaque,
+                match (has_opaque, depth) {
+                    (true, true) => "opaque or masked draws exist",
+                    (true, false) => {
+                        "opaque or masked draws exist (one instance whose front faces cannot overlap: no \
                      depth target)"
-                }
-                (false, _) => "clears the targets (no opaque draws)",
-            },
-        ));
-        if background {
+                    }
+                    (false, _) => "clears the targets (no opaque draws)",
+                },
+            ));
+        }
+        if background && !visibility {
             passes.push((Pass::Background, "the scene has an environment, shown where no surface is"));
         }
         if culled && occlusion && has_opaque {
@@ -258,7 +282,15 @@ impl FramePlan {
                          post-processing, environment background, blended draws, gizmos, deferred \
                          lights or HDR readback): the opaque pass tonemaps and draws into the output"
                     }
-                    Pass::Opaque => "always runs",
+                    Pass::Opaque => "opaque draws are rasterised and shaded in compute (--raster compute)",
+                    Pass::VisibilityRaster | Pass::VisibilityShade => {
+                        "opaque draws rasterise in hardware (the default; with --raster compute: no GPU \
+                         culling, blended or masked draws, gizmos, lines or points, occlusion culling \
+                         asked for, or no 64-bit atomics on the adapter)"
+                    }
+                    Pass::Background if n.background => {
+                        "the visibility buffer's shading shows the environment where no surface is"
+                    }
                     Pass::Background => "no environment to show (none, or a solid background colour)",
                     Pass::OcclusionLate => {
                         "occlusion culling off (auto: fewer than 10 000 opaque instances or a CPU adapter)"

@@ -35,7 +35,7 @@ use crate::passes::tonemap;
 use crate::pipelines::pipeline_cache::{
     AlphaTest, DebugView, DeferredKey, FormatKey, LocalLights, PipelineCache, PipelineKey, Tonemapper,
 };
-use crate::pipelines::pipeline_cache::{ReloadReport, TextureSet};
+use crate::pipelines::pipeline_cache::{ReloadReport, ShadeOutput, TextureSet};
 use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
 use crate::pipelines::shader_watcher::ShaderWatcher;
 use crate::prepare::buffer::GrowableBuffer;
@@ -99,6 +99,24 @@ pub struct RenderSettings {
     /// 1 on a CPU rasteriser (see `auto_anisotropy`). Frames meant to match across adapters
     /// (the goldens) set it, since the automatic choice differs between them.
     pub max_anisotropy: Option<u16>,
+    /// Where opaque surfaces are rasterised: by the GPU's fixed-function rasteriser, or in
+    /// compute into a visibility buffer (see [`Raster`]).
+    pub raster: Raster,
+}
+
+/// Where opaque draws are rasterised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Raster {
+    /// The GPU's rasteriser, drawing each batch (the forward pass).
+    #[default]
+    Hardware,
+    /// Compute shaders (`passes::visibility`): each sample's nearest triangle goes into a
+    /// visibility buffer with 64-bit atomics, then a compute pass shades each pixel's
+    /// triangles. For GPUs whose graphics units are few next to their compute units (the
+    /// H100 rasterises on 2 of its 66 TPCs). Frames it cannot draw yet rasterise in hardware,
+    /// and `--explain` says why: blended or masked draws, gizmos, line or point meshes,
+    /// occlusion culling asked for, no GPU culling, or an adapter without 64-bit atomics (GL).
+    Compute,
 }
 
 /// When occlusion culling runs (it needs GPU culling).
@@ -196,6 +214,7 @@ impl Default for RenderSettings {
             keep_hdr: false,
             msaa_resolve: MsaaResolve::Radiance,
             max_anisotropy: None,
+            raster: Raster::Hardware,
         }
     }
 }
@@ -438,6 +457,10 @@ pub struct Renderer {
     cull_triangles_marked: bool,
     /// Whether this frame's opaque draws were culled (the view bind group binds the culled list).
     culling_active: bool,
+    /// The visibility buffer (`Raster::Compute`).
+    visibility: crate::passes::visibility::VisibilityBuffer,
+    /// The batches changed since `visibility` last saw them.
+    visibility_batches_dirty: bool,
     blend_entities: Vec<Entity>,
     batches_dirty: bool,
     targets: Option<FrameTargets>,
@@ -546,6 +569,8 @@ impl Renderer {
             cull_batches_dirty: true,
             cull_triangles_marked: false,
             culling_active: false,
+            visibility: crate::passes::visibility::VisibilityBuffer::new(device),
+            visibility_batches_dirty: true,
             blend_entities: Vec::new(),
             batches_dirty: true,
             targets: None,
@@ -643,6 +668,13 @@ impl Renderer {
         }
         self.settings = settings;
         Ok(())
+    }
+
+    /// How many 16×16-pixel jobs the visibility buffer's list of large triangles holds (see
+    /// `passes::visibility`): for tests and tuning; triangles whose jobs do not fit are
+    /// rasterised whole by their own thread, the same samples more slowly.
+    pub fn set_visibility_job_capacity(&mut self, capacity: u32) {
+        self.visibility.set_job_capacity(&self.ctx.device, capacity);
     }
 
     pub fn stats(&self) -> &FrameStats {
@@ -776,7 +808,10 @@ impl Renderer {
         MemoryStats {
             mesh_pool: pool.vertex_capacity_bytes + pool.index_capacity_bytes,
             textures: self.textures.gpu_bytes(),
-            instances: self.instances.buffer().size() + self.draw_slots.capacity() + self.culling.gpu_bytes(),
+            instances: self.instances.buffer().size()
+                + self.draw_slots.capacity()
+                + self.culling.gpu_bytes()
+                + self.visibility.gpu_bytes(),
             targets: self.targets.as_ref().map_or(0, |t| t.bytes()),
             lights: self.lights.gpu_bytes(),
             clusters: self.clusters.gpu_bytes(),
@@ -846,7 +881,11 @@ impl Renderer {
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                // Copied into by the visibility buffer's shading pass, which writes through a
+                // storage texture (passes::visibility).
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
                 view_formats: &[],
             });
             let view = texture.create_view(&Default::default());
@@ -973,11 +1012,22 @@ impl Renderer {
         }
         // One instance is not culled: that could only save a frame showing nothing, and the
         // dispatch and its barrier cost 0.027 ms on the H100 (cargo bench --bench triangle).
+        // The visibility buffer rasterises the cull pass's visible lists, one instance or many.
         let culling = self.settings.gpu_culling
             && self.ctx.caps.indirect_first_instance
-            && opaque_len > 1
+            && (opaque_len > 1 || (self.settings.raster == Raster::Compute && self.ctx.caps.visibility_raster))
             && scene.view.is_some();
+        // The visibility buffer, if asked for and this frame's draws allow it (see `Raster`);
+        // gizmos, known only below, can still send the frame to the forward pass.
+        let visibility_wanted = culling
+            && self.settings.raster == Raster::Compute
+            && self.ctx.caps.visibility_raster
+            && self.settings.occlusion_culling != OcclusionCulling::On
+            && blend_batches.is_empty()
+            && !self.opaque_batches.is_empty()
+            && self.opaque_batches.iter().all(crate::passes::visibility::batch_supported);
         let mut occlusion = culling
+            && !visibility_wanted
             && match self.settings.occlusion_culling {
                 OcclusionCulling::Off => false,
                 OcclusionCulling::On => true,
@@ -991,6 +1041,7 @@ impl Renderer {
         // A culling shader that does not compile (a broken shader folder) leaves this frame to
         // direct draws of the full list rather than to stale indirect arguments.
         let triangles = culling
+            && !visibility_wanted
             && match self.settings.triangle_culling {
                 TriangleCulling::Off => false,
                 TriangleCulling::On => true,
@@ -1049,12 +1100,15 @@ impl Renderer {
             None => 0,
         };
         let background = env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some();
+        let visibility = visibility_wanted && self.culling_active && gizmo_vertices == 0;
+        // The visibility buffer's shading walks the cluster lists itself, in compute.
+        let deferred = self.deferred_lights && !visibility;
         let post_settings = &self.settings.post;
         let needs = TargetNeeds {
             msaa: self.settings.msaa,
             display_resolve: self.settings.msaa_resolve == MsaaResolve::Display && output_format.is_srgb(),
             keep_hdr: self.settings.keep_hdr,
-            deferred_lights: self.deferred_lights,
+            deferred_lights: deferred,
             blended_draws: !blend_batches.is_empty(),
             background,
             gizmos: gizmo_vertices > 0,
@@ -1072,22 +1126,33 @@ impl Renderer {
             },
         };
         // Direct output (no HDR target, no tonemap pass) and no depth target: see TargetNeeds.
-        let (direct, depth_free) = (!needs.hdr(), !needs.depth());
+        // The visibility buffer needs no depth, resolves its samples itself and shows the
+        // background itself: it writes the displayed colour (copied into the output) unless
+        // post-processing or a readback wants HDR colour, or the output cannot take the copy.
+        let visibility_direct = visibility
+            && !needs.keep_hdr
+            && !needs.post_processing
+            && matches!(output_format, wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb)
+            && output.texture().usage().contains(wgpu::TextureUsages::COPY_DST);
+        let (direct, depth_free) = if visibility { (visibility_direct, true) } else { (!needs.hdr(), !needs.depth()) };
+        let hdr_storage = visibility && !direct;
+        let target_samples = if visibility { 1 } else { self.settings.msaa };
         if self.targets.as_ref().is_none_or(|t| {
             t.size != size
-                || t.samples != self.settings.msaa
-                || t.deferred.is_some() != self.deferred_lights
+                || t.samples != target_samples
+                || t.hdr_storage != hdr_storage
+                || t.deferred.is_some() != deferred
                 || t.hdr.is_none() != direct
                 || t.depth_view.is_none() != depth_free
                 || t.depth_sampled != occlusion
                 || t.display_msaa.as_ref().is_some_and(|v| v.texture().format() != output_format)
         }) {
-            let params = self.deferred_lights.then_some(&self.deferred_params);
+            let params = deferred.then_some(&self.deferred_params);
             self.targets = Some(FrameTargets::new(
                 &device,
                 &self.pipelines,
                 size,
-                self.settings.msaa,
+                target_samples,
                 params,
                 TargetsMade {
                     hdr: !direct,
@@ -1095,6 +1160,7 @@ impl Renderer {
                     depth_sampled: occlusion,
                     output_format,
                     shader_resolve: self.ctx.caps.shader_msaa_resolve,
+                    hdr_storage,
                 },
             ));
         }
@@ -1131,8 +1197,9 @@ impl Renderer {
             has_opaque: !self.opaque_batches.is_empty(),
             opaque_instances: opaque_len,
             has_blend: !blend_batches.is_empty(),
-            deferred: self.deferred_lights,
+            deferred,
             culled: self.culling_active,
+            visibility,
             occlusion,
             environment_changed: env_frame.prefilter,
             split_sum_table: self.environment.table_pending(),
@@ -1199,7 +1266,9 @@ impl Renderer {
             Some(c) => c.map(|v| (v * camera_exposure).clamp(0.0, 65504.0) as f64),
             None => self.settings.clear_color,
         };
-        if direct {
+        // The visibility buffer's shading pass transforms the clear colour itself.
+        let clear_radiance = clear.map(|c| c as f32);
+        if direct && !visibility {
             // No shader touches the clear colour: it gets the display transform here.
             clear = tonemap::display_color(self.settings.tonemapper, clear, !output_format.is_srgb());
         }
@@ -1208,7 +1277,7 @@ impl Renderer {
         // The background is composited over the resolved frame (one sample a pixel, after the
         // surfaces left their coverage in alpha), except with deferred local lights, whose
         // colour alpha carries roughness: then the forward pass draws it where depth is clear.
-        let composite_background = plan.runs(Pass::Background) && !self.deferred_lights;
+        let composite_background = plan.runs(Pass::Background) && !deferred;
         let inputs = ForwardInputs {
             targets,
             output,
@@ -1259,6 +1328,37 @@ impl Renderer {
             // Both passes submit the opaque batches; count them once.
             let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
             (counts, early_error.or(error))
+        } else if plan.runs(Pass::VisibilityRaster) {
+            if self.visibility_batches_dirty {
+                self.visibility.prepare_batches(&device, &queue, &self.opaque_batches, &self.mesh_pool);
+                self.visibility_batches_dirty = false;
+            }
+            let tonemapper = self.settings.tonemapper;
+            let shade_output = match (direct, self.settings.msaa_resolve) {
+                (false, _) => ShadeOutput::Hdr,
+                (true, MsaaResolve::Display) if self.settings.msaa > 1 => ShadeOutput::DisplayPerSample(tonemapper),
+                (true, _) => ShadeOutput::DisplayResolved(tonemapper),
+            };
+            let inputs = crate::passes::visibility::FrameInputs {
+                view: &self.view_buffer,
+                view_bind_group,
+                instances: self.instances.buffer(),
+                visible_slots: self.culling.visible_slots(),
+                cull_args: &early_args,
+                mesh_pool: &self.mesh_pool,
+                materials: &self.materials,
+                shade_output,
+                hdr: targets.hdr_view(),
+                output: output.texture(),
+                size,
+                samples: self.settings.msaa,
+                background,
+                clear: clear_radiance,
+            };
+            self.visibility.prepare_frame(&device, &queue, &inputs);
+            let error =
+                self.visibility.encode(&mut encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut()).err();
+            (DrawCounts::default(), error)
         } else if plan.runs(Pass::Opaque) {
             forward::encode(
                 &mut encoder,
@@ -1835,6 +1935,7 @@ impl Renderer {
         self.opaque_slots.clear();
         self.opaque_slots_dirty = true;
         self.cull_batches_dirty = true;
+        self.visibility_batches_dirty = true;
         for (key, material, mesh_id, mesh, slot) in items {
             let i = self.opaque_slots.len() as u32;
             self.opaque_slots.push(slot);

@@ -106,6 +106,8 @@ pub struct TargetsMade {
     pub output_format: wgpu::TextureFormat,
     /// `Capabilities::shader_msaa_resolve`: multisampled colour is bound for the resolve pass.
     pub shader_resolve: bool,
+    /// The HDR colour is written by a compute pass (the visibility buffer's shading).
+    pub hdr_storage: bool,
 }
 
 pub struct FrameTargets {
@@ -124,6 +126,8 @@ pub struct FrameTargets {
     /// Multisampled colour is resolved by `passes::resolve`, not by the render pass
     /// (`Capabilities::shader_msaa_resolve`).
     pub shader_resolve: bool,
+    /// The HDR colour can be written by compute (`TargetsMade::hdr_storage`).
+    pub hdr_storage: bool,
 }
 
 /// Where a pass that ends the frame's drawing draws its colour and how it is resolved.
@@ -169,7 +173,7 @@ impl FrameTargets {
         deferred_params: Option<&wgpu::Buffer>,
         made: TargetsMade,
     ) -> Self {
-        let TargetsMade { hdr, depth, depth_sampled, output_format, shader_resolve } = made;
+        let TargetsMade { hdr, depth, depth_sampled, output_format, shader_resolve, hdr_storage } = made;
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -186,11 +190,12 @@ impl FrameTargets {
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let sampled = wgpu::TextureUsages::TEXTURE_BINDING;
         let hdr = (hdr || deferred_params.is_some()).then(|| {
+            let storage = if hdr_storage { wgpu::TextureUsages::STORAGE_BINDING } else { wgpu::TextureUsages::empty() };
             let texture = tex(
                 "hdr colour",
                 HDR_FORMAT,
                 1,
-                attach | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                attach | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC | storage,
             );
             let view = texture.create_view(&Default::default());
             // The deferred-lights pass reads the colour's alpha; a shader resolve all of it.
@@ -232,7 +237,7 @@ impl FrameTargets {
             });
             DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
         });
-        Self { size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred, shader_resolve }
+        Self { size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred, shader_resolve, hdr_storage }
     }
 
     /// The single-sampled HDR colour, if the frame has one.

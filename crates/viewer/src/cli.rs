@@ -11,7 +11,7 @@ use penumbra_render::passes::clusters::grid::ClusterConfig;
 use penumbra_render::passes::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::pipelines::pipeline_cache::DebugView;
-use penumbra_render::renderer::{LightWalk, OcclusionCulling, SettingsError, TriangleCulling};
+use penumbra_render::renderer::{LightWalk, OcclusionCulling, Raster, SettingsError, TriangleCulling};
 use penumbra_render::{MsaaResolve, QualityPreset, RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
@@ -179,6 +179,12 @@ pub struct LookArgs {
     /// can cover a sample. `auto`: on a GPU, not on CPU rasterisers such as lavapipe.
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub triangle_culling: OcclusionArg,
+    /// Where opaque surfaces are rasterised: `hardware` (the GPU's rasteriser) or `compute`
+    /// (a visibility buffer written and shaded by compute shaders; for GPUs with few graphics
+    /// units such as the H100). Frames it cannot draw yet (blended or masked materials,
+    /// gizmos, lines, GL) rasterise in hardware; `render --explain` says which ran.
+    #[arg(long, value_enum, default_value_t = RasterArg::Hardware)]
+    pub raster: RasterArg,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a
     /// neutral studio gradient when it has none), `sky`, `studio`, `none`, or an
     /// equirectangular Radiance .hdr or OpenEXR file.
@@ -292,6 +298,12 @@ pub enum DebugViewArg {
     Cascades,
     Normals,
     Uvs,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RasterArg {
+    Hardware,
+    Compute,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -630,6 +642,10 @@ impl LookArgs {
                 OcclusionArg::Auto => TriangleCulling::Auto,
                 OcclusionArg::On => TriangleCulling::On,
                 OcclusionArg::Off => TriangleCulling::Off,
+            },
+            raster: match self.raster {
+                RasterArg::Hardware => Raster::Hardware,
+                RasterArg::Compute => Raster::Compute,
             },
             environment: EnvironmentSettings { cube_size: self.env_size.0, ..Default::default() },
             post: PostSettings {

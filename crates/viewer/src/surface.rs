@@ -73,7 +73,10 @@ impl WindowSurface {
         let caps = surface.get_capabilities(&ctx.adapter);
         let format = caps.formats.iter().copied().find(|f| f.is_srgb()).unwrap_or(caps.formats[0]);
         // Copyable where the surface allows it, so a screenshot is the image on screen.
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | (caps.usages & wgpu::TextureUsages::COPY_SRC);
+        // COPY_DST where offered: the visibility buffer's shading pass copies its displayed
+        // colour in (`--raster compute`; without it that frame keeps an HDR target and tonemaps).
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | (caps.usages & (wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST));
         let config = wgpu::SurfaceConfiguration {
             usage,
             format,

@@ -9,6 +9,7 @@ pub mod post;
 pub mod resolve;
 pub mod shadows;
 pub mod tonemap;
+pub mod visibility;
 
 /// One full-screen triangle drawn by `pipeline` with `bind_group` into all of `target` (its
 /// previous contents cleared), with the pass's timestamps if given: the shape of the

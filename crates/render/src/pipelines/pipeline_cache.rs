@@ -21,11 +21,13 @@ mod deform;
 mod environment;
 mod gizmos;
 mod post;
+mod visibility;
 pub use casters::CasterKey;
 pub use culling::{CullPhase, HzbStep};
 pub use environment::{BackgroundMode, ENVIRONMENT_FORMAT, EQUIRECT_FORMAT, EnvStep};
 pub use gizmos::GIZMO_VERTEX_BYTES;
 pub use post::{BloomStep, ExposureStep, TonemapKey};
+pub use visibility::{DISPLAY_FORMAT, RasterStep, ShadeKey, ShadeOutput, shade_key};
 
 use penumbra_engine::mesh::Topology;
 
@@ -357,6 +359,9 @@ pub struct PipelineCache {
     cull: HashMap<CullPhase, wgpu::ComputePipeline>,
     hzb: HashMap<HzbStep, wgpu::ComputePipeline>,
     deform_layouts: deform::DeformLayouts,
+    visibility_layouts: visibility::VisibilityLayouts,
+    visibility_raster: HashMap<RasterStep, wgpu::ComputePipeline>,
+    visibility_shade: HashMap<ShadeKey, wgpu::ComputePipeline>,
     deform: Option<wgpu::ComputePipeline>,
     env_layouts: environment::EnvLayouts,
     env: HashMap<EnvStep, wgpu::ComputePipeline>,
@@ -530,9 +535,11 @@ impl PipelineCache {
                     },
                     count: None,
                 },
-                storage(1, wgpu::ShaderStages::VERTEX),
-                storage(2, wgpu::ShaderStages::VERTEX),
-                storage(3, wgpu::ShaderStages::FRAGMENT),
+                // Compute too: the visibility buffer's shading pass places vertices and reads
+                // materials (passes/visibility.rs).
+                storage(1, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE),
+                storage(2, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE),
+                storage(3, lit),
                 storage(4, lit),
                 buffer_entry(5, lit, wgpu::BufferBindingType::Uniform),
                 storage(6, lit),
@@ -554,11 +561,11 @@ impl PipelineCache {
                 // The environment (shaders/ibl.wgsl): parameters, irradiance harmonics, the
                 // specular cube; then the split-sum table every lit surface reads
                 // (shaders/split_sum.wgsl) and the sampler it shares with the cube.
-                buffer_entry(15, wgpu::ShaderStages::FRAGMENT, wgpu::BufferBindingType::Uniform),
-                storage(16, wgpu::ShaderStages::FRAGMENT),
+                buffer_entry(15, lit, wgpu::BufferBindingType::Uniform),
+                storage(16, lit),
                 wgpu::BindGroupLayoutEntry {
                     binding: 17,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    visibility: lit,
                     ty: wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Float { filterable: true },
                         view_dimension: wgpu::TextureViewDimension::Cube,
@@ -572,7 +579,7 @@ impl PipelineCache {
                 array_texture(20, lit, wgpu::TextureSampleType::Float { filterable: false }),
                 // The mesh pool's vertices, where a line quad's corner finds its opposite
                 // endpoint (prepare/line_quads.rs).
-                storage(21, wgpu::ShaderStages::VERTEX),
+                storage(21, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;
@@ -589,7 +596,10 @@ impl PipelineCache {
                 buffer_entry(6, compute, read_write),
             ],
         });
-        let material_entries: Vec<_> = (0..5u32).flat_map(|i| [texture(2 * i, true), sampler(2 * i + 1)]).collect();
+        let material_entries: Vec<_> = (0..5u32)
+            .flat_map(|i| [texture(2 * i, true), sampler(2 * i + 1)])
+            .map(|e| wgpu::BindGroupLayoutEntry { visibility: lit, ..e })
+            .collect();
         let material_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("material"),
             entries: &material_entries,
@@ -695,6 +705,9 @@ impl PipelineCache {
             cull: HashMap::new(),
             hzb: HashMap::new(),
             deform_layouts: deform::deform_layouts(device),
+            visibility_layouts: visibility::visibility_layouts(device, &view_layout, &material_layout),
+            visibility_raster: HashMap::new(),
+            visibility_shade: HashMap::new(),
             deform: None,
             caster_layout,
             caster_pipeline_layouts,
@@ -861,6 +874,7 @@ impl PipelineCache {
         let hzb_hit = lib.depends_on("hzb.wgsl", files);
         let deform_hit = lib.depends_on("deform.wgsl", files);
         let gizmo_hit = lib.depends_on("gizmo.wgsl", files);
+        let raster_hit = lib.depends_on("visibility_raster.wgsl", files);
         let mut forward = Vec::new();
         let mut tonemap = Vec::new();
         let mut mipmap = Vec::new();
@@ -930,6 +944,18 @@ impl PipelineCache {
                 gizmo.push((samples, self.create_gizmo(device, &mut candidate, samples)?));
             }
         }
+        let mut visibility_raster = Vec::new();
+        if raster_hit {
+            for step in self.visibility_raster.keys().copied().collect::<Vec<_>>() {
+                visibility_raster.push((step, self.create_visibility_raster(device, &mut candidate, step)?));
+            }
+        }
+        let mut visibility_shade = Vec::new();
+        if forward_hit {
+            for key in self.visibility_shade.keys().copied().collect::<Vec<_>>() {
+                visibility_shade.push((key, self.create_visibility_shade(device, &mut candidate, key)?));
+            }
+        }
         let env = self.reload_env(device, &mut candidate, files)?;
         let environment_steps = env.rebuilds_steps();
         let post = self.reload_post(device, &mut candidate, files)?;
@@ -945,8 +971,12 @@ impl PipelineCache {
             + cluster.len()
             + deferred.len()
             + composite.len()
-            + gizmo.len();
+            + gizmo.len()
+            + visibility_raster.len()
+            + visibility_shade.len();
         self.shaders = candidate.expect("still there");
+        self.visibility_raster.extend(visibility_raster);
+        self.visibility_shade.extend(visibility_shade);
         self.forward.extend(forward);
         self.tonemap.extend(tonemap);
         self.mipmap.extend(mipmap);
@@ -982,6 +1012,8 @@ impl PipelineCache {
             + self.deferred.len()
             + self.composite.len()
             + self.gizmo.len()
+            + self.visibility_raster.len()
+            + self.visibility_shade.len()
     }
 
     /// Compiles with `candidate` if given, else with the current library.

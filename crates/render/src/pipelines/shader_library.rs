@@ -46,6 +46,8 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("cull.wgsl", include_str!("../../../../shaders/cull.wgsl")),
     ("hzb.wgsl", include_str!("../../../../shaders/hzb.wgsl")),
     ("deform.wgsl", include_str!("../../../../shaders/deform.wgsl")),
+    ("visibility.wgsl", include_str!("../../../../shaders/visibility.wgsl")),
+    ("visibility_raster.wgsl", include_str!("../../../../shaders/visibility_raster.wgsl")),
     ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
     ("shadow_caster.wgsl", include_str!("../../../../shaders/shadow_caster.wgsl")),
     ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
@@ -198,7 +200,13 @@ impl ShaderLibrary {
             }
             imports.insert(file.clone(), file_imports.into_iter().map(|i| i.import).collect::<Vec<_>>());
         }
-        let mut composer = Composer::default();
+        // 64-bit integers and their atomic min/max: the visibility buffer (visibility_raster.wgsl),
+        // compiled only where the adapter has them (`Capabilities::visibility_raster`).
+        let mut composer = Composer::default().with_capabilities(
+            naga::valid::Capabilities::default()
+                | naga::valid::Capabilities::SHADER_INT64
+                | naga::valid::Capabilities::SHADER_INT64_ATOMIC_MIN_MAX,
+        );
         // naga_oil wants every import registered before its importers: add in dependency order.
         let mut pending: Vec<&String> = module_files.values().collect();
         pending.sort();

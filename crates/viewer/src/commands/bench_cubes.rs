@@ -15,7 +15,7 @@ use crate::cli::{BenchArgs, LayoutArg};
 struct Row {
     count: usize,
     moving: f64,
-    median: [f64; 16],
+    median: [f64; 18],
     draw_calls: u32,
     instances: u32,
     /// After GPU culling, in the last frame (`None`: not culled).
@@ -74,6 +74,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     pass("depth pyramid"),
                     pass("cull late"),
                     pass("forward late"),
+                    pass("visibility raster"),
+                    pass("visibility shade"),
                 ],
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
@@ -124,12 +126,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             hzb,
             cull_late,
             forward_late,
+            raster,
+            shade,
         ] = r.median;
         let ms = |v: f64| if v.is_nan() { "-".to_owned() } else { format!("{v:.3}") };
         let passes = format!(
             "{} / {} / {} / {} / {} / {}",
             ms(cull),
-            ms(forward),
+            // The forward pass, or the visibility buffer's raster + shade (`--raster compute`).
+            if forward.is_nan() && !raster.is_nan() { format!("{} + {}", ms(raster), ms(shade)) } else { ms(forward) },
             ms(hzb),
             ms(cull_late),
             ms(forward_late),

@@ -17,6 +17,8 @@ struct Row {
     lights: usize,
     clusters_ms: Option<f64>,
     forward_ms: Option<f64>,
+    /// With the visibility buffer (`--raster compute`): its raster and shading passes.
+    raster_ms: Option<(f64, f64)>,
     /// The deferred-lights compute pass and its composite (`--light-walk compute`).
     deferred_ms: Option<f64>,
     /// Whether local lights were shaded in compute (`auto` decides per scene).
@@ -106,6 +108,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             // Binning is one compute pass (see `BINNING_PASS`).
             clusters_ms: median(t.pass(BINNING_PASS)),
             forward_ms: median(t.pass("forward")),
+            raster_ms: median(t.pass("visibility raster")).zip(median(t.pass("visibility shade"))),
             compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
             gpu_ms: median(Some(&t.gpu_total)),
@@ -146,16 +149,23 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | lights shaded in | GPU binning (ms) | GPU forward (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | GPU forward, or raster + shade in compute (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
     );
     println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
             "| {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
             r.lights,
-            if r.compute { "compute" } else { "fragments" },
+            match (r.raster_ms, r.compute) {
+                (Some(_), _) => "visibility buffer",
+                (None, true) => "compute",
+                (None, false) => "fragments",
+            },
             ms(r.clusters_ms),
-            ms(r.forward_ms),
+            match r.raster_ms {
+                Some((raster, shade)) => format!("{raster:.3} + {shade:.3}"),
+                None => ms(r.forward_ms),
+            },
             ms(r.deferred_ms),
             ms(r.gpu_ms),
             r.wall_ms,

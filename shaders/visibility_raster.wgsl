@@ -1,0 +1,458 @@
+// Rasterisation in compute (see crates/render/src/passes/visibility.rs): the visibility buffer.
+//
+// Every opaque batch's visible instances (the cull pass's `visible_slots` and instance counts)
+// are numbered triangle by triangle, batch after batch: `raster_prepare` turns this frame's
+// instance counts into each batch's first number (`thread_starts`) and the raster dispatch's
+// size. One thread per number (`raster_triangles`) places the triangle's vertices as the vertex
+// shader does (draw_data::place_vertex), clips it against the depth range, and writes
+// `depth << 32 | number` with a 64-bit atomicMax into each sample it covers. Reverse-Z: the
+// nearest surface has the largest depth, and a tie goes to the larger number, so the result
+// does not depend on the order the threads run in. An empty sample stays 0 (depth 0 is the
+// infinitely far plane, which no triangle reaches).
+//
+// A triangle whose box spans at most SMALL_BOX pixels each way is rasterised by its thread. A
+// larger one is split into TILE×TILE-pixel jobs (`raster_tiles`: each job's thread group
+// repeats the triangle's setup from its number and covers the tile), so a triangle filling the
+// view is spread over the GPU instead of one thread. Jobs past the job buffer's capacity are
+// not lost: their triangle's thread rasterises the whole box itself (slower, same samples).
+//
+// Coverage, as fixed-function rasterisers decide it: the triangle is clipped to the depth
+// range and a guard band, its vertices snapped to a grid of 1/256 pixel, and each sample tested
+// against exact 64-bit edge functions. A sample on an edge counts as inside: two triangles
+// sharing an edge get exactly opposite edge values, so no sample falls between them, and the
+// atomic keeps one of them where both cover it. The result does not depend on the GPU or on
+// the order threads run in. The shading pass (forward.wgsl, VISIBILITY_SHADE) decodes the
+// number the same way and recomputes the triangle from it.
+
+#import penumbra::view::View
+#import penumbra::draw_data::{Instance, place_vertex}
+#import penumbra::common::STANDARD_SAMPLES_4
+#import penumbra::visibility::{RasterBatch, CULL_BACK, FRONT_CW, NON_INDEXED}
+
+struct RasterParams {
+    target_size: vec2<u32>,
+    samples: u32,
+    batch_count: u32,
+    // Jobs `jobs` can hold.
+    job_capacity: u32,
+    // Thread groups `raster_tiles` runs (each loops over jobs).
+    tile_groups: u32,
+    _pad_a: u32,
+    _pad_b: u32,
+};
+
+// Largest box (pixels each way) a triangle's own thread rasterises.
+const SMALL_BOX: u32 = 8u;
+// Side of a job's tile in pixels.
+const TILE: u32 = 16u;
+const WORKGROUP: u32 = 64u;
+// Dispatches wider than this many groups go 2D.
+const MAX_GROUPS_X: u32 = 32768u;
+
+@group(0) @binding(0) var<uniform> view: View;
+@group(0) @binding(1) var<storage, read> instances: array<Instance>;
+@group(0) @binding(2) var<storage, read> visible_slots: array<u32>;
+@group(0) @binding(3) var<storage, read> batches: array<RasterBatch>;
+@group(0) @binding(4) var<storage, read> cull_args: array<u32>;
+@group(0) @binding(5) var<storage, read> pool_indices: array<u32>;
+@group(0) @binding(6) var<storage, read> pool_vertices: array<f32>;
+@group(0) @binding(7) var<uniform> params: RasterParams;
+// Per batch its first number, then the total, then the job count.
+@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> vis: array<atomic<u64>>;
+// Jobs: (triangle number, tile y << 16 | tile x).
+@group(0) @binding(10) var<storage, read_write> jobs: array<vec2<u32>>;
+// The raster dispatch's arguments, written by raster_prepare (its own group: the dispatch
+// they drive cannot also bind them for writing).
+@group(1) @binding(0) var<storage, read_write> dispatch: array<u32>;
+
+fn job_count_word() -> u32 {
+    return params.batch_count + 1u;
+}
+
+// This frame's numbering: each batch's first triangle number, the raster dispatch's size, and
+// an empty job list. One thread: batches are few next to their triangles, and this runs once.
+@compute @workgroup_size(1)
+fn raster_prepare() {
+    var total = 0u;
+    for (var b = 0u; b < params.batch_count; b++) {
+        atomicStore(&counters[b], total);
+        let batch = batches[b];
+        let instances_visible = cull_args[batch.count_word];
+        // Numbers are u32: a frame with more visible triangles than that draws what fits
+        // (the renderer does not choose this path for such a scene).
+        let n = u64(instances_visible) * u64(batch.triangle_count);
+        total = u32(min(u64(total) + n, u64(0xffffffffu)));
+    }
+    atomicStore(&counters[params.batch_count], total);
+    let groups = (total + WORKGROUP - 1u) / WORKGROUP;
+    let x = min(groups, MAX_GROUPS_X);
+    let y = select(1u, (groups + x - 1u) / x, x > 0u);
+    dispatch[0] = x;
+    dispatch[1] = y;
+    dispatch[2] = 1u;
+    atomicStore(&counters[job_count_word()], 0u);
+}
+
+// The triangle a number names: its batch, instance slot and vertices.
+struct TriangleRef {
+    batch: u32,
+    slot: u32,
+    vertices: vec3<u32>,
+    valid: bool,
+};
+
+fn find_triangle(number: u32) -> TriangleRef {
+    var r: TriangleRef;
+    r.valid = false;
+    if number >= atomicLoad(&counters[params.batch_count]) {
+        return r;
+    }
+    // The last batch whose first number is at most `number`.
+    var lo = 0u;
+    var hi = params.batch_count;
+    while hi - lo > 1u {
+        let mid = (lo + hi) / 2u;
+        if atomicLoad(&counters[mid]) <= number {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let batch = batches[lo];
+    if batch.triangle_count == 0u {
+        return r;
+    }
+    let local = number - atomicLoad(&counters[lo]);
+    let instance = local / batch.triangle_count;
+    let triangle = local % batch.triangle_count;
+    r.batch = lo;
+    r.slot = visible_slots[batch.first + instance];
+    if (batch.flags & NON_INDEXED) != 0u {
+        let v = batch.index_start + 3u * triangle;
+        r.vertices = vec3<u32>(v, v + 1u, v + 2u);
+    } else {
+        let at = batch.index_start + 3u * triangle;
+        r.vertices = batch.vertex_start + vec3<u32>(pool_indices[at], pool_indices[at + 1u], pool_indices[at + 2u]);
+    }
+    r.valid = true;
+    return r;
+}
+
+fn vertex_clip(inst: Instance, vertex: u32) -> vec4<f32> {
+    let at = vertex * 16u;
+    let p = vec3<f32>(pool_vertices[at], pool_vertices[at + 1u], pool_vertices[at + 2u]);
+    // As the vertex shader places it (forward.wgsl), so shading finds the same triangle.
+    return view.clip_from_rel * vec4<f32>(place_vertex(inst, p, view.camera_position).rel, 1.0);
+}
+
+// Sub-pixel bits of the fixed-point grid vertices snap to (as hardware rasterisers do; Vulkan
+// requires at least 4, GPUs use 8).
+const SUBPIXEL: f32 = 256.0;
+// The guard band: triangles are clipped to |x|, |y| ≤ GUARD·w (normalised device coordinates
+// within ±GUARD), so snapped coordinates stay far inside i32 and edge functions inside i64.
+const GUARD: f32 = 2.0;
+// Clip planes: the depth range's near (z ≤ w) and far (z ≥ 0) planes, then the guard band.
+const PLANES: u32 = 6u;
+// The most vertices clipping a triangle against PLANES planes leaves.
+const MAX_VERTICES: u32 = 9u;
+
+// A triangle ready to rasterise: its clipped outline as a fan of `count` vertices, snapped to
+// the sub-pixel grid in framebuffer coordinates (y down; `xy`) with depth (`z`), and the box of
+// pixels whose samples it may cover.
+struct Setup {
+    xy: array<vec2<i32>, 9>,
+    z: array<f32, 9>,
+    count: u32,
+    lo: vec2<i32>,
+    hi: vec2<i32>,
+};
+
+fn plane_distance(c: vec4<f32>, plane: u32) -> f32 {
+    switch plane {
+        case 0u: { return c.w - c.z; }
+        case 1u: { return c.z; }
+        case 2u: { return GUARD * c.w - c.x; }
+        case 3u: { return GUARD * c.w + c.x; }
+        case 4u: { return GUARD * c.w - c.y; }
+        default: { return GUARD * c.w + c.y; }
+    }
+}
+
+fn setup_triangle(number: u32) -> Setup {
+    var s: Setup;
+    s.count = 0u;
+    let t = find_triangle(number);
+    if !t.valid {
+        return s;
+    }
+    let inst = instances[t.slot];
+    let batch = batches[t.batch];
+    let zero = vec4<f32>(0.0);
+    var poly = array<vec4<f32>, 9>(
+        vertex_clip(inst, t.vertices.x),
+        vertex_clip(inst, t.vertices.y),
+        vertex_clip(inst, t.vertices.z),
+        zero, zero, zero, zero, zero, zero,
+    );
+    var n = 3u;
+    // NaN anywhere: nothing to draw (the hardware's result is undefined; ours is nothing).
+    for (var i = 0u; i < 3u; i++) {
+        if any(poly[i] != poly[i]) {
+            return s;
+        }
+    }
+    // Sutherland-Hodgman; most triangles lie inside every plane and skip each at once.
+    for (var plane = 0u; plane < PLANES; plane++) {
+        var inside = 0u;
+        for (var i = 0u; i < n; i++) {
+            if plane_distance(poly[i], plane) >= 0.0 {
+                inside++;
+            }
+        }
+        if inside == n {
+            continue;
+        }
+        if inside == 0u {
+            return s;
+        }
+        var out = array<vec4<f32>, 9>(zero, zero, zero, zero, zero, zero, zero, zero, zero);
+        var m = 0u;
+        for (var i = 0u; i < n; i++) {
+            let a = poly[i];
+            let b = poly[(i + 1u) % n];
+            let da = plane_distance(a, plane);
+            let db = plane_distance(b, plane);
+            if da >= 0.0 && m < MAX_VERTICES {
+                out[m] = a;
+                m++;
+            }
+            if (da >= 0.0) != (db >= 0.0) && m < MAX_VERTICES {
+                out[m] = mix(a, b, da / (da - db));
+                m++;
+            }
+        }
+        poly = out;
+        n = m;
+    }
+    let size = vec2<f32>(params.target_size);
+    var lo = vec2<f32>(3.4e38);
+    var hi = vec2<f32>(-3.4e38);
+    for (var i = 0u; i < n; i++) {
+        let c = poly[i];
+        // Positive: the near plane (perspective) or the depth range (orthographic, w = 1).
+        if !(c.w > 0.0) {
+            return s;
+        }
+        let ndc = c.xyz / c.w;
+        let f = vec2<f32>((ndc.x * 0.5 + 0.5) * size.x, (0.5 - ndc.y * 0.5) * size.y);
+        s.xy[i] = vec2<i32>(round(f * SUBPIXEL));
+        s.z[i] = ndc.z;
+        lo = min(lo, f);
+        hi = max(hi, f);
+    }
+    // Orientation from the snapped fan's area (framebuffer y down: negative is counter-
+    // clockwise as normalised device coordinates see it, the front unless FRONT_CW).
+    var area = i64(0);
+    for (var i = 1u; i + 1u < n; i++) {
+        area += edge(s.xy[0], s.xy[i], s.xy[i + 1u]);
+    }
+    if area == i64(0) {
+        return s;
+    }
+    let front = (area < i64(0)) != ((batch.flags & FRONT_CW) != 0u);
+    if (batch.flags & CULL_BACK) != 0u && !front {
+        return s;
+    }
+    if hi.x < 0.0 || hi.y < 0.0 || lo.x > size.x || lo.y > size.y {
+        return s;
+    }
+    // Pixels whose samples may lie inside (every sample of a pixel lies within it); the guard
+    // band keeps these finite and within i32.
+    s.lo = vec2<i32>(max(floor(lo), vec2<f32>(0.0)));
+    s.hi = vec2<i32>(min(floor(hi), size - 1.0));
+    if any(s.hi < s.lo) {
+        return s;
+    }
+    s.count = n;
+    return s;
+}
+
+// Sample `i`'s position within its pixel on the sub-pixel grid (Vulkan's standard locations
+// are multiples of 1/16).
+fn sample_offset(i: u32) -> vec2<i32> {
+    if params.samples == 4u {
+        return vec2<i32>(STANDARD_SAMPLES_4[i] * SUBPIXEL);
+    }
+    return vec2<i32>(i32(SUBPIXEL) / 2);
+}
+
+// The edge function of (a, b) at p on the sub-pixel grid: twice the signed area of (a, b, p),
+// exact in 64 bits, so two triangles sharing an edge get exactly opposite values there and the
+// result is the same on every GPU.
+fn edge(a: vec2<i32>, b: vec2<i32>, p: vec2<i32>) -> i64 {
+    return i64(b.x - a.x) * i64(p.y - a.y) - i64(b.y - a.y) * i64(p.x - a.x);
+}
+
+// Writes fan triangle (0, i, i + 1) of `s` into the samples of pixels lo..=hi it covers.
+fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
+    let a = s.xy[0];
+    let b = s.xy[i];
+    let c = s.xy[i + 1u];
+    let area = edge(a, b, c);
+    if area == i64(0) {
+        return;
+    }
+    let flip = area < i64(0);
+    let inv_area = 1.0 / f32(area);
+    let grid = i32(SUBPIXEL);
+    let tlo = max(lo, min(a, min(b, c)) / grid - 1);
+    let thi = min(hi, max(a, max(b, c)) / grid + 1);
+    let width = params.target_size.x;
+    let samples = params.samples;
+    for (var y = tlo.y; y <= thi.y; y++) {
+        for (var x = tlo.x; x <= thi.x; x++) {
+            let pixel = (u32(y) * width + u32(x)) * samples;
+            for (var k = 0u; k < samples; k++) {
+                let p = vec2<i32>(x, y) * grid + sample_offset(k);
+                var wa = edge(b, c, p);
+                var wb = edge(c, a, p);
+                var wc = edge(a, b, p);
+                if flip {
+                    wa = -wa;
+                    wb = -wb;
+                    wc = -wc;
+                }
+                // On an edge counts as inside: a sample on an edge two triangles share goes to
+                // both, and the atomic keeps one; none falls between them.
+                if wa >= i64(0) && wb >= i64(0) && wc >= i64(0) {
+                    let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * abs(inv_area), 0.0, 1.0);
+                    if depth > 0.0 {
+                        atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn raster_setup(s: Setup, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
+    for (var i = 1u; i + 1u < s.count; i++) {
+        raster_fan_triangle(s, i, lo, hi, number);
+    }
+}
+
+@compute @workgroup_size(64)
+fn raster_triangles(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    let number = (group.y * groups.x + group.x) * WORKGROUP + lane;
+    let s = setup_triangle(number);
+    if s.count == 0u {
+        return;
+    }
+    let extent = vec2<u32>(s.hi - s.lo) + 1u;
+    if extent.x <= SMALL_BOX && extent.y <= SMALL_BOX {
+        raster_setup(s, s.lo, s.hi, number);
+        return;
+    }
+    let t0 = vec2<u32>(s.lo) / TILE;
+    let t1 = vec2<u32>(s.hi) / TILE;
+    let tiles = (t1 - t0) + 1u;
+    let n = tiles.x * tiles.y;
+    let first = atomicAdd(&counters[job_count_word()], n);
+    let capacity = params.job_capacity;
+    for (var k = 0u; k < n; k++) {
+        if first + k >= capacity {
+            break;
+        }
+        let t = t0 + vec2<u32>(k % tiles.x, k / tiles.x);
+        jobs[first + k] = vec2<u32>(number, (t.y << 16u) | t.x);
+    }
+    if first + n > capacity {
+        // Some jobs did not fit: cover the whole box here (the jobs that did fit write the same
+        // samples with the same values).
+        raster_setup(s, s.lo, s.hi, number);
+    }
+}
+
+// A job's triangle, set up once by the group's first lane, and the job.
+var<workgroup> tile_setup: Setup;
+var<workgroup> tile_job: vec2<u32>;
+var<workgroup> tile_jobs: u32;
+
+// Writes fan triangle (0, i, i + 1) of `s` into the samples of this lane's pixels of a tile:
+// column `column`, rows `row0 + 4k`. The edge functions are evaluated once per sample at the
+// first row and stepped down the column (exact: integers).
+fn raster_tile_column(s: Setup, i: u32, column: i32, row0: i32, number: u32) {
+    let a = s.xy[0];
+    let b = s.xy[i];
+    let c = s.xy[i + 1u];
+    let area = edge(a, b, c);
+    if area == i64(0) {
+        return;
+    }
+    let grid = i32(SUBPIXEL);
+    let lo = max(s.lo, min(a, min(b, c)) / grid - 1);
+    let hi = min(s.hi, max(a, max(b, c)) / grid + 1);
+    if column < lo.x || column > hi.x {
+        return;
+    }
+    let sign = select(i64(1), i64(-1), area < i64(0));
+    let inv_area = 1.0 / f32(abs(area));
+    // Four rows down: p.y grows by 4 pixels, each edge function by (its dx) · 4 pixels.
+    let step = i64(4 * grid) * sign;
+    let da = i64(c.x - b.x) * step;
+    let db = i64(a.x - c.x) * step;
+    let dc = i64(b.x - a.x) * step;
+    let width = params.target_size.x;
+    let samples = params.samples;
+    for (var k = 0u; k < samples; k++) {
+        let p = vec2<i32>(column, row0) * grid + sample_offset(k);
+        var wa = edge(b, c, p) * sign;
+        var wb = edge(c, a, p) * sign;
+        var wc = edge(a, b, p) * sign;
+        for (var r = 0; r < i32(TILE / 4u); r++) {
+            let row = row0 + 4 * r;
+            if row >= lo.y && row <= hi.y && wa >= i64(0) && wb >= i64(0) && wc >= i64(0) {
+                let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * inv_area, 0.0, 1.0);
+                if depth > 0.0 {
+                    let at = (u32(row) * width + u32(column)) * samples + k;
+                    atomicMax(&vis[at], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
+                }
+            }
+            wa += da;
+            wb += db;
+            wc += dc;
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn raster_tiles(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    if lane == 0u {
+        tile_jobs = min(atomicLoad(&counters[job_count_word()]), params.job_capacity);
+    }
+    let count = workgroupUniformLoad(&tile_jobs);
+    for (var j = group.x; j < count; j += params.tile_groups) {
+        // One lane sets the triangle up for all 64.
+        if lane == 0u {
+            tile_job = jobs[j];
+            tile_setup = setup_triangle(tile_job.x);
+        }
+        workgroupBarrier();
+        let s = tile_setup;
+        let job = tile_job;
+        // This lane's pixels: column lane % 16, rows lane / 16 + 4k.
+        let tile = vec2<i32>(vec2<u32>(job.y & 0xffffu, job.y >> 16u) * TILE);
+        let column = tile.x + i32(lane % TILE);
+        let row0 = tile.y + i32(lane / TILE);
+        for (var i = 1u; i + 1u < s.count; i++) {
+            raster_tile_column(s, i, column, row0, job.x);
+        }
+        // The next job's setup overwrites this one.
+        workgroupBarrier();
+    }
+}
