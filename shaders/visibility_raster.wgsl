@@ -2,8 +2,7 @@
 //
 // Every opaque batch's visible instances (the cull pass's `visible_slots` and instance counts)
 // are numbered triangle by triangle, batch after batch: `raster_prepare` turns this frame's
-// instance counts into each batch's first number (`thread_starts`) and the raster dispatch's
-// size. One thread per number (`raster_triangles`) places the triangle's vertices as the vertex
+// instance counts into each batch's first number (`counters`) and the raster dispatch's size. One thread per number (`raster_triangles`) places the triangle's vertices as the vertex
 // shader does (draw_data::place_vertex), clips it against the depth range, and writes
 // `depth << 32 | number` with a 64-bit atomicMax into each sample it covers. Reverse-Z: the
 // nearest surface has the largest depth, and a tie goes to the larger number, so the result
@@ -11,14 +10,16 @@
 // infinitely far plane, which no triangle reaches).
 //
 // A triangle whose box spans at most SMALL_BOX pixels each way is rasterised by its thread. A
-// larger one is split into TILE×TILE-pixel jobs (`raster_tiles`: each job's thread group
-// repeats the triangle's setup from its number and covers the tile), so a triangle filling the
-// view is spread over the GPU instead of one thread. Jobs past the job buffer's capacity are
-// not lost: their triangle's thread rasterises the whole box itself (slower, same samples).
+// larger one leaves a record (`big`); `raster_scan` gives each record its first job, and
+// `raster_tiles` runs one job per TILE×TILE-pixel tile of each record's box (a thread group
+// per job sets the triangle up again from its number and covers the tile), so a triangle
+// filling the view is spread over the GPU instead of one thread. A triangle whose record does
+// not fit is not lost: its own thread rasterises the whole box (slower, same samples).
 //
 // Coverage, as fixed-function rasterisers decide it: the triangle is clipped to the depth
 // range and a guard band, its vertices snapped to a grid of 1/256 pixel, and each sample tested
-// against exact 64-bit edge functions. A sample on an edge counts as inside: two triangles
+// against exact edge functions (64-bit; 32-bit relative to the box for small outlines, the
+// same values). A sample on an edge counts as inside: two triangles
 // sharing an edge get exactly opposite edge values, so no sample falls between them, and the
 // atomic keeps one of them where both cover it. The result does not depend on the GPU or on
 // the order threads run in. The shading pass (forward.wgsl, VISIBILITY_SHADE) decodes the
@@ -33,7 +34,7 @@ struct RasterParams {
     target_size: vec2<u32>,
     samples: u32,
     batch_count: u32,
-    // Jobs `jobs` can hold.
+    // Records `big` can hold.
     job_capacity: u32,
     // Thread groups `raster_tiles` runs (each loops over jobs).
     tile_groups: u32,
@@ -60,14 +61,20 @@ const MAX_GROUPS_X: u32 = 32768u;
 // Per batch its first number, then the total, then the job count.
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
 @group(0) @binding(9) var<storage, read_write> vis: array<atomic<u64>>;
-// Jobs: (triangle number, tile y << 16 | tile x).
-@group(0) @binding(10) var<storage, read_write> jobs: array<vec2<u32>>;
+// Large triangles: (number, first tile y << 16 | x, tiles high << 16 | wide, first job).
+@group(0) @binding(10) var<storage, read_write> big: array<vec4<u32>>;
 // The raster dispatch's arguments, written by raster_prepare (its own group: the dispatch
 // they drive cannot also bind them for writing).
 @group(1) @binding(0) var<storage, read_write> dispatch: array<u32>;
 
-fn job_count_word() -> u32 {
+// The number of large triangles recorded in `big`.
+fn big_count_word() -> u32 {
     return params.batch_count + 1u;
+}
+
+// The number of tile jobs their records add up to (raster_scan).
+fn job_total_word() -> u32 {
+    return params.batch_count + 2u;
 }
 
 // This frame's numbering: each batch's first triangle number, the raster dispatch's size, and
@@ -91,7 +98,8 @@ fn raster_prepare() {
     dispatch[0] = x;
     dispatch[1] = y;
     dispatch[2] = 1u;
-    atomicStore(&counters[job_count_word()], 0u);
+    atomicStore(&counters[big_count_word()], 0u);
+    atomicStore(&counters[job_total_word()], 0u);
 }
 
 // The triangle a number names: its batch, instance slot and vertices.
@@ -166,7 +174,12 @@ struct Setup {
     count: u32,
     lo: vec2<i32>,
     hi: vec2<i32>,
+    // The outline lies within COMPACT pixels each way (before clamping to the target): its
+    // edge functions fit 32 bits relative to `lo`.
+    compact: bool,
 };
+
+const COMPACT: f32 = 16.0;
 
 fn plane_distance(c: vec4<f32>, plane: u32) -> f32 {
     switch plane {
@@ -269,6 +282,7 @@ fn setup_triangle(number: u32) -> Setup {
     }
     // Pixels whose samples may lie inside (every sample of a pixel lies within it); the guard
     // band keeps these finite and within i32.
+    s.compact = all(hi - lo <= vec2<f32>(COMPACT));
     s.lo = vec2<i32>(max(floor(lo), vec2<f32>(0.0)));
     s.hi = vec2<i32>(min(floor(hi), size - 1.0));
     if any(s.hi < s.lo) {
@@ -336,6 +350,47 @@ fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u
     }
 }
 
+fn edge32(a: vec2<i32>, b: vec2<i32>, p: vec2<i32>) -> i32 {
+    return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+}
+
+// raster_fan_triangle for a compact outline: the same edge functions (they do not change when
+// every point moves by the same offset) in 32 bits, relative to the box's corner.
+fn raster_small(s: Setup, number: u32) {
+    let grid = i32(SUBPIXEL);
+    let origin = s.lo * grid;
+    let width = params.target_size.x;
+    let samples = params.samples;
+    for (var i = 1u; i + 1u < s.count; i++) {
+        let a = s.xy[0] - origin;
+        let b = s.xy[i] - origin;
+        let c = s.xy[i + 1u] - origin;
+        let area = edge32(a, b, c);
+        if area == 0 {
+            continue;
+        }
+        let sign = select(1, -1, area < 0);
+        let inv_area = 1.0 / f32(abs(area));
+        for (var y = s.lo.y; y <= s.hi.y; y++) {
+            for (var x = s.lo.x; x <= s.hi.x; x++) {
+                let pixel = (u32(y) * width + u32(x)) * samples;
+                for (var k = 0u; k < samples; k++) {
+                    let p = (vec2<i32>(x, y) - s.lo) * grid + sample_offset(k);
+                    let wa = edge32(b, c, p) * sign;
+                    let wb = edge32(c, a, p) * sign;
+                    let wc = edge32(a, b, p) * sign;
+                    if wa >= 0 && wb >= 0 && wc >= 0 {
+                        let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * inv_area, 0.0, 1.0);
+                        if depth > 0.0 {
+                            atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 fn raster_setup(s: Setup, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
     for (var i = 1u; i + 1u < s.count; i++) {
         raster_fan_triangle(s, i, lo, hi, number);
@@ -355,26 +410,60 @@ fn raster_triangles(
     }
     let extent = vec2<u32>(s.hi - s.lo) + 1u;
     if extent.x <= SMALL_BOX && extent.y <= SMALL_BOX {
-        raster_setup(s, s.lo, s.hi, number);
+        if s.compact {
+            raster_small(s, number);
+        } else {
+            // A small visible part of a triangle reaching far outside the target.
+            raster_setup(s, s.lo, s.hi, number);
+        }
         return;
     }
+    // A large triangle: one record, which raster_scan turns into TILE×TILE-pixel jobs.
     let t0 = vec2<u32>(s.lo) / TILE;
-    let t1 = vec2<u32>(s.hi) / TILE;
-    let tiles = (t1 - t0) + 1u;
-    let n = tiles.x * tiles.y;
-    let first = atomicAdd(&counters[job_count_word()], n);
-    let capacity = params.job_capacity;
-    for (var k = 0u; k < n; k++) {
-        if first + k >= capacity {
-            break;
-        }
-        let t = t0 + vec2<u32>(k % tiles.x, k / tiles.x);
-        jobs[first + k] = vec2<u32>(number, (t.y << 16u) | t.x);
-    }
-    if first + n > capacity {
-        // Some jobs did not fit: cover the whole box here (the jobs that did fit write the same
-        // samples with the same values).
+    let tiles = (vec2<u32>(s.hi) / TILE - t0) + 1u;
+    let at = atomicAdd(&counters[big_count_word()], 1u);
+    if at < params.job_capacity {
+        big[at] = vec4<u32>(number, (t0.y << 16u) | t0.x, (tiles.y << 16u) | tiles.x, 0u);
+    } else {
+        // No room for its record: cover the whole box here.
         raster_setup(s, s.lo, s.hi, number);
+    }
+}
+
+var<workgroup> scan_sums: array<u32, 256>;
+
+// Each large triangle's first job: an exclusive prefix sum of their tile counts (one group of
+// 256; each lane sums a run of records), and the total.
+@compute @workgroup_size(256)
+fn raster_scan(@builtin(local_invocation_index) lane: u32) {
+    if lane == 0u {
+        tile_jobs = min(atomicLoad(&counters[big_count_word()]), params.job_capacity);
+    }
+    let count = workgroupUniformLoad(&tile_jobs);
+    let per = (count + 255u) / 256u;
+    let begin = min(lane * per, count);
+    let end = min(begin + per, count);
+    var sum = 0u;
+    for (var i = begin; i < end; i++) {
+        let t = big[i].z;
+        sum += (t & 0xffffu) * (t >> 16u);
+    }
+    scan_sums[lane] = sum;
+    workgroupBarrier();
+    for (var offset = 1u; offset < 256u; offset *= 2u) {
+        let other = select(0u, scan_sums[lane - offset], lane >= offset);
+        workgroupBarrier();
+        scan_sums[lane] += other;
+        workgroupBarrier();
+    }
+    var first = scan_sums[lane] - sum;
+    for (var i = begin; i < end; i++) {
+        big[i].w = first;
+        let t = big[i].z;
+        first += (t & 0xffffu) * (t >> 16u);
+    }
+    if lane == 255u {
+        atomicStore(&counters[job_total_word()], scan_sums[255]);
     }
 }
 
@@ -382,6 +471,25 @@ fn raster_triangles(
 var<workgroup> tile_setup: Setup;
 var<workgroup> tile_job: vec2<u32>;
 var<workgroup> tile_jobs: u32;
+
+// Job `j`: its triangle's number and tile (y << 16 | x), from the record whose jobs hold it.
+fn find_job(j: u32) -> vec2<u32> {
+    var lo = 0u;
+    var hi = min(atomicLoad(&counters[big_count_word()]), params.job_capacity);
+    while hi - lo > 1u {
+        let mid = (lo + hi) / 2u;
+        if big[mid].w <= j {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let r = big[lo];
+    let local = j - r.w;
+    let wide = r.z & 0xffffu;
+    let t = vec2<u32>(r.y & 0xffffu, r.y >> 16u) + vec2<u32>(local % wide, local / wide);
+    return vec2<u32>(r.x, (t.y << 16u) | t.x);
+}
 
 // Writes fan triangle (0, i, i + 1) of `s` into the samples of this lane's pixels of a tile:
 // column `column`, rows `row0 + 4k`. The edge functions are evaluated once per sample at the
@@ -433,13 +541,13 @@ fn raster_tile_column(s: Setup, i: u32, column: i32, row0: i32, number: u32) {
 @compute @workgroup_size(64)
 fn raster_tiles(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     if lane == 0u {
-        tile_jobs = min(atomicLoad(&counters[job_count_word()]), params.job_capacity);
+        tile_jobs = atomicLoad(&counters[job_total_word()]);
     }
     let count = workgroupUniformLoad(&tile_jobs);
     for (var j = group.x; j < count; j += params.tile_groups) {
-        // One lane sets the triangle up for all 64.
+        // One lane finds the job and sets its triangle up for all 64.
         if lane == 0u {
-            tile_job = jobs[j];
+            tile_job = find_job(j);
             tile_setup = setup_triangle(tile_job.x);
         }
         workgroupBarrier();

@@ -228,22 +228,23 @@ fn cards() -> App {
 }
 
 #[test]
-fn triangles_whose_jobs_do_not_fit_are_still_drawn() {
+fn large_triangles_without_room_are_still_drawn() {
     let mut roomy = cards();
     let reference = render_app(&mut roomy, SIZE, settings(4, Raster::Compute));
     if !visibility_supported(&roomy) {
         return assert!(plan_runs(&roomy, Pass::Opaque));
     }
-    // A job list of 5 tiles: most cards' triangles rasterise whole in their own threads.
+    // Room for 5 large triangles: the other cards' triangles rasterise whole in their own
+    // threads.
     let mut squeezed = cards();
     squeezed.insert_resource(Renderer::new(common::gpu(), settings(4, Raster::Compute)).unwrap());
-    squeezed.world.resource_mut::<Renderer>().set_visibility_job_capacity(5);
+    squeezed.world.resource_mut::<Renderer>().set_visibility_large_triangle_capacity(5);
     let rgba = render_app(&mut squeezed, SIZE, settings(4, Raster::Compute));
     assert!(plan_runs(&squeezed, Pass::VisibilityRaster));
     let hardware = render_app(&mut cards(), SIZE, settings(4, Raster::Hardware));
     assert!(flip_mean(&hardware, &reference, SIZE.0, SIZE.1) < 0.01, "the cards differ from the forward pass's");
     let apart = pixels_apart(&rgba, &reference, 0);
-    assert!(apart == 0, "{apart} pixels changed when large triangles' jobs did not fit");
+    assert!(apart == 0, "{apart} pixels changed when large triangles' records did not fit");
 }
 
 #[test]

@@ -670,11 +670,11 @@ impl Renderer {
         Ok(())
     }
 
-    /// How many 16×16-pixel jobs the visibility buffer's list of large triangles holds (see
-    /// `passes::visibility`): for tests and tuning; triangles whose jobs do not fit are
-    /// rasterised whole by their own thread, the same samples more slowly.
-    pub fn set_visibility_job_capacity(&mut self, capacity: u32) {
-        self.visibility.set_job_capacity(&self.ctx.device, capacity);
+    /// How many records of large triangles the visibility buffer's list holds (see
+    /// `passes::visibility`): for tests and tuning; a triangle whose record does not fit is
+    /// rasterised whole by its own thread, the same samples more slowly.
+    pub fn set_visibility_large_triangle_capacity(&mut self, capacity: u32) {
+        self.visibility.set_large_triangle_capacity(&self.ctx.device, capacity);
     }
 
     pub fn stats(&self) -> &FrameStats {

@@ -1,5 +1,5 @@
 //! The visibility buffer: opaque draws rasterised and shaded in compute (`Raster::Compute`).
-//! The one owner of the visibility buffer, the raster batch table, the job list of large
+//! The one owner of the visibility buffer, the raster batch table, the records of large
 //! triangles and the shading groups.
 //!
 //! Why: GPUs built for compute rasterise on a small part of the chip. The H100 runs vertex and
@@ -14,7 +14,8 @@
 //! 2. `raster_triangles`, one thread per triangle, writes `depth << 32 | number` into each
 //!    covered sample with a 64-bit atomicMax (nearest wins; ties go to the larger number, so
 //!    the result is the same whatever order threads run in). Triangles larger than 8×8 pixels
-//!    become 16×16-pixel jobs that `raster_tiles` spreads over the GPU.
+//!    leave a record instead; `raster_scan` numbers their 16×16-pixel tiles, and
+//!    `raster_tiles` spreads those jobs over the GPU.
 //! 3. The shading pass (`forward.wgsl`'s `cs_shade`, one pipeline per forward variant and one
 //!    dispatch per group of batches sharing variant and material textures) shades each
 //!    pixel's triangles once at the pixel's centre, weighs each by the samples it covers, adds
@@ -45,15 +46,18 @@ use crate::timing::GpuTimer;
 
 /// Bytes of one visibility sample (depth and triangle number).
 const SAMPLE_BYTES: u64 = 8;
-/// Jobs (16×16-pixel tiles of large triangles) the job list holds per tile of the frame, and
-/// at least. A triangle whose jobs do not fit is rasterised whole by its own thread: the same
-/// samples, slower, and on lavapipe only while that thread's loops stay within Mesa's limit of
-/// 65 535 iterations an invocation (gallivm's loop limiter; a view-filling triangle at 192×112
-/// passes it), so the list is sized for far more large triangles than frames have.
-const JOBS_PER_TILE: u32 = 32;
+/// Records of large triangles (a box wider or taller than 8 pixels) the list holds per
+/// 16×16-pixel tile of the frame, and at least. A triangle whose record does not fit is
+/// rasterised whole by its own thread: the same samples, slower, and on lavapipe only while
+/// that thread's loops stay within Mesa's limit of 65 535 iterations an invocation (gallivm's
+/// loop limiter; a view-filling triangle at 192×112 passes it), so the list is sized for far
+/// more large triangles than frames have.
+const JOBS_PER_TILE: u32 = 8;
 const MIN_JOBS: u32 = 1 << 16;
 const TILE: u32 = 16;
-/// Thread groups of `raster_tiles`, each looping over the job list.
+/// Bytes of one record.
+const RECORD_BYTES: u64 = 16;
+/// Thread groups of `raster_tiles`, each looping over the tile jobs.
 const TILE_GROUPS: u32 = 2048;
 const CULL_BACK: u32 = 1;
 const FRONT_CW: u32 = 2;
@@ -108,8 +112,8 @@ struct ShadeGroup {
 
 fn job_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("visibility jobs"),
-        size: capacity as u64 * 8,
+        label: Some("visibility large triangles"),
+        size: capacity as u64 * RECORD_BYTES,
         usage: wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
     })
@@ -154,7 +158,7 @@ pub struct VisibilityBuffer {
     samples: GrowableBuffer,
     jobs: wgpu::Buffer,
     job_capacity: u32,
-    /// `set_job_capacity`'s figure, in place of the one sized from the frame.
+    /// `set_large_triangle_capacity`'s figure, in place of the one sized from the frame.
     job_capacity_set: Option<u32>,
     partial: GrowableBuffer,
     raster_params: wgpu::Buffer,
@@ -208,9 +212,9 @@ impl VisibilityBuffer {
         }
     }
 
-    /// Sets how many jobs the job list holds (for tests and tuning: triangles whose jobs do not
-    /// fit are rasterised whole by their own thread).
-    pub fn set_job_capacity(&mut self, device: &wgpu::Device, capacity: u32) {
+    /// Sets how many large triangles' records the list holds (for tests and tuning: a triangle
+    /// whose record does not fit is rasterised whole by its own thread).
+    pub fn set_large_triangle_capacity(&mut self, device: &wgpu::Device, capacity: u32) {
         self.job_capacity_set = Some(capacity.max(1));
         self.resize_jobs(device, capacity.max(1));
     }
@@ -294,7 +298,8 @@ impl VisibilityBuffer {
         if !bytes.is_empty() {
             queue.write_buffer(self.batches.buffer(), 0, bytes);
         }
-        self.counters.reserve(device, (table.len() as u64 + 2) * 4);
+        // Per batch its first triangle number; the total; large triangles; their tile jobs.
+        self.counters.reserve(device, (table.len() as u64 + 3) * 4);
         while self.shade_params.len() < self.groups.len() {
             self.shade_params.push(device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("visibility shade params"),
@@ -458,13 +463,15 @@ impl VisibilityBuffer {
                 timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("visibility raster")),
             });
             let steps = RasterStep::ALL.map(|s| pipelines.visibility_raster_cached(s));
-            if let [Some(prepare), Some(triangles), Some(tiles)] = steps {
+            if let [Some(prepare), Some(triangles), Some(scan), Some(tiles)] = steps {
                 pass.set_bind_group(0, &bound.raster, &[]);
                 pass.set_pipeline(prepare);
                 pass.set_bind_group(1, &bound.dispatch, &[]);
                 pass.dispatch_workgroups(1, 1, 1);
                 pass.set_pipeline(triangles);
                 pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+                pass.set_pipeline(scan);
+                pass.dispatch_workgroups(1, 1, 1);
                 pass.set_pipeline(tiles);
                 pass.dispatch_workgroups(TILE_GROUPS, 1, 1);
             }

@@ -16,16 +16,18 @@ pub const DISPLAY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub enum RasterStep {
     Prepare,
     Triangles,
+    Scan,
     Tiles,
 }
 
 impl RasterStep {
-    pub const ALL: [RasterStep; 3] = [RasterStep::Prepare, RasterStep::Triangles, RasterStep::Tiles];
+    pub const ALL: [RasterStep; 4] = [RasterStep::Prepare, RasterStep::Triangles, RasterStep::Scan, RasterStep::Tiles];
 
     fn entry(self) -> &'static str {
         match self {
             RasterStep::Prepare => "raster_prepare",
             RasterStep::Triangles => "raster_triangles",
+            RasterStep::Scan => "raster_scan",
             RasterStep::Tiles => "raster_tiles",
         }
     }
