@@ -547,8 +547,8 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 // triangles its samples hold (visibility_raster.wgsl numbered them), shades each triangle of
 // this dispatch's group once at the pixel's centre, as multisampling shades a fragment, and
 // weighs it by the samples it covers. The vertices are placed as vs_main places them and
-// interpolated perspective-correctly; the UV gradients are the interpolants' change over one
-// pixel, as the fragment shader's derivatives are. Groups (a pipeline variant and material
+// interpolated perspective-correctly; the UV gradients are the fine derivatives a fragment of
+// the same 2×2 quad would take. Groups (a pipeline variant and material
 // textures each) add into `partial`; the last writes the pixel, with the clear colour or the
 // environment (VISIBILITY_BACKGROUND) in the samples nothing covers.
 //
@@ -640,10 +640,15 @@ fn shade_triangle(number: u32, b: u32, frag_xy: vec2<f32>) -> vec3<f32> {
     let r = array<vec3<f32>, 3>(cross(cb, cc), cross(cc, ca), cross(ca, cb));
     let size = shade_params.target_size;
     let to_ndc = vec2<f32>(2.0, -2.0) / vec2<f32>(size);
-    let ndc = vec2<f32>(-1.0, 1.0) + frag_xy * to_ndc;
-    let w = weights(r, ndc);
-    let wx = weights(r, ndc + vec2<f32>(to_ndc.x, 0.0));
-    let wy = weights(r, ndc + vec2<f32>(0.0, to_ndc.y));
+    let at_ndc = vec2<f32>(-1.0, 1.0);
+    let w = weights(r, at_ndc + frag_xy * to_ndc);
+    // Gradients as a fragment's fine derivatives are: across its 2×2 quad, the right pixel's
+    // value less the left's (in its row) and the bottom's less the top's (in its column).
+    let quad = floor(frag_xy * 0.5) * 2.0 + 0.5;
+    let left = weights(r, at_ndc + vec2<f32>(quad.x, frag_xy.y) * to_ndc);
+    let right = weights(r, at_ndc + vec2<f32>(quad.x + 1.0, frag_xy.y) * to_ndc);
+    let top = weights(r, at_ndc + vec2<f32>(frag_xy.x, quad.y) * to_ndc);
+    let bottom = weights(r, at_ndc + vec2<f32>(frag_xy.x, quad.y + 1.0) * to_ndc);
     // The winding as the rasteriser sees it: the determinant's sign is the projected
     // triangle's orientation in normalised device coordinates (y up) when all w are positive.
     let det = dot(ca, r[0]);
@@ -663,10 +668,10 @@ fn shade_triangle(number: u32, b: u32, frag_xy: vec2<f32>) -> vec3<f32> {
     let sets = UvSets(
         v.uv0,
         v.uv1,
-        mix3_2(a.uv0, bv.uv0, c.uv0, wx) - v.uv0,
-        mix3_2(a.uv0, bv.uv0, c.uv0, wy) - v.uv0,
-        mix3_2(a.uv1, bv.uv1, c.uv1, wx) - v.uv1,
-        mix3_2(a.uv1, bv.uv1, c.uv1, wy) - v.uv1,
+        mix3_2(a.uv0, bv.uv0, c.uv0, right) - mix3_2(a.uv0, bv.uv0, c.uv0, left),
+        mix3_2(a.uv0, bv.uv0, c.uv0, bottom) - mix3_2(a.uv0, bv.uv0, c.uv0, top),
+        mix3_2(a.uv1, bv.uv1, c.uv1, right) - mix3_2(a.uv1, bv.uv1, c.uv1, left),
+        mix3_2(a.uv1, bv.uv1, c.uv1, bottom) - mix3_2(a.uv1, bv.uv1, c.uv1, top),
     );
     return shade(v, front_facing, sets).color.rgb;
 }

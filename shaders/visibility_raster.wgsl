@@ -19,9 +19,9 @@
 // Coverage, as fixed-function rasterisers decide it: the triangle is clipped to the depth
 // range and a guard band, its vertices snapped to a grid of 1/256 pixel, and each sample tested
 // against exact edge functions (64-bit; 32-bit relative to the box for small outlines, the
-// same values). A sample on an edge counts as inside: two triangles
-// sharing an edge get exactly opposite edge values, so no sample falls between them, and the
-// atomic keeps one of them where both cover it. The result does not depend on the GPU or on
+// same values), with the top-left rule for samples exactly on an edge: two triangles sharing
+// an edge get exactly opposite edge values there, so each such sample goes to exactly one of
+// them. The result does not depend on the GPU or on
 // the order threads run in. The shading pass (forward.wgsl, VISIBILITY_SHADE) decodes the
 // number the same way and recomputes the triangle from it.
 
@@ -308,6 +308,17 @@ fn edge(a: vec2<i32>, b: vec2<i32>, p: vec2<i32>) -> i64 {
     return i64(b.x - a.x) * i64(p.y - a.y) - i64(b.y - a.y) * i64(p.x - a.x);
 }
 
+// Whether the edge from `a` to `b`, of a triangle whose edge functions times `sign` are positive
+// inside, is a top or a left edge (framebuffer y down): the interior lies to its right, or it
+// is horizontal with the interior below. A sample exactly on an edge is covered only by such
+// an edge's triangle: the rule fixed-function rasterisers follow, so of two triangles sharing
+// an edge exactly one covers it (their edge functions there are exactly opposite).
+fn top_left(a: vec2<i32>, b: vec2<i32>, sign: i32) -> bool {
+    let gx = -sign * (b.y - a.y);
+    let gy = sign * (b.x - a.x);
+    return gx > 0 || (gx == 0 && gy > 0);
+}
+
 // Writes fan triangle (0, i, i + 1) of `s` into the samples of pixels lo..=hi it covers.
 fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
     let a = s.xy[0];
@@ -319,6 +330,10 @@ fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u
     }
     let flip = area < i64(0);
     let inv_area = 1.0 / f32(area);
+    let sign = select(1, -1, flip);
+    let ta = top_left(b, c, sign);
+    let tb = top_left(c, a, sign);
+    let tc = top_left(a, b, sign);
     let grid = i32(SUBPIXEL);
     let tlo = max(lo, min(a, min(b, c)) / grid - 1);
     let thi = min(hi, max(a, max(b, c)) / grid + 1);
@@ -337,9 +352,8 @@ fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u
                     wb = -wb;
                     wc = -wc;
                 }
-                // On an edge counts as inside: a sample on an edge two triangles share goes to
-                // both, and the atomic keeps one; none falls between them.
-                if wa >= i64(0) && wb >= i64(0) && wc >= i64(0) {
+                if (wa > i64(0) || (wa == i64(0) && ta)) && (wb > i64(0) || (wb == i64(0) && tb))
+                    && (wc > i64(0) || (wc == i64(0) && tc)) {
                     let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * abs(inv_area), 0.0, 1.0);
                     if depth > 0.0 {
                         atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
@@ -371,6 +385,9 @@ fn raster_small(s: Setup, number: u32) {
         }
         let sign = select(1, -1, area < 0);
         let inv_area = 1.0 / f32(abs(area));
+        let ta = top_left(b, c, sign);
+        let tb = top_left(c, a, sign);
+        let tc = top_left(a, b, sign);
         for (var y = s.lo.y; y <= s.hi.y; y++) {
             for (var x = s.lo.x; x <= s.hi.x; x++) {
                 let pixel = (u32(y) * width + u32(x)) * samples;
@@ -379,7 +396,7 @@ fn raster_small(s: Setup, number: u32) {
                     let wa = edge32(b, c, p) * sign;
                     let wb = edge32(c, a, p) * sign;
                     let wc = edge32(a, b, p) * sign;
-                    if wa >= 0 && wb >= 0 && wc >= 0 {
+                    if (wa > 0 || (wa == 0 && ta)) && (wb > 0 || (wb == 0 && tb)) && (wc > 0 || (wc == 0 && tc)) {
                         let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * inv_area, 0.0, 1.0);
                         if depth > 0.0 {
                             atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
@@ -510,6 +527,9 @@ fn raster_tile_column(s: Setup, i: u32, column: i32, row0: i32, number: u32) {
     }
     let sign = select(i64(1), i64(-1), area < i64(0));
     let inv_area = 1.0 / f32(abs(area));
+    let ta = top_left(b, c, i32(sign));
+    let tb = top_left(c, a, i32(sign));
+    let tc = top_left(a, b, i32(sign));
     // Four rows down: p.y grows by 4 pixels, each edge function by (its dx) · 4 pixels.
     let step = i64(4 * grid) * sign;
     let da = i64(c.x - b.x) * step;
@@ -524,7 +544,9 @@ fn raster_tile_column(s: Setup, i: u32, column: i32, row0: i32, number: u32) {
         var wc = edge(a, b, p) * sign;
         for (var r = 0; r < i32(TILE / 4u); r++) {
             let row = row0 + 4 * r;
-            if row >= lo.y && row <= hi.y && wa >= i64(0) && wb >= i64(0) && wc >= i64(0) {
+            let inside = (wa > i64(0) || (wa == i64(0) && ta)) && (wb > i64(0) || (wb == i64(0) && tb))
+                && (wc > i64(0) || (wc == i64(0) && tc));
+            if row >= lo.y && row <= hi.y && inside {
                 let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * inv_area, 0.0, 1.0);
                 if depth > 0.0 {
                     let at = (u32(row) * width + u32(column)) * samples + k;

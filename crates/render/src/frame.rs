@@ -206,7 +206,10 @@ impl FramePlan {
             passes.push((Pass::Shadows, "a shadowed light's casters reach what the camera sees"));
         }
         if visibility {
-            passes.push((Pass::VisibilityRaster, "opaque draws, rasterised in compute (--raster compute)"));
+            passes.push((
+                Pass::VisibilityRaster,
+                "opaque draws, rasterised in compute (--raster compute, or auto on a GPU with few graphics units)",
+            ));
             passes.push((Pass::VisibilityShade, "the visibility buffer's samples to shade"));
         } else {
             passes.push((
@@ -282,11 +285,12 @@ impl FramePlan {
                          post-processing, environment background, blended draws, gizmos, deferred \
                          lights or HDR readback): the opaque pass tonemaps and draws into the output"
                     }
-                    Pass::Opaque => "opaque draws are rasterised and shaded in compute (--raster compute)",
+                    Pass::Opaque => "opaque draws are rasterised and shaded in compute (--raster compute or auto)",
                     Pass::VisibilityRaster | Pass::VisibilityShade => {
-                        "opaque draws rasterise in hardware (the default; with --raster compute: no GPU \
-                         culling, blended or masked draws, gizmos, lines or points, occlusion culling \
-                         asked for, or no 64-bit atomics on the adapter)"
+                        "opaque draws rasterise in hardware (--raster hardware, or auto on a GPU with \
+                         many graphics units; with compute: no GPU culling, blended or masked draws, \
+                         gizmos, lines or points, occlusion culling asked for, or no 64-bit atomics \
+                         on the adapter)"
                     }
                     Pass::Background if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"

@@ -107,6 +107,11 @@ pub struct RenderSettings {
 /// Where opaque draws are rasterised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Raster {
+    /// `Compute` on GPUs whose graphics units are a small part of the chip
+    /// (`Capabilities::few_graphics_units`: NVIDIA's Hopper compute GPUs), `Hardware` elsewhere.
+    /// The many-lights and many-cubes benchmarks use it; not yet the default, since the
+    /// compute path is new and leaves out what it cannot draw yet (see `Compute`).
+    Auto,
     /// The GPU's rasteriser, drawing each batch (the forward pass).
     #[default]
     Hardware,
@@ -670,6 +675,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// Whether opaque draws go to the visibility buffer when the frame allows (see `Raster`).
+    fn raster_in_compute(&self) -> bool {
+        self.ctx.caps.visibility_raster
+            && match self.settings.raster {
+                Raster::Hardware => false,
+                Raster::Compute => true,
+                Raster::Auto => self.ctx.caps.few_graphics_units,
+            }
+    }
+
     /// How many records of large triangles the visibility buffer's list holds (see
     /// `passes::visibility`): for tests and tuning; a triangle whose record does not fit is
     /// rasterised whole by its own thread, the same samples more slowly.
@@ -1015,13 +1030,12 @@ impl Renderer {
         // The visibility buffer rasterises the cull pass's visible lists, one instance or many.
         let culling = self.settings.gpu_culling
             && self.ctx.caps.indirect_first_instance
-            && (opaque_len > 1 || (self.settings.raster == Raster::Compute && self.ctx.caps.visibility_raster))
+            && (opaque_len > 1 || self.raster_in_compute())
             && scene.view.is_some();
         // The visibility buffer, if asked for and this frame's draws allow it (see `Raster`);
         // gizmos, known only below, can still send the frame to the forward pass.
         let visibility_wanted = culling
-            && self.settings.raster == Raster::Compute
-            && self.ctx.caps.visibility_raster
+            && self.raster_in_compute()
             && self.settings.occlusion_culling != OcclusionCulling::On
             && blend_batches.is_empty()
             && !self.opaque_batches.is_empty()

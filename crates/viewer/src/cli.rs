@@ -179,12 +179,14 @@ pub struct LookArgs {
     /// can cover a sample. `auto`: on a GPU, not on CPU rasterisers such as lavapipe.
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub triangle_culling: OcclusionArg,
-    /// Where opaque surfaces are rasterised: `hardware` (the GPU's rasteriser) or `compute`
-    /// (a visibility buffer written and shaded by compute shaders; for GPUs with few graphics
-    /// units such as the H100). Frames it cannot draw yet (blended or masked materials,
-    /// gizmos, lines, GL) rasterise in hardware; `render --explain` says which ran.
-    #[arg(long, value_enum, default_value_t = RasterArg::Hardware)]
-    pub raster: RasterArg,
+    /// Where opaque surfaces are rasterised: `hardware` (the GPU's rasteriser; the default),
+    /// `compute` (a visibility buffer written and shaded by compute shaders), or `auto`:
+    /// compute on GPUs whose graphics units are a small part of the chip (NVIDIA H100, H200),
+    /// else hardware (the default of the many-lights and many-cubes benchmarks). Frames
+    /// compute cannot draw yet (blended or masked materials, gizmos, lines, GL) rasterise in
+    /// hardware; `render --explain` says which ran.
+    #[arg(long, value_enum)]
+    pub raster: Option<RasterArg>,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a
     /// neutral studio gradient when it has none), `sky`, `studio`, `none`, or an
     /// equirectangular Radiance .hdr or OpenEXR file.
@@ -302,6 +304,7 @@ pub enum DebugViewArg {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RasterArg {
+    Auto,
     Hardware,
     Compute,
 }
@@ -644,8 +647,9 @@ impl LookArgs {
                 OcclusionArg::Off => TriangleCulling::Off,
             },
             raster: match self.raster {
-                RasterArg::Hardware => Raster::Hardware,
-                RasterArg::Compute => Raster::Compute,
+                Some(RasterArg::Auto) => Raster::Auto,
+                Some(RasterArg::Hardware) | None => Raster::Hardware,
+                Some(RasterArg::Compute) => Raster::Compute,
             },
             environment: EnvironmentSettings { cube_size: self.env_size.0, ..Default::default() },
             post: PostSettings {

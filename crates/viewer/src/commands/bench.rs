@@ -143,18 +143,22 @@ pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> 
     }
 }
 
-/// The `p` quantile (0..=1) of `samples`, in any order; NaN when there are none.
-/// Settings for the scenes of notes/bench-scenes.md (`many-cubes`, `many-lights`): GPU timing,
-/// and display colours resolved unless `--msaa-resolve` says otherwise, since the recipe draws
-/// without an HDR target.
+/// Settings for the scenes of notes/bench-scenes.md (`many-cubes`, `many-lights`): GPU timing;
+/// display colours resolved unless `--msaa-resolve` says otherwise, since the recipe draws
+/// without an HDR target; and opaque draws rasterised where they run fastest unless `--raster`
+/// says otherwise (`Raster::Auto`: in compute on the H100 and H200).
 pub fn recipe_settings(args: &BenchArgs) -> Result<RenderSettings> {
     let mut settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
     if args.look.msaa_resolve.is_none() {
         settings.msaa_resolve = penumbra_render::MsaaResolve::Display;
     }
+    if args.look.raster.is_none() {
+        settings.raster = penumbra_render::renderer::Raster::Auto;
+    }
     Ok(settings)
 }
 
+/// The `p` quantile (0..=1) of `samples`, in any order; NaN when there are none.
 pub fn percentile(samples: &[f64], p: f64) -> f64 {
     if samples.is_empty() {
         return f64::NAN;

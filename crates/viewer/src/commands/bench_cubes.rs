@@ -91,7 +91,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         layout
     );
     println!(
-        "settings  {}x{}, MSAA {} ({:?} resolve), GPU culling {}, occlusion culling {:?}, triangle culling {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
+        "settings  {}x{}, MSAA {} ({:?} resolve), GPU culling {}, occlusion culling {:?}, triangle culling {:?}, raster {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
         args.size.0,
         args.size.1,
         settings.msaa,
@@ -99,6 +99,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         if settings.gpu_culling { "on" } else { "off" },
         settings.occlusion_culling,
         settings.triangle_culling,
+        settings.raster,
         settings.tonemapper,
         args.warmup,
         args.frames

@@ -132,12 +132,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         range.map_or("auto (from intensity, cutoff 1/4096)".to_owned(), |r| format!("{r} m"))
     );
     println!(
-        "settings  {}x{}, MSAA {} ({:?} resolve), light walk {:?}, clusters {}x{}x{}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, ambient 60 cd/m², {} warm-up + {} timed frames; window error at {}x{}",
+        "settings  {}x{}, MSAA {} ({:?} resolve), light walk {:?}, raster {:?}, clusters {}x{}x{}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, ambient 60 cd/m², {} warm-up + {} timed frames; window error at {}x{}",
         args.size.0,
         args.size.1,
         base.msaa,
         base.msaa_resolve,
         base.light_walk,
+        base.raster,
         base.clusters.tiles_x,
         base.clusters.tiles_y,
         base.clusters.slices,
