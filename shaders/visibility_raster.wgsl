@@ -21,8 +21,9 @@
 // against exact edge functions (64-bit; 32-bit relative to the box for small outlines, the
 // same values), with the top-left rule for samples exactly on an edge: two triangles sharing
 // an edge get exactly opposite edge values there, so each such sample goes to exactly one of
-// them. The result does not depend on the GPU or on
-// the order threads run in. The shading pass (forward.wgsl, VISIBILITY_SHADE) decodes the
+// them; clipping computes each new vertex from the edge's inside end, so neighbours clipped
+// by the same plane meet at the same point. The result does not depend on the order threads
+// run in. The shading pass (forward.wgsl, VISIBILITY_SHADE) decodes the
 // number the same way and recomputes the triangle from it.
 
 #import penumbra::view::View
@@ -158,8 +159,9 @@ fn vertex_clip(inst: Instance, vertex: u32) -> vec4<f32> {
 // requires at least 4, GPUs use 8).
 const SUBPIXEL: f32 = 256.0;
 // The guard band: triangles are clipped to |x|, |y| ≤ GUARD·w (normalised device coordinates
-// within ±GUARD), so snapped coordinates stay far inside i32 and edge functions inside i64.
-const GUARD: f32 = 2.0;
+// within ±GUARD), so snapped coordinates stay within f32's exact integers (2^24, for targets
+// up to 14 000 pixels across) and i32, and edge functions within i64.
+const GUARD: f32 = 8.0;
 // Clip planes: the depth range's near (z ≤ w) and far (z ≥ 0) planes, then the guard band.
 const PLANES: u32 = 6u;
 // The most vertices clipping a triangle against PLANES planes leaves.
@@ -241,7 +243,15 @@ fn setup_triangle(number: u32) -> Setup {
                 m++;
             }
             if (da >= 0.0) != (db >= 0.0) && m < MAX_VERTICES {
-                out[m] = mix(a, b, da / (da - db));
+                // From the inside end, whichever way the outline runs: the neighbour sharing
+                // this edge walks it the other way and must get the same point to the bit, or
+                // a sample could fall between the two after snapping.
+                let inside_a = da >= 0.0;
+                let p_in = select(b, a, inside_a);
+                let p_out = select(a, b, inside_a);
+                let d_in = select(db, da, inside_a);
+                let d_out = select(da, db, inside_a);
+                out[m] = p_in + (p_out - p_in) * (d_in / (d_in - d_out));
                 m++;
             }
         }

@@ -8,8 +8,9 @@
 
 use penumbra::prelude::*;
 use penumbra::render::frame::Pass;
+use penumbra::render::pipelines::shader_library::EMBEDDED;
 use penumbra::render::renderer::Raster;
-use penumbra::render::{MsaaResolve, RenderSettings, Renderer};
+use penumbra::render::{MsaaResolve, RenderSettings, Renderer, ShaderSource};
 
 mod common;
 use common::{assert_finite_hdr, asset, flip_mean, hdr_of, render_app, scene_app, spawn_mesh};
@@ -187,7 +188,7 @@ fn compute_raster_draws_what_the_forward_pass_draws() {
         if !visibility_supported(&app) {
             // GL: no 64-bit atomics; the forward pass draws the frame.
             assert!(plan_runs(&app, Pass::Opaque) && !plan_runs(&app, Pass::VisibilityRaster));
-            assert_eq!(compute, hardware, "{name}");
+            assert!(pixels_apart(&compute, &hardware, 0) == 0, "{name}: the fallback frame differs");
             continue;
         }
         assert!(plan_runs(&app, Pass::VisibilityRaster) && plan_runs(&app, Pass::VisibilityShade), "{name}");
@@ -265,4 +266,89 @@ fn frames_the_compute_raster_cannot_draw_fall_back_to_the_forward_pass() {
     let why = app.world.resource::<Renderer>().stats().plan.left_out();
     let (_, reason) = why.iter().find(|(p, _)| *p == Pass::VisibilityRaster).expect("left out");
     assert!(reason.contains("blended"), "{reason}");
+}
+
+#[test]
+fn a_frame_of_blended_draws_only_draws_the_same_either_way() {
+    // With --raster compute culling may run for one opaque instance; with none, the blended
+    // draws must still read their own slots.
+    let frame = |raster| {
+        let mut app = scene_app();
+        for (k, colour) in [Vec4::new(0.9, 0.2, 0.2, 0.6), Vec4::new(0.2, 0.4, 0.9, 0.5)].into_iter().enumerate() {
+            let material =
+                StandardMaterial { alpha_mode: AlphaMode::Blend, ..StandardMaterial::from_color(colour, 0.5) };
+            spawn_mesh(
+                &mut app,
+                Mesh::cuboid(Vec3::ONE),
+                material,
+                Transform::from_xyz(-0.6 + 1.2 * k as f32, 0.0, -4.0),
+            );
+        }
+        app.world.spawn((Camera { exposure: Exposure::unit(), ..Default::default() }, Transform::IDENTITY));
+        let rgba = render_app(&mut app, SIZE, settings(4, raster));
+        assert!(plan_runs(&app, Pass::Transparent) && !plan_runs(&app, Pass::VisibilityRaster));
+        rgba
+    };
+    let hardware = frame(Raster::Hardware);
+    assert!(hardware.chunks_exact(4).any(|p| p[0] > 150 && p[2] < 120), "the red cube is drawn");
+    let apart = pixels_apart(&frame(Raster::Compute), &hardware, 0);
+    assert!(apart == 0, "{apart} pixels differ");
+}
+
+/// A grey cube on the left and DamagedHelmet (normal-mapped) on the right, shaded in compute,
+/// with shaders from `dir` if given.
+fn cube_and_helmet(shaders: Option<&std::path::Path>, helmet: bool) -> (Vec<u8>, App) {
+    let mut app = scene_app();
+    spawn_mesh(
+        &mut app,
+        Mesh::cuboid(Vec3::ONE),
+        StandardMaterial::from_color(Vec4::new(0.6, 0.6, 0.6, 1.0), 0.5),
+        Transform::from_xyz(-1.2, 0.0, -4.0).with_rotation(Quat::from_rotation_y(0.5)),
+    );
+    if helmet {
+        let root =
+            load_scene(&mut app.world, &asset("DamagedHelmet/DamagedHelmet.glb"), &ImportOptions::default()).unwrap();
+        app.world.entity_mut(root).insert(Transform::from_xyz(1.2, 0.0, -4.0).with_scale(Vec3::splat(0.8)));
+    }
+    app.world.spawn((
+        DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
+        Transform::from_xyz(0.3, 1.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    app.world.spawn((Camera { exposure: Exposure::unit(), ..Default::default() }, Transform::IDENTITY));
+    let shaders = match shaders {
+        Some(dir) => ShaderSource::Folder { dir: dir.to_path_buf(), watch: false },
+        None => ShaderSource::Embedded,
+    };
+    let rgba = render_app(&mut app, SIZE, RenderSettings { shaders, ..settings(4, Raster::Compute) });
+    (rgba, app)
+}
+
+#[test]
+fn a_shading_variant_that_fails_leaves_the_others_drawn() {
+    // The normal-mapped variant does not compile: the helmet's samples are not shaded (the
+    // background shows there) and the cube's group still writes the whole frame.
+    let dir = common::scratch_dir("visibility-broken-variant");
+    for (file, source) in EMBEDDED {
+        let source = if *file == "forward.wgsl" {
+            source.replacen("#ifdef NORMAL_MAP\n", "#ifdef NORMAL_MAP\n    let broken: u32 = 1.5;\n", 1)
+        } else {
+            source.to_string()
+        };
+        std::fs::write(dir.join(file), source).unwrap();
+    }
+    let (broken, app) = cube_and_helmet(Some(&dir), true);
+    if !visibility_supported(&app) {
+        return assert!(plan_runs(&app, Pass::Opaque));
+    }
+    assert!(plan_runs(&app, Pass::VisibilityShade));
+    let error = app.world.resource::<Renderer>().shader_error().map(|e| e.to_string()).unwrap_or_default();
+    assert!(error.contains("forward.wgsl"), "the failing variant is reported: {error:?}");
+    let (cube_only, _) = cube_and_helmet(None, false);
+    let left = |rgba: &[u8]| -> Vec<u8> {
+        rgba.chunks_exact(SIZE.0 as usize * 4).flat_map(|row| row[..SIZE.0 as usize * 2].to_vec()).collect()
+    };
+    assert!(left(&cube_only).chunks_exact(4).any(|p| p[0] > 60), "the cube is in the left half");
+    assert!(pixels_apart(&left(&broken), &left(&cube_only), 0) == 0, "the cube's half changed");
+    let (whole, _) = cube_and_helmet(None, true);
+    assert!(pixels_apart(&broken, &whole, 24) > 100, "the helmet was shaded after all");
 }

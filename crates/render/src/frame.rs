@@ -99,7 +99,8 @@ impl Pass {
             }
             Pass::VisibilityShade => {
                 "visibility buffer, mesh pool, instances, materials, textures, light store [, cluster \
-                 lists] [, shadow atlas] [, environment maps] -> HDR colour (resolved)"
+                 lists] [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the \
+                 displayed colour copied into the output"
             }
             Pass::Background => "environment cube (or its blurred level), HDR alpha -> HDR colour",
             Pass::OcclusionLate => "depth -> depth pyramid -> late cull -> second opaque draws",
@@ -288,9 +289,10 @@ impl FramePlan {
                     Pass::Opaque => "opaque draws are rasterised and shaded in compute (--raster compute or auto)",
                     Pass::VisibilityRaster | Pass::VisibilityShade => {
                         "opaque draws rasterise in hardware (--raster hardware, or auto on a GPU with \
-                         many graphics units; with compute: no GPU culling, blended or masked draws, \
-                         gizmos, lines or points, occlusion culling asked for, or no 64-bit atomics \
-                         on the adapter)"
+                         many graphics units; with compute: no opaque draws, no GPU culling, blended \
+                         or masked draws, gizmos, lines or points, occlusion culling asked for, no \
+                         64-bit atomics on the adapter, or a visibility buffer larger than one \
+                         storage binding)"
                     }
                     Pass::Background if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"

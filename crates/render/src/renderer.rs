@@ -1030,12 +1030,13 @@ impl Renderer {
         // The visibility buffer rasterises the cull pass's visible lists, one instance or many.
         let culling = self.settings.gpu_culling
             && self.ctx.caps.indirect_first_instance
-            && (opaque_len > 1 || self.raster_in_compute())
+            && (opaque_len > 1 || (opaque_len == 1 && self.raster_in_compute()))
             && scene.view.is_some();
         // The visibility buffer, if asked for and this frame's draws allow it (see `Raster`);
         // gizmos, known only below, can still send the frame to the forward pass.
         let visibility_wanted = culling
             && self.raster_in_compute()
+            && crate::passes::visibility::fits(&device.limits(), size, self.settings.msaa)
             && self.settings.occlusion_culling != OcclusionCulling::On
             && blend_batches.is_empty()
             && !self.opaque_batches.is_empty()
@@ -1348,9 +1349,12 @@ impl Renderer {
                 self.visibility_batches_dirty = false;
             }
             let tonemapper = self.settings.tonemapper;
+            // Display colours are averaged only into an sRGB output, as the forward pass does.
             let shade_output = match (direct, self.settings.msaa_resolve) {
                 (false, _) => ShadeOutput::Hdr,
-                (true, MsaaResolve::Display) if self.settings.msaa > 1 => ShadeOutput::DisplayPerSample(tonemapper),
+                (true, MsaaResolve::Display) if self.settings.msaa > 1 && output_format.is_srgb() => {
+                    ShadeOutput::DisplayPerSample(tonemapper)
+                }
                 (true, _) => ShadeOutput::DisplayResolved(tonemapper),
             };
             let inputs = crate::passes::visibility::FrameInputs {
@@ -1369,9 +1373,8 @@ impl Renderer {
                 background,
                 clear: clear_radiance,
             };
-            self.visibility.prepare_frame(&device, &queue, &inputs);
-            let error =
-                self.visibility.encode(&mut encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut()).err();
+            let error = self.visibility.prepare_frame(&device, &queue, &mut self.pipelines, &inputs).err();
+            self.visibility.encode(&mut encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut());
             (DrawCounts::default(), error)
         } else if plan.runs(Pass::Opaque) {
             forward::encode(

@@ -9,8 +9,8 @@
 //!
 //! Data flow, each frame, after the cull pass (`passes::culling`) has written each opaque
 //! batch's visible instances (`visible_slots`) and their counts (its indirect arguments):
-//! 1. `raster_prepare` numbers the visible triangles batch after batch (`thread_starts`) and
-//!    sizes the raster dispatch (`shaders/visibility_raster.wgsl`).
+//! 1. `raster_prepare` numbers the visible triangles batch after batch (each batch's first number
+//!    in `counters`) and sizes the raster dispatch (`shaders/visibility_raster.wgsl`).
 //! 2. `raster_triangles`, one thread per triangle, writes `depth << 32 | number` into each
 //!    covered sample with a 64-bit atomicMax (nearest wins; ties go to the larger number, so
 //!    the result is the same whatever order threads run in). Triangles larger than 8×8 pixels
@@ -110,6 +110,13 @@ struct ShadeGroup {
     material: MaterialKey,
 }
 
+/// Whether a frame of `size` at `samples` fits the adapter: its visibility buffer (8 bytes a
+/// sample: 66 MiB at 1920×1080 with MSAA 4, 265 MiB at 3840×2160) must be one storage binding.
+pub fn fits(limits: &wgpu::Limits, size: (u32, u32), samples: u32) -> bool {
+    let bytes = size.0 as u64 * size.1 as u64 * samples as u64 * SAMPLE_BYTES;
+    bytes <= limits.max_storage_buffer_binding_size && bytes <= limits.max_buffer_size
+}
+
 fn job_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("visibility large triangles"),
@@ -164,6 +171,8 @@ pub struct VisibilityBuffer {
     raster_params: wgpu::Buffer,
     /// One uniform per shading group.
     shade_params: Vec<wgpu::Buffer>,
+    /// The groups this frame shades (those whose pipeline and material are there), in order.
+    shaded: Vec<usize>,
     /// The displayed colour (`ShadeOutput::Display*`), copied into the output.
     display: Option<(wgpu::Texture, wgpu::TextureView)>,
     groups: Vec<ShadeGroup>,
@@ -205,6 +214,7 @@ impl VisibilityBuffer {
                 mapped_at_creation: false,
             }),
             shade_params: Vec::new(),
+            shaded: Vec::new(),
             display: None,
             groups: Vec::new(),
             batch_count: 0,
@@ -315,18 +325,24 @@ impl VisibilityBuffer {
         ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background }
     }
 
-    /// Compiles what this frame's groups need.
-    pub fn compile(
-        &self,
+    /// Compiles what the frame needs, sizes the buffers for it and writes its parameters.
+    /// Returns the first pipeline error: groups whose pipeline (or material) is missing are
+    /// not shaded, and the others add up as if they were the only ones.
+    pub fn prepare_frame(
+        &mut self,
         device: &wgpu::Device,
+        queue: &wgpu::Queue,
         pipelines: &mut PipelineCache,
         inputs: &FrameInputs,
     ) -> Result<(), ShaderError> {
-        pipelines.prepare_visibility(device, self.groups.iter().map(|g| self.shade_key(g, inputs)))
-    }
-
-    /// Sizes the buffers for the frame and writes its parameters.
-    pub fn prepare_frame(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, inputs: &FrameInputs) {
+        let compiled = pipelines.prepare_visibility(device, self.groups.iter().map(|g| self.shade_key(g, inputs)));
+        self.shaded = (0..self.groups.len())
+            .filter(|&g| {
+                let group = &self.groups[g];
+                pipelines.visibility_shade_cached(&self.shade_key(group, inputs)).is_some()
+                    && inputs.materials.get(&group.material).is_some()
+            })
+            .collect();
         let (w, h) = inputs.size;
         let pixels = w as u64 * h as u64;
         self.samples.reserve(device, pixels * inputs.samples as u64 * SAMPLE_BYTES);
@@ -342,7 +358,10 @@ impl VisibilityBuffer {
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
                     format: DISPLAY_FORMAT,
-                    usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                    // A render attachment too: cleared when no group can be shaded.
+                    usage: wgpu::TextureUsages::STORAGE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::RENDER_ATTACHMENT,
                     view_formats: &[],
                 });
                 let view = texture.create_view(&Default::default());
@@ -363,20 +382,21 @@ impl VisibilityBuffer {
             _pad: [0; 2],
         };
         queue.write_buffer(&self.raster_params, 0, bytemuck::bytes_of(&raster));
-        let last = self.groups.len().saturating_sub(1);
-        for (g, buffer) in self.shade_params.iter().enumerate().take(self.groups.len()) {
+        // The first group shaded starts the sums, the last writes the pixel.
+        for (k, &g) in self.shaded.iter().enumerate() {
             let p = GpuShadeParams {
                 target_size: [w, h],
                 samples: inputs.samples,
                 batch_count: self.batch_count,
                 group: g as u32,
-                accumulate: (g > 0) as u32,
-                last: (g == last) as u32,
+                accumulate: (k > 0) as u32,
+                last: (k + 1 == self.shaded.len()) as u32,
                 background: inputs.background as u32,
                 clear: [inputs.clear[0], inputs.clear[1], inputs.clear[2], 1.0],
             };
-            queue.write_buffer(buffer, 0, bytemuck::bytes_of(&p));
+            queue.write_buffer(&self.shade_params[g], 0, bytemuck::bytes_of(&p));
         }
+        compiled
     }
 
     fn bind(&mut self, device: &wgpu::Device, pipelines: &PipelineCache, inputs: &FrameInputs) {
@@ -443,8 +463,7 @@ impl VisibilityBuffer {
         self.bound = Some(Bound { made_with, target, raster, dispatch, shade });
     }
 
-    /// Encodes the raster and shading passes. Returns the first pipeline error (the frame then
-    /// shows what compiled).
+    /// Encodes the raster and shading passes (after `prepare_frame`).
     pub fn encode(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -452,8 +471,7 @@ impl VisibilityBuffer {
         pipelines: &mut PipelineCache,
         inputs: &FrameInputs,
         mut timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
-        let compiled = self.compile(device, pipelines, inputs);
+    ) {
         self.bind(device, pipelines, inputs);
         let bound = self.bound.as_ref().expect("bound above");
         encoder.clear_buffer(self.samples.buffer(), 0, None);
@@ -483,7 +501,8 @@ impl VisibilityBuffer {
                 timestamp_writes: timer.and_then(|t| t.compute_pass("visibility shade")),
             });
             pass.set_bind_group(0, inputs.view_bind_group, &[]);
-            for (g, group) in self.groups.iter().enumerate() {
+            for &g in &self.shaded {
+                let group = &self.groups[g];
                 let key = self.shade_key(group, inputs);
                 let (Some(pipeline), Some(material)) =
                     (pipelines.visibility_shade_cached(&key), inputs.materials.get(&group.material))
@@ -496,6 +515,26 @@ impl VisibilityBuffer {
                 pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
             }
         }
+        if self.shaded.is_empty() {
+            // Nothing could be shaded (a broken shader folder at start-up): black, not the last
+            // frame's colour (the error is reported).
+            let _ = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("visibility shade, nothing shaded"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &bound.target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        }
         if let Some((display, _)) = &self.display {
             // Formats that differ only in sRGB-ness copy byte for byte: the bytes are encoded.
             encoder.copy_texture_to_texture(
@@ -504,6 +543,19 @@ impl VisibilityBuffer {
                 wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
             );
         }
-        compiled
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fits;
+
+    #[test]
+    fn the_visibility_buffer_must_be_one_storage_binding() {
+        let limits = wgpu::Limits { max_storage_buffer_binding_size: 128 << 20, ..Default::default() };
+        // 1920×1080×4 samples×8 bytes = 66 MiB; 3840×2160 at 4 samples 265 MiB.
+        assert!(fits(&limits, (1920, 1080), 4));
+        assert!(!fits(&limits, (3840, 2160), 4));
+        assert!(fits(&limits, (3840, 2160), 1));
     }
 }

@@ -177,26 +177,35 @@ impl PipelineCache {
         &self.visibility_layouts.shade[output.display() as usize]
     }
 
-    /// Compiles the rasteriser and the shading pipelines of `keys` (already `shade_key`s) not
-    /// compiled yet; the first error stops it.
+    /// Compiles the rasteriser and the shading pipelines of `keys` not compiled yet. Each is
+    /// tried (a variant that fails leaves the others usable); the first error is returned.
     pub fn prepare_visibility(
         &mut self,
         device: &wgpu::Device,
         keys: impl IntoIterator<Item = ShadeKey>,
     ) -> Result<(), ShaderError> {
+        let mut first_error = None;
         for step in RasterStep::ALL {
             if !self.visibility_raster.contains_key(&step) {
-                let p = self.create_visibility_raster(device, &mut None, step)?;
-                self.visibility_raster.insert(step, p);
+                match self.create_visibility_raster(device, &mut None, step) {
+                    Ok(p) => {
+                        self.visibility_raster.insert(step, p);
+                    }
+                    Err(e) => first_error = first_error.or(Some(e)),
+                }
             }
         }
         for key in keys {
             if !self.visibility_shade.contains_key(&key) {
-                let p = self.create_visibility_shade(device, &mut None, key)?;
-                self.visibility_shade.insert(key, p);
+                match self.create_visibility_shade(device, &mut None, key) {
+                    Ok(p) => {
+                        self.visibility_shade.insert(key, p);
+                    }
+                    Err(e) => first_error = first_error.or(Some(e)),
+                }
             }
         }
-        Ok(())
+        first_error.map_or(Ok(()), Err)
     }
 
     pub fn visibility_raster_cached(&self, step: RasterStep) -> Option<&wgpu::ComputePipeline> {
