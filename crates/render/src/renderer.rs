@@ -120,7 +120,8 @@ pub enum Raster {
     /// triangles. For GPUs whose graphics units are few next to their compute units (the
     /// H100 rasterises on 2 of its 66 TPCs). Frames it cannot draw yet rasterise in hardware,
     /// and `--explain` says why: blended or masked draws, gizmos, line or point meshes,
-    /// occlusion culling asked for, no GPU culling, or an adapter without 64-bit atomics (GL).
+    /// occlusion culling asked for, no GPU culling, an adapter without 64-bit atomics (GL), or
+    /// a visibility buffer (8 bytes a sample) larger than the adapter's largest storage binding.
     Compute,
 }
 
