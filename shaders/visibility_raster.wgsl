@@ -194,6 +194,25 @@ fn plane_distance(c: vec4<f32>, plane: u32) -> f32 {
     }
 }
 
+// A clip-space position in framebuffer coordinates (pixels, y down) with its depth.
+fn project(c: vec4<f32>) -> vec3<f32> {
+    let size = vec2<f32>(params.target_size);
+    let ndc = c.xyz / c.w;
+    return vec3<f32>((ndc.x * 0.5 + 0.5) * size.x, (0.5 - ndc.y * 0.5) * size.y, ndc.z);
+}
+
+// A framebuffer position on the sub-pixel grid.
+fn snap(f: vec2<f32>) -> vec2<i32> {
+    return vec2<i32>(round(f * SUBPIXEL));
+}
+
+// Whether a clip-space position lies inside every clip plane (a triangle of three such is not
+// clipped at all).
+fn unclipped(c: vec4<f32>) -> bool {
+    let g = GUARD * c.w;
+    return c.z <= c.w && c.z >= 0.0 && c.x <= g && c.x >= -g && c.y <= g && c.y >= -g && c.w > 0.0;
+}
+
 fn setup_triangle(number: u32) -> Setup {
     var s: Setup;
     s.count = 0u;
@@ -267,12 +286,11 @@ fn setup_triangle(number: u32) -> Setup {
         if !(c.w > 0.0) {
             return s;
         }
-        let ndc = c.xyz / c.w;
-        let f = vec2<f32>((ndc.x * 0.5 + 0.5) * size.x, (0.5 - ndc.y * 0.5) * size.y);
-        s.xy[i] = vec2<i32>(round(f * SUBPIXEL));
-        s.z[i] = ndc.z;
-        lo = min(lo, f);
-        hi = max(hi, f);
+        let f = project(c);
+        s.xy[i] = snap(f.xy);
+        s.z[i] = f.z;
+        lo = min(lo, f.xy);
+        hi = max(hi, f.xy);
     }
     // Orientation from the snapped fan's area (framebuffer y down: negative is counter-
     // clockwise as normalised device coordinates see it, the front unless FRONT_CW).
@@ -379,43 +397,93 @@ fn edge32(a: vec2<i32>, b: vec2<i32>, p: vec2<i32>) -> i32 {
 }
 
 // raster_fan_triangle for a compact outline: the same edge functions (they do not change when
-// every point moves by the same offset) in 32 bits, relative to the box's corner.
-fn raster_small(s: Setup, number: u32) {
+// every point moves by the same offset) in 32 bits, relative to the corner of the box lo..=hi.
+fn raster_small_triangle(pa: vec2<i32>, pb: vec2<i32>, pc: vec2<i32>, z: vec3<f32>, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
     let grid = i32(SUBPIXEL);
-    let origin = s.lo * grid;
+    let origin = lo * grid;
+    let a = pa - origin;
+    let b = pb - origin;
+    let c = pc - origin;
+    let area = edge32(a, b, c);
+    if area == 0 {
+        return;
+    }
+    let sign = select(1, -1, area < 0);
+    let inv_area = 1.0 / f32(abs(area));
+    let ta = top_left(b, c, sign);
+    let tb = top_left(c, a, sign);
+    let tc = top_left(a, b, sign);
     let width = params.target_size.x;
     let samples = params.samples;
-    for (var i = 1u; i + 1u < s.count; i++) {
-        let a = s.xy[0] - origin;
-        let b = s.xy[i] - origin;
-        let c = s.xy[i + 1u] - origin;
-        let area = edge32(a, b, c);
-        if area == 0 {
-            continue;
-        }
-        let sign = select(1, -1, area < 0);
-        let inv_area = 1.0 / f32(abs(area));
-        let ta = top_left(b, c, sign);
-        let tb = top_left(c, a, sign);
-        let tc = top_left(a, b, sign);
-        for (var y = s.lo.y; y <= s.hi.y; y++) {
-            for (var x = s.lo.x; x <= s.hi.x; x++) {
-                let pixel = (u32(y) * width + u32(x)) * samples;
-                for (var k = 0u; k < samples; k++) {
-                    let p = (vec2<i32>(x, y) - s.lo) * grid + sample_offset(k);
-                    let wa = edge32(b, c, p) * sign;
-                    let wb = edge32(c, a, p) * sign;
-                    let wc = edge32(a, b, p) * sign;
-                    if (wa > 0 || (wa == 0 && ta)) && (wb > 0 || (wb == 0 && tb)) && (wc > 0 || (wc == 0 && tc)) {
-                        let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * inv_area, 0.0, 1.0);
-                        if depth > 0.0 {
-                            atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
-                        }
+    for (var y = lo.y; y <= hi.y; y++) {
+        for (var x = lo.x; x <= hi.x; x++) {
+            let pixel = (u32(y) * width + u32(x)) * samples;
+            for (var k = 0u; k < samples; k++) {
+                let p = (vec2<i32>(x, y) - lo) * grid + sample_offset(k);
+                let wa = edge32(b, c, p) * sign;
+                let wb = edge32(c, a, p) * sign;
+                let wc = edge32(a, b, p) * sign;
+                if (wa > 0 || (wa == 0 && ta)) && (wb > 0 || (wb == 0 && tb)) && (wc > 0 || (wc == 0 && tc)) {
+                    let depth = clamp((f32(wa) * z.x + f32(wb) * z.y + f32(wc) * z.z) * inv_area, 0.0, 1.0);
+                    if depth > 0.0 {
+                        atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
                     }
                 }
             }
         }
     }
+}
+
+fn raster_small(s: Setup, number: u32) {
+    for (var i = 1u; i + 1u < s.count; i++) {
+        raster_small_triangle(s.xy[0], s.xy[i], s.xy[i + 1u], vec3<f32>(s.z[0], s.z[i], s.z[i + 1u]), s.lo, s.hi, number);
+    }
+}
+
+// The common case without the general set-up's arrays (which live in slow local memory on
+// GPUs): a triangle no plane clips, small and compact, exactly as setup_triangle and
+// raster_small would draw it. Returns whether it was handled.
+fn raster_unclipped_small(number: u32) -> bool {
+    let t = find_triangle(number);
+    if !t.valid {
+        return true;
+    }
+    let inst = instances[t.slot];
+    let ca = vertex_clip(inst, t.vertices.x);
+    let cb = vertex_clip(inst, t.vertices.y);
+    let cc = vertex_clip(inst, t.vertices.z);
+    if !(unclipped(ca) && unclipped(cb) && unclipped(cc)) {
+        return false;
+    }
+    let fa = project(ca);
+    let fb = project(cb);
+    let fc = project(cc);
+    let lo_f = min(fa.xy, min(fb.xy, fc.xy));
+    let hi_f = max(fa.xy, max(fb.xy, fc.xy));
+    let size = vec2<f32>(params.target_size);
+    let lo = vec2<i32>(max(floor(lo_f), vec2<f32>(0.0)));
+    let hi = vec2<i32>(min(floor(hi_f), size - 1.0));
+    let compact = all(hi_f - lo_f <= vec2<f32>(COMPACT));
+    if !compact || any(vec2<u32>(max(hi - lo, vec2<i32>(0))) + 1u > vec2<u32>(SMALL_BOX)) {
+        return false;
+    }
+    let a = snap(fa.xy);
+    let b = snap(fb.xy);
+    let c = snap(fc.xy);
+    let area = edge(a, b, c);
+    if area == i64(0) {
+        return true;
+    }
+    let batch = batches[t.batch];
+    let front = (area < i64(0)) != ((batch.flags & FRONT_CW) != 0u);
+    if (batch.flags & CULL_BACK) != 0u && !front {
+        return true;
+    }
+    if hi_f.x < 0.0 || hi_f.y < 0.0 || lo_f.x > size.x || lo_f.y > size.y || any(hi < lo) {
+        return true;
+    }
+    raster_small_triangle(a, b, c, vec3<f32>(fa.z, fb.z, fc.z), lo, hi, number);
+    return true;
 }
 
 fn raster_setup(s: Setup, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
@@ -431,6 +499,9 @@ fn raster_triangles(
     @builtin(local_invocation_index) lane: u32,
 ) {
     let number = (group.y * groups.x + group.x) * WORKGROUP + lane;
+    if raster_unclipped_small(number) {
+        return;
+    }
     let s = setup_triangle(number);
     if s.count == 0u {
         return;
