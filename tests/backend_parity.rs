@@ -96,9 +96,8 @@ fn golden_suite_on_gl() {
     for make in &frames {
         let mut frame = make();
         let shot = frame.render(ctx.clone());
-        if let Err(problem) =
-            common::compare_with_golden(&common::golden_dir(), &frame.name, "-gl", &shot, Tolerance::default())
-        {
+        let tol = common::golden_scenes::golden_tolerance(&ctx, make.as_ref(), &shot, Tolerance::default());
+        if let Err(problem) = common::compare_with_golden(&common::golden_dir(), &frame.name, "-gl", &shot, tol) {
             failed.push(problem);
         }
     }

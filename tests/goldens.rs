@@ -3,12 +3,11 @@
 //! The frames are built in `common::golden_scenes` (tests/backend_parity.rs draws them on GL too).
 
 mod common;
-use common::golden_scenes::{SAMPLE_MODELS, sample_model};
-use common::{Tolerance, check_golden};
+use common::Tolerance;
+use common::golden_scenes::{SAMPLE_MODELS, check_golden_frame, sample_model};
 
 fn golden(name: &str) {
-    let shot = sample_model(name).render(common::gpu());
-    check_golden(name, &shot, Tolerance::default());
+    check_golden_frame(&|| sample_model(name), Tolerance::default());
 }
 
 #[test]

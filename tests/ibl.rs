@@ -366,8 +366,10 @@ fn the_sky_is_blue_above_and_follows_the_sun() {
 }
 
 fn env_golden(name: &str) {
-    let shot = common::golden_scenes::environment_golden(name).render(common::gpu());
-    common::check_golden(name, &shot, common::Tolerance::default());
+    common::golden_scenes::check_golden_frame(
+        &|| common::golden_scenes::environment_golden(name),
+        common::Tolerance::default(),
+    );
 }
 
 #[test]

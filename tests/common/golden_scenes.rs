@@ -2,6 +2,9 @@
 //! (tests/goldens.rs), the environment goldens (tests/ibl.rs) and the shadow goldens
 //! (tests/shadows.rs) take their frames from here, and tests/backend_parity.rs draws every one
 //! of them again on wgpu's GL backend and holds it to the same golden and threshold.
+//! [`check_golden_frame`] draws a frame and compares it: with the golden's threshold on the
+//! driver that made the goldens (llvmpipe), and on any other with the threshold
+//! [`turned_tolerance`] widens to what a 1/32-pixel camera turn changes there.
 
 use penumbra::engine::environment::Environment;
 use penumbra::engine::import::{GltfScene, ImportOptions};
@@ -11,7 +14,9 @@ use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stag
 use penumbra::render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::{GpuContext, RenderSettings, Renderer};
 
-use super::{Shot, asset, scene_app, spawn_mesh};
+use super::{
+    DRIVER_TURN_PX, Shot, Tolerance, asset, check_golden, flip_percentile, gpu, made_the_goldens, scene_app, spawn_mesh,
+};
 
 /// From the front-right and above, so three faces of a model show.
 pub const THREE_QUARTER: CameraChoice = CameraChoice::Orbit { yaw: 35.0, pitch: 25.0 };
@@ -67,6 +72,75 @@ impl GoldenFrame {
         assert_eq!(self.app.world.resource::<Renderer>().shader_error(), None, "{}", self.name);
         Shot { width: self.size.0, height: self.size.1, rgba8 }
     }
+
+    /// The frame with its camera turned to the right by `px` pixels at the image centre: a
+    /// perspective camera about its own up axis, an orthographic one moved sideways.
+    pub fn turned(mut self, px: f32) -> Self {
+        let height = self.size.1 as f32;
+        let mut cameras = self.app.world.query::<(&Camera, &mut Transform)>();
+        for (camera, mut transform) in cameras.iter_mut(&mut self.app.world) {
+            match camera.projection {
+                Projection::Perspective { yfov, .. } => {
+                    let angle = 2.0 * ((yfov * 0.5).tan() * px / height).atan();
+                    transform.rotation *= Quat::from_rotation_y(-angle);
+                }
+                Projection::Orthographic { ymag, .. } => {
+                    let right = transform.rotation * Vec3::X;
+                    transform.translation += right * (2.0 * ymag * px / height);
+                }
+            }
+        }
+        self
+    }
+}
+
+/// The tolerance `frame`'s golden is held to on `ctx`: `tol` on the driver that made the goldens,
+/// elsewhere [`turned_tolerance`].
+pub fn golden_tolerance(ctx: &GpuContext, make: &dyn Fn() -> GoldenFrame, shot: &Shot, tol: Tolerance) -> Tolerance {
+    if made_the_goldens(ctx) {
+        return tol;
+    }
+    let widened = turned_tolerance(ctx, make, shot, tol);
+    // Printed for the record (`--nocapture`): docs/quality.md lists these per adapter.
+    println!(
+        "{} on {}: the {}th percentile's limit {} -> {:.4} (camera turned {} px)",
+        make().name,
+        ctx.info.name,
+        tol.percentile * 100.0,
+        tol.at_percentile,
+        widened.at_percentile,
+        DRIVER_TURN_PX
+    );
+    widened
+}
+
+/// `tol` for another driver: widened at its percentile to what the frame (`shot`, drawn on
+/// `ctx`) changes by when its camera turns [`DRIVER_TURN_PX`] either way. Two conformant
+/// drivers may rasterise and filter that far apart, and a frame of sharp highlights on
+/// sub-pixel detail (LightsPunctualLamp) changes more under it than the default allows; the
+/// mean's limit is kept, so what a driver gets wrong over a region still fails.
+pub fn turned_tolerance(ctx: &GpuContext, make: &dyn Fn() -> GoldenFrame, shot: &Shot, tol: Tolerance) -> Tolerance {
+    let (w, h) = (shot.width, shot.height);
+    let turned = [DRIVER_TURN_PX, -DRIVER_TURN_PX]
+        .map(|px| {
+            let other = make().turned(px).render(ctx.clone());
+            flip_percentile(&shot.rgba8, &other.rgba8, w, h, tol.percentile)
+        })
+        .into_iter()
+        .fold(0.0f32, f32::max);
+    tol.across_drivers(turned)
+}
+
+/// Draws the frame `make` builds on the test GPU and checks it against its golden with `tol`
+/// ([`golden_tolerance`]); returns the drawn frame, its renderer in its app.
+pub fn check_golden_frame(make: &dyn Fn() -> GoldenFrame, tol: Tolerance) -> GoldenFrame {
+    let ctx = gpu();
+    let mut frame = make();
+    let shot = frame.render(ctx.clone());
+    let updating = std::env::var_os("PENUMBRA_UPDATE_GOLDENS").is_some();
+    let tol = if updating { tol } else { golden_tolerance(&ctx, make, &shot, tol) };
+    check_golden(&frame.name, &shot, tol);
+    frame
 }
 
 fn staged(name: &str, rel: &str, camera: CameraChoice, size: (u32, u32), settings: RenderSettings) -> GoldenFrame {

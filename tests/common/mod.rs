@@ -72,6 +72,27 @@ impl Default for Tolerance {
     }
 }
 
+impl Tolerance {
+    /// `self` for a driver other than the goldens' own, where `turned` is what the frame itself
+    /// changes by at `self.percentile` when its camera turns by [`DRIVER_TURN_PX`]: the limit
+    /// at the percentile becomes the larger of the two. The mean's limit stays.
+    pub fn across_drivers(self, turned: f32) -> Self {
+        Self { at_percentile: self.at_percentile.max(turned), ..self }
+    }
+}
+
+/// How far, in pixels at the image centre, a golden frame's camera turns to measure what another
+/// driver may change: half the sub-pixel grid that Vulkan requires at least (4 bits,
+/// `subPixelPrecisionBits`), so the furthest a vertex snapped to that grid lies from where
+/// another driver puts it. Texture filtering is held to the same 4 bits (`subTexelPrecisionBits`).
+pub const DRIVER_TURN_PX: f32 = 1.0 / 32.0;
+
+/// Whether `ctx` is the driver the goldens were made with: Mesa's llvmpipe, through Vulkan
+/// (lavapipe) or GL. Elsewhere goldens are checked with [`Tolerance::across_drivers`].
+pub fn made_the_goldens(ctx: &GpuContext) -> bool {
+    ctx.info.name.starts_with("llvmpipe")
+}
+
 pub fn golden_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/goldens")
 }
@@ -113,10 +134,7 @@ pub fn compare_with_golden(dir: &Path, name: &str, suffix: &str, shot: &Shot, to
     if (expected.width(), expected.height()) != (shot.width, shot.height) {
         return Err(format!("golden {} has another size", golden.display()));
     }
-    let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
-    let reference = nv_flip::FlipImageRgb8::with_data(shot.width, shot.height, &rgb(expected.as_raw()));
-    let test = nv_flip::FlipImageRgb8::with_data(shot.width, shot.height, &rgb(&shot.rgba8));
-    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let error = flip_error(expected.as_raw(), &shot.rgba8, shot.width, shot.height);
     let mut pool = nv_flip::FlipPool::from_image(&error);
     let mean = pool.mean();
     let at = pool.get_percentile(tol.percentile, true);
@@ -180,11 +198,19 @@ pub fn brightness(rgba: &[u8], width: u32, x: u32, y: u32) -> f32 {
 
 /// FLIP mean error between two RGBA8 images of the same size.
 pub fn flip_mean(a: &[u8], b: &[u8], width: u32, height: u32) -> f32 {
+    nv_flip::FlipPool::from_image(&flip_error(a, b, width, height)).mean()
+}
+
+/// FLIP's error at `percentile` (0.999: the 99.9th) between two RGBA8 images.
+pub fn flip_percentile(a: &[u8], b: &[u8], width: u32, height: u32, percentile: f32) -> f32 {
+    nv_flip::FlipPool::from_image(&flip_error(a, b, width, height)).get_percentile(percentile, true)
+}
+
+fn flip_error(a: &[u8], b: &[u8], width: u32, height: u32) -> nv_flip::FlipImageFloat {
     let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
     let reference = nv_flip::FlipImageRgb8::with_data(width, height, &rgb(a));
     let test = nv_flip::FlipImageRgb8::with_data(width, height, &rgb(b));
-    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    nv_flip::FlipPool::from_image(&error).mean()
+    nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE)
 }
 
 /// Panics if any HDR value is NaN, infinite, negative or above f16's largest finite value.
