@@ -17,7 +17,6 @@ use penumbra::prelude::*;
 use penumbra::render::{AdapterRequest, GpuContext, RenderOutput, RenderSettings};
 
 mod common;
-use common::golden_scenes::{ENVIRONMENT_GOLDENS, GoldenFrame, SAMPLE_MODELS};
 use common::{Tolerance, flip_mean, scene_app, spawn_mesh};
 
 const SIZE: (u32, u32) = (96, 72);
@@ -83,20 +82,12 @@ fn gl_renders_what_vulkan_renders() {
 #[test]
 fn golden_suite_on_gl() {
     let ctx = gl();
-    let mut frames: Vec<Box<dyn Fn() -> GoldenFrame>> = Vec::new();
-    for &(name, ..) in SAMPLE_MODELS {
-        frames.push(Box::new(move || common::golden_scenes::sample_model(name)));
-    }
-    for &name in ENVIRONMENT_GOLDENS {
-        frames.push(Box::new(move || common::golden_scenes::environment_golden(name)));
-    }
-    frames.push(Box::new(common::golden_scenes::night_club));
-    frames.push(Box::new(common::golden_scenes::helmet_under_the_sun));
+    let frames = common::golden_scenes::golden_suite();
     let mut failed = Vec::new();
     for make in &frames {
         let mut frame = make();
         let shot = frame.render(ctx.clone());
-        let tol = common::golden_scenes::golden_tolerance(&ctx, make.as_ref(), &shot, Tolerance::default());
+        let tol = common::golden_scenes::golden_tolerance(&ctx, &frame.name, Tolerance::default());
         if let Err(problem) = common::compare_with_golden(&common::golden_dir(), &frame.name, "-gl", &shot, tol) {
             failed.push(problem);
         }

@@ -73,22 +73,24 @@ impl Default for Tolerance {
 }
 
 impl Tolerance {
-    /// `self` for a driver other than the goldens' own, where `turned` is what the frame itself
-    /// changes by at `self.percentile` when its camera turns by [`DRIVER_TURN_PX`]: the limit
-    /// at the percentile becomes the larger of the two. The mean's limit stays.
+    /// `self` for a driver other than the goldens' own, where `turned` is what the frame
+    /// changes by at `self.percentile` on the goldens' driver when its camera turns by
+    /// [`DRIVER_TURN_PX`]: the limit at the percentile becomes the larger of the two. The mean's
+    /// limit stays.
     pub fn across_drivers(self, turned: f32) -> Self {
         Self { at_percentile: self.at_percentile.max(turned), ..self }
     }
 }
 
-/// How far, in pixels at the image centre, a golden frame's camera turns to measure what another
-/// driver may change: half the sub-pixel grid that Vulkan requires at least (4 bits,
-/// `subPixelPrecisionBits`), so the furthest a vertex snapped to that grid lies from where
-/// another driver puts it. Texture filtering is held to the same 4 bits (`subTexelPrecisionBits`).
+/// How far, in pixels at the image centre, a golden frame's camera turns to measure how much
+/// the frame depends on sub-pixel rounding: half a step of the coarsest sub-pixel grid Vulkan
+/// lets a driver rasterise on (4 bits, `subPixelPrecisionBits`; filtering may be as coarse,
+/// `subTexelPrecisionBits`). An empirical allowance, not a bound on what two drivers differ
+/// by: a turn moves every vertex alike, where drivers round each their own way.
 pub const DRIVER_TURN_PX: f32 = 1.0 / 32.0;
 
 /// Whether `ctx` is the driver the goldens were made with: Mesa's llvmpipe, through Vulkan
-/// (lavapipe) or GL. Elsewhere goldens are checked with [`Tolerance::across_drivers`].
+/// (lavapipe) or GL. Elsewhere the golden suite is checked with [`Tolerance::across_drivers`].
 pub fn made_the_goldens(ctx: &GpuContext) -> bool {
     ctx.info.name.starts_with("llvmpipe")
 }
