@@ -3,7 +3,8 @@
 //!
 //! - the golden suite: every sample-model, environment and shadow golden
 //!   (`common::golden_scenes`) is drawn again on GL and held to the same golden and threshold
-//!   as on Vulkan;
+//!   as on Vulkan (`golden_tolerance`: llvmpipe's own; a GL driver other than llvmpipe would
+//!   get the limits for other drivers);
 //! - a lit scene at the default settings gives the same image on both.
 //!
 //! What GL cannot do is degraded as `Capabilities` documents (no deferred-lights pass; depth

@@ -418,7 +418,7 @@ fn spot_and_point_lights_shadow_exactly_their_silhouette() {
     }
 }
 
-fn check_golden(make: fn() -> common::golden_scenes::GoldenFrame) -> common::golden_scenes::GoldenFrame {
+fn check_shadow_golden(make: fn() -> common::golden_scenes::GoldenFrame) -> common::golden_scenes::GoldenFrame {
     common::golden_scenes::check_golden_frame(&make, common::Tolerance::default())
 }
 
@@ -426,7 +426,7 @@ fn check_golden(make: fn() -> common::golden_scenes::GoldenFrame) -> common::gol
 /// of them casting cube shadows, under a dim moon with cascades.
 #[test]
 fn golden_night_club() {
-    let frame = check_golden(common::golden_scenes::night_club);
+    let frame = check_shadow_golden(common::golden_scenes::night_club);
     let frame = frame.app.world.resource::<Renderer>().shadow_frame().clone();
     assert_eq!(frame.local.first_layers.len(), 4, "four cube-shadowed lights");
     assert!(frame.rendered.iter().any(|r| *r), "the moon's cascades");
@@ -435,7 +435,7 @@ fn golden_night_club() {
 /// Golden: DamagedHelmet on a ground plane under a shadowed sun (PCSS).
 #[test]
 fn golden_damaged_helmet_under_the_sun() {
-    check_golden(common::golden_scenes::helmet_under_the_sun);
+    check_shadow_golden(common::golden_scenes::helmet_under_the_sun);
 }
 
 /// A still camera over a still scene draws its shadow maps once: later frames skip the shadow

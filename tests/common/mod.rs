@@ -73,21 +73,14 @@ impl Default for Tolerance {
 }
 
 impl Tolerance {
-    /// `self` for a driver other than the goldens' own, where `turned` is what the frame
-    /// changes by at `self.percentile` on the goldens' driver when its camera turns by
-    /// [`DRIVER_TURN_PX`]: the limit at the percentile becomes the larger of the two. The mean's
-    /// limit stays.
-    pub fn across_drivers(self, turned: f32) -> Self {
-        Self { at_percentile: self.at_percentile.max(turned), ..self }
+    /// `self` for a driver other than the goldens' own, where `sensitivity` is what the frame
+    /// changes by at `self.percentile` on the goldens' driver when its camera turns a little
+    /// (`golden_scenes::TURN_SENSITIVITY`): the limit at the percentile becomes the larger of
+    /// the two. The mean's limit stays.
+    pub fn across_drivers(self, sensitivity: f32) -> Self {
+        Self { at_percentile: self.at_percentile.max(sensitivity), ..self }
     }
 }
-
-/// How far, in pixels at the image centre, a golden frame's camera turns to measure how much
-/// the frame depends on sub-pixel rounding: half a step of the coarsest sub-pixel grid Vulkan
-/// lets a driver rasterise on (4 bits, `subPixelPrecisionBits`; filtering may be as coarse,
-/// `subTexelPrecisionBits`). An empirical allowance, not a bound on what two drivers differ
-/// by: a turn moves every vertex alike, where drivers round each their own way.
-pub const DRIVER_TURN_PX: f32 = 1.0 / 32.0;
 
 /// Whether `ctx` is the driver the goldens were made with: Mesa's llvmpipe, through Vulkan
 /// (lavapipe) or GL. Elsewhere the golden suite is checked with [`Tolerance::across_drivers`].
@@ -110,6 +103,9 @@ pub fn check_golden(name: &str, shot: &Shot, tol: Tolerance) {
 pub fn check_golden_in(dir: &Path, name: &str, shot: &Shot, tol: Tolerance) {
     let golden = dir.join(format!("{name}.png"));
     if std::env::var_os("PENUMBRA_UPDATE_GOLDENS").is_some() {
+        // Other drivers are held to llvmpipe's goldens (and its turn sensitivities).
+        let ctx = gpu();
+        assert!(made_the_goldens(&ctx), "goldens are made on llvmpipe (lavapipe), not on {}", ctx.info.name);
         std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
         image::save_buffer(&golden, &shot.rgba8, shot.width, shot.height, image::ColorType::Rgba8).unwrap();
         eprintln!("updated golden {}", golden.display());
