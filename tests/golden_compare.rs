@@ -165,7 +165,8 @@ fn the_tolerance_for_other_drivers_still_fails_a_lamp_without_its_normal_maps() 
     let result = common::compare_with_golden(&dir, "LightsPunctualLamp", "-flat", &flat_shot, tol);
     assert!(result.is_err(), "the lamp without normal maps passed the tolerance for other drivers");
 
-    let mut patched = Shot { width: shot.width, height: shot.height, rgba8: shot.rgba8.clone() };
+    // The golden itself with the patch, so that only the patch adds to the mean on any driver.
+    let mut patched = Shot { width: shot.width, height: shot.height, rgba8: golden.as_raw().clone() };
     for y in 20..32 {
         for x in 20..32 {
             let i = ((y * shot.width + x) * 4) as usize;
