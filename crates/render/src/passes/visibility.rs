@@ -548,7 +548,33 @@ impl VisibilityBuffer {
 
 #[cfg(test)]
 mod tests {
-    use super::fits;
+    use super::{GpuRasterBatch, GpuRasterParams, GpuShadeParams, fits};
+    use crate::pipelines::shader_library::assert_mirrors_wgsl;
+
+    #[test]
+    fn the_rust_structs_mirror_the_shaders() {
+        assert_mirrors_wgsl!(
+            GpuRasterBatch,
+            "visibility_raster.wgsl",
+            [],
+            "RasterBatch",
+            [first, index_start, vertex_start, triangle_count, flags, count_word, shade_group]
+        );
+        assert_mirrors_wgsl!(
+            GpuRasterParams,
+            "visibility_raster.wgsl",
+            [],
+            "RasterParams",
+            [target_size, samples, batch_count, job_capacity, tile_groups]
+        );
+        assert_mirrors_wgsl!(
+            GpuShadeParams,
+            "forward.wgsl",
+            ["VISIBILITY_SHADE", "PULLED_VERTICES", "POOL_VERTICES"],
+            "ShadeParams",
+            [target_size, samples, batch_count, group, accumulate, last, background, clear]
+        );
+    }
 
     #[test]
     fn the_visibility_buffer_must_be_one_storage_binding() {

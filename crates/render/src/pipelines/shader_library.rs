@@ -390,6 +390,52 @@ fn read_source(path: &Path) -> Result<String, ShaderError> {
     Ok(source)
 }
 
+/// The size and member offsets of the struct `name` as WGSL lays it out in the embedded `entry`
+/// composed with `defs` (an imported struct's name gets a module suffix in composition). For
+/// tests that hold a Rust mirror of a GPU struct to its WGSL layout: [`assert_mirrors_wgsl`].
+#[cfg(test)]
+pub(crate) fn wgsl_struct_layout(entry: &str, defs: &[&'static str], name: &str) -> (u32, Vec<(String, u32)>) {
+    let defs = ShaderDefs(defs.iter().copied().collect());
+    let module = ShaderLibrary::embedded().unwrap().compose(entry, &defs).unwrap_or_else(|e| panic!("{e}"));
+    let named = |n: &str| n == name || n.strip_prefix(name).is_some_and(|rest| rest.starts_with("X_naga_oil"));
+    module
+        .types
+        .iter()
+        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+            (Some(n), naga::TypeInner::Struct { members, span }) if named(n) => {
+                Some((*span, members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect()))
+            }
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no struct {name} in {entry} composed with {defs}"))
+}
+
+/// Asserts that a `#[repr(C)]` Rust struct has the size of its WGSL counterpart and each listed
+/// field the offset of the WGSL member named the same (or named by a string after `=>`):
+/// `assert_mirrors_wgsl!(GpuLight, "forward.wgsl", [], "Light", [position, kind])`.
+#[cfg(test)]
+macro_rules! assert_mirrors_wgsl {
+    ($ty:ty, $entry:expr, [$($def:expr),*], $name:expr, [$($field:ident $(=> $member:expr)?),* $(,)?]) => {{
+        let (size, members) = $crate::pipelines::shader_library::wgsl_struct_layout($entry, &[$($def),*], $name);
+        assert_eq!(std::mem::size_of::<$ty>(), size as usize, "size of {} against WGSL {}", stringify!($ty), $name);
+        $(
+            let member = [$($member,)? stringify!($field)][0];
+            let offset = members.iter().find(|(n, _)| n == member).map(|(_, o)| *o as usize);
+            assert_eq!(
+                Some(std::mem::offset_of!($ty, $field)),
+                offset,
+                "{}::{} against {}.{}",
+                stringify!($ty),
+                stringify!($field),
+                $name,
+                member
+            );
+        )*
+    }};
+}
+#[cfg(test)]
+pub(crate) use assert_mirrors_wgsl;
+
 #[cfg(test)]
 mod tests {
     use super::*;

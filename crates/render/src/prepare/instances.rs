@@ -229,6 +229,17 @@ mod tests {
     }
 
     #[test]
+    fn gpu_instance_mirrors_the_shaders_instance() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuInstance,
+            "forward.wgsl",
+            [],
+            "Instance",
+            [rows => "row_x", material, flags]
+        );
+    }
+
+    #[test]
     fn a_large_upload_copied_on_several_threads_lands_byte_for_byte() {
         let ctx = crate::GpuContext::new_headless(&crate::AdapterRequest::default()).expect(crate::INSTALL_HINT);
         let len = PARALLEL_COPY_MIN + 1_000_004;

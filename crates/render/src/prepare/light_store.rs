@@ -693,6 +693,17 @@ mod tests {
     }
 
     #[test]
+    fn gpu_light_mirrors_the_shaders_light() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuLight,
+            "forward.wgsl",
+            [],
+            "Light",
+            [position, kind, direction, range, color, size, shape]
+        );
+    }
+
+    #[test]
     fn ies_lights_find_their_profile_and_are_repacked_when_it_moves() {
         let mut assets = penumbra_engine::Assets::new();
         let a = assets.add(test_profile());

@@ -326,5 +326,12 @@ mod tests {
     fn gpu_material_matches_the_wgsl_layout() {
         // 4 × vec4 of scalars + 10 × vec4 of UV rows.
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 14 * 16);
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuMaterial,
+            "forward.wgsl",
+            [],
+            "Material",
+            [base_color, emissive, alpha_cutoff, metallic, roughness, normal_scale, occlusion_strength, flags, uv]
+        );
     }
 }
