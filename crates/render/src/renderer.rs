@@ -2132,3 +2132,29 @@ fn sun(scene: &RenderScene) -> Option<(Vec3, f32)> {
         .max_by(|(ka, a), (kb, b)| luminance(a.color).total_cmp(&luminance(b.color)).then(kb.cmp(ka)))
         .map(|(_, l)| (-l.direction, luminance(l.color)))
 }
+
+#[cfg(test)]
+mod wgsl_layout_tests {
+    use super::*;
+
+    #[test]
+    fn gpu_view_mirrors_the_shaders_view() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuView,
+            "forward.wgsl",
+            [],
+            "View",
+            [
+                clip_from_rel,
+                camera_position,
+                exposure,
+                camera_forward,
+                is_orthographic,
+                global_light_count,
+                local_light_count,
+                target_size,
+                rel_from_clip
+            ]
+        );
+    }
+}

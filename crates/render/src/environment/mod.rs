@@ -866,6 +866,17 @@ mod tests {
     use super::*;
 
     #[test]
+    fn gpu_environment_mirrors_the_shaders_parameters() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuEnvironment,
+            "forward.wgsl",
+            ["IBL"],
+            "EnvironmentParams",
+            [rotation, intensity, max_lod, background_lod]
+        );
+    }
+
+    #[test]
     fn settings_are_range_checked() {
         assert!(EnvironmentSettings::default().validate().is_ok());
         let size = |s| EnvironmentSettings { cube_size: Some(s), ..Default::default() };

@@ -431,6 +431,33 @@ mod tests {
 
     use super::*;
 
+    #[test]
+    fn gpu_cluster_grid_mirrors_the_shaders_grid() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuClusterGrid,
+            "forward.wgsl",
+            ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS"],
+            "ClusterGrid",
+            [
+                view_x,
+                view_y,
+                view_z,
+                camera_position,
+                near,
+                dims,
+                is_orthographic,
+                proj_scale,
+                far,
+                slice_scale,
+                viewport,
+                light_first,
+                light_count,
+                light_blocks,
+                block_lights
+            ]
+        );
+    }
+
     /// A camera at `eye` looking down −Z.
     fn view_at(eye: Vec3) -> ExtractedView {
         ExtractedView {

@@ -712,3 +712,51 @@ fn reaches(clip_from_world: &DMat4, casters: &Aabb) -> bool {
     }
     lo.x <= 1.0 && hi.x >= -1.0 && lo.y <= 1.0 && hi.y >= -1.0 && hi.z >= 0.0
 }
+
+#[cfg(test)]
+mod wgsl_layout_tests {
+    use super::*;
+
+    #[test]
+    fn the_shadow_structs_mirror_the_shaders() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuCascade,
+            "forward.wgsl",
+            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            "ShadowCascade",
+            [clip_from_rel, far, texel_size, depth_range, rendered]
+        );
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuDirectionalShadow,
+            "forward.wgsl",
+            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            "DirectionalShadow",
+            [light_slot, first_cascade, angular_tan]
+        );
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuShadows,
+            "forward.wgsl",
+            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            "Shadows",
+            [
+                cascades,
+                lights,
+                light_count,
+                cascade_count,
+                normal_bias,
+                blend,
+                atlas_size,
+                filter => "filter_mode",
+                max_kernel,
+                depth_tolerance
+            ]
+        );
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuLocalShadow,
+            "forward.wgsl",
+            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            "LocalShadow",
+            [clip_from_rel, texel_scale, valid, faces]
+        );
+    }
+}
