@@ -20,10 +20,12 @@ pub struct Cli {
     /// Log progress (info level; RUST_LOG overrides).
     #[arg(short, long, global = true)]
     pub verbose: bool,
-    /// How a CPU rasteriser (lavapipe) compiles shaders: `optimized`, or `fast` (LLVM without
-    /// optimisation: a DamagedHelmet hot reload takes a third less time at 16×16, frames take
-    /// 1.3 to 1.7 times as long). GPU drivers ignore it.
-    #[arg(long, global = true, value_enum, default_value_t = CpuCompileArg::Optimized)]
+    /// How a CPU rasteriser (lavapipe) compiles shaders: `fast` (LLVM without optimisation: a
+    /// hot reload of the lit shader takes about 40 % less time, frames take 1.4 to 1.6 times as
+    /// long), `optimized`, or `auto`: fast while the command watches a shader folder (`view`
+    /// from the repository or with `--shader-dir`, `bench --shader-edits`), optimized otherwise.
+    /// GPU drivers ignore it.
+    #[arg(long, global = true, value_enum, default_value_t = CpuCompileArg::Auto)]
     pub cpu_shader_compile: CpuCompileArg,
     #[command(subcommand)]
     pub command: Command,
@@ -31,15 +33,39 @@ pub struct Cli {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CpuCompileArg {
+    Auto,
     Optimized,
     Fast,
 }
 
 impl CpuCompileArg {
-    pub fn mode(self) -> penumbra_render::context::CpuShaderCompiles {
+    /// The mode for a command that does (`watches_shaders`) or does not watch a shader folder.
+    /// Watching means someone is editing shaders, and on a CPU rasteriser each edit waits for
+    /// LLVM: what `cargo run`'s debug profile is to Rust code, fast compiles are to shaders.
+    pub fn mode(self, watches_shaders: bool) -> penumbra_render::context::CpuShaderCompiles {
+        use penumbra_render::context::CpuShaderCompiles;
         match self {
-            CpuCompileArg::Optimized => penumbra_render::context::CpuShaderCompiles::Optimized,
-            CpuCompileArg::Fast => penumbra_render::context::CpuShaderCompiles::Fast,
+            CpuCompileArg::Auto if watches_shaders => CpuShaderCompiles::Fast,
+            CpuCompileArg::Auto | CpuCompileArg::Optimized => CpuShaderCompiles::Optimized,
+            CpuCompileArg::Fast => CpuShaderCompiles::Fast,
+        }
+    }
+}
+
+/// The repository's shader folder, when the binary runs where it was built from a checkout:
+/// `penumbra view` watches it so that edits show up live.
+pub fn repository_shaders() -> Option<PathBuf> {
+    let dir = std::path::Path::new(penumbra_render::pipelines::shader_library::REPOSITORY_SHADER_DIR);
+    dir.is_dir().then(|| dir.to_path_buf())
+}
+
+impl Command {
+    /// Whether the command reloads shaders from a watched folder while it runs.
+    pub fn watches_shaders(&self) -> bool {
+        match self {
+            Command::View(a) => a.look.shader_dir.is_some() || repository_shaders().is_some(),
+            Command::Bench(a) => a.shader_edits > 0,
+            Command::Render(_) | Command::Gif(_) | Command::Report(_) => false,
         }
     }
 }
@@ -735,5 +761,44 @@ mod limit_help_tests {
             seen.push(limit);
         }
         assert_eq!(seen, Limit::ALL, "every limit, in Limit::ALL's order");
+    }
+}
+
+#[cfg(test)]
+mod cpu_compile_tests {
+    use clap::Parser;
+    use penumbra_render::context::CpuShaderCompiles;
+
+    use super::Cli;
+
+    fn mode(args: &[&str]) -> CpuShaderCompiles {
+        let cli = Cli::try_parse_from(std::iter::once("penumbra").chain(args.iter().copied())).unwrap();
+        cli.cpu_shader_compile.mode(cli.command.watches_shaders())
+    }
+
+    #[test]
+    fn compiles_are_fast_by_default_only_while_shaders_are_watched() {
+        // Watching: the reload benchmark, and the viewer with a shader folder (this test runs
+        // from the repository, so the viewer would watch its shaders/ too).
+        assert_eq!(mode(&["bench", "--shader-edits", "3"]), CpuShaderCompiles::Fast);
+        assert_eq!(mode(&["view", "--shader-dir", "shaders"]), CpuShaderCompiles::Fast);
+        assert!(super::repository_shaders().is_some());
+        assert_eq!(mode(&["view"]), CpuShaderCompiles::Fast);
+        // Not watching: frames matter more than compile latency.
+        assert_eq!(mode(&["bench"]), CpuShaderCompiles::Optimized);
+        assert_eq!(mode(&["render", "scene.glb", "--out", "x.png"]), CpuShaderCompiles::Optimized);
+        assert_eq!(
+            mode(&["render", "scene.glb", "--out", "x.png", "--shader-dir", "shaders"]),
+            CpuShaderCompiles::Optimized
+        );
+        // An explicit choice wins either way.
+        assert_eq!(
+            mode(&["--cpu-shader-compile", "optimized", "bench", "--shader-edits", "3"]),
+            CpuShaderCompiles::Optimized
+        );
+        assert_eq!(
+            mode(&["--cpu-shader-compile", "fast", "render", "s.glb", "--out", "x.png"]),
+            CpuShaderCompiles::Fast
+        );
     }
 }

@@ -22,8 +22,14 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .init();
     // SAFETY: no other thread exists yet, and no GPU instance.
-    if let Some(applied) = unsafe { args.cpu_shader_compile.mode().apply() } {
-        tracing::info!("CPU rasteriser shaders compile without optimisation ({applied})");
+    let watches_shaders = args.command.watches_shaders();
+    if let Some(applied) = unsafe { args.cpu_shader_compile.mode(watches_shaders).apply() } {
+        let why = if args.cpu_shader_compile == cli::CpuCompileArg::Auto {
+            " while shaders are watched; `--cpu-shader-compile optimized` for faster frames"
+        } else {
+            ""
+        };
+        tracing::info!("CPU rasteriser shaders compile without optimisation ({applied}){why}");
     }
     let result = match args.command {
         cli::Command::Render(a) => commands::render::run(a),

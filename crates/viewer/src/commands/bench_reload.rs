@@ -47,6 +47,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
     let (mut app, size) = stage_scene(&scene, &shot)?;
+    // The environment `penumbra view` would show (`--env auto`: the studio gradient for a scene
+    // without one), so the edited shader is the variant a viewer compiles (image-based lighting).
+    let environment = args.look.environment()?;
+    let env_label = environment.as_ref().map_or("none".to_owned(), |_| format!("--env {}", args.look.env));
+    if let Some(env) = environment {
+        app.insert_resource(env);
+    }
     app.insert_resource(renderer);
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     // The shader generation the frame drew with, and when it was submitted.
@@ -101,6 +108,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.path.as_ref().map_or("<embedded>/DamagedHelmet.glb".into(), |p| p.display().to_string())
     );
     println!("settings  {}x{}, MSAA {}, {} edits of forward.wgsl", size.0, size.1, settings.msaa, latencies.len());
+    println!("env       {env_label}");
     println!();
     println!("| measure | median | max |");
     println!("|---|---:|---:|");

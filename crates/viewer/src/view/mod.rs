@@ -18,7 +18,7 @@ mod recent;
 mod screenshot;
 mod staged;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -52,8 +52,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         );
     }
     // Running from a checkout: watch its shaders so edits show up live.
-    let repository = Path::new(penumbra_render::pipelines::shader_library::REPOSITORY_SHADER_DIR);
-    let settings = args.look.render_settings(true, repository.is_dir().then(|| repository.to_path_buf()))?;
+    let settings = args.look.render_settings(true, crate::cli::repository_shaders())?;
     // Flags are checked before the window opens, so a bad one is an error line, not a window.
     args.look.environment()?;
     let event_loop = EventLoop::new().map_err(|e| {

@@ -30,6 +30,16 @@ pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
             row("triangles", s.primitives.to_string());
             row("lights", format!("{} ({} local)", s.lights, s.local_lights));
             row("pipelines", s.pipelines.to_string());
+            if renderer.context().info.device_type == wgpu::DeviceType::Cpu {
+                // The CPU rasteriser's compile mode decides both reload latency and frame time.
+                row(
+                    "shader compiles",
+                    match penumbra_render::context::CpuShaderCompiles::in_effect() {
+                        penumbra_render::context::CpuShaderCompiles::Fast => "fast (--cpu-shader-compile)".to_owned(),
+                        penumbra_render::context::CpuShaderCompiles::Optimized => "optimized".to_owned(),
+                    },
+                );
+            }
         });
         if let Some(gpu) = &s.gpu {
             ui.collapsing("GPU passes", |ui| {
