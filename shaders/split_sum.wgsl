@@ -5,7 +5,8 @@
 #define_import_path penumbra::split_sum
 
 @group(0) @binding(18) var brdf_lut: texture_2d<f32>;
-// Linear and clamped: the table, and the environment's cube (ibl.wgsl).
+// Linear within a level, nearest between levels, clamped: the table (one level), and the
+// environment's cube (ibl.wgsl blends two levels itself).
 @group(0) @binding(19) var linear_sampler: sampler;
 
 // (A, B): ∫ f_spec·cosθ = f0·A + B, single scattering.

@@ -290,7 +290,8 @@ impl EnvironmentLighting {
                 label: Some("environment"),
                 mag_filter: wgpu::FilterMode::Linear,
                 min_filter: wgpu::FilterMode::Linear,
-                mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                // ibl.wgsl blends neighbouring mips itself (smaller shaders on llvmpipe).
+                mipmap_filter: wgpu::MipmapFilterMode::Nearest,
                 ..Default::default()
             }),
             stand_in_cube: stand_in("environment stand-in", 6, wgpu::TextureViewDimension::Cube),
