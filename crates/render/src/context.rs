@@ -18,7 +18,7 @@ pub enum CpuShaderCompiles {
     #[default]
     Optimized,
     /// Without them (`GALLIVM_PERF=nopt`): on lavapipe a DamagedHelmet hot reload takes about
-    /// 40 % less time and frames take 1.4 to 1.6 times as long, with the same pixels (README,
+    /// 40 % less time and frames take 1.4 to 1.7 times as long, with the same pixels (README,
     /// "Shaders and hot reload"). Pays off where compile latency matters more than frame time:
     /// editing shaders on a machine without a GPU (the viewer's choice while it watches them).
     Fast,

@@ -21,7 +21,7 @@ pub struct Cli {
     #[arg(short, long, global = true)]
     pub verbose: bool,
     /// How a CPU rasteriser (lavapipe) compiles shaders: `fast` (LLVM without optimisation: a
-    /// hot reload of the lit shader takes about 40 % less time, frames take 1.4 to 1.6 times as
+    /// hot reload of the lit shader takes about 40 % less time, frames take 1.4 to 1.7 times as
     /// long), `optimized`, or `auto`: fast while the command watches a shader folder (`view`
     /// from the repository or with `--shader-dir`, `bench --shader-edits`), optimized otherwise.
     /// GPU drivers ignore it.
