@@ -267,19 +267,23 @@ impl ShaderLibrary {
             read_source(&dir.join(file))?;
         }
         let sources = read_folder(dir)?;
-        let is_module = |file: &str, source: &str| {
-            self.module_files.values().any(|f| f == file) || get_preprocessor_data(source).0.is_some()
-        };
-        let edited: Vec<&String> =
-            sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
-        if edited.iter().any(|f| is_module(f, &sources[*f])) || self.sources.keys().any(|f| !sources.contains_key(f)) {
+        if self.sources.keys().any(|f| !sources.contains_key(f)) {
             return Self::from_sources(Some(dir.clone()), sources);
         }
-        // Only entry files changed: same modules, same composer.
+        // Only entry files changed: same modules, same composer. Each edited file is scanned
+        // once (the scan finds both whether it declares a module and what it imports).
         let mut imports = self.imports.clone();
-        for f in edited {
-            let (_, file_imports, _) = get_preprocessor_data(&sources[f]);
+        let mut module_edited = false;
+        for (f, source) in sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)) {
+            let (module_path, file_imports, _) = get_preprocessor_data(source);
+            if module_path.is_some() || self.module_files.values().any(|m| m == f) {
+                module_edited = true;
+                break;
+            }
             imports.insert(f.clone(), file_imports.into_iter().map(|i| i.import).collect());
+        }
+        if module_edited {
+            return Self::from_sources(Some(dir.clone()), sources);
         }
         Ok(Self {
             dir: Some(dir.clone()),
