@@ -867,6 +867,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_prefilter_parameters_mirror_the_shaders() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuSourceParams,
+            "env_source.wgsl",
+            [],
+            "SourceParams",
+            [perez_lum, perez_x, perez_y, perez_e, zenith, sun, studio, mode, face_size]
+        );
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuFilterParams,
+            "env_filter.wgsl",
+            [],
+            "FilterParams",
+            [roughness, sample_count, source_size, face_size, source_levels]
+        );
+    }
+
+    #[test]
     fn gpu_environment_mirrors_the_shaders_parameters() {
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuEnvironment,

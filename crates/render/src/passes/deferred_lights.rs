@@ -65,3 +65,19 @@ pub fn encode(
     pass.dispatch_workgroups(targets.size.0.div_ceil(8), targets.size.1.div_ceil(8), 1);
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_deferred_params_mirror_the_shaders_parameters() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuDeferredParams,
+            "deferred_lights.wgsl",
+            ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS"],
+            "DeferredParams",
+            [rel_from_clip, viewport]
+        );
+    }
+}

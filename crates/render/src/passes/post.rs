@@ -513,6 +513,27 @@ mod tests {
     use super::*;
 
     #[test]
+    fn gpu_post_params_mirror_the_shaders_parameters() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuPostParams,
+            "exposure.wgsl",
+            [],
+            "PostParams",
+            [
+                exposure_scale,
+                adapted_ev,
+                bloom_strength,
+                bloom_norm,
+                min_ev,
+                max_ev,
+                compensation,
+                adaptation,
+                camera_exposure
+            ]
+        );
+    }
+
+    #[test]
     fn bloom_levels_stop_before_tiny_levels() {
         assert_eq!(bloom_levels((1920, 1080), 7), 7);
         assert_eq!(bloom_levels((64, 64), 7), 4);

@@ -608,6 +608,26 @@ mod tests {
     use penumbra_engine::scenes::SplitMix64;
 
     #[test]
+    fn gpu_job_mirrors_the_shaders_job() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuJob,
+            "deform.wgsl",
+            [],
+            "Job",
+            [
+                source_vertex,
+                output_vertex,
+                vertex_count,
+                skin_offset,
+                joint_row,
+                morph_offset,
+                target_count,
+                weight_offset
+            ]
+        );
+    }
+
+    #[test]
     fn pose_bounds_contain_every_skinned_and_morphed_vertex() {
         let mut rng = SplitMix64(7);
         let n = 400;

@@ -718,6 +718,17 @@ mod wgsl_layout_tests {
     use super::*;
 
     #[test]
+    fn the_caster_view_mirrors_the_shader() {
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuCasterView,
+            "shadow_caster.wgsl",
+            [],
+            "CasterView",
+            [clip_from_rel, camera_position]
+        );
+    }
+
+    #[test]
     fn the_shadow_structs_mirror_the_shaders() {
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuCascade,
