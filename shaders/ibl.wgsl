@@ -60,7 +60,8 @@ fn diffuse_irradiance(n_world: vec3<f32>) -> vec3<f32> {
 // takes 8 % off the lit shader's compile on every hot reload (README, "Shaders and hot reload").
 // The last mip's neighbour clamps to itself.
 fn prefiltered_radiance(dir: vec3<f32>, roughness: f32) -> vec3<f32> {
-    let lod = roughness * environment.max_lod;
+    // A NaN roughness reads the sharpest mip rather than blending NaN into the pixel.
+    let lod = select(0.0, roughness * environment.max_lod, roughness == roughness);
     let d = to_environment(dir);
     let level = floor(lod);
     let lower = textureSampleLevel(specular_cube, linear_sampler, d, level).rgb;

@@ -46,9 +46,12 @@ impl CpuShaderCompiles {
         Self::from_gallivm_perf(std::env::var("GALLIVM_PERF").ok().as_deref())
     }
 
-    /// What Mesa makes of a `GALLIVM_PERF` value: a list of flags, `nopt` among them or not.
+    /// What Mesa makes of a `GALLIVM_PERF` value: flags separated by anything but letters,
+    /// digits and `_`, with `all` for every flag; `nopt` among them or not.
     fn from_gallivm_perf(value: Option<&str>) -> Self {
-        let nopt = value.is_some_and(|v| v.split([',', ' ', ':', ';']).any(|f| f.trim() == "nopt"));
+        let nopt = value.is_some_and(|v| {
+            v.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).any(|f| f == "nopt" || f == "all")
+        });
         if nopt { CpuShaderCompiles::Fast } else { CpuShaderCompiles::Optimized }
     }
 }
@@ -469,5 +472,7 @@ mod cpu_compile_tests {
         assert_eq!(CpuShaderCompiles::from_gallivm_perf(Some("brilinear,nopt")), CpuShaderCompiles::Fast);
         assert_eq!(CpuShaderCompiles::from_gallivm_perf(Some("no_quad_lod")), CpuShaderCompiles::Optimized);
         assert_eq!(CpuShaderCompiles::from_gallivm_perf(Some("noptx")), CpuShaderCompiles::Optimized);
+        assert_eq!(CpuShaderCompiles::from_gallivm_perf(Some("no_quad_lod|nopt")), CpuShaderCompiles::Fast);
+        assert_eq!(CpuShaderCompiles::from_gallivm_perf(Some("all")), CpuShaderCompiles::Fast);
     }
 }

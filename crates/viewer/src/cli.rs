@@ -23,7 +23,8 @@ pub struct Cli {
     /// How a CPU rasteriser (lavapipe) compiles shaders: `fast` (LLVM without optimisation: a
     /// hot reload of the lit shader takes about 40 % less time, frames take 1.4 to 1.7 times as
     /// long), `optimized`, or `auto`: fast while the command watches a shader folder (`view`
-    /// from the repository or with `--shader-dir`, `bench --shader-edits`), optimized otherwise.
+    /// while the checkout it was built from exists, or with `--shader-dir`; `bench
+    /// --shader-edits`), optimized otherwise.
     /// GPU drivers ignore it.
     #[arg(long, global = true, value_enum, default_value_t = CpuCompileArg::Auto)]
     pub cpu_shader_compile: CpuCompileArg,
@@ -52,8 +53,9 @@ impl CpuCompileArg {
     }
 }
 
-/// The repository's shader folder, when the binary runs where it was built from a checkout:
-/// `penumbra view` watches it so that edits show up live.
+/// The shader folder of the checkout the binary was built from, while that checkout exists
+/// (the path is fixed at build time, whatever the working directory): `penumbra view` watches
+/// it so that edits show up live.
 pub fn repository_shaders() -> Option<PathBuf> {
     let dir = std::path::Path::new(penumbra_render::pipelines::shader_library::REPOSITORY_SHADER_DIR);
     dir.is_dir().then(|| dir.to_path_buf())

@@ -5,8 +5,10 @@
 //! shader (GPU work included). Prints median and maximum, and that time in two parts: until the
 //! frame with the rebuilt pipelines is submitted (the watcher, composing, validating and creating
 //! the pipelines, on the CPU), and from there until the device has drawn it (the driver's shader
-//! compile, which CPU rasterisers such as lavapipe do at the first draw, and the frame itself). With `--shader-dir DIR` the copy is
-//! made from DIR's files (the embedded ones fill in what DIR lacks), to measure edited shaders.
+//! compile, which CPU rasterisers such as lavapipe do at the first draw, and the frame itself).
+//! The scene is lit as `penumbra view` lights it (`--env`, default `auto`), so the variant edited
+//! is the one a viewer compiles. With `--shader-dir DIR` the copy is made from DIR's files (the
+//! embedded ones fill in what DIR lacks), to measure edited shaders.
 
 use std::time::{Duration, Instant};
 
@@ -20,6 +22,9 @@ use crate::cli::BenchArgs;
 use crate::scene;
 
 pub fn run(args: &BenchArgs) -> Result<()> {
+    // The environment `penumbra view` would show (`--env auto`: the studio gradient for a scene
+    // without one); read before the temporary folder exists, so a bad `--env` leaves nothing.
+    let environment = args.look.environment()?;
     let dir = std::env::temp_dir().join(format!("penumbra-reload-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let mut original = String::new();
@@ -47,9 +52,6 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
     let (mut app, size) = stage_scene(&scene, &shot)?;
-    // The environment `penumbra view` would show (`--env auto`: the studio gradient for a scene
-    // without one), so the edited shader is the variant a viewer compiles (image-based lighting).
-    let environment = args.look.environment()?;
     let env_label = environment.as_ref().map_or("none".to_owned(), |_| format!("--env {}", args.look.env));
     if let Some(env) = environment {
         app.insert_resource(env);

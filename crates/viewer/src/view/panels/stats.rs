@@ -35,7 +35,7 @@ pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
                 row(
                     "shader compiles",
                     match penumbra_render::context::CpuShaderCompiles::in_effect() {
-                        penumbra_render::context::CpuShaderCompiles::Fast => "fast (--cpu-shader-compile)".to_owned(),
+                        penumbra_render::context::CpuShaderCompiles::Fast => "fast (GALLIVM_PERF=nopt)".to_owned(),
                         penumbra_render::context::CpuShaderCompiles::Optimized => "optimized".to_owned(),
                     },
                 );
