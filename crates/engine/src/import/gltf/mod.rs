@@ -4,7 +4,8 @@
 //! required extensions by name; validate the JSON; resolve buffers (GLB chunk, data URIs, files
 //! inside the scene's folder); check the node hierarchy is a forest; decode every primitive
 //! (accessors bounds-checked, topology expanded, normals and tangents completed) and every
-//! referenced image (in parallel). [`GltfScene::spawn`] is phase two: assets into `Assets<T>`,
+//! referenced image (in parallel), packing a separate occlusion image into the metallic-roughness
+//! one where no pixel changes (`occlusion_packing`). [`GltfScene::spawn`] is phase two: assets into `Assets<T>`,
 //! nodes into entities under one [`SceneRoot`], infallibly.
 
 mod accessor;
@@ -13,6 +14,7 @@ mod area_lights;
 mod ies_lights;
 pub(crate) mod images;
 mod materials;
+mod occlusion_packing;
 mod primitive;
 pub(crate) mod source;
 
@@ -389,7 +391,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let reads = source::ReadBudget::new(options);
     let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options, &reads)?, options.limits);
 
-    let materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
+    let mut materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
     let mut meshes = Vec::new();
     progress(super::ImportStage::Meshes, document.meshes().len());
     for mesh in document.meshes() {
@@ -421,7 +423,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         step();
     }
 
-    let images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
+    let mut images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
+    occlusion_packing::pack_occlusion(&mut materials, &mut images);
     let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options, &reads)?;
     let ies_node_lights: Vec<Option<ies_lights::IesLightDesc>> =
