@@ -1,0 +1,41 @@
+#!/bin/bash
+# The cost of compiling the lit fragment shader on lavapipe, counted in instructions rather than
+# timed (this machine's speed drifts by 2x, LLVM's instruction count does not).
+#
+#   tools/shader_compile_cost/compile_cost.sh [--optimized] [penumbra bench options...]
+#
+# Runs `penumbra bench --shader-edits 1 --size 16x16 [options]` with an LD_PRELOAD shim that
+# writes the LLVM modules llvmpipe builds, takes the fragment shader module of the edit (the last
+# one), and counts with callgrind the instructions `llc` spends generating code for it: at -O0,
+# as `--cpu-shader-compile fast` (the default while shaders are watched) does, or at -O2 with
+# --optimized. Prints the module's IR instruction count, llc's instructions in millions (parsing
+# the module included, about 90 M for the helmet's) and the machine code's size.
+# Needs: cc, valgrind, llvm-15 (llc-15, llvm-as-15) and Mesa's lavapipe with LLVM 15 (Debian 12).
+# PENUMBRA names the binary (default target/release/penumbra). Example, DamagedHelmet's variant
+# with image-based lighting, then an edited copy of the shaders:
+#   tools/shader_compile_cost/compile_cost.sh
+#   tools/shader_compile_cost/compile_cost.sh --shader-dir /tmp/edited-shaders
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+penumbra=${PENUMBRA:-target/release/penumbra}
+mode=(--cpu-shader-compile fast)
+opt=0
+if [[ ${1:-} == --optimized ]]; then
+    mode=(--cpu-shader-compile optimized)
+    opt=2
+    shift
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cc -shared -fPIC -O1 -o "$work/dump.so" "$here/dump_llvm_modules.c" -ldl
+mkdir "$work/modules"
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$work}
+DUMP_DIR="$work/modules" LD_PRELOAD="$work/dump.so" \
+    "$penumbra" "${mode[@]}" bench --shader-edits 1 --size 16x16 "$@" > "$work/bench.txt"
+module=$(grep -l "ModuleID = 'fs" "$work"/modules/*.opt.ll | tail -1)
+llvm-as-15 -o "$work/fs.bc" "$module"
+count=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null \
+    llc-15 -O$opt -mcpu=native -filetype=obj -o "$work/fs.o" "$work/fs.bc" 2>&1 |
+    grep -o "Collected : [0-9]*" | grep -o "[0-9]*")
+text=$(size -A "$work/fs.o" | awk '$1 == ".text" { print $2 }')
+echo "IR instructions $(grep -c '^  ' "$module"), llc -O$opt $((count / 1000000)) M instructions, machine code $text bytes"
