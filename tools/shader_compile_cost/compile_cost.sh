@@ -10,14 +10,14 @@
 # as `--cpu-shader-compile fast` (the default while shaders are watched) does, or at -O2 with
 # --optimized. Prints the module's IR instruction count, llc's instructions in millions (parsing
 # the module included, about 90 M for the helmet's) and the machine code's size.
-# Needs: cc, valgrind, llvm-15 (llc-15, llvm-as-15) and Mesa's lavapipe with LLVM 15 (Debian 12).
-# PENUMBRA names the binary (default target/release/penumbra). Example, DamagedHelmet's variant
+# Needs: cc, valgrind, binutils (size), llvm-15 (llc-15, llvm-as-15) and Mesa's lavapipe with
+# LLVM 15 (Debian 12). PENUMBRA names the binary (default: the checkout's target/release/penumbra). Example, DamagedHelmet's variant
 # with image-based lighting, then an edited copy of the shaders:
 #   tools/shader_compile_cost/compile_cost.sh
 #   tools/shader_compile_cost/compile_cost.sh --shader-dir /tmp/edited-shaders
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-penumbra=${PENUMBRA:-target/release/penumbra}
+penumbra=${PENUMBRA:-$here/../../target/release/penumbra}
 mode=(--cpu-shader-compile fast)
 opt=0
 if [[ ${1:-} == --optimized ]]; then
@@ -32,10 +32,19 @@ mkdir "$work/modules"
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$work}
 DUMP_DIR="$work/modules" LD_PRELOAD="$work/dump.so" \
     "$penumbra" "${mode[@]}" bench --shader-edits 1 --size 16x16 "$@" > "$work/bench.txt"
-module=$(grep -l "ModuleID = 'fs" "$work"/modules/*.opt.ll | tail -1)
+module=$(grep -l "ModuleID = 'fs" "$work"/modules/*.opt.ll | sort | tail -1 || true)
+if [[ -z $module ]]; then
+    echo "compile_cost.sh: llvmpipe compiled no fragment shader (is the adapter lavapipe? see $work/bench.txt)" >&2
+    trap - EXIT
+    exit 1
+fi
 llvm-as-15 -o "$work/fs.bc" "$module"
 count=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null \
     llc-15 -O$opt -mcpu=native -filetype=obj -o "$work/fs.o" "$work/fs.bc" 2>&1 |
-    grep -o "Collected : [0-9]*" | grep -o "[0-9]*")
+    grep -o "Collected : [0-9]*" | grep -o "[0-9]*" || true)
+if [[ -z $count ]]; then
+    echo "compile_cost.sh: callgrind counted nothing (is valgrind installed?)" >&2
+    exit 1
+fi
 text=$(size -A "$work/fs.o" | awk '$1 == ".text" { print $2 }')
 echo "IR instructions $(grep -c '^  ' "$module"), llc -O$opt $((count / 1000000)) M instructions, machine code $text bytes"

@@ -5,8 +5,8 @@
 //! inside the scene's folder); check the node hierarchy is a forest; decode every primitive
 //! (accessors bounds-checked, topology expanded, normals and tangents completed) and every
 //! referenced image (in parallel), packing a separate occlusion image into the metallic-roughness
-//! one where no pixel changes (`occlusion_packing`). [`GltfScene::spawn`] is phase two: assets into `Assets<T>`,
-//! nodes into entities under one [`SceneRoot`], infallibly.
+//! one where no pixel changes (`occlusion_packing`). [`GltfScene::spawn`] is phase two: assets
+//! into `Assets<T>`, nodes into entities under one [`SceneRoot`], infallibly.
 
 mod accessor;
 mod animation;

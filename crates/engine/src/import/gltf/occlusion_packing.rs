@@ -3,9 +3,9 @@
 //! glTF reads metallic from blue and roughness from green, and occlusion from red, so many
 //! exporters write one "ORM" texture; others (DamagedHelmet among them) keep occlusion in an
 //! image of its own. Where a material's two textures are separate images of the same size,
-//! sampled alike (same sampler, UV set and transform) and read as linear data only, import
-//! replaces them with one image holding occlusion's red and metallic-roughness's other channels,
-//! and points both slots at it. The renderer then compiles the variant that reads one texel for
+//! sampled alike (same sampler, UV set and transform), read as linear data only and by nothing
+//! else, import replaces them with one image holding occlusion's red and metallic-roughness's
+//! other channels, and points both slots at it. The renderer then compiles the variant that reads one texel for
 //! both (`OCCLUSION_IN_METALLIC_ROUGHNESS`): one texture read fewer per fragment on every
 //! adapter, and on a CPU rasteriser about 7 % less fragment shader to compile on every hot reload
 //! of the lit shader (README, "Shaders and hot reload"). One texture instead of two on the GPU.
@@ -16,7 +16,7 @@
 //!
 //! Data flow: `load_inner` decodes the images, calls [`pack_occlusion`] with the materials
 //! (still naming glTF image indices) and the decoded images; packed images are appended after
-//! the file's own, and images no material reads any more are dropped.
+//! the file's own, and the originals they replace are dropped.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -30,31 +30,69 @@ const METALLIC_ROUGHNESS_SLOT: usize = 1;
 const OCCLUSION_SLOT: usize = 3;
 
 /// Packs each material's occlusion into its metallic-roughness image where that keeps every
-/// pixel; returns how many packed images were made.
+/// pixel and nothing else reads either image; returns how many packed images were made.
+///
+/// Only pairs read by nothing but each other are packed: the packed image then replaces both
+/// originals, so memory only shrinks (import's image limit, checked on the decoded images,
+/// still bounds it) and no original stays on the GPU beside its copy. Images are compared by
+/// identity, not index: glTF image entries naming one source share one decoded image.
 pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Option<Arc<Image>>>) -> usize {
-    let referenced_before = referenced(materials, images.len());
-    // (metallic-roughness image, occlusion image) → packed image, so materials sharing both
-    // share the packed one.
-    let mut packed: HashMap<(usize, usize), usize> = HashMap::new();
+    let id = |index: usize| images.get(index).and_then(Option::as_ref).map(Arc::as_ptr);
+    // Each (metallic-roughness, occlusion) pair of distinct images, and whether it can be
+    // packed: every material pairing them samples both alike.
+    let mut pairs: HashMap<(*const Image, *const Image), bool> = HashMap::new();
+    for m in materials.iter() {
+        let (Some(mr), Some(ao)) = (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) else {
+            continue;
+        };
+        let (Some(mr_id), Some(ao_id)) = (id(mr.image), id(ao.image)) else { continue };
+        if mr_id == ao_id {
+            // Already one image: the renderer samples it once.
+            continue;
+        }
+        let alike = mr.sampler == ao.sampler && mr.uv_set == ao.uv_set && mr.transform == ao.transform;
+        *pairs.entry((mr_id, ao_id)).or_insert(true) &= alike;
+    }
+    // And every read of either image is that pair's own slot.
+    for m in materials.iter() {
+        let pair = match (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) {
+            (Some(mr), Some(ao)) => id(mr.image).zip(id(ao.image)),
+            _ => None,
+        };
+        for (slot, t) in m.textures.iter().enumerate() {
+            let Some(image) = t.as_ref().and_then(|t| id(t.image)) else { continue };
+            for (&(mr_id, ao_id), ok) in pairs.iter_mut() {
+                let own = pair == Some((mr_id, ao_id))
+                    && (slot == METALLIC_ROUGHNESS_SLOT && image == mr_id || slot == OCCLUSION_SLOT && image == ao_id);
+                if (image == mr_id || image == ao_id) && !own {
+                    *ok = false;
+                }
+            }
+        }
+    }
+    let mut packed: HashMap<(*const Image, *const Image), usize> = HashMap::new();
     for m in materials.iter_mut() {
         let (Some(mr), Some(ao)) = (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) else {
             continue;
         };
-        if mr.image == ao.image || mr.sampler != ao.sampler || mr.uv_set != ao.uv_set || mr.transform != ao.transform {
+        let (Some(mr_image), Some(ao_image)) =
+            (images.get(mr.image).and_then(Option::clone), images.get(ao.image).and_then(Option::clone))
+        else {
             continue;
-        }
-        let key = (mr.image, ao.image);
+        };
+        let key = (Arc::as_ptr(&mr_image), Arc::as_ptr(&ao_image));
         let index = match packed.get(&key) {
             Some(&i) => i,
-            None => {
-                let (Some(Some(mr_image)), Some(Some(ao_image))) = (images.get(mr.image), images.get(ao.image)) else {
+            None if pairs.get(&key) == Some(&true) => {
+                let Some(image) = packed_image(&mr_image, &ao_image) else {
+                    pairs.insert(key, false);
                     continue;
                 };
-                let Some(image) = packed_image(mr_image, ao_image) else { continue };
                 images.push(Some(Arc::new(image)));
                 packed.insert(key, images.len() - 1);
                 images.len() - 1
             }
+            None => continue,
         };
         for slot in [METALLIC_ROUGHNESS_SLOT, OCCLUSION_SLOT] {
             if let Some(t) = &mut m.textures[slot] {
@@ -62,25 +100,13 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
             }
         }
     }
-    // The originals go where nothing reads them any more (their memory with them).
-    let referenced_after = referenced(materials, images.len());
-    for (i, image) in images.iter_mut().enumerate() {
-        if referenced_before.get(i).copied().unwrap_or(false) && !referenced_after[i] {
+    // Nothing reads the originals now: their memory goes with them.
+    for image in images.iter_mut() {
+        if image.as_ref().is_some_and(|i| packed.keys().any(|&(mr, ao)| Arc::as_ptr(i) == mr || Arc::as_ptr(i) == ao)) {
             *image = None;
         }
     }
     packed.len()
-}
-
-/// Which image indices some material slot names.
-fn referenced(materials: &[MaterialDesc], images: usize) -> Vec<bool> {
-    let mut used = vec![false; images];
-    for t in materials.iter().flat_map(|m| m.textures.iter().flatten()) {
-        if let Some(u) = used.get_mut(t.image) {
-            *u = true;
-        }
-    }
-    used
 }
 
 /// `mr` with `ao`'s red channel, level by level; `None` where that would change what a material
@@ -124,7 +150,7 @@ mod tests {
     use crate::import::gltf::materials::TextureDesc;
     use crate::material::{Sampler, StandardMaterial, UvTransform, WrapMode};
 
-    /// A `w`×`h` image whose texel i is [r, g + i, b, a] (wrapping), with its linear chain.
+    /// A `w`×`h` image whose texel i is [r + i, g + 3i, b, a] (wrapping), with its linear chain.
     fn image(w: u32, h: u32, rgba: [u8; 4], label: &str) -> Arc<Image> {
         let rgba8 = (0..w * h)
             .flat_map(|i| [rgba[0].wrapping_add(i as u8), rgba[1].wrapping_add(3 * i as u8), rgba[2], rgba[3]])
@@ -178,7 +204,13 @@ mod tests {
 
     #[test]
     fn textures_read_differently_stay_apart() {
-        let cases: [(&str, fn(&mut MaterialDesc, &mut Vec<Option<Arc<Image>>>)); 6] = [
+        let cases: [(&str, fn(&mut MaterialDesc, &mut Vec<Option<Arc<Image>>>)); 8] = [
+            ("one image already (ORM)", |m, _| m.textures[OCCLUSION_SLOT].as_mut().unwrap().image = 0),
+            ("a chain is missing", |_, images| {
+                let mut ao = (**images[1].as_ref().unwrap()).clone();
+                ao.mips = None;
+                images[1] = Some(Arc::new(ao));
+            }),
             ("sizes differ", |_, images| images[1] = Some(image(4, 4, [1, 2, 3, 4], "ao"))),
             ("samplers differ", |m, _| {
                 m.textures[OCCLUSION_SLOT].as_mut().unwrap().sampler.wrap_u = WrapMode::ClampToEdge
@@ -199,21 +231,64 @@ mod tests {
             let before = images.clone();
             assert_eq!(pack_occlusion(&mut materials, &mut images), 0, "{why}");
             assert_eq!(materials[0].textures[METALLIC_ROUGHNESS_SLOT].as_ref().unwrap().image, 0, "{why}");
-            assert_eq!(materials[0].textures[OCCLUSION_SLOT].as_ref().unwrap().image, 1, "{why}");
+            let ao = if why.starts_with("one image") { 0 } else { 1 };
+            assert_eq!(materials[0].textures[OCCLUSION_SLOT].as_ref().unwrap().image, ao, "{why}");
             assert_eq!(images.len(), 2, "{why}");
             assert!(images.iter().zip(&before).all(|(a, b)| a.is_some() == b.is_some()), "{why}");
         }
     }
 
     #[test]
-    fn an_original_another_material_reads_is_kept() {
-        let mut images = vec![Some(image(8, 8, [1, 2, 3, 4], "mr")), Some(image(8, 8, [5, 6, 7, 8], "ao"))];
-        let mut alone = material(0, 1);
-        alone.textures[OCCLUSION_SLOT] = None;
-        let mut materials = vec![material(0, 1), alone];
+    fn images_something_else_reads_are_not_packed() {
+        // The packed image would sit beside an original that must stay: more memory, not less.
+        let cases: [(&str, fn(&mut MaterialDesc)); 3] = [
+            ("metallic-roughness read alone", |m| m.textures[OCCLUSION_SLOT] = None),
+            ("occlusion read as another slot", |m| {
+                m.textures[OCCLUSION_SLOT] = None;
+                m.textures[0] = texture(1);
+            }),
+            ("the pair sampled differently", |m| {
+                m.textures[OCCLUSION_SLOT].as_mut().unwrap().sampler.wrap_v = WrapMode::MirroredRepeat
+            }),
+        ];
+        for (why, change) in cases {
+            let mut images = vec![Some(image(8, 8, [1, 2, 3, 4], "mr")), Some(image(8, 8, [5, 6, 7, 8], "ao"))];
+            let mut other = material(0, 1);
+            change(&mut other);
+            let mut materials = vec![material(0, 1), other];
+            assert_eq!(pack_occlusion(&mut materials, &mut images), 0, "{why}");
+            assert_eq!(images.len(), 2, "{why}");
+            assert!(images.iter().all(Option::is_some), "{why}");
+            assert_eq!(materials[0].textures[OCCLUSION_SLOT].as_ref().unwrap().image, 1, "{why}");
+        }
+    }
+
+    #[test]
+    fn entries_naming_one_decoded_image_pack_once() {
+        // glTF images 0 and 2 name one source: import decoded it once.
+        let (mr, ao) = (image(8, 8, [1, 2, 3, 4], "mr"), image(8, 8, [5, 6, 7, 8], "ao"));
+        let mut images = vec![Some(mr.clone()), Some(ao), Some(mr)];
+        let mut materials = vec![material(0, 1), material(2, 1)];
         assert_eq!(pack_occlusion(&mut materials, &mut images), 1);
-        assert!(images[0].is_some(), "the second material still reads metallic-roughness alone");
-        assert!(images[1].is_none());
-        assert_eq!(materials[1].textures[METALLIC_ROUGHNESS_SLOT].as_ref().unwrap().image, 0);
+        assert_eq!(images.len(), 4);
+        assert!(images[..3].iter().all(Option::is_none));
+        for m in &materials {
+            assert_eq!(m.textures[METALLIC_ROUGHNESS_SLOT].as_ref().unwrap().image, 3);
+            assert_eq!(m.textures[OCCLUSION_SLOT].as_ref().unwrap().image, 3);
+        }
+    }
+
+    #[test]
+    fn damaged_helmet_reads_occlusion_from_its_metallic_roughness_image() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/DamagedHelmet.glb");
+        let scene = crate::import::gltf::GltfScene::load(&path, &Default::default()).unwrap();
+        let m = &scene.materials[0];
+        let (mr, ao) =
+            (m.textures[METALLIC_ROUGHNESS_SLOT].as_ref().unwrap(), m.textures[OCCLUSION_SLOT].as_ref().unwrap());
+        assert_eq!(mr.image, ao.image);
+        let packed = scene.images[mr.image].as_ref().unwrap();
+        assert_eq!(packed.label, "DamagedHelmet.glb#image1 with occlusion from DamagedHelmet.glb#image3");
+        // Base colour, emissive, normal map and the packed image: four, not five.
+        assert_eq!(scene.images.iter().flatten().count(), 4);
     }
 }
