@@ -5,10 +5,11 @@
 //! image of its own. Where a material's two textures are separate images of the same size,
 //! sampled alike (same sampler, UV set and transform), read as linear data only and by nothing
 //! else, import replaces them with one image holding occlusion's red and metallic-roughness's
-//! other channels, and points both slots at it. The renderer then compiles the variant that reads one texel for
-//! both (`OCCLUSION_IN_METALLIC_ROUGHNESS`): one texture read fewer per fragment on every
-//! adapter, and on a CPU rasteriser about 7 % less fragment shader to compile on every hot reload
-//! of the lit shader (README, "Shaders and hot reload"). One texture instead of two on the GPU.
+//! other channels, and points both slots at it. The renderer then compiles the variant that
+//! reads one texel for both (`OCCLUSION_IN_METALLIC_ROUGHNESS`): one texture read fewer per
+//! fragment on every adapter, and on a CPU rasteriser about 7 % less fragment shader to compile
+//! on every hot reload of the lit shader (README, "Shaders and hot reload"). One texture instead
+//! of two on the GPU.
 //!
 //! The pixels do not change: the texels and every level of the mip chains are copied channel
 //! by channel (import's chains average each channel on its own, so the packed chain is the
@@ -18,7 +19,7 @@
 //! (still naming glTF image indices) and the decoded images; packed images are appended after
 //! the file's own, and the originals they replace are dropped.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 
 use super::materials::MaterialDesc;
@@ -28,6 +29,9 @@ use crate::mip_chain::{MipChain, MipLevel};
 /// `StandardMaterial::textures()` slots.
 const METALLIC_ROUGHNESS_SLOT: usize = 1;
 const OCCLUSION_SLOT: usize = 3;
+
+/// A (metallic-roughness, occlusion) pair of decoded images, by identity.
+type Pair = (*const Image, *const Image);
 
 /// Packs each material's occlusion into its metallic-roughness image where that keeps every
 /// pixel and nothing else reads either image; returns how many packed images were made.
@@ -40,7 +44,7 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
     let id = |index: usize| images.get(index).and_then(Option::as_ref).map(Arc::as_ptr);
     // Each (metallic-roughness, occlusion) pair of distinct images, and whether it can be
     // packed: every material pairing them samples both alike.
-    let mut pairs: HashMap<(*const Image, *const Image), bool> = HashMap::new();
+    let mut pairs: HashMap<Pair, bool> = HashMap::new();
     for m in materials.iter() {
         let (Some(mr), Some(ao)) = (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) else {
             continue;
@@ -53,7 +57,9 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
         let alike = mr.sampler == ao.sampler && mr.uv_set == ao.uv_set && mr.transform == ao.transform;
         *pairs.entry((mr_id, ao_id)).or_insert(true) &= alike;
     }
-    // And every read of either image is that pair's own slot.
+    // And every read of either image is that pair's own slot. Each image's reader: the pair
+    // whose own slot it fills, or `None` once anything else reads it.
+    let mut reader: HashMap<*const Image, Option<Pair>> = HashMap::new();
     for m in materials.iter() {
         let pair = match (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) {
             (Some(mr), Some(ao)) => id(mr.image).zip(id(ao.image)),
@@ -61,16 +67,19 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
         };
         for (slot, t) in m.textures.iter().enumerate() {
             let Some(image) = t.as_ref().and_then(|t| id(t.image)) else { continue };
-            for (&(mr_id, ao_id), ok) in pairs.iter_mut() {
-                let own = pair == Some((mr_id, ao_id))
-                    && (slot == METALLIC_ROUGHNESS_SLOT && image == mr_id || slot == OCCLUSION_SLOT && image == ao_id);
-                if (image == mr_id || image == ao_id) && !own {
-                    *ok = false;
-                }
+            let own = pair.filter(|&(mr, ao)| {
+                slot == METALLIC_ROUGHNESS_SLOT && image == mr || slot == OCCLUSION_SLOT && image == ao
+            });
+            let r = reader.entry(image).or_insert(own);
+            if *r != own {
+                *r = None;
             }
         }
     }
-    let mut packed: HashMap<(*const Image, *const Image), usize> = HashMap::new();
+    pairs.retain(|&pair, alike| {
+        *alike && reader.get(&pair.0) == Some(&Some(pair)) && reader.get(&pair.1) == Some(&Some(pair))
+    });
+    let mut packed: HashMap<Pair, usize> = HashMap::new();
     for m in materials.iter_mut() {
         let (Some(mr), Some(ao)) = (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) else {
             continue;
@@ -101,8 +110,9 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
         }
     }
     // Nothing reads the originals now: their memory goes with them.
+    let replaced: HashSet<*const Image> = packed.keys().flat_map(|&(mr, ao)| [mr, ao]).collect();
     for image in images.iter_mut() {
-        if image.as_ref().is_some_and(|i| packed.keys().any(|&(mr, ao)| Arc::as_ptr(i) == mr || Arc::as_ptr(i) == ao)) {
+        if image.as_ref().is_some_and(|i| replaced.contains(&Arc::as_ptr(i))) {
             *image = None;
         }
     }
