@@ -42,8 +42,11 @@ impl CpuShaderCompiles {
     }
 
     /// The choice this process runs with (Mesa's variable, however it was set), for display.
+    /// Read on the first call and kept, as Mesa reads the variable once: call it once the first
+    /// device exists (the Stats panel asks every frame it shows).
     pub fn in_effect() -> Self {
-        Self::from_gallivm_perf(std::env::var("GALLIVM_PERF").ok().as_deref())
+        static IN_EFFECT: std::sync::OnceLock<CpuShaderCompiles> = std::sync::OnceLock::new();
+        *IN_EFFECT.get_or_init(|| Self::from_gallivm_perf(std::env::var("GALLIVM_PERF").ok().as_deref()))
     }
 
     /// What Mesa makes of a `GALLIVM_PERF` value: flags separated by anything but letters,
