@@ -26,7 +26,8 @@ if [[ ${1:-} == --optimized ]]; then
     shift
 fi
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+# KEEP=1 keeps the folder (the modules, llc's object) and prints its path.
+if [[ -n ${KEEP:-} ]]; then echo "compile_cost.sh: keeping $work" >&2; else trap 'rm -rf "$work"' EXIT; fi
 cc -shared -fPIC -O1 -o "$work/dump.so" "$here/dump_llvm_modules.c" -ldl
 mkdir "$work/modules"
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$work}

@@ -416,11 +416,12 @@ pub(crate) fn wgsl_struct_layout(entry: &str, defs: &[&'static str], name: &str)
 
 /// Asserts that a `#[repr(C)]` Rust struct has the size of its WGSL counterpart and each listed
 /// field the offset of the WGSL member named the same (or named by a string after `=>`):
-/// `assert_mirrors_wgsl!(GpuLight, "forward.wgsl", [], "Light", [position, kind])`.
+/// `assert_mirrors_wgsl!(GpuLight, "forward.wgsl", [], "Light", [position, kind])`; the defs are
+/// any array or slice of `&'static str` (a const shared by several structs' checks).
 #[cfg(test)]
 macro_rules! assert_mirrors_wgsl {
-    ($ty:ty, $entry:expr, [$($def:expr),*], $name:expr, [$($field:ident $(=> $member:expr)?),* $(,)?]) => {{
-        let (size, members) = $crate::pipelines::shader_library::wgsl_struct_layout($entry, &[$($def),*], $name);
+    ($ty:ty, $entry:expr, $defs:expr, $name:expr, [$($field:ident $(=> $member:expr)?),* $(,)?]) => {{
+        let (size, members) = $crate::pipelines::shader_library::wgsl_struct_layout($entry, &$defs, $name);
         assert_eq!(std::mem::size_of::<$ty>(), size as usize, "size of {} against WGSL {}", stringify!($ty), $name);
         $(
             let member = [$($member,)? stringify!($field)][0];

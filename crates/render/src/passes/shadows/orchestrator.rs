@@ -717,6 +717,9 @@ fn reaches(clip_from_world: &DMat4, casters: &Aabb) -> bool {
 mod wgsl_layout_tests {
     use super::*;
 
+    /// The forward variant that declares every shadow struct.
+    const SHADOW_DEFS: [&str; 3] = ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"];
+
     #[test]
     fn the_caster_view_mirrors_the_shader() {
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
@@ -733,21 +736,21 @@ mod wgsl_layout_tests {
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuCascade,
             "forward.wgsl",
-            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            SHADOW_DEFS,
             "ShadowCascade",
             [clip_from_rel, far, texel_size, depth_range, rendered]
         );
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuDirectionalShadow,
             "forward.wgsl",
-            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            SHADOW_DEFS,
             "DirectionalShadow",
             [light_slot, first_cascade, angular_tan]
         );
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuShadows,
             "forward.wgsl",
-            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            SHADOW_DEFS,
             "Shadows",
             [
                 cascades,
@@ -765,7 +768,7 @@ mod wgsl_layout_tests {
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuLocalShadow,
             "forward.wgsl",
-            ["SHADOWS", "LOCAL_LIGHTS", "LOCAL_SHADOWS"],
+            SHADOW_DEFS,
             "LocalShadow",
             [clip_from_rel, texel_scale, valid, faces]
         );
