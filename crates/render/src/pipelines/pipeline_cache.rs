@@ -875,87 +875,31 @@ impl PipelineCache {
         let deform_hit = lib.depends_on("deform.wgsl", files);
         let gizmo_hit = lib.depends_on("gizmo.wgsl", files);
         let raster_hit = lib.depends_on("visibility_raster.wgsl", files);
-        let mut forward = Vec::new();
-        let mut tonemap = Vec::new();
-        let mut mipmap = Vec::new();
-        if forward_hit {
-            let keys: Vec<PipelineKey> = self.forward.keys().copied().collect();
-            forward = self.create_forward_many(device, &mut candidate, &keys)?;
-        }
-        if tonemap_hit {
-            for key in self.tonemap.keys().copied().collect::<Vec<_>>() {
-                tonemap.push((key, self.create_tonemap(device, &mut candidate, key)?));
-            }
-        }
-        if mipmap_hit {
-            for key in self.mipmap.keys().copied().collect::<Vec<_>>() {
-                mipmap.push((key, self.create_mipmap(device, &mut candidate, key.0, key.1)?));
-            }
-        }
-        let mut resolve = Vec::new();
-        if resolve_hit {
-            for key in self.resolve.keys().copied().collect::<Vec<_>>() {
-                resolve.push((key, self.create_resolve(device, &mut candidate, key.0)?));
-            }
-        }
-        let mut cluster = Vec::new();
-        if cluster_hit {
-            for key in self.cluster.keys().copied().collect::<Vec<_>>() {
-                cluster.push((key, self.create_cluster(device, &mut candidate, key)?));
-            }
-        }
-        let mut deferred = Vec::new();
-        if deferred_hit {
-            for key in self.deferred.keys().copied().collect::<Vec<_>>() {
-                deferred.push((key, self.create_deferred(device, &mut candidate, key)?));
-            }
-        }
-        let mut composite = Vec::new();
-        if composite_hit {
-            for key in self.composite.keys().copied().collect::<Vec<_>>() {
-                composite.push((key, self.create_composite(device, &mut candidate, key)?));
-            }
-        }
-        let mut caster = Vec::new();
-        if caster_hit {
-            for key in self.caster.keys().copied().collect::<Vec<_>>() {
-                caster.push((key, self.create_caster(device, &mut candidate, key)?));
-            }
-        }
-        let mut cull = Vec::new();
-        if cull_hit {
-            for key in self.cull.keys().copied().collect::<Vec<_>>() {
-                cull.push((key, self.create_cull(device, &mut candidate, key)?));
-            }
-        }
-        let mut hzb = Vec::new();
-        if hzb_hit {
-            for key in self.hzb.keys().copied().collect::<Vec<_>>() {
-                hzb.push((key, self.create_hzb(device, &mut candidate, key)?));
-            }
-        }
+        let forward = self.create_forward_many(device, &mut candidate, &stale(forward_hit, &self.forward))?;
+        let tonemap = rebuild(stale(tonemap_hit, &self.tonemap), |k| self.create_tonemap(device, &mut candidate, k))?;
+        let mipmap =
+            rebuild(stale(mipmap_hit, &self.mipmap), |k| self.create_mipmap(device, &mut candidate, k.0, k.1))?;
+        let resolve = rebuild(stale(resolve_hit, &self.resolve), |k| self.create_resolve(device, &mut candidate, k.0))?;
+        let cluster = rebuild(stale(cluster_hit, &self.cluster), |k| self.create_cluster(device, &mut candidate, k))?;
+        let deferred =
+            rebuild(stale(deferred_hit, &self.deferred), |k| self.create_deferred(device, &mut candidate, k))?;
+        let composite =
+            rebuild(stale(composite_hit, &self.composite), |k| self.create_composite(device, &mut candidate, k))?;
+        let caster = rebuild(stale(caster_hit, &self.caster), |k| self.create_caster(device, &mut candidate, k))?;
+        let cull = rebuild(stale(cull_hit, &self.cull), |k| self.create_cull(device, &mut candidate, k))?;
+        let hzb = rebuild(stale(hzb_hit, &self.hzb), |k| self.create_hzb(device, &mut candidate, k))?;
         let deform = match (deform_hit, self.deform.is_some()) {
             (true, true) => Some(self.create_deform(device, &mut candidate)?),
             _ => None,
         };
-        let mut gizmo = Vec::new();
-        if gizmo_hit {
-            for samples in self.gizmo.keys().copied().collect::<Vec<_>>() {
-                gizmo.push((samples, self.create_gizmo(device, &mut candidate, samples)?));
-            }
-        }
-        let mut visibility_raster = Vec::new();
-        if raster_hit {
-            for step in self.visibility_raster.keys().copied().collect::<Vec<_>>() {
-                visibility_raster.push((step, self.create_visibility_raster(device, &mut candidate, step)?));
-            }
-        }
-        let mut visibility_shade = Vec::new();
-        if forward_hit {
-            for key in self.visibility_shade.keys().copied().collect::<Vec<_>>() {
-                visibility_shade.push((key, self.create_visibility_shade(device, &mut candidate, key)?));
-            }
-        }
+        let gizmo = rebuild(stale(gizmo_hit, &self.gizmo), |k| self.create_gizmo(device, &mut candidate, k))?;
+        let visibility_raster = rebuild(stale(raster_hit, &self.visibility_raster), |k| {
+            self.create_visibility_raster(device, &mut candidate, k)
+        })?;
+        // The visibility buffer's shading pass composes forward.wgsl's `shade`.
+        let visibility_shade = rebuild(stale(forward_hit, &self.visibility_shade), |k| {
+            self.create_visibility_shade(device, &mut candidate, k)
+        })?;
         let env = self.reload_env(device, &mut candidate, files)?;
         let environment_steps = env.rebuilds_steps();
         let post = self.reload_post(device, &mut candidate, files)?;
@@ -1301,4 +1245,19 @@ fn fullscreen_pipeline(
         multiview_mask: None,
         cache: None,
     })
+}
+
+/// The keys of a pipeline family to compile again: all of them when a file it uses changed
+/// (`hit`), else none.
+pub(super) fn stale<K: Copy, P>(hit: bool, family: &HashMap<K, P>) -> Vec<K> {
+    if hit { family.keys().copied().collect() } else { Vec::new() }
+}
+
+/// A pipeline for each key, from `create`; the first error fails the whole reload, which then
+/// swaps in nothing.
+pub(super) fn rebuild<K: Copy, P>(
+    keys: Vec<K>,
+    mut create: impl FnMut(K) -> Result<P, ShaderError>,
+) -> Result<Vec<(K, P)>, ShaderError> {
+    keys.into_iter().map(|k| create(k).map(|p| (k, p))).collect()
 }

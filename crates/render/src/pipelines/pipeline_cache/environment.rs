@@ -2,7 +2,7 @@
 //! (`env_source.wgsl`, `env_filter.wgsl`, `brdf_lut.wgsl`) and the background pass
 //! (`background.wgsl`). The part of the pipeline cache that serves `environment/`.
 
-use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline};
+use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline, rebuild, stale};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
 /// The format of every environment map (source cube, specular cube, split-sum table).
@@ -305,11 +305,8 @@ impl PipelineCache {
                 out.steps.push((step, self.create_env_step(device, candidate, step)?));
             }
         }
-        if hit["background.wgsl"] {
-            for mode in self.background.keys().copied().collect::<Vec<_>>() {
-                out.background.push((mode, self.create_background(device, candidate, mode)?));
-            }
-        }
+        out.background =
+            rebuild(stale(hit["background.wgsl"], &self.background), |k| self.create_background(device, candidate, k))?;
         Ok(out)
     }
 

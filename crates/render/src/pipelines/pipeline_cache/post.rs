@@ -3,7 +3,9 @@
 //! (`fxaa.wgsl`). The part of the pipeline cache that serves `passes::post` and
 //! `passes::tonemap`.
 
-use super::{PipelineCache, Tonemapper, buffer_entry, checked_pipeline, compute_pipeline, fullscreen_pipeline};
+use super::{
+    PipelineCache, Tonemapper, buffer_entry, checked_pipeline, compute_pipeline, fullscreen_pipeline, rebuild, stale,
+};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 use crate::targets::HDR_FORMAT;
 
@@ -212,23 +214,11 @@ impl PipelineCache {
             lib.depends_on("exposure.wgsl", files),
             lib.depends_on("fxaa.wgsl", files),
         );
-        let mut out = PostReload::default();
-        if bloom_hit {
-            for step in self.bloom.keys().copied().collect::<Vec<_>>() {
-                out.bloom.push((step, self.create_bloom(device, candidate, step)?));
-            }
-        }
-        if exposure_hit {
-            for step in self.exposure.keys().copied().collect::<Vec<_>>() {
-                out.exposure.push((step, self.create_exposure(device, candidate, step)?));
-            }
-        }
-        if fxaa_hit {
-            for format in self.fxaa.keys().copied().collect::<Vec<_>>() {
-                out.fxaa.push((format, self.create_fxaa(device, candidate, format)?));
-            }
-        }
-        Ok(out)
+        Ok(PostReload {
+            bloom: rebuild(stale(bloom_hit, &self.bloom), |k| self.create_bloom(device, candidate, k))?,
+            exposure: rebuild(stale(exposure_hit, &self.exposure), |k| self.create_exposure(device, candidate, k))?,
+            fxaa: rebuild(stale(fxaa_hit, &self.fxaa), |k| self.create_fxaa(device, candidate, k))?,
+        })
     }
 
     pub(super) fn post_pipeline_count(&self) -> usize {
