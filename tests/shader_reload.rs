@@ -2,12 +2,14 @@
 //! a broken shader is reported with its line and the last good pipelines keep drawing; a fixed
 //! one is used at once; empty files, rename-over saves and deletions are errors until the file is
 //! whole; an edit to an imported module rebuilds exactly the pipelines that import it; an edit to
-//! the split-sum table's shader makes the table again.
+//! the split-sum table's shader makes the table again; a headless frame drawn while a shader is
+//! broken is an error, not a screenshot.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use penumbra::prelude::*;
+use penumbra::render::headless::HeadlessRunner;
 use penumbra::render::pipelines::shader_library::EMBEDDED;
 use penumbra::render::{RenderSettings, Renderer, ShaderSource};
 
@@ -106,6 +108,35 @@ fn a_broken_shader_keeps_the_last_good_image_and_a_fixed_one_is_used() {
     let px = render_until(&mut app, "the fix", |r| generation(r) > g);
     assert!(renderer(&app).shader_error().is_none(), "the error clears once fixed");
     assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "the edited shader (output × 0) is in use");
+}
+
+/// Headless renders read through `Renderer::read_frame`: a frame drawn while a shader is broken
+/// (without the broken pipeline at start, with the last good one after a failed reload) is an
+/// error naming the place, not a screenshot; the viewer's own read still gets the frame.
+#[test]
+fn headless_frames_drawn_with_a_shader_error_are_errors() {
+    let dir = shader_folder("reload-headless");
+    let original = forward(&dir);
+    let broken = scaled_output(&original, "*");
+    std::fs::write(dir.join("forward.wgsl"), &broken).unwrap();
+    let mut app = app_with_shaders(&dir);
+    let shot = dir.join("shot.png");
+    let runner = HeadlessRunner::screenshot(&shot, SIZE, 1);
+    let err = runner.run_on(&mut app).expect_err("a screenshot without the quad's pipeline");
+    assert!(err.to_string().starts_with("forward.wgsl:") && err.to_string().contains("expected"), "{err}");
+    assert!(!shot.exists(), "nothing written");
+
+    std::fs::write(dir.join("forward.wgsl"), &original).unwrap();
+    let px = render_until(&mut app, "the fixed shader", |r| r.shader_error().is_none());
+    assert_eq!(renderer(&app).read_frame().expect("no shader error"), px);
+    assert!(brightness(&px, SIZE.0, 24, 24) > 150.0, "the quad is drawn");
+
+    std::fs::write(dir.join("forward.wgsl"), &broken).unwrap();
+    let last_good = render_until(&mut app, "the error", |r| r.shader_error().is_some());
+    assert_eq!(last_good, px, "the last good pipeline draws on");
+    let err = renderer(&app).read_frame().expect_err("the frame is not what the folder's shaders say");
+    assert!(err.to_string().starts_with("forward.wgsl:"), "{err}");
+    assert!(runner.run_on(&mut app).is_err() && !shot.exists(), "nor is a screenshot");
 }
 
 #[test]

@@ -162,14 +162,15 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
     Ok(size)
 }
 
-/// Renders `frames` fixed-step updates of a staged app and returns the last frame's RGBA8.
+/// Renders `frames` fixed-step updates of a staged app and returns the last frame's RGBA8, or
+/// the shader error that left something out of it ([`Renderer::read_frame`]).
 pub fn render_frames(app: &mut App, renderer: Renderer, size: (u32, u32), frames: u32) -> Result<Vec<u8>, ShotError> {
     app.insert_resource(renderer);
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     for _ in 0..frames.max(1) {
         app.update();
     }
-    Ok(app.world.resource::<Renderer>().read_headless().map_err(RendererError::from)?)
+    Ok(app.world.resource::<Renderer>().read_frame()?)
 }
 
 /// Runs a scripted app headless: `frames` fixed-step updates rendered offscreen at `size`,
@@ -221,12 +222,7 @@ impl HeadlessRunner {
         for frame in 1..=last {
             app.update();
             for (_, path) in self.screenshots.iter().filter(|(f, _)| *f == frame) {
-                let pixels = app
-                    .world
-                    .resource::<Renderer>()
-                    .read_headless()
-                    .map_err(RendererError::from)
-                    .map_err(ShotError::from)?;
+                let pixels = app.world.resource::<Renderer>().read_frame().map_err(ShotError::from)?;
                 image::save_buffer(path, &pixels, w, h, image::ColorType::Rgba8)
                     .map_err(|e| HeadlessError::Write { path: path.clone(), reason: e.to_string() })?;
                 shots.push(pixels);

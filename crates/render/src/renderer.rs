@@ -911,10 +911,23 @@ impl Renderer {
         self.render(scene, &view, format, size);
     }
 
-    /// The last headless frame as tightly packed sRGB-encoded RGBA8 rows.
+    /// The last headless frame as tightly packed sRGB-encoded RGBA8 rows, whatever drew it (see
+    /// [`Renderer::read_frame`]).
     pub fn read_headless(&self) -> Result<Vec<u8>, ReadbackError> {
         let (texture, _) = self.headless.as_ref().ok_or_else(|| ReadbackError::Map("nothing rendered yet".into()))?;
         readback::read_texture(&self.ctx.device, &self.ctx.queue, texture, 4)
+    }
+
+    /// The last headless frame, as [`Renderer::read_headless`], or the shader error that kept it
+    /// from being the frame the shaders describe: a draw whose pipeline did not compile is left
+    /// out, and after a failed reload older shaders drew. Headless renders read this, so a
+    /// screenshot with a part missing is an error rather than an image; the viewer draws on
+    /// and shows the error beside the frame.
+    pub fn read_frame(&self) -> Result<Vec<u8>, RendererError> {
+        if let Some(e) = &self.shader_error {
+            return Err(RendererError::Shader(e.clone()));
+        }
+        Ok(self.read_headless()?)
     }
 
     /// The last frame's linear HDR colour (exposed, before tonemapping) as RGBA f32. Alpha is

@@ -197,6 +197,34 @@ fn the_reload_benchmark_refuses_shaders_that_do_not_build() {
     assert!(e.contains("the shaders to edit do not build") && e.contains("forward.wgsl:"), "{e}");
 }
 
+/// A headless render whose shaders do not build fails with the error's place and writes nothing:
+/// the frame would lack every draw of the broken pipeline (an image of the background alone).
+#[test]
+fn a_render_with_a_broken_shader_fails_with_its_line() {
+    let dir = out_dir("render-broken-shader");
+    let original = include_str!("../../../shaders/forward.wgsl");
+    let anchor = "var out = color * view.exposure;";
+    let line = original.lines().position(|l| l.contains(anchor)).expect("the anchor is in forward.wgsl") + 1;
+    let broken = original.replacen(anchor, "var out = color * view.exposure * ;", 1);
+    std::fs::write(dir.join("forward.wgsl"), broken).unwrap();
+    let out = dir.join("x.png");
+    let scene = asset("BoxTextured/BoxTextured.glb");
+    let o = penumbra(&[
+        "render",
+        &scene,
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--shader-dir",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains(&format!("forward.wgsl:{line}:")) && e.contains("expected expression"), "{e}");
+    assert!(!out.exists(), "no image of a frame with draws missing");
+}
+
 #[test]
 fn the_reload_benchmark_splits_its_latency_at_the_submission() {
     let o = penumbra(&["bench", "--shader-edits", "1", "--size", "16x16"]);

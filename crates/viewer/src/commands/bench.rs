@@ -224,7 +224,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     app.update();
     // The first frame is done when its pixels could be read.
-    app.world.resource::<Renderer>().read_headless().map_err(|e| anyhow!("{e}"))?;
+    app.world.resource::<Renderer>().read_frame().map_err(|e| anyhow!("{e}"))?;
     let first_frame_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let t = time_frames(&mut app, args.warmup, args.frames);

@@ -62,7 +62,7 @@ fn one_frame(
 ) -> Result<Vec<u8>> {
     let mut app = app_with(ctx, settings, lights, range, size)?;
     app.update();
-    app.world.resource::<Renderer>().read_headless().map_err(|e| anyhow!("{e}"))
+    app.world.resource::<Renderer>().read_frame().map_err(|e| anyhow!("{e}"))
 }
 
 pub fn flip_mean(a: &[u8], b: &[u8], (w, h): (u32, u32)) -> f32 {

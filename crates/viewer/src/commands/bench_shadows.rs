@@ -113,7 +113,7 @@ fn app_with(
 
 fn frame(app: &mut penumbra_engine::App) -> Result<Vec<u8>> {
     app.update();
-    app.world.resource::<Renderer>().read_headless().map_err(|e| anyhow!("{e}"))
+    app.world.resource::<Renderer>().read_frame().map_err(|e| anyhow!("{e}"))
 }
 
 pub fn run(args: &BenchArgs) -> Result<()> {

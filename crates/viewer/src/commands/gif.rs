@@ -80,7 +80,7 @@ pub fn run(args: GifArgs) -> Result<()> {
             t.rotation = turn * start.rotation;
         }
         app.update();
-        let pixels = app.world.resource::<Renderer>().read_headless()?;
+        let pixels = app.world.resource::<Renderer>().read_frame()?;
         let image = RgbaImage::from_raw(size.0, size.1, pixels).context("read back the wrong number of pixels")?;
         encoder
             .encode_frame(Frame::from_parts(image, 0, 0, delay))

@@ -103,7 +103,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
             }
             let r = app.world.resource::<Renderer>();
             let hdr: Vec<[f32; 3]> = r.read_hdr()?.into_iter().map(|p| [p[0], p[1], p[2]]).collect();
-            let rgb8: Vec<u8> = r.read_headless()?.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+            let rgb8: Vec<u8> = r.read_frame()?.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
             let direct = compare(&reference, &hdr, &rgb8, size);
             let gi = gi.as_ref().map(|(g, _)| compare(g, &hdr, &rgb8, size));
             if let Some(dir) = &args.images {
