@@ -270,6 +270,24 @@ fn pipelines_sharing_a_variant_rebuild_together_and_a_pipeline_error_keeps_them_
     assert_eq!(err.file, "forward.wgsl", "{err}");
     assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good, "both old pipelines still draw");
 
+    // A resource declared in the shader alone, absent from the pipeline layout: wgpu's error
+    // comes as one line naming the binding, without its heading and the pipeline key's dump.
+    let anchor = "var out = color * view.exposure;";
+    let extra = original.replacen(anchor, "var out = color * view.exposure * extra_binding.x;", 1).replacen(
+        "fn shade(",
+        "@group(0) @binding(99) var<uniform> extra_binding: vec4<f32>;\n\nfn shade(",
+        1,
+    );
+    std::fs::write(dir.join("forward.wgsl"), &extra).unwrap();
+    let err = app.world.resource_mut::<Renderer>().reload_shaders(&["forward.wgsl".to_owned()]).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.starts_with("forward.wgsl: ") && text.contains("binding: 99") && text.contains("pipeline layout"),
+        "{text}"
+    );
+    assert!(!text.contains('\n') && !text.contains("label =") && !text.contains("Validation Error"), "{text}");
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good, "both old pipelines still draw");
+
     std::fs::write(dir.join("forward.wgsl"), scaled_output(&original, "0.0")).unwrap();
     let report = app.world.resource_mut::<Renderer>().reload_shaders(&["forward.wgsl".to_owned()]).unwrap();
     assert_eq!(report.rebuilt, 2, "both pipelines of the variant");

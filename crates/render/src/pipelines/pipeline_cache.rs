@@ -513,7 +513,7 @@ fn checked_pipeline<P>(device: &wgpu::Device, file: &str, create: impl FnOnce() 
     let pipeline = create();
     match pollster::block_on(scope.pop()) {
         None => Ok(pipeline),
-        Some(e) => Err(ShaderError::whole_file(file, e.to_string())),
+        Some(e) => Err(ShaderError::from_wgpu(file, &e)),
     }
 }
 

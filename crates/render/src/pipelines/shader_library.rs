@@ -20,8 +20,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use naga_oil::compose::{
-    ComposableModuleDescriptor, Composer, ComposerError, NagaModuleDescriptor, ShaderDefValue, ShaderLanguage,
-    ShaderType, get_preprocessor_data,
+    ComposableModuleDescriptor, Composer, ComposerError, ComposerErrorInner, NagaModuleDescriptor, ShaderDefValue,
+    ShaderLanguage, ShaderType, get_preprocessor_data,
 };
 
 /// The shaders compiled into the binary: (file name, source).
@@ -95,9 +95,10 @@ impl fmt::Display for ShaderDefs {
     }
 }
 
-/// A shader that failed to load, compose, validate or compile.
+/// A shader that failed to load, compose, validate or compile: `file:line:column: message`, or
+/// `file: message` for a problem without a place in the file.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{file}:{line}:{column}: {message}")]
+#[error("{file}{}: {message}", if *.line > 0 { format!(":{line}:{column}") } else { String::new() })]
 pub struct ShaderError {
     pub file: String,
     /// 1-based; 0 when the problem has no position (a missing file).
@@ -110,6 +111,27 @@ impl ShaderError {
     pub fn whole_file(file: &str, message: impl Into<String>) -> Self {
         Self { file: file.to_owned(), line: 0, column: 0, message: message.into() }
     }
+
+    /// wgpu's validation error for `file`'s module or pipeline, on one line for the log and the
+    /// viewer's overlay.
+    pub fn from_wgpu(file: &str, e: &wgpu::Error) -> Self {
+        Self::whole_file(file, wgpu_error_line(e))
+    }
+}
+
+/// A wgpu error as one line: its causes joined with ": ", without the "Validation Error" heading
+/// and the context line naming the call and its label (for a pipeline, the whole key).
+fn wgpu_error_line(e: &wgpu::Error) -> String {
+    let mut causes = Vec::new();
+    let mut cause = std::error::Error::source(e);
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !(text.starts_with("In ") && text.contains(", label = ")) {
+            causes.push(text.trim().to_owned());
+        }
+        cause = c.source();
+    }
+    if causes.is_empty() { e.to_string() } else { causes.join(": ") }
 }
 
 /// Parses and validates a standalone WGSL source with naga (no imports).
@@ -145,9 +167,20 @@ fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -
         let line = parts.next()?.trim().parse().ok()?;
         Some((parts.next()?.to_owned(), line, column))
     });
+    // naga_oil's report leaves out a WGSL parse error's own notes, which can hold the reason
+    // ("internal WGSL front end error": "Parser recursion limit exceeded").
+    let parse_notes: Vec<&str> = match &e.inner {
+        ComposerErrorInner::WgslParseError(parse) => parse.notes().collect(),
+        _ => Vec::new(),
+    };
     // naga often repeats the headline as a note; keep only notes that add something.
-    let notes: Vec<&str> =
-        report.lines().filter_map(|l| l.trim().strip_prefix("= ")).filter(|n| *n != message).collect();
+    let mut notes: Vec<&str> = report.lines().filter_map(|l| l.trim().strip_prefix("= ")).collect();
+    for note in parse_notes {
+        if !notes.contains(&note) {
+            notes.push(note);
+        }
+    }
+    notes.retain(|n| *n != message);
     let message = if notes.is_empty() { message } else { format!("{message} ({})", notes.join("; ")) };
     match location {
         Some((file, line, column)) => ShaderError { file, line, column, message },
@@ -361,7 +394,7 @@ impl ShaderLibrary {
         );
         match pollster::block_on(scope.pop()) {
             None => Ok(shader),
-            Some(e) => Err(ShaderError::whole_file(entry, e.to_string())),
+            Some(e) => Err(ShaderError::from_wgpu(entry, &e)),
         }
     }
 }
@@ -447,6 +480,23 @@ mod tests {
 
     fn defs(list: &[&'static str]) -> ShaderDefs {
         ShaderDefs(list.iter().copied().collect())
+    }
+
+    #[test]
+    fn an_error_without_a_place_names_only_the_file() {
+        assert_eq!(ShaderError::whole_file("x.wgsl", "the file is empty").to_string(), "x.wgsl: the file is empty");
+        let placed = ShaderError { file: "x.wgsl".into(), line: 3, column: 7, message: "expected `;`".into() };
+        assert_eq!(placed.to_string(), "x.wgsl:3:7: expected `;`");
+    }
+
+    #[test]
+    fn a_parse_errors_own_reason_is_kept() {
+        // naga's parser stops at a nesting depth and says why only in a note naga_oil drops.
+        let deep = format!("fn f() -> f32 {{ return {}1.0{}; }}", "(".repeat(500), ")".repeat(500));
+        let mut lib = ShaderLibrary::embedded().unwrap();
+        lib.sources.insert("deep.wgsl".into(), deep);
+        let err = lib.compose("deep.wgsl", &defs(&[])).unwrap_err();
+        assert!(err.to_string().starts_with("deep.wgsl") && err.message.contains("recursion limit"), "{err}");
     }
 
     #[test]
