@@ -9,7 +9,9 @@
 //! and as *settled* once no event has touched it for [`DEBOUNCE`] (the renderer reloads it and
 //! reports what fails). A file accepted while fresh is not offered again until its next event.
 //! Events are keyed by file name, so a rename onto `forward.wgsl` counts as a change of
-//! `forward.wgsl`.
+//! `forward.wgsl`. A folder deleted or moved away takes the operating system's watch with it
+//! (inotify's watch follows the folder's inode), so the watcher watches the path again once a
+//! folder is back there and offers every shader in it as changed.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -41,7 +43,7 @@ struct Pending {
 }
 
 pub struct ShaderWatcher {
-    _watcher: notify::RecommendedWatcher,
+    watcher: notify::RecommendedWatcher,
     // A Mutex only to make the watcher Sync (the renderer is an ECS resource); one thread polls.
     // Each event with the time it arrived, so the quiet time counts from the write itself and
     // not from whenever the frame loop next polled.
@@ -49,6 +51,8 @@ pub struct ShaderWatcher {
     pending: HashMap<String, Pending>,
     dir: PathBuf,
     quiet_time: Duration,
+    /// The folder itself was deleted or moved: watch its path again once a folder is there.
+    rearm: bool,
 }
 
 impl ShaderWatcher {
@@ -64,11 +68,12 @@ impl ShaderWatcher {
         })?;
         watcher.watch(dir, RecursiveMode::NonRecursive)?;
         Ok(Self {
-            _watcher: watcher,
+            watcher,
             events: Mutex::new(events),
             pending: HashMap::new(),
             dir: dir.to_path_buf(),
             quiet_time,
+            rearm: false,
         })
     }
 
@@ -85,8 +90,14 @@ impl ShaderWatcher {
             if matches!(event.kind, notify::EventKind::Access(_)) {
                 continue;
             }
+            let moved_or_gone = matches!(
+                event.kind,
+                notify::EventKind::Remove(_) | notify::EventKind::Modify(notify::event::ModifyKind::Name(_))
+            );
             for path in event.paths {
-                if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
+                if moved_or_gone && path == self.dir {
+                    self.rearm = true;
+                } else if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
                     && let Some(name) = path.file_name().and_then(|n| n.to_str())
                 {
                     let p =
@@ -95,6 +106,9 @@ impl ShaderWatcher {
                     p.tried = false;
                 }
             }
+        }
+        if self.rearm && self.dir.is_dir() {
+            self.watch_again(now);
         }
         let mut changes = ShaderChanges::default();
         for (file, p) in &mut self.pending {
@@ -111,6 +125,25 @@ impl ShaderWatcher {
             self.pending.remove(f);
         }
         changes
+    }
+
+    /// Watches the folder's path again (a folder is back there) and offers every shader in it
+    /// as changed: its files may differ from the ones in use, and their events came before the
+    /// watch did. While the watch cannot be made, it is tried again at the next poll.
+    fn watch_again(&mut self, now: Instant) {
+        let _ = self.watcher.unwatch(&self.dir);
+        if self.watcher.watch(&self.dir, RecursiveMode::NonRecursive).is_err() {
+            return;
+        }
+        self.rearm = false;
+        for entry in std::fs::read_dir(&self.dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
+                && let Some(name) = path.file_name().and_then(|n| n.to_str())
+            {
+                self.pending.insert(name.to_owned(), Pending { last_event: now, tried: false });
+            }
+        }
     }
 
     /// `files` compiled while fresh: they need no settled reload unless touched again.
@@ -177,5 +210,62 @@ mod tests {
         std::thread::sleep(quiet);
         assert_eq!(w.poll(), ShaderChanges::default(), "accepted while fresh: done");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Deleting or moving the folder ends the operating system's watch of its path; a folder made
+    /// again there is watched again, its shaders offered as changed, and later edits seen.
+    #[test]
+    fn a_folder_deleted_or_moved_and_made_again_is_watched_again() {
+        let dir = std::env::temp_dir().join(format!("penumbra-watcher-gone-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.wgsl"), "fn a() {}").unwrap();
+        let mut w = ShaderWatcher::with_quiet_time(&dir, Duration::from_millis(20)).unwrap();
+
+        std::fs::remove_dir_all(&dir).unwrap();
+        // The deletion's events (the file, then the folder itself) reach the watcher.
+        let start = Instant::now();
+        while !w.rearm {
+            w.poll();
+            assert!(start.elapsed() < Duration::from_secs(5), "the folder's removal was not seen");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        std::thread::sleep(Duration::from_millis(30));
+        w.poll();
+
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.wgsl"), "fn a() { }").unwrap();
+        std::fs::write(dir.join("b.wgsl"), "fn b() {}").unwrap();
+        assert_eq!(next_changes(&mut w), changes(&[], &["a.wgsl", "b.wgsl"]), "the folder's shaders, offered again");
+        std::thread::sleep(Duration::from_millis(30));
+        w.poll();
+        assert!(!w.busy());
+
+        std::fs::write(dir.join("b.wgsl"), "fn b() { }").unwrap();
+        std::thread::sleep(Duration::from_millis(5));
+        assert_eq!(next_changes(&mut w).fresh, vec!["b.wgsl".to_owned()], "edits after the new watch are seen");
+        std::thread::sleep(Duration::from_millis(30));
+        w.poll();
+
+        // Moved away and replaced (`mv shaders old && cp -r new shaders`): the watch moved with
+        // the old folder, the path is watched again.
+        let moved = dir.with_extension("moved");
+        let _ = std::fs::remove_dir_all(&moved);
+        std::fs::rename(&dir, &moved).unwrap();
+        let start = Instant::now();
+        while !w.rearm {
+            w.poll();
+            assert!(start.elapsed() < Duration::from_secs(5), "the folder's move was not seen");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("c.wgsl"), "fn c() {}").unwrap();
+        assert_eq!(next_changes(&mut w), changes(&[], &["c.wgsl"]), "the new folder's shaders");
+        std::fs::write(moved.join("a.wgsl"), "fn a() {  }").unwrap();
+        std::fs::write(dir.join("c.wgsl"), "fn c() { }").unwrap();
+        std::thread::sleep(Duration::from_millis(5));
+        assert_eq!(next_changes(&mut w).fresh, vec!["c.wgsl".to_owned()], "the old folder is not watched");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&moved);
     }
 }
