@@ -229,7 +229,14 @@ impl ShaderLibrary {
         for (file, source) in &sources {
             let (name, file_imports, _) = get_preprocessor_data(source);
             if let Some(name) = name {
-                module_files.insert(name, file.clone());
+                // Two files declaring one module (a backup copy left in the folder): whichever
+                // won, edits to the other would change nothing, without a word.
+                if let Some(first) = module_files.insert(name.clone(), file.clone()) {
+                    return Err(ShaderError::whole_file(
+                        file,
+                        format!("declares module {name}, which {first} declares too (one file per module)"),
+                    ));
+                }
             }
             imports.insert(file.clone(), file_imports.into_iter().map(|i| i.import).collect::<Vec<_>>());
         }
@@ -480,6 +487,19 @@ mod tests {
 
     fn defs(list: &[&'static str]) -> ShaderDefs {
         ShaderDefs(list.iter().copied().collect())
+    }
+
+    #[test]
+    fn two_files_declaring_one_module_are_an_error() {
+        let dir = std::env::temp_dir().join(format!("penumbra-duplicate-module-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let brdf = EMBEDDED.iter().find(|(f, _)| *f == "brdf.wgsl").unwrap().1;
+        std::fs::write(dir.join("brdf_backup.wgsl"), brdf).unwrap();
+        let err = ShaderLibrary::from_dir(&dir).err().expect("a backup copy declaring penumbra::brdf");
+        assert_eq!(err.file, "brdf_backup.wgsl");
+        assert!(err.message.contains("penumbra::brdf") && err.message.contains("brdf.wgsl declares too"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
