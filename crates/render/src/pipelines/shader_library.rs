@@ -413,13 +413,19 @@ fn read_folder(dir: &Path) -> Result<BTreeMap<String, String>, ShaderError> {
         .map_err(|e| ShaderError::whole_file(&dir.display().to_string(), format!("cannot read the folder: {e}")))?;
     for entry in entries.flatten() {
         let path = entry.path();
-        if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
-            && let Some(name) = path.file_name().and_then(|n| n.to_str())
-        {
+        if let Some(name) = shader_file_name(&path) {
             sources.insert(name.to_owned(), read_source(&path)?);
         }
     }
     Ok(sources)
+}
+
+/// The file name of a shader in a watched folder: `*.wgsl`, not hidden. Editors keep hidden
+/// files beside the one being edited (Emacs's lock `.#forward.wgsl`, a dangling link while a
+/// buffer has unsaved changes), which are not shaders and must not fail a reload.
+pub(crate) fn shader_file_name(path: &Path) -> Option<&str> {
+    let name = path.file_name()?.to_str()?;
+    (path.extension().and_then(|e| e.to_str()) == Some("wgsl") && !name.starts_with('.')).then_some(name)
 }
 
 /// Reads a shader file. An empty file (editors often truncate before writing) or a missing one
@@ -487,6 +493,23 @@ mod tests {
 
     fn defs(list: &[&'static str]) -> ShaderDefs {
         ShaderDefs(list.iter().copied().collect())
+    }
+
+    #[test]
+    fn hidden_editor_files_are_not_shaders() {
+        let dir = std::env::temp_dir().join(format!("penumbra-hidden-shader-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        // Emacs's lock while forward.wgsl has unsaved changes: a link to nowhere.
+        #[cfg(unix)]
+        std::os::unix::fs::symlink("user@host.1234:1700000000", dir.join(".#forward.wgsl")).unwrap();
+        std::fs::write(dir.join(".forward.wgsl"), "not a shader").unwrap();
+        let lib = ShaderLibrary::from_dir(&dir).unwrap_or_else(|e| panic!("{e}"));
+        assert!(lib.sources.keys().all(|f| !f.starts_with('.')), "{:?}", lib.sources.keys());
+        assert_eq!(shader_file_name(Path::new("/s/forward.wgsl")), Some("forward.wgsl"));
+        assert_eq!(shader_file_name(Path::new("/s/.#forward.wgsl")), None);
+        assert_eq!(shader_file_name(Path::new("/s/forward.wgsl~")), None);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

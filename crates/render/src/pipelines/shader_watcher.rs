@@ -21,6 +21,8 @@ use std::time::{Duration, Instant};
 
 use notify::{RecursiveMode, Watcher};
 
+use super::shader_library::shader_file_name;
+
 /// Quiet time before a changed file that did not compile at once is reloaded and its error
 /// reported: longer than the gap between an editor's write steps (a few milliseconds). Should a
 /// slow save outlast it, the half-written file is reported as an error and its next event
@@ -97,9 +99,7 @@ impl ShaderWatcher {
             for path in event.paths {
                 if moved_or_gone && path == self.dir {
                     self.rearm = true;
-                } else if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
-                    && let Some(name) = path.file_name().and_then(|n| n.to_str())
-                {
+                } else if let Some(name) = shader_file_name(&path) {
                     let p =
                         self.pending.entry(name.to_owned()).or_insert(Pending { last_event: arrived, tried: false });
                     p.last_event = p.last_event.max(arrived);
@@ -137,10 +137,7 @@ impl ShaderWatcher {
         }
         self.rearm = false;
         for entry in std::fs::read_dir(&self.dir).into_iter().flatten().flatten() {
-            let path = entry.path();
-            if path.extension().and_then(|e| e.to_str()) == Some("wgsl")
-                && let Some(name) = path.file_name().and_then(|n| n.to_str())
-            {
+            if let Some(name) = shader_file_name(&entry.path()) {
                 self.pending.insert(name.to_owned(), Pending { last_event: now, tried: false });
             }
         }
@@ -193,6 +190,7 @@ mod tests {
 
         std::fs::write(dir.join("a.wgsl"), "fn a() {}").unwrap();
         std::fs::write(dir.join("notes.txt"), "not a shader").unwrap();
+        std::fs::write(dir.join(".#a.wgsl"), "an editor's lock").unwrap();
         // One write is several events (create, modify); let all of them reach the channel.
         std::thread::sleep(Duration::from_millis(50));
         assert_eq!(next_changes(&mut w), changes(&[], &["a.wgsl"]));
