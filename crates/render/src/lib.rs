@@ -52,7 +52,8 @@ pub struct Render;
 /// Where the frame goes.
 #[derive(Resource, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RenderOutput {
-    /// The renderer's own offscreen target of this size, read back with `Renderer::read_headless`.
+    /// The renderer's own offscreen target of this size, read back with `Renderer::read_frame`
+    /// (or `read_headless`, which does not fail on a shader error).
     Headless { width: u32, height: u32 },
     /// Whoever drives the app (the viewer's window loop) calls `Renderer::render` itself.
     External,

@@ -922,7 +922,8 @@ impl Renderer {
     /// from being the frame the shaders describe: a draw whose pipeline did not compile is left
     /// out, and after a failed reload older shaders drew. Headless renders read this, so a
     /// screenshot with a part missing is an error rather than an image; the viewer draws on
-    /// and shows the error beside the frame.
+    /// and shows the error beside the frame. The error stands until a reload succeeds, so with
+    /// the embedded shaders (nothing to reload) every later read fails too.
     pub fn read_frame(&self) -> Result<Vec<u8>, RendererError> {
         if let Some(e) = &self.shader_error {
             return Err(RendererError::Shader(e.clone()));

@@ -122,16 +122,21 @@ impl ShaderError {
 /// A wgpu error as one line: its causes joined with ": ", without the "Validation Error" heading
 /// and the context line naming the call and its label (for a pipeline, the whole key).
 fn wgpu_error_line(e: &wgpu::Error) -> String {
+    // wgpu's context: "In Device::create_render_pipeline[, label = '…']".
+    let is_context = |text: &str| {
+        text.strip_prefix("In ").and_then(|rest| rest.split([',', ' ']).next()).is_some_and(|call| call.contains("::"))
+    };
+    let one_line = |text: &str| text.split_whitespace().collect::<Vec<_>>().join(" ");
     let mut causes = Vec::new();
     let mut cause = std::error::Error::source(e);
     while let Some(c) = cause {
         let text = c.to_string();
-        if !(text.starts_with("In ") && text.contains(", label = ")) {
-            causes.push(text.trim().to_owned());
+        if !is_context(&text) {
+            causes.push(one_line(&text));
         }
         cause = c.source();
     }
-    if causes.is_empty() { e.to_string() } else { causes.join(": ") }
+    if causes.is_empty() { one_line(&e.to_string()) } else { causes.join(": ") }
 }
 
 /// Parses and validates a standalone WGSL source with naga (no imports).
@@ -304,7 +309,12 @@ impl ShaderLibrary {
         let dir =
             self.dir.as_ref().ok_or_else(|| ShaderError::whole_file("shaders", "no shader folder to reload from"))?;
         for file in changed {
-            read_source(&dir.join(file))?;
+            // A file gone that no shader in use came from (the duplicate an error named, now
+            // deleted) is no loss; one in use is, until it is back.
+            let path = dir.join(file);
+            if self.sources.contains_key(file) || path.exists() {
+                read_source(&path)?;
+            }
         }
         let sources = read_folder(dir)?;
         if self.sources.keys().any(|f| !sources.contains_key(f)) {
@@ -517,11 +527,17 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("penumbra-duplicate-module-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
+        let lib = ShaderLibrary::from_dir(&dir).unwrap_or_else(|e| panic!("{e}"));
         let brdf = EMBEDDED.iter().find(|(f, _)| *f == "brdf.wgsl").unwrap().1;
-        std::fs::write(dir.join("brdf_backup.wgsl"), brdf).unwrap();
+        let backup = ["brdf_backup.wgsl".to_owned()];
+        std::fs::write(dir.join(&backup[0]), brdf).unwrap();
         let err = ShaderLibrary::from_dir(&dir).err().expect("a backup copy declaring penumbra::brdf");
         assert_eq!(err.file, "brdf_backup.wgsl");
         assert!(err.message.contains("penumbra::brdf") && err.message.contains("brdf.wgsl declares too"), "{err}");
+        assert_eq!(lib.reloaded(&backup).err(), Some(err), "the same on a reload");
+        // Deleting the copy, as the error asks, reloads cleanly: the file gone was never in use.
+        std::fs::remove_file(dir.join(&backup[0])).unwrap();
+        assert!(lib.reloaded(&backup).is_ok());
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -530,6 +546,40 @@ mod tests {
         assert_eq!(ShaderError::whole_file("x.wgsl", "the file is empty").to_string(), "x.wgsl: the file is empty");
         let placed = ShaderError { file: "x.wgsl".into(), line: 3, column: 7, message: "expected `;`".into() };
         assert_eq!(placed.to_string(), "x.wgsl:3:7: expected `;`");
+    }
+
+    #[test]
+    fn a_wgpu_error_reads_on_one_line_without_its_context() {
+        /// One link of a cause chain.
+        #[derive(Debug)]
+        struct Cause(&'static str, Option<Box<Cause>>);
+        impl std::fmt::Display for Cause {
+            fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str(self.0)
+            }
+        }
+        impl std::error::Error for Cause {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                self.1.as_deref().map(|c| c as _)
+            }
+        }
+        let leaf = Cause("Binding is missing\n   from the pipeline layout", None);
+        let stage = Cause("Error matching ShaderStages(FRAGMENT) shader requirements", Some(Box::new(leaf)));
+        for context in [
+            "In Device::create_render_pipeline, label = 'forward PipelineKey { .. }'",
+            "In Device::create_shader_module",
+        ] {
+            let e = wgpu::Error::Validation {
+                source: Box::new(Cause(context, Some(Box::new(Cause(stage.0, None))))),
+                description: "Validation Error\n\nCaused by:\n ...".into(),
+            };
+            assert_eq!(wgpu_error_line(&e), stage.0, "{context}");
+        }
+        let e = wgpu::Error::Validation { source: Box::new(stage), description: String::new() };
+        assert_eq!(
+            wgpu_error_line(&e),
+            "Error matching ShaderStages(FRAGMENT) shader requirements: Binding is missing from the pipeline layout"
+        );
     }
 
     #[test]

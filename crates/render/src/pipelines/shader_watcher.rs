@@ -52,6 +52,8 @@ pub struct ShaderWatcher {
     events: Mutex<Receiver<(Instant, notify::Result<notify::Event>)>>,
     pending: HashMap<String, Pending>,
     dir: PathBuf,
+    /// `dir` made absolute, as the watcher reports paths (a relative `--shader-dir` too).
+    absolute_dir: PathBuf,
     quiet_time: Duration,
     /// The folder itself was deleted or moved: watch its path again once a folder is there.
     rearm: bool,
@@ -74,6 +76,7 @@ impl ShaderWatcher {
             events: Mutex::new(events),
             pending: HashMap::new(),
             dir: dir.to_path_buf(),
+            absolute_dir: std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf()),
             quiet_time,
             rearm: false,
         })
@@ -97,9 +100,16 @@ impl ShaderWatcher {
                 notify::EventKind::Remove(_) | notify::EventKind::Modify(notify::event::ModifyKind::Name(_))
             );
             for path in event.paths {
-                if moved_or_gone && path == self.dir {
+                if moved_or_gone && (path == self.absolute_dir || path == self.dir) {
+                    // A moved folder keeps the watch (and its files' events come under the old
+                    // path): end it now, not when a folder is back.
+                    let _ = self.watcher.unwatch(&self.dir);
                     self.rearm = true;
-                } else if let Some(name) = shader_file_name(&path) {
+                } else if !self.rearm
+                    && let Some(name) = shader_file_name(&path)
+                {
+                    // (While the folder is gone, a file event is the moved-away folder's; once a
+                    // folder is back, all its shaders are offered anyway.)
                     let p =
                         self.pending.entry(name.to_owned()).or_insert(Pending { last_event: arrived, tried: false });
                     p.last_event = p.last_event.max(arrived);
@@ -211,58 +221,66 @@ mod tests {
     }
 
     /// Deleting or moving the folder ends the operating system's watch of its path; a folder made
-    /// again there is watched again, its shaders offered as changed, and later edits seen.
+    /// again there is watched again, its shaders offered as changed, and later edits seen. The
+    /// folder is named by a relative path, as `--shader-dir shaders` gives it (the watcher
+    /// reports absolute paths).
     #[test]
     fn a_folder_deleted_or_moved_and_made_again_is_watched_again() {
-        let dir = std::env::temp_dir().join(format!("penumbra-watcher-gone-{}", std::process::id()));
+        let absolute = std::env::temp_dir().join(format!("penumbra-watcher-gone-{}", std::process::id()));
+        let cwd = std::env::current_dir().unwrap();
+        let up = cwd.components().count() - 1;
+        let dir: PathBuf =
+            std::iter::repeat_n(Path::new(".."), up).collect::<PathBuf>().join(absolute.strip_prefix("/").unwrap());
+        assert!(dir.is_relative());
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("a.wgsl"), "fn a() {}").unwrap();
-        let mut w = ShaderWatcher::with_quiet_time(&dir, Duration::from_millis(20)).unwrap();
+        // Long enough that this thread's own delays cannot settle a file early.
+        let mut w = ShaderWatcher::with_quiet_time(&dir, Duration::from_millis(400)).unwrap();
+        // Polls until every change has settled and been handed out.
+        let settle = |w: &mut ShaderWatcher| {
+            let start = Instant::now();
+            while w.poll() != ShaderChanges::default() || w.busy() {
+                assert!(start.elapsed() < Duration::from_secs(5), "files did not settle");
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        };
+        let until_rearmed = |w: &mut ShaderWatcher, what: &str| {
+            let start = Instant::now();
+            while !w.rearm {
+                w.poll();
+                assert!(start.elapsed() < Duration::from_secs(5), "the folder's {what} was not seen");
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        };
 
         std::fs::remove_dir_all(&dir).unwrap();
-        // The deletion's events (the file, then the folder itself) reach the watcher.
-        let start = Instant::now();
-        while !w.rearm {
-            w.poll();
-            assert!(start.elapsed() < Duration::from_secs(5), "the folder's removal was not seen");
-            std::thread::sleep(Duration::from_millis(1));
-        }
-        std::thread::sleep(Duration::from_millis(30));
-        w.poll();
-
+        until_rearmed(&mut w, "removal");
+        settle(&mut w);
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("a.wgsl"), "fn a() { }").unwrap();
         std::fs::write(dir.join("b.wgsl"), "fn b() {}").unwrap();
         assert_eq!(next_changes(&mut w), changes(&[], &["a.wgsl", "b.wgsl"]), "the folder's shaders, offered again");
-        std::thread::sleep(Duration::from_millis(30));
-        w.poll();
-        assert!(!w.busy());
-
+        settle(&mut w);
         std::fs::write(dir.join("b.wgsl"), "fn b() { }").unwrap();
-        std::thread::sleep(Duration::from_millis(5));
-        assert_eq!(next_changes(&mut w).fresh, vec!["b.wgsl".to_owned()], "edits after the new watch are seen");
-        std::thread::sleep(Duration::from_millis(30));
-        w.poll();
+        assert_eq!(next_changes(&mut w), changes(&[], &["b.wgsl"]), "edits after the new watch are seen");
+        settle(&mut w);
 
         // Moved away and replaced (`mv shaders old && cp -r new shaders`): the watch moved with
-        // the old folder, the path is watched again.
-        let moved = dir.with_extension("moved");
+        // the old folder and ends; the path is watched again.
+        let moved = absolute.with_extension("moved");
         let _ = std::fs::remove_dir_all(&moved);
         std::fs::rename(&dir, &moved).unwrap();
-        let start = Instant::now();
-        while !w.rearm {
-            w.poll();
-            assert!(start.elapsed() < Duration::from_secs(5), "the folder's move was not seen");
-            std::thread::sleep(Duration::from_millis(1));
-        }
+        until_rearmed(&mut w, "move");
+        std::fs::write(moved.join("a.wgsl"), "fn a() {  }").unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        assert_eq!(w.poll(), ShaderChanges::default(), "the moved-away folder is not watched");
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("c.wgsl"), "fn c() {}").unwrap();
         assert_eq!(next_changes(&mut w), changes(&[], &["c.wgsl"]), "the new folder's shaders");
-        std::fs::write(moved.join("a.wgsl"), "fn a() {  }").unwrap();
+        settle(&mut w);
         std::fs::write(dir.join("c.wgsl"), "fn c() { }").unwrap();
-        std::thread::sleep(Duration::from_millis(5));
-        assert_eq!(next_changes(&mut w).fresh, vec!["c.wgsl".to_owned()], "the old folder is not watched");
+        assert_eq!(next_changes(&mut w), changes(&[], &["c.wgsl"]), "and its edits");
         let _ = std::fs::remove_dir_all(&dir);
         let _ = std::fs::remove_dir_all(&moved);
     }
