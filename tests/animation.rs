@@ -192,13 +192,13 @@ fn the_deformation_pass_runs_only_when_a_pose_changes() {
     let first = render_frames(&mut app, renderer, size, 1).unwrap();
     assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::Deform), "the first frame deforms");
     assert_eq!(deform_passes(&mut app, 3), [false; 3], "a paused pose is not recomputed");
-    let still = app.world.resource::<Renderer>().read_headless().unwrap();
+    let still = app.world.resource::<Renderer>().read_frame().unwrap();
     assert_eq!(first, still, "the deformed copy persists");
     let root = app.world.query_filtered::<Entity, With<AnimationPlayer>>().single(&app.world).unwrap();
     app.world.get_mut::<AnimationPlayer>(root).unwrap().resume();
     // The frame after `resume` shows the paused time once more; then the pose moves every step.
     assert_eq!(deform_passes(&mut app, 4), [false, true, true, true], "a playing skin deforms every frame");
-    let moving = app.world.resource::<Renderer>().read_headless().unwrap();
+    let moving = app.world.resource::<Renderer>().read_frame().unwrap();
     assert_ne!(first, moving, "the pose moved on");
 
     // A scene without skins or morph targets never plans the pass.

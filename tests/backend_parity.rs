@@ -57,7 +57,7 @@ fn render(ctx: GpuContext) -> (Vec<u8>, u32) {
     app.insert_resource(RenderOutput::Headless { width: SIZE.0, height: SIZE.1 });
     app.update();
     let r = app.world.resource::<Renderer>();
-    (r.read_headless().unwrap(), r.settings().msaa)
+    (r.read_frame().unwrap(), r.settings().msaa)
 }
 
 fn gl() -> GpuContext {

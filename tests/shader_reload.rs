@@ -14,7 +14,9 @@ use penumbra::render::pipelines::shader_library::EMBEDDED;
 use penumbra::render::{RenderSettings, Renderer, ShaderSource};
 
 mod common;
-use common::{brightness, render_app, scene_app, scratch_dir, spawn_mesh};
+// Frames here are wanted as drawn, shader errors and all: the tests check the errors themselves.
+use common::render_app_despite_shader_errors as render_app;
+use common::{brightness, scene_app, scratch_dir, spawn_mesh};
 
 const SIZE: (u32, u32) = (48, 48);
 

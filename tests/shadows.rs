@@ -277,7 +277,7 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     app.world.get_mut::<DirectionalLight>(light).unwrap().shadows = false;
     let px = {
         app.update();
-        app.world.resource::<Renderer>().read_headless().unwrap()
+        app.world.resource::<Renderer>().read_frame().unwrap()
     };
     let renderer = app.world.resource::<Renderer>();
     assert!(!renderer.stats().plan.runs(Pass::Shadows));
@@ -457,7 +457,7 @@ fn shadow_maps_are_drawn_again_only_when_something_moves() {
     let drawn = |app: &App| app.world.resource::<Renderer>().shadow_frame().rendered_layers();
     assert!(drawn(&app) > 6, "cascades and the cube map drawn on the first frame");
     app.update();
-    let second = app.world.resource::<Renderer>().read_headless().unwrap();
+    let second = app.world.resource::<Renderer>().read_frame().unwrap();
     assert_eq!(drawn(&app), 0, "nothing moved: no shadow pass");
     assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
     assert_eq!(first, second, "the kept maps give the same image");
