@@ -141,6 +141,32 @@ fn headless_frames_drawn_with_a_shader_error_are_errors() {
     assert!(runner.run_on(&mut app).is_err() && !shot.exists(), "nor is a screenshot");
 }
 
+/// A pass the scene does not run still has its file checked on save: an edit that reaches no
+/// pipeline in use is composed and validated in its plain variant, so its mistake shows now.
+#[test]
+fn an_edit_to_a_pass_not_in_use_is_still_checked() {
+    let dir = shader_folder("reload-unused-pass");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let file = "deferred_lights.wgsl";
+    let source = std::fs::read_to_string(dir.join(file)).unwrap();
+    let reload = |app: &mut App| app.world.resource_mut::<Renderer>().reload_shaders(&[file.to_owned()]);
+
+    std::fs::write(dir.join(file), format!("{source}\n// edited\n")).unwrap();
+    let report = reload(&mut app).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(report.rebuilt, 0, "no local lights: no pipeline of the scene uses {file}");
+
+    let broken = format!("{source}\nfn broken( {{\n");
+    std::fs::write(dir.join(file), &broken).unwrap();
+    let err = reload(&mut app).expect_err("a syntax error in a pass not in use");
+    assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good, "the frame is as it was");
+
+    std::fs::write(dir.join(file), &source).unwrap();
+    assert!(reload(&mut app).is_ok());
+    assert!(renderer(&app).shader_error().is_none(), "the error clears once fixed");
+}
+
 #[test]
 fn empty_renamed_and_deleted_files_are_errors_until_the_file_is_whole() {
     let dir = shader_folder("reload-editors");

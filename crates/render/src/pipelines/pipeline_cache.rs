@@ -918,6 +918,16 @@ impl PipelineCache {
             + gizmo.len()
             + visibility_raster.len()
             + visibility_shade.len();
+        if rebuilt + env.len() + post.len() == 0 {
+            // The edit reached no pipeline in use (a pass this scene does not run): the changed
+            // entry files are composed and validated in their plain variant all the same, so a
+            // mistake shows now rather than when a scene first needs the pass.
+            let lib = self.library(&mut candidate);
+            let entries: Vec<&String> = files.iter().filter(|f| lib.is_entry(f)).collect();
+            for file in entries {
+                lib.compose(file, &ShaderDefs::default())?;
+            }
+        }
         self.shaders = candidate.expect("still there");
         self.visibility_raster.extend(visibility_raster);
         self.visibility_shade.extend(visibility_shade);

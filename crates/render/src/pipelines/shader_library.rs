@@ -349,6 +349,12 @@ impl ShaderLibrary {
         self.sources == other.sources
     }
 
+    /// Whether `file` is one of the library's entry points (a file no other imports as a
+    /// module: forward.wgsl, tonemap.wgsl, …).
+    pub fn is_entry(&self, file: &str) -> bool {
+        self.sources.contains_key(file) && !self.module_files.values().any(|m| m == file)
+    }
+
     /// Whether `entry` (transitively) includes any of `files`, itself included.
     pub fn depends_on(&self, entry: &str, files: &[String]) -> bool {
         let mut seen = HashSet::new();

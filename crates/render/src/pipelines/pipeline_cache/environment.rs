@@ -315,7 +315,7 @@ impl PipelineCache {
     }
 
     pub(super) fn apply_env_reload(&mut self, reload: EnvReload) -> usize {
-        let n = reload.steps.len() + reload.background.len();
+        let n = reload.len();
         self.env.extend(reload.steps);
         self.background.extend(reload.background);
         n
@@ -332,5 +332,10 @@ pub(super) struct EnvReload {
 impl EnvReload {
     pub(super) fn rebuilds_steps(&self) -> bool {
         !self.steps.is_empty()
+    }
+
+    /// How many pipelines it rebuilt.
+    pub(super) fn len(&self) -> usize {
+        self.steps.len() + self.background.len()
     }
 }

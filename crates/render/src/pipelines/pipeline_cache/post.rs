@@ -77,6 +77,13 @@ pub(super) struct PostReload {
     fxaa: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
 }
 
+impl PostReload {
+    /// How many pipelines it rebuilt.
+    pub(super) fn len(&self) -> usize {
+        self.bloom.len() + self.exposure.len() + self.fxaa.len()
+    }
+}
+
 impl PipelineCache {
     pub fn exposure_layout(&self) -> &wgpu::BindGroupLayout {
         &self.post_layouts.exposure
@@ -226,7 +233,7 @@ impl PipelineCache {
     }
 
     pub(super) fn apply_post_reload(&mut self, reload: PostReload) -> usize {
-        let n = reload.bloom.len() + reload.exposure.len() + reload.fxaa.len();
+        let n = reload.len();
         self.bloom.extend(reload.bloom);
         self.exposure.extend(reload.exposure);
         self.fxaa.extend(reload.fxaa);
