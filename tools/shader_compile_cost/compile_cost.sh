@@ -11,8 +11,9 @@
 # --optimized. Prints the module's IR instruction count, llc's instructions in millions (parsing
 # the module included, about 90 M for the helmet's) and the machine code's size.
 # Needs: cc, valgrind, binutils (size), llvm-15 (llc-15, llvm-as-15) and Mesa's lavapipe with
-# LLVM 15 (Debian 12). PENUMBRA names the binary (default: the checkout's target/release/penumbra). Example, DamagedHelmet's variant
-# with image-based lighting, then an edited copy of the shaders:
+# LLVM 15 (Debian 12). PENUMBRA names the binary (default: the checkout's
+# target/release/penumbra); KEEP=1 keeps the work folder. Example, DamagedHelmet's variant with
+# image-based lighting, then an edited copy of the shaders:
 #   tools/shader_compile_cost/compile_cost.sh
 #   tools/shader_compile_cost/compile_cost.sh --shader-dir /tmp/edited-shaders
 set -euo pipefail

@@ -1,7 +1,7 @@
 // LD_PRELOAD shim for Mesa's llvmpipe (lavapipe): writes every LLVM module llvmpipe hands to
 // LLVMRunPasses into $DUMP_DIR as NNNNNN.ll (before the passes) and NNNNNN.opt.ll (after), with
-// the pass pipeline in NNNNNN.passes, numbered in call order. The last .opt.ll of a module is what LLVM's code generator
-// compiles. Used by compile_cost.sh.
+// the pass pipeline in NNNNNN.passes, numbered in call order. The last .opt.ll of a module is
+// what LLVM's code generator compiles. Used by compile_cost.sh.
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <stdio.h>

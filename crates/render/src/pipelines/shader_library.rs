@@ -326,7 +326,7 @@ impl ShaderLibrary {
         let mut module_edited = false;
         for (f, source) in sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)) {
             let (module_path, file_imports, _) = get_preprocessor_data(source);
-            if module_path.is_some() || self.module_files.values().any(|m| m == f) {
+            if module_path.is_some() || self.is_module(f) {
                 module_edited = true;
                 break;
             }
@@ -352,7 +352,12 @@ impl ShaderLibrary {
     /// Whether `file` is one of the library's entry points (a file no other imports as a
     /// module: forward.wgsl, tonemap.wgsl, …).
     pub fn is_entry(&self, file: &str) -> bool {
-        self.sources.contains_key(file) && !self.module_files.values().any(|m| m == file)
+        self.sources.contains_key(file) && !self.is_module(file)
+    }
+
+    /// Whether `file` declares a module (`#define_import_path`) in this library.
+    fn is_module(&self, file: &str) -> bool {
+        self.module_files.values().any(|m| m == file)
     }
 
     /// Whether `entry` (transitively) includes any of `files`, itself included.

@@ -76,9 +76,13 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
             }
         }
     }
-    pairs.retain(|&pair, alike| {
-        *alike && reader.get(&pair.0) == Some(&Some(pair)) && reader.get(&pair.1) == Some(&Some(pair))
-    });
+    let mut packable: HashSet<Pair> = pairs
+        .into_iter()
+        .filter(|&(pair, alike)| {
+            alike && reader.get(&pair.0) == Some(&Some(pair)) && reader.get(&pair.1) == Some(&Some(pair))
+        })
+        .map(|(pair, _)| pair)
+        .collect();
     let mut packed: HashMap<Pair, usize> = HashMap::new();
     for m in materials.iter_mut() {
         let (Some(mr), Some(ao)) = (&m.textures[METALLIC_ROUGHNESS_SLOT], &m.textures[OCCLUSION_SLOT]) else {
@@ -92,9 +96,9 @@ pub(crate) fn pack_occlusion(materials: &mut [MaterialDesc], images: &mut Vec<Op
         let key = (Arc::as_ptr(&mr_image), Arc::as_ptr(&ao_image));
         let index = match packed.get(&key) {
             Some(&i) => i,
-            None if pairs.get(&key) == Some(&true) => {
+            None if packable.contains(&key) => {
                 let Some(image) = packed_image(&mr_image, &ao_image) else {
-                    pairs.insert(key, false);
+                    packable.remove(&key);
                     continue;
                 };
                 images.push(Some(Arc::new(image)));
