@@ -165,6 +165,14 @@ fn an_edit_to_a_pass_not_in_use_is_still_checked() {
     std::fs::write(dir.join(file), &source).unwrap();
     assert!(reload(&mut app).is_ok());
     assert!(renderer(&app).shader_error().is_none(), "the error clears once fixed");
+
+    // One save of two files, one of them in use (forward.wgsl rebuilds): the other is checked too.
+    let both = ["forward.wgsl".to_owned(), file.to_owned()];
+    std::fs::write(dir.join(&both[0]), format!("{}\n// edited\n", forward(&dir))).unwrap();
+    std::fs::write(dir.join(file), &broken).unwrap();
+    let err = app.world.resource_mut::<Renderer>().reload_shaders(&both).expect_err("the broken file of the two");
+    assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good, "the frame is as it was");
 }
 
 #[test]

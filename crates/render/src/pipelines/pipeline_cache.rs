@@ -918,15 +918,15 @@ impl PipelineCache {
             + gizmo.len()
             + visibility_raster.len()
             + visibility_shade.len();
-        if rebuilt + env.len() + post.len() == 0 {
-            // The edit reached no pipeline in use (a pass this scene does not run): the changed
-            // entry files are composed and validated in their plain variant all the same, so a
-            // mistake shows now rather than when a scene first needs the pass.
-            let lib = self.library(&mut candidate);
-            let entries: Vec<&String> = files.iter().filter(|f| lib.is_entry(f)).collect();
-            for file in entries {
-                lib.compose(file, &ShaderDefs::default())?;
-            }
+        // A changed entry file that no pipeline in use was rebuilt from (a pass this scene does
+        // not run) is composed and validated in its plain variant all the same, so a mistake
+        // shows now rather than when a scene first needs the pass. Nothing to do for an edit
+        // whose pipelines were rebuilt (the reload benchmark's).
+        let lib = self.library(&mut candidate);
+        let unchecked: Vec<String> =
+            files.iter().filter(|f| lib.is_entry(f) && !lib.has_composed(f)).cloned().collect();
+        for file in unchecked {
+            lib.compose(&file, &ShaderDefs::default())?;
         }
         self.shaders = candidate.expect("still there");
         self.visibility_raster.extend(visibility_raster);
