@@ -8,8 +8,8 @@
 //!   entry files (`forward.wgsl`, `tonemap.wgsl`, `mipmap.wgsl`) with `#import`; `#ifdef`
 //!   switches are resolved per variant ([`ShaderDefs`]) before compilation, so a variant's module
 //!   contains only the code it uses. naga_oil (Bevy's composer, built on naga 30) does both and
-//!   validates the result with naga. A switch no variant defines ([`FEATURE_SWITCHES`]) is
-//!   refused as a typo before composition.
+//!   validates the result with naga. A switch no variant defines is refused as a typo before
+//!   composition ([`super::feature_switches`]).
 //! - Errors are `file:line:column: message` against the file the user edited, never against
 //!   composed text.
 //! - A library is immutable once built: a reload builds a candidate library from the new sources
@@ -20,6 +20,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
+use super::feature_switches::{self, FEATURE_SWITCHES};
 use naga_oil::compose::{
     ComposableModuleDescriptor, Composer, ComposerError, ComposerErrorInner, NagaModuleDescriptor, ShaderDefValue,
     ShaderLanguage, ShaderType, get_preprocessor_data,
@@ -71,65 +72,6 @@ pub const EMBEDDED: &[(&str, &str)] = &[
 /// The repository's shader folder as seen at compile time; the viewer watches it when it still
 /// exists at run time (running from a checkout).
 pub const REPOSITORY_SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders");
-
-/// Every feature switch some variant defines (`ShaderDefs::with`), and so every name a shader's
-/// `#ifdef`, `#ifndef` or `#if` may test besides what a shader `#define`s itself. A name outside
-/// it is a typo whose block no variant would ever compile (or, under `#ifndef`, every variant
-/// would): the library refuses it rather than leave the code out without a word. The embedded
-/// shaders test exactly these names (unit test).
-pub const FEATURE_SWITCHES: &[&str] = &[
-    "ALPHA_BLEND",
-    "ALPHA_COVERAGE",
-    "ALPHA_MASK",
-    "ALPHA_SAMPLE_RATE",
-    "AUTO_EXPOSURE",
-    "BASE_COLOR_TEXTURE",
-    "BLOOM",
-    "CLUSTERED_LIGHTS",
-    "DEBUG_CASCADES",
-    "DEBUG_CLUSTER_HEAT",
-    "DEBUG_NORMALS",
-    "DEBUG_UVS",
-    "DECODE_SRGB",
-    "DEFERRED_LOCAL_LIGHTS",
-    "DOWNSAMPLE",
-    "EMISSIVE_TEXTURE",
-    "ENCODE_SRGB",
-    "FIRST",
-    "FROM_DEPTH",
-    "IBL",
-    "IES_LIGHTS",
-    "IRRADIANCE_SH",
-    "LINE_QUADS",
-    "LOCAL_LIGHTS",
-    "LOCAL_SHADOWS",
-    "LTC_LIGHTS",
-    "METALLIC_ROUGHNESS_TEXTURE",
-    "MULTISAMPLED",
-    "NORMAL_MAP",
-    "OCCLUSION_EARLY",
-    "OCCLUSION_IN_METALLIC_ROUGHNESS",
-    "OCCLUSION_LATE",
-    "OCCLUSION_TEXTURE",
-    "POOL_VERTICES",
-    "PULLED_VERTICES",
-    "SHADOWS",
-    "SPECULAR",
-    "SPHERE_TUBE_LIGHTS",
-    "SRGB",
-    "TONEMAP_ACES",
-    "TONEMAP_IN_FORWARD",
-    "TONEMAP_NEUTRAL",
-    "TRANSFORMED_UVS",
-    "TRIANGLE_CULLING",
-    "UNBOUNDED_LIGHTS",
-    "UNLIT",
-    "VERTEX_COLORS",
-    "VISIBILITY_BACKGROUND",
-    "VISIBILITY_DISPLAY",
-    "VISIBILITY_SHADE",
-    "VISIBILITY_TONEMAP",
-];
 
 /// The feature switches of one variant: the `#ifdef` names that are defined.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -219,78 +161,6 @@ pub fn validate(file: &str, source: &str) -> Result<naga::Module, ShaderError> {
     Ok(module)
 }
 
-/// One file's preprocessor lines that name a feature switch: the names it tests (`#ifdef`,
-/// `#ifndef`, `#if`, each also after `#else`) with the 1-based line and column of each, and the
-/// names it `#define`s itself. The directives are naga_oil's.
-struct SwitchLines<'a> {
-    tests: Vec<(&'a str, &'static str, u32, u32)>,
-    defines: Vec<&'a str>,
-}
-
-fn switch_lines(source: &str) -> SwitchLines<'_> {
-    let mut found = SwitchLines { tests: Vec::new(), defines: Vec::new() };
-    for (i, line) in source.lines().enumerate() {
-        let Some(rest) = line.trim_start().strip_prefix('#') else { continue };
-        let rest = rest.trim_start();
-        let rest = match rest.strip_prefix("else") {
-            Some(r) if r.starts_with(char::is_whitespace) => r.trim_start(),
-            _ => rest,
-        };
-        // (`#define_import_path` is not `#define`: no space after it.)
-        let directive = ["ifdef", "ifndef", "if", "define"].into_iter().find_map(|d| {
-            rest.strip_prefix(d).filter(|r| r.starts_with(char::is_whitespace)).map(|r| (d, r.trim_start()))
-        });
-        let Some((directive, tail)) = directive else { continue };
-        let name = &tail[..tail.find(|c: char| !(c.is_alphanumeric() || c == '_')).unwrap_or(tail.len())];
-        if name.is_empty() {
-            continue;
-        }
-        if directive == "define" {
-            found.defines.push(name);
-        } else {
-            let column = line[..line.len() - tail.len()].chars().count() + 1;
-            found.tests.push((name, directive, i as u32 + 1, column as u32));
-        }
-    }
-    found
-}
-
-/// Refuses a switch in `files` that neither a variant nor any of `sources` defines: a typo whose
-/// code would silently never compile, or always (see [`FEATURE_SWITCHES`]).
-fn check_switches<'a>(
-    sources: &BTreeMap<String, String>,
-    files: impl IntoIterator<Item = &'a String>,
-) -> Result<(), ShaderError> {
-    let mut defined: HashSet<&str> = FEATURE_SWITCHES.iter().copied().collect();
-    defined.extend(sources.values().flat_map(|s| switch_lines(s).defines));
-    for file in files {
-        let Some(source) = sources.get(file) else { continue };
-        let Some(&(name, directive, line, column)) =
-            switch_lines(source).tests.iter().find(|(name, ..)| !defined.contains(name))
-        else {
-            continue;
-        };
-        let outcome = if directive == "ifndef" { "always" } else { "never" };
-        let closest = defined
-            .iter()
-            // Optimal string alignment: a swap of two letters (UNLTI) is one edit.
-            .map(|d| (strsim::osa_distance(d, name), *d))
-            .min()
-            .filter(|(distance, _)| *distance <= (name.len() / 3).max(1))
-            .map_or(String::new(), |(_, d)| format!(" (did you mean {d}?)"));
-        return Err(ShaderError {
-            file: file.clone(),
-            line,
-            column,
-            message: format!(
-                "unknown feature switch {name}{closest}: no variant defines it, so the code this #{directive} \
-                 guards would {outcome} be compiled"
-            ),
-        });
-    }
-    Ok(())
-}
-
 /// Turns naga_oil's report (a codespan diagnostic) into `file:line:column: message`.
 fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -> ShaderError {
     let report = e.emit_to_string(composer);
@@ -367,7 +237,7 @@ impl ShaderLibrary {
     fn from_sources(dir: Option<PathBuf>, sources: BTreeMap<String, String>) -> Result<Self, ShaderError> {
         let mut module_files = HashMap::new();
         let mut imports = HashMap::new();
-        check_switches(&sources, sources.keys())?;
+        feature_switches::check(&sources)?;
         for (file, source) in &sources {
             let (name, file_imports, _) = get_preprocessor_data(source);
             if let Some(name) = name {
@@ -466,9 +336,11 @@ impl ShaderLibrary {
         }
         // Only entry files changed: same modules, same composer. Each edited file is scanned
         // once (the scan finds both whether it declares a module and what it imports).
+        // Every file, not only the edited ones: a `#define` taken out of an entry file can leave
+        // a module testing a name nothing defines.
+        feature_switches::check(&sources)?;
         let edited: Vec<&String> =
             sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
-        check_switches(&sources, edited.iter().copied())?;
         let mut imports = self.imports.clone();
         let mut module_edited = false;
         for f in edited {
@@ -881,67 +753,6 @@ mod tests {
         assert_eq!(err.line as usize, line, "{err}");
         assert!(err.column > 0, "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
-    }
-
-    #[test]
-    fn the_switch_list_is_what_the_embedded_shaders_test() {
-        let tested: BTreeSet<&str> =
-            EMBEDDED.iter().flat_map(|(_, s)| switch_lines(s).tests.into_iter().map(|(name, ..)| name)).collect();
-        let listed: BTreeSet<&str> = FEATURE_SWITCHES.iter().copied().collect();
-        assert_eq!(tested, listed, "FEATURE_SWITCHES against the embedded shaders' #ifdef names");
-        assert_eq!(listed.len(), FEATURE_SWITCHES.len(), "no name twice");
-    }
-
-    #[test]
-    fn an_unknown_switch_is_an_error_at_its_name() {
-        let forward = EMBEDDED.iter().find(|(f, _)| *f == "forward.wgsl").unwrap().1;
-        let edit = |from: &str, to: &str| {
-            let line = forward.lines().position(|l| l.trim() == from).expect("the test's edit must apply") + 1;
-            let column = forward.lines().nth(line - 1).unwrap().find(from).unwrap() + to.rfind(' ').unwrap() + 2;
-            let err = ShaderLibrary::embedded_with("forward.wgsl", &forward.replacen(from, to, 1))
-                .err()
-                .unwrap_or_else(|| panic!("{to} must not build"));
-            assert_eq!(
-                (err.file.as_str(), err.line, err.column as usize),
-                ("forward.wgsl", line as u32, column),
-                "{err}"
-            );
-            err.message
-        };
-        let typo = edit("#ifdef NORMAL_MAP", "#ifdef NORMAL_MPA");
-        assert!(typo.contains("unknown feature switch NORMAL_MPA (did you mean NORMAL_MAP?)"), "{typo}");
-        assert!(typo.contains("would never be compiled"), "{typo}");
-        let negated = edit("#ifndef UNLIT", "#ifndef UNLTI");
-        assert!(negated.contains("(did you mean UNLIT?)") && negated.contains("would always be"), "{negated}");
-        let far = edit("#ifdef IBL", "#  else   ifdef WIREFRAME");
-        assert!(far.starts_with("unknown feature switch WIREFRAME: "), "no suggestion this far off: {far}");
-        // A switch the file defines itself is known, and so is `#define_import_path`'s line.
-        let own = forward.replacen("#ifdef IBL", "#define MY_SWITCH\n#ifdef MY_SWITCH\n#endif\n#ifdef IBL", 1);
-        assert!(ShaderLibrary::embedded_with("forward.wgsl", &own).is_ok());
-    }
-
-    #[test]
-    fn a_reload_refuses_an_unknown_switch() {
-        let dir = std::env::temp_dir().join(format!("penumbra-unknown-switch-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let lib = ShaderLibrary::from_dir(&dir).unwrap_or_else(|e| panic!("{e}"));
-        let changed = |file: &str, from: &str, to: &str| {
-            let source = EMBEDDED.iter().find(|(f, _)| *f == file).unwrap().1;
-            assert!(source.contains(from), "the test's edit must apply");
-            std::fs::write(dir.join(file), source.replacen(from, to, 1)).unwrap();
-            lib.reloaded(&[file.to_owned()])
-        };
-        // An entry file (the reload that keeps the composer) and a module (one that rebuilds it).
-        let entry = changed("tonemap.wgsl", "#ifdef BLOOM", "#ifdef BLOM").err().expect("a typo in an entry");
-        assert!(entry.message.contains("(did you mean BLOOM?)"), "{entry}");
-        std::fs::remove_file(dir.join("tonemap.wgsl")).unwrap();
-        let module = changed("lights.wgsl", "#ifdef SPHERE_TUBE_LIGHTS", "#ifdef SPHERE_TUBE_LIGTHS")
-            .err()
-            .expect("in a module");
-        assert_eq!(module.file, "lights.wgsl", "{module}");
-        assert!(module.message.contains("(did you mean SPHERE_TUBE_LIGHTS?)"), "{module}");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
