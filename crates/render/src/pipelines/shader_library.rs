@@ -334,11 +334,11 @@ impl ShaderLibrary {
         if self.sources.keys().any(|f| !sources.contains_key(f)) {
             return Self::from_sources(Some(dir.clone()), sources);
         }
+        // Every file's switches, not only the edited ones': a `#define` taken out of an entry
+        // file can leave a module testing a name nothing defines.
+        feature_switches::check(&sources)?;
         // Only entry files changed: same modules, same composer. Each edited file is scanned
         // once (the scan finds both whether it declares a module and what it imports).
-        // Every file, not only the edited ones: a `#define` taken out of an entry file can leave
-        // a module testing a name nothing defines.
-        feature_switches::check(&sources)?;
         let edited: Vec<&String> =
             sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
         let mut imports = self.imports.clone();
