@@ -6,7 +6,8 @@
 //! silently never compile (`#ifdef NORMAL_MPA`), or always (`#ifndef`), or fail to compose in
 //! every variant (`#if NAME == value`). The shader library runs [`check`] over every source when
 //! it is built and on every reload, before composition, so such a name is an error at its place
-//! with the closest switch suggested; `ShaderDefs::with` asserts that what Rust sets is listed.
+//! with the closest switch suggested; `ShaderDefs::with` debug-asserts that what Rust sets is
+//! listed.
 //! Names a shader `#define`s itself count: an entry file's own, and for a module (which
 //! naga_oil does not let define) any entry file's.
 
@@ -90,13 +91,14 @@ struct Directives {
     module: bool,
     tests: Vec<Test>,
     defines: Vec<String>,
-    /// `#elseifdef NAME` and the like, which naga_oil reads as a plain `#else`: (line, column).
-    fused_else: Option<(u32, u32)>,
+    /// The first `#elseifdef NAME` or the like, which naga_oil reads as a plain `#else`: (line,
+    /// column).
+    malformed_else: Option<(u32, u32)>,
 }
 
-/// naga_oil's name characters (`[\w|\d|_]+`).
+/// naga_oil's name characters (`[\w|\d|_]+`, Unicode `\w` as the regex crate reads it).
 fn is_name_char(c: char) -> bool {
-    c.is_alphanumeric() || c == '_' || c == '|'
+    regex_syntax::is_word_character(c) || c == '|'
 }
 
 fn directives(source: &str) -> Directives {
@@ -123,24 +125,44 @@ fn scan<'a>(lines: impl Iterator<Item = (Cow<'a, str>, &'a str)>) -> Directives 
         };
         let Some(rest) = clean.trim_start().strip_prefix('#') else { continue };
         let rest = rest.trim_start();
+        let directive_at = column(rest);
         if rest.starts_with("define_import_path") {
             found.module = true;
             continue;
         }
-        let rest = match rest.strip_prefix("else") {
-            Some(r) if r.starts_with("if") => {
-                found.fused_else.get_or_insert((i as u32 + 1, column(rest)));
+        // naga_oil reads `#else` followed by anything but a whole branch directive
+        // (`#elseifdef X`, `#else ifdef`, `#else if X`) as a plain `#else`, silently.
+        let (after_else, rest) = match rest.strip_prefix("else") {
+            Some(r) if r.trim().is_empty() => continue,
+            Some(r) if r.starts_with(char::is_whitespace) => (true, r.trim_start()),
+            Some(_) => {
+                found.malformed_else.get_or_insert((i as u32 + 1, directive_at));
                 continue;
             }
-            Some(r) if r.starts_with(char::is_whitespace) => r.trim_start(),
-            _ => rest,
+            None => (false, rest),
+        };
+        let mut malformed = || {
+            found.malformed_else.get_or_insert((i as u32 + 1, directive_at));
         };
         let directive = ["ifdef", "ifndef", "if", "define"].into_iter().find_map(|d| {
             rest.strip_prefix(d).filter(|r| r.starts_with(char::is_whitespace)).map(|r| (d, r.trim_start()))
         });
-        let Some((directive, tail)) = directive else { continue };
+        let Some((directive, tail)) = directive.filter(|(d, _)| !(after_else && *d == "define")) else {
+            if after_else {
+                malformed();
+            }
+            continue;
+        };
         let name = &tail[..tail.find(|c: char| !is_name_char(c)).unwrap_or(tail.len())];
-        if name.is_empty() {
+        // `#if NAME op value`: naga_oil's operator may be empty, its value may not.
+        let compared = || {
+            let value = tail[name.len()..].trim_start().trim_start_matches(['=', '!', '<', '>']).trim_start();
+            value.starts_with(|c: char| is_name_char(c) || c == '-')
+        };
+        if name.is_empty() || (directive == "if" && !compared()) {
+            if after_else {
+                malformed();
+            }
             continue;
         }
         if directive == "define" {
@@ -153,7 +175,8 @@ fn scan<'a>(lines: impl Iterator<Item = (Cow<'a, str>, &'a str)>) -> Directives 
 }
 
 /// The first switch in `sources` (by file name, then line) that no variant and no `#define` in
-/// its reach defines, as an error at the name; or a fused `#elseifdef`.
+/// its reach defines, as an error at the name; or a listed switch in an `#if`, or an `#else`
+/// naga_oil would read as a plain one.
 pub fn check(sources: &BTreeMap<String, String>) -> Result<(), ShaderError> {
     let scanned: Vec<(&String, Directives)> = sources.iter().map(|(f, s)| (f, directives(s))).collect();
     // What an entry file defines reaches the modules it imports; which ones is the composer's
@@ -161,8 +184,8 @@ pub fn check(sources: &BTreeMap<String, String>) -> Result<(), ShaderError> {
     let entry_defines: HashSet<&str> =
         scanned.iter().filter(|(_, d)| !d.module).flat_map(|(_, d)| d.defines.iter().map(String::as_str)).collect();
     for (file, found) in &scanned {
-        if let Some((line, column)) = found.fused_else {
-            let message = "naga_oil reads `#elseif…` as a plain `#else`: write `#else ifdef NAME` (or `ifndef`, `if`)";
+        if let Some((line, column)) = found.malformed_else {
+            let message = "naga_oil reads this as a plain #else: write #else ifdef NAME (or #else ifndef NAME)";
             return Err(ShaderError { file: (*file).clone(), line, column, message: message.to_owned() });
         }
         let in_reach: Vec<&str> = if found.module {
@@ -170,8 +193,26 @@ pub fn check(sources: &BTreeMap<String, String>) -> Result<(), ShaderError> {
         } else {
             found.defines.iter().map(String::as_str).collect()
         };
-        let known = |name: &str| FEATURE_SWITCHES.binary_search(&name).is_ok() || in_reach.contains(&name);
-        let Some(test) = found.tests.iter().find(|t| !known(&t.name)) else { continue };
+        let listed = |name: &str| FEATURE_SWITCHES.binary_search(&name).is_ok();
+        // A switch is defined only where it is on, and naga_oil fails an `#if` on an undefined
+        // name: switches are for `#ifdef` and `#ifndef`, `#if` for a file's own values.
+        if let Some(t) =
+            found.tests.iter().find(|t| t.directive == "if" && listed(&t.name) && !in_reach.contains(&t.name.as_str()))
+        {
+            return Err(ShaderError {
+                file: (*file).clone(),
+                line: t.line,
+                column: t.column,
+                message: format!(
+                    "feature switch {} in an #if: a switch is defined only where it is on, so this fails to compose \
+                     wherever it is off; test it with #ifdef or #ifndef",
+                    t.name
+                ),
+            });
+        }
+        let Some(test) = found.tests.iter().find(|t| !listed(&t.name) && !in_reach.contains(&t.name.as_str())) else {
+            continue;
+        };
         let name = test.name.as_str();
         let closest = FEATURE_SWITCHES
             .iter()
@@ -213,11 +254,13 @@ mod tests {
         assert_eq!(tested, listed, "FEATURE_SWITCHES against the embedded shaders' #ifdef names");
         assert!(FEATURE_SWITCHES.is_sorted_by(|a, b| a < b), "sorted (check searches it), no name twice");
         // The other way: a switch no pipeline sets any more would leave its code out for good.
-        // (ShaderDefs::with asserts that whatever is set is listed.)
+        // (ShaderDefs::with debug-asserts that whatever is set is listed.)
         let pipeline_code = [
             include_str!("pipeline_cache.rs"),
             include_str!("pipeline_cache/casters.rs"),
             include_str!("pipeline_cache/culling.rs"),
+            include_str!("pipeline_cache/deform.rs"),
+            include_str!("pipeline_cache/gizmos.rs"),
             include_str!("pipeline_cache/environment.rs"),
             include_str!("pipeline_cache/post.rs"),
             include_str!("pipeline_cache/visibility.rs"),
@@ -258,8 +301,18 @@ mod tests {
         // naga_oil's names take `|`: this is one name, and no variant defines it.
         let piped = edit("#ifdef IBL", "#ifdef IBL|SHADOWS", "IBL|");
         assert!(piped.starts_with("unknown feature switch IBL|SHADOWS"), "{piped}");
-        let fused = edit("#ifdef IBL", "#elseifdef IBL", "elseifdef");
-        assert!(fused.contains("plain `#else`"), "{fused}");
+        // `#else` with anything but a whole branch after it is a plain `#else` to naga_oil.
+        for malformed in ["#elseifdef IBL", "#else ifdef", "#else if IBL", "#else define IBL"] {
+            let message = edit("#ifdef IBL", malformed, "else");
+            assert!(message.starts_with("naga_oil reads this as a plain #else"), "{malformed}: {message}");
+        }
+        // Switches are defined only where they are on: `#if` on one fails where it is off.
+        let listed = edit("#ifdef IBL", "#if SHADOWS == true", "SHADOWS");
+        assert!(listed.contains("test it with #ifdef or #ifndef"), "{listed}");
+        // Columns count characters, after a block comment on the same line too.
+        let source = forward.replacen("#ifdef IBL", "/* é */ #ifdef TYPO\n#endif\n#ifdef IBL", 1);
+        let err = ShaderLibrary::embedded_with("forward.wgsl", &source).err().expect("TYPO");
+        assert_eq!((err.line as usize, err.column), (forward.lines().position(|l| l == "#ifdef IBL").unwrap() + 1, 16));
     }
 
     #[test]
@@ -272,6 +325,7 @@ mod tests {
         };
         assert_eq!(with("/* an old path:\n#ifdef OLD_PATH\n#endif\n*/"), None, "inside a block comment");
         assert_eq!(with("#define MY_SWITCH\n#ifdef MY_SWITCH\n#endif"), None, "defined by the file itself");
+        assert_eq!(with("#define LEVEL 2\n#if LEVEL == 2\n#endif"), None, "an #if on the file's own value");
         // A #define inside a comment defines nothing.
         assert!(with("// #define MY_SWITCH\n#ifdef MY_SWITCH\n#endif").is_some());
         // Another entry file's #define is out of an entry's reach.

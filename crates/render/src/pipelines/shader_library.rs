@@ -334,16 +334,13 @@ impl ShaderLibrary {
         if self.sources.keys().any(|f| !sources.contains_key(f)) {
             return Self::from_sources(Some(dir.clone()), sources);
         }
-        // Every file's switches, not only the edited ones': a `#define` taken out of an entry
-        // file can leave a module testing a name nothing defines.
-        feature_switches::check(&sources)?;
         // Only entry files changed: same modules, same composer. Each edited file is scanned
         // once (the scan finds both whether it declares a module and what it imports).
         let edited: Vec<&String> =
             sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
         let mut imports = self.imports.clone();
         let mut module_edited = false;
-        for f in edited {
+        for &f in &edited {
             let source = &sources[f];
             let (module_path, file_imports, _) = get_preprocessor_data(source);
             if module_path.is_some() || self.is_module(f) {
@@ -354,6 +351,12 @@ impl ShaderLibrary {
         }
         if module_edited {
             return Self::from_sources(Some(dir.clone()), sources);
+        }
+        // Every file's switches, not only the edited ones': a `#define` taken out of an entry
+        // file can leave a module testing a name nothing defines. (A save of the same text, the
+        // second event of many saves, changed nothing to check.)
+        if !edited.is_empty() {
+            feature_switches::check(&sources)?;
         }
         Ok(Self {
             dir: Some(dir.clone()),
