@@ -512,7 +512,9 @@ impl Renderer {
             ShaderSource::Folder { dir, watch } => {
                 let (lib, error) = ShaderLibrary::for_dir(dir);
                 if let Some(e) = &error {
-                    tracing::error!("{e} (using the embedded shaders until it is fixed)");
+                    // Only a watched folder is read again by itself once the file is fixed.
+                    let until = if *watch { " until it is fixed" } else { "" };
+                    tracing::error!("{e} (using the embedded shaders{until})");
                 }
                 let watcher = watch
                     .then(|| {
