@@ -12,7 +12,7 @@
 //! naga_oil does not let define) any entry file's.
 
 use std::borrow::Cow;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 
 use naga_oil::compose::comment_strip_iter::CommentReplaceExt;
 
@@ -132,17 +132,17 @@ fn scan<'a>(lines: impl Iterator<Item = (Cow<'a, str>, &'a str)>) -> Directives 
         }
         // naga_oil reads `#else` followed by anything but a whole branch directive
         // (`#elseifdef X`, `#else ifdef`, `#else if X`) as a plain `#else`, silently.
+        let mut malformed = || {
+            found.malformed_else.get_or_insert((i as u32 + 1, directive_at));
+        };
         let (after_else, rest) = match rest.strip_prefix("else") {
             Some(r) if r.trim().is_empty() => continue,
             Some(r) if r.starts_with(char::is_whitespace) => (true, r.trim_start()),
             Some(_) => {
-                found.malformed_else.get_or_insert((i as u32 + 1, directive_at));
+                malformed();
                 continue;
             }
             None => (false, rest),
-        };
-        let mut malformed = || {
-            found.malformed_else.get_or_insert((i as u32 + 1, directive_at));
         };
         let directive = ["ifdef", "ifndef", "if", "define"].into_iter().find_map(|d| {
             rest.strip_prefix(d).filter(|r| r.starts_with(char::is_whitespace)).map(|r| (d, r.trim_start()))
@@ -181,17 +181,19 @@ pub fn check(sources: &BTreeMap<String, String>) -> Result<(), ShaderError> {
     let scanned: Vec<(&String, Directives)> = sources.iter().map(|(f, s)| (f, directives(s))).collect();
     // What an entry file defines reaches the modules it imports; which ones is the composer's
     // business, so a module may test what any entry file defines.
-    let entry_defines: HashSet<&str> =
+    let entry_defines: Vec<&str> =
         scanned.iter().filter(|(_, d)| !d.module).flat_map(|(_, d)| d.defines.iter().map(String::as_str)).collect();
     for (file, found) in &scanned {
         if let Some((line, column)) = found.malformed_else {
             let message = "naga_oil reads this as a plain #else: write #else ifdef NAME (or #else ifndef NAME)";
             return Err(ShaderError { file: (*file).clone(), line, column, message: message.to_owned() });
         }
-        let in_reach: Vec<&str> = if found.module {
-            entry_defines.iter().copied().collect()
+        let own: Vec<&str>;
+        let in_reach: &[&str] = if found.module {
+            &entry_defines
         } else {
-            found.defines.iter().map(String::as_str).collect()
+            own = found.defines.iter().map(String::as_str).collect();
+            &own
         };
         let listed = |name: &str| FEATURE_SWITCHES.binary_search(&name).is_ok();
         // A switch is defined only where it is on, and naga_oil fails an `#if` on an undefined
@@ -216,7 +218,7 @@ pub fn check(sources: &BTreeMap<String, String>) -> Result<(), ShaderError> {
         let name = test.name.as_str();
         let closest = FEATURE_SWITCHES
             .iter()
-            .chain(&in_reach)
+            .chain(in_reach)
             // Optimal string alignment: a swap of two letters (UNLTI) is one edit.
             .map(|d| (strsim::osa_distance(d, name), *d))
             .min()
