@@ -142,25 +142,6 @@ fn wgpu_error_line(e: &wgpu::Error) -> String {
     if causes.is_empty() { one_line(&e.to_string()) } else { causes.join(": ") }
 }
 
-/// Parses and validates a standalone WGSL source with naga (no imports).
-pub fn validate(file: &str, source: &str) -> Result<naga::Module, ShaderError> {
-    let located = |message: String, loc: Option<naga::SourceLocation>| ShaderError {
-        file: file.to_owned(),
-        line: loc.map_or(0, |l| l.line_number),
-        column: loc.map_or(0, |l| l.line_position),
-        message,
-    };
-    let module =
-        naga::front::wgsl::parse_str(source).map_err(|e| located(e.message().to_owned(), e.location(source)))?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .map_err(|e| {
-            let loc = e.spans().next().map(|(span, _)| span.location(source));
-            located(e.as_inner().to_string(), loc)
-        })?;
-    Ok(module)
-}
-
 /// Turns naga_oil's report (a codespan diagnostic) into `file:line:column: message`.
 fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -> ShaderError {
     let report = e.emit_to_string(composer);
@@ -726,9 +707,12 @@ mod tests {
 
     #[test]
     fn syntax_errors_report_file_line_and_column() {
-        let err = validate("broken.wgsl", "fn main() {\n  let x = ;\n}").unwrap_err();
-        assert_eq!((err.file.as_str(), err.line), ("broken.wgsl", 2), "{err}");
-        assert!(err.column > 0);
+        // Columns count characters, as the feature switch check's do: `é` is two bytes, and the
+        // `;` where an expression should be is the 22nd character of its line (23rd byte).
+        let source = "fn main() {\n  let é = 1; let x = ;\n}";
+        let mut lib = ShaderLibrary::embedded_with("broken.wgsl", source).unwrap();
+        let err = lib.compose("broken.wgsl", &defs(&[])).unwrap_err();
+        assert_eq!((err.file.as_str(), err.line, err.column), ("broken.wgsl", 2, 22), "{err}");
     }
 
     #[test]
