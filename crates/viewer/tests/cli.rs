@@ -240,6 +240,10 @@ fn the_reload_benchmark_splits_its_latency_at_the_submission() {
     let on_device = row("of which: from submission");
     assert!(submitted > 0.0 && on_device > 0.0, "{out}");
     assert!((submitted + on_device - total).abs() <= 0.15, "the parts add up to the whole: {out}");
+    // The machine's speed before and after the edits, as two compile times.
+    let speed = out.lines().find(|l| l.starts_with("speed ")).unwrap_or_else(|| panic!("{out}"));
+    let times: Vec<f64> = speed.split_whitespace().filter_map(|w| w.parse().ok()).collect();
+    assert!(times.len() == 2 && times.iter().all(|t| t.is_finite() && *t > 0.0), "{speed}");
 }
 
 #[test]

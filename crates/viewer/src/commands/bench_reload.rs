@@ -8,13 +8,15 @@
 //! compile, which CPU rasterisers such as lavapipe do at the first draw, and the frame itself).
 //! The scene is lit as `penumbra view` lights it (`--env`, default `auto`), so the variant edited
 //! is the one a viewer compiles. With `--shader-dir DIR` the copy is made from DIR's files (the
-//! embedded ones fill in what DIR lacks), to measure edited shaders.
+//! embedded ones fill in what DIR lacks), to measure edited shaders. Before and after the edits
+//! it times a fixed single-threaded compiler workload (see [`speed_reference_ms`]), so that each
+//! result says how fast the machine was while it was taken.
 
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, anyhow, bail};
 use penumbra_render::headless::{ShotSettings, stage_scene};
-use penumbra_render::pipelines::shader_library::EMBEDDED;
+use penumbra_render::pipelines::shader_library::{EMBEDDED, ShaderDefs, ShaderLibrary};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, Renderer, ShaderSource};
 
 use super::bench::percentile;
@@ -77,6 +79,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     // stay distinct in f32 near 1.
     let nonce =
         std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs() % 50_000) * 20;
+    let reference_before = speed_reference_ms()?;
     let mut latencies = Vec::new();
     let mut submitted_after = Vec::new();
     for edit in 1..=args.shader_edits {
@@ -102,6 +105,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         latencies.push(start.elapsed().as_secs_f64() * 1e3);
         std::thread::sleep(Duration::from_millis(400));
     }
+    let reference_after = speed_reference_ms()?;
     let _ = std::fs::remove_dir_all(&dir);
     let on_device: Vec<f64> = latencies.iter().zip(&submitted_after).map(|(total, cpu)| total - cpu).collect();
     println!("adapter   {adapter}");
@@ -111,6 +115,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!("settings  {}x{}, MSAA {}, {} edits of forward.wgsl", size.0, size.1, settings.msaa, latencies.len());
     println!("env       {env_label}");
+    println!(
+        "speed     composing the embedded forward.wgsl (lit, textured variant) took {reference_before:.2} ms before \
+         the edits and {reference_after:.2} ms after (median of 9; the machine's single-thread speed)"
+    );
     println!();
     println!("| measure | median | max |");
     println!("|---|---:|---:|");
@@ -122,4 +130,26 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         println!("| {measure} | {:.1} | {:.1} |", percentile(values, 0.5), percentile(values, 1.0));
     }
     Ok(())
+}
+
+/// The machine's single-thread speed, in the milliseconds one compose of the embedded forward.wgsl
+/// takes (its lit variant with every material texture and image-based lighting; modules already
+/// parsed, as on a reload): a compiler's work, like the LLVM code generation that dominates a
+/// reload on a CPU rasteriser. A shared machine's speed drifts (on the 2-core machine the README
+/// measures on, by 2x over hours), and this tells which phase a latency was measured in. Fixed
+/// input, so it does not depend on the scene, the folder or the edits.
+fn speed_reference_ms() -> Result<f64> {
+    let defs = ["BASE_COLOR_TEXTURE", "METALLIC_ROUGHNESS_TEXTURE", "NORMAL_MAP", "EMISSIVE_TEXTURE", "IBL"]
+        .into_iter()
+        .fold(ShaderDefs::default(), |defs, def| defs.with(def, true));
+    let mut library = ShaderLibrary::embedded()?;
+    // The first compose parses and derives the imported modules; a reload's finds them done.
+    library.compose("forward.wgsl", &defs)?;
+    let times: Vec<f64> = (0..9)
+        .map(|_| {
+            let start = Instant::now();
+            library.compose("forward.wgsl", &defs).map(|_| start.elapsed().as_secs_f64() * 1e3)
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(percentile(&times, 0.5))
 }
