@@ -1,15 +1,18 @@
 //! Hot reload of WGSL from a shader folder, driven through the file watcher as an editor would:
 //! a broken shader is reported with its line and the last good pipelines keep drawing; a fixed
 //! one is used at once; empty files, rename-over saves and deletions are errors until the file is
-//! whole; an edit to an imported module rebuilds exactly the pipelines that import it; an edit to
-//! the split-sum table's shader makes the table again; a headless frame drawn while a shader is
-//! broken is an error, not a screenshot.
+//! whole; an edit to an imported module rebuilds exactly the pipelines whose variants import it,
+//! and one no variant in use imports is still checked; a reload rebuilds for every file that
+//! differs from the shaders in use, whichever file its event named, and an error stands until its
+//! own file is fixed; an edit to the split-sum table's shader makes the table again; a headless
+//! frame drawn while a shader is broken is an error, not a screenshot.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use penumbra::prelude::*;
 use penumbra::render::headless::HeadlessRunner;
+use penumbra::render::pipelines::pipeline_cache::ReloadReport;
 use penumbra::render::pipelines::shader_library::EMBEDDED;
 use penumbra::render::{RenderSettings, Renderer, ShaderSource};
 
@@ -232,8 +235,13 @@ fn an_imported_module_rebuilds_exactly_its_dependents() {
     let brdf = std::fs::read_to_string(dir.join("brdf.wgsl")).unwrap();
     std::fs::write(dir.join("brdf.wgsl"), format!("{brdf}\n// edited\n")).unwrap();
     let report = app.world.resource_mut::<Renderer>().reload_shaders(&["brdf.wgsl".to_owned()]).unwrap();
-    assert_eq!(report.rebuilt, forward_pipelines + 1, "every forward pipeline and the table's import brdf.wgsl");
-    assert!(report.untouched >= 1, "the tonemap pipeline does not import it and is left alone");
+    assert_eq!(
+        report.families,
+        [("forward", forward_pipelines), ("environment", 1)],
+        "every forward pipeline and the split-sum table's step import brdf.wgsl; the tonemap pipeline does not"
+    );
+    assert_eq!(report.rebuilt, forward_pipelines + 1);
+    assert!(report.untouched >= 1, "the tonemap pipeline is left alone");
 
     // common.wgsl is imported by both.
     let common = std::fs::read_to_string(dir.join("common.wgsl")).unwrap();
@@ -329,4 +337,120 @@ fn pipelines_sharing_a_variant_rebuild_together_and_a_pipeline_error_keeps_them_
     assert_eq!(report.rebuilt, 2, "both pipelines of the variant");
     let px = render_app(&mut app, SIZE, RenderSettings::default());
     assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "the edited shader is in use");
+}
+
+fn reload(app: &mut App, file: &str) -> Result<ReloadReport, penumbra::render::pipelines::shader_library::ShaderError> {
+    app.world.resource_mut::<Renderer>().reload_shaders(&[file.to_owned()])
+}
+
+/// An event can name one file while another changed too (a save of several files whose later
+/// events arrive after the reload that read them): the reload rebuilds for what differs from the
+/// shaders in use, not for what the event named.
+#[test]
+fn a_reload_rebuilds_for_every_changed_file_whichever_its_event_named() {
+    let dir = shader_folder("reload-unnamed");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&good, SIZE.0, 24, 24) > 150.0);
+    std::fs::write(dir.join("forward.wgsl"), scaled_output(&forward(&dir), "0.0")).unwrap();
+    let report = reload(&mut app, "tonemap.wgsl").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(report.files, ["forward.wgsl"]);
+    assert_eq!(report.families, [("forward", 1)]);
+    let px = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "the edited forward.wgsl is in use");
+    // Its own event, later: nothing left to do.
+    let report = reload(&mut app, "forward.wgsl").unwrap();
+    assert!(report.files.is_empty() && report.rebuilt == 0, "{:?}", report.families);
+}
+
+/// The shaders in use are one consistent set: while one file is broken, no other edit is swapped
+/// in and the error stands, naming that file; fixing it brings in both.
+#[test]
+fn an_error_stands_until_its_own_file_is_fixed() {
+    let dir = shader_folder("reload-standing");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let file = "deferred_lights.wgsl";
+    let source = std::fs::read_to_string(dir.join(file)).unwrap();
+    let broken = format!("{source}\nfn broken( {{\n");
+    std::fs::write(dir.join(file), &broken).unwrap();
+    let err = reload(&mut app, file).expect_err("a syntax error");
+    assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
+
+    // A good edit elsewhere: the broken file still fails the reload, the error stays.
+    std::fs::write(dir.join("forward.wgsl"), scaled_output(&forward(&dir), "0.0")).unwrap();
+    let err = reload(&mut app, "forward.wgsl").expect_err("deferred_lights.wgsl is still broken");
+    assert_eq!(err.file, file, "{err}");
+    assert_eq!(renderer(&app).shader_error().map(|e| e.file.as_str()), Some(file));
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good, "the last good shaders draw on");
+
+    std::fs::write(dir.join(file), &source).unwrap();
+    let report = reload(&mut app, file).unwrap_or_else(|e| panic!("{e}"));
+    // deferred_lights.wgsl is back as the shaders in use have it: forward.wgsl is what changed.
+    assert_eq!(report.files, ["forward.wgsl"]);
+    assert!(renderer(&app).shader_error().is_none(), "the error clears once its file is fixed");
+    let px = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "and the other edit is in use");
+}
+
+/// A folder that fails at start (two files declaring one module) runs on the embedded shaders;
+/// once fixed, everything the folder changes is used, not only the file fixed.
+#[test]
+fn a_folder_that_failed_at_start_is_used_whole_once_fixed() {
+    let dir = shader_folder("reload-start-broken");
+    std::fs::write(dir.join("forward.wgsl"), scaled_output(&forward(&dir), "0.0")).unwrap();
+    let backup = "brdf_backup.wgsl";
+    std::fs::copy(dir.join("brdf.wgsl"), dir.join(backup)).unwrap();
+    let mut app = app_with_shaders(&dir);
+    let px = render_app(&mut app, SIZE, RenderSettings::default());
+    let err = renderer(&app).shader_error().expect("the duplicate module").clone();
+    assert_eq!(err.file, backup, "{err}");
+    assert!(brightness(&px, SIZE.0, 24, 24) > 150.0, "the embedded forward.wgsl draws meanwhile");
+
+    std::fs::remove_file(dir.join(backup)).unwrap();
+    let report = reload(&mut app, backup).unwrap_or_else(|e| panic!("{e}"));
+    assert!(report.files.contains(&"forward.wgsl".to_owned()), "{:?}", report.files);
+    assert!(renderer(&app).shader_error().is_none());
+    let px = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&px, SIZE.0, 24, 24) < 20.0, "the folder's forward.wgsl is in use");
+}
+
+/// ies.wgsl is imported by lights.wgsl under IES_LIGHTS only: in a scene without IES lights an
+/// edit to it rebuilds nothing, but a mistake in it is still reported at its line.
+#[test]
+fn a_module_no_variant_in_use_imports_rebuilds_nothing_and_is_still_checked() {
+    let dir = shader_folder("reload-unused-module");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let file = "ies.wgsl";
+    let source = std::fs::read_to_string(dir.join(file)).unwrap();
+    std::fs::write(dir.join(file), format!("{source}\n// edited\n")).unwrap();
+    let report = reload(&mut app, file).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((report.rebuilt, report.families.len()), (0, 0), "{:?}", report.families);
+
+    let broken = format!("{source}\nfn broken( {{\n");
+    std::fs::write(dir.join(file), &broken).unwrap();
+    let err = reload(&mut app, file).expect_err("a syntax error in a module no variant in use imports");
+    assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good);
+    std::fs::write(dir.join(file), &source).unwrap();
+    assert!(reload(&mut app, file).is_ok() && renderer(&app).shader_error().is_none());
+}
+
+/// A file of the folder's own (not one of the embedded set) may come and go: deleting it is no
+/// error, as nothing falls back to an embedded version of it.
+#[test]
+fn a_scratch_file_may_come_and_go() {
+    let dir = shader_folder("reload-scratch");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let scratch = "scratch.wgsl";
+    std::fs::write(dir.join(scratch), "fn scratch() -> f32 { return 1.0; }\n").unwrap();
+    let report = reload(&mut app, scratch).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((report.files.as_slice(), report.rebuilt), ([scratch.to_owned()].as_slice(), 0));
+    std::fs::remove_file(dir.join(scratch)).unwrap();
+    let report = reload(&mut app, scratch).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(report.files, [scratch]);
+    assert!(renderer(&app).shader_error().is_none());
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good);
 }

@@ -735,14 +735,19 @@ impl Renderer {
     pub fn reload_shaders(&mut self, files: &[String]) -> Result<ReloadReport, ShaderError> {
         let start = Instant::now();
         let result = self.pipelines.reload(&self.ctx.device, files);
-        match &result {
+        self.report_reload(&result, start);
+        result
+    }
+
+    /// Logs a reload's outcome and shows its error, or applies what it changed.
+    fn report_reload(&mut self, result: &Result<ReloadReport, ShaderError>, start: Instant) {
+        match result {
             Ok(report) => self.reloaded(report, start),
             Err(e) => {
                 tracing::error!("{e} (keeping the last good shaders)");
                 self.shader_error = Some(e.clone());
             }
         }
-        result
     }
 
     /// What a successful reload changes beyond the pipelines.
@@ -754,12 +759,19 @@ impl Renderer {
         if report.environment_steps {
             self.environment.remake();
         }
-        tracing::info!(
-            "shaders reloaded ({}): {} pipelines rebuilt in {:.1} ms",
-            report.files.join(", "),
-            report.rebuilt,
-            start.elapsed().as_secs_f64() * 1e3
-        );
+        if report.files.is_empty() {
+            tracing::debug!("shaders unchanged (a save of the same text)");
+        } else {
+            let families: Vec<String> = report.families.iter().map(|(family, n)| format!("{family} {n}")).collect();
+            tracing::info!(
+                "shaders reloaded ({}): {} pipelines rebuilt{} in {:.1} ms",
+                report.files.join(", "),
+                report.rebuilt,
+                if families.is_empty() { String::new() } else { format!(" ({})", families.join(", ")) },
+                start.elapsed().as_secs_f64() * 1e3
+            );
+        }
+        // The library in use now holds exactly the folder's sources, and all of them build.
         self.shader_error = None;
     }
 
@@ -770,7 +782,18 @@ impl Renderer {
     pub fn poll_shader_changes(&mut self) -> Option<Result<ReloadReport, ShaderError>> {
         let changes = self.shader_watcher.as_mut()?.poll();
         if !changes.settled.is_empty() {
-            return Some(self.reload_shaders(&changes.settled));
+            let start = Instant::now();
+            let result = self.pipelines.reload(&self.ctx.device, &changes.settled);
+            // A reload reads the whole folder: the error may be in another file whose save is
+            // still under way. That one is reported when it settles, as it would be alone.
+            if let Err(e) = &result
+                && self.shader_watcher.as_ref().is_some_and(|w| w.is_pending(&e.file))
+            {
+                tracing::debug!("{e} (not reported yet: the save of {} may still be under way)", e.file);
+                return None;
+            }
+            self.report_reload(&result, start);
+            return Some(result);
         }
         if changes.fresh.is_empty() {
             return None;

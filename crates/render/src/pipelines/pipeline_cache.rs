@@ -302,9 +302,13 @@ pub enum Tonemapper {
 /// What a hot reload did.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ReloadReport {
+    /// The files that differ from the library replaced (sorted), whichever events announced them.
     pub files: Vec<String>,
     /// Pipelines rebuilt because they use a changed file.
     pub rebuilt: usize,
+    /// Those pipelines by family (`forward`, `tonemap`, `environment`, …), families with none
+    /// left out.
+    pub families: Vec<(&'static str, usize)>,
     /// Pipelines left alone.
     pub untouched: usize,
     /// An environment step (the source, its filters or the split-sum table) was rebuilt: what
@@ -849,44 +853,57 @@ impl PipelineCache {
         Ok(&self.composite[&key])
     }
 
-    /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use them;
-    /// on any error keeps everything as it was and returns the error.
+    /// Re-reads the shader folder after `files` changed and rebuilds the pipelines that use what
+    /// changed; on any error keeps everything as it was and returns the error. What changed is
+    /// what differs between the folder and the library in use, not only `files`: an event can
+    /// arrive after the reload that read its file (a save of several files), and a library that
+    /// fell back to the embedded shaders differs from the folder in every file the folder edits.
     pub fn reload(&mut self, device: &wgpu::Device, files: &[String]) -> Result<ReloadReport, ShaderError> {
         let start = std::time::Instant::now();
         let mut candidate = Some(self.shaders.reloaded(files)?);
         tracing::debug!("candidate shader library built in {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
         let lib = candidate.as_ref().expect("just built");
-        if lib.same_sources(&self.shaders) {
+        let changed = lib.changed_files(&self.shaders);
+        if changed.is_empty() {
             // An event that changed nothing (a save of the same text, a restored file, a second
             // event of one save): the pipelines in use were compiled from exactly these sources.
             let total = self.pipeline_count();
-            return Ok(ReloadReport { files: files.to_vec(), rebuilt: 0, untouched: total, environment_steps: false });
+            return Ok(ReloadReport {
+                files: changed,
+                rebuilt: 0,
+                families: Vec::new(),
+                untouched: total,
+                environment_steps: false,
+            });
         }
-        let forward_hit = lib.depends_on("forward.wgsl", files);
+        let files = &changed[..];
+        // Families whose entry imports under switches are rebuilt per variant
+        // (`ShaderLibrary::variant_uses`); the rest import the same modules in every variant.
+        let forward_keys = stale_variants(lib, "forward.wgsl", files, &self.forward, |k| k.shader_defs());
+        let shade_keys = stale_variants(lib, "forward.wgsl", files, &self.visibility_shade, visibility::shade_defs);
+        let deferred_keys = stale_variants(lib, "deferred_lights.wgsl", files, &self.deferred, deferred_defs);
+        let caster_keys = stale_variants(lib, "shadow_caster.wgsl", files, &self.caster, casters::caster_defs);
+        let cull_keys = stale_variants(lib, "cull.wgsl", files, &self.cull, culling::cull_defs);
         let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
         let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
         let resolve_hit = lib.depends_on("resolve.wgsl", files);
         let cluster_hit = lib.depends_on("cluster_bin.wgsl", files);
-        let deferred_hit = lib.depends_on("deferred_lights.wgsl", files);
         let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
-        let caster_hit = lib.depends_on("shadow_caster.wgsl", files);
-        let cull_hit = lib.depends_on("cull.wgsl", files);
         let hzb_hit = lib.depends_on("hzb.wgsl", files);
         let deform_hit = lib.depends_on("deform.wgsl", files);
         let gizmo_hit = lib.depends_on("gizmo.wgsl", files);
         let raster_hit = lib.depends_on("visibility_raster.wgsl", files);
-        let forward = self.create_forward_many(device, &mut candidate, &stale(forward_hit, &self.forward))?;
+        let forward = self.create_forward_many(device, &mut candidate, &forward_keys)?;
         let tonemap = rebuild(stale(tonemap_hit, &self.tonemap), |k| self.create_tonemap(device, &mut candidate, k))?;
         let mipmap =
             rebuild(stale(mipmap_hit, &self.mipmap), |k| self.create_mipmap(device, &mut candidate, k.0, k.1))?;
         let resolve = rebuild(stale(resolve_hit, &self.resolve), |k| self.create_resolve(device, &mut candidate, k.0))?;
         let cluster = rebuild(stale(cluster_hit, &self.cluster), |k| self.create_cluster(device, &mut candidate, k))?;
-        let deferred =
-            rebuild(stale(deferred_hit, &self.deferred), |k| self.create_deferred(device, &mut candidate, k))?;
+        let deferred = rebuild(deferred_keys, |k| self.create_deferred(device, &mut candidate, k))?;
         let composite =
             rebuild(stale(composite_hit, &self.composite), |k| self.create_composite(device, &mut candidate, k))?;
-        let caster = rebuild(stale(caster_hit, &self.caster), |k| self.create_caster(device, &mut candidate, k))?;
-        let cull = rebuild(stale(cull_hit, &self.cull), |k| self.create_cull(device, &mut candidate, k))?;
+        let caster = rebuild(caster_keys, |k| self.create_caster(device, &mut candidate, k))?;
+        let cull = rebuild(cull_keys, |k| self.create_cull(device, &mut candidate, k))?;
         let hzb = rebuild(stale(hzb_hit, &self.hzb), |k| self.create_hzb(device, &mut candidate, k))?;
         let deform = match (deform_hit, self.deform.is_some()) {
             (true, true) => Some(self.create_deform(device, &mut candidate)?),
@@ -897,36 +914,39 @@ impl PipelineCache {
             self.create_visibility_raster(device, &mut candidate, k)
         })?;
         // The visibility buffer's shading pass composes forward.wgsl's `shade`.
-        let visibility_shade = rebuild(stale(forward_hit, &self.visibility_shade), |k| {
-            self.create_visibility_shade(device, &mut candidate, k)
-        })?;
+        let visibility_shade = rebuild(shade_keys, |k| self.create_visibility_shade(device, &mut candidate, k))?;
         let env = self.reload_env(device, &mut candidate, files)?;
         let environment_steps = env.rebuilds_steps();
         let post = self.reload_post(device, &mut candidate, files)?;
         let total = self.pipeline_count();
-        let rebuilt = cull.len()
-            + hzb.len()
-            + deform.is_some() as usize
-            + caster.len()
-            + forward.len()
-            + tonemap.len()
-            + mipmap.len()
-            + resolve.len()
-            + cluster.len()
-            + deferred.len()
-            + composite.len()
-            + gizmo.len()
-            + visibility_raster.len()
-            + visibility_shade.len();
-        // A changed entry file that no pipeline in use was rebuilt from (a pass this scene does
-        // not run) is composed and validated in its plain variant all the same, so a mistake
-        // shows now rather than when a scene first needs the pass. Nothing to do for an edit
-        // whose pipelines were rebuilt (the reload benchmark's).
+        let mut families = vec![
+            ("forward", forward.len()),
+            ("visibility shade", visibility_shade.len()),
+            ("visibility raster", visibility_raster.len()),
+            ("shadow caster", caster.len()),
+            ("cull", cull.len()),
+            ("depth pyramid", hzb.len()),
+            ("deform", deform.is_some() as usize),
+            ("cluster binning", cluster.len()),
+            ("deferred lights", deferred.len()),
+            ("deferred composite", composite.len()),
+            ("resolve", resolve.len()),
+            ("tonemap", tonemap.len()),
+            ("mipmap", mipmap.len()),
+            ("gizmo", gizmo.len()),
+        ];
+        // A changed file that no rebuilt pipeline composed (a pass this scene does not run, a
+        // module only other variants import) is composed and validated in its plain variant all
+        // the same, so a mistake shows now rather than when a scene first needs it. Nothing to do
+        // for an edited entry whose pipelines were rebuilt (the reload benchmark's).
         let lib = self.library(&mut candidate);
-        let unchecked: Vec<String> =
-            files.iter().filter(|f| lib.is_entry(f) && !lib.has_composed(f)).cloned().collect();
+        let unchecked: Vec<String> = files
+            .iter()
+            .filter(|f| lib.source(f).is_some() && !(lib.is_entry(f) && lib.has_composed(f)))
+            .cloned()
+            .collect();
         for file in unchecked {
-            lib.compose(&file, &ShaderDefs::default())?;
+            lib.check_plain(&file)?;
         }
         self.shaders = candidate.expect("still there");
         self.visibility_raster.extend(visibility_raster);
@@ -945,9 +965,12 @@ impl PipelineCache {
         if deform.is_some() {
             self.deform = deform;
         }
-        let rebuilt = rebuilt + self.apply_env_reload(env) + self.apply_post_reload(post);
+        families.extend(self.apply_env_reload(env));
+        families.extend(self.apply_post_reload(post));
+        families.retain(|(_, n)| *n > 0);
+        let rebuilt = families.iter().map(|(_, n)| n).sum::<usize>();
         self.generation += 1;
-        Ok(ReloadReport { files: files.to_vec(), rebuilt, untouched: total - rebuilt, environment_steps })
+        Ok(ReloadReport { files: changed, rebuilt, families, untouched: total - rebuilt, environment_steps })
     }
 
     /// Every pipeline compiled so far.
@@ -1122,15 +1145,7 @@ impl PipelineCache {
         candidate: &mut Option<ShaderLibrary>,
         key: DeferredKey,
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
-        let defs = ShaderDefs::default()
-            .with("MULTISAMPLED", key.multisampled)
-            .with("LOCAL_LIGHTS", true)
-            .with("CLUSTERED_LIGHTS", true)
-            .with("SPHERE_TUBE_LIGHTS", key.light_shapes.sphere_tube)
-            .with("LTC_LIGHTS", key.light_shapes.ltc)
-            .with("IES_LIGHTS", key.light_shapes.ies)
-            .with("LOCAL_SHADOWS", key.local_shadows);
-        let module = self.library(candidate).create_module(device, "deferred_lights.wgsl", &defs)?;
+        let module = self.library(candidate).create_module(device, "deferred_lights.wgsl", &deferred_defs(key))?;
         self.compiled += 1;
         let layout = &self.deferred_pipeline_layouts[key.multisampled as usize];
         checked_pipeline(device, "deferred_lights.wgsl", || {
@@ -1209,6 +1224,18 @@ impl PipelineCache {
     }
 }
 
+/// The switches of the deferred-lights pipeline `key`.
+fn deferred_defs(key: DeferredKey) -> ShaderDefs {
+    ShaderDefs::default()
+        .with("MULTISAMPLED", key.multisampled)
+        .with("LOCAL_LIGHTS", true)
+        .with("CLUSTERED_LIGHTS", true)
+        .with("SPHERE_TUBE_LIGHTS", key.light_shapes.sphere_tube)
+        .with("LTC_LIGHTS", key.light_shapes.ltc)
+        .with("IES_LIGHTS", key.light_shapes.ies)
+        .with("LOCAL_SHADOWS", key.local_shadows)
+}
+
 /// A compute pipeline of `module`'s `entry` (no overrides, no pipeline cache).
 fn compute_pipeline(
     device: &wgpu::Device,
@@ -1261,6 +1288,18 @@ fn fullscreen_pipeline(
 /// (`hit`), else none.
 pub(super) fn stale<K: Copy, P>(hit: bool, family: &HashMap<K, P>) -> Vec<K> {
     if hit { family.keys().copied().collect() } else { Vec::new() }
+}
+
+/// The keys of a pipeline family whose variant of `entry` (its switches from `defs`) reads any of
+/// `files`: for entries that import under switches (`ShaderLibrary::variant_uses`).
+pub(super) fn stale_variants<K: Copy, P>(
+    lib: &ShaderLibrary,
+    entry: &str,
+    files: &[String],
+    family: &HashMap<K, P>,
+    defs: impl Fn(K) -> ShaderDefs,
+) -> Vec<K> {
+    family.keys().copied().filter(|k| lib.variant_uses(entry, &defs(*k), files)).collect()
 }
 
 /// A pipeline for each key, from `create`; the first error fails the whole reload, which then

@@ -18,13 +18,18 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, LazyLock, Mutex};
 
 use super::feature_switches::{self, FEATURE_SWITCHES};
+use naga_oil::compose::preprocess::Preprocessor;
 use naga_oil::compose::{
-    ComposableModuleDescriptor, Composer, ComposerError, ComposerErrorInner, NagaModuleDescriptor, ShaderDefValue,
-    ShaderLanguage, ShaderType, get_preprocessor_data,
+    ComposableModuleDescriptor, Composer, ComposerError, ComposerErrorInner, ImportDefinition, NagaModuleDescriptor,
+    ShaderDefValue, ShaderLanguage, ShaderType, get_preprocessor_data,
 };
+
+/// naga_oil's own preprocessor (its regular expressions compiled once), to find which modules a
+/// variant brings in exactly as composition will: [`ShaderLibrary::variant_uses`].
+static PREPROCESSOR: LazyLock<Preprocessor> = LazyLock::new(Preprocessor::default);
 
 /// The shaders compiled into the binary: (file name, source).
 pub const EMBEDDED: &[(&str, &str)] = &[
@@ -248,7 +253,7 @@ impl ShaderLibrary {
                 imports[*file].iter().all(|m| composer.contains_module(m) || !module_files.contains_key(m))
             });
             let Some(i) = ready else {
-                return Err(ShaderError::whole_file(pending[0], "import cycle between shader modules"));
+                return Err(import_cycle(&pending, &imports, &module_files));
             };
             let file = pending.remove(i);
             let added = composer
@@ -298,16 +303,18 @@ impl ShaderLibrary {
 
     /// A new library read afresh from the folder after `changed` files changed. The whole
     /// folder is read, not only those files: a library is consistent, and a folder is a handful
-    /// of small files. A changed file that is gone (deleted, or mid-rename) is an error, not a
-    /// silent return to the embedded version.
+    /// of small files (what differs from this library is [`Self::changed_files`], whatever the
+    /// events named). A changed file of the embedded set that is gone (deleted, or mid-rename) is
+    /// an error, not a silent return to the embedded version.
     pub fn reloaded(&self, changed: &[String]) -> Result<Self, ShaderError> {
         let dir =
             self.dir.as_ref().ok_or_else(|| ShaderError::whole_file("shaders", "no shader folder to reload from"))?;
         for file in changed {
-            // A file gone that no shader in use came from (the duplicate an error named, now
-            // deleted) is no loss; one in use is, until it is back.
+            // A file of the folder's own gone (a scratch file, the duplicate an error named) is
+            // simply no longer there; what imported it fails to compose, at the import. One of
+            // the embedded set would be replaced by its embedded version without a word.
             let path = dir.join(file);
-            if self.sources.contains_key(file) || path.exists() {
+            if EMBEDDED.iter().any(|(f, _)| f == file) || path.exists() {
                 read_source(&path)?;
             }
         }
@@ -349,9 +356,13 @@ impl ShaderLibrary {
         })
     }
 
-    /// Whether every file holds the same source here as in `other`.
-    pub fn same_sources(&self, other: &Self) -> bool {
-        self.sources == other.sources
+    /// The files whose source differs between this library and `other` (edited, added or
+    /// removed), sorted: what a reload must rebuild for, whichever events announced it.
+    pub fn changed_files(&self, other: &Self) -> Vec<String> {
+        let mut changed: BTreeSet<&String> =
+            self.sources.iter().filter(|(f, s)| other.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
+        changed.extend(other.sources.keys().filter(|f| !self.sources.contains_key(*f)));
+        changed.into_iter().cloned().collect()
     }
 
     /// Whether `file` is one of the library's entry points (a file no other imports as a
@@ -387,6 +398,67 @@ impl ShaderLibrary {
             }
         }
         false
+    }
+
+    /// Whether `entry` composed with `defs` reads any of `files`: like [`Self::depends_on`], but
+    /// following only the imports naga_oil's preprocessor keeps under those switches and whose
+    /// items the code uses (composition parses no other module), so an edit to `ies.wgsl`
+    /// reaches only variants with IES lights. Where the preprocessor fails, `true`: composing
+    /// will report it.
+    pub fn variant_uses(&self, entry: &str, defs: &ShaderDefs, files: &[String]) -> bool {
+        if !self.depends_on(entry, files) {
+            return false;
+        }
+        if files.iter().any(|f| f == entry) {
+            return true;
+        }
+        let Some(source) = self.sources.get(entry) else { return true };
+        // As `Composer::make_naga_module` does: the entry's own `#define`s join the variant's.
+        let mut shader_defs = defs.to_naga_oil();
+        match PREPROCESSOR.get_preprocessor_metadata(source, true) {
+            Ok(meta) => shader_defs.extend(meta.defines),
+            Err(_) => return true,
+        }
+        // The preprocessor writes each use of an imported item with its module's name encoded
+        // after it (naga_oil's decoration); a module whose mark appears is one the variant uses.
+        // (It marks uses inside comments too, which can only add a module: a harmless rebuild.)
+        let marks: Vec<(String, &str)> =
+            self.module_files.iter().map(|(m, f)| (Composer::decorated_name(Some(m), ""), f.as_str())).collect();
+        let mut seen = HashSet::new();
+        let mut stack = vec![entry];
+        while let Some(file) = stack.pop() {
+            if files.iter().any(|f| f == file) {
+                return true;
+            }
+            if !seen.insert(file) {
+                continue;
+            }
+            let Some(source) = self.sources.get(file) else { continue };
+            let Ok(out) = PREPROCESSOR.preprocess(source, &shader_defs) else { return true };
+            stack.extend(marks.iter().filter(|(mark, _)| out.preprocessed_source.contains(mark)).map(|(_, f)| *f));
+        }
+        false
+    }
+
+    /// Composes and validates `file` in its plain variant (no switches): an entry file as
+    /// itself, a module as an empty entry importing it. A reload checks so each changed file that
+    /// no rebuilt pipeline composed, so a mistake shows on save rather than when a scene first
+    /// needs the code. (naga_oil parses a module only when a variant imports it.)
+    pub fn check_plain(&mut self, file: &str) -> Result<(), ShaderError> {
+        let Some(module) = self.module_files.iter().find(|(_, f)| *f == file).map(|(m, _)| m.clone()) else {
+            return self.compose(file, &ShaderDefs::default()).map(|_| ());
+        };
+        let mut composer = self.composer.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        composer
+            .make_naga_module(NagaModuleDescriptor {
+                source: "",
+                file_path: file,
+                shader_type: ShaderType::Wgsl,
+                shader_defs: HashMap::new(),
+                additional_imports: &[ImportDefinition { import: module, items: Vec::new() }],
+            })
+            .map(|_| ())
+            .map_err(|e| composer_error(&e, &composer, file))
     }
 
     /// Composes and validates `entry` with `defs` into a naga module.
@@ -440,6 +512,28 @@ impl ShaderLibrary {
             Some(e) => Err(ShaderError::from_wgpu(entry, &e)),
         }
     }
+}
+
+/// The error for modules that import each other in a ring, at a file on the ring (not merely one
+/// importing into it): `pending` are the modules none of whose imports could be registered.
+fn import_cycle(
+    pending: &[&String],
+    imports: &HashMap<String, Vec<String>>,
+    module_files: &HashMap<String, String>,
+) -> ShaderError {
+    // Every pending module imports another pending one, so following any such import from any of
+    // them must come back to a file already on the path.
+    let next =
+        |file: &String| imports[file].iter().filter_map(|m| module_files.get(m)).find(|f| pending.contains(f)).cloned();
+    let mut path: Vec<String> = vec![pending[0].clone()];
+    while let Some(to) = next(path.last().expect("never empty")) {
+        if let Some(start) = path.iter().position(|f| *f == to) {
+            let ring: Vec<&str> = path[start..].iter().chain([&to]).map(String::as_str).collect();
+            return ShaderError::whole_file(&to, format!("import cycle between shader modules: {}", ring.join(" → ")));
+        }
+        path.push(to);
+    }
+    ShaderError::whole_file(pending[0], "import cycle between shader modules")
 }
 
 /// Every `*.wgsl` in `dir` by file name, over the embedded set (which fills in what `dir` lacks).
@@ -740,6 +834,86 @@ mod tests {
         assert_eq!(err.line as usize, line, "{err}");
         assert!(err.column > 0, "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_variant_uses_only_the_modules_its_switches_bring_in() {
+        let lib = ShaderLibrary::embedded().unwrap();
+        let f = |s: &str| vec![s.to_owned()];
+        // Every forward variant might import ies.wgsl (through lights.wgsl, under IES_LIGHTS).
+        assert!(lib.depends_on("forward.wgsl", &f("ies.wgsl")));
+        assert!(!lib.variant_uses("forward.wgsl", &defs(&[]), &f("ies.wgsl")));
+        assert!(!lib.variant_uses("forward.wgsl", &defs(&["LOCAL_LIGHTS"]), &f("ies.wgsl")));
+        assert!(lib.variant_uses("forward.wgsl", &defs(&["LOCAL_LIGHTS", "IES_LIGHTS"]), &f("ies.wgsl")));
+        // Imported under a switch, unused without it: shadows, the environment, clusters.
+        assert!(!lib.variant_uses("forward.wgsl", &defs(&[]), &f("shadows.wgsl")));
+        assert!(lib.variant_uses("forward.wgsl", &defs(&["SHADOWS"]), &f("shadows.wgsl")));
+        assert!(!lib.variant_uses("forward.wgsl", &defs(&[]), &f("ibl.wgsl")));
+        assert!(lib.variant_uses("forward.wgsl", &defs(&["IBL"]), &f("ibl.wgsl")));
+        // Always in: the BRDF (directly and through lights.wgsl), and the entry itself.
+        assert!(lib.variant_uses("forward.wgsl", &defs(&[]), &f("brdf.wgsl")));
+        assert!(lib.variant_uses("forward.wgsl", &defs(&[]), &f("light_data.wgsl")));
+        assert!(lib.variant_uses("forward.wgsl", &defs(&["UNLIT"]), &f("forward.wgsl")));
+        assert!(!lib.variant_uses("tonemap.wgsl", &defs(&[]), &f("brdf.wgsl")));
+        // Whatever the variant composes, composing it parses: its imports agree with naga_oil's.
+        for list in [&[][..], &["LOCAL_LIGHTS", "IES_LIGHTS"], &["SHADOWS", "IBL", "CLUSTERED_LIGHTS"]] {
+            // Break every module the variant does not use: it still composes.
+            let mut sources = lib.sources.clone();
+            let mut used = Vec::new();
+            for m in lib.module_files.values() {
+                if lib.variant_uses("forward.wgsl", &defs(list), &f(m)) {
+                    used.push(m.as_str());
+                } else {
+                    sources.get_mut(m).unwrap().push_str("\nfn broken( {\n");
+                }
+            }
+            let mut broken = ShaderLibrary::from_sources(None, sources).unwrap();
+            broken.compose("forward.wgsl", &defs(list)).unwrap_or_else(|e| panic!("{list:?} uses {used:?}: {e}"));
+        }
+    }
+
+    #[test]
+    fn every_module_checks_in_its_plain_variant_and_a_broken_one_fails_at_its_line() {
+        let mut lib = ShaderLibrary::embedded().unwrap();
+        let files: Vec<String> = lib.sources.keys().cloned().collect();
+        for file in &files {
+            lib.check_plain(file).unwrap_or_else(|e| panic!("{e}"));
+        }
+        // ies.wgsl: no plain variant of any entry imports it, yet its mistake shows.
+        let ies = EMBEDDED.iter().find(|(f, _)| *f == "ies.wgsl").unwrap().1;
+        let broken = format!("{ies}\nfn broken( {{\n");
+        let mut lib = ShaderLibrary::embedded_with("ies.wgsl", &broken).unwrap();
+        lib.compose("forward.wgsl", &defs(&[])).expect("the plain forward variant does not import ies.wgsl");
+        let err = lib.check_plain("ies.wgsl").unwrap_err();
+        assert_eq!((err.file.as_str(), err.line as usize), ("ies.wgsl", broken.lines().count()), "{err}");
+    }
+
+    #[test]
+    fn an_import_cycle_is_reported_at_a_module_on_the_ring() {
+        let mut sources: BTreeMap<String, String> =
+            EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
+        // a imports b; b and c import each other. a is first in name order but not on the ring.
+        let module = |name: &str, import: &str| {
+            format!("#define_import_path test::{name}\n#import test::{import}::f\nfn g() -> f32 {{ return f(); }}\n")
+        };
+        sources.insert("a.wgsl".into(), module("a", "b"));
+        sources.insert("b.wgsl".into(), module("b", "c"));
+        sources.insert("c.wgsl".into(), module("c", "b"));
+        let err = ShaderLibrary::from_sources(None, sources).err().expect("a cycle");
+        assert_eq!(err.file, "b.wgsl", "{err}");
+        assert!(err.message.ends_with("b.wgsl → c.wgsl → b.wgsl"), "{err}");
+    }
+
+    #[test]
+    fn changed_files_are_edited_added_and_removed_ones() {
+        let lib = ShaderLibrary::embedded().unwrap();
+        let mut edited = lib.sources.clone();
+        edited.get_mut("brdf.wgsl").unwrap().push_str("\n// edited\n");
+        edited.insert("extra.wgsl".into(), "fn f() {}\n".into());
+        let other = ShaderLibrary::from_sources(None, edited).unwrap();
+        assert_eq!(other.changed_files(&lib), ["brdf.wgsl", "extra.wgsl"]);
+        assert_eq!(lib.changed_files(&other), ["brdf.wgsl", "extra.wgsl"]);
+        assert!(lib.changed_files(&ShaderLibrary::embedded().unwrap()).is_empty());
     }
 
     #[test]

@@ -162,6 +162,11 @@ impl ShaderWatcher {
         }
     }
 
+    /// Whether `file` has had an event that has not settled yet (a save still under way).
+    pub fn is_pending(&self, file: &str) -> bool {
+        self.pending.contains_key(file)
+    }
+
     /// Whether changed files wait to settle.
     pub fn busy(&self) -> bool {
         !self.pending.is_empty()
@@ -205,10 +210,10 @@ mod tests {
         std::thread::sleep(Duration::from_millis(50));
         assert_eq!(next_changes(&mut w), changes(&[], &["a.wgsl"]));
         assert_eq!(w.poll(), ShaderChanges::default(), "offered once while fresh");
-        assert!(w.busy());
+        assert!(w.busy() && w.is_pending("a.wgsl") && !w.is_pending("b.wgsl"));
         std::thread::sleep(quiet);
         assert_eq!(w.poll(), changes(&["a.wgsl"], &[]), "not accepted: offered again, settled");
-        assert!(!w.busy());
+        assert!(!w.busy() && !w.is_pending("a.wgsl"));
 
         std::fs::write(dir.join("b.wgsl"), "fn b() {}").unwrap();
         std::thread::sleep(Duration::from_millis(50));

@@ -61,9 +61,7 @@ impl PipelineCache {
         candidate: &mut Option<ShaderLibrary>,
         key: CasterKey,
     ) -> Result<wgpu::RenderPipeline, ShaderError> {
-        let defs =
-            ShaderDefs::default().with("ALPHA_MASK", key.alpha_mask).with("BASE_COLOR_TEXTURE", key.base_color_texture);
-        let module = self.library(candidate).create_module(device, "shadow_caster.wgsl", &defs)?;
+        let module = self.library(candidate).create_module(device, "shadow_caster.wgsl", &caster_defs(key))?;
         self.compiled += 1;
         let _timing = PipelineTiming(std::time::Instant::now());
         let layout = &self.caster_pipeline_layouts[key.alpha_mask as usize];
@@ -109,4 +107,9 @@ impl PipelineCache {
             })
         })
     }
+}
+
+/// The switches of the shadow caster pipeline `key`.
+pub(super) fn caster_defs(key: CasterKey) -> ShaderDefs {
+    ShaderDefs::default().with("ALPHA_MASK", key.alpha_mask).with("BASE_COLOR_TEXTURE", key.base_color_texture)
 }

@@ -216,11 +216,7 @@ impl PipelineCache {
         candidate: &mut Option<ShaderLibrary>,
         phase: CullPhase,
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
-        let defs = ShaderDefs::default()
-            .with("OCCLUSION_EARLY", phase.occlusion_early())
-            .with("OCCLUSION_LATE", phase.occlusion_late())
-            .with("TRIANGLE_CULLING", phase.triangles());
-        let module = self.library(candidate).create_module(device, "cull.wgsl", &defs)?;
+        let module = self.library(candidate).create_module(device, "cull.wgsl", &cull_defs(phase))?;
         self.compiled += 1;
         checked_pipeline(device, "cull.wgsl", || {
             compute_pipeline(device, &self.cull_layouts.cull_pipeline[phase.index()], &module, "cull_instances", "cull")
@@ -242,4 +238,12 @@ impl PipelineCache {
             compute_pipeline(device, &self.cull_layouts.hzb_pipeline[step.index()], &module, "reduce", "hzb")
         })
     }
+}
+
+/// The switches of the culling pipeline of `phase`.
+pub(super) fn cull_defs(phase: CullPhase) -> ShaderDefs {
+    ShaderDefs::default()
+        .with("OCCLUSION_EARLY", phase.occlusion_early())
+        .with("OCCLUSION_LATE", phase.occlusion_late())
+        .with("TRIANGLE_CULLING", phase.triangles())
 }

@@ -314,11 +314,12 @@ impl PipelineCache {
         self.env.len() + self.background.len()
     }
 
-    pub(super) fn apply_env_reload(&mut self, reload: EnvReload) -> usize {
-        let n = reload.len();
+    /// Swaps in what `reload` rebuilt; returns how many pipelines, by family.
+    pub(super) fn apply_env_reload(&mut self, reload: EnvReload) -> [(&'static str, usize); 2] {
+        let counts = [("environment", reload.steps.len()), ("background", reload.background.len())];
         self.env.extend(reload.steps);
         self.background.extend(reload.background);
-        n
+        counts
     }
 }
 
@@ -332,10 +333,5 @@ pub(super) struct EnvReload {
 impl EnvReload {
     pub(super) fn rebuilds_steps(&self) -> bool {
         !self.steps.is_empty()
-    }
-
-    /// How many pipelines it rebuilt.
-    pub(super) fn len(&self) -> usize {
-        self.steps.len() + self.background.len()
     }
 }

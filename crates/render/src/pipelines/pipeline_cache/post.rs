@@ -77,13 +77,6 @@ pub(super) struct PostReload {
     fxaa: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
 }
 
-impl PostReload {
-    /// How many pipelines it rebuilt.
-    pub(super) fn len(&self) -> usize {
-        self.bloom.len() + self.exposure.len() + self.fxaa.len()
-    }
-}
-
 impl PipelineCache {
     pub fn exposure_layout(&self) -> &wgpu::BindGroupLayout {
         &self.post_layouts.exposure
@@ -232,11 +225,12 @@ impl PipelineCache {
         self.bloom.len() + self.exposure.len() + self.fxaa.len()
     }
 
-    pub(super) fn apply_post_reload(&mut self, reload: PostReload) -> usize {
-        let n = reload.len();
+    /// Swaps in what `reload` rebuilt; returns how many pipelines, by family.
+    pub(super) fn apply_post_reload(&mut self, reload: PostReload) -> [(&'static str, usize); 3] {
+        let counts = [("bloom", reload.bloom.len()), ("exposure", reload.exposure.len()), ("fxaa", reload.fxaa.len())];
         self.bloom.extend(reload.bloom);
         self.exposure.extend(reload.exposure);
         self.fxaa.extend(reload.fxaa);
-        n
+        counts
     }
 }

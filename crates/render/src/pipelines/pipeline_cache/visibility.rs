@@ -4,7 +4,7 @@
 //! cache that serves `passes::visibility`.
 
 use super::{PipelineCache, PipelineKey, Tonemapper, buffer_entry, checked_pipeline, compute_pipeline, storage};
-use crate::pipelines::shader_library::{ShaderError, ShaderLibrary};
+use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 use crate::targets::HDR_FORMAT;
 
 /// What the shading pass writes the displayed colour into (sRGB-encoded by the shader; storage
@@ -239,24 +239,28 @@ impl PipelineCache {
         candidate: &mut Option<ShaderLibrary>,
         key: ShadeKey,
     ) -> Result<wgpu::ComputePipeline, ShaderError> {
-        let (forward, tonemapper) = match key.output {
-            ShadeOutput::Hdr => (key.forward, None),
-            ShadeOutput::DisplayPerSample(t) => (PipelineKey { tonemap: Some(t), ..key.forward }, None),
-            ShadeOutput::DisplayResolved(t) => (key.forward, Some(t)),
-        };
-        let defs = forward
-            .shader_defs()
-            .with("VISIBILITY_SHADE", true)
-            .with("VISIBILITY_DISPLAY", key.output.display())
-            .with("VISIBILITY_TONEMAP", tonemapper.is_some())
-            .with("TONEMAP_NEUTRAL", forward.tonemap.or(tonemapper) == Some(Tonemapper::Neutral))
-            .with("TONEMAP_ACES", forward.tonemap.or(tonemapper) == Some(Tonemapper::Aces))
-            .with("VISIBILITY_BACKGROUND", key.background);
-        let module = self.library(candidate).create_module(device, "forward.wgsl", &defs)?;
+        let module = self.library(candidate).create_module(device, "forward.wgsl", &shade_defs(key))?;
         self.compiled += 1;
         let layout = &self.visibility_layouts.shade_pipeline[key.output.display() as usize];
         checked_pipeline(device, "forward.wgsl", || {
             compute_pipeline(device, layout, &module, "cs_shade", "visibility shade")
         })
     }
+}
+
+/// The switches of the visibility buffer's shading pipeline `key` (forward.wgsl's `cs_shade`).
+pub(super) fn shade_defs(key: ShadeKey) -> ShaderDefs {
+    let (forward, tonemapper) = match key.output {
+        ShadeOutput::Hdr => (key.forward, None),
+        ShadeOutput::DisplayPerSample(t) => (PipelineKey { tonemap: Some(t), ..key.forward }, None),
+        ShadeOutput::DisplayResolved(t) => (key.forward, Some(t)),
+    };
+    forward
+        .shader_defs()
+        .with("VISIBILITY_SHADE", true)
+        .with("VISIBILITY_DISPLAY", key.output.display())
+        .with("VISIBILITY_TONEMAP", tonemapper.is_some())
+        .with("TONEMAP_NEUTRAL", forward.tonemap.or(tonemapper) == Some(Tonemapper::Neutral))
+        .with("TONEMAP_ACES", forward.tonemap.or(tonemapper) == Some(Tonemapper::Aces))
+        .with("VISIBILITY_BACKGROUND", key.background)
 }
