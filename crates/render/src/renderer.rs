@@ -764,9 +764,10 @@ impl Renderer {
         } else {
             let families: Vec<String> = report.families.iter().map(|(family, n)| format!("{family} {n}")).collect();
             tracing::info!(
-                "shaders reloaded ({}): {} pipelines rebuilt{} in {:.1} ms",
+                "shaders reloaded ({}): {} pipeline{} rebuilt{} in {:.1} ms",
                 report.files.join(", "),
                 report.rebuilt,
+                if report.rebuilt == 1 { "" } else { "s" },
                 if families.is_empty() { String::new() } else { format!(" ({})", families.join(", ")) },
                 start.elapsed().as_secs_f64() * 1e3
             );
