@@ -454,3 +454,38 @@ fn a_scratch_file_may_come_and_go() {
     assert!(renderer(&app).shader_error().is_none());
     assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good);
 }
+
+/// A module of the folder's own that forward.wgsl imports, deleted: the pipelines that imported
+/// it are rebuilt and fail where they use it, instead of running on with the deleted code.
+#[test]
+fn a_deleted_module_fails_its_importer_until_it_is_back() {
+    let dir = shader_folder("reload-deleted-module");
+    let mut app = app_with_shaders(&dir);
+    let good = render_app(&mut app, SIZE, RenderSettings::default());
+    let module = "#define_import_path test::extra\n\nfn scale() -> f32 {\n    return 0.0;\n}\n";
+    std::fs::write(dir.join("extra.wgsl"), module).unwrap();
+    let original = forward(&dir);
+    let import = "#import penumbra::view::{View, eye_direction}";
+    assert!(original.contains(import), "the test's edit must apply");
+    let edited =
+        scaled_output(&original, "extra::scale()").replacen(import, &format!("{import}\n#import test::extra"), 1);
+    // naga_oil reports a missing module where the code uses it.
+    let line = edited.lines().position(|l| l.contains("extra::scale()")).unwrap() + 1;
+    std::fs::write(dir.join("forward.wgsl"), &edited).unwrap();
+    reload(&mut app, "forward.wgsl").unwrap_or_else(|e| panic!("{e}"));
+    let dark = render_app(&mut app, SIZE, RenderSettings::default());
+    assert!(brightness(&dark, SIZE.0, 24, 24) < 20.0, "extra::scale() is in use");
+
+    std::fs::remove_file(dir.join("extra.wgsl")).unwrap();
+    let err = reload(&mut app, "extra.wgsl").expect_err("forward.wgsl imports the deleted module");
+    assert_eq!((err.file.as_str(), err.line as usize), ("forward.wgsl", line), "{err}");
+    assert!(err.message.contains("test::extra"), "{err}");
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), dark, "the last good pipeline draws on");
+
+    std::fs::write(dir.join("extra.wgsl"), module).unwrap();
+    reload(&mut app, "extra.wgsl").unwrap_or_else(|e| panic!("{e}"));
+    assert!(renderer(&app).shader_error().is_none());
+    std::fs::write(dir.join("forward.wgsl"), &original).unwrap();
+    reload(&mut app, "forward.wgsl").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(render_app(&mut app, SIZE, RenderSettings::default()), good);
+}

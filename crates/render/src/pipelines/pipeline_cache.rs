@@ -13,7 +13,7 @@
 //! Pipelines that do not use the changed files are untouched. On any error nothing changes and
 //! the frame keeps drawing with the last good pipelines.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 mod casters;
 mod culling;
@@ -877,22 +877,24 @@ impl PipelineCache {
             });
         }
         let files = &changed[..];
-        // Families whose entry imports under switches are rebuilt per variant
-        // (`ShaderLibrary::variant_uses`); the rest import the same modules in every variant.
-        let forward_keys = stale_variants(lib, "forward.wgsl", files, &self.forward, |k| k.shader_defs());
-        let shade_keys = stale_variants(lib, "forward.wgsl", files, &self.visibility_shade, visibility::shade_defs);
-        let deferred_keys = stale_variants(lib, "deferred_lights.wgsl", files, &self.deferred, deferred_defs);
-        let caster_keys = stale_variants(lib, "shadow_caster.wgsl", files, &self.caster, casters::caster_defs);
-        let cull_keys = stale_variants(lib, "cull.wgsl", files, &self.cull, culling::cull_defs);
-        let tonemap_hit = lib.depends_on("tonemap.wgsl", files);
-        let mipmap_hit = lib.depends_on("mipmap.wgsl", files);
-        let resolve_hit = lib.depends_on("resolve.wgsl", files);
-        let cluster_hit = lib.depends_on("cluster_bin.wgsl", files);
-        let composite_hit = lib.depends_on("deferred_composite.wgsl", files);
-        let hzb_hit = lib.depends_on("hzb.wgsl", files);
-        let deform_hit = lib.depends_on("deform.wgsl", files);
-        let gizmo_hit = lib.depends_on("gizmo.wgsl", files);
-        let raster_hit = lib.depends_on("visibility_raster.wgsl", files);
+        let reach = Stale::new(lib, &self.shaders, files);
+        // Families whose entry imports under switches are rebuilt per variant; the rest import
+        // the same modules in every variant.
+        let forward_keys = reach.variants("forward.wgsl", &self.forward, |k| k.shader_defs());
+        let shade_keys = reach.variants("forward.wgsl", &self.visibility_shade, visibility::shade_defs);
+        let deferred_keys = reach.variants("deferred_lights.wgsl", &self.deferred, deferred_defs);
+        let caster_keys = reach.variants("shadow_caster.wgsl", &self.caster, casters::caster_defs);
+        let cull_keys = reach.variants("cull.wgsl", &self.cull, culling::cull_defs);
+        let hit: HashSet<&str> = WHOLE_ENTRIES.iter().copied().filter(|e| reach.entry(e)).collect();
+        let tonemap_hit = hit.contains("tonemap.wgsl");
+        let mipmap_hit = hit.contains("mipmap.wgsl");
+        let resolve_hit = hit.contains("resolve.wgsl");
+        let cluster_hit = hit.contains("cluster_bin.wgsl");
+        let composite_hit = hit.contains("deferred_composite.wgsl");
+        let hzb_hit = hit.contains("hzb.wgsl");
+        let deform_hit = hit.contains("deform.wgsl");
+        let gizmo_hit = hit.contains("gizmo.wgsl");
+        let raster_hit = hit.contains("visibility_raster.wgsl");
         let forward = self.create_forward_many(device, &mut candidate, &forward_keys)?;
         let tonemap = rebuild(stale(tonemap_hit, &self.tonemap), |k| self.create_tonemap(device, &mut candidate, k))?;
         let mipmap =
@@ -915,9 +917,9 @@ impl PipelineCache {
         })?;
         // The visibility buffer's shading pass composes forward.wgsl's `shade`.
         let visibility_shade = rebuild(shade_keys, |k| self.create_visibility_shade(device, &mut candidate, k))?;
-        let env = self.reload_env(device, &mut candidate, files)?;
+        let env = self.reload_env(device, &mut candidate, &hit)?;
         let environment_steps = env.rebuilds_steps();
-        let post = self.reload_post(device, &mut candidate, files)?;
+        let post = self.reload_post(device, &mut candidate, &hit)?;
         let total = self.pipeline_count();
         let mut families = vec![
             ("forward", forward.len()),
@@ -1290,16 +1292,57 @@ pub(super) fn stale<K: Copy, P>(hit: bool, family: &HashMap<K, P>) -> Vec<K> {
     if hit { family.keys().copied().collect() } else { Vec::new() }
 }
 
-/// The keys of a pipeline family whose variant of `entry` (its switches from `defs`) reads any of
-/// `files`: for entries that import under switches (`ShaderLibrary::variant_uses`).
-pub(super) fn stale_variants<K: Copy, P>(
-    lib: &ShaderLibrary,
-    entry: &str,
-    files: &[String],
-    family: &HashMap<K, P>,
-    defs: impl Fn(K) -> ShaderDefs,
-) -> Vec<K> {
-    family.keys().copied().filter(|k| lib.variant_uses(entry, &defs(*k), files)).collect()
+/// The entry files whose variants all import the same modules: their pipelines are stale together.
+const WHOLE_ENTRIES: &[&str] = &[
+    "tonemap.wgsl",
+    "mipmap.wgsl",
+    "resolve.wgsl",
+    "cluster_bin.wgsl",
+    "deferred_composite.wgsl",
+    "hzb.wgsl",
+    "deform.wgsl",
+    "gizmo.wgsl",
+    "visibility_raster.wgsl",
+    "env_source.wgsl",
+    "env_filter.wgsl",
+    "brdf_lut.wgsl",
+    "background.wgsl",
+    "bloom.wgsl",
+    "exposure.wgsl",
+    "fxaa.wgsl",
+];
+
+/// Which pipelines a reload's changed files reach. A file removed from the folder is traced in
+/// the library it was removed from, whose imports still know who read it: that importer is
+/// rebuilt, and fails to compose where it uses the file instead of running on with the deleted
+/// code.
+struct Stale<'a> {
+    new: &'a ShaderLibrary,
+    old: &'a ShaderLibrary,
+    files: &'a [String],
+    removed: Vec<String>,
+}
+
+impl<'a> Stale<'a> {
+    fn new(new: &'a ShaderLibrary, old: &'a ShaderLibrary, files: &'a [String]) -> Self {
+        let removed = files.iter().filter(|f| new.source(f).is_none()).cloned().collect();
+        Self { new, old, files, removed }
+    }
+
+    /// Whether any variant of `entry` may read a changed file.
+    fn entry(&self, entry: &str) -> bool {
+        self.new.depends_on(entry, self.files) || self.old.depends_on(entry, &self.removed)
+    }
+
+    /// The keys of a pipeline family whose variant of `entry` (its switches from `defs`) reads a
+    /// changed file (`ShaderLibrary::variant_uses`).
+    fn variants<K: Copy, P>(&self, entry: &str, family: &HashMap<K, P>, defs: impl Fn(K) -> ShaderDefs) -> Vec<K> {
+        let reads = |k: K| {
+            let defs = defs(k);
+            self.new.variant_uses(entry, &defs, self.files) || self.old.variant_uses(entry, &defs, &self.removed)
+        };
+        family.keys().copied().filter(|k| reads(*k)).collect()
+    }
 }
 
 /// A pipeline for each key, from `create`; the first error fails the whole reload, which then

@@ -23,8 +23,8 @@ use std::sync::{Arc, LazyLock, Mutex};
 use super::feature_switches::{self, FEATURE_SWITCHES};
 use naga_oil::compose::preprocess::Preprocessor;
 use naga_oil::compose::{
-    ComposableModuleDescriptor, Composer, ComposerError, ComposerErrorInner, ImportDefinition, NagaModuleDescriptor,
-    ShaderDefValue, ShaderLanguage, ShaderType, get_preprocessor_data,
+    ComposableModuleDescriptor, Composer, ComposerError, ComposerErrorInner, NagaModuleDescriptor, ShaderDefValue,
+    ShaderLanguage, ShaderType, get_preprocessor_data,
 };
 
 /// naga_oil's own preprocessor (its regular expressions compiled once), to find which modules a
@@ -311,8 +311,9 @@ impl ShaderLibrary {
             self.dir.as_ref().ok_or_else(|| ShaderError::whole_file("shaders", "no shader folder to reload from"))?;
         for file in changed {
             // A file of the folder's own gone (a scratch file, the duplicate an error named) is
-            // simply no longer there; what imported it fails to compose, at the import. One of
-            // the embedded set would be replaced by its embedded version without a word.
+            // simply no longer there; what imported it is rebuilt and fails to compose where it
+            // uses it. One of the embedded set would be replaced by its embedded version without
+            // a word.
             let path = dir.join(file);
             if EMBEDDED.iter().any(|(f, _)| f == file) || path.exists() {
                 read_source(&path)?;
@@ -441,21 +442,32 @@ impl ShaderLibrary {
     }
 
     /// Composes and validates `file` in its plain variant (no switches): an entry file as
-    /// itself, a module as an empty entry importing it. A reload checks so each changed file that
+    /// itself; a module as if it were an entry (its own source composed with its imports, so
+    /// every function in it is validated, not only those some entry calls), with the values the
+    /// entry files `#define` (a module may test those). A reload checks so each changed file that
     /// no rebuilt pipeline composed, so a mistake shows on save rather than when a scene first
     /// needs the code. (naga_oil parses a module only when a variant imports it.)
     pub fn check_plain(&mut self, file: &str) -> Result<(), ShaderError> {
-        let Some(module) = self.module_files.iter().find(|(_, f)| *f == file).map(|(m, _)| m.clone()) else {
+        if !self.is_module(file) {
             return self.compose(file, &ShaderDefs::default()).map(|_| ());
-        };
+        }
+        let source = self.sources.get(file).ok_or_else(|| ShaderError::whole_file(file, "no such shader"))?;
+        let mut shader_defs = HashMap::new();
+        for (entry, entry_source) in &self.sources {
+            if self.is_entry(entry)
+                && let Ok(meta) = PREPROCESSOR.get_preprocessor_metadata(entry_source, true)
+            {
+                shader_defs.extend(meta.defines);
+            }
+        }
         let mut composer = self.composer.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         composer
             .make_naga_module(NagaModuleDescriptor {
-                source: "",
+                source,
                 file_path: file,
                 shader_type: ShaderType::Wgsl,
-                shader_defs: HashMap::new(),
-                additional_imports: &[ImportDefinition { import: module, items: Vec::new() }],
+                shader_defs,
+                additional_imports: &[],
             })
             .map(|_| ())
             .map_err(|e| composer_error(&e, &composer, file))
@@ -855,20 +867,34 @@ mod tests {
         assert!(lib.variant_uses("forward.wgsl", &defs(&[]), &f("light_data.wgsl")));
         assert!(lib.variant_uses("forward.wgsl", &defs(&["UNLIT"]), &f("forward.wgsl")));
         assert!(!lib.variant_uses("tonemap.wgsl", &defs(&[]), &f("brdf.wgsl")));
-        // Whatever the variant composes, composing it parses: its imports agree with naga_oil's.
-        for list in [&[][..], &["LOCAL_LIGHTS", "IES_LIGHTS"], &["SHADOWS", "IBL", "CLUSTERED_LIGHTS"]] {
+        // Whatever the variant composes, composing it parses: its imports agree with naga_oil's,
+        // for every entry whose imports depend on switches.
+        let lights = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS"];
+        let all_lights = [&lights[..], &["SPHERE_TUBE_LIGHTS", "LTC_LIGHTS", "IES_LIGHTS", "LOCAL_SHADOWS"]].concat();
+        let variants: [(&str, &[&'static str]); 9] = [
+            ("forward.wgsl", &[]),
+            ("forward.wgsl", &["LOCAL_LIGHTS", "IES_LIGHTS"]),
+            ("forward.wgsl", &["SHADOWS", "IBL", "CLUSTERED_LIGHTS"]),
+            ("deferred_lights.wgsl", &lights),
+            ("deferred_lights.wgsl", &all_lights),
+            ("shadow_caster.wgsl", &[]),
+            ("shadow_caster.wgsl", &["ALPHA_MASK", "BASE_COLOR_TEXTURE"]),
+            ("cull.wgsl", &[]),
+            ("cull.wgsl", &["OCCLUSION_EARLY", "TRIANGLE_CULLING"]),
+        ];
+        for (entry, list) in variants {
             // Break every module the variant does not use: it still composes.
             let mut sources = lib.sources.clone();
             let mut used = Vec::new();
             for m in lib.module_files.values() {
-                if lib.variant_uses("forward.wgsl", &defs(list), &f(m)) {
+                if lib.variant_uses(entry, &defs(list), &f(m)) {
                     used.push(m.as_str());
                 } else {
                     sources.get_mut(m).unwrap().push_str("\nfn broken( {\n");
                 }
             }
             let mut broken = ShaderLibrary::from_sources(None, sources).unwrap();
-            broken.compose("forward.wgsl", &defs(list)).unwrap_or_else(|e| panic!("{list:?} uses {used:?}: {e}"));
+            broken.compose(entry, &defs(list)).unwrap_or_else(|e| panic!("{entry} {list:?} uses {used:?}: {e}"));
         }
     }
 
@@ -879,13 +905,24 @@ mod tests {
         for file in &files {
             lib.check_plain(file).unwrap_or_else(|e| panic!("{e}"));
         }
-        // ies.wgsl: no plain variant of any entry imports it, yet its mistake shows.
+        // ies.wgsl: no plain variant of any entry imports it, yet its mistakes show: a syntax
+        // error, and a type error in a function nothing calls (the validator's, not the parser's).
         let ies = EMBEDDED.iter().find(|(f, _)| *f == "ies.wgsl").unwrap().1;
-        let broken = format!("{ies}\nfn broken( {{\n");
-        let mut lib = ShaderLibrary::embedded_with("ies.wgsl", &broken).unwrap();
-        lib.compose("forward.wgsl", &defs(&[])).expect("the plain forward variant does not import ies.wgsl");
-        let err = lib.check_plain("ies.wgsl").unwrap_err();
-        assert_eq!((err.file.as_str(), err.line as usize), ("ies.wgsl", broken.lines().count()), "{err}");
+        for mistake in ["fn broken( {", "fn unused() -> f32 { return 1u; }"] {
+            let broken = format!("{ies}\n{mistake}\n");
+            let mut lib = ShaderLibrary::embedded_with("ies.wgsl", &broken).unwrap();
+            lib.compose("forward.wgsl", &defs(&[])).expect("the plain forward variant does not import ies.wgsl");
+            let err = lib.check_plain("ies.wgsl").expect_err(mistake);
+            assert_eq!((err.file.as_str(), err.line as usize), ("ies.wgsl", broken.lines().count()), "{err}");
+        }
+        // A module may test a value an entry file `#define`s: checked with it.
+        let mut sources: BTreeMap<String, String> =
+            EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
+        sources.get_mut("tonemap.wgsl").unwrap().insert_str(0, "#define GRADE_STEPS 4\n");
+        let tested = "#if GRADE_STEPS == 4\nfn steps() -> f32 { return 4.0; }\n#endif\n";
+        sources.get_mut("common.wgsl").unwrap().push_str(tested);
+        let mut lib = ShaderLibrary::from_sources(None, sources).unwrap_or_else(|e| panic!("{e}"));
+        lib.check_plain("common.wgsl").unwrap_or_else(|e| panic!("{e}"));
     }
 
     #[test]

@@ -2,6 +2,8 @@
 //! (`env_source.wgsl`, `env_filter.wgsl`, `brdf_lut.wgsl`) and the background pass
 //! (`background.wgsl`). The part of the pipeline cache that serves `environment/`.
 
+use std::collections::HashSet;
+
 use super::{PipelineCache, buffer_entry, checked_pipeline, compute_pipeline, rebuild, stale};
 use crate::pipelines::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
 
@@ -287,26 +289,22 @@ impl PipelineCache {
         })
     }
 
-    /// Rebuilds the environment pipelines that use a changed file (hot reload).
+    /// Rebuilds the environment pipelines whose entry file is `hit` (reads a changed file).
     pub(super) fn reload_env(
         &mut self,
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
-        files: &[String],
+        hit: &HashSet<&str>,
     ) -> Result<EnvReload, ShaderError> {
-        let lib = candidate.as_ref().expect("reload passes a candidate");
-        let mut hit = std::collections::HashMap::new();
-        for f in ["env_source.wgsl", "env_filter.wgsl", "brdf_lut.wgsl", "background.wgsl"] {
-            hit.insert(f, lib.depends_on(f, files));
-        }
         let mut out = EnvReload::default();
         for step in self.env.keys().copied().collect::<Vec<_>>() {
-            if hit[step.file()] {
+            if hit.contains(step.file()) {
                 out.steps.push((step, self.create_env_step(device, candidate, step)?));
             }
         }
-        out.background =
-            rebuild(stale(hit["background.wgsl"], &self.background), |k| self.create_background(device, candidate, k))?;
+        out.background = rebuild(stale(hit.contains("background.wgsl"), &self.background), |k| {
+            self.create_background(device, candidate, k)
+        })?;
         Ok(out)
     }
 

@@ -3,6 +3,8 @@
 //! (`fxaa.wgsl`). The part of the pipeline cache that serves `passes::post` and
 //! `passes::tonemap`.
 
+use std::collections::HashSet;
+
 use super::{
     PipelineCache, Tonemapper, buffer_entry, checked_pipeline, compute_pipeline, fullscreen_pipeline, rebuild, stale,
 };
@@ -206,14 +208,10 @@ impl PipelineCache {
         &mut self,
         device: &wgpu::Device,
         candidate: &mut Option<ShaderLibrary>,
-        files: &[String],
+        hit: &HashSet<&str>,
     ) -> Result<PostReload, ShaderError> {
-        let lib = candidate.as_ref().expect("reload passes a candidate");
-        let (bloom_hit, exposure_hit, fxaa_hit) = (
-            lib.depends_on("bloom.wgsl", files),
-            lib.depends_on("exposure.wgsl", files),
-            lib.depends_on("fxaa.wgsl", files),
-        );
+        let (bloom_hit, exposure_hit, fxaa_hit) =
+            (hit.contains("bloom.wgsl"), hit.contains("exposure.wgsl"), hit.contains("fxaa.wgsl"));
         Ok(PostReload {
             bloom: rebuild(stale(bloom_hit, &self.bloom), |k| self.create_bloom(device, candidate, k))?,
             exposure: rebuild(stale(exposure_hit, &self.exposure), |k| self.create_exposure(device, candidate, k))?,
