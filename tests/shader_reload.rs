@@ -77,8 +77,17 @@ fn generation(r: &Renderer) -> u64 {
     r.stats().shader_generation
 }
 
+fn read(dir: &Path, file: &str) -> String {
+    std::fs::read_to_string(dir.join(file)).unwrap()
+}
+
 fn forward(dir: &Path) -> String {
-    std::fs::read_to_string(dir.join("forward.wgsl")).unwrap()
+    read(dir, "forward.wgsl")
+}
+
+/// `source` with an unfinished function after it: a syntax error on its last line.
+fn with_syntax_error(source: &str) -> String {
+    format!("{source}\nfn broken( {{\n")
 }
 
 /// forward.wgsl with its output scaled by `k` (0 makes the quad black).
@@ -152,14 +161,14 @@ fn an_edit_to_a_pass_not_in_use_is_still_checked() {
     let mut app = app_with_shaders(&dir);
     let good = render_app(&mut app, SIZE, RenderSettings::default());
     let file = "deferred_lights.wgsl";
-    let source = std::fs::read_to_string(dir.join(file)).unwrap();
+    let source = read(&dir, file);
     let reload = |app: &mut App| app.world.resource_mut::<Renderer>().reload_shaders(&[file.to_owned()]);
 
     std::fs::write(dir.join(file), format!("{source}\n// edited\n")).unwrap();
     let report = reload(&mut app).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(report.rebuilt, 0, "no local lights: no pipeline of the scene uses {file}");
 
-    let broken = format!("{source}\nfn broken( {{\n");
+    let broken = with_syntax_error(&source);
     std::fs::write(dir.join(file), &broken).unwrap();
     let err = reload(&mut app).expect_err("a syntax error in a pass not in use");
     assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
@@ -371,8 +380,8 @@ fn an_error_stands_until_its_own_file_is_fixed() {
     let mut app = app_with_shaders(&dir);
     let good = render_app(&mut app, SIZE, RenderSettings::default());
     let file = "deferred_lights.wgsl";
-    let source = std::fs::read_to_string(dir.join(file)).unwrap();
-    let broken = format!("{source}\nfn broken( {{\n");
+    let source = read(&dir, file);
+    let broken = with_syntax_error(&source);
     std::fs::write(dir.join(file), &broken).unwrap();
     let err = reload(&mut app, file).expect_err("a syntax error");
     assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
@@ -423,12 +432,12 @@ fn a_module_no_variant_in_use_imports_rebuilds_nothing_and_is_still_checked() {
     let mut app = app_with_shaders(&dir);
     let good = render_app(&mut app, SIZE, RenderSettings::default());
     let file = "ies.wgsl";
-    let source = std::fs::read_to_string(dir.join(file)).unwrap();
+    let source = read(&dir, file);
     std::fs::write(dir.join(file), format!("{source}\n// edited\n")).unwrap();
     let report = reload(&mut app, file).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!((report.rebuilt, report.families.len()), (0, 0), "{:?}", report.families);
 
-    let broken = format!("{source}\nfn broken( {{\n");
+    let broken = with_syntax_error(&source);
     std::fs::write(dir.join(file), &broken).unwrap();
     let err = reload(&mut app, file).expect_err("a syntax error in a module no variant in use imports");
     assert_eq!((err.file.as_str(), err.line as usize), (file, broken.lines().count()), "{err}");
