@@ -877,7 +877,7 @@ impl PipelineCache {
             });
         }
         let files = &changed[..];
-        let reach = Stale::new(lib, &self.shaders, files);
+        let reach = Reach::new(lib, &self.shaders, files);
         // Families whose entry imports under switches are rebuilt per variant; the rest import
         // the same modules in every variant.
         let forward_keys = reach.variants("forward.wgsl", &self.forward, |k| k.shader_defs());
@@ -1316,14 +1316,14 @@ const WHOLE_ENTRIES: &[&str] = &[
 /// the library it was removed from, whose imports still know who read it: that importer is
 /// rebuilt, and fails to compose where it uses the file instead of running on with the deleted
 /// code.
-struct Stale<'a> {
+struct Reach<'a> {
     new: &'a ShaderLibrary,
     old: &'a ShaderLibrary,
     files: &'a [String],
     removed: Vec<String>,
 }
 
-impl<'a> Stale<'a> {
+impl<'a> Reach<'a> {
     fn new(new: &'a ShaderLibrary, old: &'a ShaderLibrary, files: &'a [String]) -> Self {
         let removed = files.iter().filter(|f| new.source(f).is_none()).cloned().collect();
         Self { new, old, files, removed }

@@ -444,9 +444,9 @@ impl ShaderLibrary {
     /// Composes and validates `file` in its plain variant (no switches): an entry file as
     /// itself; a module as if it were an entry (its own source composed with its imports, so
     /// every function in it is validated, not only those some entry calls), with the values the
-    /// entry files `#define` (a module may test those). A reload checks so each changed file that
-    /// no rebuilt pipeline composed, so a mistake shows on save rather than when a scene first
-    /// needs the code. (naga_oil parses a module only when a variant imports it.)
+    /// entry files `#define` (a module may test those). A reload runs this on each changed file
+    /// that no rebuilt pipeline composed, so a mistake shows on save rather than when a scene
+    /// first needs the code. (naga_oil parses a module only when a variant imports it.)
     pub fn check_plain(&mut self, file: &str) -> Result<(), ShaderError> {
         if !self.is_module(file) {
             return self.compose(file, &ShaderDefs::default()).map(|_| ());
@@ -857,7 +857,7 @@ mod tests {
         assert!(!lib.variant_uses("forward.wgsl", &defs(&[]), &f("ies.wgsl")));
         assert!(!lib.variant_uses("forward.wgsl", &defs(&["LOCAL_LIGHTS"]), &f("ies.wgsl")));
         assert!(lib.variant_uses("forward.wgsl", &defs(&["LOCAL_LIGHTS", "IES_LIGHTS"]), &f("ies.wgsl")));
-        // Imported under a switch, unused without it: shadows, the environment, clusters.
+        // Imported under a switch, unused without it: shadows, the environment.
         assert!(!lib.variant_uses("forward.wgsl", &defs(&[]), &f("shadows.wgsl")));
         assert!(lib.variant_uses("forward.wgsl", &defs(&["SHADOWS"]), &f("shadows.wgsl")));
         assert!(!lib.variant_uses("forward.wgsl", &defs(&[]), &f("ibl.wgsl")));
