@@ -772,7 +772,7 @@ impl Renderer {
                 start.elapsed().as_secs_f64() * 1e3
             );
         }
-        // The library in use now holds exactly the folder's sources, and all of them build.
+        // The library in use now holds the folder's sources, every changed one of them checked.
         self.shader_error = None;
     }
 
