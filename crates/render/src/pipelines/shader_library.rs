@@ -325,8 +325,7 @@ impl ShaderLibrary {
         }
         // Only entry files changed: same modules, same composer. Each edited file is scanned
         // once (the scan finds both whether it declares a module and what it imports).
-        let edited: Vec<&String> =
-            sources.iter().filter(|(f, s)| self.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
+        let edited: Vec<&String> = edited_or_added(&sources, &self.sources).collect();
         let mut imports = self.imports.clone();
         let mut module_edited = false;
         for &f in &edited {
@@ -360,8 +359,7 @@ impl ShaderLibrary {
     /// The files whose source differs between this library and `other` (edited, added or
     /// removed), sorted: what a reload must rebuild for, whichever events announced it.
     pub fn changed_files(&self, other: &Self) -> Vec<String> {
-        let mut changed: BTreeSet<&String> =
-            self.sources.iter().filter(|(f, s)| other.sources.get(*f) != Some(*s)).map(|(f, _)| f).collect();
+        let mut changed: BTreeSet<&String> = edited_or_added(&self.sources, &other.sources).collect();
         changed.extend(other.sources.keys().filter(|f| !self.sources.contains_key(*f)));
         changed.into_iter().cloned().collect()
     }
@@ -524,6 +522,14 @@ impl ShaderLibrary {
             Some(e) => Err(ShaderError::from_wgpu(entry, &e)),
         }
     }
+}
+
+/// The files of `now` whose source `before` does not hold (edited or added), in name order.
+fn edited_or_added<'a>(
+    now: &'a BTreeMap<String, String>,
+    before: &BTreeMap<String, String>,
+) -> impl Iterator<Item = &'a String> {
+    now.iter().filter(|(f, s)| before.get(*f) != Some(*s)).map(|(f, _)| f)
 }
 
 /// The error for modules that import each other in a ring, at a file on the ring (not merely one
