@@ -1,6 +1,8 @@
 //! `penumbra render`: one scene, one PNG. The GPU context and pipelines are created on a second
 //! thread while the scene file is read and decoded, since on a 2-core machine neither needs the
-//! other until the first frame; at the end the scene and the device are freed on two threads.
+//! other until the first frame (an error on either side waits for the other, so the process never
+//! exits while the driver is still setting up); at the end the scene and the device are freed on
+//! two threads.
 //! `-v` logs the time at each step.
 
 use std::time::Instant;
@@ -30,16 +32,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         step("renderer ready");
         Ok(renderer)
     });
-    let scene = scene::load(Some(&args.path), &args.scene_args)?;
-    step("scene decoded");
-    let environment = args.look.environment()?;
-    step("environment read");
-    let (mut app, size) = stage_scene(&scene, &shot)?;
-    if let Some(env) = environment {
-        app.insert_resource(env);
-    }
-    step("scene staged");
-    let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))??;
+    let staged = (|| -> Result<_> {
+        let scene = scene::load(Some(&args.path), &args.scene_args)?;
+        step("scene decoded");
+        let environment = args.look.environment()?;
+        step("environment read");
+        let (mut app, size) = stage_scene(&scene, &shot)?;
+        if let Some(env) = environment {
+            app.insert_resource(env);
+        }
+        step("scene staged");
+        Ok((scene, app, size))
+    })();
+    // Joined before any error returns: exiting while the driver still initialises on that
+    // thread runs the process's exit handlers under it (lavapipe of Mesa 25 then hung for good
+    // in LLVM's set-up after `--camera 7`). A bad scene is reported before a GPU error.
+    let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))?;
+    let (scene, mut app, size) = staged?;
+    let renderer = renderer?;
     let pixels = render_frames(&mut app, renderer, size, args.frames)?;
     step("rendered and read back");
     image::save_buffer(&args.out, &pixels, size.0, size.1, image::ColorType::Rgba8)
