@@ -117,7 +117,10 @@ fn a_render_whose_scene_fails_waits_for_its_gpu_set_up() {
     let o = penumbra(&["-v", "render", "/nonexistent/scene.glb", "--out", "/tmp/never.png"]);
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("/nonexistent/scene.glb"), "{e}");
-    let ready = e.find("renderer ready").unwrap_or_else(|| panic!("the GPU set-up did not finish: {e}"));
+    // The scene's error is the one reported, so a missing adapter shows only here.
+    let ready = e.find("renderer ready").unwrap_or_else(|| {
+        panic!("the GPU set-up did not finish (no GPU adapter? on Debian: apt-get install mesa-vulkan-drivers): {e}")
+    });
     assert!(ready < e.find("penumbra: /nonexistent").unwrap(), "the error came before the GPU set-up ended: {e}");
 }
 
