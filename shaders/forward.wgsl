@@ -263,8 +263,7 @@ fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
 // Material texture `slot`'s texel at this fragment. Without TRANSFORMED_UVS every texture reads
 // TEXCOORD_0 as it is and the sampler takes its own derivatives: explicit gradients cost more to
 // compile and to run (on llvmpipe about 13 ms more LLVM time per sample, which hot reload
-// waits for). With it, the coordinate and its gradients come from slot_coord. The normal map
-// is always sampled with explicit gradients (see fs_main).
+// waits for). With it, the coordinate and its gradients come from slot_coord.
 fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = slot_coord(mat, slot, sets);
@@ -387,12 +386,11 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     let double_sided_back = (mat.flags & MATERIAL_DOUBLE_SIDED) != 0u && !front_facing;
 #endif
 #ifdef NORMAL_MAP
-    // Explicit gradients in every variant: the normal decides where a sharp highlight lands.
-    // With implicit ones NormalTangentTest's frame on GL differed from Vulkan's by one highlight
-    // pixel (both llvmpipe; likely the level of detail, which implicit derivatives give per 2×2
-    // quad, and GL draws flipped); with explicit gradients the two agree.
-    let nmc = slot_coord(mat, 2u, sets);
-    let nm = textureSampleGrad(normal_texture, normal_sampler, nmc.uv, nmc.ddx, nmc.ddy);
+    // Like every material texture: implicit derivatives unless TRANSFORMED_UVS. Explicit
+    // gradients here cost llvmpipe 9 % of the lit variant's code generation on every hot reload
+    // (13 % on Mesa 25); the price is that the level of detail is chosen per 2×2 quad, so GL,
+    // which draws flipped, may put a sharp highlight one pixel off (tests/backend_parity.rs).
+    let nm = material_texel(normal_texture, normal_sampler, mat, 2u, sets);
     if dot(in.tangent.xyz, in.tangent.xyz) > 1e-12 {
         // Gram-Schmidt: interpolation leaves T and N slightly non-orthogonal.
         var t = safe_normalize(in.tangent.xyz - n * dot(n, in.tangent.xyz), vec3<f32>(1.0, 0.0, 0.0));

@@ -808,9 +808,9 @@ mod tests {
         let all =
             ["BASE_COLOR_TEXTURE", "METALLIC_ROUGHNESS_TEXTURE", "NORMAL_MAP", "OCCLUSION_TEXTURE", "EMISSIVE_TEXTURE"];
         assert_eq!(samples(&all, false), 6);
-        // Explicit gradients for the normal map, and for every texture where some texture maps
-        // its coordinate.
-        assert_eq!(samples(&all, true), 1);
+        // Explicit gradients only where some texture maps its coordinate, and then for every
+        // material texture; otherwise none, the normal map included.
+        assert_eq!(samples(&all, true), 0);
         let transformed = [&all[..], &["TRANSFORMED_UVS"]].concat();
         assert_eq!(samples(&transformed, true), 5);
         // Occlusion packed in the metallic-roughness texture: one sample for both.
