@@ -527,12 +527,14 @@ fn gizmo_lines_are_depth_tested_and_only_drawn_when_present() {
 #[test]
 fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
     // A fine checker on a floor seen at a grazing angle: trilinear filtering blurs its far rows
-    // to grey, anisotropic filtering keeps their contrast.
+    // to grey, anisotropic filtering keeps their contrast. The texture has no transform, so it
+    // is sampled with implicit derivatives as most material textures are: lavapipe of Mesa 25
+    // filters explicit gradients (KHR_texture_transform's path) without anisotropy.
     let mut app = scene_app();
     app.world
         .spawn((Camera::default(), Transform::from_xyz(0.0, 0.3, 4.0).looking_at(Vec3::new(0.0, 0.0, -4.0), Vec3::Y)));
     app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
-    let side = 64u32;
+    let side = 512u32;
     let rgba8 = (0..side * side)
         .flat_map(|i| if ((i % side) / 4 + (i / side) / 4).is_multiple_of(2) { [255u8; 4] } else { [0, 0, 0, 255] })
         .collect();
@@ -543,8 +545,7 @@ fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
         label: "checker".into(),
         mips: None,
     });
-    let mut texture = penumbra::engine::material::TextureRef::new(image);
-    texture.transform.scale = Vec2::splat(8.0);
+    let texture = penumbra::engine::material::TextureRef::new(image);
     let material = StandardMaterial { base_color_texture: Some(texture), unlit: true, ..white() };
     spawn_mesh(&mut app, Mesh::plane(16.0), material, Transform::IDENTITY);
     let size = (48, 32);
@@ -555,8 +556,8 @@ fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
         }
         render_app(app, size, s)
     };
-    // Contrast of the floor's far rows (the horizon is at row 16; measured 14.4 with anisotropy 4
-    // and 11.1 without on lavapipe).
+    // Contrast of the floor's far rows (the horizon is at row 16; measured 21.8 with anisotropy 4
+    // and 11.1 without on lavapipe of Mesa 25.0.7, 13.5 and 11.1 on Mesa 22.3).
     let contrast = |px: &[u8]| {
         let rows: Vec<f32> = (18..24)
             .flat_map(|y| (0..size.0).map(move |x| (x, y)))
@@ -568,7 +569,7 @@ fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
     let trilinear = with(&mut app, 1);
     let anisotropic = with(&mut app, 4);
     assert!(
-        contrast(&anisotropic) > 1.2 * contrast(&trilinear),
+        contrast(&anisotropic) > 1.15 * contrast(&trilinear),
         "anisotropy 4 keeps the far checks: contrast {} vs {}",
         contrast(&anisotropic),
         contrast(&trilinear)
