@@ -66,6 +66,13 @@
 @group(0) @binding(2) var<storage, read> draw_slots: array<u32>;
 @group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
+#ifndef GLOBAL_LIGHTS_IN_STORAGE
+// The global lights, which lead the light store: its first slots bound again as a uniform array
+// (mirrors UNIFORM_GLOBAL_LIGHTS in prepare/light_store.rs), which every lit fragment walks. A
+// uniform read at an index all lanes share is one load on llvmpipe, where a storage read is
+// gathered lane by lane. More global lights than this walk `lights` (GLOBAL_LIGHTS_IN_STORAGE).
+@group(0) @binding(22) var<uniform> global_lights: array<Light, 64>;
+#endif
 #ifdef CLUSTERED_LIGHTS
 @group(0) @binding(5) var<uniform> grid: ClusterGrid;
 // Per cluster (offset, count) into cluster_lights, which holds light slots.
@@ -457,10 +464,15 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     let geometric_n = safe_normalize(select(in.normal, -in.normal, double_sided_back), n);
 #endif
     for (var i = 0u; i < view.global_light_count; i++) {
-        var lit = shade_light(s, lights[i], in.rel_position, view.camera_position);
+#ifdef GLOBAL_LIGHTS_IN_STORAGE
+        let light = lights[i];
+#else
+        let light = global_lights[i];
+#endif
+        var lit = shade_light(s, light, in.rel_position, view.camera_position);
 #ifdef SHADOWS
-        if lights[i].kind == LIGHT_DIRECTIONAL && any(lit > vec3<f32>(0.0)) {
-            let n_dot_l = dot(geometric_n, -lights[i].direction);
+        if light.kind == LIGHT_DIRECTIONAL && any(lit > vec3<f32>(0.0)) {
+            let n_dot_l = dot(geometric_n, -light.direction);
             let depth = view_depth(in.rel_position);
             lit *= directional_shadow(i, in.rel_position, geometric_n, n_dot_l, depth, in.clip_position.xy);
         }

@@ -586,3 +586,40 @@ fn a_huge_range_is_binned_in_an_orthographic_view() {
     let hdr = hdr_of(&app);
     assert!(hdr[16 * 32 + 16][1] > 0.1, "the light lights the floor: {:?}", hdr[16 * 32 + 16]);
 }
+
+/// The forward shader walks the global lights in a uniform array of the light store's first
+/// `UNIFORM_GLOBAL_LIGHTS` slots while they fit, and in the storage array beyond (the
+/// `GLOBAL_LIGHTS_IN_STORAGE` variant): N directional lights whose illuminances add up to one
+/// light's light the floor as that one does, at the array's length and past it. Light i carries
+/// a share growing as i², so a walk that lost the lights past the array, or read the array's
+/// last one again in their place, would miss by at least 2 %. The keys say which walk drew: on
+/// lavapipe a read past the uniform array (shaders are compiled without bounds checks) happens
+/// to find the store's next slots, so the radiance alone would not tell.
+#[test]
+fn global_lights_past_the_uniform_array_are_walked_in_storage() {
+    use penumbra::render::prepare::light_store::UNIFORM_GLOBAL_LIGHTS;
+    let render = |n: u32| {
+        let mut app = scene_app();
+        let _pixel_world = top_down(&mut app, 2.0);
+        let total: f32 = (1..=n).map(|i| (i * i) as f32).sum();
+        for i in 1..=n {
+            app.world.spawn((
+                DirectionalLight { illuminance: 3.0 * (i * i) as f32 / total, shadows: false, ..Default::default() },
+                Transform::from_xyz(1.0, 2.0, 1.5).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        }
+        render_app(&mut app, (16, 16), settings(LightWalk::Clustered));
+        let keys = app.world.resource::<Renderer>().forward_pipeline_keys();
+        assert!(!keys.is_empty());
+        let in_storage = keys.iter().all(|k| k.global_lights_in_storage);
+        assert!(in_storage || keys.iter().all(|k| !k.global_lights_in_storage), "{n} lights: mixed keys");
+        (hdr_of(&app)[8 * 16 + 8][1], in_storage)
+    };
+    let (one, in_storage) = render(1);
+    assert!(one > 0.1 && !in_storage, "one light: radiance {one}, in storage {in_storage}");
+    for n in [UNIFORM_GLOBAL_LIGHTS, UNIFORM_GLOBAL_LIGHTS + 6] {
+        let (split, in_storage) = render(n);
+        assert_eq!(in_storage, n > UNIFORM_GLOBAL_LIGHTS, "{n} lights");
+        assert!((split - one).abs() <= 1e-3 * one, "{n} lights: radiance {split}, one light: {one}");
+    }
+}

@@ -484,6 +484,8 @@ pub struct Renderer {
     /// How this frame's pipelines find local lights (part of every pipeline key).
     local_lights: LocalLights,
     light_shapes: LightShapes,
+    /// More global lights than the uniform array of them holds (part of every pipeline key).
+    global_lights_in_storage: bool,
     /// Opaque surfaces get their local lights from the deferred-lights compute pass.
     deferred_lights: bool,
     deferred_params: wgpu::Buffer,
@@ -593,6 +595,7 @@ impl Renderer {
             shader_error,
             local_lights: LocalLights::None,
             light_shapes: LightShapes::default(),
+            global_lights_in_storage: false,
             deferred_lights: false,
             deferred_params: deferred_lights::params_buffer(&ctx.device),
             binning_error: None,
@@ -1628,10 +1631,16 @@ impl Renderer {
             && wants_compute
             && self.ctx.caps.deferred_lights
             && self.settings.debug_view == DebugView::None;
-        if walk != self.local_lights || shapes != self.light_shapes || deferred != self.deferred_lights {
+        let in_storage = !self.lights.global_lights_fit_uniform();
+        if walk != self.local_lights
+            || shapes != self.light_shapes
+            || deferred != self.deferred_lights
+            || in_storage != self.global_lights_in_storage
+        {
             self.local_lights = walk;
             self.light_shapes = shapes;
             self.deferred_lights = deferred;
+            self.global_lights_in_storage = in_storage;
             self.batches_dirty = true;
         }
         rebind
@@ -1936,6 +1945,7 @@ impl Renderer {
                 self.local_lights
             },
             light_shapes: self.light_shapes,
+            global_lights_in_storage: self.global_lights_in_storage,
             shadows: self.shadows_active,
             local_shadows: self.local_shadows_active,
             ibl: self.ibl_active,
@@ -2123,6 +2133,10 @@ impl Renderer {
                 wgpu::BindGroupEntry {
                     binding: 20,
                     resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 22,
+                    resource: wgpu::BindingResource::Buffer(self.lights.global_lights_binding()),
                 },
                 // At most the largest storage binding the device allows (128 MiB on lavapipe).
                 wgpu::BindGroupEntry {

@@ -41,6 +41,7 @@ pub const FEATURE_SWITCHES: &[&str] = &[
     "ENCODE_SRGB",
     "FIRST",
     "FROM_DEPTH",
+    "GLOBAL_LIGHTS_IN_STORAGE",
     "IBL",
     "IES_LIGHTS",
     "IRRADIANCE_SH",

@@ -70,6 +70,9 @@ pub struct PipelineKey {
     pub local_lights: LocalLights,
     /// Which lights with a size need their shading code.
     pub light_shapes: LightShapes,
+    /// More global lights than the uniform array holds (`LightStore::global_lights_fit_uniform`):
+    /// they are walked in the storage array.
+    pub global_lights_in_storage: bool,
     /// Directional lights cast shadows this frame: the shadow-map lookups are compiled in.
     pub shadows: bool,
     /// Some local light reads a shadow map this frame.
@@ -121,6 +124,7 @@ impl PipelineKey {
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))
             .with("LOCAL_LIGHTS", local)
+            .with("GLOBAL_LIGHTS_IN_STORAGE", lit && self.global_lights_in_storage)
             .with("DEFERRED_LOCAL_LIGHTS", self.local_lights == LocalLights::Deferred)
             .with("CLUSTERED_LIGHTS", lit && self.local_lights == LocalLights::Clustered)
             .with("UNBOUNDED_LIGHTS", lit && self.local_lights == LocalLights::AllUnbounded)
@@ -584,6 +588,9 @@ impl PipelineCache {
                 // The mesh pool's vertices, where a line quad's corner finds its opposite
                 // endpoint (prepare/line_quads.rs).
                 storage(21, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE),
+                // The light store's first slots again, as the uniform array of global lights
+                // (LightStore::global_lights_binding).
+                buffer_entry(22, lit, wgpu::BufferBindingType::Uniform),
             ],
         });
         let compute = wgpu::ShaderStages::COMPUTE;
