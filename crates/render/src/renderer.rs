@@ -2134,10 +2134,6 @@ impl Renderer {
                     binding: 20,
                     resource: wgpu::BindingResource::TextureView(self.shadows.atlas_view()),
                 },
-                wgpu::BindGroupEntry {
-                    binding: 22,
-                    resource: wgpu::BindingResource::Buffer(self.lights.global_lights_binding()),
-                },
                 // At most the largest storage binding the device allows (128 MiB on lavapipe).
                 wgpu::BindGroupEntry {
                     binding: 21,
@@ -2146,6 +2142,10 @@ impl Renderer {
                         offset: 0,
                         size: std::num::NonZeroU64::new(self.mesh_pool.readable_vertex_bytes()),
                     }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 22,
+                    resource: wgpu::BindingResource::Buffer(self.lights.global_lights_binding()),
                 },
             ],
         })
