@@ -16,15 +16,15 @@
 //   sort_long     one workgroup per queued run (an indirect dispatch the queue sizes): a rank
 //                 sort of its long run, or a bitmask of its block's lights for the longest
 //
-// Lists used to be counted per cluster and sorted whole: at 100 000 lights on the many-lights
-// scene that meant bitonic sorts of 489 lights on average (up to 1 490), 0.16 ms on an H100.
-// Runs of 1 024-light blocks hold 5 lights there on average. (One 256-thread workgroup per
-// cluster sorted every list before that: 8192 workgroups that mostly returned at once cost
-// lavapipe 30 ms a frame, its workgroup barriers being coroutines.)
+// Lists used to be counted per cluster and sorted whole: with many lights that meant bitonic
+// sorts of lists hundreds of lights long, where runs of 1 024-light blocks hold only a few
+// (figures in docs/performance.md, "Many lights"). (One 256-thread workgroup per cluster sorted
+// every list before that: 8192 workgroups that mostly returned at once made lavapipe slow, its
+// workgroup barriers being coroutines.)
 //
 // The index buffer is sized on the CPU by an upper bound of the total (the sum of each light's
-// candidate box, see passes/clusters/grid.rs), so lists never overflow, on the first frame too.
-// The walk is mirrored exactly by the CPU reference binner (passes/clusters/reference.rs).
+// candidate box, see features/clusters/grid.rs), so lists never overflow, on the first frame too.
+// The walk is mirrored exactly by the CPU reference binner (features/clusters/reference.rs).
 
 #import penumbra::light_data::{Light, LIGHT_SPOT, LIGHT_RECT, LIGHT_DISK}
 #import penumbra::clusters::{ClusterGrid, slice_depth, slice_coordinate, slice_index, cluster_id}
@@ -54,9 +54,9 @@ struct DispatchArgs {
 };
 @group(0) @binding(6) var<storage, read_write> long_dispatch: DispatchArgs;
 const MAX_DISPATCH: u32 = 65535u;
-// Longest run sort_short sorts itself (a 16-key sorting network). Lists of 20 to 60 lights once
-// kept one invocation each sorting in memory for 0.128 ms on an H200 (1 000 lights on the
-// many-lights scene, when SHORT_LIST was 64); a workgroup sorts them in parallel.
+// Longest run sort_short sorts itself (a 16-key sorting network). When SHORT_LIST was 64, lists
+// of 20 to 60 lights each kept a single invocation sorting in memory, one step after another; a
+// workgroup sorts them in parallel.
 const SHORT_LIST: u32 = 16u;
 
 // A light's sphere (and cone) of influence in (x, y, d) view coordinates.
@@ -199,13 +199,12 @@ fn touches(b: Bounds, c: vec3<u32>) -> bool {
 // counted into each cluster it touches, or (`fill`) writes its slot at each one's cursor; both
 // passes visit exactly the same (light, cluster) pairs. One thread per light walked a light
 // covering the whole view (a bright lamp in a room: its range reaches past the walls) through
-// all 8192 clusters serially, an atomic each: 5.5 ms on an H100 for one light. A workgroup per
-// light fixed that but left 60 of its 64 threads idle for the small lights that most scenes
-// are made of (100 000 lights took 0.113 ms to count on an H200); sharing the workgroup's
-// cells among a few lights keeps its threads busy, while enough workgroups remain to fill the
-// GPU at a thousand lights (64 lights a workgroup took 0.030 ms to count 1 000 there). 16 lights
-// (8 before the candidate boxes were tightened) suit small boxes: see BIN_LIGHTS in
-// passes/clusters/mod.rs.
+// all 8192 clusters serially, an atomic each: a long serial chain for one light. A workgroup
+// per light fixed that but left 60 of its 64 threads idle for the small lights that most scenes
+// are made of; sharing the workgroup's cells among a few lights keeps its threads busy, while
+// enough workgroups remain to fill the GPU at a thousand lights (at 64 lights a workgroup there
+// were too few). 16 lights (8 before the candidate boxes were tightened) suit small boxes: see
+// BIN_LIGHTS in features/clusters/mod.rs, and docs/performance.md for what binning costs.
 const BIN_THREADS: u32 = 64u;
 const BIN_LIGHTS: u32 = 16u;
 var<workgroup> bin_bounds: array<Bounds, BIN_LIGHTS>;
@@ -284,8 +283,8 @@ fn count_lights(
 // The exclusive scan of the run counts, in two passes over blocks of SCAN_THREADS · SCAN_ITEMS
 // runs: scan_blocks scans each block (each thread its SCAN_ITEMS consecutive runs, then the
 // threads' sums in workgroup memory) and parks its total; scan_apply adds the totals of the
-// blocks before it. (One workgroup scanning every cluster serially took 0.035 ms for 8192
-// clusters on an H100 and 0.29 ms for 73 728, its loads one after another.)
+// blocks before it. (One workgroup scanning every cluster serially, its loads one after
+// another, took longer the finer the grid, so fine grids such as 64×36×32 paid most for it.)
 const SCAN_THREADS: u32 = 256u;
 const SCAN_ITEMS: u32 = 4u;
 var<workgroup> partial: array<u32, SCAN_THREADS>;
@@ -461,9 +460,9 @@ fn sort_short(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     }
     // Loaded at once (unrolled), sorted by a fixed network, stored: every index is a constant,
     // so the run stays in registers. An insertion sort in the index buffer, its loads one after
-    // another, made the longest runs' invocations the pass's critical path (0.034 ms at
-    // 100 000 lights on an H100), and one in a private array indexed at run time spilled to
-    // local memory (0.064 ms).
+    // another, made the longest runs' invocations the pass's critical path, and one in a
+    // private array indexed at run time spilled to local memory (figures in
+    // docs/performance.md, "Many lights").
     var k: array<u32, SHORT_LIST>;
     for (var i = 0u; i < SHORT_LIST; i++) {
         k[i] = 0xffffffffu;
@@ -483,9 +482,9 @@ fn sort_short(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
 // lights each thread places its light at its rank among them (one barrier); longer runs (a
 // crowd of lights in one cluster) set each light's bit in a mask of the block's lights and
 // write the set bits out in order (MASK_WORDS words: blocks of up to 65 536 lights, see
-// LightBlocks in passes/clusters/grid.rs). A bitonic network did this before, a barrier per
-// step, in the index buffer for runs past its workgroup memory; at 100 000 lights on the
-// many-lights scene it took 0.16 ms for lists of up to 1 490, where runs take a few µs.
+// LightBlocks in features/clusters/grid.rs). A bitonic network did this before, a barrier per
+// step, in the index buffer for runs past its workgroup memory; sorting whole lists of hundreds
+// of lights that way cost far more than sorting runs does (docs/performance.md, "Many lights").
 const SORT_THREADS: u32 = 256u;
 const MASK_WORDS: u32 = 2048u;
 var<workgroup> sort_keys: array<u32, SORT_THREADS>;

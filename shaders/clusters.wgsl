@@ -1,6 +1,6 @@
 // The froxel grid: screen tiles × depth slices (logarithmic for perspective views, linear for
 // orthographic ones), as the cluster binner builds it and the forward shader looks it up.
-// Mirrors `GpuClusterGrid` in passes/clusters/grid.rs, whose CPU twin computes the same bounds
+// Mirrors `GpuClusterGrid` in features/clusters/grid.rs, whose CPU twin computes the same bounds
 // for the reference binner and the index-capacity bound.
 //
 // Depth `d` is distance along the view direction (−z in view space), so froxel boxes live in

@@ -1,4 +1,4 @@
-// GPU frustum culling of the opaque and masked draw list (see crates/render/src/passes/culling.rs).
+// GPU frustum culling of the opaque and masked draw list (see crates/render/src/features/culling/).
 //
 // One thread per entry of the opaque draw list: its instance's world bounds (the mesh's local
 // box, transformed) are tested against the view frustum; a visible entry appends its instance

@@ -30,9 +30,9 @@ struct DeferredParams {
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
-@group(0) @binding(5) var<uniform> grid: ClusterGrid;
-@group(0) @binding(6) var<storage, read> cluster_ranges: array<vec2<u32>>;
-@group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
+@group(0) @binding(8) var<uniform> grid: ClusterGrid;
+@group(0) @binding(9) var<storage, read> cluster_ranges: array<vec2<u32>>;
+@group(0) @binding(10) var<storage, read> cluster_lights: array<u32>;
 
 // The forward pass's colour, whose alpha holds the surface's roughness (see gbuffer.wgsl).
 #ifdef MULTISAMPLED
@@ -96,10 +96,10 @@ fn shade_samples(px: vec2<i32>, corner: vec2<f32>, centre: vec2<f32>) -> vec3<f3
 // A workgroup's 8×8 pixels mostly share one cluster. When every pixel it shades once does, the
 // workgroup walks that list together: each round its 64 threads load 64 lights' bounding
 // spheres into workgroup memory, and each pixel tests them from there, instead of waiting on
-// two dependent loads per light (the slot, then the light), mostly for lights that miss it. On
-// an H100 at 100 000 lights (lists of 489 on average) the pass went 4.27 -> 3.90 ms; the rest
-// is shading the lights that do reach (about 43 a pixel). The sums run in list order either
-// way, so the image is the same.
+// two dependent loads per light (the slot, then the light), mostly for lights that miss it.
+// With long lists, most of what remains is shading the lights that do reach each pixel (figures
+// in docs/performance.md, "Many lights"). The sums run in list order either way, so the image
+// is the same.
 const GROUP_PIXELS: u32 = 64u;
 const NO_CLUSTER: u32 = 0xffffffffu;
 var<workgroup> group_first: atomic<u32>;

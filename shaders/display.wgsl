@@ -3,7 +3,7 @@
 // Display transform: linear HDR scene colour (already exposed) -> display colour in 0..1, the
 // one place the tonemap curves live. Used by the tonemap pass (tonemap.wgsl) and, when nothing
 // reads the HDR colour, by the forward shader itself (TONEMAP_IN_FORWARD), which then writes
-// straight into the output. `passes/tonemap.rs` mirrors the curves on the CPU for clear colours.
+// straight into the output. `features/tonemap/` mirrors the curves on the CPU for clear colours.
 
 // Variants: TONEMAP_NEUTRAL or TONEMAP_ACES (neither: clamp only); ENCODE_SRGB when the output
 // format is not an sRGB format (else the hardware encodes, exactly once).

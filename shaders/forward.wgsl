@@ -6,7 +6,7 @@
 // (positions far from the origin keep their precision, see vs_main); `clip` is reverse-Z.
 // Lighting happens in `rel` space. Output is linear HDR radiance times exposure, clamped to f16.
 //
-// Variants (shader defs, set per pipeline by pipeline_cache.rs from what each draw uses; code a
+// Variants (shader defs, set per pipeline by the forward pipeline family (features/forward/pipeline.rs and the draw key in resources/draws.rs) from what each draw uses; code a
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
@@ -20,7 +20,7 @@
 // each fragment also writes out. TONEMAP_IN_FORWARD (with display.wgsl's switches): nothing
 // reads the HDR colour, so the output is tonemapped here and drawn straight into the output
 // target; the tonemap pass does not run. LINE_QUADS: the draw is a line list held as quads
-// (prepare/line_quads.rs), widened to one pixel here (line_quads.wgsl). VERTEX_COLORS: the mesh
+// (resources/line_quads.rs), widened to one pixel here (line_quads.wgsl). VERTEX_COLORS: the mesh
 // has vertex colours other than white, so the colour is interpolated and multiplied in.
 // ALPHA_COVERAGE or ALPHA_SAMPLE_RATE (with ALPHA_MASK at MSAA 4): the alpha test runs at each
 // sample, see alpha_coverage.
@@ -68,23 +68,23 @@
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
 #ifndef GLOBAL_LIGHTS_IN_STORAGE
 // The global lights, which lead the light store: its first slots bound again as a uniform array
-// (mirrors UNIFORM_GLOBAL_LIGHTS in prepare/light_store.rs), which every lit fragment walks. A
+// (mirrors UNIFORM_GLOBAL_LIGHTS in resources/light_store.rs), which every lit fragment walks. A
 // uniform read at an index all lanes share is one load on llvmpipe, where a storage read is
 // gathered lane by lane. More global lights than this walk `lights` (GLOBAL_LIGHTS_IN_STORAGE).
-@group(0) @binding(22) var<uniform> global_lights: array<Light, 64>;
+@group(0) @binding(5) var<uniform> global_lights: array<Light, 64>;
 #endif
 #ifdef CLUSTERED_LIGHTS
-@group(0) @binding(5) var<uniform> grid: ClusterGrid;
+@group(0) @binding(8) var<uniform> grid: ClusterGrid;
 // Per cluster (offset, count) into cluster_lights, which holds light slots.
-@group(0) @binding(6) var<storage, read> cluster_ranges: array<vec2<u32>>;
-@group(0) @binding(7) var<storage, read> cluster_lights: array<u32>;
+@group(0) @binding(9) var<storage, read> cluster_ranges: array<vec2<u32>>;
+@group(0) @binding(10) var<storage, read> cluster_lights: array<u32>;
 #endif
 
 #ifdef POOL_VERTICES
 // The mesh pool's vertices (GpuVertex, 16 words each: position, normal, tangent, uv0, uv1,
 // colour as four unorm16): a line quad's corner reads its segment's opposite endpoint here
-// (prepare/line_quads.rs), and a triangle-culled draw all of its vertices (PULLED_VERTICES).
-@group(0) @binding(21) var<storage, read> pool_vertices: array<f32>;
+// (resources/line_quads.rs), and a triangle-culled draw all of its vertices (PULLED_VERTICES).
+@group(0) @binding(22) var<storage, read> pool_vertices: array<f32>;
 #endif
 
 @group(1) @binding(0) var base_color_texture: texture_2d<f32>;
@@ -204,7 +204,7 @@ fn vs_main(in: VertexIn) -> VertexOut {
     var out = vertex_out(inst, v);
 #ifdef LINE_QUADS
     let placed = place_vertex(inst, v.position, view.camera_position);
-    // The segment's other end: the vertex whose index differs in bit 1 (prepare/line_quads.rs).
+    // The segment's other end: the vertex whose index differs in bit 1 (resources/line_quads.rs).
     let at = (in.vertex_index ^ 2u) * 16u;
     if at + 15u < arrayLength(&pool_vertices) {
         let other = vec3<f32>(pool_vertices[at], pool_vertices[at + 1u], pool_vertices[at + 2u]);
@@ -269,8 +269,9 @@ fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
 
 // Material texture `slot`'s texel at this fragment. Without TRANSFORMED_UVS every texture reads
 // TEXCOORD_0 as it is and the sampler takes its own derivatives: explicit gradients cost more to
-// compile and to run (on llvmpipe about 13 ms more LLVM time per sample, which hot reload
-// waits for). With it, the coordinate and its gradients come from slot_coord.
+// compile and to run (on llvmpipe each such read adds LLVM time that hot reload waits for: see
+// docs/shaders.md, "What a lavapipe compile costs"). With it, the coordinate and its gradients
+// come from slot_coord.
 fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = slot_coord(mat, slot, sets);
@@ -394,9 +395,10 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 #endif
 #ifdef NORMAL_MAP
     // Like every material texture: implicit derivatives unless TRANSFORMED_UVS. Explicit
-    // gradients here cost llvmpipe 9 % of the lit variant's code generation on every hot reload
-    // (13 % on Mesa 25); the price is that the level of detail is chosen per 2×2 quad, so GL,
-    // which draws flipped, may put a sharp highlight one pixel off (tests/backend_parity.rs).
+    // gradients here add markedly to llvmpipe's code generation for the lit variant on every
+    // hot reload (docs/shaders.md, "What a lavapipe compile costs"); the price is that the level
+    // of detail is chosen per 2×2 quad, so GL, which draws flipped, may put a sharp highlight
+    // one pixel off (tests/backend_parity.rs).
     let nm = material_texel(normal_texture, normal_sampler, mat, 2u, sets);
     if dot(in.tangent.xyz, in.tangent.xyz) > 1e-12 {
         // Gram-Schmidt: interpolation leaves T and N slightly non-orthogonal.
@@ -553,7 +555,7 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 }
 
 #ifdef VISIBILITY_SHADE
-// Shading from the visibility buffer (passes/visibility.rs): one thread per pixel finds the
+// Shading from the visibility buffer (features/visibility/): one thread per pixel finds the
 // triangles its samples hold (visibility_raster.wgsl numbered them), shades each triangle of
 // this dispatch's group once at the pixel's centre, as multisampling shades a fragment, and
 // weighs it by the samples it covers. The vertices are placed as vs_main places them and

@@ -1,5 +1,5 @@
 // The hierarchical depth buffer for occlusion culling (see shaders/cull.wgsl and
-// crates/render/src/passes/culling.rs): level 0 is the largest power of two no bigger than the
+// crates/render/src/features/culling/): level 0 is the largest power of two no bigger than the
 // frame in each dimension; each texel holds the farthest depth (reverse-Z: the smallest value)
 // of every sample of the frame's depth that its footprint touches, and each further level the
 // farthest of the 2×2 texels below it. A box nearer than the farthest depth over its rectangle

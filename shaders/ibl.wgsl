@@ -27,9 +27,9 @@ struct EnvironmentParams {
     _pad_c: f32,
 };
 
-@group(0) @binding(15) var<uniform> environment: EnvironmentParams;
-@group(0) @binding(16) var<storage, read> irradiance_sh: array<vec4<f32>, 9>;
-@group(0) @binding(17) var specular_cube: texture_cube<f32>;
+@group(0) @binding(17) var<uniform> environment: EnvironmentParams;
+@group(0) @binding(18) var<storage, read> irradiance_sh: array<vec4<f32>, 9>;
+@group(0) @binding(19) var specular_cube: texture_cube<f32>;
 
 // A world direction in the environment's own frame (turned back by its rotation).
 fn to_environment(d: vec3<f32>) -> vec3<f32> {
@@ -57,7 +57,7 @@ fn diffuse_irradiance(n_world: vec3<f32>) -> vec3<f32> {
 // nearest) blended by the fractional level, which is what a trilinear sampler computes. A CPU
 // rasteriser (llvmpipe) compiles a seamless cube read at a per-pixel level into a large body of
 // code, once per distinct read; the two reads here share one body of a single level, which
-// takes 8 % off the lit shader's compile on every hot reload (README, "Shaders and hot reload").
+// shortens the lit shader's compile on every hot reload (docs/shaders.md).
 // The last mip's neighbour clamps to itself.
 fn prefiltered_radiance(dir: vec3<f32>, roughness: f32) -> vec3<f32> {
     // A NaN roughness reads the sharpest mip rather than blending NaN into the pixel.

@@ -1,6 +1,6 @@
 // IES-profiled lights: a point light whose intensity toward each direction is read from its
 // luminaire's measured profile. The light store lays every profile in use into `ies_profiles`
-// as a uniform grid (prepare/ies_profiles.rs, grid built by penumbra_engine::ies): `rows`
+// as a uniform grid (resources/ies_profiles.rs, grid built by penumbra_engine::ies): `rows`
 // vertical angles γ from 0 (the nadir, the light's `direction`) to π, in `columns` planes of
 // horizontal angle C from 0 (the light's C = 0° axis) round the full turn, column after
 // column, each value a share of the profile's peak (which the light's colour carries).
@@ -9,7 +9,7 @@
 #import penumbra::common::PI
 #import penumbra::light_data::Light
 
-@group(0) @binding(9) var<storage, read> ies_profiles: array<f32>;
+@group(0) @binding(7) var<storage, read> ies_profiles: array<f32>;
 
 // The share of `light`'s peak intensity it sends along `dir` (unit, away from the light):
 // bilinear in (γ, C), which reproduces the file's own bilinear interpolation exactly where the

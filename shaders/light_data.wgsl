@@ -1,4 +1,4 @@
-// The packed light (mirrors `GpuLight` in prepare/light_store.rs): what the forward shader and
+// The packed light (mirrors `GpuLight` in resources/light_store.rs): what the forward shader and
 // the cluster binner both read.
 #define_import_path penumbra::light_data
 

@@ -1,4 +1,4 @@
-// Lines as quads a pixel wide (crates/render/src/prepare/line_quads.rs): each segment's four
+// Lines as quads a pixel wide (crates/render/src/resources/line_quads.rs): each segment's four
 // corners are its two ends, each moved half a pixel to either side, so the quad covers what a
 // strict hardware line of width 1 covers, on every driver. Used by the forward shader's
 // LINE_QUADS variant and by the gizmo lines.

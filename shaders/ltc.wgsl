@@ -30,7 +30,7 @@ struct LtcTable {
     magnitude: array<vec2<f32>, 4096>,
 };
 
-@group(0) @binding(8) var<storage, read> ltc_table: LtcTable;
+@group(0) @binding(6) var<storage, read> ltc_table: LtcTable;
 
 struct LtcCell {
     inverse_m: vec4<f32>,

@@ -1,5 +1,5 @@
 // Parameters shared by the post-processing passes (mirrors `GpuPostParams` in
-// passes/post.rs). The first two fields belong to the GPU when automatic exposure runs.
+// features/post/). The first two fields belong to the GPU when automatic exposure runs.
 #define_import_path penumbra::post_params
 
 struct PostParams {

@@ -1,5 +1,5 @@
 // Directional-light shadows, read from the cascaded shadow maps the shadow orchestrator renders
-// (crates/render/src/passes/shadows/): each cascade is one layer of a Depth32Float array atlas,
+// (crates/render/src/features/shadows/): each cascade is one layer of a Depth32Float array atlas,
 // reverse-Z (1 nearest the light), holding the depth of the nearest caster.
 //
 // A fragment picks its cascade by view depth and blends into the next one over the last
@@ -14,7 +14,7 @@
 //
 // Local lights (LOCAL_SHADOWS): spot lights read one perspective map, point lights (and wide
 // spots) the cube face their direction falls on, from layers of a second atlas (see
-// passes/shadows/local.rs); reverse-Z with an infinite far plane, filtered by 3×3 bilinear
+// features/shadows/local.rs); reverse-Z with an infinite far plane, filtered by 3×3 bilinear
 // comparisons. Their receiver offset scales with the texel's size at the receiver's distance.
 // Punctual lights cast hard-edged shadows, so PCSS does not apply to them.
 #define_import_path penumbra::shadows
@@ -77,14 +77,14 @@ struct LocalShadow {
     _pad: u32,
 };
 
-@group(0) @binding(10) var<uniform> shadows: Shadows;
-@group(0) @binding(11) var shadow_atlas: texture_depth_2d_array;
-@group(0) @binding(12) var shadow_sampler: sampler_comparison;
-@group(0) @binding(13) var<storage, read> local_shadows: array<LocalShadow>;
-@group(0) @binding(14) var local_atlas: texture_depth_2d_array;
+@group(0) @binding(11) var<uniform> shadows: Shadows;
+@group(0) @binding(12) var shadow_atlas: texture_depth_2d_array;
+@group(0) @binding(13) var shadow_sampler: sampler_comparison;
+@group(0) @binding(14) var<storage, read> local_shadows: array<LocalShadow>;
+@group(0) @binding(15) var local_atlas: texture_depth_2d_array;
 // The directional atlas again, as plain floats: the blocker search loads depths, and a load from
 // a depth texture has no GLSL translation (wgpu's GL backend).
-@group(0) @binding(20) var shadow_depths: texture_2d_array<f32>;
+@group(0) @binding(16) var shadow_depths: texture_2d_array<f32>;
 
 // Taps of a Vogel (golden-angle spiral) disk of unit radius, turned by `angle`.
 fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {

@@ -4,10 +4,10 @@
 // brdf.wgsl's lobe weights and ibl.wgsl's split sum.
 #define_import_path penumbra::split_sum
 
-@group(0) @binding(18) var brdf_lut: texture_2d<f32>;
+@group(0) @binding(20) var brdf_lut: texture_2d<f32>;
 // Linear within a level, nearest between levels, clamped: the table (one level), and the
 // environment's cube (ibl.wgsl blends two levels itself).
-@group(0) @binding(19) var linear_sampler: sampler;
+@group(0) @binding(21) var linear_sampler: sampler;
 
 // (A, B): ∫ f_spec·cosθ = f0·A + B, single scattering.
 fn split_sum(n_dot_v: f32, perceptual_roughness: f32) -> vec2<f32> {

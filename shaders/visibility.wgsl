@@ -3,7 +3,7 @@
 // back into its batch, instance and vertices, and a visibility sample's layout.
 #define_import_path penumbra::visibility
 
-// One opaque batch as rasterised (mirrors `GpuRasterBatch` in passes/visibility.rs).
+// One opaque batch as rasterised (mirrors `GpuRasterBatch` in features/visibility/).
 struct RasterBatch {
     // Where the batch's visible instances start in `visible_slots`.
     first: u32,

@@ -1,4 +1,4 @@
-// Rasterisation in compute (see crates/render/src/passes/visibility.rs): the visibility buffer.
+// Rasterisation in compute (see crates/render/src/features/visibility/): the visibility buffer.
 //
 // Every opaque batch's visible instances (the cull pass's `visible_slots` and instance counts)
 // are numbered triangle by triangle, batch after batch: `raster_prepare` turns this frame's

@@ -7,7 +7,7 @@
 use penumbra::prelude::*;
 use penumbra::render::RenderSettings;
 use penumbra::render::Renderer;
-use penumbra::render::prepare::light_store::{
+use penumbra::render::resources::light_store::{
     KIND_AMBIENT, KIND_DIRECTIONAL, KIND_DISK, KIND_IES, KIND_POINT, KIND_RECT, KIND_SPHERE, KIND_SPOT, KIND_TUBE,
 };
 

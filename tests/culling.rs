@@ -7,7 +7,7 @@
 //! equals it drawn one draw per entity.
 
 use penumbra::prelude::*;
-use penumbra::render::renderer::{OcclusionCulling, TriangleCulling};
+use penumbra::render::{OcclusionCulling, TriangleCulling};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;

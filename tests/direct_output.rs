@@ -14,8 +14,8 @@
 //!   surface brighter than white is white after the default resolve, mid-grey after this one).
 
 use penumbra::prelude::*;
+use penumbra::render::features::post::{BloomSettings, PostSettings};
 use penumbra::render::frame::Pass;
-use penumbra::render::passes::post::{BloomSettings, PostSettings};
 use penumbra::render::{MsaaResolve, RenderOutput, RenderScene, RenderSettings, Tonemapper};
 
 mod common;
@@ -117,7 +117,7 @@ fn render_into(app: &mut App, format: wgpu::TextureFormat) -> Vec<u8> {
     app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
         renderer.render(world.resource::<RenderScene>(), &view, format, SIZE);
     });
-    penumbra::render::readback::read_texture(&ctx.device, &ctx.queue, &texture, 4).unwrap()
+    penumbra::render::gpu::readback::read_texture(&ctx.device, &ctx.queue, &texture, 4).unwrap()
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! Golden images of the sample models, rendered headless on lavapipe and compared with FLIP.
-//! Each golden was looked at before it was committed; the README says how to regenerate them.
+//! Each golden was looked at before it was committed; docs/testing.md says how to regenerate them.
 //! The frames are built in `common::golden_scenes` (tests/backend_parity.rs draws them on GL too).
 
 mod common;

@@ -14,7 +14,7 @@
 use std::sync::Arc;
 
 use penumbra::prelude::*;
-use penumbra::render::environment::EnvironmentSettings;
+use penumbra::render::features::environment::EnvironmentSettings;
 use penumbra::render::frame::Pass;
 use penumbra::render::{RenderSettings, Renderer};
 
@@ -230,7 +230,8 @@ fn diffuse_light_of_a_small_bright_disk_matches_its_irradiance() {
 fn prefiltered_highlight_matches_a_many_sample_reference() {
     // A 3° disk of 500 cd/m² reflected by a metal sphere: the hardest case for few samples
     // (each sample set's pattern shows as ghost copies of the disk). The default count against
-    // a 2048-sample reference (README "Image-based lighting" has the whole table).
+    // a 2048-sample reference (docs/environment-and-post.md, "Sample count, and limits", has the
+    // whole table).
     let towards = Vec3::new(0.3, 0.4, 1.0).normalize();
     let env = Environment {
         background: Background::Color([0.0; 3]),
@@ -402,9 +403,9 @@ fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
         let plan = app.world.resource::<Renderer>().stats().plan.clone();
         (hdr_of(&app), plan)
     };
-    let (composited, plan) = render(penumbra::render::renderer::LightWalk::Clustered);
+    let (composited, plan) = render(penumbra::render::LightWalk::Clustered);
     assert!(!plan.runs(Pass::DeferredLights));
-    let (in_pass, plan) = render(penumbra::render::renderer::LightWalk::ClusteredCompute);
+    let (in_pass, plan) = render(penumbra::render::LightWalk::ClusteredCompute);
     if !common::gpu().caps.deferred_lights {
         // GL (run with WGPU_BACKEND=gl): the renderer shades in the fragment shader instead.
         assert!(!plan.runs(Pass::DeferredLights), "{plan}");

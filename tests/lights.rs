@@ -5,11 +5,11 @@
 
 use penumbra::engine::scenes::{SplitMix64, spawn_many_lights};
 use penumbra::prelude::*;
+use penumbra::render::LightWalk;
+use penumbra::render::features::clusters::grid::ClusterConfig;
+use penumbra::render::features::clusters::reference;
 use penumbra::render::frame::Pass;
-use penumbra::render::passes::clusters::grid::ClusterConfig;
-use penumbra::render::passes::clusters::reference;
-use penumbra::render::pipelines::pipeline_cache::{DebugView, LocalLights};
-use penumbra::render::renderer::LightWalk;
+use penumbra::render::{DebugView, LocalLights};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
@@ -597,7 +597,7 @@ fn a_huge_range_is_binned_in_an_orthographic_view() {
 /// to find the store's next slots, so the radiance alone would not tell.
 #[test]
 fn global_lights_past_the_uniform_array_are_walked_in_storage() {
-    use penumbra::render::prepare::light_store::UNIFORM_GLOBAL_LIGHTS;
+    use penumbra::render::resources::light_store::UNIFORM_GLOBAL_LIGHTS;
     let render = |n: u32| {
         let mut app = scene_app();
         let _pixel_world = top_down(&mut app, 2.0);

@@ -1,4 +1,4 @@
-//! Line primitives: drawn as quads a pixel wide (prepare/line_quads.rs), they cover exactly the
+//! Line primitives: drawn as quads a pixel wide (resources/line_quads.rs), they cover exactly the
 //! samples a strict hardware line of width 1 covers: the rectangle around the segment. Triangle
 //! coverage is fixed by the sample positions, so these frames are the same on every driver
 //! (hardware lines were not: the MeshPrimitiveModes golden moved a pixel column between

@@ -80,7 +80,7 @@ fn memory_plateaus_under_continuous_churn() {
         );
     }
     // Host memory (lavapipe's "GPU" memory lives there too) levels off: the second half's peak
-    // is within 4 MiB of the first half's (measured: equal to 0.1 MiB). A leak of one churned
+    // is within 4 MiB of the first half's (in practice nearly equal). A leak of one churned
     // 24-vertex box a frame would add 0.4 MiB over the second half's 250 frames, a leaked
     // texture every 5 frames 50 times its 4 KiB: both below this bound, which catches what
     // grows by a pool's doubling instead; the pool checks above catch the per-object leaks.

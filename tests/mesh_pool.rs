@@ -4,8 +4,8 @@
 use std::sync::Arc;
 
 use penumbra::prelude::*;
-use penumbra::render::prepare::mesh_pool::{GpuVertex, MeshPool};
-use penumbra::render::world::Snapshot;
+use penumbra::render::resources::mesh_pool::{GpuVertex, MeshPool};
+use penumbra::render::scene::world::Snapshot;
 
 mod common;
 use common::gpu;

@@ -13,9 +13,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use penumbra::prelude::*;
-use penumbra::render::environment::EnvironmentSettings;
+use penumbra::render::features::environment::EnvironmentSettings;
+use penumbra::render::features::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra::render::frame::Pass;
-use penumbra::render::passes::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;

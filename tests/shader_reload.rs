@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use penumbra::prelude::*;
+use penumbra::render::ReloadReport;
 use penumbra::render::headless::HeadlessRunner;
-use penumbra::render::pipelines::pipeline_cache::ReloadReport;
 use penumbra::render::pipelines::shader_library::EMBEDDED;
 use penumbra::render::{RenderSettings, Renderer, ShaderSource};
 

@@ -4,8 +4,8 @@
 //! nothing casts.
 
 use penumbra::prelude::*;
+use penumbra::render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::frame::Pass;
-use penumbra::render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
@@ -41,7 +41,7 @@ fn set_shadows(app: &mut App, on: bool) {
     }
 }
 
-fn stats(app: &App) -> penumbra::render::renderer::FrameStats {
+fn stats(app: &App) -> penumbra::render::FrameStats {
     app.world.resource::<Renderer>().stats().clone()
 }
 
@@ -488,7 +488,7 @@ fn the_cascade_view_colours_fragments_by_their_cascade() {
     app.world.remove_resource::<Renderer>();
     let settings = RenderSettings {
         msaa: 1,
-        debug_view: penumbra::render::pipelines::pipeline_cache::DebugView::Cascades,
+        debug_view: penumbra::render::DebugView::Cascades,
         shadows: atlas(512),
         ..Default::default()
     };

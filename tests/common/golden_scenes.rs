@@ -10,9 +10,9 @@
 use penumbra::engine::environment::Environment;
 use penumbra::engine::import::{GltfScene, ImportOptions};
 use penumbra::prelude::*;
-use penumbra::render::environment::EnvironmentSettings;
+use penumbra::render::features::environment::EnvironmentSettings;
+use penumbra::render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stage_scene};
-use penumbra::render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::{GpuContext, RenderSettings, Renderer};
 
 use super::{Shot, Tolerance, asset, check_golden, flip_percentile, gpu, made_the_goldens, scene_app, spawn_mesh};
@@ -303,7 +303,7 @@ pub fn night_club() -> GoldenFrame {
         let intensity = if shadows { 6.0 } else { 0.6 };
         app.world.spawn((
             PointLight {
-                color: c.map(penumbra::engine::scenes::srgb_to_linear),
+                color: c.map(penumbra::engine::color::srgb_to_linear),
                 intensity,
                 range: Some(if shadows { 8.0 } else { 2.5 }),
                 shadows,

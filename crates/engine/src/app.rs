@@ -8,9 +8,9 @@
 //! Executors: `Startup` and `Update` hold user systems and run them in parallel where their
 //! data allows (bevy's multi-threaded executor). `PostUpdate` and appended stages run their
 //! systems in order on the calling thread: the engine's systems there form one chain, so a
-//! thread pool could only add hand-off cost (on the H100 machine, for one triangle: PostUpdate
-//! 0.058 → 0.016 ms, Extract 0.037 → 0.005 ms; `cargo bench --bench triangle`). A system with
-//! much work splits it itself (`par_iter`).
+//! thread pool could only add hand-off cost, more than a small frame's work itself
+//! (docs/performance.md; `cargo bench --bench triangle`). A system with much work splits it
+//! itself (`par_iter`).
 //!
 //! How updates are driven is the runner's business: a window event loop, a headless loop of N
 //! fixed steps, or a test calling `update` by hand.

@@ -494,6 +494,9 @@ fn grid_step(angles: &[f32]) -> f32 {
         .unwrap_or(FINEST_STEP)
 }
 
+/// Editing derives nothing else from the asset.
+impl crate::assets::AssetEdit for IesProfile {}
+
 #[cfg(test)]
 mod tests {
     use super::*;

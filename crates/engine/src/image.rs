@@ -22,11 +22,38 @@ impl Image {
     pub fn solid(rgba: [u8; 4], label: impl Into<String>) -> Self {
         Self { width: 1, height: 1, rgba8: rgba.to_vec(), label: label.into(), mips: None }
     }
+
+    /// The mip chain below this image, averaged in linear light when `srgb`.
+    pub fn build_mips(&self, srgb: bool) -> MipChain {
+        MipChain::build(self.width, self.height, &self.rgba8, srgb)
+    }
+
+    /// Whether `chain` belongs below this image.
+    pub fn fits(&self, chain: &MipChain) -> bool {
+        chain.fits(self.width, self.height)
+    }
 }
 
 impl crate::assets::AssetEdit for Image {
     /// The chain was made from the texels about to change: the renderer makes it anew.
     fn before_edit(&mut self) {
         self.mips = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assets::Assets;
+
+    #[test]
+    fn editing_an_image_drops_the_mip_chain_made_from_its_texels() {
+        let mut images = Assets::new();
+        let mut image = Image::solid([10, 20, 30, 255], "t");
+        image.mips = Some(image.build_mips(true));
+        let h = images.add(image);
+        assert!(images.get(h).unwrap().mips.is_some());
+        images.get_mut(h).unwrap().rgba8[0] = 200;
+        assert!(images.get(h).unwrap().mips.is_none(), "a stale chain would show the old texels far away");
     }
 }

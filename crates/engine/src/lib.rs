@@ -9,6 +9,7 @@ pub mod animation;
 pub mod app;
 pub mod assets;
 pub mod bounds;
+pub mod color;
 pub mod components;
 pub mod environment;
 pub mod framing;

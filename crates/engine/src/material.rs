@@ -170,6 +170,9 @@ impl StandardMaterial {
     }
 }
 
+/// Editing derives nothing else from the asset.
+impl crate::assets::AssetEdit for StandardMaterial {}
+
 #[cfg(test)]
 mod tests {
     use super::*;

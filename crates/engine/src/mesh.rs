@@ -406,7 +406,7 @@ pub enum SelfOverlap {
 }
 
 /// Most triangle × vertex plane tests [`Mesh::self_overlap`] spends before answering
-/// `Possible` (about 4 ms on one core).
+/// `Possible` (a few milliseconds of one core).
 pub const OVERLAP_TEST_BUDGET: usize = 1 << 22;
 
 impl Mesh {
@@ -512,6 +512,9 @@ fn hull_area(normal: glam::DVec3, points: &[glam::DVec3]) -> f64 {
     let n = hull.len();
     0.5 * (0..n).map(|i| hull[i].0 * hull[(i + 1) % n].1 - hull[(i + 1) % n].0 * hull[i].1).sum::<f64>().abs()
 }
+
+/// Editing derives nothing else from the asset.
+impl crate::assets::AssetEdit for Mesh {}
 
 #[cfg(test)]
 mod tests {

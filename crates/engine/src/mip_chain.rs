@@ -8,18 +8,15 @@
 //! since: `Assets::get_mut` drops it), and the texture of an image read in both colour spaces
 //! whose chain was made for the other one, have their chain rendered on the GPU
 //! (`shaders/mipmap.wgsl`, the same means). Why on the CPU: on a software rasteriser the GPU
-//! *is* the CPU, and there the shader cost several times the plain loop below (DamagedHelmet's
-//! five 2048² chains: about 70 ms of lavapipe against 23 ms of CPU here), after decoding had
-//! already finished; on a GPU machine the chain adds about a sixth to the decoding threads'
-//! work (140 ms of JPEG decoding).
+//! *is* the CPU, and there the shader costs several times the plain loop below, after decoding
+//! had already finished; on a GPU machine the chain adds a small share to the decoding threads'
+//! work (docs/performance.md, "A headless screenshot").
 //!
 //! sRGB means are exact in integers: each stored byte's linear value is held as a 24-bit
 //! fraction, four of them summed, and the sum compared with the sums at which the sRGB curve
 //! crosses each half byte (a coarse table picks the byte, one comparison settles it).
 
 use std::sync::OnceLock;
-
-use crate::image::Image;
 
 /// Levels 1.. of an image (level 0 is the image), for one colour space.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -49,12 +46,12 @@ pub fn chain_bytes(width: u32, height: u32) -> u64 {
 }
 
 impl MipChain {
-    /// The chain below `image`'s level 0.
-    pub fn build(image: &Image, srgb: bool) -> Self {
+    /// The chain below level 0 of a `width`×`height` RGBA8 image of `rgba8`.
+    pub fn build(width: u32, height: u32, rgba8: &[u8], srgb: bool) -> Self {
         let mut levels: Vec<MipLevel> = Vec::new();
-        let (mut w, mut h) = (image.width as usize, image.height as usize);
-        for _ in 1..mip_level_count(image.width, image.height) {
-            let above = levels.last().map_or(image.rgba8.as_slice(), |l| l.rgba8.as_slice());
+        let (mut w, mut h) = (width as usize, height as usize);
+        for _ in 1..mip_level_count(width, height) {
+            let above = levels.last().map_or(rgba8, |l| l.rgba8.as_slice());
             let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
             let rgba8 = if srgb { halve::<true>(above, w, h, nw, nh) } else { halve::<false>(above, w, h, nw, nh) };
             levels.push(MipLevel { width: nw as u32, height: nh as u32, rgba8 });
@@ -63,14 +60,11 @@ impl MipChain {
         Self { srgb, levels }
     }
 
-    /// Whether this chain belongs below `image` (its level 1 is half of it).
-    pub fn fits(&self, image: &Image) -> bool {
-        let expected = mip_level_count(image.width, image.height) as usize - 1;
+    /// Whether this chain belongs below a `width`×`height` image (its level 1 is half of it).
+    pub fn fits(&self, width: u32, height: u32) -> bool {
+        let expected = mip_level_count(width, height) as usize - 1;
         self.levels.len() == expected
-            && self
-                .levels
-                .first()
-                .is_none_or(|l| (l.width, l.height) == ((image.width / 2).max(1), (image.height / 2).max(1)))
+            && self.levels.first().is_none_or(|l| (l.width, l.height) == ((width / 2).max(1), (height / 2).max(1)))
     }
 }
 
@@ -185,7 +179,7 @@ mod tests {
         }
         // The same curve as the rest of the engine's.
         for b in 0..=255u8 {
-            let f32_curve = crate::scenes::srgb_to_linear(b as f32 / 255.0) as f64;
+            let f32_curve = crate::color::srgb_to_linear(b as f32 / 255.0) as f64;
             assert!((f32_curve - srgb_to_linear_f64(b as f64 / 255.0)).abs() < 1e-6);
         }
     }
@@ -194,12 +188,11 @@ mod tests {
     fn an_srgb_checker_averages_in_linear_light_and_alpha_as_stored() {
         // Black and white: the linear mean 0.5 is stored as 188, not 128.
         let rgba8 = [[0, 0, 0, 0], [255, 255, 255, 255], [255, 255, 255, 255], [0, 0, 0, 0]].concat();
-        let img = Image { width: 2, height: 2, rgba8, label: "checker".into(), mips: None };
-        let srgb = MipChain::build(&img, true);
+        let srgb = MipChain::build(2, 2, &rgba8, true);
         assert_eq!(srgb.levels, vec![MipLevel { width: 1, height: 1, rgba8: vec![188, 188, 188, 128] }]);
-        let linear = MipChain::build(&img, false);
+        let linear = MipChain::build(2, 2, &rgba8, false);
         assert_eq!(linear.levels[0].rgba8, vec![128, 128, 128, 128]);
-        assert!(srgb.fits(&img));
+        assert!(srgb.fits(2, 2));
     }
 
     #[test]
@@ -209,9 +202,8 @@ mod tests {
         assert_eq!(chain_bytes(5, 3), 12);
         assert_eq!(chain_bytes(1, 1), 0);
         for (w, h) in [(5, 3), (1, 8), (8, 1), (7, 2), (1, 1), (64, 16)] {
-            let img =
-                Image { width: w, height: h, rgba8: vec![0; (w * h * 4) as usize], label: "any".into(), mips: None };
-            let built: usize = MipChain::build(&img, false).levels.iter().map(|l| l.rgba8.len()).sum();
+            let texels = vec![0; (w * h * 4) as usize];
+            let built: usize = MipChain::build(w, h, &texels, false).levels.iter().map(|l| l.rgba8.len()).sum();
             assert_eq!(chain_bytes(w, h), built as u64, "{w}×{h}");
         }
     }
@@ -220,21 +212,14 @@ mod tests {
     fn levels_halve_down_to_one_texel_clamping_odd_edges() {
         // 5×3: levels 2×1 and 1×1, as the GPU sizes them (the fifth column is never read).
         let rgba8: Vec<u8> = (0..15u8).flat_map(|i| [i * 10, 0, 0, 255]).collect();
-        let img = Image { width: 5, height: 3, rgba8, label: "odd".into(), mips: None };
-        let chain = MipChain::build(&img, false);
+        let chain = MipChain::build(5, 3, &rgba8, false);
         let sizes: Vec<_> = chain.levels.iter().map(|l| (l.width, l.height)).collect();
         assert_eq!(sizes, vec![(2, 1), (1, 1)]);
         // Level 1, texel (1, 0): columns 2 and 3 of rows 0 and 1: (20 + 30 + 70 + 80) / 4 = 50.
         assert_eq!(chain.levels[0].rgba8[4], 50);
         // 1×3 → 1×1 clamps the missing column and row to the last ones.
-        let tall = Image {
-            width: 1,
-            height: 3,
-            rgba8: [[10u8, 0, 0, 0], [30, 0, 0, 0], [90, 0, 0, 0]].concat(),
-            label: "tall".into(),
-            mips: None,
-        };
-        let chain = MipChain::build(&tall, false);
+        let tall = [[10u8, 0, 0, 0], [30, 0, 0, 0], [90, 0, 0, 0]].concat();
+        let chain = MipChain::build(1, 3, &tall, false);
         assert_eq!(chain.levels[0].rgba8, vec![20, 0, 0, 0]);
         assert_eq!(mip_level_count(2048, 2048), 12);
         assert_eq!(mip_level_count(1, 1), 1);

@@ -1,12 +1,13 @@
-//! Procedural scenes built exactly as `notes/bench-scenes.md` defines them (positions, counts,
-//! random sequence, camera), so benchmark figures can be set beside other engines' on the same
-//! scenes. Benchmarks and tests spawn them into a world that has the asset stores
+//! Procedural benchmark scenes, built exactly as their shared definition gives them (positions,
+//! counts, random sequence, camera), so benchmark figures can be set beside other engines' on the
+//! same scenes. Benchmarks and tests spawn them into a world that has the asset stores
 //! ([`crate::CorePlugin`]).
 
 use bevy_ecs::world::World;
 use glam::{Vec3, Vec4};
 
 use crate::assets::Assets;
+pub use crate::color::srgb_to_linear;
 use crate::components::{
     AmbientLight, Camera, DirectionalLight, Exposure, Mesh3d, MeshMaterial3d, PointLight, Projection, Transform,
 };
@@ -30,11 +31,6 @@ impl SplitMix64 {
     pub fn uniform(&mut self, a: f32, b: f32) -> f32 {
         a + (b - a) * ((self.next_u64() >> 40) as f32 / (1u64 << 24) as f32)
     }
-}
-
-/// sRGB-encoded component to linear.
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 fn srgb(r: f32, g: f32, b: f32) -> Vec4 {
@@ -192,7 +188,8 @@ pub fn spawn_many_cubes(
     let paint =
         world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::from_color(srgb(0.8, 0.55, 0.3), 0.5));
     let spinning = (moving.clamp(0.0, 1.0) * count as f64).ceil() as usize;
-    // The notes' far planes (6·half + 100) clip nothing: Penumbra's perspective far plane is infinite.
+    // The definition's far planes (6·half + 100) clip nothing: Penumbra's perspective far plane
+    // is infinite.
     let (positions, eye, target): (Vec<Vec3>, Vec3, Vec3) = match layout {
         CubeLayout::Grid => {
             let side = (count as f64).sqrt().ceil().max(1.0) as usize;

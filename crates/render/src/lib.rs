@@ -1,45 +1,56 @@
 //! Penumbra's render world.
 //!
 //! ```text
-//! main world --extract--> RenderScene --prepare--> GPU pools --frame plan--> passes --> output
+//! main world --extract--> RenderScene --prepare--> resources, features --plan--> passes --> output
 //! ```
-//! - [`extract`] is the only code that reads the ECS; it fills [`world::RenderScene`] with plain
-//!   data, touching only what changed.
-//! - [`renderer::Renderer`] owns the GPU side: `prepare/` (mesh pool, textures, materials,
-//!   instances, lights), `pipelines/` (shader library, pipeline cache), [`frame`] (which passes
-//!   run) and `passes/` (forward, tonemap).
-//! - [`RenderPlugin`] wires extraction and (for headless targets) rendering into the `App`.
+//! Layers, each depending only on those above it in this list's reverse (docs/architecture.md):
+//! - [`gpu`]: context, formats, buffers, readback, timing; knows no feature.
+//! - [`pipelines`]: the shader library and the generic pipeline cache.
+//! - [`scene`]: extraction, the only code that reads the ECS, and the [`RenderScene`] it fills.
+//! - [`resources`]: shared owners (mesh pool, textures, materials, instances, light store, the
+//!   draw list).
+//! - [`bindings`], [`view`], [`targets`]: the shared view group and the frame's targets.
+//! - [`features`]: one folder per rendering feature (its settings, resources, pipeline
+//!   families, bindings and passes).
+//! - [`frame`]: which passes run this frame and why; [`renderer::Renderer`] drives prepare →
+//!   plan → encode; [`RenderPlugin`] wires extraction and headless rendering into the `App`.
 
-pub mod array_layers;
-pub mod context;
-pub mod entity_table;
-pub mod environment;
+pub mod bindings;
 pub mod explain;
-pub mod extract;
+pub mod features;
 pub mod frame;
+pub mod gpu;
 pub mod headless;
-pub mod host_memory;
-pub mod passes;
 pub mod pipelines;
-pub mod prepare;
 pub mod quality;
-pub mod readback;
 pub mod renderer;
+pub mod resources;
+pub mod scene;
+pub mod settings;
+pub mod stats;
 pub mod targets;
-pub mod timing;
-pub mod world;
+pub mod view;
 
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleLabel;
 use penumbra_engine::{App, Plugin};
 
-pub use context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT, RetryBackoff};
-pub use pipelines::pipeline_cache::Tonemapper;
-pub use pipelines::shader_library::ShaderError;
+pub use features::clusters::LightWalk;
+pub use features::clusters::grid::ClusterConfig;
+pub use features::culling::{OcclusionCulling, TriangleCulling};
+pub use features::environment::EnvironmentSettings;
+pub use features::post::{BloomSettings, PostSettings};
+pub use features::shadows::{ShadowFilter, ShadowSettings};
+pub use features::visibility::Raster;
+pub use gpu::context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT, RetryBackoff};
+pub use pipelines::{ReloadReport, ShaderError};
 pub use quality::QualityPreset;
-pub use renderer::{FrameStats, MemoryStats, RenderSettings, Renderer, RendererError, ShaderSource};
+pub use renderer::{Renderer, RendererError};
+pub use resources::draws::{AlphaTest, DebugView, LocalLights, Tonemapper};
+pub use scene::world::RenderScene;
+pub use settings::{RenderSettings, SettingsError, ShaderSource};
+pub use stats::{FrameStats, MemoryStats};
 pub use targets::MsaaResolve;
-pub use world::RenderScene;
 
 /// Runs after `PostUpdate`: reads the main world into `RenderScene`.
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
@@ -70,7 +81,7 @@ impl Plugin for RenderPlugin {
             .init_resource::<penumbra_engine::components::DrawChanges>()
             .add_stage(Extract)
             .add_stage(Render)
-            .add_systems(Extract, extract::systems())
+            .add_systems(Extract, scene::extract::systems())
             .add_systems(Render, render_headless);
     }
 }

@@ -10,10 +10,10 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::passes::clusters::grid::ClusterConfig;
-use crate::passes::shadows::ShadowFilter;
-use crate::prepare::light_store::DEFAULT_CUTOFF;
-use crate::renderer::RenderSettings;
+use crate::features::clusters::grid::ClusterConfig;
+use crate::features::shadows::ShadowFilter;
+use crate::resources::light_store::DEFAULT_CUTOFF;
+use crate::settings::RenderSettings;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub enum QualityPreset {

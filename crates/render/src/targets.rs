@@ -1,9 +1,9 @@
 //! Frame targets: the linear HDR colour target (`Rgba16Float`), its MSAA twin when multisampling,
 //! and the reverse-Z depth target (`Depth32Float`, cleared to 0); with deferred local lights also
 //! the surface targets opaque fragments write, and the local light the compute pass writes (see
-//! `passes/deferred_lights.rs`). A frame whose HDR colour nothing reads has no HDR target at all
-//! (the forward pass tonemaps and draws into the output), and a frame whose draws cannot cover a
-//! pixel twice has no depth target; [`TargetNeeds`] decides both. With MSAA and
+//! `features/deferred_lights/mod.rs`). A frame whose HDR colour nothing reads has no HDR target
+//! at all (the forward pass tonemaps and draws into the output), and a frame whose draws cannot
+//! cover a pixel twice has no depth target; [`TargetNeeds`] decides both. With MSAA and
 //! [`MsaaResolve::Display`], such a frame draws tonemapped samples into a multisampled target
 //! of the output's (sRGB) format instead, resolved into the output. Recreated only when the
 //! size, the sample count, whether lights are deferred or whether there is an HDR, a
@@ -11,10 +11,7 @@
 
 use penumbra_engine::mesh::SelfOverlap;
 
-use crate::pipelines::pipeline_cache::{LOCAL_LIGHT_FORMAT, PipelineCache, SURFACE_SHAPE_FORMAT};
-
-pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT, LOCAL_LIGHT_FORMAT, SURFACE_SHAPE_FORMAT};
 
 /// Where multisampled frames average their samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -111,6 +108,9 @@ pub struct TargetsMade {
 }
 
 pub struct FrameTargets {
+    /// Unique among the targets of this process: a pass that binds them keeps its bind groups
+    /// while the id stays.
+    pub id: u64,
     pub size: (u32, u32),
     pub samples: u32,
     /// `None`: the frame draws straight into the output.
@@ -123,7 +123,7 @@ pub struct FrameTargets {
     /// The depth target can be bound for sampling (occlusion culling, deferred lights).
     pub depth_sampled: bool,
     pub deferred: Option<DeferredTargets>,
-    /// Multisampled colour is resolved by `passes::resolve`, not by the render pass
+    /// Multisampled colour is resolved by `features::resolve`, not by the render pass
     /// (`Capabilities::shader_msaa_resolve`).
     pub shader_resolve: bool,
     /// The HDR colour can be written by compute (`TargetsMade::hdr_storage`).
@@ -135,7 +135,7 @@ pub struct ColorAttachment<'a> {
     pub draw: &'a wgpu::TextureView,
     /// The render pass's resolve target.
     pub pass_resolve: Option<&'a wgpu::TextureView>,
-    /// Resolved by `passes::resolve` after the pass instead (`draw` is then stored).
+    /// Resolved by `features::resolve` after the pass instead (`draw` is then stored).
     pub shader_resolve: Option<&'a wgpu::TextureView>,
 }
 
@@ -146,33 +146,20 @@ pub struct HdrTargets {
     pub msaa_view: Option<wgpu::TextureView>,
 }
 
-fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
-}
-
 /// What deferred local lights add: the surface each opaque sample holds (with roughness in the
-/// colour's alpha), and the local light per pixel, bound for the compute pass and for the
-/// composite.
+/// colour's alpha), and the local light per pixel that the compute pass writes and the
+/// composite adds (`features::deferred_lights` binds both).
 pub struct DeferredTargets {
     pub surface_shape_view: wgpu::TextureView,
-    /// Group 1 of the deferred-lights compute pass.
-    pub compute_bind_group: wgpu::BindGroup,
-    /// Group 0 of the composite.
-    pub composite_bind_group: wgpu::BindGroup,
+    pub local_light_view: wgpu::TextureView,
 }
 
 impl FrameTargets {
-    /// `deferred_params`: the deferred-lights pass's uniform when lights are deferred (which
-    /// needs the HDR target and depth). Without `made.hdr` and `made.depth` nothing is made but, with
-    /// MSAA, the display-colour target.
-    pub fn new(
-        device: &wgpu::Device,
-        pipelines: &PipelineCache,
-        size: (u32, u32),
-        samples: u32,
-        deferred_params: Option<&wgpu::Buffer>,
-        made: TargetsMade,
-    ) -> Self {
+    /// `deferred`: lights are deferred (which needs the HDR target and depth). Without
+    /// `made.hdr` and `made.depth` nothing is made but, with MSAA, the display-colour target.
+    pub fn new(device: &wgpu::Device, size: (u32, u32), samples: u32, deferred: bool, made: TargetsMade) -> Self {
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let TargetsMade { hdr, depth, depth_sampled, output_format, shader_resolve, hdr_storage } = made;
         let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
         let tex = |label, format, samples, usage| {
@@ -189,7 +176,7 @@ impl FrameTargets {
         };
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let sampled = wgpu::TextureUsages::TEXTURE_BINDING;
-        let hdr = (hdr || deferred_params.is_some()).then(|| {
+        let hdr = (hdr || deferred).then(|| {
             let storage = if hdr_storage { wgpu::TextureUsages::STORAGE_BINDING } else { wgpu::TextureUsages::empty() };
             let texture = tex(
                 "hdr colour",
@@ -199,7 +186,7 @@ impl FrameTargets {
             );
             let view = texture.create_view(&Default::default());
             // The deferred-lights pass reads the colour's alpha; a shader resolve all of it.
-            let msaa_usage = if deferred_params.is_some() || shader_resolve { attach | sampled } else { attach };
+            let msaa_usage = if deferred || shader_resolve { attach | sampled } else { attach };
             let msaa_view = (samples > 1)
                 .then(|| tex("hdr colour msaa", HDR_FORMAT, samples, msaa_usage).create_view(&Default::default()));
             HdrTargets { texture, view, msaa_view }
@@ -211,33 +198,22 @@ impl FrameTargets {
         // Sampled by the deferred-lights pass and by occlusion culling's depth pyramid; otherwise
         // only an attachment, which wgpu's GL backend needs of a multisampled texture (it cannot
         // render into a multisampled texture that is also bound for sampling: the frame is lost).
-        let depth_usage = if depth_sampled || deferred_params.is_some() { attach | sampled } else { attach };
-        let depth_view = (depth || deferred_params.is_some())
+        let depth_usage = if depth_sampled || deferred { attach | sampled } else { attach };
+        let depth_view = (depth || deferred)
             .then(|| tex("depth", DEPTH_FORMAT, samples, depth_usage).create_view(&Default::default()));
-        let deferred = deferred_params.zip(hdr.as_ref().zip(depth_view.as_ref())).map(|(params, (hdr, depth_view))| {
+        let deferred = (deferred && hdr.is_some() && depth_view.is_some()).then(|| {
             let view = |t: wgpu::Texture| t.create_view(&Default::default());
-            let surface_shape_view = view(tex("surface shape", SURFACE_SHAPE_FORMAT, samples, attach | sampled));
-            let local_light_view =
-                view(tex("local light", LOCAL_LIGHT_FORMAT, 1, wgpu::TextureUsages::STORAGE_BINDING | sampled));
-            let compute_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("deferred lights"),
-                layout: &pipelines.deferred_layouts[(samples > 1) as usize],
-                entries: &[
-                    view_entry(0, hdr.msaa_view.as_ref().unwrap_or(&hdr.view)),
-                    view_entry(1, &surface_shape_view),
-                    view_entry(2, depth_view),
-                    view_entry(3, &local_light_view),
-                    wgpu::BindGroupEntry { binding: 4, resource: params.as_entire_binding() },
-                ],
-            });
-            let composite_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("deferred composite"),
-                layout: &pipelines.composite_layout,
-                entries: &[view_entry(0, &local_light_view)],
-            });
-            DeferredTargets { surface_shape_view, compute_bind_group, composite_bind_group }
+            DeferredTargets {
+                surface_shape_view: view(tex("surface shape", SURFACE_SHAPE_FORMAT, samples, attach | sampled)),
+                local_light_view: view(tex(
+                    "local light",
+                    LOCAL_LIGHT_FORMAT,
+                    1,
+                    wgpu::TextureUsages::STORAGE_BINDING | sampled,
+                )),
+            }
         });
-        Self { size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred, shader_resolve, hdr_storage }
+        Self { id, size, samples, hdr, display_msaa, depth_view, depth_sampled, deferred, shader_resolve, hdr_storage }
     }
 
     /// The single-sampled HDR colour, if the frame has one.

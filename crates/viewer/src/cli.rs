@@ -5,13 +5,13 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
-use penumbra_render::environment::EnvironmentSettings;
+use penumbra_render::DebugView;
+use penumbra_render::features::clusters::grid::ClusterConfig;
+use penumbra_render::features::environment::EnvironmentSettings;
+use penumbra_render::features::post::{AutoExposure, BloomSettings, PostSettings};
+use penumbra_render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::headless::CameraChoice;
-use penumbra_render::passes::clusters::grid::ClusterConfig;
-use penumbra_render::passes::post::{AutoExposure, BloomSettings, PostSettings};
-use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
-use penumbra_render::pipelines::pipeline_cache::DebugView;
-use penumbra_render::renderer::{LightWalk, OcclusionCulling, Raster, SettingsError, TriangleCulling};
+use penumbra_render::{LightWalk, OcclusionCulling, Raster, SettingsError, TriangleCulling};
 use penumbra_render::{MsaaResolve, QualityPreset, RenderSettings, ShaderSource, Tonemapper};
 
 #[derive(Parser, Debug)]
@@ -43,8 +43,8 @@ impl CpuCompileArg {
     /// The mode for a command that does (`watches_shaders`) or does not watch a shader folder.
     /// Watching means someone is editing shaders, and on a CPU rasteriser each edit waits for
     /// LLVM: what `cargo run`'s debug profile is to Rust code, fast compiles are to shaders.
-    pub fn mode(self, watches_shaders: bool) -> penumbra_render::context::CpuShaderCompiles {
-        use penumbra_render::context::CpuShaderCompiles;
+    pub fn mode(self, watches_shaders: bool) -> penumbra_render::gpu::context::CpuShaderCompiles {
+        use penumbra_render::gpu::context::CpuShaderCompiles;
         match self {
             CpuCompileArg::Auto if watches_shaders => CpuShaderCompiles::Fast,
             CpuCompileArg::Auto | CpuCompileArg::Optimized => CpuShaderCompiles::Optimized,
@@ -769,7 +769,7 @@ mod limit_help_tests {
 #[cfg(test)]
 mod cpu_compile_tests {
     use clap::Parser;
-    use penumbra_render::context::CpuShaderCompiles;
+    use penumbra_render::gpu::context::CpuShaderCompiles;
 
     use super::Cli;
 

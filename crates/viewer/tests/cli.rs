@@ -112,8 +112,8 @@ fn a_missing_file_fails_with_its_name() {
 #[test]
 fn a_render_whose_scene_fails_waits_for_its_gpu_set_up() {
     // The device is made on a second thread while the scene loads. Returning the scene's error
-    // at once exited the process while the driver was still initialising there, which hung
-    // lavapipe (Mesa 25) in LLVM's set-up under the exit handlers.
+    // at once exited the process while the driver was still initialising there, which could hang
+    // lavapipe in LLVM's set-up under the exit handlers.
     let o = penumbra(&["-v", "render", "/nonexistent/scene.glb", "--out", "/tmp/never.png"]);
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("/nonexistent/scene.glb"), "{e}");

@@ -41,7 +41,6 @@ use crate::components::{Mesh3d, MeshMaterial3d, Name, Transform};
 use crate::image::Image;
 use crate::material::{AlphaMode, Sampler, StandardMaterial, TextureRef, UvTransform, WrapMode};
 use crate::mesh::{Mesh, Topology};
-use crate::mip_chain::MipChain;
 
 /// A texture an MTL names: which decoded image, and how it is mapped.
 #[derive(Debug, Clone)]
@@ -525,7 +524,7 @@ fn convert_material(
                 let mut image = decode(&bytes, n, &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
                 // The chain for the slot that first reads the image (another slot's colour
                 // space has it made on the GPU).
-                image.mips = Some(MipChain::build(&image, StandardMaterial::SRGB_SLOTS[slot]));
+                image.mips = Some(image.build_mips(StandardMaterial::SRGB_SLOTS[slot]));
                 textures.images.push(Arc::new(image));
                 textures.index.insert(path, n);
                 n

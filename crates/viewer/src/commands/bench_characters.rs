@@ -18,7 +18,7 @@ use penumbra_engine::mesh::Mesh;
 use penumbra_engine::{Assets, CorePlugin, Time};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
-use super::bench::{percentile, time_frames};
+use super::bench_measure::{percentile, time_frames};
 use crate::cli::BenchArgs;
 
 /// The model `bench characters` uses without `--model`, relative to the repository root.

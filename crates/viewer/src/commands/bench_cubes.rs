@@ -1,15 +1,15 @@
-//! `penumbra bench many-cubes`: the many-cubes scene of `notes/bench-scenes.md` for each cube
-//! count in `--count` and each moving fraction in `--moving`. Per row, medians over the timed
-//! frames of the CPU time split by stage (main world: user systems and transform propagation;
-//! extract; prepare, encode and submit in the renderer), GPU time from timestamp queries, the
-//! instance bytes uploaded and the draw calls issued. Frames are pipelined (at most two in
-//! flight, no readback), as interactive rendering runs.
+//! `penumbra bench many-cubes`: the many-cubes benchmark scene (crates/engine/src/scenes.rs) for
+//! each cube count in `--count` and each moving fraction in `--moving`. Per row, medians over the
+//! timed frames of the CPU time split by stage (main world: user systems and transform
+//! propagation; extract; prepare, encode and submit in the renderer), GPU time from timestamp
+//! queries, the instance bytes uploaded and the draw calls issued. Frames are pipelined (at most
+//! two in flight, no readback), as interactive rendering runs.
 
 use anyhow::{Result, anyhow};
 use penumbra_engine::scenes::{BENCH_EV100, CubeLayout, spawn_many_cubes, spin_cubes};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, Renderer};
 
-use super::bench::{percentile, recipe_settings, time_frames};
+use super::bench_measure::{percentile, recipe_settings, time_frames};
 use crate::cli::{BenchArgs, LayoutArg};
 
 struct Row {

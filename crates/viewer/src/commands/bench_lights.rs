@@ -1,15 +1,15 @@
-//! `penumbra bench many-lights`: the many-lights scene of `notes/bench-scenes.md` at each light
-//! count in `--lights`. Per count: GPU time of the binning passes and of shading, CPU time per
-//! frame, light and cluster statistics, and the image error of the range window (FLIP mean of
-//! the clustered image against the same frame with unbounded lights, at `--error-size`).
+//! `penumbra bench many-lights`: the many-lights benchmark scene (crates/engine/src/scenes.rs) at
+//! each light count in `--lights`. Per count: GPU time of the binning passes and of shading, CPU
+//! time per frame, light and cluster statistics, and the image error of the range window (FLIP
+//! mean of the clustered image against the same frame with unbounded lights, at `--error-size`).
 
 use anyhow::{Result, anyhow};
 use penumbra_engine::scenes::{BENCH_EV100, spawn_many_lights};
-use penumbra_render::renderer::LightWalk;
+use penumbra_render::LightWalk;
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
-use super::bench::{percentile, recipe_settings, time_frames};
-use penumbra_render::passes::clusters::BINNING_PASS;
+use super::bench_measure::{flip_mean, percentile, recipe_settings, time_frames};
+use penumbra_render::features::clusters::BINNING_PASS;
 
 use crate::cli::BenchArgs;
 
@@ -63,14 +63,6 @@ fn one_frame(
     let mut app = app_with(ctx, settings, lights, range, size)?;
     app.update();
     app.world.resource::<Renderer>().read_frame().map_err(|e| anyhow!("{e}"))
-}
-
-pub fn flip_mean(a: &[u8], b: &[u8], (w, h): (u32, u32)) -> f32 {
-    let rgb = |rgba: &[u8]| rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect::<Vec<u8>>();
-    let reference = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(a));
-    let test = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(b));
-    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    nv_flip::FlipPool::from_image(&error).mean()
 }
 
 pub fn run(args: &BenchArgs) -> Result<()> {

@@ -19,7 +19,7 @@ use penumbra_render::headless::{ShotSettings, stage_scene};
 use penumbra_render::pipelines::shader_library::{EMBEDDED, ShaderDefs, ShaderLibrary};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, Renderer, ShaderSource};
 
-use super::bench::percentile;
+use super::bench_measure::percentile;
 use crate::cli::BenchArgs;
 use crate::scene;
 
@@ -135,9 +135,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
 /// The machine's single-thread speed, in the milliseconds one compose of the embedded forward.wgsl
 /// takes (its lit variant with every material texture and image-based lighting; modules already
 /// parsed, as on a reload): a compiler's work, like the LLVM code generation that dominates a
-/// reload on a CPU rasteriser. A shared machine's speed drifts (on the 2-core machine the README
-/// measures on, by 2x over hours), and this tells which phase a latency was measured in. Fixed
-/// input, so it does not depend on the scene, the folder or the edits.
+/// reload on a CPU rasteriser. A shared machine's speed drifts (docs/shaders.md, "Reload
+/// latency"), and this tells which phase a latency was measured in. Fixed input, so it does not
+/// depend on the scene, the folder or the edits.
 fn speed_reference_ms() -> Result<f64> {
     let defs = ["BASE_COLOR_TEXTURE", "METALLIC_ROUGHNESS_TEXTURE", "NORMAL_MAP", "EMISSIVE_TEXTURE", "IBL"]
         .into_iter()

@@ -15,12 +15,12 @@ use glam::Vec3;
 use penumbra_engine::Update;
 use penumbra_engine::components::{Camera, PointLight, SpotLight, Transform};
 use penumbra_engine::scenes::spawn_shadows_scene;
+use penumbra_render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::frame::Pass;
-use penumbra_render::passes::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
-use super::bench::{percentile, time_frames};
-use super::bench_lights::flip_mean;
+use super::bench_measure::flip_mean;
+use super::bench_measure::{percentile, time_frames};
 use crate::cli::BenchArgs;
 
 /// Atlas sizes measured, in texels per layer.

@@ -45,8 +45,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Ok((scene, app, size))
     })();
     // Joined before any error returns: exiting while the driver still initialises on that
-    // thread runs the process's exit handlers under it (lavapipe of Mesa 25 then hung for good
-    // in LLVM's set-up after `--camera 7`). A bad scene is reported before a GPU error.
+    // thread runs the process's exit handlers under it (lavapipe could then hang for good in
+    // LLVM's set-up). A bad scene is reported before a GPU error.
     let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))?;
     let (scene, mut app, size) = staged?;
     let renderer = renderer?;
@@ -58,9 +58,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.explain {
         print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
     }
-    // Freeing is part of the command's time: the decoded images (about 110 MB for
-    // DamagedHelmet, about 10 ms on lavapipe) on a second thread while the device and its
-    // textures (about 30 ms) go on this one (`-v`).
+    // Freeing is part of the command's time: the decoded images (over 100 MB for DamagedHelmet)
+    // go on a second thread while the device and its textures go on this one (`-v` times it;
+    // docs/performance.md, "A headless screenshot").
     let renderer = app.world.remove_resource::<Renderer>();
     let world = std::mem::take(&mut app.world);
     let freer = std::thread::spawn(move || drop((world, scene)));

@@ -17,6 +17,7 @@ mod panels;
 mod recent;
 mod screenshot;
 mod staged;
+mod ui_state;
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -38,10 +39,11 @@ use winit::window::{Window, WindowId};
 use crate::cli::ViewArgs;
 use loader::Loader;
 use orbit::OrbitState;
-use overlay::{Action, FrameInfo, Overlay, UiState};
+use overlay::Overlay;
 use recent::RecentFiles;
 use screenshot::Screenshots;
 use staged::Staged;
+use ui_state::{Action, FrameInfo, UiState};
 
 pub fn run(args: ViewArgs) -> Result<()> {
     #[cfg(all(unix, not(target_os = "macos")))]

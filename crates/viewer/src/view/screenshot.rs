@@ -35,7 +35,7 @@ impl Screenshots {
     ) {
         let ctx = renderer.context().clone();
         let pixels = match texture {
-            Some(t) => penumbra_render::readback::read_texture(&ctx.device, &ctx.queue, t, 4).map(|mut px| {
+            Some(t) => penumbra_render::gpu::readback::read_texture(&ctx.device, &ctx.queue, t, 4).map(|mut px| {
                 if matches!(t.format(), wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb) {
                     px.chunks_exact_mut(4).for_each(|p| p.swap(0, 2));
                 }

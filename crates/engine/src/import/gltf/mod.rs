@@ -35,7 +35,6 @@ use crate::image::Image;
 use crate::import::{ImportError, ImportErrorKind, ImportLimits, Limit};
 use crate::material::{StandardMaterial, TextureRef};
 use crate::mesh::Mesh;
-use crate::mip_chain::MipChain;
 use accessor::Buffers;
 use materials::MaterialDesc;
 
@@ -789,7 +788,7 @@ fn decode_images(
         };
         // The chain is made here, on the thread that decoded the image, while it is fresh.
         let image = images::decode(bytes, *index, uri, label.clone(), options).map(|mut image| {
-            image.mips = Some(MipChain::build(&image, *srgb));
+            image.mips = Some(image.build_mips(*srgb));
             image
         });
         if let Some(p) = &options.progress {

@@ -7,9 +7,9 @@
 //! else, import replaces them with one image holding occlusion's red and metallic-roughness's
 //! other channels, and points both slots at it. The renderer then compiles the variant that
 //! reads one texel for both (`OCCLUSION_IN_METALLIC_ROUGHNESS`): one texture read fewer per
-//! fragment on every adapter, and on a CPU rasteriser about 7 % less fragment shader to compile
-//! on every hot reload of the lit shader (README, "Shaders and hot reload"). One texture instead
-//! of two on the GPU.
+//! fragment on every adapter, and on a CPU rasteriser less fragment shader to compile on every
+//! hot reload of the lit shader (docs/shaders.md, "Reload latency"). One texture instead of two
+//! on the GPU.
 //!
 //! The pixels do not change: the texels and every level of the mip chains are copied channel
 //! by channel (import's chains average each channel on its own, so the packed chain is the
@@ -131,7 +131,7 @@ fn packed_image(mr: &Image, ao: &Image) -> Option<Image> {
         return None;
     }
     let (mr_chain, ao_chain) = (mr.mips.as_ref()?, ao.mips.as_ref()?);
-    if mr_chain.srgb || ao_chain.srgb || !mr_chain.fits(mr) || !ao_chain.fits(ao) {
+    if mr_chain.srgb || ao_chain.srgb || !mr.fits(mr_chain) || !ao.fits(ao_chain) {
         return None;
     }
     let levels = mr_chain
@@ -170,7 +170,7 @@ mod tests {
             .flat_map(|i| [rgba[0].wrapping_add(i as u8), rgba[1].wrapping_add(3 * i as u8), rgba[2], rgba[3]])
             .collect();
         let mut img = Image { width: w, height: h, rgba8, label: label.into(), mips: None };
-        img.mips = Some(MipChain::build(&img, false));
+        img.mips = Some(img.build_mips(false));
         Arc::new(img)
     }
 
@@ -213,7 +213,7 @@ mod tests {
         for (i, level) in chain.levels.iter().enumerate() {
             assert_eq!(level.rgba8, expect(&mr_chain.levels[i].rgba8, &ao_chain.levels[i].rgba8));
         }
-        assert_eq!(*chain, MipChain::build(packed, false));
+        assert_eq!(*chain, packed.build_mips(false));
     }
 
     #[test]
@@ -233,7 +233,7 @@ mod tests {
             ("transforms differ", |m, _| m.textures[OCCLUSION_SLOT].as_mut().unwrap().transform.rotation = 0.5),
             ("a chain is sRGB (the image is also read as colour)", |_, images| {
                 let mut ao = (**images[1].as_ref().unwrap()).clone();
-                ao.mips = Some(MipChain::build(&ao, true));
+                ao.mips = Some(ao.build_mips(true));
                 images[1] = Some(Arc::new(ao));
             }),
             ("an image failed to decode", |_, images| images[1] = None),

@@ -1,11 +1,11 @@
 //! Image error against a reference: FLIP (mean and 99th percentile) on the display-referred
 //! images, PSNR on the linear HDR ones. The reference's display image is made here on the CPU
-//! with the renderer's own CPU copy of the display transform (`passes::tonemap::display_color`:
+//! with the renderer's own CPU copy of the display transform (`features::tonemap::display_color`:
 //! Khronos PBR Neutral, then sRGB), so both images reach FLIP through identical tonemapping; a
 //! test holds it equal to the GPU's.
 
 use penumbra_render::Tonemapper;
-use penumbra_render::passes::tonemap::display_color;
+use penumbra_render::features::tonemap::display_color;
 
 /// Linear exposed radiance to 8-bit RGB as Penumbra's neutral tonemap pass writes it.
 pub fn display_rgb8(hdr: &[[f32; 3]]) -> Vec<u8> {

@@ -25,7 +25,7 @@ use penumbra_render::{
 };
 
 use crate::cli::{ReportArgs, SceneArgs};
-use crate::commands::bench::{percentile, time_frames};
+use crate::commands::bench_measure::{percentile, time_frames};
 use crate::scene;
 use metrics::{ImageError, compare};
 

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use bevy_ecs::world::World;
 use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
 
-use crate::view::overlay::error_text;
+use crate::view::ui_state::error_text;
 
 /// Loads `path` as the environment's image; on failure the environment stays as it was and
 /// the error (naming the file) is returned.

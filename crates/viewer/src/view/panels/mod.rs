@@ -14,7 +14,7 @@ use egui::{Color32, RichText};
 
 pub use environment::load_environment;
 
-use super::overlay::{Action, FrameInfo, UiState, error_text};
+use super::ui_state::{Action, FrameInfo, UiState, error_text};
 
 /// File, View and Camera menus along the top.
 pub fn menu_bar(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, actions: &mut Vec<Action>) {

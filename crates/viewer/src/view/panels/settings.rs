@@ -5,12 +5,12 @@
 
 use bevy_ecs::world::World;
 use penumbra_engine::components::Camera;
-use penumbra_render::passes::post::{AutoExposure, BloomSettings};
-use penumbra_render::passes::shadows::ShadowFilter;
-use penumbra_render::pipelines::pipeline_cache::DebugView;
+use penumbra_render::DebugView;
+use penumbra_render::features::post::{AutoExposure, BloomSettings};
+use penumbra_render::features::shadows::ShadowFilter;
 use penumbra_render::{QualityPreset, Renderer, Tonemapper};
 
-use crate::view::overlay::Action;
+use crate::view::ui_state::Action;
 
 pub fn panel(ui: &mut egui::Ui, world: &mut World, renderer: &Renderer, vsync: &mut bool, actions: &mut Vec<Action>) {
     let before = renderer.settings().clone();

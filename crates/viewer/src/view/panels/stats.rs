@@ -4,7 +4,7 @@
 
 use penumbra_render::Renderer;
 
-use crate::view::overlay::FrameInfo;
+use crate::view::ui_state::FrameInfo;
 
 fn mib(bytes: u64) -> String {
     format!("{:.1} MiB", bytes as f64 / (1 << 20) as f64)
@@ -34,9 +34,9 @@ pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
                 // The CPU rasteriser's compile mode decides both reload latency and frame time.
                 row(
                     "shader compiles",
-                    match penumbra_render::context::CpuShaderCompiles::in_effect() {
-                        penumbra_render::context::CpuShaderCompiles::Fast => "fast (GALLIVM_PERF=nopt)".to_owned(),
-                        penumbra_render::context::CpuShaderCompiles::Optimized => "optimized".to_owned(),
+                    match penumbra_render::gpu::context::CpuShaderCompiles::in_effect() {
+                        penumbra_render::gpu::context::CpuShaderCompiles::Fast => "fast (GALLIVM_PERF=nopt)".to_owned(),
+                        penumbra_render::gpu::context::CpuShaderCompiles::Optimized => "optimized".to_owned(),
                     },
                 );
             }

@@ -9,7 +9,7 @@ use penumbra_engine::components::{
     Camera, ChildOf, Children, DirectionalLight, Mesh3d, Name, PointLight, SpotLight, Transform,
 };
 
-use crate::view::overlay::Action;
+use crate::view::ui_state::Action;
 
 /// Roots listed before "and N more": a scene of a million cubes must not build a million rows.
 const MAX_ROOTS: usize = 500;

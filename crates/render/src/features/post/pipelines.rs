@@ -1,0 +1,165 @@
+//! Post-processing's pipeline families: bloom's down- and upsampling (`bloom.wgsl`), automatic
+//! exposure's histogram and average (`exposure.wgsl`) and FXAA (`fxaa.wgsl`), with their
+//! layouts.
+
+use crate::gpu::formats::HDR_FORMAT;
+use crate::pipelines::parts::{self, sampler, storage_rw, texture};
+use crate::pipelines::{PipelineFamily, ShaderDefs};
+
+/// A bloom pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BloomStep {
+    /// Level 0 from the frame (Karis-weighted).
+    DownFirst,
+    Down,
+    /// Adds a level, tent-filtered, onto the level above.
+    Up,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ExposureStep {
+    Histogram,
+    Average,
+}
+
+/// A texture and a linear clamping sampler: what bloom's passes and FXAA read.
+pub fn filtered_source_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    parts::bind_group_layout(device, "filtered source", &[texture(0, true), sampler(1)])
+}
+
+pub struct BloomFamily {
+    /// The filtered source each pass reads.
+    pub source: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+}
+
+impl BloomFamily {
+    pub fn new(device: &wgpu::Device, source: &wgpu::BindGroupLayout) -> Self {
+        Self { source: source.clone(), pipeline_layout: parts::pipeline_layout(device, "bloom", &[source]) }
+    }
+}
+
+impl PipelineFamily for BloomFamily {
+    type Key = BloomStep;
+    type Pipeline = wgpu::RenderPipeline;
+    const NAME: &'static str = "bloom";
+
+    fn shader(&self, step: &BloomStep) -> (&'static str, ShaderDefs) {
+        ("bloom.wgsl", ShaderDefs::default().with("FIRST", *step == BloomStep::DownFirst))
+    }
+
+    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &BloomStep) -> wgpu::RenderPipeline {
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let up = *step == BloomStep::Up;
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("bloom"),
+            layout: Some(&self.pipeline_layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(if up { "upsample" } else { "downsample" }),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: HDR_FORMAT,
+                    blend: up.then_some(wgpu::BlendState { color: add, alpha: add }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+}
+
+/// Automatic exposure's compute pipelines: the frame's HDR colour, the histogram (written) and
+/// the post parameters (written).
+pub struct ExposureFamily {
+    pub layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+}
+
+impl ExposureFamily {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let layout = parts::bind_group_layout(
+            device,
+            "automatic exposure",
+            &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: compute,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                storage_rw(1, compute),
+                storage_rw(2, compute),
+            ],
+        );
+        let pipeline_layout = parts::pipeline_layout(device, "automatic exposure", &[&layout]);
+        Self { layout, pipeline_layout }
+    }
+}
+
+impl PipelineFamily for ExposureFamily {
+    type Key = ExposureStep;
+    type Pipeline = wgpu::ComputePipeline;
+    const NAME: &'static str = "exposure";
+
+    fn shader(&self, _: &ExposureStep) -> (&'static str, ShaderDefs) {
+        ("exposure.wgsl", ShaderDefs::default())
+    }
+
+    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &ExposureStep) -> wgpu::ComputePipeline {
+        let entry = match step {
+            ExposureStep::Histogram => "build_histogram",
+            ExposureStep::Average => "average",
+        };
+        parts::compute_pipeline(device, &self.pipeline_layout, module, entry, entry)
+    }
+}
+
+/// FXAA's pipelines, by output format.
+pub struct FxaaFamily {
+    pipeline_layout: wgpu::PipelineLayout,
+}
+
+impl FxaaFamily {
+    pub fn new(device: &wgpu::Device, source: &wgpu::BindGroupLayout) -> Self {
+        Self { pipeline_layout: parts::pipeline_layout(device, "fxaa", &[source]) }
+    }
+}
+
+impl PipelineFamily for FxaaFamily {
+    type Key = wgpu::TextureFormat;
+    type Pipeline = wgpu::RenderPipeline;
+    const NAME: &'static str = "fxaa";
+
+    fn shader(&self, format: &wgpu::TextureFormat) -> (&'static str, ShaderDefs) {
+        ("fxaa.wgsl", ShaderDefs::default().with("DECODE_SRGB", format.is_srgb()))
+    }
+
+    fn create(
+        &self,
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        format: &wgpu::TextureFormat,
+    ) -> wgpu::RenderPipeline {
+        parts::fullscreen_pipeline(device, &self.pipeline_layout, module, *format, "fxaa")
+    }
+}

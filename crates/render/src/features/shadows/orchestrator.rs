@@ -1,0 +1,683 @@
+//! The shadow orchestrator: the one owner of shadow passes. It owns the atlases (`Depth32Float`
+//! 2D arrays: one layer per cascade of the directional lights, and one per spot map or cube face
+//! of the local lights), the shadow uniform and local-shadow table the shaders read
+//! (`shaders/shadows.wgsl`), the per-layer caster views, and the decision of what to render.
+//!
+//! Per frame, [`ShadowOrchestrator::prepare`] takes the camera, the light store's shadowed
+//! lights and the bounds of casters and receivers, and produces the frame's [`ShadowFrame`]:
+//! which directional lights get cascades (the brightest [`MAX_SHADOWED_DIRECTIONAL`]), each
+//! cascade's fitted projection, whether its layer is in use and whether it must be drawn (a
+//! layer still holding this projection's casters is kept), and (through
+//! [`super::local`]) which local lights hold maps and which maps re-render within the budget. A
+//! scene with no shadowed light, no caster or no camera gets no pass, and the atlases are
+//! released (a 1×1 stand-in fills the bindings). [`ShadowOrchestrator::encode`] then draws the
+//! caster batches into each layer to render.
+
+use glam::{DAffine3, DMat4, DVec3, Vec3};
+use penumbra_engine::bounds::Aabb;
+
+use super::cascades::{self, Cascade, CascadeCamera};
+use super::casters::{CasterFamily, CasterKey};
+use super::local::{LocalCandidate, LocalFrame, LocalShadows};
+use super::{ShadowFilter, ShadowSettings};
+use crate::bindings::{GroupBuilder, GroupResources};
+use crate::gpu::array_layers::ArrayLayers;
+use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
+use crate::gpu::timing::GpuTimer;
+use crate::pipelines::{PipelineCache, ShaderError};
+use crate::resources::draw_list::SceneBounds;
+use crate::resources::draws::{Batch, TopologyKey};
+use crate::resources::materials::{AlphaKey, MaterialTable, TextureSet};
+use crate::resources::mesh_pool::MeshPool;
+use crate::scene::world::{ExtractedLight, ExtractedView, LightKey, LightKind};
+
+/// Directional lights that get cascades at once; dimmer ones light the scene unshadowed (with a
+/// warning). Mirrors `MAX_SHADOWED_DIRECTIONAL` in `shaders/shadows.wgsl`.
+pub const MAX_SHADOWED_DIRECTIONAL: usize = 4;
+/// Cascade slots in the shadow uniform: four lights of four cascades.
+pub const MAX_CASCADES: usize = 16;
+/// Caster views sit at this stride in their buffer (the minimum uniform offset alignment).
+const CASTER_VIEW_STRIDE: u64 = 256;
+
+/// Timestamp labels of the caster passes, by layer.
+const LAYER_LABELS: [&str; MAX_CASCADES] = [
+    "shadow 0",
+    "shadow 1",
+    "shadow 2",
+    "shadow 3",
+    "shadow 4",
+    "shadow 5",
+    "shadow 6",
+    "shadow 7",
+    "shadow 8",
+    "shadow 9",
+    "shadow 10",
+    "shadow 11",
+    "shadow 12",
+    "shadow 13",
+    "shadow 14",
+    "shadow 15",
+];
+
+/// A directional light the store holds, as the orchestrator sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct DirectionalCandidate {
+    pub key: LightKey,
+    /// Its slot in the light buffer.
+    pub slot: u32,
+    pub light: ExtractedLight,
+}
+
+/// A light given cascades this frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShadowedLight {
+    pub key: LightKey,
+    pub slot: u32,
+    /// Its first cascade's layer; the rest follow.
+    pub first_layer: u32,
+}
+
+/// What the orchestrator decided for this frame.
+#[derive(Debug, Clone, Default)]
+pub struct ShadowFrame {
+    pub lights: Vec<ShadowedLight>,
+    /// Every light's cascades, light after light (index = atlas layer).
+    pub cascades: Vec<Cascade>,
+    /// Per layer: in use this frame (else no caster reaches it, or nothing visible lies in it).
+    pub rendered: Vec<bool>,
+    /// Per layer: drawn this frame. A layer in use whose projection and casters are what it
+    /// already holds is not drawn again (a still camera over a still scene costs nothing).
+    pub redraw: Vec<bool>,
+    /// Spot and point lights' maps.
+    pub local: LocalFrame,
+}
+
+impl ShadowFrame {
+    /// Layers drawn this frame, directional and local.
+    pub fn rendered_layers(&self) -> usize {
+        self.redraw.iter().filter(|r| **r).count() + self.local.render.len()
+    }
+}
+
+struct Atlas {
+    texture: wgpu::Texture,
+    array_view: wgpu::TextureView,
+    layer_views: Vec<wgpu::TextureView>,
+    size: u32,
+    /// Layers in use (the texture may have a spare one: `ArrayLayers`).
+    layers: u32,
+}
+
+impl Atlas {
+    fn new(device: &wgpu::Device, rule: ArrayLayers, size: u32, layers: u32) -> Self {
+        let allocated = rule.allocate(layers, size, size);
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadow atlas"),
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: allocated },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: SHADOW_ATLAS_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layer_views = (0..layers)
+            .map(|layer| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("shadow atlas layer"),
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        Self { texture, array_view, layer_views, size, layers }
+    }
+
+    fn layers(&self) -> u32 {
+        self.layers
+    }
+
+    fn bytes(&self) -> u64 {
+        self.size as u64 * self.size as u64 * 4 * self.texture.depth_or_array_layers() as u64
+    }
+}
+
+/// A receiver's depth tolerance on a backend that rounds depth at 2⁻²⁴ of 1 (GL, see
+/// `Capabilities::exact_depth`): eight such steps. Without it a surface facing the light, whose
+/// slope-scaled bias is zero, shadows itself there wherever the rounding goes the wrong way (a
+/// disc around a spot light's axis). 4.8e-7 of reverse-Z depth is 4.8e-7 × d² / near metres at
+/// distance d from a local light, and 4.8e-7 of a cascade's depth range.
+pub const INEXACT_DEPTH_TOLERANCE: f32 = 8.0 / 16_777_216.0;
+
+pub struct ShadowOrchestrator {
+    uniform: wgpu::Buffer,
+    /// Cascades' views first (`MAX_CASCADES`), then the local layers'.
+    caster_views: wgpu::Buffer,
+    atlas: Option<Atlas>,
+    local: LocalShadows,
+    /// The local lights' layers (allocated while any local light has a map).
+    local_atlas: Option<Atlas>,
+    /// `array<LocalShadow>`, one per local layer.
+    local_buffer: wgpu::Buffer,
+    /// Fills the atlas binding while no light casts (nothing samples it then).
+    placeholder: Atlas,
+    sampler: wgpu::Sampler,
+    array_layers: ArrayLayers,
+    /// Added to a receiver's depth before comparing it with the map: 0 where depth is exact;
+    /// [`INEXACT_DEPTH_TOLERANCE`] where the backend rounds it (`Capabilities::exact_depth`).
+    depth_tolerance: f32,
+    frame: ShadowFrame,
+    /// The caster bind group and the buffers it was made with (instances, draw slots,
+    /// materials), compared by identity to notice growth.
+    caster_bind_group: Option<(wgpu::BindGroup, [wgpu::Buffer; 3])>,
+    /// Lights already warned about for lack of a cascade slot.
+    warned_excess: bool,
+    /// What each cascade layer holds: the projection it was drawn with, the caster generation,
+    /// and the settings (bias is raster state).
+    held: Vec<Option<(DMat4, u64)>>,
+    held_settings: Option<ShadowSettings>,
+}
+
+impl ShadowOrchestrator {
+    /// `exact_depth`: see `Capabilities::exact_depth`.
+    pub fn new(device: &wgpu::Device, array_layers: ArrayLayers, exact_depth: bool) -> Self {
+        Self {
+            uniform: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("shadows"),
+                size: std::mem::size_of::<GpuShadows>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            caster_views: caster_views_buffer(device, 0),
+            atlas: None,
+            local: LocalShadows::default(),
+            local_atlas: None,
+            local_buffer: local_buffer(device, 1),
+            placeholder: Atlas::new(device, array_layers, 1, 1),
+            array_layers,
+            depth_tolerance: if exact_depth { 0.0 } else { INEXACT_DEPTH_TOLERANCE },
+            // Reverse-Z: a receiver is lit where its depth is at least the nearest caster's.
+            sampler: device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("shadow comparison"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                compare: Some(wgpu::CompareFunction::GreaterEqual),
+                ..Default::default()
+            }),
+            frame: ShadowFrame::default(),
+            caster_bind_group: None,
+            warned_excess: false,
+            held: Vec::new(),
+            held_settings: None,
+        }
+    }
+
+    /// Forgets what every layer holds, so all are drawn again (settings changed, or the caster
+    /// shader changed or failed).
+    pub fn invalidate(&mut self) {
+        self.held.clear();
+        self.local = LocalShadows::default();
+    }
+
+    /// Whether directional lights read cascades this frame.
+    pub fn active(&self) -> bool {
+        self.frame.rendered.iter().any(|r| *r)
+    }
+
+    /// Whether any local light reads a shadow map this frame.
+    pub fn local_active(&self) -> bool {
+        !self.frame.local.first_layers.is_empty()
+    }
+
+    pub fn local_atlas_view(&self) -> &wgpu::TextureView {
+        &self.local_atlas.as_ref().unwrap_or(&self.placeholder).array_view
+    }
+
+    pub fn local_buffer(&self) -> &wgpu::Buffer {
+        &self.local_buffer
+    }
+
+    pub fn frame(&self) -> &ShadowFrame {
+        &self.frame
+    }
+
+    pub fn uniform(&self) -> &wgpu::Buffer {
+        &self.uniform
+    }
+
+    /// The atlas as the shaders bind it (the stand-in while none is allocated).
+    pub fn atlas_view(&self) -> &wgpu::TextureView {
+        &self.atlas.as_ref().unwrap_or(&self.placeholder).array_view
+    }
+
+    pub fn sampler(&self) -> &wgpu::Sampler {
+        &self.sampler
+    }
+
+    /// The orchestrator's share of the view group (`shaders/shadows.wgsl`): the uniform, the
+    /// directional atlas with its comparison sampler, the local lights' layers and atlas, and
+    /// the directional atlas again as floats for the PCSS blocker search's loads.
+    pub fn declare_view(b: &mut GroupBuilder) {
+        let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        let atlas = |sample_type| wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        };
+        b.buffer("shadows", lit, wgpu::BufferBindingType::Uniform)
+            .add("shadow_atlas", lit, atlas(wgpu::TextureSampleType::Depth))
+            .add("shadow_sampler", lit, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison))
+            .buffer("local_shadows", lit, wgpu::BufferBindingType::Storage { read_only: true })
+            .add("local_atlas", lit, atlas(wgpu::TextureSampleType::Depth))
+            .add("shadow_depths", lit, atlas(wgpu::TextureSampleType::Float { filterable: false }));
+    }
+
+    pub fn view_resources<'a>(&'a self, r: &mut GroupResources<'a>) {
+        r.buffer("shadows", self.uniform())
+            .add("shadow_atlas", wgpu::BindingResource::TextureView(self.atlas_view()))
+            .add("shadow_sampler", wgpu::BindingResource::Sampler(self.sampler()))
+            .buffer("local_shadows", self.local_buffer())
+            .add("local_atlas", wgpu::BindingResource::TextureView(self.local_atlas_view()))
+            .add("shadow_depths", wgpu::BindingResource::TextureView(self.atlas_view()));
+    }
+
+    pub fn gpu_bytes(&self) -> u64 {
+        self.atlas.as_ref().map_or(0, Atlas::bytes) + self.local_atlas.as_ref().map_or(0, Atlas::bytes)
+    }
+
+    /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
+    /// whenever any caster may have (local maps are re-rendered only then, or when their light
+    /// changes). Returns whether an atlas or buffer was (re)allocated or released, so that bind
+    /// groups holding it must be rebuilt.
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        settings: &ShadowSettings,
+        view: Option<(&ExtractedView, f32)>,
+        candidates: &[DirectionalCandidate],
+        local_candidates: &[LocalCandidate],
+        bounds: &SceneBounds,
+        caster_generation: u64,
+    ) -> bool {
+        // Other settings (bias is raster state, sizes and filters change the maps): nothing held
+        // is valid.
+        if self.held_settings != Some(*settings) {
+            self.invalidate();
+            self.held_settings = Some(*settings);
+        }
+        let seen = !bounds.casters.is_empty() && !bounds.receivers.is_empty();
+        self.frame = match view {
+            Some((view, aspect)) if seen => self.plan(settings, view, aspect, candidates, bounds),
+            _ => ShadowFrame::default(),
+        };
+        let camera_position = view.map_or(Vec3::ZERO, |(v, _)| Vec3::from(v.world_from_view.translation));
+        if view.is_some() && seen {
+            self.frame.local =
+                self.local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+        } else {
+            // Nothing to shadow: forget the maps, so they render afresh when casters return.
+            self.local = LocalShadows::default();
+        }
+        let layers = self.frame.cascades.len() as u32;
+        let needs = self.active().then_some((settings.atlas_size, layers));
+        let has = self.atlas.as_ref().map(|a| (a.size, a.layers()));
+        let mut changed = needs != has;
+        if changed {
+            self.atlas = needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
+        }
+        // A fresh atlas holds nothing.
+        if changed {
+            self.held.clear();
+        }
+        self.held.resize(layers as usize, None);
+        self.frame.redraw = (0..layers as usize)
+            .map(|i| {
+                let now = (self.frame.cascades[i].clip_from_world, caster_generation);
+                let redraw = self.frame.rendered[i] && self.held[i] != Some(now);
+                if redraw {
+                    self.held[i] = Some(now);
+                }
+                redraw
+            })
+            .collect();
+        let local_needs = self.local_active().then_some((settings.local_map_size, settings.local_layers));
+        let local_has = self.local_atlas.as_ref().map(|a| (a.size, a.layers()));
+        if local_needs != local_has {
+            changed = true;
+            self.local_atlas = local_needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
+            if local_has.is_some() {
+                // The layers' contents are gone: every map renders again.
+                self.local = LocalShadows::default();
+                self.frame.local =
+                    self.local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+            }
+        }
+        let local_layers = settings.local_layers as u64;
+        if self.local_buffer.size() < local_layers * std::mem::size_of::<GpuLocalShadow>() as u64 {
+            self.local_buffer = local_buffer(device, local_layers);
+            changed = true;
+        }
+        if self.caster_views.size() < CASTER_VIEW_STRIDE * (MAX_CASCADES as u64 + local_layers) {
+            self.caster_views = caster_views_buffer(device, local_layers);
+            self.caster_bind_group = None;
+        }
+        self.write(queue, settings, candidates, camera_position);
+        changed
+    }
+
+    fn plan(
+        &mut self,
+        settings: &ShadowSettings,
+        view: &ExtractedView,
+        aspect: f32,
+        candidates: &[DirectionalCandidate],
+        bounds: &SceneBounds,
+    ) -> ShadowFrame {
+        let mut lit: Vec<&DirectionalCandidate> = candidates
+            .iter()
+            .filter(|c| {
+                c.light.shadows
+                    && matches!(c.light.kind, LightKind::Directional { .. })
+                    && c.light.color.max_element() > 0.0
+            })
+            .collect();
+        // The brightest lights get the cascades; the key orders ties so frames are deterministic.
+        lit.sort_by(|a, b| b.light.color.max_element().total_cmp(&a.light.color.max_element()).then(a.key.cmp(&b.key)));
+        if lit.len() > MAX_SHADOWED_DIRECTIONAL && !self.warned_excess {
+            self.warned_excess = true;
+            tracing::warn!(
+                "{} directional lights cast shadows; the brightest {MAX_SHADOWED_DIRECTIONAL} get shadow maps, the rest light unshadowed",
+                lit.len()
+            );
+        }
+        lit.truncate(MAX_SHADOWED_DIRECTIONAL);
+        let (rotation, eye) = {
+            let (_, r, t) = view.world_from_view.to_scale_rotation_translation();
+            (r.as_dquat(), t.as_dvec3())
+        };
+        let camera = CascadeCamera {
+            world_from_view: DAffine3::from_rotation_translation(rotation, eye),
+            projection: view.projection,
+            aspect,
+        };
+        let forward = rotation * DVec3::NEG_Z;
+        let deepest_receiver = corners(&bounds.receivers).map(|p| (p - eye).dot(forward)).fold(f64::MIN, f64::max);
+        let mut frame = ShadowFrame::default();
+        for candidate in lit {
+            let direction = candidate.light.direction;
+            let towards_light = -direction.as_dvec3().normalize();
+            let caster_top = corners(&bounds.casters).map(|p| p.dot(towards_light)).fold(f64::MIN, f64::max);
+            let fitted = cascades::fit_cascades_to_casters(&camera, direction, settings, caster_top);
+            frame.lights.push(ShadowedLight {
+                key: candidate.key,
+                slot: candidate.slot,
+                first_layer: frame.cascades.len() as u32,
+            });
+            // A cascade is read from where the previous one starts blending into it.
+            let mut read_from = f64::MIN;
+            for cascade in fitted {
+                let seen = read_from < deepest_receiver;
+                read_from = cascade.far as f64 - settings.cascade_blend as f64 * (cascade.far - cascade.near) as f64;
+                frame.rendered.push(seen && reaches(&cascade.clip_from_world, &bounds.casters));
+                frame.cascades.push(cascade);
+            }
+        }
+        frame
+    }
+
+    fn write(
+        &self,
+        queue: &wgpu::Queue,
+        settings: &ShadowSettings,
+        candidates: &[DirectionalCandidate],
+        camera_position: Vec3,
+    ) {
+        let mut gpu: GpuShadows = bytemuck::Zeroable::zeroed();
+        let frame = &self.frame;
+        for (i, c) in frame.cascades.iter().enumerate().take(MAX_CASCADES) {
+            // Depth is linear along the light: its row of the matrix is the light's direction
+            // over the world distance depth runs 1 to 0.
+            let depth_row =
+                DVec3::new(c.clip_from_world.x_axis.z, c.clip_from_world.y_axis.z, c.clip_from_world.z_axis.z);
+            let depth_range = 1.0 / depth_row.length().max(f64::MIN_POSITIVE);
+            gpu.cascades[i] = GpuCascade {
+                clip_from_rel: c.clip_from_rel.to_cols_array_2d(),
+                far: c.far,
+                texel_size: c.texel_size as f32,
+                depth_range: depth_range as f32,
+                rendered: frame.rendered[i] as u32,
+            };
+        }
+        for (i, l) in frame.lights.iter().enumerate() {
+            let angular = candidates.iter().find(|c| c.key == l.key).map_or(0.0, |c| match c.light.kind {
+                LightKind::Directional { angular_radius } => angular_radius.clamp(0.0, 1.0),
+                _ => 0.0,
+            });
+            gpu.lights[i] = GpuDirectionalShadow {
+                light_slot: l.slot,
+                first_cascade: l.first_layer,
+                angular_tan: angular.tan(),
+                _pad: 0,
+            };
+        }
+        gpu.light_count = if self.active() { frame.lights.len() as u32 } else { 0 };
+        gpu.cascade_count = settings.cascades;
+        gpu.normal_bias = settings.normal_bias;
+        gpu.blend = settings.cascade_blend;
+        gpu.atlas_size = settings.atlas_size as f32;
+        gpu.filter = match settings.filter {
+            ShadowFilter::Pcf => 0,
+            ShadowFilter::Pcss => 1,
+        };
+        gpu.max_kernel = settings.max_penumbra_texels;
+        gpu.depth_tolerance = self.depth_tolerance;
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&gpu));
+        let caster_view = |clip_from_rel: &glam::Mat4| GpuCasterView {
+            clip_from_rel: clip_from_rel.to_cols_array_2d(),
+            camera_position: camera_position.to_array(),
+            _pad: 0.0,
+        };
+        for (i, c) in frame.cascades.iter().enumerate() {
+            let v = caster_view(&c.clip_from_rel);
+            queue.write_buffer(&self.caster_views, i as u64 * CASTER_VIEW_STRIDE, bytemuck::bytes_of(&v));
+        }
+        if self.local_active() {
+            let layers: Vec<GpuLocalShadow> = frame
+                .local
+                .layers
+                .iter()
+                .map(|l| match l {
+                    Some(l) => GpuLocalShadow {
+                        clip_from_rel: l.clip_from_rel.to_cols_array_2d(),
+                        texel_scale: l.texel_scale,
+                        valid: l.valid as u32,
+                        faces: l.faces,
+                        _pad: 0,
+                    },
+                    None => bytemuck::Zeroable::zeroed(),
+                })
+                .collect();
+            queue.write_buffer(&self.local_buffer, 0, bytemuck::cast_slice(&layers));
+            for &layer in &frame.local.render {
+                if let Some(l) = &frame.local.layers[layer as usize] {
+                    let offset = (MAX_CASCADES as u64 + layer as u64) * CASTER_VIEW_STRIDE;
+                    queue.write_buffer(&self.caster_views, offset, bytemuck::bytes_of(&caster_view(&l.clip_from_rel)));
+                }
+            }
+        }
+    }
+
+    /// Encodes one depth pass per rendered layer, drawing every caster batch (opaque and masked
+    /// triangles) into it. A caster pipeline that fails to compile skips its batches and is
+    /// returned as the error.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        settings: &ShadowSettings,
+        mesh_pool: &MeshPool,
+        materials: &MaterialTable,
+        buffers: [&wgpu::Buffer; 3],
+        batches: &[Batch],
+        mut timer: Option<&mut GpuTimer>,
+    ) -> Option<ShaderError> {
+        if self.atlas.is_none() && self.local_atlas.is_none() {
+            return None;
+        }
+        let casters: Vec<(&Batch, CasterKey)> = batches
+            .iter()
+            .filter(|b| b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend)
+            .map(|b| (b, caster_key(b, settings)))
+            .collect();
+        let mut error = None;
+        for (_, key) in &casters {
+            if let Err(e) = pipelines.get::<CasterFamily>(device, *key) {
+                error = Some(e);
+            }
+        }
+        let stale =
+            self.caster_bind_group.as_ref().is_none_or(|(_, held)| held.iter().zip(buffers).any(|(a, b)| a != b));
+        if stale {
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("shadow casters"),
+                layout: &pipelines.family::<CasterFamily>().layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &self.caster_views,
+                            offset: 0,
+                            size: wgpu::BufferSize::new(std::mem::size_of::<GpuCasterView>() as u64),
+                        }),
+                    },
+                    wgpu::BindGroupEntry { binding: 1, resource: buffers[0].as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: buffers[1].as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: buffers[2].as_entire_binding() },
+                ],
+            });
+            self.caster_bind_group = Some((group, buffers.map(Clone::clone)));
+        }
+        let group = &self.caster_bind_group.as_ref().expect("made above").0;
+        // (atlas layer view, caster view index, timing label) of every pass this frame.
+        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str)> = Vec::new();
+        if let Some(atlas) = &self.atlas {
+            for (layer, view) in atlas.layer_views.iter().enumerate() {
+                if self.frame.redraw[layer] {
+                    passes.push((view, layer as u64, LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)]));
+                }
+            }
+        }
+        if let Some(atlas) = &self.local_atlas {
+            for &layer in &self.frame.local.render {
+                passes.push((&atlas.layer_views[layer as usize], MAX_CASCADES as u64 + layer as u64, "shadow local"));
+            }
+        }
+        for (view, index, label) in passes {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(label),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view,
+                    // Reverse-Z: 0 is the far side, where nothing casts.
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.pass(label)),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, group, &[(index * CASTER_VIEW_STRIDE) as u32]);
+            pass.set_vertex_buffer(0, mesh_pool.vertex_buffer().slice(..));
+            pass.set_index_buffer(mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
+            let mut bound = None;
+            let compiled = pipelines.compiled::<CasterFamily>();
+            for (b, key) in &casters {
+                let Some(entry) = mesh_pool.entry(b.mesh_id) else { continue };
+                let Some(pipeline) = compiled.get(key) else { continue };
+                if bound != Some(*key) {
+                    pass.set_pipeline(pipeline);
+                    bound = Some(*key);
+                }
+                if key.alpha_mask {
+                    let Some(material) = materials.get(&b.material) else { continue };
+                    pass.set_bind_group(1, &material.bind_group, &[]);
+                }
+                let instances = b.first..b.first + b.count;
+                match &entry.indices {
+                    Some(r) => pass.draw_indexed(r.clone(), entry.vertices.start as i32, instances),
+                    None => pass.draw(entry.vertices.clone(), instances),
+                }
+            }
+        }
+        if error.is_some() {
+            // Batches whose pipeline failed were left out: draw everything again once fixed.
+            self.invalidate();
+        }
+        error
+    }
+}
+
+fn caster_views_buffer(device: &wgpu::Device, local_layers: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("shadow caster views"),
+        size: CASTER_VIEW_STRIDE * (MAX_CASCADES as u64 + local_layers),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn local_buffer(device: &wgpu::Device, layers: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("local shadows"),
+        size: layers.max(1) * std::mem::size_of::<GpuLocalShadow>() as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn caster_key(b: &Batch, settings: &ShadowSettings) -> CasterKey {
+    let mask = b.key.alpha == AlphaKey::Mask;
+    CasterKey {
+        alpha_mask: mask,
+        base_color_texture: mask && b.key.textures.has(TextureSet::BASE_COLOR),
+        slope_bias_bits: settings.slope_bias.to_bits(),
+    }
+}
+
+fn corners(b: &Aabb) -> impl Iterator<Item = DVec3> + '_ {
+    (0..8).map(move |i| {
+        DVec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x } as f64,
+            if i & 2 == 0 { b.min.y } else { b.max.y } as f64,
+            if i & 4 == 0 { b.min.z } else { b.max.z } as f64,
+        )
+    })
+}
+
+/// Whether any of the casters' box can land in the cascade: its light-space bounds overlap the
+/// map across, and it is not wholly below the map's far side.
+fn reaches(clip_from_world: &DMat4, casters: &Aabb) -> bool {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in corners(casters) {
+        let c = clip_from_world.project_point3(p);
+        lo = lo.min(c);
+        hi = hi.max(c);
+    }
+    lo.x <= 1.0 && hi.x >= -1.0 && lo.y <= 1.0 && hi.y >= -1.0 && hi.z >= 0.0
+}
+
+mod gpu;
+use gpu::{GpuCascade, GpuCasterView, GpuDirectionalShadow, GpuLocalShadow, GpuShadows};

@@ -1,0 +1,611 @@
+//! The visibility buffer: opaque draws rasterised and shaded in compute (`Raster::Compute`).
+//! The one owner of the visibility buffer, the raster batch table, the records of large
+//! triangles and the shading groups.
+//!
+//! Why: GPUs built for compute rasterise on a small part of the chip. The H100 runs vertex and
+//! fragment work on 2 of its 66 TPCs, so a multisampled 1080p frame costs it much fixed-function
+//! time before any shading, while compute runs on every TPC (docs/performance.md, "Rasterising
+//! in compute").
+//!
+//! Data flow, each frame, after the cull pass (`features::culling`) has written each opaque
+//! batch's visible instances (`visible_slots`) and their counts (its indirect arguments):
+//! 1. `raster_prepare` numbers the visible triangles batch after batch (each batch's first number
+//!    in `counters`) and sizes the raster dispatch (`shaders/visibility_raster.wgsl`).
+//! 2. `raster_triangles`, one thread per triangle, writes `depth << 32 | number` into each
+//!    covered sample with a 64-bit atomicMax (nearest wins; ties go to the larger number, so
+//!    the result is the same whatever order threads run in). Triangles larger than 8×8 pixels
+//!    leave a record instead; `raster_scan` numbers their 16×16-pixel tiles, and
+//!    `raster_tiles` spreads those jobs over the GPU.
+//! 3. The shading pass (`forward.wgsl`'s `cs_shade`, one pipeline per forward variant and one
+//!    dispatch per group of batches sharing variant and material textures) shades each
+//!    pixel's triangles once at the pixel's centre, weighs each by the samples it covers, adds
+//!    the environment or the clear colour for the samples nothing covers, and writes the
+//!    resolved HDR colour; or, when nothing else reads HDR colour (no post-processing, no HDR
+//!    readback) and the output takes copies, the displayed colour itself (tonemapped,
+//!    sRGB-encoded), which is copied into the output. Full-screen fragment passes are dear on
+//!    such GPUs (the background composite, the tonemap pass); these frames have neither.
+//!
+//! What a frame needs for this path (else the forward pass draws it, and the plan says why):
+//! GPU culling (the visible lists), no occlusion culling, no blended or masked draws, no
+//! gizmos, triangle meshes only, and 64-bit atomics. The frame has no depth or multisampled
+//! targets.
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::features::culling::ARGS_WORDS;
+use crate::gpu::buffer::GrowableBuffer;
+use crate::gpu::formats::DISPLAY_FORMAT;
+use crate::gpu::timing::GpuTimer;
+use crate::pipelines::{PipelineCache, ShaderError};
+use crate::resources::draws::{Batch, PipelineKey};
+use crate::resources::materials::{MaterialKey, MaterialTable};
+use crate::resources::mesh_pool::MeshPool;
+
+mod pipelines;
+pub use pipelines::{RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
+
+/// Where opaque draws are rasterised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Raster {
+    /// `Compute` on GPUs whose graphics units are a small part of the chip
+    /// (`Capabilities::few_graphics_units`: NVIDIA's Hopper compute GPUs), `Hardware` elsewhere.
+    /// The many-lights and many-cubes benchmarks use it; not yet the default, since the
+    /// compute path is new and leaves out what it cannot draw yet (see `Compute`).
+    Auto,
+    /// The GPU's rasteriser, drawing each batch (the forward pass).
+    #[default]
+    Hardware,
+    /// Compute shaders (`features::visibility`): each sample's nearest triangle goes into a
+    /// visibility buffer with 64-bit atomics, then a compute pass shades each pixel's
+    /// triangles. For GPUs whose graphics units are few next to their compute units (the
+    /// H100 rasterises on 2 of its 66 TPCs). Frames it cannot draw yet rasterise in hardware,
+    /// and `--explain` says why: blended or masked draws, gizmos, line or point meshes,
+    /// occlusion culling asked for, no GPU culling, an adapter without 64-bit atomics (GL), or
+    /// a visibility buffer (8 bytes a sample) larger than the adapter's largest storage binding.
+    Compute,
+}
+
+/// Bytes of one visibility sample (depth and triangle number).
+const SAMPLE_BYTES: u64 = 8;
+/// Records of large triangles (a box wider or taller than 8 pixels) the list holds per
+/// 16×16-pixel tile of the frame, and at least. A triangle whose record does not fit is
+/// rasterised whole by its own thread: the same samples, slower, and on lavapipe only while
+/// that thread's loops stay within Mesa's limit of 65 535 iterations an invocation (gallivm's
+/// loop limiter; a view-filling triangle at 192×112 passes it), so the list is sized for far
+/// more large triangles than frames have.
+const JOBS_PER_TILE: u32 = 8;
+const MIN_JOBS: u32 = 1 << 16;
+const TILE: u32 = 16;
+/// Bytes of one record.
+const RECORD_BYTES: u64 = 16;
+/// Thread groups of `raster_tiles`, each looping over the tile jobs.
+const TILE_GROUPS: u32 = 2048;
+const CULL_BACK: u32 = 1;
+const FRONT_CW: u32 = 2;
+const NON_INDEXED: u32 = 4;
+
+/// Mirrors `struct RasterBatch` in `shaders/visibility.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuRasterBatch {
+    first: u32,
+    index_start: u32,
+    vertex_start: u32,
+    triangle_count: u32,
+    flags: u32,
+    count_word: u32,
+    shade_group: u32,
+    _pad: u32,
+}
+
+/// Mirrors `struct RasterParams` in `shaders/visibility_raster.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuRasterParams {
+    target_size: [u32; 2],
+    samples: u32,
+    batch_count: u32,
+    job_capacity: u32,
+    tile_groups: u32,
+    _pad: [u32; 2],
+}
+
+/// Mirrors `struct ShadeParams` in `shaders/forward.wgsl` (VISIBILITY_SHADE).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GpuShadeParams {
+    target_size: [u32; 2],
+    samples: u32,
+    batch_count: u32,
+    group: u32,
+    accumulate: u32,
+    last: u32,
+    background: u32,
+    clear: [f32; 4],
+}
+
+/// Batches shaded by one dispatch: one pipeline variant, one set of material textures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ShadeGroup {
+    key: PipelineKey,
+    material: MaterialKey,
+}
+
+/// Whether a frame of `size` at `samples` fits the adapter: its visibility buffer (8 bytes a
+/// sample: 66 MiB at 1920×1080 with MSAA 4, 265 MiB at 3840×2160) must be one storage binding.
+pub fn fits(limits: &wgpu::Limits, size: (u32, u32), samples: u32) -> bool {
+    let bytes = size.0 as u64 * size.1 as u64 * samples as u64 * SAMPLE_BYTES;
+    bytes <= limits.max_storage_buffer_binding_size && bytes <= limits.max_buffer_size
+}
+
+fn job_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("visibility large triangles"),
+        size: capacity as u64 * RECORD_BYTES,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+}
+
+/// Whether a batch can be rasterised here (see the module doc).
+pub fn batch_supported(b: &Batch) -> bool {
+    use crate::resources::draws::TopologyKey;
+    use crate::resources::materials::AlphaKey;
+    b.key.topology == TopologyKey::Triangles && b.key.alpha == AlphaKey::Opaque
+}
+
+pub struct FrameInputs<'a> {
+    pub view: &'a wgpu::Buffer,
+    pub view_bind_group: &'a wgpu::BindGroup,
+    pub instances: &'a wgpu::Buffer,
+    pub visible_slots: &'a wgpu::Buffer,
+    pub cull_args: &'a wgpu::Buffer,
+    pub mesh_pool: &'a MeshPool,
+    pub materials: &'a MaterialTable,
+    /// What the shading pass writes: HDR colour into `hdr`, or the displayed colour, which is
+    /// then copied into `output`.
+    pub shade_output: ShadeOutput,
+    pub hdr: Option<&'a wgpu::TextureView>,
+    pub output: &'a wgpu::Texture,
+    pub size: (u32, u32),
+    pub samples: u32,
+    /// The environment shows where nothing is covered (else `clear`).
+    pub background: bool,
+    /// Exposed linear radiance where nothing is covered.
+    pub clear: [f32; 3],
+}
+
+pub struct VisibilityBuffer {
+    batches: GrowableBuffer,
+    counters: GrowableBuffer,
+    dispatch: wgpu::Buffer,
+    samples: GrowableBuffer,
+    jobs: wgpu::Buffer,
+    job_capacity: u32,
+    /// `set_large_triangle_capacity`'s figure, in place of the one sized from the frame.
+    job_capacity_set: Option<u32>,
+    partial: GrowableBuffer,
+    raster_params: wgpu::Buffer,
+    /// One uniform per shading group.
+    shade_params: Vec<wgpu::Buffer>,
+    /// The groups this frame shades (those whose pipeline and material are there), in order.
+    shaded: Vec<usize>,
+    /// The displayed colour (`ShadeOutput::Display*`), copied into the output.
+    display: Option<(wgpu::Texture, wgpu::TextureView)>,
+    groups: Vec<ShadeGroup>,
+    batch_count: u32,
+    /// The bind groups, and the buffers they were made with (made again when one changes).
+    bound: Option<Bound>,
+}
+
+struct Bound {
+    made_with: Vec<wgpu::Buffer>,
+    target: wgpu::TextureView,
+    raster: wgpu::BindGroup,
+    dispatch: wgpu::BindGroup,
+    shade: Vec<wgpu::BindGroup>,
+}
+
+impl VisibilityBuffer {
+    pub fn new(device: &wgpu::Device) -> Self {
+        use wgpu::BufferUsages as U;
+        let storage = U::STORAGE | U::COPY_DST;
+        Self {
+            batches: GrowableBuffer::new(device, "visibility batches", storage, 256),
+            counters: GrowableBuffer::new(device, "visibility counters", storage, 256),
+            dispatch: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("visibility raster dispatch"),
+                size: 16,
+                usage: U::STORAGE | U::INDIRECT,
+                mapped_at_creation: false,
+            }),
+            samples: GrowableBuffer::new(device, "visibility samples", storage, 256),
+            jobs: job_buffer(device, MIN_JOBS),
+            job_capacity: MIN_JOBS,
+            job_capacity_set: None,
+            partial: GrowableBuffer::new(device, "visibility partial sums", U::STORAGE, 16),
+            raster_params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("visibility raster params"),
+                size: std::mem::size_of::<GpuRasterParams>() as u64,
+                usage: U::UNIFORM | U::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            shade_params: Vec::new(),
+            shaded: Vec::new(),
+            display: None,
+            groups: Vec::new(),
+            batch_count: 0,
+            bound: None,
+        }
+    }
+
+    /// Sets how many large triangles' records the list holds (for tests and tuning: a triangle
+    /// whose record does not fit is rasterised whole by its own thread).
+    pub fn set_large_triangle_capacity(&mut self, device: &wgpu::Device, capacity: u32) {
+        self.job_capacity_set = Some(capacity.max(1));
+        self.resize_jobs(device, capacity.max(1));
+    }
+
+    fn resize_jobs(&mut self, device: &wgpu::Device, capacity: u32) {
+        if capacity != self.job_capacity {
+            self.job_capacity = capacity;
+            self.jobs = job_buffer(device, capacity);
+            self.bound = None;
+        }
+    }
+
+    /// GPU memory this owner holds, in bytes.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.batches.capacity()
+            + self.counters.capacity()
+            + self.samples.capacity()
+            + self.jobs.size()
+            + self.partial.capacity()
+            + self.display.as_ref().map_or(0, |(t, _)| t.width() as u64 * t.height() as u64 * 4)
+            + 16
+    }
+
+    /// The batch table and shading groups, when batches were rebuilt. `batches` are the
+    /// opaque batches in the cull pass's order (their arguments' order).
+    pub fn prepare_batches(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        batches: &[Batch],
+        mesh_pool: &MeshPool,
+    ) {
+        self.groups.clear();
+        let mut table = Vec::with_capacity(batches.len());
+        for (i, b) in batches.iter().enumerate() {
+            let group = ShadeGroup { key: shade_key(b.key), material: b.material };
+            let shade_group = match self.groups.iter().position(|g| *g == group) {
+                Some(g) => g,
+                None => {
+                    self.groups.push(group);
+                    self.groups.len() - 1
+                }
+            } as u32;
+            let flags = (b.key.cull_back_faces as u32 * CULL_BACK) | (b.key.front_face_cw as u32 * FRONT_CW);
+            let gpu = match mesh_pool.entry(b.mesh_id) {
+                Some(e) => match &e.indices {
+                    Some(r) => GpuRasterBatch {
+                        first: b.first,
+                        index_start: r.start,
+                        vertex_start: e.vertices.start,
+                        triangle_count: r.len() as u32 / 3,
+                        flags,
+                        count_word: i as u32 * ARGS_WORDS as u32 + 1,
+                        shade_group,
+                        _pad: 0,
+                    },
+                    None => GpuRasterBatch {
+                        first: b.first,
+                        index_start: e.vertices.start,
+                        vertex_start: e.vertices.start,
+                        triangle_count: e.vertices.len() as u32 / 3,
+                        flags: flags | NON_INDEXED,
+                        count_word: i as u32 * ARGS_WORDS as u32 + 1,
+                        shade_group,
+                        _pad: 0,
+                    },
+                },
+                // Not uploaded (yet): no triangles.
+                None => GpuRasterBatch {
+                    first: b.first,
+                    shade_group,
+                    count_word: i as u32 * ARGS_WORDS as u32 + 1,
+                    ..Zeroable::zeroed()
+                },
+            };
+            table.push(gpu);
+        }
+        self.batch_count = table.len() as u32;
+        let bytes: &[u8] = bytemuck::cast_slice(&table);
+        self.batches.reserve(device, bytes.len().max(32) as u64);
+        if !bytes.is_empty() {
+            queue.write_buffer(self.batches.buffer(), 0, bytes);
+        }
+        // Per batch its first triangle number; the total; large triangles; their tile jobs.
+        self.counters.reserve(device, (table.len() as u64 + 3) * 4);
+        while self.shade_params.len() < self.groups.len() {
+            self.shade_params.push(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("visibility shade params"),
+                size: std::mem::size_of::<GpuShadeParams>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        self.bound = None;
+    }
+
+    fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs) -> ShadeKey {
+        ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background }
+    }
+
+    /// Compiles what the frame needs, sizes the buffers for it and writes its parameters.
+    /// Returns the first pipeline error: groups whose pipeline (or material) is missing are
+    /// not shaded, and the others add up as if they were the only ones.
+    pub fn prepare_frame(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipelines: &mut PipelineCache,
+        inputs: &FrameInputs,
+    ) -> Result<(), ShaderError> {
+        // Each is tried (a variant that fails leaves the others usable); the first error counts.
+        let raster = pipelines.prepare::<RasterFamily>(device, RasterStep::ALL);
+        let shade = pipelines.prepare::<ShadeFamily>(device, self.groups.iter().map(|g| self.shade_key(g, inputs)));
+        let compiled = raster.and(shade);
+        self.shaded = (0..self.groups.len())
+            .filter(|&g| {
+                let group = &self.groups[g];
+                pipelines.cached::<ShadeFamily>(&self.shade_key(group, inputs)).is_some()
+                    && inputs.materials.get(&group.material).is_some()
+            })
+            .collect();
+        let (w, h) = inputs.size;
+        let pixels = w as u64 * h as u64;
+        self.samples.reserve(device, pixels * inputs.samples as u64 * SAMPLE_BYTES);
+        if self.groups.len() > 1 {
+            self.partial.reserve(device, pixels * 16);
+        }
+        if inputs.shade_output.display() {
+            if self.display.as_ref().is_none_or(|(t, _)| (t.width(), t.height()) != (w, h)) {
+                let texture = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("visibility display colour"),
+                    size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: DISPLAY_FORMAT,
+                    // A render attachment too: cleared when no group can be shaded.
+                    usage: wgpu::TextureUsages::STORAGE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::RENDER_ATTACHMENT,
+                    view_formats: &[],
+                });
+                let view = texture.create_view(&Default::default());
+                self.display = Some((texture, view));
+            }
+        } else {
+            self.display = None;
+        }
+        let tiles = w.div_ceil(TILE) * h.div_ceil(TILE);
+        let jobs = self.job_capacity_set.unwrap_or_else(|| (tiles.saturating_mul(JOBS_PER_TILE)).max(MIN_JOBS));
+        self.resize_jobs(device, jobs);
+        let raster = GpuRasterParams {
+            target_size: [w, h],
+            samples: inputs.samples,
+            batch_count: self.batch_count,
+            job_capacity: self.job_capacity,
+            tile_groups: TILE_GROUPS,
+            _pad: [0; 2],
+        };
+        queue.write_buffer(&self.raster_params, 0, bytemuck::bytes_of(&raster));
+        // The first group shaded starts the sums, the last writes the pixel.
+        for (k, &g) in self.shaded.iter().enumerate() {
+            let p = GpuShadeParams {
+                target_size: [w, h],
+                samples: inputs.samples,
+                batch_count: self.batch_count,
+                group: g as u32,
+                accumulate: (k > 0) as u32,
+                last: (k + 1 == self.shaded.len()) as u32,
+                background: inputs.background as u32,
+                clear: [inputs.clear[0], inputs.clear[1], inputs.clear[2], 1.0],
+            };
+            queue.write_buffer(&self.shade_params[g], 0, bytemuck::bytes_of(&p));
+        }
+        compiled
+    }
+
+    fn bind(&mut self, device: &wgpu::Device, pipelines: &PipelineCache, inputs: &FrameInputs) {
+        let made_with = vec![
+            inputs.view.clone(),
+            inputs.instances.clone(),
+            inputs.visible_slots.clone(),
+            inputs.cull_args.clone(),
+            inputs.mesh_pool.index_buffer().clone(),
+            inputs.mesh_pool.vertex_buffer().clone(),
+            self.batches.buffer().clone(),
+            self.counters.buffer().clone(),
+            self.samples.buffer().clone(),
+            self.partial.buffer().clone(),
+        ];
+        let target = match (&self.display, inputs.hdr) {
+            (Some((_, view)), _) => view.clone(),
+            (None, Some(hdr)) => hdr.clone(),
+            (None, None) => unreachable!("an HDR frame passes its HDR target"),
+        };
+        if self.bound.as_ref().is_some_and(|b| b.made_with == made_with && b.target == target) {
+            return;
+        }
+        let raster = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("visibility raster"),
+            layout: &pipelines.family::<RasterFamily>().raster,
+            entries: &[
+                entry(0, inputs.view),
+                entry(1, inputs.instances),
+                entry(2, inputs.visible_slots),
+                entry(3, self.batches.buffer()),
+                entry(4, inputs.cull_args),
+                entry(5, inputs.mesh_pool.index_buffer()),
+                entry(6, inputs.mesh_pool.vertex_buffer()),
+                entry(7, &self.raster_params),
+                entry(8, self.counters.buffer()),
+                entry(9, self.samples.buffer()),
+                entry(10, &self.jobs),
+            ],
+        });
+        let dispatch = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("visibility raster dispatch"),
+            layout: &pipelines.family::<RasterFamily>().dispatch,
+            entries: &[entry(0, &self.dispatch)],
+        });
+        let shade = self.shade_params[..self.groups.len()]
+            .iter()
+            .map(|params| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("visibility shade"),
+                    layout: pipelines.family::<ShadeFamily>().layout(inputs.shade_output),
+                    entries: &[
+                        entry(0, params),
+                        entry(1, self.samples.buffer()),
+                        entry(2, self.batches.buffer()),
+                        entry(3, self.counters.buffer()),
+                        entry(4, inputs.mesh_pool.index_buffer()),
+                        entry(5, self.partial.buffer()),
+                        wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&target) },
+                    ],
+                })
+            })
+            .collect();
+        self.bound = Some(Bound { made_with, target, raster, dispatch, shade });
+    }
+
+    /// Encodes the raster and shading passes (after `prepare_frame`).
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        inputs: &FrameInputs,
+        mut timer: Option<&mut GpuTimer>,
+    ) {
+        self.bind(device, pipelines, inputs);
+        let bound = self.bound.as_ref().expect("bound above");
+        encoder.clear_buffer(self.samples.buffer(), 0, None);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("visibility raster"),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("visibility raster")),
+            });
+            let steps = RasterStep::ALL.map(|s| pipelines.cached::<RasterFamily>(&s));
+            if let [Some(prepare), Some(triangles), Some(scan), Some(tiles)] = steps {
+                pass.set_bind_group(0, &bound.raster, &[]);
+                pass.set_pipeline(prepare);
+                pass.set_bind_group(1, &bound.dispatch, &[]);
+                pass.dispatch_workgroups(1, 1, 1);
+                pass.set_pipeline(triangles);
+                pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+                pass.set_pipeline(scan);
+                pass.dispatch_workgroups(1, 1, 1);
+                pass.set_pipeline(tiles);
+                pass.dispatch_workgroups(TILE_GROUPS, 1, 1);
+            }
+        }
+        let (w, h) = inputs.size;
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("visibility shade"),
+                timestamp_writes: timer.and_then(|t| t.compute_pass("visibility shade")),
+            });
+            pass.set_bind_group(0, inputs.view_bind_group, &[]);
+            for &g in &self.shaded {
+                let group = &self.groups[g];
+                let key = self.shade_key(group, inputs);
+                let (Some(pipeline), Some(material)) =
+                    (pipelines.cached::<ShadeFamily>(&key), inputs.materials.get(&group.material))
+                else {
+                    continue;
+                };
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(1, &material.bind_group, &[]);
+                pass.set_bind_group(2, &bound.shade[g], &[]);
+                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            }
+        }
+        if self.shaded.is_empty() {
+            // Nothing could be shaded (a broken shader folder at start-up): black, not the last
+            // frame's colour (the error is reported).
+            let _ = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("visibility shade, nothing shaded"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &bound.target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        }
+        if let Some((display, _)) = &self.display {
+            // Formats that differ only in sRGB-ness copy byte for byte: the bytes are encoded.
+            encoder.copy_texture_to_texture(
+                display.as_image_copy(),
+                inputs.output.as_image_copy(),
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{GpuRasterBatch, GpuRasterParams, GpuShadeParams, fits};
+    use crate::pipelines::shader_library::assert_mirrors_wgsl;
+
+    #[test]
+    fn the_rust_structs_mirror_the_shaders() {
+        assert_mirrors_wgsl!(
+            GpuRasterBatch,
+            "visibility_raster.wgsl",
+            [],
+            "RasterBatch",
+            [first, index_start, vertex_start, triangle_count, flags, count_word, shade_group]
+        );
+        assert_mirrors_wgsl!(
+            GpuRasterParams,
+            "visibility_raster.wgsl",
+            [],
+            "RasterParams",
+            [target_size, samples, batch_count, job_capacity, tile_groups]
+        );
+        assert_mirrors_wgsl!(
+            GpuShadeParams,
+            "forward.wgsl",
+            ["VISIBILITY_SHADE", "PULLED_VERTICES", "POOL_VERTICES"],
+            "ShadeParams",
+            [target_size, samples, batch_count, group, accumulate, last, background, clear]
+        );
+    }
+
+    #[test]
+    fn the_visibility_buffer_must_be_one_storage_binding() {
+        let limits = wgpu::Limits { max_storage_buffer_binding_size: 128 << 20, ..Default::default() };
+        // 1920×1080×4 samples×8 bytes = 66 MiB; 3840×2160 at 4 samples 265 MiB.
+        assert!(fits(&limits, (1920, 1080), 4));
+        assert!(!fits(&limits, (3840, 2160), 4));
+        assert!(fits(&limits, (3840, 2160), 1));
+    }
+}

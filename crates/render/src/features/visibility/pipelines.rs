@@ -1,0 +1,204 @@
+//! The visibility buffer's pipeline families: the rasteriser (`visibility_raster.wgsl`: its
+//! per-frame numbering, the triangles, the tiles of large ones) and the shading pass, one per
+//! forward variant (`forward.wgsl` with VISIBILITY_SHADE), each with the layouts it binds.
+
+use crate::gpu::formats::{DISPLAY_FORMAT, FormatKey, HDR_FORMAT};
+use crate::pipelines::parts::{self, storage, storage_rw, uniform};
+use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::resources::draws::{AlphaTest, LocalLights, PipelineKey, Tonemapper};
+
+/// The rasteriser's entry points, in `visibility_raster.wgsl`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RasterStep {
+    Prepare,
+    Triangles,
+    Scan,
+    Tiles,
+}
+
+impl RasterStep {
+    pub const ALL: [RasterStep; 4] = [RasterStep::Prepare, RasterStep::Triangles, RasterStep::Scan, RasterStep::Tiles];
+
+    fn entry(self) -> &'static str {
+        match self {
+            RasterStep::Prepare => "raster_prepare",
+            RasterStep::Triangles => "raster_triangles",
+            RasterStep::Scan => "raster_scan",
+            RasterStep::Tiles => "raster_tiles",
+        }
+    }
+}
+
+/// What the shading pass writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ShadeOutput {
+    /// Resolved HDR radiance, into the frame's HDR target.
+    Hdr,
+    /// The displayed colour (sRGB-encoded, for a copy into the output): each triangle's colour
+    /// tonemapped before the samples are averaged (`MsaaResolve::Display`).
+    DisplayPerSample(Tonemapper),
+    /// The displayed colour of the averaged radiance.
+    DisplayResolved(Tonemapper),
+}
+
+impl ShadeOutput {
+    pub fn display(self) -> bool {
+        self != ShadeOutput::Hdr
+    }
+}
+
+/// One shading pipeline: the forward variant of the batches it shades, what it writes, and
+/// whether it can show the environment behind the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ShadeKey {
+    /// A `shade_key`.
+    pub forward: PipelineKey,
+    pub output: ShadeOutput,
+    pub background: bool,
+}
+
+/// The forward key a shading pipeline compiles: what a visibility-buffer frame cannot have
+/// (deferred local lights: the pass walks the clusters itself; tonemapping: it writes HDR
+/// colour) taken out, raster state (culling, winding, formats) that compute does not have
+/// reduced to one value.
+pub fn shade_key(key: PipelineKey) -> PipelineKey {
+    // An sRGB format: a display variant's tonemap leaves the encoding to the shading pass,
+    // which averages first.
+    PipelineKey {
+        local_lights: if key.local_lights == LocalLights::Deferred { LocalLights::Clustered } else { key.local_lights },
+        tonemap: None,
+        cull_back_faces: false,
+        front_face_cw: false,
+        pulled_vertices: true,
+        color_format: FormatKey(wgpu::TextureFormat::Rgba8UnormSrgb),
+        depth_format: None,
+        sample_count: 1,
+        alpha_test: AlphaTest::PerPixel,
+        ..key
+    }
+}
+
+/// The rasteriser's pipelines and the layouts of its groups.
+pub struct RasterFamily {
+    /// Group 0 (see `visibility_raster.wgsl`'s bindings).
+    pub raster: wgpu::BindGroupLayout,
+    /// `raster_prepare`'s group 1: the raster dispatch's arguments.
+    pub dispatch: wgpu::BindGroupLayout,
+    raster_pipeline: wgpu::PipelineLayout,
+    prepare_pipeline: wgpu::PipelineLayout,
+}
+
+impl RasterFamily {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let raster = parts::bind_group_layout(
+            device,
+            "visibility raster",
+            &[
+                uniform(0, compute),
+                storage(1, compute),
+                storage(2, compute),
+                storage(3, compute),
+                storage(4, compute),
+                storage(5, compute),
+                storage(6, compute),
+                uniform(7, compute),
+                storage_rw(8, compute),
+                storage_rw(9, compute),
+                storage_rw(10, compute),
+            ],
+        );
+        let dispatch = parts::bind_group_layout(device, "visibility raster dispatch", &[storage_rw(0, compute)]);
+        Self {
+            raster_pipeline: parts::pipeline_layout(device, "visibility raster", &[&raster]),
+            prepare_pipeline: parts::pipeline_layout(device, "visibility raster prepare", &[&raster, &dispatch]),
+            raster,
+            dispatch,
+        }
+    }
+}
+
+impl PipelineFamily for RasterFamily {
+    type Key = RasterStep;
+    type Pipeline = wgpu::ComputePipeline;
+    const NAME: &'static str = "visibility raster";
+
+    fn shader(&self, _: &RasterStep) -> (&'static str, ShaderDefs) {
+        ("visibility_raster.wgsl", ShaderDefs::default())
+    }
+
+    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &RasterStep) -> wgpu::ComputePipeline {
+        let layout = match step {
+            RasterStep::Prepare => &self.prepare_pipeline,
+            _ => &self.raster_pipeline,
+        };
+        parts::compute_pipeline(device, layout, module, step.entry(), step.entry())
+    }
+}
+
+/// The shading pass's pipelines: group 2 (after the forward pass's view and material groups),
+/// writing HDR colour or writing display colour.
+pub struct ShadeFamily {
+    pub shade: [wgpu::BindGroupLayout; 2],
+    pipeline: [wgpu::PipelineLayout; 2],
+}
+
+impl ShadeFamily {
+    pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, material: &wgpu::BindGroupLayout) -> Self {
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let shade = [HDR_FORMAT, DISPLAY_FORMAT].map(|format| {
+            parts::bind_group_layout(
+                device,
+                "visibility shade",
+                &[
+                    uniform(0, compute),
+                    storage(1, compute),
+                    storage(2, compute),
+                    storage(3, compute),
+                    storage(4, compute),
+                    storage_rw(5, compute),
+                    parts::storage_texture(6, format, wgpu::TextureViewDimension::D2),
+                ],
+            )
+        });
+        let pipeline = [0, 1].map(|i| parts::pipeline_layout(device, "visibility shade", &[view, material, &shade[i]]));
+        Self { shade, pipeline }
+    }
+
+    pub fn layout(&self, output: ShadeOutput) -> &wgpu::BindGroupLayout {
+        &self.shade[output.display() as usize]
+    }
+}
+
+impl PipelineFamily for ShadeFamily {
+    type Key = ShadeKey;
+    type Pipeline = wgpu::ComputePipeline;
+    const NAME: &'static str = "visibility shade";
+    const PER_VARIANT: bool = true;
+
+    fn shader(&self, key: &ShadeKey) -> (&'static str, ShaderDefs) {
+        ("forward.wgsl", shade_defs(*key))
+    }
+
+    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &ShadeKey) -> wgpu::ComputePipeline {
+        let layout = &self.pipeline[key.output.display() as usize];
+        parts::compute_pipeline(device, layout, module, "cs_shade", "visibility shade")
+    }
+}
+
+/// The switches of the visibility buffer's shading pipeline `key` (forward.wgsl's `cs_shade`).
+fn shade_defs(key: ShadeKey) -> ShaderDefs {
+    let (forward, tonemapper) = match key.output {
+        ShadeOutput::Hdr => (key.forward, None),
+        ShadeOutput::DisplayPerSample(t) => (PipelineKey { tonemap: Some(t), ..key.forward }, None),
+        ShadeOutput::DisplayResolved(t) => (key.forward, Some(t)),
+    };
+    forward
+        .shader_defs()
+        .with("VISIBILITY_SHADE", true)
+        .with("VISIBILITY_DISPLAY", key.output.display())
+        .with("VISIBILITY_TONEMAP", tonemapper.is_some())
+        .with("TONEMAP_NEUTRAL", forward.tonemap.or(tonemapper) == Some(Tonemapper::Neutral))
+        .with("TONEMAP_ACES", forward.tonemap.or(tonemapper) == Some(Tonemapper::Aces))
+        .with("VISIBILITY_BACKGROUND", key.background)
+}

@@ -1,0 +1,295 @@
+//! The renderer's encode step: the frame plan's passes, in order, into one command encoder.
+//! Each feature records its own passes; a pass whose pipeline does not compile is left out and
+//! its error kept as the frame's shader error (the last good shaders keep drawing the rest).
+
+use super::Renderer;
+use super::prepare::PreparedFrame;
+use crate::features::culling::CullInputs;
+use crate::features::deferred_lights::DeferredKey;
+use crate::features::forward::{self, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase};
+use crate::features::tonemap;
+use crate::features::visibility::ShadeOutput;
+use crate::frame::Pass;
+use crate::targets::MsaaResolve;
+
+impl Renderer {
+    /// Encodes the passes `frame.plan` runs; returns what the draws submitted.
+    pub(super) fn encode_frame(
+        &mut self,
+        frame: &PreparedFrame,
+        encoder: &mut wgpu::CommandEncoder,
+        output: &wgpu::TextureView,
+        output_format: wgpu::TextureFormat,
+        size: (u32, u32),
+    ) -> DrawCounts {
+        let PreparedFrame {
+            plan,
+            batches,
+            opaque_len,
+            total,
+            direct,
+            visibility,
+            deferred,
+            background,
+            variant,
+            solid_background,
+            camera_exposure,
+            ..
+        } = frame;
+        let (opaque_len, total, direct, visibility, deferred, background) =
+            (*opaque_len, *total, *direct, *visibility, *deferred, *background);
+        let device = self.ctx.device.clone();
+        let queue = self.ctx.queue.clone();
+        let mut deform_error = None;
+        if plan.runs(Pass::Deform) {
+            deform_error =
+                self.deformer.encode(encoder, &device, &mut self.pipelines, &self.mesh_pool, self.timer.as_mut()).err();
+        }
+        let mut env_error = None;
+        if plan.runs(Pass::EnvironmentPrefilter) {
+            env_error = self.environment.encode(encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
+        }
+        let mut cluster_error = None;
+        if plan.runs(Pass::ClusterBin) {
+            cluster_error = self.clusters.encode(encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
+        }
+        let cull_inputs = CullInputs {
+            view: self.view.uniform(),
+            instances: self.instances.buffer(),
+            draw_slots: self.draws.slots().buffer(),
+            blended: opaque_len as u32..total as u32,
+            pool_indices: self.mesh_pool.index_buffer(),
+            pool_vertices: self.mesh_pool.vertex_buffer(),
+        };
+        if plan.runs(Pass::Cull) {
+            self.culling.encode(encoder, &device, &self.pipelines, &cull_inputs, self.timer.as_mut());
+        }
+        let mut shadow_error = None;
+        if plan.runs(Pass::Shadows) {
+            shadow_error = self.shadows.encode(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                &self.settings.shadows,
+                &self.mesh_pool,
+                &self.materials,
+                [self.instances.buffer(), self.draws.slots().buffer(), self.materials.buffer()],
+                self.draws.opaque_batches(),
+                self.timer.as_mut(),
+            );
+        }
+        let targets = self.targets.as_ref().expect("made above");
+        // Handles (reference-counted), so the culling owner stays free to encode between passes.
+        let (early_args, late_args) = (self.culling.args().clone(), self.culling.late_args().clone());
+        let triangle_draws = self.culling.triangle_draws();
+        // A solid background is the clear colour, exposed like the scene (f16-clamped).
+        let mut clear = match solid_background {
+            Some(c) => c.map(|v| (v * camera_exposure).clamp(0.0, 65504.0) as f64),
+            None => self.settings.clear_color,
+        };
+        // The visibility buffer's shading pass transforms the clear colour itself.
+        let clear_radiance = clear.map(|c| c as f32);
+        if direct && !visibility {
+            // No shader touches the clear colour: it gets the display transform here.
+            clear = tonemap::display_color(self.settings.tonemapper, clear, !output_format.is_srgb());
+        }
+        let [r, g, b] = clear;
+        let view_bind_group = self.view.bind_group();
+        // The background is composited over the resolved frame (one sample a pixel, after the
+        // surfaces left their coverage in alpha), except with deferred local lights, whose
+        // colour alpha carries roughness: then the forward pass draws it where depth is clear.
+        let composite_background = plan.runs(Pass::Background) && !deferred;
+        let inputs = ForwardInputs {
+            targets,
+            output,
+            view_bind_group,
+            mesh_pool: &self.mesh_pool,
+            materials: &self.materials,
+            clear_color: if composite_background { wgpu::Color::TRANSPARENT } else { wgpu::Color { r, g, b, a: 1.0 } },
+            indirect: self.culling_active.then_some(IndirectDraws {
+                args: &early_args,
+                batches: self.draws.opaque_batches().len(),
+                triangles: triangle_draws.as_ref(),
+            }),
+            background: plan.runs(Pass::Background) && !composite_background,
+            gizmos: if plan.runs(Pass::Gizmos) { self.gizmos.draw() } else { None },
+        };
+        let opaque_count = self.draws.opaque_batches().len();
+        let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
+            let (early, early_error) = forward::encode(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                &inputs,
+                batches,
+                opaque_count,
+                OpaquePhase::Early,
+                self.timer.as_mut(),
+            );
+            let depth = (targets.depth_view.as_ref().expect("occlusion culling keeps depth"), targets.samples);
+            self.culling.encode_late(encoder, &device, &self.pipelines, &cull_inputs, depth, self.timer.as_mut());
+            let late_inputs = ForwardInputs {
+                indirect: Some(IndirectDraws {
+                    args: &late_args,
+                    batches: opaque_count,
+                    triangles: triangle_draws.as_ref(),
+                }),
+                ..inputs
+            };
+            let (late, error) = forward::encode(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                &late_inputs,
+                batches,
+                opaque_count,
+                OpaquePhase::Late,
+                self.timer.as_mut(),
+            );
+            // Both passes submit the opaque batches; count them once.
+            let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
+            (counts, early_error.or(error))
+        } else if plan.runs(Pass::VisibilityRaster) {
+            if self.visibility_batches_seen != Some(self.draws.batch_generation()) {
+                self.visibility.prepare_batches(&device, &queue, self.draws.opaque_batches(), &self.mesh_pool);
+                self.visibility_batches_seen = Some(self.draws.batch_generation());
+            }
+            let tonemapper = self.settings.tonemapper;
+            // Display colours are averaged only into an sRGB output, as the forward pass does.
+            let shade_output = match (direct, self.settings.msaa_resolve) {
+                (false, _) => ShadeOutput::Hdr,
+                (true, MsaaResolve::Display) if self.settings.msaa > 1 && output_format.is_srgb() => {
+                    ShadeOutput::DisplayPerSample(tonemapper)
+                }
+                (true, _) => ShadeOutput::DisplayResolved(tonemapper),
+            };
+            let inputs = crate::features::visibility::FrameInputs {
+                view: self.view.uniform(),
+                view_bind_group,
+                instances: self.instances.buffer(),
+                visible_slots: self.culling.visible_slots(),
+                cull_args: &early_args,
+                mesh_pool: &self.mesh_pool,
+                materials: &self.materials,
+                shade_output,
+                hdr: targets.hdr_view(),
+                output: output.texture(),
+                size,
+                samples: self.settings.msaa,
+                background,
+                clear: clear_radiance,
+            };
+            let error = self.visibility.prepare_frame(&device, &queue, &mut self.pipelines, &inputs).err();
+            self.visibility.encode(encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut());
+            (DrawCounts::default(), error)
+        } else if plan.runs(Pass::Opaque) {
+            forward::encode(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                &inputs,
+                batches,
+                opaque_count,
+                OpaquePhase::All,
+                self.timer.as_mut(),
+            )
+        } else {
+            (DrawCounts::default(), None)
+        };
+        if plan.runs(Pass::DeferredLights) {
+            let key = DeferredKey {
+                multisampled: targets.samples > 1,
+                light_shapes: variant.light_shapes,
+                local_shadows: variant.local_shadows,
+            };
+            // Without its pipeline the pass does not run, and the composite must not add what an
+            // earlier frame left in its output.
+            let mut computed = true;
+            if let Err(e) = self.deferred.encode(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                targets,
+                view_bind_group,
+                key,
+                self.timer.as_mut(),
+            ) {
+                forward_error = Some(e);
+                computed = false;
+            }
+            let (after, error) = forward::encode_after_deferred(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                &inputs,
+                batches,
+                opaque_count,
+                &self.deferred,
+                computed,
+                self.timer.as_mut(),
+            );
+            counts += after;
+            forward_error = forward_error.or(error);
+        }
+        if composite_background
+            && let Err(e) = forward::encode_background(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                targets,
+                view_bind_group,
+                self.timer.as_mut(),
+            )
+        {
+            forward_error = forward_error.or(Some(e));
+        }
+        let mut post_error = None;
+        if plan.runs(Pass::Bloom) || plan.runs(Pass::AutoExposure) {
+            post_error = self
+                .post
+                .encode_before_tonemap(encoder, &device, &mut self.pipelines, targets, self.timer.as_mut())
+                .err();
+        }
+        // With FXAA the tonemap pass writes the intermediate FXAA reads.
+        let mut tonemap_result = Ok(());
+        if plan.runs(Pass::Tonemap) {
+            let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, output_format);
+            let tonemap_output =
+                tonemap::Output { view: self.post.tonemap_target().unwrap_or(output), format: tonemap_key.format };
+            tonemap_result = tonemap::encode(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                self.post.tonemap_group(),
+                tonemap_key,
+                tonemap_output,
+                self.timer.as_mut(),
+            );
+        }
+        if plan.runs(Pass::Fxaa) {
+            let fxaa = self.post.encode_fxaa(
+                encoder,
+                &device,
+                &mut self.pipelines,
+                output,
+                output_format,
+                self.timer.as_mut(),
+            );
+            tonemap_result = tonemap_result.and(fxaa);
+        }
+        if let Some(e) = post_error
+            .or(deform_error)
+            .or(env_error)
+            .or(cluster_error)
+            .or(frame.cull_error.clone())
+            .or(shadow_error)
+            .or(forward_error)
+            .or(tonemap_result.err())
+            && self.shader_error.as_ref() != Some(&e)
+        {
+            tracing::error!("{e}");
+            self.shader_error = Some(e);
+        }
+        counts
+    }
+}

@@ -1,0 +1,373 @@
+//! The material table: every material in use packed into one storage buffer (indexed per
+//! instance), plus one bind group per material holding its five textures and samplers.
+//!
+//! Each frame, prepare visits the materials that draws use; a material is re-packed and its bind
+//! group rebuilt only when its version changed or one of its images was (re)uploaded. Missing
+//! textures bind the null texture, so every draw has a complete bind group.
+
+use std::collections::HashMap;
+
+use bytemuck::{Pod, Zeroable};
+use penumbra_engine::Handle;
+use penumbra_engine::material::{AlphaMode, StandardMaterial, UvTransform};
+
+use super::textures::TextureCache;
+use crate::gpu::buffer::GrowableBuffer;
+use crate::pipelines::parts;
+use crate::scene::world::RenderScene;
+
+/// Which material textures a draw samples (bits in `StandardMaterial::textures()` order), and
+/// whether any of them maps its coordinate (`TRANSFORMED_UVS`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct TextureSet(pub u8);
+
+impl TextureSet {
+    pub const BASE_COLOR: u8 = 1;
+    pub const METALLIC_ROUGHNESS: u8 = 2;
+    pub const NORMAL: u8 = 4;
+    pub const OCCLUSION: u8 = 8;
+    pub const EMISSIVE: u8 = 16;
+    /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
+    /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
+    pub const TRANSFORMED_UVS: u8 = 32;
+    /// The occlusion texture is the metallic-roughness texture (same image, sampler and
+    /// coordinates: glTF's ORM packing, occlusion in red), so one sample serves both.
+    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u8 = 64;
+
+    pub fn has(self, bit: u8) -> bool {
+        self.0 & bit != 0
+    }
+}
+
+/// Which of `StandardMaterial::textures()` hold colour (sRGB): base colour and emissive.
+pub const SRGB_SLOTS: [bool; 5] = StandardMaterial::SRGB_SLOTS;
+
+pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
+pub const FLAG_DOUBLE_SIDED: u32 = 2;
+
+/// Mirrors `struct Material` in `shaders/forward.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 4],
+    pub emissive: [f32; 3],
+    pub alpha_cutoff: f32,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub normal_scale: f32,
+    pub occlusion_strength: f32,
+    pub flags: u32,
+    pub _pad: [u32; 3],
+    pub uv: [[f32; 4]; 10],
+}
+
+/// Which material a draw uses: `None` is the glTF default material.
+pub type MaterialKey = Option<Handle<StandardMaterial>>;
+
+/// What of a material selects the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum AlphaKey {
+    Opaque,
+    Mask,
+    Blend,
+}
+
+pub struct MaterialEntry {
+    pub slot: u32,
+    version: u64,
+    /// Versions of the images bound in each slot (0: null texture).
+    texture_versions: [u64; 5],
+    pub bind_group: wgpu::BindGroup,
+    pub alpha: AlphaKey,
+    pub unlit: bool,
+    pub double_sided: bool,
+    /// Which slots have a texture: they select the shader variant.
+    pub textures: TextureSet,
+}
+
+pub struct MaterialTable {
+    /// The material group: five (texture, sampler) pairs in `StandardMaterial::textures()`
+    /// order, read by fragment shaders and by the visibility buffer's shading pass.
+    layout: wgpu::BindGroupLayout,
+    cpu: Vec<GpuMaterial>,
+    buffer: GrowableBuffer,
+    entries: HashMap<MaterialKey, MaterialEntry>,
+    free_slots: Vec<u32>,
+    /// The default material's "asset" (it has none; version 0 forever).
+    default_material: StandardMaterial,
+    dirty: bool,
+    /// (material, slot) pairs already warned about a missing image, so the log says it once.
+    warned_missing: std::collections::HashSet<(MaterialKey, usize)>,
+}
+
+impl MaterialTable {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        let entries: Vec<_> = (0..5u32)
+            .flat_map(|i| [parts::texture(2 * i, true), parts::sampler(2 * i + 1)])
+            .map(|e| wgpu::BindGroupLayoutEntry { visibility: lit, ..e })
+            .collect();
+        Self {
+            layout: parts::bind_group_layout(device, "material", &entries),
+            cpu: Vec::new(),
+            buffer: GrowableBuffer::new(
+                device,
+                "material table",
+                wgpu::BufferUsages::STORAGE,
+                64 * std::mem::size_of::<GpuMaterial>() as u64,
+            ),
+            entries: HashMap::new(),
+            free_slots: Vec::new(),
+            default_material: StandardMaterial::default(),
+            dirty: false,
+            warned_missing: Default::default(),
+        }
+    }
+
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        self.buffer.buffer()
+    }
+
+    /// The layout of every material's bind group.
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    pub fn get(&self, key: &MaterialKey) -> Option<&MaterialEntry> {
+        self.entries.get(key)
+    }
+
+    /// Makes `key` ready to draw. Returns false when its asset is missing (the draw is skipped
+    /// with a warning by the caller).
+    /// Textures must already be uploaded (`TextureCache::upload_many`).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        textures: &mut TextureCache,
+        scene: &RenderScene,
+        key: MaterialKey,
+    ) -> bool {
+        let (material, version) = match key {
+            None => (&self.default_material, 0),
+            Some(h) => match scene.materials.get(&h) {
+                Some(s) => (s.data.as_ref(), s.version),
+                None => return false,
+            },
+        };
+        let material = material.clone();
+        // Resolve textures first: an image that changed forces a new bind group even when the
+        // material itself did not.
+        let srgb_slots = SRGB_SLOTS;
+        let mut views = Vec::with_capacity(5);
+        let mut texture_versions = [0u64; 5];
+        for (slot, tex) in material.textures().into_iter().enumerate() {
+            let image = tex.and_then(|t| scene.images.get(&t.image).map(|s| (t, s)));
+            let uploaded = image.and_then(|(t, _)| textures.get(t.image, srgb_slots[slot]).map(|v| (t, v)));
+            match uploaded {
+                Some((t, (view, version))) => {
+                    texture_versions[slot] = version;
+                    views.push((view.clone(), Some(t.sampler)));
+                }
+                None => {
+                    if let Some(t) = tex {
+                        tracing::warn!(
+                            "material texture refers to a missing image {:?}; using the null texture",
+                            t.image
+                        );
+                    }
+                    views.push((textures.null_view().clone(), None));
+                }
+            }
+        }
+        if let Some(e) = self.entries.get(&key)
+            && e.version == version
+            && e.texture_versions == texture_versions
+        {
+            return true;
+        }
+
+        let slot = match self.entries.get(&key) {
+            Some(e) => e.slot,
+            None => self.free_slots.pop().unwrap_or_else(|| {
+                self.cpu.push(GpuMaterial::zeroed());
+                self.cpu.len() as u32 - 1
+            }),
+        };
+        self.cpu[slot as usize] = pack(&material);
+        self.dirty = true;
+
+        let samplers: Vec<wgpu::Sampler> =
+            views.iter().map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone()).collect();
+        let mut entries = Vec::with_capacity(10);
+        for (i, ((view, _), sampler)) in views.iter().zip(&samplers).enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 2 * i as u32,
+                resource: wgpu::BindingResource::TextureView(view),
+            });
+            entries.push(wgpu::BindGroupEntry {
+                binding: 2 * i as u32 + 1,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("material textures"),
+            layout: &self.layout,
+            entries: &entries,
+        });
+        let alpha = match material.alpha_mode {
+            AlphaMode::Opaque => AlphaKey::Opaque,
+            AlphaMode::Mask(_) => AlphaKey::Mask,
+            AlphaMode::Blend => AlphaKey::Blend,
+        };
+        self.entries.insert(
+            key,
+            MaterialEntry {
+                slot,
+                version,
+                texture_versions,
+                bind_group,
+                alpha,
+                unlit: material.unlit,
+                double_sided: material.double_sided,
+                textures: texture_set(&material),
+            },
+        );
+        true
+    }
+
+    /// Makes every material's bind group again on its next `prepare` (its samplers changed).
+    pub fn forget_bind_groups(&mut self) {
+        for e in self.entries.values_mut() {
+            // No image has this version (0 is the null texture), so the entry reads as stale.
+            e.texture_versions = [u64::MAX; 5];
+        }
+    }
+
+    /// Frees the slots (and bind groups, which hold textures alive) of materials whose asset is
+    /// gone or that no draw uses.
+    pub fn retain(&mut self, scene: &RenderScene, used: impl Fn(&MaterialKey) -> bool) {
+        let free = &mut self.free_slots;
+        self.warned_missing.retain(|(k, _)| k.is_none_or(|h| scene.materials.contains_key(&h)));
+        self.entries.retain(|k, e| {
+            let live = k.is_none_or(|h| scene.materials.contains_key(&h)) && used(k);
+            if !live {
+                free.push(e.slot);
+            }
+            live
+        });
+    }
+
+    /// Uploads the packed table if anything changed; returns true if the buffer was replaced.
+    /// Whether material data changed since the last upload.
+    pub fn is_dirty(&self) -> bool {
+        self.dirty
+    }
+
+    pub fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> bool {
+        if !self.dirty {
+            return false;
+        }
+        self.dirty = false;
+        let bytes: &[u8] = bytemuck::cast_slice(&self.cpu);
+        let grew = self.buffer.reserve(device, bytes.len() as u64);
+        queue.write_buffer(self.buffer.buffer(), 0, bytes);
+        grew
+    }
+}
+
+/// The textures `m` samples, whether any maps its coordinate, and whether occlusion shares the
+/// metallic-roughness texel (the shader variant).
+fn texture_set(m: &StandardMaterial) -> TextureSet {
+    let mut bits = 0;
+    for (i, tex) in m.textures().iter().enumerate() {
+        if let Some(t) = tex {
+            bits |= 1 << i;
+            if t.uv_set != 0 || t.transform != UvTransform::default() {
+                bits |= TextureSet::TRANSFORMED_UVS;
+            }
+        }
+    }
+    if m.occlusion_texture.is_some() && m.occlusion_texture == m.metallic_roughness_texture {
+        bits |= TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS;
+    }
+    TextureSet(bits)
+}
+
+fn pack(m: &StandardMaterial) -> GpuMaterial {
+    let mut uv = [[0.0; 4]; 10];
+    for (slot, tex) in m.textures().into_iter().enumerate() {
+        let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| (t.transform.matrix(), t.uv_set));
+        // Rows of the 2×3 affine part: uv' = (row0 · (u, v, 1), row1 · (u, v, 1)).
+        uv[2 * slot] = [mat.x_axis.x, mat.y_axis.x, mat.z_axis.x, set as f32];
+        uv[2 * slot + 1] = [mat.x_axis.y, mat.y_axis.y, mat.z_axis.y, 0.0];
+    }
+    let mut flags = 0;
+    if m.normal_texture.is_some() {
+        flags |= FLAG_HAS_NORMAL_MAP;
+    }
+    if m.double_sided {
+        flags |= FLAG_DOUBLE_SIDED;
+    }
+    let emissive = m.emissive * m.emissive_strength;
+    GpuMaterial {
+        base_color: m.base_color.to_array(),
+        emissive: emissive.to_array(),
+        alpha_cutoff: match m.alpha_mode {
+            AlphaMode::Mask(c) => c,
+            _ => 0.5,
+        },
+        metallic: m.metallic,
+        roughness: m.roughness,
+        normal_scale: m.normal_scale,
+        occlusion_strength: m.occlusion_strength,
+        flags,
+        _pad: [0; 3],
+        uv,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_texture_set_says_how_textures_are_sampled() {
+        use penumbra_engine::image::Image;
+        use penumbra_engine::material::TextureRef;
+        let mut images = penumbra_engine::Assets::new();
+        let orm = TextureRef::new(images.add(Image::solid([255; 4], "orm")));
+        let mut m = StandardMaterial {
+            base_color_texture: Some(TextureRef::new(images.add(Image::solid([255; 4], "base")))),
+            metallic_roughness_texture: Some(orm),
+            occlusion_texture: Some(orm),
+            ..Default::default()
+        };
+        let bits = TextureSet::BASE_COLOR
+            | TextureSet::METALLIC_ROUGHNESS
+            | TextureSet::OCCLUSION
+            | TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS;
+        assert_eq!(texture_set(&m), TextureSet(bits));
+        // Same image, other coordinates: two samples.
+        m.occlusion_texture = Some(TextureRef { uv_set: 1, ..orm });
+        let bits = TextureSet::BASE_COLOR
+            | TextureSet::METALLIC_ROUGHNESS
+            | TextureSet::OCCLUSION
+            | TextureSet::TRANSFORMED_UVS;
+        assert_eq!(texture_set(&m), TextureSet(bits));
+        m.occlusion_texture = None;
+        assert_eq!(texture_set(&m), TextureSet(TextureSet::BASE_COLOR | TextureSet::METALLIC_ROUGHNESS));
+    }
+
+    #[test]
+    fn gpu_material_matches_the_wgsl_layout() {
+        // 4 × vec4 of scalars + 10 × vec4 of UV rows.
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 14 * 16);
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuMaterial,
+            "forward.wgsl",
+            [],
+            "Material",
+            [base_color, emissive, alpha_cutoff, metallic, roughness, normal_scale, occlusion_strength, flags, uv]
+        );
+    }
+}
