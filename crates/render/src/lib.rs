@@ -19,6 +19,7 @@ pub mod bindings;
 pub mod explain;
 pub mod features;
 pub mod frame;
+pub mod frame_context;
 pub mod gpu;
 pub mod headless;
 pub mod pipelines;

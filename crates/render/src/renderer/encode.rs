@@ -10,6 +10,7 @@ use crate::features::forward::{self, DrawCounts, ForwardInputs, IndirectDraws, O
 use crate::features::tonemap;
 use crate::features::visibility::ShadeOutput;
 use crate::frame::Pass;
+use crate::frame_context::FrameContext;
 use crate::targets::MsaaResolve;
 
 impl Renderer {
@@ -40,18 +41,26 @@ impl Renderer {
             (*opaque_len, *total, *direct, *visibility, *deferred, *background);
         let device = self.ctx.device.clone();
         let queue = self.ctx.queue.clone();
+        let targets = self.targets.as_ref().expect("made by prepare");
+        let mut cx = FrameContext {
+            device: &device,
+            queue: &queue,
+            encoder,
+            pipelines: &mut self.pipelines,
+            timer: self.timer.as_mut(),
+            targets,
+        };
         let mut deform_error = None;
         if plan.runs(Pass::Deform) {
-            deform_error =
-                self.deformer.encode(encoder, &device, &mut self.pipelines, &self.mesh_pool, self.timer.as_mut()).err();
+            deform_error = self.deformer.encode(&mut cx, &self.mesh_pool).err();
         }
         let mut env_error = None;
         if plan.runs(Pass::EnvironmentPrefilter) {
-            env_error = self.environment.encode(encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
+            env_error = self.environment.encode(&mut cx).err();
         }
         let mut cluster_error = None;
         if plan.runs(Pass::ClusterBin) {
-            cluster_error = self.clusters.encode(encoder, &device, &mut self.pipelines, self.timer.as_mut()).err();
+            cluster_error = self.clusters.encode(&mut cx).err();
         }
         let cull_inputs = CullInputs {
             view: self.view.uniform(),
@@ -62,23 +71,19 @@ impl Renderer {
             pool_vertices: self.mesh_pool.vertex_buffer(),
         };
         if plan.runs(Pass::Cull) {
-            self.culling.encode(encoder, &device, &self.pipelines, &cull_inputs, self.timer.as_mut());
+            self.culling.encode(&mut cx, &cull_inputs);
         }
         let mut shadow_error = None;
         if plan.runs(Pass::Shadows) {
             shadow_error = self.shadows.encode(
-                encoder,
-                &device,
-                &mut self.pipelines,
+                &mut cx,
                 &self.settings.shadows,
                 &self.mesh_pool,
                 &self.materials,
                 [self.instances.buffer(), self.draws.slots().buffer(), self.materials.buffer()],
                 self.draws.opaque_batches(),
-                self.timer.as_mut(),
             );
         }
-        let targets = self.targets.as_ref().expect("made above");
         // Handles (reference-counted), so the culling owner stays free to encode between passes.
         let (early_args, late_args) = (self.culling.args().clone(), self.culling.late_args().clone());
         let triangle_draws = self.culling.triangle_draws();
@@ -116,18 +121,9 @@ impl Renderer {
         };
         let opaque_count = self.draws.opaque_batches().len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
-            let (early, early_error) = forward::encode(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                &inputs,
-                batches,
-                opaque_count,
-                OpaquePhase::Early,
-                self.timer.as_mut(),
-            );
+            let (early, early_error) = forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::Early);
             let depth = (targets.depth_view.as_ref().expect("occlusion culling keeps depth"), targets.samples);
-            self.culling.encode_late(encoder, &device, &self.pipelines, &cull_inputs, depth, self.timer.as_mut());
+            self.culling.encode_late(&mut cx, &cull_inputs, depth);
             let late_inputs = ForwardInputs {
                 indirect: Some(IndirectDraws {
                     args: &late_args,
@@ -136,16 +132,7 @@ impl Renderer {
                 }),
                 ..inputs
             };
-            let (late, error) = forward::encode(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                &late_inputs,
-                batches,
-                opaque_count,
-                OpaquePhase::Late,
-                self.timer.as_mut(),
-            );
+            let (late, error) = forward::encode(&mut cx, &late_inputs, batches, opaque_count, OpaquePhase::Late);
             // Both passes submit the opaque batches; count them once.
             let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
             (counts, early_error.or(error))
@@ -179,20 +166,11 @@ impl Renderer {
                 background,
                 clear: clear_radiance,
             };
-            let error = self.visibility.prepare_frame(&device, &queue, &mut self.pipelines, &inputs).err();
-            self.visibility.encode(encoder, &device, &mut self.pipelines, &inputs, self.timer.as_mut());
+            let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &inputs).err();
+            self.visibility.encode(&mut cx, &inputs);
             (DrawCounts::default(), error)
         } else if plan.runs(Pass::Opaque) {
-            forward::encode(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                &inputs,
-                batches,
-                opaque_count,
-                OpaquePhase::All,
-                self.timer.as_mut(),
-            )
+            forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::All)
         } else {
             (DrawCounts::default(), None)
         };
@@ -205,50 +183,21 @@ impl Renderer {
             // Without its pipeline the pass does not run, and the composite must not add what an
             // earlier frame left in its output.
             let mut computed = true;
-            if let Err(e) = self.deferred.encode(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                targets,
-                view_bind_group,
-                key,
-                self.timer.as_mut(),
-            ) {
+            if let Err(e) = self.deferred.encode(&mut cx, view_bind_group, key) {
                 forward_error = Some(e);
                 computed = false;
             }
-            let (after, error) = forward::encode_after_deferred(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                &inputs,
-                batches,
-                opaque_count,
-                &self.deferred,
-                computed,
-                self.timer.as_mut(),
-            );
+            let (after, error) =
+                forward::encode_after_deferred(&mut cx, &inputs, batches, opaque_count, &self.deferred, computed);
             counts += after;
             forward_error = forward_error.or(error);
         }
-        if composite_background
-            && let Err(e) = forward::encode_background(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                targets,
-                view_bind_group,
-                self.timer.as_mut(),
-            )
-        {
+        if composite_background && let Err(e) = forward::encode_background(&mut cx, view_bind_group) {
             forward_error = forward_error.or(Some(e));
         }
         let mut post_error = None;
         if plan.runs(Pass::Bloom) || plan.runs(Pass::AutoExposure) {
-            post_error = self
-                .post
-                .encode_before_tonemap(encoder, &device, &mut self.pipelines, targets, self.timer.as_mut())
-                .err();
+            post_error = self.post.encode_before_tonemap(&mut cx).err();
         }
         // With FXAA the tonemap pass writes the intermediate FXAA reads.
         let mut tonemap_result = Ok(());
@@ -256,25 +205,10 @@ impl Renderer {
             let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, output_format);
             let tonemap_output =
                 tonemap::Output { view: self.post.tonemap_target().unwrap_or(output), format: tonemap_key.format };
-            tonemap_result = tonemap::encode(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                self.post.tonemap_group(),
-                tonemap_key,
-                tonemap_output,
-                self.timer.as_mut(),
-            );
+            tonemap_result = tonemap::encode(&mut cx, self.post.tonemap_group(), tonemap_key, tonemap_output);
         }
         if plan.runs(Pass::Fxaa) {
-            let fxaa = self.post.encode_fxaa(
-                encoder,
-                &device,
-                &mut self.pipelines,
-                output,
-                output_format,
-                self.timer.as_mut(),
-            );
+            let fxaa = self.post.encode_fxaa(&mut cx, output, output_format);
             tonemap_result = tonemap_result.and(fxaa);
         }
         if let Some(e) = post_error

@@ -22,10 +22,10 @@ pub use pipeline::{ClusterEntry, ClusterFamily};
 use grid::{ClusterConfig, ClusterGrid, GpuClusterGrid, LightBlocks};
 
 use crate::bindings::{GroupBuilder, GroupResources};
+use crate::frame_context::FrameContext;
 use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::readback::{self, ReadbackError};
-use crate::gpu::timing::GpuTimer;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::light_store::LightStore;
 use crate::scene::world::ExtractedView;
@@ -287,13 +287,9 @@ impl ClusterBinner {
     }
 
     /// Records the binning passes (after `prepare`).
-    pub fn encode(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
-        timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
+    pub fn encode(&self, cx: &mut FrameContext) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         let (Some(grid), Some((bind_group, sort_long_bind_group))) = (&self.grid, &self.bind_group) else {
             return Ok(());
         };

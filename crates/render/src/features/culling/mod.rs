@@ -45,6 +45,7 @@ use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::frame_context::FrameContext;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, TopologyKey};
 use occlusion_feedback::{Advisor, Feedback};
@@ -476,14 +477,9 @@ impl GpuCulling {
     /// Resets the arguments, copies the blended entries and culls: the whole frustum cull, or
     /// the early half of occlusion culling when the frame was prepared with it. The pipelines
     /// are the ones [`GpuCulling::compile`] made before the frame chose indirect draws.
-    pub fn encode(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &PipelineCache,
-        inputs: &CullInputs,
-        timer: Option<&mut GpuTimer>,
-    ) {
+    pub fn encode(&mut self, cx: &mut FrameContext, inputs: &CullInputs) {
+        let (encoder, device, pipelines, timer) =
+            (&mut *cx.encoder, cx.device, &*cx.pipelines, cx.timer.as_deref_mut());
         let phase = if self.occlusion { CullPhase::Early } else { CullPhase::Frustum };
         let phase = phase.with_triangles(self.triangles_active());
         let args_bytes = self.batch_count as u64 * ARGS_WORDS * 4;
@@ -504,15 +500,9 @@ impl GpuCulling {
 
     /// Occlusion culling, after the early draws: the depth pyramid from `depth` (the frame's
     /// depth target, `samples` per pixel), then the late cull.
-    pub fn encode_late(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &PipelineCache,
-        inputs: &CullInputs,
-        depth: (&wgpu::TextureView, u32),
-        mut timer: Option<&mut GpuTimer>,
-    ) {
+    pub fn encode_late(&mut self, cx: &mut FrameContext, inputs: &CullInputs, depth: (&wgpu::TextureView, u32)) {
+        let (encoder, device, pipelines, mut timer) =
+            (&mut *cx.encoder, cx.device, &*cx.pipelines, cx.timer.as_deref_mut());
         let first = HzbStep::FromDepth { multisampled: depth.1 > 1 };
         let Some(hzb) = &mut self.hzb else { return };
         if hzb.level_groups.as_ref().is_none_or(|(d, _)| d != depth.0) {

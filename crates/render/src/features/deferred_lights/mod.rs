@@ -11,8 +11,8 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 
+use crate::frame_context::FrameContext;
 use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT, LOCAL_LIGHT_FORMAT};
-use crate::gpu::timing::GpuTimer;
 use crate::pipelines::parts::{self, uniform};
 use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
 use crate::resources::light_store::LightShapes;
@@ -110,14 +110,12 @@ impl DeferredLights {
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
-        targets: &FrameTargets,
+        cx: &mut FrameContext,
         view_bind_group: &wgpu::BindGroup,
         key: DeferredKey,
-        timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, targets, timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.targets, cx.timer.as_deref_mut());
         let Some((_, group, _)) = self.groups.as_ref() else { return Ok(()) };
         let pipeline = pipelines.get::<DeferredFamily>(device, key)?;
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -38,9 +38,9 @@ use penumbra_engine::bounds::Aabb;
 use penumbra_engine::mesh::Mesh;
 use range_alloc::RangeAllocator;
 
+use crate::frame_context::FrameContext;
 use crate::gpu::buffer::GrowableBuffer;
-use crate::gpu::timing::GpuTimer;
-use crate::pipelines::{PipelineCache, ShaderError};
+use crate::pipelines::ShaderError;
 use crate::resources::line_quads;
 use crate::resources::mesh_pool::{MeshId, MeshPool};
 
@@ -425,14 +425,9 @@ impl MeshDeformer {
     }
 
     /// Runs this frame's jobs. Call after `prepare` when its frame had jobs.
-    pub fn encode(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
-        pool: &MeshPool,
-        timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
+    pub fn encode(&mut self, cx: &mut FrameContext, pool: &MeshPool) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         if self.jobs.is_empty() {
             return Ok(());
         }

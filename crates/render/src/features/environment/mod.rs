@@ -44,9 +44,9 @@ use glam::Vec3;
 use penumbra_engine::environment::{Background, Environment, EnvironmentImage, EnvironmentSource, Sky};
 
 use crate::bindings::{GroupBuilder, GroupResources};
+use crate::frame_context::FrameContext;
 use crate::gpu::array_layers::ArrayLayers;
 use crate::gpu::formats::{ENVIRONMENT_FORMAT, EQUIRECT_FORMAT};
-use crate::gpu::timing::GpuTimer;
 use crate::pipelines::PipelineCache;
 use crate::pipelines::shader_library::ShaderError;
 use maps::Maps;
@@ -496,13 +496,9 @@ impl EnvironmentLighting {
 
     /// Runs the prefilter chain if the source changed, and the split-sum table once. On a
     /// shader error nothing runs and the work stays pending (a reload may fix it).
-    pub fn encode(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
-        timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
+    pub fn encode(&mut self, cx: &mut FrameContext) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         if !(self.pending || self.table_pending()) {
             return Ok(());
         }

@@ -11,7 +11,7 @@ use crate::features::culling::TriangleDraws;
 use crate::features::deferred_lights::{CompositeFamily, DeferredLights};
 use crate::features::environment::{BackgroundFamily, BackgroundMode};
 use crate::features::gizmos::{GizmoDraw, GizmoFamily};
-use crate::gpu::timing::GpuTimer;
+use crate::frame_context::FrameContext;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey, TopologyKey};
 use crate::resources::materials::MaterialTable;
@@ -98,15 +98,14 @@ pub enum OpaquePhase {
 
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
-    encoder: &mut wgpu::CommandEncoder,
-    device: &wgpu::Device,
-    pipelines: &mut PipelineCache,
+    cx: &mut FrameContext,
     inputs: &ForwardInputs,
     batches: &[Batch],
     opaque_count: usize,
     phase: OpaquePhase,
-    mut timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
+    let (encoder, device, pipelines, mut timer) =
+        (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
     let mut error = compile(device, pipelines, batches, 0, inputs.indirect);
     let samples = inputs.targets.samples;
     if inputs.background
@@ -195,16 +194,15 @@ pub fn encode(
 /// ran), then draws the blended batches (`batches[opaque_count..]`) over it, and resolves.
 #[allow(clippy::too_many_arguments)]
 pub fn encode_after_deferred(
-    encoder: &mut wgpu::CommandEncoder,
-    device: &wgpu::Device,
-    pipelines: &mut PipelineCache,
+    cx: &mut FrameContext,
     inputs: &ForwardInputs,
     batches: &[Batch],
     opaque_count: usize,
     deferred: &DeferredLights,
     add_local_light: bool,
-    mut timer: Option<&mut GpuTimer>,
 ) -> (DrawCounts, Option<ShaderError>) {
+    let (encoder, device, pipelines, mut timer) =
+        (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
     let targets = inputs.targets;
     let Some(composite_group) = deferred.composite_group() else { return (DrawCounts::default(), None) };
     let start = opaque_count.min(batches.len());
@@ -379,14 +377,9 @@ fn draw(
 /// The background over the resolved frame (`BackgroundMode::Composite`): one full-screen
 /// triangle, single-sampled, adding the environment where the surfaces' coverage (alpha) falls
 /// short of 1. The forward pass cleared colour and alpha to 0 for it.
-pub fn encode_background(
-    encoder: &mut wgpu::CommandEncoder,
-    device: &wgpu::Device,
-    pipelines: &mut PipelineCache,
-    targets: &FrameTargets,
-    view_bind_group: &wgpu::BindGroup,
-    timer: Option<&mut GpuTimer>,
-) -> Result<(), ShaderError> {
+pub fn encode_background(cx: &mut FrameContext, view_bind_group: &wgpu::BindGroup) -> Result<(), ShaderError> {
+    let (encoder, device, pipelines, targets, timer) =
+        (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.targets, cx.timer.as_deref_mut());
     // A frame without HDR colour (direct output) has no background to composite.
     let Some(hdr_view) = targets.hdr_view() else { return Ok(()) };
     let pipeline = pipelines.get::<BackgroundFamily>(device, BackgroundMode::Composite)?;

@@ -16,6 +16,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::features::tonemap::{TonemapFamily, TonemapKey};
+use crate::frame_context::FrameContext;
 use crate::gpu::formats::{HDR_FORMAT, LDR_FORMAT};
 use crate::gpu::timing::GpuTimer;
 use crate::pipelines::{PipelineCache, ShaderError, parts};
@@ -325,14 +326,9 @@ impl PostProcess {
 
     /// Bloom and automatic exposure: after the HDR frame is resolved, before the tonemap pass.
     /// Marks the exposure metered once encoded.
-    pub fn encode_before_tonemap(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
-        targets: &FrameTargets,
-        mut timer: Option<&mut GpuTimer>,
-    ) -> Result<(), ShaderError> {
+    pub fn encode_before_tonemap(&mut self, cx: &mut FrameContext) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, targets, mut timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.targets, cx.timer.as_deref_mut());
         if self.frame.bloom {
             pipelines.prepare::<BloomFamily>(device, [BloomStep::DownFirst, BloomStep::Down, BloomStep::Up])?;
         }
@@ -393,13 +389,12 @@ impl PostProcess {
     /// FXAA from the intermediate into the output.
     pub fn encode_fxaa(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
+        cx: &mut FrameContext,
         output: &wgpu::TextureView,
         output_format: wgpu::TextureFormat,
-        timer: Option<&mut GpuTimer>,
     ) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         let Some(ldr) = &self.ldr else { return Ok(()) };
         let pipeline = pipelines.get::<FxaaFamily>(device, output_format)?;
         parts::draw_fullscreen(encoder, "fxaa", output, pipeline, &ldr.group, timer.and_then(|t| t.pass("fxaa")));

@@ -21,10 +21,10 @@ use super::casters::{CasterFamily, CasterKey};
 use super::local::{LocalCandidate, LocalFrame, LocalShadows};
 use super::{ShadowFilter, ShadowSettings};
 use crate::bindings::{GroupBuilder, GroupResources};
+use crate::frame_context::FrameContext;
 use crate::gpu::array_layers::ArrayLayers;
 use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
-use crate::gpu::timing::GpuTimer;
-use crate::pipelines::{PipelineCache, ShaderError};
+use crate::pipelines::ShaderError;
 use crate::resources::draw_list::SceneBounds;
 use crate::resources::draws::{Batch, TopologyKey};
 use crate::resources::materials::{AlphaKey, MaterialTable, TextureSet};
@@ -523,16 +523,15 @@ impl ShadowOrchestrator {
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
+        cx: &mut FrameContext,
         settings: &ShadowSettings,
         mesh_pool: &MeshPool,
         materials: &MaterialTable,
         buffers: [&wgpu::Buffer; 3],
         batches: &[Batch],
-        mut timer: Option<&mut GpuTimer>,
     ) -> Option<ShaderError> {
+        let (encoder, device, pipelines, mut timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         if self.atlas.is_none() && self.local_atlas.is_none() {
             return None;
         }

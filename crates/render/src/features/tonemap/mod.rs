@@ -5,9 +5,9 @@
 //! display transform (`shaders/display.wgsl`) and draws into the output, and the clear colour,
 //! which no shader touches, goes through [`display_color`], this module's CPU copy of it.
 
-use crate::gpu::timing::GpuTimer;
+use crate::frame_context::FrameContext;
 use crate::pipelines::parts::{self, sampler, storage, texture};
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
+use crate::pipelines::{PipelineFamily, ShaderDefs, ShaderError};
 use crate::resources::draws::Tonemapper;
 
 /// Everything that selects a tonemap pipeline.
@@ -67,14 +67,13 @@ pub struct Output<'a> {
 }
 
 pub fn encode(
-    encoder: &mut wgpu::CommandEncoder,
-    device: &wgpu::Device,
-    pipelines: &mut PipelineCache,
+    cx: &mut FrameContext,
     inputs: &wgpu::BindGroup,
     key: TonemapKey,
     output: Output,
-    timer: Option<&mut GpuTimer>,
 ) -> Result<(), ShaderError> {
+    let (encoder, device, pipelines, timer) =
+        (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
     let pipeline = pipelines.get::<TonemapFamily>(device, key)?;
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("tonemap"),

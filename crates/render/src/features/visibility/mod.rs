@@ -33,9 +33,9 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::features::culling::ARGS_WORDS;
+use crate::frame_context::FrameContext;
 use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::formats::DISPLAY_FORMAT;
-use crate::gpu::timing::GpuTimer;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey};
 use crate::resources::materials::{MaterialKey, MaterialTable};
@@ -488,14 +488,9 @@ impl VisibilityBuffer {
     }
 
     /// Encodes the raster and shading passes (after `prepare_frame`).
-    pub fn encode(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        device: &wgpu::Device,
-        pipelines: &mut PipelineCache,
-        inputs: &FrameInputs,
-        mut timer: Option<&mut GpuTimer>,
-    ) {
+    pub fn encode(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        let (encoder, device, pipelines, mut timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         self.bind(device, pipelines, inputs);
         let bound = self.bound.as_ref().expect("bound above");
         encoder.clear_buffer(self.samples.buffer(), 0, None);
