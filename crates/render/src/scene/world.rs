@@ -152,6 +152,9 @@ pub struct RenderScene {
     pub removed_lights: Vec<LightKey>,
     /// The default key and ambient lights, when the scene has no light entities at all.
     pub default_lights: Vec<ExtractedLight>,
+    /// Some light entity exists this frame (hidden or refused ones too): without any, the
+    /// default lights fill `default_lights`.
+    pub any_light_entity: bool,
     pub meshes: HashMap<Handle<Mesh>, Snapshot<Mesh>>,
     /// A mesh snapshot was replaced (new version) or removed this frame.
     pub meshes_changed: bool,

@@ -10,9 +10,10 @@
 //!   (InheritedVisibility) component removes it, as for lights;
 //! - deforms: joint matrices and morph weights of skinned and morphed meshes, change-detected
 //!   like draws (`changed_deforms` / `removed_deforms`); non-finite weights count as 0;
-//! - lights: change-detected like draws (`changed_lights` / `removed_lights`); lights with NaN
-//!   or infinite values are refused with a warning; with no light entity at all, the default
-//!   key light and ambient term fill `default_lights` (see [`default_lighting`]);
+//! - lights: one generic system per light kind ([`lights`]), change-detected
+//!   (`changed_lights` / `removed_lights`); lights with NaN or infinite values are refused with
+//!   a warning; with no light entity at all, the default key light and ambient term fill
+//!   `default_lights` (see [`default_lighting`]);
 //! - environment: the `Environment` resource, copied when it changed (an image is an `Arc`);
 //!   with one, the default lights keep their key light but drop their ambient term (the
 //!   environment lights the scene from every side instead);
@@ -20,11 +21,10 @@
 //! - assets: versions compared against the last snapshot; only changed assets are re-shared.
 
 use bevy_ecs::prelude::*;
-use glam::{Affine3A, Vec3};
+use glam::Affine3A;
 use penumbra_engine::assets::Assets;
 use penumbra_engine::components::{
-    AmbientLight, Camera, DirectionalLight, DiskLight, DrawChanges, GlobalTransform, IesLight, InheritedVisibility,
-    JointMatrices, Mesh3d, MeshMaterial3d, MorphWeights, PointLight, RectLight, SphereLight, SpotLight, TubeLight,
+    Camera, DrawChanges, GlobalTransform, InheritedVisibility, JointMatrices, Mesh3d, MeshMaterial3d, MorphWeights,
 };
 use penumbra_engine::environment::Environment;
 use penumbra_engine::gizmos::Gizmos;
@@ -34,9 +34,9 @@ use penumbra_engine::material::StandardMaterial;
 use penumbra_engine::mesh::Mesh;
 
 use crate::scene::entity_table::Replaced;
-use crate::scene::world::{
-    DrawItem, ExtractedDeform, ExtractedLight, ExtractedView, LightKey, LightKind, RenderScene, Snapshot,
-};
+use crate::scene::world::{DrawItem, ExtractedDeform, ExtractedView, LightKind, RenderScene, Snapshot};
+
+pub mod lights;
 
 /// Systems in the order they run.
 pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, ()> {
@@ -45,7 +45,7 @@ pub fn systems() -> impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, (
         extract_view,
         extract_draws,
         extract_deforms,
-        extract_lights,
+        lights::systems(),
         extract_environment,
         extract_gizmos,
         extract_assets,
@@ -336,247 +336,6 @@ pub mod default_lighting {
     /// cd/m²: a quarter of the key's brightness on a facing white surface, so that sides the
     /// key does not reach keep their texture.
     pub const AMBIENT_RADIANCE: f32 = 0.25;
-}
-
-/// Placement or visibility changed (each light type adds its own component's change).
-type Moved = Or<(Changed<GlobalTransform>, Changed<InheritedVisibility>)>;
-type IsLight = Or<(
-    With<DirectionalLight>,
-    With<PointLight>,
-    With<SpotLight>,
-    With<AmbientLight>,
-    With<SphereLight>,
-    With<TubeLight>,
-    With<RectLight>,
-    With<DiskLight>,
-    With<IesLight>,
-)>;
-
-/// Lights of every type removed (or despawned) since the last extraction.
-#[derive(bevy_ecs::system::SystemParam)]
-struct RemovedLights<'w, 's> {
-    directional: RemovedComponents<'w, 's, DirectionalLight>,
-    point: RemovedComponents<'w, 's, PointLight>,
-    spot: RemovedComponents<'w, 's, SpotLight>,
-    ambient: RemovedComponents<'w, 's, AmbientLight>,
-    sphere: RemovedComponents<'w, 's, SphereLight>,
-    tube: RemovedComponents<'w, 's, TubeLight>,
-    rect: RemovedComponents<'w, 's, RectLight>,
-    disk: RemovedComponents<'w, 's, DiskLight>,
-    ies: RemovedComponents<'w, 's, IesLight>,
-    /// Losing its placement or visibility unplaces a light as surely as losing the light.
-    transform: RemovedComponents<'w, 's, GlobalTransform>,
-    visibility: RemovedComponents<'w, 's, InheritedVisibility>,
-}
-
-/// The keys an entity's lights may have, but for ambient light (which has no placement).
-fn placed_light_keys(e: Entity) -> [LightKey; 8] {
-    [
-        LightKey::Directional(e),
-        LightKey::Point(e),
-        LightKey::Spot(e),
-        LightKey::Sphere(e),
-        LightKey::Tube(e),
-        LightKey::Rect(e),
-        LightKey::Disk(e),
-        LightKey::Ies(e),
-    ]
-}
-
-/// A placed light of type `L` whose component or placement changed.
-type ChangedPlaced<'w, 's, L> = Query<
-    'w,
-    's,
-    (Entity, &'static L, &'static GlobalTransform, &'static InheritedVisibility),
-    Or<(Changed<L>, Moved)>,
->;
-
-#[derive(bevy_ecs::system::SystemParam)]
-struct ChangedLights<'w, 's> {
-    directional: ChangedPlaced<'w, 's, DirectionalLight>,
-    point: ChangedPlaced<'w, 's, PointLight>,
-    spot: ChangedPlaced<'w, 's, SpotLight>,
-    sphere: ChangedPlaced<'w, 's, SphereLight>,
-    tube: ChangedPlaced<'w, 's, TubeLight>,
-    rect: ChangedPlaced<'w, 's, RectLight>,
-    disk: ChangedPlaced<'w, 's, DiskLight>,
-    ies: ChangedPlaced<'w, 's, IesLight>,
-    ambient: Query<
-        'w,
-        's,
-        (Entity, &'static AmbientLight, &'static InheritedVisibility),
-        Or<(Changed<AmbientLight>, Changed<InheritedVisibility>)>,
-    >,
-}
-
-/// A light as extracted, or `None` when it should not light anything (hidden). Non-finite
-/// values are refused here, so no NaN reaches the light store or the cluster bins.
-fn placed(kind: LightKind, color: Vec3, t: &GlobalTransform, range: Option<f32>, shadows: bool) -> ExtractedLight {
-    ExtractedLight { kind, color, position: t.translation(), direction: t.forward(), right: t.right(), range, shadows }
-}
-
-fn unplaced(kind: LightKind, color: Vec3, direction: Vec3, shadows: bool) -> ExtractedLight {
-    ExtractedLight { kind, color, position: Vec3::ZERO, direction, right: Vec3::X, range: None, shadows }
-}
-
-fn directional_light(l: &DirectionalLight, t: &GlobalTransform) -> ExtractedLight {
-    let kind = LightKind::Directional { angular_radius: l.angular_radius };
-    unplaced(kind, l.color * l.illuminance, t.forward(), l.shadows)
-}
-
-fn point_light(l: &PointLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Point, l.color * l.intensity, t, l.range, l.shadows)
-}
-
-fn spot_light(l: &SpotLight, t: &GlobalTransform) -> ExtractedLight {
-    let kind = LightKind::Spot { inner_cone_angle: l.inner_cone_angle, outer_cone_angle: l.outer_cone_angle };
-    placed(kind, l.color * l.intensity, t, l.range, l.shadows)
-}
-
-fn ambient_light(l: &AmbientLight) -> ExtractedLight {
-    unplaced(LightKind::Ambient, l.color * l.intensity, Vec3::NEG_Z, false)
-}
-
-fn sphere_light(l: &SphereLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Sphere { radius: l.radius }, l.color * l.intensity, t, l.range, l.shadows)
-}
-
-fn tube_light(l: &TubeLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Tube { length: l.length, radius: l.radius }, l.color * l.intensity, t, l.range, l.shadows)
-}
-
-fn rect_light(l: &RectLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Rect { width: l.width, height: l.height }, l.color * l.luminance, t, l.range, l.shadows)
-}
-
-fn disk_light(l: &DiskLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Disk { radius: l.radius }, l.color * l.luminance, t, l.range, l.shadows)
-}
-
-fn ies_light(l: &IesLight, t: &GlobalTransform) -> ExtractedLight {
-    placed(LightKind::Ies { profile: l.profile }, l.color * l.scale, t, l.range, l.shadows)
-}
-
-fn is_finite(l: &ExtractedLight) -> bool {
-    let shape = match l.kind {
-        LightKind::Spot { inner_cone_angle: a, outer_cone_angle: b }
-        | LightKind::Tube { length: a, radius: b }
-        | LightKind::Rect { width: a, height: b } => a.is_finite() && b.is_finite(),
-        LightKind::Sphere { radius } | LightKind::Disk { radius } => radius.is_finite(),
-        LightKind::Directional { angular_radius } => angular_radius.is_finite(),
-        LightKind::Point | LightKind::Ambient | LightKind::Ies { .. } => true,
-    };
-    l.color.is_finite()
-        && l.position.is_finite()
-        && l.direction.is_finite()
-        && l.right.is_finite()
-        && l.range.is_none_or(f32::is_finite)
-        && shape
-}
-
-fn extract_lights(
-    changed: ChangedLights,
-    any_light: Query<(), IsLight>,
-    mut removed: RemovedLights,
-    mut warned: Local<std::collections::HashSet<LightKey>>,
-    mut scene: ResMut<RenderScene>,
-) {
-    let scene = &mut *scene;
-    scene.changed_lights.clear();
-    scene.removed_lights.clear();
-    // First, since a component removed and added back this frame is re-extracted below.
-    let lost_placement = removed.transform.read().flat_map(placed_light_keys);
-    let hidden = removed.visibility.read().flat_map(|e| placed_light_keys(e).into_iter().chain([LightKey::Ambient(e)]));
-    for key in lost_placement.chain(hidden).collect::<Vec<_>>() {
-        if scene.lights.remove(&key).is_some() {
-            scene.removed_lights.push(key);
-        }
-    }
-    let mut set = |key: LightKey, light: Option<ExtractedLight>| match light {
-        Some(l) if is_finite(&l) => {
-            scene.lights.insert(key, l);
-            scene.changed_lights.push(key);
-        }
-        other => {
-            if other.is_some() && warned.insert(key) {
-                tracing::warn!(
-                    "{key:?} has a NaN or infinite colour, intensity, position, direction, range, size or cone angle; it lights nothing until fixed"
-                );
-            }
-            if scene.lights.remove(&key).is_some() {
-                scene.removed_lights.push(key);
-            }
-        }
-    };
-    for (e, l, t, v) in &changed.directional {
-        set(LightKey::Directional(e), v.0.then(|| directional_light(l, t)));
-    }
-    for (e, l, t, v) in &changed.point {
-        set(LightKey::Point(e), v.0.then(|| point_light(l, t)));
-    }
-    for (e, l, t, v) in &changed.spot {
-        set(LightKey::Spot(e), v.0.then(|| spot_light(l, t)));
-    }
-    for (e, l, v) in &changed.ambient {
-        set(LightKey::Ambient(e), v.0.then(|| ambient_light(l)));
-    }
-    for (e, l, t, v) in &changed.sphere {
-        set(LightKey::Sphere(e), v.0.then(|| sphere_light(l, t)));
-    }
-    for (e, l, t, v) in &changed.tube {
-        set(LightKey::Tube(e), v.0.then(|| tube_light(l, t)));
-    }
-    for (e, l, t, v) in &changed.rect {
-        set(LightKey::Rect(e), v.0.then(|| rect_light(l, t)));
-    }
-    for (e, l, t, v) in &changed.disk {
-        set(LightKey::Disk(e), v.0.then(|| disk_light(l, t)));
-    }
-    for (e, l, t, v) in &changed.ies {
-        set(LightKey::Ies(e), v.0.then(|| ies_light(l, t)));
-    }
-    // A component removed and inserted again within the frame shows up in both lists; the
-    // changed query already re-extracted it, so only keys no longer present are dropped.
-    let gone: Vec<LightKey> = removed
-        .directional
-        .read()
-        .filter(|e| !changed.directional.contains(*e))
-        .map(LightKey::Directional)
-        .chain(removed.point.read().filter(|e| !changed.point.contains(*e)).map(LightKey::Point))
-        .chain(removed.spot.read().filter(|e| !changed.spot.contains(*e)).map(LightKey::Spot))
-        .chain(removed.ambient.read().filter(|e| !changed.ambient.contains(*e)).map(LightKey::Ambient))
-        .chain(removed.sphere.read().filter(|e| !changed.sphere.contains(*e)).map(LightKey::Sphere))
-        .chain(removed.tube.read().filter(|e| !changed.tube.contains(*e)).map(LightKey::Tube))
-        .chain(removed.rect.read().filter(|e| !changed.rect.contains(*e)).map(LightKey::Rect))
-        .chain(removed.disk.read().filter(|e| !changed.disk.contains(*e)).map(LightKey::Disk))
-        .chain(removed.ies.read().filter(|e| !changed.ies.contains(*e)).map(LightKey::Ies))
-        .collect();
-    for key in gone {
-        if scene.lights.remove(&key).is_some() {
-            scene.removed_lights.push(key);
-        }
-    }
-
-    // The default key light follows the camera; it is two values, rebuilt every frame.
-    scene.default_lights.clear();
-    if any_light.is_empty() {
-        let view_rotation =
-            scene.view.map_or(glam::Quat::IDENTITY, |v| v.world_from_view.to_scale_rotation_translation().1);
-        scene.default_lights.push(unplaced(
-            LightKind::Directional { angular_radius: 0.0 },
-            Vec3::splat(default_lighting::KEY_ILLUMINANCE),
-            (view_rotation * default_lighting::KEY_DIRECTION_VIEW).normalize(),
-            // A viewer's headlight: it turns with the camera, so its shadows would slide
-            // over the model as the user orbits; like the Khronos viewer's, it casts none.
-            false,
-        ));
-        scene.default_lights.push(unplaced(
-            LightKind::Ambient,
-            Vec3::splat(default_lighting::AMBIENT_RADIANCE),
-            Vec3::NEG_Z,
-            false,
-        ));
-    }
 }
 
 fn extract_gizmos(gizmos: Option<Res<Gizmos>>, mut scene: ResMut<RenderScene>) {

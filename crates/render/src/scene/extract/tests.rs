@@ -1,9 +1,8 @@
-//! Tests of `extract`.
-
 //! Extraction reads what the main world's change feed lists: these check that every way a
 //! drawable entity changes reaches `changed_draws`, once, and that nothing else does.
 use super::*;
 use crate::RenderPlugin;
+use glam::Vec3;
 use penumbra_engine::components::{ChildOf, Transform, Visibility};
 use penumbra_engine::{App, CorePlugin};
 
