@@ -9,19 +9,18 @@ use std::time::Instant;
 
 use bevy_ecs::resource::Resource;
 
-use crate::features::clusters::{BinningTooLarge, ClusterBinner, ClusterFamily};
+use crate::features::clusters::{BinningTooLarge, ClusterBinner};
 use crate::features::culling::GpuCulling;
 use crate::features::deferred_lights::DeferredLights;
-use crate::features::deform::{DeformFamily, MeshDeformer};
+use crate::features::deform::MeshDeformer;
 use crate::features::environment::EnvironmentLighting;
 use crate::features::forward::{DrawCounts, ForwardFamily};
 use crate::features::gizmos::GizmoFamily;
 use crate::features::post::PostProcess;
 use crate::features::resolve::ResolveFamily;
-use crate::features::shadows::casters::CasterFamily;
 use crate::features::shadows::orchestrator::ShadowOrchestrator;
 use crate::features::tonemap::TonemapFamily;
-use crate::features::visibility::{Raster, RasterFamily, ShadeFamily};
+use crate::features::visibility::{Raster, VisibilityBuffer};
 use crate::frame::Pass;
 use crate::gpu::context::GpuContext;
 use crate::gpu::readback::ReadbackError;
@@ -34,7 +33,6 @@ use crate::resources::instances::InstanceBuffer;
 use crate::resources::light_store::LightStore;
 use crate::resources::materials::MaterialTable;
 use crate::resources::mesh_pool::MeshPool;
-use crate::resources::mipmap::MipmapFamily;
 use crate::resources::textures::TextureCache;
 use crate::scene::world::RenderScene;
 use crate::settings::{RenderSettings, SettingsError, ShaderSource, degrade_for_backend, max_anisotropy};
@@ -109,7 +107,7 @@ pub struct Renderer {
     /// Whether this frame's opaque draws were culled (the view bind group binds the culled list).
     culling_active: bool,
     /// The visibility buffer (`Raster::Compute`).
-    visibility: crate::features::visibility::VisibilityBuffer,
+    visibility: VisibilityBuffer,
     /// The draw list's batch generation `visibility` last prepared.
     visibility_batches_seen: Option<u64>,
     targets: Option<FrameTargets>,
@@ -164,39 +162,45 @@ impl Renderer {
         let mut pipelines = PipelineCache::new(shaders);
         let view = ViewGroup::new(device);
         let materials = MaterialTable::new(device);
-        // Registration order is the order reload reports list families in.
+        // Each owner registers its pipeline families; registration order is the order reload
+        // reports list families in. The forward pass and the small passes without an owner of
+        // their own register here.
         pipelines.register(ForwardFamily::new(device, view.layout(), materials.layout()));
-        pipelines.register(ShadeFamily::new(device, view.layout(), materials.layout()));
-        pipelines.register(RasterFamily::new(device));
-        pipelines.register(CasterFamily::new(device, materials.layout()));
-        let (cull, hzb) = crate::features::culling::families(device);
-        pipelines.register(cull);
-        pipelines.register(hzb);
-        pipelines.register(DeformFamily::new(device));
-        pipelines.register(ClusterFamily::new(device));
+        let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), materials.layout());
+        let shadows = ShadowOrchestrator::new(
+            device,
+            ctx.caps.array_layers,
+            ctx.caps.exact_depth,
+            &mut pipelines,
+            materials.layout(),
+        );
+        let culling = GpuCulling::new(device, &mut pipelines);
+        let deformer = MeshDeformer::new(device, &mut pipelines);
+        let clusters = ClusterBinner::new(device, &mut pipelines);
         let deferred = DeferredLights::new(device, &mut pipelines, view.layout());
         pipelines.register(ResolveFamily::new(device));
         pipelines.register(TonemapFamily::new(device));
-        pipelines.register(MipmapFamily::new(device));
+        let textures = TextureCache::new(
+            device,
+            &ctx.queue,
+            max_anisotropy(&ctx, &settings),
+            ctx.caps.srgb_unorm_views,
+            ctx.caps.host_import_alignment,
+            &mut pipelines,
+        );
         pipelines.register(GizmoFamily::new(device, view.layout()));
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
         let post = PostProcess::new(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
         Ok(Self {
             mesh_pool: MeshPool::new(device),
-            deformer: MeshDeformer::new(device),
-            textures: TextureCache::new(
-                device,
-                &ctx.queue,
-                max_anisotropy(&ctx, &settings),
-                ctx.caps.srgb_unorm_views,
-                ctx.caps.host_import_alignment,
-            ),
+            deformer,
+            textures,
             materials,
             instances: InstanceBuffer::new(device),
             lights: LightStore::new(),
-            clusters: ClusterBinner::new(device),
-            shadows: ShadowOrchestrator::new(device, ctx.caps.array_layers, ctx.caps.exact_depth),
+            clusters,
+            shadows,
             environment,
             post,
             draws: DrawList::new(
@@ -206,11 +210,11 @@ impl Renderer {
             view,
             pipelines,
             gizmos: Default::default(),
-            culling: GpuCulling::new(device),
+            culling,
             cull_batches_seen: None,
             cull_triangles_marked: false,
             culling_active: false,
-            visibility: crate::features::visibility::VisibilityBuffer::new(device),
+            visibility,
             visibility_batches_seen: None,
             targets: None,
             headless: None,

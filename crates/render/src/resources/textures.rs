@@ -72,14 +72,16 @@ pub struct TextureCache {
 impl TextureCache {
     /// `max_anisotropy` applies to trilinear samplers (1 disables anisotropic filtering).
     /// `unorm_views`: `Capabilities::srgb_unorm_views`; `host_import_alignment`: the
-    /// capability of that name.
+    /// capability of that name. Registers the mip generation pipeline family.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         max_anisotropy: u16,
         unorm_views: bool,
         host_import_alignment: Option<u64>,
+        pipelines: &mut PipelineCache,
     ) -> Self {
+        pipelines.register(MipmapFamily::new(device));
         let null = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("null texture"),
             size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },

@@ -101,7 +101,9 @@ pub struct ClusterBinner {
 }
 
 impl ClusterBinner {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// Registers the binning pipeline family.
+    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
+        pipelines.register(ClusterFamily::new(device));
         let storage = wgpu::BufferUsages::STORAGE;
         Self {
             grid_buffer: device.create_buffer(&wgpu::BufferDescriptor {

@@ -208,7 +208,11 @@ pub struct GpuCulling {
 }
 
 impl GpuCulling {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// Registers the culling and depth-pyramid pipeline families.
+    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
+        let (cull, hzb) = pipelines::families(device);
+        pipelines.register(cull);
+        pipelines.register(hzb);
         use wgpu::BufferUsages as U;
         Self {
             item_batch: GrowableBuffer::new(device, "cull item batches", U::STORAGE, 256),

@@ -40,7 +40,7 @@ use range_alloc::RangeAllocator;
 
 use crate::frame_context::FrameContext;
 use crate::gpu::buffer::GrowableBuffer;
-use crate::pipelines::ShaderError;
+use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::line_quads;
 use crate::resources::mesh_pool::{MeshId, MeshPool};
 
@@ -151,7 +151,9 @@ pub struct MeshDeformer {
 }
 
 impl MeshDeformer {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// Registers the deformation pipeline family.
+    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
+        pipelines.register(DeformFamily::new(device));
         let storage = wgpu::BufferUsages::STORAGE;
         Self {
             sources: HashMap::new(),

@@ -24,7 +24,7 @@ use crate::bindings::{GroupBuilder, GroupResources};
 use crate::frame_context::FrameContext;
 use crate::gpu::array_layers::ArrayLayers;
 use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
-use crate::pipelines::ShaderError;
+use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draw_list::SceneBounds;
 use crate::resources::draws::{Batch, TopologyKey};
 use crate::resources::materials::{AlphaKey, MaterialTable, TextureSet};
@@ -185,8 +185,16 @@ pub struct ShadowOrchestrator {
 }
 
 impl ShadowOrchestrator {
-    /// `exact_depth`: see `Capabilities::exact_depth`.
-    pub fn new(device: &wgpu::Device, array_layers: ArrayLayers, exact_depth: bool) -> Self {
+    /// `exact_depth`: see `Capabilities::exact_depth`. Registers the caster pipeline family
+    /// (masked casters bind the `material` group).
+    pub fn new(
+        device: &wgpu::Device,
+        array_layers: ArrayLayers,
+        exact_depth: bool,
+        pipelines: &mut PipelineCache,
+        material: &wgpu::BindGroupLayout,
+    ) -> Self {
+        pipelines.register(CasterFamily::new(device, material));
         Self {
             uniform: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("shadows"),

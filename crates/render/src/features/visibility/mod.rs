@@ -211,7 +211,16 @@ struct Bound {
 }
 
 impl VisibilityBuffer {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// Registers the rasteriser's and the shading pass's pipeline families (shading binds the
+    /// `view` and `material` groups).
+    pub fn new(
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        view: &wgpu::BindGroupLayout,
+        material: &wgpu::BindGroupLayout,
+    ) -> Self {
+        pipelines.register(ShadeFamily::new(device, view, material));
+        pipelines.register(RasterFamily::new(device));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
