@@ -15,10 +15,3 @@ pub struct FrameContext<'a> {
     pub timer: Option<&'a mut GpuTimer>,
     pub targets: &'a FrameTargets,
 }
-
-impl FrameContext<'_> {
-    /// The timer, for one pass's timestamp writes.
-    pub fn timer(&mut self) -> Option<&mut GpuTimer> {
-        self.timer.as_deref_mut()
-    }
-}

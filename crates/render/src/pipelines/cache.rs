@@ -390,3 +390,79 @@ impl PipelineCache {
         Ok(ReloadReport { files: changed, rebuilt, families, untouched: total - rebuilt })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipelines::parts::{self, texture, uniform};
+
+    /// A stand-in family: `mipmap.wgsl`'s pipelines by output format and sRGB switch.
+    struct Stand {
+        layout: wgpu::PipelineLayout,
+    }
+
+    impl PipelineFamily for Stand {
+        type Key = (wgpu::TextureFormat, bool);
+        type Pipeline = wgpu::RenderPipeline;
+        const NAME: &'static str = "stand-in";
+
+        fn shader(&self, &(_, srgb): &Self::Key) -> (&'static str, ShaderDefs) {
+            ("mipmap.wgsl", ShaderDefs::default().with("SRGB", srgb))
+        }
+
+        fn create(
+            &self,
+            device: &wgpu::Device,
+            module: &wgpu::ShaderModule,
+            &(format, _): &Self::Key,
+        ) -> Self::Pipeline {
+            parts::fullscreen_pipeline(device, &self.layout, module, format, "stand-in")
+        }
+    }
+
+    fn stand(device: &wgpu::Device) -> Stand {
+        let group = parts::bind_group_layout(
+            device,
+            "stand-in",
+            &[texture(0, false), uniform(1, wgpu::ShaderStages::FRAGMENT)],
+        );
+        Stand { layout: parts::pipeline_layout(device, "stand-in", &[&group]) }
+    }
+
+    #[test]
+    fn a_registered_family_compiles_each_key_once_and_reloads_what_reads_a_changed_file() {
+        let ctx = crate::GpuContext::new_headless(&crate::AdapterRequest::default()).expect(crate::INSTALL_HINT);
+        let dir = std::env::temp_dir().join(format!("penumbra-cache-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut cache = PipelineCache::new(ShaderLibrary::from_dir(&dir).unwrap());
+        cache.register(stand(&ctx.device));
+        let (unorm, float) = (wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Rgba16Float);
+        let keys = [(unorm, false), (float, false), (unorm, true), (unorm, false)];
+        cache.prepare::<Stand>(&ctx.device, keys).unwrap();
+        assert_eq!((cache.count::<Stand>(), cache.compiled), (3, 3), "a repeated key is compiled once");
+        assert!(cache.cached::<Stand>(&(float, false)).is_some() && cache.cached::<Stand>(&(float, true)).is_none());
+        cache.prepare::<Stand>(&ctx.device, keys).unwrap();
+        assert_eq!(cache.compiled, 3, "compiled keys are not compiled again");
+
+        let edit = |file: &str, text: &str| {
+            let source = crate::pipelines::shader_library::EMBEDDED.iter().find(|(f, _)| *f == file).unwrap().1;
+            std::fs::write(dir.join(file), format!("{source}\n{text}\n")).unwrap();
+        };
+        // An entry no pipeline of the family reads: nothing rebuilt, the file still checked.
+        edit("bloom.wgsl", "// edited");
+        let report = cache.reload(&ctx.device, &["bloom.wgsl".to_owned()]).unwrap();
+        assert_eq!((report.rebuilt, report.untouched, report.families.len()), (0, 3, 0), "{report:?}");
+        // A module the entry imports: every pipeline of the family is rebuilt.
+        edit("display.wgsl", "// edited");
+        let report = cache.reload(&ctx.device, &["display.wgsl".to_owned()]).unwrap();
+        assert_eq!(report.families, [("stand-in", 3)]);
+        assert_eq!((report.rebuilt_of::<Stand>(), report.untouched, cache.generation), (3, 0, 2));
+        // A broken entry: the reload fails and swaps nothing in.
+        edit("mipmap.wgsl", "fn broken( {");
+        let error = cache.reload(&ctx.device, &["mipmap.wgsl".to_owned()]).unwrap_err();
+        assert_eq!(error.file, "mipmap.wgsl", "{error}");
+        assert_eq!((cache.count::<Stand>(), cache.generation), (3, 2), "the last good pipelines stay");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
