@@ -7,6 +7,7 @@ pub mod deferred_lights;
 pub mod deform;
 pub mod environment;
 pub mod forward;
+pub mod fxaa;
 pub mod gizmos;
 pub mod post;
 pub mod resolve;

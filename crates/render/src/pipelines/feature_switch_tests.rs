@@ -28,6 +28,7 @@ fn the_list_is_what_the_shaders_test_and_the_pipelines_set() {
         include_str!("../features/culling/pipelines.rs"),
         include_str!("../features/deferred_lights/mod.rs"),
         include_str!("../features/post/pipelines.rs"),
+        include_str!("../features/fxaa/mod.rs"),
         include_str!("../features/shadows/casters.rs"),
         include_str!("../features/tonemap/mod.rs"),
         include_str!("../features/visibility/pipelines.rs"),

@@ -85,6 +85,11 @@ pub fn storage_texture(
     }
 }
 
+/// A texture and a linear clamping sampler (bloom's passes, FXAA).
+pub fn filtered_source_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    bind_group_layout(device, "filtered source", &[texture(0, true), sampler(1)])
+}
+
 pub fn bind_group_layout(
     device: &wgpu::Device,
     label: &str,

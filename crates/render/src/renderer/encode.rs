@@ -202,13 +202,14 @@ impl Renderer {
         // With FXAA the tonemap pass writes the intermediate FXAA reads.
         let mut tonemap_result = Ok(());
         if plan.runs(Pass::Tonemap) {
-            let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, output_format);
-            let tonemap_output =
-                tonemap::Output { view: self.post.tonemap_target().unwrap_or(output), format: tonemap_key.format };
+            // With FXAA the tonemap pass writes the intermediate FXAA reads.
+            let (view, format) = self.fxaa.tonemap_target().unwrap_or((output, output_format));
+            let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, format);
+            let tonemap_output = tonemap::Output { view, format };
             tonemap_result = tonemap::encode(&mut cx, self.post.tonemap_group(), tonemap_key, tonemap_output);
         }
         if plan.runs(Pass::Fxaa) {
-            let fxaa = self.post.encode_fxaa(&mut cx, output, output_format);
+            let fxaa = self.fxaa.encode(&mut cx, output, output_format);
             tonemap_result = tonemap_result.and(fxaa);
         }
         if let Some(e) = post_error

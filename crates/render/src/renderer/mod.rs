@@ -15,6 +15,7 @@ use crate::features::deferred_lights::DeferredLights;
 use crate::features::deform::MeshDeformer;
 use crate::features::environment::EnvironmentLighting;
 use crate::features::forward::{DrawCounts, ForwardFamily};
+use crate::features::fxaa::Fxaa;
 use crate::features::gizmos::GizmoFamily;
 use crate::features::post::PostProcess;
 use crate::features::resolve::ResolveFamily;
@@ -94,6 +95,7 @@ pub struct Renderer {
     shadows: ShadowOrchestrator,
     environment: EnvironmentLighting,
     post: PostProcess,
+    fxaa: Fxaa,
     /// The view uniform and the view group (group 0 of every lit pipeline).
     view: ViewGroup,
     /// Every drawable entity, the batches and the draw slots.
@@ -191,6 +193,7 @@ impl Renderer {
         pipelines.register(GizmoFamily::new(device, view.layout()));
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
         let post = PostProcess::new(device, &mut pipelines);
+        let fxaa = Fxaa::new(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
         Ok(Self {
             mesh_pool: MeshPool::new(device),
@@ -203,6 +206,7 @@ impl Renderer {
             shadows,
             environment,
             post,
+            fxaa,
             draws: DrawList::new(
                 device,
                 FrameVariant { msaa: settings.msaa, debug: settings.debug_view, ..Default::default() },
@@ -403,7 +407,7 @@ impl Renderer {
             clusters: self.clusters.gpu_bytes(),
             shadows: self.shadows.gpu_bytes(),
             environment: self.environment.bytes(),
-            post: self.post.gpu_bytes(),
+            post: self.post.gpu_bytes() + self.fxaa.gpu_bytes(),
             deform: self.deformer.gpu_bytes(),
         }
     }

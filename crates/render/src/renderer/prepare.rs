@@ -308,6 +308,8 @@ impl Renderer {
             scene.delta_seconds,
             camera_exposure,
         );
+        let targets = self.targets.as_ref().expect("made above");
+        let fxaa = self.fxaa.prepare(&device, &self.pipelines, targets, self.settings.post.fxaa);
         let variant = *self.draws.variant();
         let binned = if variant.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
         let shadow_layers = self.shadows.frame().rendered_layers();
@@ -327,7 +329,7 @@ impl Renderer {
             background,
             bloom: post.bloom,
             auto_exposure: post.auto_exposure,
-            fxaa: post.fxaa,
+            fxaa,
             gizmo_vertices,
             direct_output: direct,
             depth: !depth_free,

@@ -7,8 +7,8 @@
 //! 2. automatic exposure (`exposure.wgsl`): a luminance histogram of the HDR frame and its
 //!    percentile-trimmed mean, turned into EV100, clamped, adapted over time, and written into
 //!    the parameters buffer the tonemap pass reads (no CPU read-back, no frame of delay);
-//! 3. the tonemap pass, into the output or, with FXAA, into an 8-bit intermediate;
-//! 4. FXAA (`fxaa.wgsl`) from the intermediate into the output.
+//! 3. the tonemap pass, into the output or, with FXAA (`features/fxaa`), into its 8-bit
+//!    intermediate.
 //!
 //! Textures are sized with the frame and remade only when it changes size or a setting that
 //! shapes them changes; bind groups only when a view they hold is replaced.
@@ -17,14 +17,14 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::features::tonemap::{TonemapFamily, TonemapKey};
 use crate::frame_context::FrameContext;
-use crate::gpu::formats::{HDR_FORMAT, LDR_FORMAT};
+use crate::gpu::formats::HDR_FORMAT;
 use crate::gpu::timing::GpuTimer;
 use crate::pipelines::{PipelineCache, ShaderError, parts};
 use crate::resources::draws::Tonemapper;
 use crate::targets::FrameTargets;
 
 mod pipelines;
-pub use pipelines::{BloomFamily, BloomStep, ExposureFamily, ExposureStep, FxaaFamily};
+pub use pipelines::{BloomFamily, BloomStep, ExposureFamily, ExposureStep};
 
 /// Which post-processing effects run. All off by default: each costs GPU time and changes
 /// the image, so a scene asks for it.
@@ -124,18 +124,11 @@ struct BloomChain {
     up_groups: Vec<wgpu::BindGroup>,
 }
 
-struct Intermediate {
-    size: (u32, u32),
-    view: wgpu::TextureView,
-    group: wgpu::BindGroup,
-}
-
 /// What this frame's post-processing does (for the frame plan).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct PostFrame {
     pub bloom: bool,
     pub auto_exposure: bool,
-    pub fxaa: bool,
 }
 
 pub struct PostProcess {
@@ -144,7 +137,6 @@ pub struct PostProcess {
     sampler: wgpu::Sampler,
     bloom_stand_in: wgpu::TextureView,
     bloom: Option<BloomChain>,
-    ldr: Option<Intermediate>,
     /// Tonemap inputs, and the HDR view and bloom level they hold.
     tonemap_group: Option<(wgpu::BindGroup, wgpu::TextureView, Option<wgpu::TextureView>)>,
     exposure_group: Option<(wgpu::BindGroup, wgpu::TextureView)>,
@@ -162,10 +154,9 @@ fn bloom_levels(frame: (u32, u32), most: u32) -> u32 {
 impl PostProcess {
     /// Registers the post-processing pipeline families.
     pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
-        let source = pipelines::filtered_source_layout(device);
+        let source = parts::filtered_source_layout(device);
         pipelines.register(BloomFamily::new(device, &source));
         pipelines.register(ExposureFamily::new(device));
-        pipelines.register(FxaaFamily::new(device, &source));
         let stand_in = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("no bloom"),
             size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
@@ -195,7 +186,6 @@ impl PostProcess {
             }),
             bloom_stand_in: stand_in.create_view(&Default::default()),
             bloom: None,
-            ldr: None,
             tonemap_group: None,
             exposure_group: None,
             exposure_fresh: true,
@@ -209,12 +199,12 @@ impl PostProcess {
     }
 
     pub fn gpu_bytes(&self) -> u64 {
-        let bloom = self.bloom.as_ref().map_or(0, |b| {
+        // Bloom's chain (FXAA's intermediate belongs to features/fxaa).
+        self.bloom.as_ref().map_or(0, |b| {
             (0..b.texture.mip_level_count())
                 .map(|l| ((b.texture.width() >> l).max(1) * (b.texture.height() >> l).max(1)) as u64 * 8)
                 .sum()
-        });
-        bloom + self.ldr.as_ref().map_or(0, |l| l.size.0 as u64 * l.size.1 as u64 * 4)
+        })
     }
 
     /// Sizes what the enabled effects need to the frame, writes their parameters, and remakes
@@ -235,7 +225,6 @@ impl PostProcess {
             // The frame draws straight into the output (nothing post-processes it): no effect
             // runs and there is no tonemap pass to feed.
             self.bloom = None;
-            self.ldr = None;
             self.tonemap_group = None;
             self.exposure_group = None;
             self.exposure_fresh = true;
@@ -252,13 +241,6 @@ impl PostProcess {
                 }
             }
             None => self.bloom = None,
-        }
-        if settings.fxaa {
-            if self.ldr.as_ref().is_none_or(|l| l.size != frame) {
-                self.ldr = Some(Intermediate::new(device, pipelines, &self.sampler, frame));
-            }
-        } else {
-            self.ldr = None;
         }
         let bloom_view = self.bloom.as_ref().map(|b| b.views[0].clone());
         let stale = self.tonemap_group.as_ref().is_none_or(|(_, hdr, bloom)| hdr != hdr_view || *bloom != bloom_view);
@@ -316,11 +298,7 @@ impl PostProcess {
         // With automatic exposure the GPU owns the correction and its state.
         let from = if settings.auto_exposure.is_some() { GPU_OWNED } else { 0 };
         queue.write_buffer(&self.params, from as u64, &bytes[from..]);
-        self.frame = PostFrame {
-            bloom: self.bloom.is_some(),
-            auto_exposure: settings.auto_exposure.is_some(),
-            fxaa: settings.fxaa,
-        };
+        self.frame = PostFrame { bloom: self.bloom.is_some(), auto_exposure: settings.auto_exposure.is_some() };
         self.frame
     }
 
@@ -367,38 +345,14 @@ impl PostProcess {
         Ok(())
     }
 
-    /// The tonemap pipeline key for this frame and output format.
-    pub fn tonemap_key(&self, tonemapper: Tonemapper, output_format: wgpu::TextureFormat) -> TonemapKey {
-        TonemapKey {
-            tonemapper,
-            format: if self.ldr.is_some() { LDR_FORMAT } else { output_format },
-            bloom: self.frame.bloom,
-            auto_exposure: self.frame.auto_exposure,
-        }
+    /// The tonemap pipeline key for this frame, writing a target of `format` (the output, or
+    /// FXAA's intermediate).
+    pub fn tonemap_key(&self, tonemapper: Tonemapper, format: wgpu::TextureFormat) -> TonemapKey {
+        TonemapKey { tonemapper, format, bloom: self.frame.bloom, auto_exposure: self.frame.auto_exposure }
     }
 
     pub fn tonemap_group(&self) -> &wgpu::BindGroup {
         &self.tonemap_group.as_ref().expect("prepared before encoding").0
-    }
-
-    /// Where the tonemap pass writes: the FXAA intermediate when FXAA runs.
-    pub fn tonemap_target(&self) -> Option<&wgpu::TextureView> {
-        self.ldr.as_ref().map(|l| &l.view)
-    }
-
-    /// FXAA from the intermediate into the output.
-    pub fn encode_fxaa(
-        &self,
-        cx: &mut FrameContext,
-        output: &wgpu::TextureView,
-        output_format: wgpu::TextureFormat,
-    ) -> Result<(), ShaderError> {
-        let (encoder, device, pipelines, timer) =
-            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
-        let Some(ldr) = &self.ldr else { return Ok(()) };
-        let pipeline = pipelines.get::<FxaaFamily>(device, output_format)?;
-        parts::draw_fullscreen(encoder, "fxaa", output, pipeline, &ldr.group, timer.and_then(|t| t.pass("fxaa")));
-        Ok(())
     }
 }
 
@@ -493,24 +447,6 @@ impl BloomChain {
             self.down_groups[0] = sampled_group(device, pipelines, sampler, hdr_view, "bloom from frame");
             self.source = hdr_view.clone();
         }
-    }
-}
-
-impl Intermediate {
-    fn new(device: &wgpu::Device, pipelines: &PipelineCache, sampler: &wgpu::Sampler, size: (u32, u32)) -> Self {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("fxaa input"),
-            size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: LDR_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&Default::default());
-        let group = sampled_group(device, pipelines, sampler, &view, "fxaa input");
-        Self { size, view, group }
     }
 }
 

@@ -1,9 +1,8 @@
-//! Post-processing's pipeline families: bloom's down- and upsampling (`bloom.wgsl`), automatic
-//! exposure's histogram and average (`exposure.wgsl`) and FXAA (`fxaa.wgsl`), with their
-//! layouts.
+//! Post-processing's pipeline families: bloom's down- and upsampling (`bloom.wgsl`) and
+//! automatic exposure's histogram and average (`exposure.wgsl`), with their layouts.
 
 use crate::gpu::formats::HDR_FORMAT;
-use crate::pipelines::parts::{self, sampler, storage_rw, texture};
+use crate::pipelines::parts::{self, storage_rw};
 use crate::pipelines::{PipelineFamily, ShaderDefs};
 
 /// A bloom pass.
@@ -20,11 +19,6 @@ pub enum BloomStep {
 pub enum ExposureStep {
     Histogram,
     Average,
-}
-
-/// A texture and a linear clamping sampler: what bloom's passes and FXAA read.
-pub fn filtered_source_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    parts::bind_group_layout(device, "filtered source", &[texture(0, true), sampler(1)])
 }
 
 pub struct BloomFamily {
@@ -131,35 +125,5 @@ impl PipelineFamily for ExposureFamily {
             ExposureStep::Average => "average",
         };
         parts::compute_pipeline(device, &self.pipeline_layout, module, entry, entry)
-    }
-}
-
-/// FXAA's pipelines, by output format.
-pub struct FxaaFamily {
-    pipeline_layout: wgpu::PipelineLayout,
-}
-
-impl FxaaFamily {
-    pub fn new(device: &wgpu::Device, source: &wgpu::BindGroupLayout) -> Self {
-        Self { pipeline_layout: parts::pipeline_layout(device, "fxaa", &[source]) }
-    }
-}
-
-impl PipelineFamily for FxaaFamily {
-    type Key = wgpu::TextureFormat;
-    type Pipeline = wgpu::RenderPipeline;
-    const NAME: &'static str = "fxaa";
-
-    fn shader(&self, format: &wgpu::TextureFormat) -> (&'static str, ShaderDefs) {
-        ("fxaa.wgsl", ShaderDefs::default().with("DECODE_SRGB", format.is_srgb()))
-    }
-
-    fn create(
-        &self,
-        device: &wgpu::Device,
-        module: &wgpu::ShaderModule,
-        format: &wgpu::TextureFormat,
-    ) -> wgpu::RenderPipeline {
-        parts::fullscreen_pipeline(device, &self.pipeline_layout, module, *format, "fxaa")
     }
 }

@@ -1,0 +1,131 @@
+//! FXAA: the tonemap pass writes the displayed frame into an 8-bit intermediate (display-encoded
+//! values, so the filter works on what is seen), and this pass filters it into the output
+//! (`shaders/fxaa.wgsl`). Runs when `PostSettings::fxaa` is on and the frame has an HDR target
+//! (a frame drawn straight into the output has no tonemap pass to write the intermediate).
+//!
+//! The intermediate is sized with the frame and made again only when the frame's size changes.
+
+use crate::frame_context::FrameContext;
+use crate::gpu::formats::LDR_FORMAT;
+use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError, parts};
+use crate::targets::FrameTargets;
+
+/// What the pass reads: the intermediate and its bind group.
+struct Intermediate {
+    size: (u32, u32),
+    view: wgpu::TextureView,
+    group: wgpu::BindGroup,
+}
+
+pub struct Fxaa {
+    sampler: wgpu::Sampler,
+    intermediate: Option<Intermediate>,
+}
+
+impl Fxaa {
+    /// Registers FXAA's pipeline family.
+    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
+        pipelines.register(FxaaFamily::new(device, &parts::filtered_source_layout(device)));
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("fxaa linear clamp"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Self { sampler, intermediate: None }
+    }
+
+    /// Sizes the intermediate to the frame when FXAA is `on` and the frame has an HDR target;
+    /// returns whether the pass runs.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        pipelines: &PipelineCache,
+        targets: &FrameTargets,
+        on: bool,
+    ) -> bool {
+        if !on || targets.hdr_view().is_none() {
+            self.intermediate = None;
+            return false;
+        }
+        let size = targets.size;
+        if self.intermediate.as_ref().is_none_or(|i| i.size != size) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("fxaa input"),
+                size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: LDR_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("fxaa input"),
+                layout: &pipelines.family::<FxaaFamily>().source,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                ],
+            });
+            self.intermediate = Some(Intermediate { size, view, group });
+        }
+        true
+    }
+
+    /// Where the tonemap pass writes this frame (and its format), when FXAA runs.
+    pub fn tonemap_target(&self) -> Option<(&wgpu::TextureView, wgpu::TextureFormat)> {
+        self.intermediate.as_ref().map(|i| (&i.view, LDR_FORMAT))
+    }
+
+    pub fn gpu_bytes(&self) -> u64 {
+        self.intermediate.as_ref().map_or(0, |i| i.size.0 as u64 * i.size.1 as u64 * 4)
+    }
+
+    /// FXAA from the intermediate into the output.
+    pub fn encode(
+        &self,
+        cx: &mut FrameContext,
+        output: &wgpu::TextureView,
+        output_format: wgpu::TextureFormat,
+    ) -> Result<(), ShaderError> {
+        let Some(intermediate) = &self.intermediate else { return Ok(()) };
+        let pipeline = cx.pipelines.get::<FxaaFamily>(cx.device, output_format)?;
+        let timestamps = cx.timer.as_deref_mut().and_then(|t| t.pass("fxaa"));
+        parts::draw_fullscreen(cx.encoder, "fxaa", output, pipeline, &intermediate.group, timestamps);
+        Ok(())
+    }
+}
+
+/// FXAA's pipelines, by output format.
+pub struct FxaaFamily {
+    /// The intermediate and its sampler.
+    source: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+}
+
+impl FxaaFamily {
+    fn new(device: &wgpu::Device, source: &wgpu::BindGroupLayout) -> Self {
+        Self { source: source.clone(), pipeline_layout: parts::pipeline_layout(device, "fxaa", &[source]) }
+    }
+}
+
+impl PipelineFamily for FxaaFamily {
+    type Key = wgpu::TextureFormat;
+    type Pipeline = wgpu::RenderPipeline;
+    const NAME: &'static str = "fxaa";
+
+    fn shader(&self, format: &wgpu::TextureFormat) -> (&'static str, ShaderDefs) {
+        ("fxaa.wgsl", ShaderDefs::default().with("DECODE_SRGB", format.is_srgb()))
+    }
+
+    fn create(
+        &self,
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        format: &wgpu::TextureFormat,
+    ) -> wgpu::RenderPipeline {
+        parts::fullscreen_pipeline(device, &self.pipeline_layout, module, *format, "fxaa")
+    }
+}
