@@ -260,12 +260,6 @@ impl PipelineCache {
         slot.downcast_ref().expect("indexed by its type")
     }
 
-    fn slot_mut<F: PipelineFamily>(&mut self) -> &mut Slot<F> {
-        let i = self.index.get(&TypeId::of::<F>()).unwrap_or_else(|| panic!("{} is not registered", F::NAME));
-        let slot: &mut dyn Any = self.slots[*i].as_mut();
-        slot.downcast_mut().expect("indexed by its type")
-    }
-
     /// The family itself: its bind group layouts, for the feature that binds its resources.
     pub fn family<F: PipelineFamily>(&self) -> &F {
         &self.slot::<F>().family
@@ -329,11 +323,6 @@ impl PipelineCache {
     /// How many pipelines of family `F` are compiled.
     pub fn count<F: PipelineFamily>(&self) -> usize {
         self.slot::<F>().pipelines.len()
-    }
-
-    /// Forgets family `F`'s pipelines (the next use compiles them again).
-    pub fn clear<F: PipelineFamily>(&mut self) {
-        self.slot_mut::<F>().pipelines.clear();
     }
 
     /// Every pipeline compiled so far.

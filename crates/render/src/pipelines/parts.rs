@@ -125,16 +125,37 @@ pub fn compute_pipeline(
     })
 }
 
-/// A full-screen triangle (`vs_main`) writing `fs_main`'s colour into one target of `format`.
-pub fn fullscreen_pipeline(
+/// Adds the source to what the target holds.
+pub const ADD: wgpu::BlendComponent = wgpu::BlendComponent {
+    src_factor: wgpu::BlendFactor::One,
+    dst_factor: wgpu::BlendFactor::One,
+    operation: wgpu::BlendOperation::Add,
+};
+/// Leaves what the target holds.
+pub const KEEP: wgpu::BlendComponent = wgpu::BlendComponent {
+    src_factor: wgpu::BlendFactor::Zero,
+    dst_factor: wgpu::BlendFactor::One,
+    operation: wgpu::BlendOperation::Add,
+};
+
+/// A full-screen triangle's pipeline (`vs_main`, no vertex buffers) beyond the plain one of
+/// [`fullscreen_pipeline`]: its fragment entry, targets, depth state and sample count.
+pub struct Fullscreen<'a> {
+    pub label: &'a str,
+    pub fragment: &'a str,
+    pub targets: &'a [Option<wgpu::ColorTargetState>],
+    pub depth_stencil: Option<wgpu::DepthStencilState>,
+    pub samples: u32,
+}
+
+pub fn fullscreen(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
-    format: wgpu::TextureFormat,
-    label: &str,
+    f: Fullscreen,
 ) -> wgpu::RenderPipeline {
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(label),
+        label: Some(f.label),
         layout: Some(layout),
         vertex: wgpu::VertexState {
             module,
@@ -143,17 +164,35 @@ pub fn fullscreen_pipeline(
             buffers: &[],
         },
         primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: None,
-        multisample: wgpu::MultisampleState::default(),
+        depth_stencil: f.depth_stencil,
+        multisample: wgpu::MultisampleState { count: f.samples, mask: !0, alpha_to_coverage_enabled: false },
         fragment: Some(wgpu::FragmentState {
             module,
-            entry_point: Some("fs_main"),
+            entry_point: Some(f.fragment),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            targets: f.targets,
         }),
         multiview_mask: None,
         cache: None,
     })
+}
+
+/// A full-screen triangle (`vs_main`) writing `fs_main`'s colour into one single-sampled target
+/// of `format`, with no blending and no depth.
+pub fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    format: wgpu::TextureFormat,
+    label: &str,
+) -> wgpu::RenderPipeline {
+    let targets = [Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+    fullscreen(
+        device,
+        layout,
+        module,
+        Fullscreen { label, fragment: "fs_main", targets: &targets, depth_stencil: None, samples: 1 },
+    )
 }
 
 /// One full-screen triangle drawn by `pipeline` with `bind_group` into all of `target` (its

@@ -228,49 +228,26 @@ impl PipelineFamily for CompositeFamily {
     }
 
     fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, samples: &u32) -> wgpu::RenderPipeline {
-        let add = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::One,
-            dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
+        // Adds radiance; leaves alpha as it is.
+        let blend = Some(wgpu::BlendState { color: parts::ADD, alpha: parts::KEEP });
+        let targets = [Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend, write_mask: wgpu::ColorWrites::ALL })];
+        // The pass keeps the opaque depth for the blended draws after it; the composite neither
+        // tests nor writes it.
+        let depth_stencil = Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(false),
+            depth_compare: Some(wgpu::CompareFunction::Always),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        });
+        let f = parts::Fullscreen {
+            label: "deferred composite",
+            fragment: "fs_main",
+            targets: &targets,
+            depth_stencil,
+            samples: *samples,
         };
-        let keep = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::Zero,
-            dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
-        };
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("deferred composite"),
-            layout: Some(&self.pipeline_layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            // The pass keeps the opaque depth for the blended draws after it; the composite
-            // neither tests nor writes it.
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState { count: *samples, mask: !0, alpha_to_coverage_enabled: false },
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend: Some(wgpu::BlendState { color: add, alpha: keep }),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+        parts::fullscreen(device, &self.pipeline_layout, module, f)
     }
 }
 

@@ -43,37 +43,12 @@ impl PipelineFamily for BloomFamily {
     }
 
     fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &BloomStep) -> wgpu::RenderPipeline {
-        let add = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::One,
-            dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
-        };
         let up = *step == BloomStep::Up;
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("bloom"),
-            layout: Some(&self.pipeline_layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(if up { "upsample" } else { "downsample" }),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend: up.then_some(wgpu::BlendState { color: add, alpha: add }),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+        let blend = up.then_some(wgpu::BlendState { color: parts::ADD, alpha: parts::ADD });
+        let targets = [Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend, write_mask: wgpu::ColorWrites::ALL })];
+        let fragment = if up { "upsample" } else { "downsample" };
+        let f = parts::Fullscreen { label: "bloom", fragment, targets: &targets, depth_stencil: None, samples: 1 };
+        parts::fullscreen(device, &self.pipeline_layout, module, f)
     }
 }
 
