@@ -308,8 +308,7 @@ fn helmet(size: (u32, u32), frames: usize, forced: bool) -> Times {
             rotation: 0.0,
             background: Background::Environment,
         });
-        settings.post.bloom =
-            Some(penumbra::render::features::post::BloomSettings { strength: 0.0, ..Default::default() });
+        settings.post.bloom = Some(penumbra::render::BloomSettings { strength: 0.0, ..Default::default() });
         app.world.spawn((
             SpotLight { intensity: 100.0, range: Some(5.0), ..Default::default() },
             Transform::from_xyz(0.0, 0.0, -20.0).looking_at(Vec3::new(0.0, 0.0, -40.0), Vec3::Y),

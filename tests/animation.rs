@@ -173,7 +173,7 @@ fn deform_passes(app: &mut App, frames: usize) -> Vec<bool> {
     (0..frames)
         .map(|_| {
             app.update();
-            app.world.resource::<Renderer>().stats().plan.runs(Pass::Deform)
+            app.world.resource::<Renderer>().stats().plan.runs(Pass::DEFORM)
         })
         .collect()
 }
@@ -190,7 +190,7 @@ fn the_deformation_pass_runs_only_when_a_pose_changes() {
     let (mut app, size) = stage_scene(&scene, &shot).unwrap();
     let renderer = Renderer::new(gpu(), RenderSettings::default()).unwrap();
     let first = render_frames(&mut app, renderer, size, 1).unwrap();
-    assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::Deform), "the first frame deforms");
+    assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::DEFORM), "the first frame deforms");
     assert_eq!(deform_passes(&mut app, 3), [false; 3], "a paused pose is not recomputed");
     let still = app.world.resource::<Renderer>().read_frame().unwrap();
     assert_eq!(first, still, "the deformed copy persists");

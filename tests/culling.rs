@@ -259,10 +259,10 @@ fn occlusion_culling_hides_only_what_is_hidden_and_uncovers_at_once() {
             let plan = &culled.world.resource::<Renderer>().stats().plan;
             if !common::gpu().caps.occlusion_culling {
                 // GL (WGPU_BACKEND=gl): no depth pyramid there; `On` culls by the view only.
-                assert!(!plan.runs(penumbra::render::frame::Pass::OcclusionLate), "{plan}");
+                assert!(!plan.runs(penumbra::render::frame::Pass::OCCLUSION_LATE), "{plan}");
                 continue;
             }
-            assert!(plan.runs(penumbra::render::frame::Pass::OcclusionLate), "MSAA {msaa}: occlusion culling ran");
+            assert!(plan.runs(penumbra::render::frame::Pass::OCCLUSION_LATE), "MSAA {msaa}: occlusion culling ran");
             counts.push(visible_total(&culled).expect("culling ran"));
             // What `OcclusionCulling::Auto` reads back: entries in view the pyramid hid, of the
             // 127 opaque ones (wall, 120 behind it, 6 in front), measured from frame 1 on.

@@ -51,7 +51,7 @@ fn assert_same_image_with(app: &mut App, size: (u32, u32), clusters: ClusterConf
         assert!(stats.draw_calls > 0, "{what}: nothing drawn");
         let lit = compute.chunks_exact(4).filter(|p| p[0].max(p[1]).max(p[2]) > 60).count();
         assert!(lit > 100, "{what}: only {lit} brightly lit pixels");
-        assert!(stats.plan.runs(Pass::DeferredLights), "{what}: the compute pass ran");
+        assert!(stats.plan.runs(Pass::DEFERRED_LIGHTS), "{what}: the compute pass ran");
         let e = flip_mean(&fragment, &compute, size.0, size.1);
         let d = share_differing(&fragment_hdr, &compute_hdr);
         eprintln!("{what}, MSAA {msaa}: FLIP mean {e:.5}, {:.2}% of pixels differ by over 1%", 100.0 * d);
@@ -193,7 +193,7 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
 fn the_automatic_walk_moves_long_lists_to_compute_and_back() {
     let settings = RenderSettings { msaa: 1, keep_hdr: true, ..Default::default() };
     assert_eq!(settings.light_walk, LightWalk::Auto);
-    let runs_compute = |app: &App| app.world.resource::<Renderer>().stats().plan.runs(Pass::DeferredLights);
+    let runs_compute = |app: &App| app.world.resource::<Renderer>().stats().plan.runs(Pass::DEFERRED_LIGHTS);
     let mut app = scene_app();
     spawn_many_lights(&mut app.world, 1000, Some(3.0));
     render_app(&mut app, (96, 54), settings.clone());
@@ -232,7 +232,7 @@ fn samples_shaded_off_their_pixel_centre_find_every_light() {
                 ..Default::default()
             },
         );
-        assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::DeferredLights));
+        assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::DEFERRED_LIGHTS));
         frame
     };
     let fine = render((48, 27, 32));

@@ -14,8 +14,9 @@
 //!   surface brighter than white is white after the default resolve, mid-grey after this one).
 
 use penumbra::prelude::*;
-use penumbra::render::features::post::{BloomSettings, PostSettings};
+use penumbra::render::features::{bloom, tonemap};
 use penumbra::render::frame::Pass;
+use penumbra::render::{BloomSettings, PostSettings};
 use penumbra::render::{MsaaResolve, RenderOutput, RenderScene, RenderSettings, Tonemapper};
 
 mod common;
@@ -78,7 +79,7 @@ fn direct_output_equals_the_tonemap_pass_for_every_tonemapper() {
     for tonemapper in [Tonemapper::Neutral, Tonemapper::Aces, Tonemapper::None] {
         let mut direct_app = lit_scene();
         let direct = render_app(&mut direct_app, SIZE, settings(tonemapper, false));
-        assert!(!passes(&direct_app).contains(&Pass::Tonemap), "{tonemapper:?}: {:?}", passes(&direct_app));
+        assert!(!passes(&direct_app).contains(&tonemap::PASS), "{tonemapper:?}: {:?}", passes(&direct_app));
         let r = direct_app.world.resource::<Renderer>();
         assert_eq!(r.memory().targets, (SIZE.0 * SIZE.1 * 4) as u64, "depth only, no HDR target");
         let defs: Vec<_> = r.forward_pipeline_keys().iter().flat_map(|k| k.shader_defs().0).collect();
@@ -86,7 +87,7 @@ fn direct_output_equals_the_tonemap_pass_for_every_tonemapper() {
 
         let mut hdr_app = lit_scene();
         let through_hdr = render_app(&mut hdr_app, SIZE, settings(tonemapper, true));
-        assert!(passes(&hdr_app).contains(&Pass::Tonemap), "keep_hdr keeps the pass");
+        assert!(passes(&hdr_app).contains(&tonemap::PASS), "keep_hdr keeps the pass");
 
         let (max, mean) = difference(&direct, &through_hdr);
         assert!(max <= 2 && mean < 0.2, "{tonemapper:?}: differs by up to {max} (mean {mean:.3})");
@@ -128,7 +129,7 @@ fn a_unorm_output_is_srgb_encoded_by_the_shader() {
         let mut app = lit_scene();
         app.insert_resource(Renderer::new(common::gpu(), settings(Tonemapper::Neutral, keep_hdr)).unwrap());
         let unorm = render_into(&mut app, wgpu::TextureFormat::Rgba8Unorm);
-        assert_eq!(passes(&app).contains(&Pass::Tonemap), keep_hdr);
+        assert_eq!(passes(&app).contains(&tonemap::PASS), keep_hdr);
         let (max, mean) = difference(&srgb, &unorm);
         assert!(max <= 2 && mean < 0.2, "keep_hdr {keep_hdr}: differs by up to {max} (mean {mean:.3})");
     }
@@ -139,7 +140,7 @@ fn what_reads_hdr_colour_brings_the_hdr_target_back() {
     let mut app = lit_scene();
     render_app(&mut app, SIZE, settings(Tonemapper::Neutral, false));
     // The first frame with lit draws makes the split-sum table (EnvironmentPrefilter).
-    assert_eq!(passes(&app), [Pass::EnvironmentPrefilter, Pass::Cull, Pass::ClusterBin, Pass::Opaque]);
+    assert_eq!(passes(&app), [Pass::ENVIRONMENT_PREFILTER, Pass::CULL, Pass::CLUSTER_BIN, Pass::OPAQUE]);
     let e = app.world.resource::<Renderer>().read_hdr().unwrap_err().to_string();
     assert!(e.contains("keep_hdr"), "{e}");
 
@@ -150,12 +151,12 @@ fn what_reads_hdr_colour_brings_the_hdr_target_back() {
     };
     let pane = spawn_mesh(&mut app, Mesh::plane(0.5), glass, Transform::from_xyz(-0.5, 0.8, 0.8));
     render_app(&mut app, SIZE, settings(Tonemapper::Neutral, false));
-    assert!(passes(&app).contains(&Pass::Tonemap), "{:?}", passes(&app));
+    assert!(passes(&app).contains(&tonemap::PASS), "{:?}", passes(&app));
     assert!(common::hdr_of(&app).iter().any(|p| p[2] > 0.0), "HDR colour readable again");
 
     app.world.despawn(pane);
     render_app(&mut app, SIZE, settings(Tonemapper::Neutral, false));
-    assert!(!passes(&app).contains(&Pass::Tonemap), "direct again once the blended draw is gone");
+    assert!(!passes(&app).contains(&tonemap::PASS), "direct again once the blended draw is gone");
 
     let bloom =
         PostSettings { bloom: Some(BloomSettings { strength: 0.1, ..Default::default() }), ..Default::default() };
@@ -164,7 +165,7 @@ fn what_reads_hdr_colour_brings_the_hdr_target_back() {
         .set_settings(RenderSettings { post: bloom, ..settings(Tonemapper::Neutral, false) })
         .unwrap();
     render_app(&mut app, SIZE, settings(Tonemapper::Neutral, false));
-    assert!(passes(&app).contains(&Pass::Tonemap) && passes(&app).contains(&Pass::Bloom), "{:?}", passes(&app));
+    assert!(passes(&app).contains(&tonemap::PASS) && passes(&app).contains(&bloom::PASS), "{:?}", passes(&app));
 }
 
 /// A surface of exposed radiance 4 (emissive, over a black clear) covering the left of the frame up to
@@ -209,12 +210,12 @@ fn half_covered_column(resolve: MsaaResolve) -> (Vec<u8>, App) {
 #[test]
 fn resolving_display_colours_averages_tonemapped_samples_and_needs_no_hdr_target() {
     let (display, display_app) = half_covered_column(MsaaResolve::Display);
-    assert!(!passes(&display_app).contains(&Pass::Tonemap), "{:?}", passes(&display_app));
+    assert!(!passes(&display_app).contains(&tonemap::PASS), "{:?}", passes(&display_app));
     let r = display_app.world.resource::<Renderer>();
     // One 4-byte sRGB colour per sample, no depth (one convex surface), no HDR target.
     assert_eq!(r.memory().targets, 32 * 32 * 4 * 4);
     let (radiance, radiance_app) = half_covered_column(MsaaResolve::Radiance);
-    assert!(passes(&radiance_app).contains(&Pass::Tonemap));
+    assert!(passes(&radiance_app).contains(&tonemap::PASS));
     let red = |frame: &[u8], x: usize| frame[(16 * 32 + x) * 4];
     for (name, frame) in [("display", &display), ("radiance", &radiance)] {
         assert_eq!((red(frame, 5), red(frame, 19), red(frame, 21)), (255, 255, 0), "{name}: inside and outside");

@@ -6,6 +6,7 @@
 
 use penumbra::prelude::*;
 use penumbra::render::RenderSettings;
+use penumbra::render::features::tonemap;
 use penumbra::render::frame::Pass;
 
 mod common;
@@ -51,7 +52,7 @@ fn an_empty_scene_clears_and_tonemaps_only() {
     let mut app = scene_app();
     camera(&mut app);
     let (passes, defs, mem, explain) = plan_of(app);
-    assert_eq!(passes, [Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(passes, [Pass::OPAQUE, tonemap::PASS], "{explain}");
     assert!(defs.is_empty(), "no forward pipeline is compiled for an empty scene: {defs:?}");
     assert_eq!((mem.shadows, mem.environment, mem.post), (0, 0, 0), "{explain}");
     assert!(explain.contains("Opaque: clears the targets (no opaque draws)"), "{explain}");
@@ -73,7 +74,7 @@ fn unlit_triangle() -> App {
 #[test]
 fn one_unlit_triangle_compiles_only_the_unlit_shader() {
     let (passes, defs, mem, explain) = plan_of(unlit_triangle());
-    assert_eq!(passes, [Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(passes, [Pass::OPAQUE, tonemap::PASS], "{explain}");
     assert!(explain.contains("Cull: one opaque instance"), "{explain}");
     assert_eq!(defs, ["UNLIT"], "{explain}");
     assert_eq!(mem.shadows, 0);
@@ -88,15 +89,15 @@ fn the_split_sum_table_is_made_once_for_lit_draws() {
     render_app(&mut app, SIZE, RenderSettings::default());
     let passes =
         |app: &App| app.world.resource::<Renderer>().stats().plan.passes.iter().map(|(p, _)| *p).collect::<Vec<_>>();
-    assert_eq!(passes(&app)[0], Pass::EnvironmentPrefilter);
+    assert_eq!(passes(&app)[0], Pass::ENVIRONMENT_PREFILTER);
     app.update();
-    assert!(!passes(&app).contains(&Pass::EnvironmentPrefilter), "made again: {:?}", passes(&app));
+    assert!(!passes(&app).contains(&Pass::ENVIRONMENT_PREFILTER), "made again: {:?}", passes(&app));
 }
 
 #[test]
 fn one_unlit_triangle_at_msaa_1_draws_straight_into_the_output() {
     let (passes, defs, mem, explain) = plan_with(unlit_triangle(), RenderSettings { msaa: 1, ..Default::default() });
-    assert_eq!(passes, [Pass::Opaque], "{explain}");
+    assert_eq!(passes, [Pass::OPAQUE], "{explain}");
     // The headless output is Rgba8Unorm: the shader encodes sRGB itself (Renderer::render_headless).
     assert_eq!(defs, ["ENCODE_SRGB", "TONEMAP_IN_FORWARD", "TONEMAP_NEUTRAL", "UNLIT"], "{explain}");
     assert_eq!(mem.targets, 0, "no HDR colour, and one triangle needs no depth: {explain}");
@@ -179,7 +180,7 @@ fn a_lit_scene_without_shadows_has_no_shadow_pass_or_lookups() {
         Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
     ));
     let (passes, defs, mem, explain) = plan_of(app);
-    assert_eq!(passes, [Pass::EnvironmentPrefilter, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(passes, [Pass::ENVIRONMENT_PREFILTER, Pass::OPAQUE, tonemap::PASS], "{explain}");
     assert!(explain.contains("split-sum table, made once (no environment"), "{explain}");
     assert!(defs.is_empty(), "the base lit shader: {defs:?}");
     assert_eq!(mem.shadows, 0, "no shadow atlas without a shadowed light");
@@ -202,7 +203,7 @@ fn one_directional_shadow_caster_adds_the_shadow_pass_and_lookups() {
     let (passes, defs, mem, explain) = plan_of(app);
     assert_eq!(
         passes,
-        [Pass::EnvironmentPrefilter, Pass::Cull, Pass::Shadows, Pass::Opaque, Pass::Tonemap],
+        [Pass::ENVIRONMENT_PREFILTER, Pass::CULL, Pass::SHADOWS, Pass::OPAQUE, tonemap::PASS],
         "{explain}"
     );
     assert_eq!(defs, ["SHADOWS"], "{explain}");
@@ -218,7 +219,7 @@ fn local_lights_only_bin_clusters_and_compile_the_clustered_walk() {
         app.world.spawn((PointLight { shadows: false, ..Default::default() }, Transform::from_xyz(x, 1.0, 1.0)));
     }
     let (passes, defs, mem, explain) = plan_of(app);
-    assert_eq!(passes, [Pass::EnvironmentPrefilter, Pass::ClusterBin, Pass::Opaque, Pass::Tonemap], "{explain}");
+    assert_eq!(passes, [Pass::ENVIRONMENT_PREFILTER, Pass::CLUSTER_BIN, Pass::OPAQUE, tonemap::PASS], "{explain}");
     assert_eq!(defs, ["CLUSTERED_LIGHTS", "LOCAL_LIGHTS"], "{explain}");
     assert_eq!(mem.shadows, 0);
 }

@@ -265,10 +265,10 @@ fn prefiltering_runs_only_when_the_environment_changes() {
     render_app(&mut app, (SIZE, SIZE), s.clone());
     let stats = |app: &App| app.world.resource::<Renderer>().stats().clone();
     assert_eq!(stats(&app).environment_prefilters, 1);
-    assert!(stats(&app).plan.runs(Pass::EnvironmentPrefilter));
+    assert!(stats(&app).plan.runs(Pass::ENVIRONMENT_PREFILTER));
     render_app(&mut app, (SIZE, SIZE), s.clone());
-    assert!(!stats(&app).plan.runs(Pass::EnvironmentPrefilter), "{}", stats(&app).plan);
-    assert!(stats(&app).plan.runs(Pass::Background));
+    assert!(!stats(&app).plan.runs(Pass::ENVIRONMENT_PREFILTER), "{}", stats(&app).plan);
+    assert!(stats(&app).plan.runs(Pass::BACKGROUND));
     // Intensity, rotation and background change the uniform only.
     {
         let mut env = app.world.resource_mut::<Environment>();
@@ -284,7 +284,7 @@ fn prefiltering_runs_only_when_the_environment_changes() {
     // A solid background is the clear colour: no background pass draws it.
     app.world.resource_mut::<Environment>().background = Background::Color([0.25, 0.5, 0.75]);
     render_app(&mut app, (SIZE, SIZE), s.clone());
-    assert!(!stats(&app).plan.runs(Pass::Background), "{}", stats(&app).plan);
+    assert!(!stats(&app).plan.runs(Pass::BACKGROUND), "{}", stats(&app).plan);
     let corner = at(&hdr_of(&app), (0, 0));
     assert!((corner - Vec3::new(0.25, 0.5, 0.75)).abs().max_element() < 2e-3, "solid background {corner}");
     assert_eq!(stats(&app).environment_prefilters, 1);
@@ -298,7 +298,7 @@ fn prefiltering_runs_only_when_the_environment_changes() {
     app.world.remove_resource::<Environment>();
     render_app(&mut app, (SIZE, SIZE), s);
     let r = app.world.resource::<Renderer>();
-    assert!(!r.stats().plan.runs(Pass::Background) && !r.stats().plan.runs(Pass::EnvironmentPrefilter));
+    assert!(!r.stats().plan.runs(Pass::BACKGROUND) && !r.stats().plan.runs(Pass::ENVIRONMENT_PREFILTER));
     assert_eq!(r.memory().environment, 64 * 64 * 8, "only the 64² split-sum table stays");
     // No light at all reaches the sphere now (zero ambient, no environment).
     assert_eq!(at(&hdr_of(&app), (SIZE / 2, SIZE / 2)), Vec3::ZERO);
@@ -404,14 +404,14 @@ fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
         (hdr_of(&app), plan)
     };
     let (composited, plan) = render(penumbra::render::LightWalk::Clustered);
-    assert!(!plan.runs(Pass::DeferredLights));
+    assert!(!plan.runs(Pass::DEFERRED_LIGHTS));
     let (in_pass, plan) = render(penumbra::render::LightWalk::ClusteredCompute);
     if !common::gpu().caps.deferred_lights {
         // GL (run with WGPU_BACKEND=gl): the renderer shades in the fragment shader instead.
-        assert!(!plan.runs(Pass::DeferredLights), "{plan}");
+        assert!(!plan.runs(Pass::DEFERRED_LIGHTS), "{plan}");
         return;
     }
-    assert!(plan.runs(Pass::DeferredLights), "{plan}");
+    assert!(plan.runs(Pass::DEFERRED_LIGHTS), "{plan}");
     let mut worst = 0.0f32;
     for (a, b) in composited.iter().zip(&in_pass) {
         for c in 0..3 {

@@ -399,13 +399,13 @@ fn binning_runs_only_with_local_lights() {
     camera(&mut app, Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, perspective());
     render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
     let r = app.world.resource::<Renderer>();
-    assert!(!r.stats().plan.runs(Pass::ClusterBin), "plan:\n{}", r.stats().plan);
+    assert!(!r.stats().plan.runs(Pass::CLUSTER_BIN), "plan:\n{}", r.stats().plan);
     assert!(r.forward_pipeline_keys().iter().all(|k| k.local_lights == LocalLights::None));
 
     app.world.spawn((PointLight::default(), Transform::from_xyz(0.0, 1.0, 0.0)));
     render_app(&mut app, (32, 32), settings(LightWalk::Clustered));
     let r = app.world.resource::<Renderer>();
-    assert!(r.stats().plan.runs(Pass::ClusterBin), "plan:\n{}", r.stats().plan);
+    assert!(r.stats().plan.runs(Pass::CLUSTER_BIN), "plan:\n{}", r.stats().plan);
 }
 
 #[test]

@@ -14,8 +14,8 @@ use std::time::Duration;
 
 use penumbra::prelude::*;
 use penumbra::render::features::environment::EnvironmentSettings;
-use penumbra::render::features::post::{AutoExposure, BloomSettings, PostSettings};
-use penumbra::render::frame::Pass;
+use penumbra::render::features::{bloom, fxaa};
+use penumbra::render::{AutoExposure, BloomSettings, PostSettings};
 use penumbra::render::{RenderSettings, Renderer};
 
 mod common;
@@ -59,9 +59,9 @@ fn bloom_spreads_a_bright_spot_and_falls_off() {
         (px, app.world.resource::<Renderer>().stats().plan.clone())
     };
     let (plain, plan) = render(PostSettings::default());
-    assert!(!plan.runs(Pass::Bloom), "bloom is off by default");
+    assert!(!plan.runs(bloom::PASS), "bloom is off by default");
     let (bloomed, plan) = render(bloom);
-    assert!(plan.runs(Pass::Bloom));
+    assert!(plan.runs(bloom::PASS));
     let c = SIZE / 2;
     // Off the spot the plain image is black; with bloom, a glow that falls with distance.
     assert_eq!(luma(&plain, c + 6, c), 0.0);
@@ -110,7 +110,7 @@ fn fxaa_smooths_a_hard_edge_and_keeps_the_mean() {
     let plain = render_app(&mut square(), (SIZE, SIZE), settings(PostSettings::default(), 1));
     let mut app = square();
     let fxaa = render_app(&mut app, (SIZE, SIZE), settings(PostSettings { fxaa: true, ..Default::default() }, 1));
-    assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::Fxaa));
+    assert!(app.world.resource::<Renderer>().stats().plan.runs(fxaa::PASS));
     let msaa = render_app(&mut square(), (SIZE, SIZE), settings(PostSettings::default(), 4));
     // Radiance 0.7 is below the neutral curve's knee: the square's pixels all read `white`.
     let white = luma(&plain, SIZE / 2, SIZE / 2) as u8;

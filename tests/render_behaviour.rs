@@ -512,15 +512,15 @@ fn gizmo_lines_are_depth_tested_and_only_drawn_when_present() {
         assert!(!column_has(32, is_red), "{what}: the line behind is hidden by the cube");
         assert!(column_has(32, is_green) && column_has(4, is_green), "{what}: the line in front crosses the cube");
         let plan = app.world.resource::<Renderer>().stats().plan.clone();
-        assert!(plan.runs(Pass::Gizmos), "{what}");
+        assert!(plan.runs(Pass::GIZMOS), "{what}");
         // GL (WGPU_BACKEND=gl) has no deferred-lights pass: `Capabilities::deferred_lights`.
-        assert_eq!(plan.runs(Pass::DeferredLights), deferred && common::gpu().caps.deferred_lights, "{what}");
+        assert_eq!(plan.runs(Pass::DEFERRED_LIGHTS), deferred && common::gpu().caps.deferred_lights, "{what}");
 
         app.world.resource_mut::<Gizmos>().clear();
         let rgba = render_app(&mut app, SIZE, settings);
         let coloured = rgba.chunks_exact(4).any(|p| is_red([p[0], p[1], p[2]]) || is_green([p[0], p[1], p[2]]));
         assert!(!coloured, "{what}: cleared lines stay");
-        assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Gizmos), "{what}: a pass without lines ran");
+        assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::GIZMOS), "{what}: a pass without lines ran");
     }
 }
 

@@ -292,7 +292,7 @@ fn an_edit_to_the_split_sum_table_remakes_the_table() {
     std::fs::write(dir.join("brdf_lut.wgsl"), edited).unwrap();
     let after = render_until(&mut app, "the edited table", |r| generation(r) > g && r.shader_error().is_none());
     let plan = &renderer(&app).stats().plan;
-    assert!(plan.runs(penumbra::render::frame::Pass::EnvironmentPrefilter), "the table is made again: {plan}");
+    assert!(plan.runs(penumbra::render::frame::Pass::ENVIRONMENT_PREFILTER), "the table is made again: {plan}");
     let dimmer = brightness(&after, SIZE.0, SIZE.0 / 2, SIZE.1 / 2);
     assert!(dimmer < lit * 0.8, "the new table is what the surface reads: {lit} -> {dimmer}");
 }

@@ -62,10 +62,10 @@ fn a_lit_plane_shows_no_acne() {
             app.world.spawn((Camera::default(), Transform::from_translation(eye).looking_at(origin, Vec3::Y)));
             let shadowed = render(&mut app, size, atlas(1024));
             let s = stats(&app);
-            assert!(s.plan.runs(Pass::Shadows), "the plane casts, so its cascades render");
+            assert!(s.plan.runs(Pass::SHADOWS), "the plane casts, so its cascades render");
             set_shadows(&mut app, false);
             let plain = render(&mut app, size, atlas(1024));
-            assert!(!stats(&app).plan.runs(Pass::Shadows));
+            assert!(!stats(&app).plan.runs(Pass::SHADOWS));
             let mut darkening = Vec::new();
             for y in 0..size.1 {
                 for x in 0..size.0 {
@@ -266,7 +266,7 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     render(&mut app, size, ShadowSettings::default());
     let renderer = app.world.resource::<Renderer>();
     let frame = renderer.shadow_frame();
-    assert!(renderer.stats().plan.runs(Pass::Shadows));
+    assert!(renderer.stats().plan.runs(Pass::SHADOWS));
     assert_eq!(frame.cascades.len(), 4);
     // Everything lies within 5 m of the camera; the default cascades reach 100 m.
     assert!(frame.rendered[0] && !frame.rendered[3], "rendered layers {:?}", frame.rendered);
@@ -280,7 +280,7 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
         app.world.resource::<Renderer>().read_frame().unwrap()
     };
     let renderer = app.world.resource::<Renderer>();
-    assert!(!renderer.stats().plan.runs(Pass::Shadows));
+    assert!(!renderer.stats().plan.runs(Pass::SHADOWS));
     assert_eq!(renderer.memory().shadows, 0, "the atlas is released");
     assert!(px.chunks_exact(4).any(|p| p[0] > 100), "still lit");
     assert!(renderer.stats().pipelines > 0);
@@ -299,7 +299,7 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     app.world.entity_mut(floor).insert(Visibility::Visible);
     app.update();
     let renderer = app.world.resource::<Renderer>();
-    assert!(!renderer.stats().plan.runs(Pass::Shadows), "{}", renderer.stats().plan);
+    assert!(!renderer.stats().plan.runs(Pass::SHADOWS), "{}", renderer.stats().plan);
     assert_eq!(renderer.memory().shadows, 0);
 }
 
@@ -382,7 +382,7 @@ fn spot_and_point_lights_shadow_exactly_their_silhouette() {
         let frame = app.world.resource::<Renderer>().shadow_frame().clone();
         assert_eq!(frame.local.first_layers.len(), 1, "{what}: one shadowed light");
         assert_eq!(frame.local.render.len(), if spot { 1 } else { 6 }, "{what}: its layers render");
-        assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
+        assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::SHADOWS));
         // The same frame without the light's shadows.
         if spot {
             app.world.get_mut::<SpotLight>(light).unwrap().shadows = false;
@@ -390,7 +390,7 @@ fn spot_and_point_lights_shadow_exactly_their_silhouette() {
             app.world.get_mut::<PointLight>(light).unwrap().shadows = false;
         }
         let plain = render(&mut app, (size, size), atlas(512));
-        assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
+        assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::SHADOWS));
         let tolerance = 3.0 * 4.0 / size as f32;
         let (mut wrong, mut judged_dark, mut judged_lit) = (0, 0, 0);
         for y in 0..size {
@@ -459,7 +459,7 @@ fn shadow_maps_are_drawn_again_only_when_something_moves() {
     app.update();
     let second = app.world.resource::<Renderer>().read_frame().unwrap();
     assert_eq!(drawn(&app), 0, "nothing moved: no shadow pass");
-    assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::Shadows));
+    assert!(!app.world.resource::<Renderer>().stats().plan.runs(Pass::SHADOWS));
     assert_eq!(first, second, "the kept maps give the same image");
     app.world.get_mut::<Transform>(cube).unwrap().translation.x += 0.3;
     app.update();

@@ -8,6 +8,7 @@
 
 use penumbra::prelude::*;
 use penumbra::render::Raster;
+use penumbra::render::features::tonemap;
 use penumbra::render::frame::Pass;
 use penumbra::render::pipelines::shader_library::EMBEDDED;
 use penumbra::render::{MsaaResolve, RenderSettings, Renderer, ShaderSource};
@@ -181,22 +182,22 @@ fn compute_raster_draws_what_the_forward_pass_draws() {
             }
         };
         let (hardware, hw_app) = render_with(hardware_settings, background);
-        assert!(plan_runs(&hw_app, Pass::Opaque) && !plan_runs(&hw_app, Pass::VisibilityRaster));
-        assert_eq!(plan_runs(&hw_app, Pass::Tonemap), !(direct && solid), "{name}");
+        assert!(plan_runs(&hw_app, Pass::OPAQUE) && !plan_runs(&hw_app, Pass::VISIBILITY_RASTER));
+        assert_eq!(plan_runs(&hw_app, tonemap::PASS), !(direct && solid), "{name}");
         let (compute, app) = render_with(compute_settings, background);
         if !direct {
             assert_finite_hdr(&hdr_of(&app), "visibility buffer");
         }
         if !visibility_supported(&app) {
             // GL: no 64-bit atomics; the forward pass draws the frame.
-            assert!(plan_runs(&app, Pass::Opaque) && !plan_runs(&app, Pass::VisibilityRaster));
+            assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
             assert!(pixels_apart(&compute, &hardware, 0) == 0, "{name}: the fallback frame differs");
             continue;
         }
-        assert!(plan_runs(&app, Pass::VisibilityRaster) && plan_runs(&app, Pass::VisibilityShade), "{name}");
-        assert!(!plan_runs(&app, Pass::Opaque) && !plan_runs(&app, Pass::Background), "{name}");
+        assert!(plan_runs(&app, Pass::VISIBILITY_RASTER) && plan_runs(&app, Pass::VISIBILITY_SHADE), "{name}");
+        assert!(!plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::BACKGROUND), "{name}");
         // The shading pass shows the environment and, without HDR readback, tonemaps itself.
-        assert_eq!(plan_runs(&app, Pass::Tonemap), !direct, "{name}");
+        assert_eq!(plan_runs(&app, tonemap::PASS), !direct, "{name}");
         let flip = flip_mean(&hardware, &compute, SIZE.0, SIZE.1);
         let apart = pixels_apart(&hardware, &compute, 24);
         let total = (SIZE.0 * SIZE.1) as usize;
@@ -235,7 +236,7 @@ fn large_triangles_without_room_are_still_drawn() {
     let mut roomy = cards();
     let reference = render_app(&mut roomy, SIZE, settings(4, Raster::Compute));
     if !visibility_supported(&roomy) {
-        return assert!(plan_runs(&roomy, Pass::Opaque));
+        return assert!(plan_runs(&roomy, Pass::OPAQUE));
     }
     // Room for 5 large triangles: the other cards' triangles rasterise whole in their own
     // threads.
@@ -243,7 +244,7 @@ fn large_triangles_without_room_are_still_drawn() {
     squeezed.insert_resource(Renderer::new(common::gpu(), settings(4, Raster::Compute)).unwrap());
     squeezed.world.resource_mut::<Renderer>().set_visibility_large_triangle_capacity(5);
     let rgba = render_app(&mut squeezed, SIZE, settings(4, Raster::Compute));
-    assert!(plan_runs(&squeezed, Pass::VisibilityRaster));
+    assert!(plan_runs(&squeezed, Pass::VISIBILITY_RASTER));
     let hardware = render_app(&mut cards(), SIZE, settings(4, Raster::Hardware));
     assert!(flip_mean(&hardware, &reference, SIZE.0, SIZE.1) < 0.01, "the cards differ from the forward pass's");
     let apart = pixels_apart(&rgba, &reference, 0);
@@ -263,10 +264,10 @@ fn frames_the_compute_raster_cannot_draw_fall_back_to_the_forward_pass() {
             Transform::from_xyz(0.0, 0.8, -3.0),
         );
     });
-    assert!(plan_runs(&app, Pass::Opaque) && plan_runs(&app, Pass::Transparent));
-    assert!(!plan_runs(&app, Pass::VisibilityRaster));
+    assert!(plan_runs(&app, Pass::OPAQUE) && plan_runs(&app, Pass::TRANSPARENT));
+    assert!(!plan_runs(&app, Pass::VISIBILITY_RASTER));
     let why = app.world.resource::<Renderer>().stats().plan.left_out();
-    let (_, reason) = why.iter().find(|(p, _)| *p == Pass::VisibilityRaster).expect("left out");
+    let (_, reason) = why.iter().find(|(p, _)| *p == Pass::VISIBILITY_RASTER).expect("left out");
     assert!(reason.contains("blended"), "{reason}");
 }
 
@@ -288,7 +289,7 @@ fn a_frame_of_blended_draws_only_draws_the_same_either_way() {
         }
         app.world.spawn((Camera { exposure: Exposure::unit(), ..Default::default() }, Transform::IDENTITY));
         let rgba = render_app(&mut app, SIZE, settings(4, raster));
-        assert!(plan_runs(&app, Pass::Transparent) && !plan_runs(&app, Pass::VisibilityRaster));
+        assert!(plan_runs(&app, Pass::TRANSPARENT) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
         rgba
     };
     let hardware = frame(Raster::Hardware);
@@ -342,9 +343,9 @@ fn a_shading_variant_that_fails_leaves_the_others_drawn() {
     }
     let (broken, app) = cube_and_helmet(Some(&dir), true);
     if !visibility_supported(&app) {
-        return assert!(plan_runs(&app, Pass::Opaque));
+        return assert!(plan_runs(&app, Pass::OPAQUE));
     }
-    assert!(plan_runs(&app, Pass::VisibilityShade));
+    assert!(plan_runs(&app, Pass::VISIBILITY_SHADE));
     let error = app.world.resource::<Renderer>().shader_error().map(|e| e.to_string()).unwrap_or_default();
     assert!(error.contains("forward.wgsl"), "the failing variant is reported: {error:?}");
     let (cube_only, _) = cube_and_helmet(None, false);

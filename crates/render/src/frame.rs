@@ -6,118 +6,113 @@
 
 use std::fmt;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Pass {
-    /// Compute: make the environment's maps (source cube, specular levels, irradiance
-    /// harmonics; the split-sum table once).
-    EnvironmentPrefilter,
-    /// Compute: skin and morph the draws whose pose changed into their vertex copies.
-    Deform,
-    /// Compute: cull opaque and masked draws against the view frustum into indirect draws.
-    Cull,
-    /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
-    ClusterBin,
-    /// Depth-only passes of shadow casters into the shadow atlas, one per rendered layer.
-    Shadows,
-    /// Opaque and alpha-masked draws, front to back by batch.
-    Opaque,
-    /// Compute: opaque draws rasterised into the visibility buffer (each sample's nearest
-    /// triangle), in place of `Opaque` (`Raster::Compute`).
-    VisibilityRaster,
-    /// Compute: each pixel's triangles in the visibility buffer shaded and resolved into the
-    /// HDR colour.
-    VisibilityShade,
-    /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
-    /// opaque draws (depth test: only where the depth is still the far plane).
-    Background,
-    /// Occlusion culling's second half, after `Opaque` drew what was visible last frame: the
-    /// depth pyramid, the late cull, and a second pass drawing what became visible.
-    OcclusionLate,
-    /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`, or `Auto` with
-    /// long cluster lists), then a render pass that adds them to the frame and holds the
-    /// `Transparent` phase.
-    DeferredLights,
-    /// Alpha-blended draws, back to front, in the same render pass as `Opaque` (or, with
-    /// deferred lights, as their composite).
-    Transparent,
-    /// Gizmo lines (axes, selection boxes, debug lines), last in the render pass that ends the
-    /// frame's drawing, depth-tested against the scene.
-    Gizmos,
-    /// Bloom's half-size mip chain, down and up (render passes).
-    Bloom,
-    /// Compute: luminance histogram and the adapted exposure the tonemap pass applies.
-    AutoExposure,
-    /// HDR to display: exposure is already applied; tonemap and sRGB-encode into the output.
-    /// Left out when nothing reads the HDR colour: the opaque pass then tonemaps itself.
-    Tonemap,
-    /// FXAA from the tonemapped image into the output.
-    Fxaa,
+use crate::features::bloom::Bloom;
+use crate::features::exposure::Exposure;
+use crate::features::fxaa::Fxaa;
+use crate::features::post::{Decision, PostChain};
+use crate::features::tonemap::Tonemap;
+use crate::pipelines::PipelineCache;
+use crate::settings::RenderSettings;
+
+pub use crate::pass::Pass;
+
+/// The post-processing chain, in the order its stages run, each bound to its settings. A new
+/// post-process is its folder and one line here.
+pub fn post_chain(device: &wgpu::Device, pipelines: &mut PipelineCache) -> PostChain<RenderSettings> {
+    PostChain::<RenderSettings>::new(device)
+        .with(Bloom::new(device, pipelines), |s| &s.post.bloom)
+        .with(Exposure::new(device, pipelines), |s| &s.post.auto_exposure)
+        .with(Tonemap::new(device, pipelines), |s| &s.tonemapper)
+        .with(Fxaa::new(device, pipelines), |s| &s.post.fxaa)
 }
 
 impl Pass {
-    pub const ALL: [Pass; 17] = [
-        Pass::EnvironmentPrefilter,
-        Pass::Deform,
-        Pass::Cull,
-        Pass::ClusterBin,
-        Pass::Shadows,
-        Pass::Opaque,
-        Pass::VisibilityRaster,
-        Pass::VisibilityShade,
-        Pass::Background,
-        Pass::OcclusionLate,
-        Pass::DeferredLights,
-        Pass::Transparent,
-        Pass::Gizmos,
-        Pass::Bloom,
-        Pass::AutoExposure,
-        Pass::Tonemap,
-        Pass::Fxaa,
-    ];
-
-    /// What the pass reads (buffers, textures) and writes, for `penumbra render --explain`.
-    pub fn inputs(self) -> &'static str {
-        match self {
-            Pass::EnvironmentPrefilter => {
-                "environment source (sky, studio or image) -> source cube, GGX levels, SH [; the \
-                 split-sum table, once]"
-            }
-            Pass::Deform => "mesh pool vertices, joint matrices, morph weights -> deformed vertex copies",
-            Pass::Cull => {
-                "view, instance buffer, draw slots [, mesh pool indices and vertices] -> indirect draw arguments [, triangle lists of small meshes]"
-            }
-            Pass::ClusterBin => "view, light store (local lights) -> cluster counts, offsets, index lists",
-            Pass::Shadows => "casters' vertices and instances, cascade matrices -> shadow atlas layers",
-            Pass::Opaque => {
-                "view, mesh pool, instances, materials, textures, light store [, cluster lists] \
-                 [, shadow atlas] [, environment maps] -> HDR colour (or the output, tonemapped) \
-                 [, depth]"
-            }
-            Pass::VisibilityRaster => {
-                "view, visible instances and their counts, mesh pool indices and vertices -> visibility \
-                 buffer (depth and triangle number per sample)"
-            }
-            Pass::VisibilityShade => {
-                "visibility buffer, mesh pool, instances, materials, textures, light store [, cluster \
-                 lists] [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the \
-                 displayed colour copied into the output"
-            }
-            Pass::Background => "environment cube (or its blurred level), HDR alpha -> HDR colour",
-            Pass::OcclusionLate => "depth -> depth pyramid -> late cull -> second opaque draws",
-            Pass::DeferredLights => "surface buffer, depth, cluster lists, light store -> HDR colour",
-            Pass::Transparent => "view, blended draws sorted back to front, lights -> HDR colour",
-            Pass::Gizmos => "gizmo line vertices, depth -> HDR colour",
-            Pass::Bloom => "HDR colour -> half-size mip chain",
-            Pass::AutoExposure => "HDR colour -> luminance histogram -> adapted exposure",
-            Pass::Tonemap => "HDR colour [, bloom chain] [, exposure] -> output (sRGB)",
-            Pass::Fxaa => "tonemapped intermediate -> output",
-        }
-    }
+    /// Compute: make the environment's maps (source cube, specular levels, irradiance
+    /// harmonics; the split-sum table once).
+    pub const ENVIRONMENT_PREFILTER: Pass = Pass::new(
+        "EnvironmentPrefilter",
+        "environment source (sky, studio or image) -> source cube, GGX levels, SH [; the split-sum \
+         table, once]",
+    );
+    /// Compute: skin and morph the draws whose pose changed into their vertex copies.
+    pub const DEFORM: Pass =
+        Pass::new("Deform", "mesh pool vertices, joint matrices, morph weights -> deformed vertex copies");
+    /// Compute: cull opaque and masked draws against the view frustum into indirect draws.
+    pub const CULL: Pass = Pass::new(
+        "Cull",
+        "view, instance buffer, draw slots [, mesh pool indices and vertices] -> indirect draw arguments [, triangle lists of small meshes]",
+    );
+    /// Compute: bin local lights into the froxel grid (count, prefix sum, fill, sort).
+    pub const CLUSTER_BIN: Pass =
+        Pass::new("ClusterBin", "view, light store (local lights) -> cluster counts, offsets, index lists");
+    /// Depth-only passes of shadow casters into the shadow atlas, one per rendered layer.
+    pub const SHADOWS: Pass =
+        Pass::new("Shadows", "casters' vertices and instances, cascade matrices -> shadow atlas layers");
+    /// Opaque and alpha-masked draws, front to back by batch.
+    pub const OPAQUE: Pass = Pass::new(
+        "Opaque",
+        "view, mesh pool, instances, materials, textures, light store [, cluster lists] [, shadow \
+         atlas] [, environment maps] -> HDR colour (or the output, tonemapped) [, depth]",
+    );
+    /// Compute: opaque draws rasterised into the visibility buffer (each sample's nearest
+    /// triangle), in place of `OPAQUE` (`Raster::Compute`).
+    pub const VISIBILITY_RASTER: Pass = Pass::new(
+        "VisibilityRaster",
+        "view, visible instances and their counts, mesh pool indices and vertices -> visibility buffer \
+         (depth and triangle number per sample)",
+    );
+    /// Compute: each pixel's triangles in the visibility buffer shaded and resolved into the
+    /// HDR colour.
+    pub const VISIBILITY_SHADE: Pass = Pass::new(
+        "VisibilityShade",
+        "visibility buffer, mesh pool, instances, materials, textures, light store [, cluster lists] \
+         [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the displayed colour \
+         copied into the output",
+    );
+    /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
+    /// opaque draws (depth test: only where the depth is still the far plane).
+    pub const BACKGROUND: Pass =
+        Pass::new("Background", "environment cube (or its blurred level), HDR alpha -> HDR colour");
+    /// Occlusion culling's second half, after `OPAQUE` drew what was visible last frame: the
+    /// depth pyramid, the late cull, and a second pass drawing what became visible.
+    pub const OCCLUSION_LATE: Pass =
+        Pass::new("OcclusionLate", "depth -> depth pyramid -> late cull -> second opaque draws");
+    /// Compute: local lights for opaque surfaces (`LightWalk::ClusteredCompute`, or `Auto` with
+    /// long cluster lists), then a render pass that adds them to the frame and holds the
+    /// `TRANSPARENT` phase.
+    pub const DEFERRED_LIGHTS: Pass =
+        Pass::new("DeferredLights", "surface buffer, depth, cluster lists, light store -> HDR colour");
+    /// Alpha-blended draws, back to front, in the same render pass as `OPAQUE` (or, with
+    /// deferred lights, as their composite).
+    pub const TRANSPARENT: Pass =
+        Pass::new("Transparent", "view, blended draws sorted back to front, lights -> HDR colour");
+    /// Gizmo lines (axes, selection boxes, debug lines), last in the render pass that ends the
+    /// frame's drawing, depth-tested against the scene.
+    pub const GIZMOS: Pass = Pass::new("Gizmos", "gizmo line vertices, depth -> HDR colour");
 }
+
+/// The plan's own passes in the order they can run; the post-processing chain's follow.
+const CORE: [Pass; 13] = [
+    Pass::ENVIRONMENT_PREFILTER,
+    Pass::DEFORM,
+    Pass::CULL,
+    Pass::CLUSTER_BIN,
+    Pass::SHADOWS,
+    Pass::OPAQUE,
+    Pass::VISIBILITY_RASTER,
+    Pass::VISIBILITY_SHADE,
+    Pass::BACKGROUND,
+    Pass::OCCLUSION_LATE,
+    Pass::DEFERRED_LIGHTS,
+    Pass::TRANSPARENT,
+    Pass::GIZMOS,
+];
 
 #[derive(Debug, Clone, Default)]
 pub struct FramePlan {
     pub passes: Vec<(Pass, &'static str)>,
+    /// The post-processing stages left out this frame, and why.
+    post_left_out: Vec<(Pass, &'static str)>,
     /// What the plan was made from.
     pub needs: SceneNeeds,
 }
@@ -149,14 +144,8 @@ pub struct SceneNeeds {
     pub deform_jobs: usize,
     /// The scene has an environment to show behind it (not a solid colour: that is the clear).
     pub background: bool,
-    /// Post-processing switched on in the settings.
-    pub bloom: bool,
-    pub auto_exposure: bool,
-    pub fxaa: bool,
     /// Vertices of the gizmo lines to draw.
     pub gizmo_vertices: u32,
-    /// Nothing reads the HDR colour: the forward pass tonemaps into the output itself.
-    pub direct_output: bool,
     /// The frame has a depth target (not when nothing drawn can cover a pixel twice).
     pub depth: bool,
 }
@@ -177,44 +166,40 @@ impl FramePlan {
             split_sum_table,
             deform_jobs,
             background,
-            bloom,
-            auto_exposure,
-            fxaa,
             gizmo_vertices,
-            direct_output,
             depth,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
-            passes.push((Pass::EnvironmentPrefilter, "the environment changed (or is new): its maps are made"));
+            passes.push((Pass::ENVIRONMENT_PREFILTER, "the environment changed (or is new): its maps are made"));
         } else if split_sum_table {
             passes.push((
-                Pass::EnvironmentPrefilter,
+                Pass::ENVIRONMENT_PREFILTER,
                 "lit draws read their specular albedo from the split-sum table, made once (no environment: \
                  nothing else runs)",
             ));
         }
         if deform_jobs > 0 {
-            passes.push((Pass::Deform, "skinned or morphed draws changed pose: their vertices are recomputed"));
+            passes.push((Pass::DEFORM, "skinned or morphed draws changed pose: their vertices are recomputed"));
         }
         if culled && has_opaque {
-            passes.push((Pass::Cull, "opaque draws to cull (GPU culling on and supported)"));
+            passes.push((Pass::CULL, "opaque draws to cull (GPU culling on and supported)"));
         }
         if binned_lights > 0 && (has_opaque || has_blend) {
-            passes.push((Pass::ClusterBin, "local lights to bin and draws to light"));
+            passes.push((Pass::CLUSTER_BIN, "local lights to bin and draws to light"));
         }
         if shadow_layers > 0 {
-            passes.push((Pass::Shadows, "a shadowed light's casters reach what the camera sees"));
+            passes.push((Pass::SHADOWS, "a shadowed light's casters reach what the camera sees"));
         }
         if visibility {
             passes.push((
-                Pass::VisibilityRaster,
+                Pass::VISIBILITY_RASTER,
                 "opaque draws, rasterised in compute (--raster compute, or auto on a GPU with few graphics units)",
             ));
-            passes.push((Pass::VisibilityShade, "the visibility buffer's samples to shade"));
+            passes.push((Pass::VISIBILITY_SHADE, "the visibility buffer's samples to shade"));
         } else {
             passes.push((
-                Pass::Opaque,
+                Pass::OPAQUE,
                 match (has_opaque, depth) {
                     (true, true) => "opaque or masked draws exist",
                     (true, false) => {
@@ -226,36 +211,34 @@ impl FramePlan {
             ));
         }
         if background && !visibility {
-            passes.push((Pass::Background, "the scene has an environment, shown where no surface is"));
+            passes.push((Pass::BACKGROUND, "the scene has an environment, shown where no surface is"));
         }
         if culled && occlusion && has_opaque {
-            passes.push((Pass::OcclusionLate, "occlusion culling (many opaque instances, or asked for)"));
+            passes.push((Pass::OCCLUSION_LATE, "occlusion culling (many opaque instances, or asked for)"));
         }
         if deferred {
             passes.push((
-                Pass::DeferredLights,
+                Pass::DEFERRED_LIGHTS,
                 "local lights shaded in compute (long cluster lists, or --light-walk compute)",
             ));
         }
         if has_blend {
-            passes.push((Pass::Transparent, "blended draws exist"));
+            passes.push((Pass::TRANSPARENT, "blended draws exist"));
         }
         if gizmo_vertices > 0 {
-            passes.push((Pass::Gizmos, "the scene has gizmo lines to draw"));
+            passes.push((Pass::GIZMOS, "the scene has gizmo lines to draw"));
         }
-        if bloom {
-            passes.push((Pass::Bloom, "bloom is on"));
+        Self { passes, post_left_out: Vec::new(), needs }
+    }
+
+    /// Appends the post-processing chain's decisions, in the chain's order.
+    pub fn add_post(&mut self, decisions: impl IntoIterator<Item = (Pass, Decision)>) {
+        for (pass, decision) in decisions {
+            match decision {
+                Decision::Runs(why) => self.passes.push((pass, why)),
+                Decision::LeftOut(why) => self.post_left_out.push((pass, why)),
+            }
         }
-        if auto_exposure {
-            passes.push((Pass::AutoExposure, "automatic exposure is on"));
-        }
-        if !direct_output {
-            passes.push((Pass::Tonemap, "the HDR colour is tonemapped into the output"));
-        }
-        if fxaa {
-            passes.push((Pass::Fxaa, "FXAA is on"));
-        }
-        Self { passes, needs }
     }
 
     pub fn runs(&self, pass: Pass) -> bool {
@@ -265,51 +248,44 @@ impl FramePlan {
     /// The passes this frame leaves out, each with the reason (what the scene lacks).
     pub fn left_out(&self) -> Vec<(Pass, &'static str)> {
         let n = &self.needs;
-        Pass::ALL
-            .into_iter()
+        CORE.into_iter()
             .filter(|p| !self.runs(*p))
             .map(|p| {
                 let why = match p {
-                    Pass::EnvironmentPrefilter if n.background => "the environment's maps are unchanged",
-                    Pass::EnvironmentPrefilter => "no environment changed (or none exists)",
-                    Pass::Deform => "no skinned or morphed draw changed pose",
-                    Pass::Cull if !n.has_opaque => "no opaque draws",
-                    Pass::Cull if n.opaque_instances == 1 => {
+                    Pass::ENVIRONMENT_PREFILTER if n.background => "the environment's maps are unchanged",
+                    Pass::ENVIRONMENT_PREFILTER => "no environment changed (or none exists)",
+                    Pass::DEFORM => "no skinned or morphed draw changed pose",
+                    Pass::CULL if !n.has_opaque => "no opaque draws",
+                    Pass::CULL if n.opaque_instances == 1 => {
                         "one opaque instance: culling it could only save a frame that shows nothing"
                     }
-                    Pass::Cull => "GPU culling off or unsupported by the adapter",
-                    Pass::ClusterBin if n.binned_lights == 0 => "no local lights reach the fragment shader's lists",
-                    Pass::ClusterBin => "nothing to light",
-                    Pass::Shadows => "no shadowed light's casters reach what the camera sees",
-                    Pass::Tonemap => {
-                        "nothing reads the HDR colour (MSAA 1, or MSAA resolving display colours; no \
-                         post-processing, environment background, blended draws, gizmos, deferred \
-                         lights or HDR readback): the opaque pass tonemaps and draws into the output"
-                    }
-                    Pass::Opaque => "opaque draws are rasterised and shaded in compute (--raster compute or auto)",
-                    Pass::VisibilityRaster | Pass::VisibilityShade => {
+                    Pass::CULL => "GPU culling off or unsupported by the adapter",
+                    Pass::CLUSTER_BIN if n.binned_lights == 0 => "no local lights reach the fragment shader's lists",
+                    Pass::CLUSTER_BIN => "nothing to light",
+                    Pass::SHADOWS => "no shadowed light's casters reach what the camera sees",
+                    Pass::OPAQUE => "opaque draws are rasterised and shaded in compute (--raster compute or auto)",
+                    Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE => {
                         "opaque draws rasterise in hardware (--raster hardware, or auto on a GPU with \
                          many graphics units; with compute: no opaque draws, no GPU culling, blended \
                          or masked draws, gizmos, lines or points, occlusion culling asked for, no \
                          64-bit atomics on the adapter, or a visibility buffer larger than one \
                          storage binding)"
                     }
-                    Pass::Background if n.background => {
+                    Pass::BACKGROUND if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"
                     }
-                    Pass::Background => "no environment to show (none, or a solid background colour)",
-                    Pass::OcclusionLate => {
+                    Pass::BACKGROUND => "no environment to show (none, or a solid background colour)",
+                    Pass::OCCLUSION_LATE => {
                         "occlusion culling off (auto: fewer than 10 000 opaque instances or a CPU adapter)"
                     }
-                    Pass::DeferredLights => "local lights are shaded in the fragment shader, or there are none",
-                    Pass::Transparent => "no blended draws",
-                    Pass::Gizmos => "no gizmo lines",
-                    Pass::Bloom => "bloom is off",
-                    Pass::AutoExposure => "automatic exposure is off",
-                    Pass::Fxaa => "FXAA is off",
+                    Pass::DEFERRED_LIGHTS => "local lights are shaded in the fragment shader, or there are none",
+                    Pass::TRANSPARENT => "no blended draws",
+                    Pass::GIZMOS => "no gizmo lines",
+                    _ => unreachable!("every core pass has its reason"),
                 };
                 (p, why)
             })
+            .chain(self.post_left_out.iter().copied())
             .collect()
     }
 }
@@ -333,52 +309,50 @@ mod tests {
 
     #[test]
     fn transparent_phase_only_with_blended_draws() {
-        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Transparent));
-        assert!(plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::Transparent));
-        assert!(plan(SceneNeeds { ..Default::default() }).runs(Pass::Tonemap));
+        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::TRANSPARENT));
+        assert!(plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::TRANSPARENT));
     }
 
     #[test]
-    fn tonemap_pass_only_when_the_frame_has_hdr_colour() {
-        let direct = plan(SceneNeeds { has_opaque: true, direct_output: true, ..Default::default() });
-        let order: Vec<Pass> = direct.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::Opaque]);
-        assert!(direct.left_out().iter().any(|(p, why)| *p == Pass::Tonemap && why.contains("nothing reads")));
+    fn every_core_pass_left_out_has_a_reason() {
+        let empty = plan(SceneNeeds::default());
+        let left: Vec<Pass> = empty.left_out().into_iter().map(|(p, _)| p).collect();
+        assert_eq!(left.len() + empty.passes.len(), CORE.len(), "{left:?}");
     }
 
     #[test]
     fn cluster_binning_only_with_local_lights_and_something_to_light() {
-        assert!(!plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::ClusterBin));
-        assert!(plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).runs(Pass::ClusterBin));
-        assert!(!plan(SceneNeeds { binned_lights: 3, ..Default::default() }).runs(Pass::ClusterBin));
+        assert!(!plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::CLUSTER_BIN));
+        assert!(plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).runs(Pass::CLUSTER_BIN));
+        assert!(!plan(SceneNeeds { binned_lights: 3, ..Default::default() }).runs(Pass::CLUSTER_BIN));
         assert_eq!(
             plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).passes[0].0,
-            Pass::ClusterBin,
+            Pass::CLUSTER_BIN,
             "binning precedes the forward pass"
         );
     }
 
     #[test]
     fn shadow_passes_only_with_layers_to_render_and_before_the_forward_pass() {
-        assert!(!plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).runs(Pass::Shadows));
+        assert!(!plan(SceneNeeds { binned_lights: 3, has_opaque: true, ..Default::default() }).runs(Pass::SHADOWS));
         let plan = plan(SceneNeeds { binned_lights: 3, shadow_layers: 2, has_opaque: true, ..Default::default() });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
+        assert_eq!(order, [Pass::CLUSTER_BIN, Pass::SHADOWS, Pass::OPAQUE]);
     }
 
     #[test]
     fn deformation_only_when_a_pose_changed_and_before_everything_that_draws() {
-        assert!(!plan(SceneNeeds { has_opaque: true, shadow_layers: 1, ..Default::default() }).runs(Pass::Deform));
+        assert!(!plan(SceneNeeds { has_opaque: true, shadow_layers: 1, ..Default::default() }).runs(Pass::DEFORM));
         let plan =
             plan(SceneNeeds { deform_jobs: 2, has_opaque: true, culled: true, shadow_layers: 1, ..Default::default() });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::Deform, Pass::Cull, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
+        assert_eq!(order, [Pass::DEFORM, Pass::CULL, Pass::SHADOWS, Pass::OPAQUE]);
     }
 
     #[test]
     fn culling_only_with_opaque_draws_and_first() {
-        assert!(!plan(SceneNeeds { has_blend: true, culled: true, ..Default::default() }).runs(Pass::Cull));
-        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Cull));
+        assert!(!plan(SceneNeeds { has_blend: true, culled: true, ..Default::default() }).runs(Pass::CULL));
+        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::CULL));
         let plan = plan(SceneNeeds {
             binned_lights: 3,
             shadow_layers: 2,
@@ -387,25 +361,25 @@ mod tests {
             ..Default::default()
         });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::Cull, Pass::ClusterBin, Pass::Shadows, Pass::Opaque, Pass::Tonemap]);
+        assert_eq!(order, [Pass::CULL, Pass::CLUSTER_BIN, Pass::SHADOWS, Pass::OPAQUE]);
     }
 
     #[test]
     fn occlusion_culling_splits_the_opaque_phase_only_when_culling_runs() {
         assert!(
-            !plan(SceneNeeds { has_opaque: true, occlusion: true, ..Default::default() }).runs(Pass::OcclusionLate)
+            !plan(SceneNeeds { has_opaque: true, occlusion: true, ..Default::default() }).runs(Pass::OCCLUSION_LATE)
         );
         let plan =
             plan(SceneNeeds { has_opaque: true, has_blend: true, culled: true, occlusion: true, ..Default::default() });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::Cull, Pass::Opaque, Pass::OcclusionLate, Pass::Transparent, Pass::Tonemap]);
+        assert_eq!(order, [Pass::CULL, Pass::OPAQUE, Pass::OCCLUSION_LATE, Pass::TRANSPARENT]);
     }
 
     #[test]
     fn deferred_lights_only_when_asked_for_between_opaque_and_blended_draws() {
         assert!(
             !plan(SceneNeeds { binned_lights: 3, has_opaque: true, has_blend: true, ..Default::default() })
-                .runs(Pass::DeferredLights)
+                .runs(Pass::DEFERRED_LIGHTS)
         );
         let plan = plan(SceneNeeds {
             binned_lights: 3,
@@ -415,15 +389,15 @@ mod tests {
             ..Default::default()
         });
         let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::ClusterBin, Pass::Opaque, Pass::DeferredLights, Pass::Transparent, Pass::Tonemap]);
+        assert_eq!(order, [Pass::CLUSTER_BIN, Pass::OPAQUE, Pass::DEFERRED_LIGHTS, Pass::TRANSPARENT]);
     }
 
     #[test]
     fn environment_prefilter_only_when_it_changed_and_first() {
         let still = plan(SceneNeeds { has_opaque: true, background: true, ..Default::default() });
-        assert!(!still.runs(Pass::EnvironmentPrefilter));
+        assert!(!still.runs(Pass::ENVIRONMENT_PREFILTER));
         let order: Vec<Pass> = still.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::Opaque, Pass::Background, Pass::Tonemap]);
+        assert_eq!(order, [Pass::OPAQUE, Pass::BACKGROUND]);
         let changed = plan(SceneNeeds {
             has_opaque: true,
             environment_changed: true,
@@ -431,17 +405,23 @@ mod tests {
             background: true,
             ..Default::default()
         });
-        assert_eq!(changed.passes[0].0, Pass::EnvironmentPrefilter);
-        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::Background));
+        assert_eq!(changed.passes[0].0, Pass::ENVIRONMENT_PREFILTER);
+        assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::BACKGROUND));
     }
 
     #[test]
-    fn post_processing_only_when_on_and_around_the_tonemap_pass() {
-        let off = plan(SceneNeeds { has_opaque: true, ..Default::default() });
-        assert!(!off.runs(Pass::Bloom) && !off.runs(Pass::AutoExposure) && !off.runs(Pass::Fxaa));
-        let on =
-            plan(SceneNeeds { has_opaque: true, bloom: true, auto_exposure: true, fxaa: true, ..Default::default() });
-        let order: Vec<Pass> = on.passes.iter().map(|p| p.0).collect();
-        assert_eq!(order, [Pass::Opaque, Pass::Bloom, Pass::AutoExposure, Pass::Tonemap, Pass::Fxaa]);
+    fn post_stages_follow_the_core_passes_in_chain_order_and_say_why_they_are_left_out() {
+        let bloom = Pass::new("Bloom", "");
+        let tonemap = Pass::new("Tonemap", "");
+        let fxaa = Pass::new("Fxaa", "");
+        let mut plan = plan(SceneNeeds { has_opaque: true, ..Default::default() });
+        plan.add_post([
+            (bloom, Decision::Runs("bloom is on")),
+            (tonemap, Decision::Runs("tonemapped")),
+            (fxaa, Decision::LeftOut("FXAA is off")),
+        ]);
+        let order: Vec<Pass> = plan.passes.iter().map(|p| p.0).collect();
+        assert_eq!(order, [Pass::OPAQUE, bloom, tonemap]);
+        assert!(plan.left_out().contains(&(fxaa, "FXAA is off")));
     }
 }

@@ -2,17 +2,37 @@
 //! environment, clusters, culling, rasterisation), validated as a whole, and the changes a
 //! backend forces on them (with a warning).
 
+use crate::features::bloom::BloomSettings;
 use crate::features::clusters::LightWalk;
 use crate::features::clusters::grid::ClusterConfig;
 use crate::features::culling::{OcclusionCulling, TriangleCulling};
 use crate::features::environment::EnvironmentSettings;
-use crate::features::post::PostSettings;
+use crate::features::exposure::AutoExposure;
 use crate::features::shadows::{ShadowSettings, ShadowSettingsError};
 use crate::features::visibility::Raster;
 use crate::gpu::context::GpuContext;
 use crate::resources::draws::{DebugView, Tonemapper};
 use crate::resources::light_store::DEFAULT_CUTOFF;
 use crate::targets::MsaaResolve;
+
+/// Which post-processes run (the chain is `frame::post_chain`; each process's settings live in
+/// its folder). All off by default: each costs GPU time and changes the image, so a scene asks
+/// for it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PostSettings {
+    pub bloom: Option<BloomSettings>,
+    /// FXAA on the tonemapped image (a cheap alternative to MSAA, or on top of it).
+    pub fxaa: bool,
+    /// Automatic exposure instead of the camera's EV100 alone.
+    pub auto_exposure: Option<AutoExposure>,
+}
+
+impl PostSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        self.bloom.as_ref().map_or(Ok(()), BloomSettings::validate)?;
+        self.auto_exposure.as_ref().map_or(Ok(()), AutoExposure::validate)
+    }
+}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderSettings {

@@ -8,9 +8,9 @@ use penumbra_engine::environment::{Background, Environment, EnvironmentImage, En
 use penumbra_render::DebugView;
 use penumbra_render::features::clusters::grid::ClusterConfig;
 use penumbra_render::features::environment::EnvironmentSettings;
-use penumbra_render::features::post::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::headless::CameraChoice;
+use penumbra_render::{AutoExposure, BloomSettings, PostSettings};
 use penumbra_render::{LightWalk, OcclusionCulling, Raster, SettingsError, TriangleCulling};
 use penumbra_render::{MsaaResolve, QualityPreset, RenderSettings, ShaderSource, Tonemapper};
 

@@ -20,21 +20,19 @@ fn the_list_is_what_the_shaders_test_and_the_pipelines_set() {
     assert!(FEATURE_SWITCHES.is_sorted_by(|a, b| a < b), "sorted (check searches it), no name twice");
     // The other way: a switch no pipeline sets any more would leave its code out for good.
     // (ShaderDefs::with debug-asserts that whatever is set is listed.)
-    // The files that set switches: each feature's pipeline family and the draw key.
-    let pipeline_code = [
-        include_str!("../resources/draws.rs"),
-        include_str!("../resources/mipmap.rs"),
-        include_str!("../features/deform/pipeline.rs"),
-        include_str!("../features/culling/pipelines.rs"),
-        include_str!("../features/deferred_lights/mod.rs"),
-        include_str!("../features/post/pipelines.rs"),
-        include_str!("../features/fxaa/mod.rs"),
-        include_str!("../features/shadows/casters.rs"),
-        include_str!("../features/tonemap/mod.rs"),
-        include_str!("../features/visibility/pipelines.rs"),
-        include_str!("../features/environment/pipelines.rs"),
-    ]
-    .concat();
+    // Every source file of the crate, where the pipeline families and the draw key set them.
+    let mut pipeline_code = String::new();
+    let mut folders = vec![std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/src"))];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(&folder).expect("the crate's sources").flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                folders.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                pipeline_code += &std::fs::read_to_string(&path).expect("a source file");
+            }
+        }
+    }
     for name in FEATURE_SWITCHES {
         assert!(pipeline_code.contains(&format!(".with(\"{name}\"")), "no pipeline sets {name}");
     }

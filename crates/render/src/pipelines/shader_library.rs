@@ -32,48 +32,9 @@ use naga_oil::compose::{
 /// variant brings in exactly as composition will: [`ShaderLibrary::variant_uses`].
 static PREPROCESSOR: LazyLock<Preprocessor> = LazyLock::new(Preprocessor::default);
 
-/// The shaders compiled into the binary: (file name, source).
-pub const EMBEDDED: &[(&str, &str)] = &[
-    ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
-    ("brdf.wgsl", include_str!("../../../../shaders/brdf.wgsl")),
-    ("view.wgsl", include_str!("../../../../shaders/view.wgsl")),
-    ("gbuffer.wgsl", include_str!("../../../../shaders/gbuffer.wgsl")),
-    ("draw_data.wgsl", include_str!("../../../../shaders/draw_data.wgsl")),
-    ("light_data.wgsl", include_str!("../../../../shaders/light_data.wgsl")),
-    ("area_lights.wgsl", include_str!("../../../../shaders/area_lights.wgsl")),
-    ("ltc.wgsl", include_str!("../../../../shaders/ltc.wgsl")),
-    ("ies.wgsl", include_str!("../../../../shaders/ies.wgsl")),
-    ("shadows.wgsl", include_str!("../../../../shaders/shadows.wgsl")),
-    ("cubemap.wgsl", include_str!("../../../../shaders/cubemap.wgsl")),
-    ("split_sum.wgsl", include_str!("../../../../shaders/split_sum.wgsl")),
-    ("ibl.wgsl", include_str!("../../../../shaders/ibl.wgsl")),
-    ("post_params.wgsl", include_str!("../../../../shaders/post_params.wgsl")),
-    ("lights.wgsl", include_str!("../../../../shaders/lights.wgsl")),
-    ("clusters.wgsl", include_str!("../../../../shaders/clusters.wgsl")),
-    ("cluster_bin.wgsl", include_str!("../../../../shaders/cluster_bin.wgsl")),
-    ("cull.wgsl", include_str!("../../../../shaders/cull.wgsl")),
-    ("hzb.wgsl", include_str!("../../../../shaders/hzb.wgsl")),
-    ("deform.wgsl", include_str!("../../../../shaders/deform.wgsl")),
-    ("visibility.wgsl", include_str!("../../../../shaders/visibility.wgsl")),
-    ("visibility_raster.wgsl", include_str!("../../../../shaders/visibility_raster.wgsl")),
-    ("forward.wgsl", include_str!("../../../../shaders/forward.wgsl")),
-    ("shadow_caster.wgsl", include_str!("../../../../shaders/shadow_caster.wgsl")),
-    ("deferred_lights.wgsl", include_str!("../../../../shaders/deferred_lights.wgsl")),
-    ("deferred_composite.wgsl", include_str!("../../../../shaders/deferred_composite.wgsl")),
-    ("display.wgsl", include_str!("../../../../shaders/display.wgsl")),
-    ("tonemap.wgsl", include_str!("../../../../shaders/tonemap.wgsl")),
-    ("mipmap.wgsl", include_str!("../../../../shaders/mipmap.wgsl")),
-    ("resolve.wgsl", include_str!("../../../../shaders/resolve.wgsl")),
-    ("env_source.wgsl", include_str!("../../../../shaders/env_source.wgsl")),
-    ("env_filter.wgsl", include_str!("../../../../shaders/env_filter.wgsl")),
-    ("brdf_lut.wgsl", include_str!("../../../../shaders/brdf_lut.wgsl")),
-    ("background.wgsl", include_str!("../../../../shaders/background.wgsl")),
-    ("bloom.wgsl", include_str!("../../../../shaders/bloom.wgsl")),
-    ("exposure.wgsl", include_str!("../../../../shaders/exposure.wgsl")),
-    ("fxaa.wgsl", include_str!("../../../../shaders/fxaa.wgsl")),
-    ("line_quads.wgsl", include_str!("../../../../shaders/line_quads.wgsl")),
-    ("gizmo.wgsl", include_str!("../../../../shaders/gizmo.wgsl")),
-];
+/// The shaders compiled into the binary, every `*.wgsl` of the repository's shader folder (the
+/// build script lists them): (file name, source), by name.
+pub const EMBEDDED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/embedded_shaders.rs"));
 
 /// The repository's shader folder as seen at compile time; the viewer watches it when it still
 /// exists at run time (running from a checkout).

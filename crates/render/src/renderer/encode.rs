@@ -7,6 +7,7 @@ use super::prepare::PreparedFrame;
 use crate::features::culling::CullInputs;
 use crate::features::deferred_lights::DeferredKey;
 use crate::features::forward::{self, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase};
+use crate::features::post::Target;
 use crate::features::tonemap;
 use crate::features::visibility::ShadeOutput;
 use crate::frame::Pass;
@@ -51,15 +52,15 @@ impl Renderer {
             targets,
         };
         let mut deform_error = None;
-        if plan.runs(Pass::Deform) {
+        if plan.runs(Pass::DEFORM) {
             deform_error = self.deformer.encode(&mut cx, &self.mesh_pool).err();
         }
         let mut env_error = None;
-        if plan.runs(Pass::EnvironmentPrefilter) {
+        if plan.runs(Pass::ENVIRONMENT_PREFILTER) {
             env_error = self.environment.encode(&mut cx).err();
         }
         let mut cluster_error = None;
-        if plan.runs(Pass::ClusterBin) {
+        if plan.runs(Pass::CLUSTER_BIN) {
             cluster_error = self.clusters.encode(&mut cx).err();
         }
         let cull_inputs = CullInputs {
@@ -70,11 +71,11 @@ impl Renderer {
             pool_indices: self.mesh_pool.index_buffer(),
             pool_vertices: self.mesh_pool.vertex_buffer(),
         };
-        if plan.runs(Pass::Cull) {
+        if plan.runs(Pass::CULL) {
             self.culling.encode(&mut cx, &cull_inputs);
         }
         let mut shadow_error = None;
-        if plan.runs(Pass::Shadows) {
+        if plan.runs(Pass::SHADOWS) {
             shadow_error = self.shadows.encode(
                 &mut cx,
                 &self.settings.shadows,
@@ -103,7 +104,7 @@ impl Renderer {
         // The background is composited over the resolved frame (one sample a pixel, after the
         // surfaces left their coverage in alpha), except with deferred local lights, whose
         // colour alpha carries roughness: then the forward pass draws it where depth is clear.
-        let composite_background = plan.runs(Pass::Background) && !deferred;
+        let composite_background = plan.runs(Pass::BACKGROUND) && !deferred;
         let inputs = ForwardInputs {
             targets,
             output,
@@ -116,11 +117,11 @@ impl Renderer {
                 batches: self.draws.opaque_batches().len(),
                 triangles: triangle_draws.as_ref(),
             }),
-            background: plan.runs(Pass::Background) && !composite_background,
-            gizmos: if plan.runs(Pass::Gizmos) { self.gizmos.draw() } else { None },
+            background: plan.runs(Pass::BACKGROUND) && !composite_background,
+            gizmos: if plan.runs(Pass::GIZMOS) { self.gizmos.draw() } else { None },
         };
         let opaque_count = self.draws.opaque_batches().len();
-        let (mut counts, mut forward_error) = if plan.runs(Pass::OcclusionLate) {
+        let (mut counts, mut forward_error) = if plan.runs(Pass::OCCLUSION_LATE) {
             let (early, early_error) = forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::Early);
             let depth = (targets.depth_view.as_ref().expect("occlusion culling keeps depth"), targets.samples);
             self.culling.encode_late(&mut cx, &cull_inputs, depth);
@@ -136,7 +137,7 @@ impl Renderer {
             // Both passes submit the opaque batches; count them once.
             let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
             (counts, early_error.or(error))
-        } else if plan.runs(Pass::VisibilityRaster) {
+        } else if plan.runs(Pass::VISIBILITY_RASTER) {
             if self.visibility_batches_seen != Some(self.draws.batch_generation()) {
                 self.visibility.prepare_batches(&device, &queue, self.draws.opaque_batches(), &self.mesh_pool);
                 self.visibility_batches_seen = Some(self.draws.batch_generation());
@@ -169,12 +170,12 @@ impl Renderer {
             let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &inputs).err();
             self.visibility.encode(&mut cx, &inputs);
             (DrawCounts::default(), error)
-        } else if plan.runs(Pass::Opaque) {
+        } else if plan.runs(Pass::OPAQUE) {
             forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::All)
         } else {
             (DrawCounts::default(), None)
         };
-        if plan.runs(Pass::DeferredLights) {
+        if plan.runs(Pass::DEFERRED_LIGHTS) {
             let key = DeferredKey {
                 multisampled: targets.samples > 1,
                 light_shapes: variant.light_shapes,
@@ -195,23 +196,7 @@ impl Renderer {
         if composite_background && let Err(e) = forward::encode_background(&mut cx, view_bind_group) {
             forward_error = forward_error.or(Some(e));
         }
-        let mut post_error = None;
-        if plan.runs(Pass::Bloom) || plan.runs(Pass::AutoExposure) {
-            post_error = self.post.encode_before_tonemap(&mut cx).err();
-        }
-        // With FXAA the tonemap pass writes the intermediate FXAA reads.
-        let mut tonemap_result = Ok(());
-        if plan.runs(Pass::Tonemap) {
-            // With FXAA the tonemap pass writes the intermediate FXAA reads.
-            let (view, format) = self.fxaa.tonemap_target().unwrap_or((output, output_format));
-            let tonemap_key = self.post.tonemap_key(self.settings.tonemapper, format);
-            let tonemap_output = tonemap::Output { view, format };
-            tonemap_result = tonemap::encode(&mut cx, self.post.tonemap_group(), tonemap_key, tonemap_output);
-        }
-        if plan.runs(Pass::Fxaa) {
-            let fxaa = self.fxaa.encode(&mut cx, output, output_format);
-            tonemap_result = tonemap_result.and(fxaa);
-        }
+        let post_error = self.post.encode(&mut cx, Target { view: output.clone(), format: output_format });
         if let Some(e) = post_error
             .or(deform_error)
             .or(env_error)
@@ -219,7 +204,6 @@ impl Renderer {
             .or(frame.cull_error.clone())
             .or(shadow_error)
             .or(forward_error)
-            .or(tonemap_result.err())
             && self.shader_error.as_ref() != Some(&e)
         {
             tracing::error!("{e}");

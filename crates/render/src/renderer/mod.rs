@@ -15,14 +15,12 @@ use crate::features::deferred_lights::DeferredLights;
 use crate::features::deform::MeshDeformer;
 use crate::features::environment::EnvironmentLighting;
 use crate::features::forward::{DrawCounts, ForwardFamily};
-use crate::features::fxaa::Fxaa;
 use crate::features::gizmos::GizmoFamily;
-use crate::features::post::PostProcess;
+use crate::features::post::PostChain;
 use crate::features::resolve::ResolveFamily;
 use crate::features::shadows::orchestrator::ShadowOrchestrator;
-use crate::features::tonemap::TonemapFamily;
 use crate::features::visibility::{Raster, VisibilityBuffer};
-use crate::frame::Pass;
+use crate::frame::{self, Pass};
 use crate::gpu::context::GpuContext;
 use crate::gpu::readback::ReadbackError;
 use crate::gpu::timing::GpuTimer;
@@ -94,8 +92,8 @@ pub struct Renderer {
     clusters: ClusterBinner,
     shadows: ShadowOrchestrator,
     environment: EnvironmentLighting,
-    post: PostProcess,
-    fxaa: Fxaa,
+    /// The post-processing chain (bloom, automatic exposure, tonemap, FXAA).
+    post: PostChain<RenderSettings>,
     /// The view uniform and the view group (group 0 of every lit pipeline).
     view: ViewGroup,
     /// Every drawable entity, the batches and the draw slots.
@@ -181,7 +179,6 @@ impl Renderer {
         let clusters = ClusterBinner::new(device, &mut pipelines);
         let deferred = DeferredLights::new(device, &mut pipelines, view.layout());
         pipelines.register(ResolveFamily::new(device));
-        pipelines.register(TonemapFamily::new(device));
         let textures = TextureCache::new(
             device,
             &ctx.queue,
@@ -192,8 +189,7 @@ impl Renderer {
         );
         pipelines.register(GizmoFamily::new(device, view.layout()));
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
-        let post = PostProcess::new(device, &mut pipelines);
-        let fxaa = Fxaa::new(device, &mut pipelines);
+        let post = frame::post_chain(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
         Ok(Self {
             mesh_pool: MeshPool::new(device),
@@ -206,7 +202,6 @@ impl Renderer {
             shadows,
             environment,
             post,
-            fxaa,
             draws: DrawList::new(
                 device,
                 FrameVariant { msaa: settings.msaa, debug: settings.debug_view, ..Default::default() },
@@ -407,7 +402,7 @@ impl Renderer {
             clusters: self.clusters.gpu_bytes(),
             shadows: self.shadows.gpu_bytes(),
             environment: self.environment.bytes(),
-            post: self.post.gpu_bytes() + self.fxaa.gpu_bytes(),
+            post: self.post.gpu_bytes(),
             deform: self.deformer.gpu_bytes(),
         }
     }
@@ -475,7 +470,7 @@ impl Renderer {
             primitives: counts.primitives,
             lights: self.lights.count(),
             local_lights: self.lights.local_count(),
-            cluster_index_bound: if plan.runs(Pass::ClusterBin) { self.clusters.index_bound() } else { 0 },
+            cluster_index_bound: if plan.runs(Pass::CLUSTER_BIN) { self.clusters.index_bound() } else { 0 },
             light_bytes_uploaded: self.lights.last_upload_bytes,
             instance_bytes_uploaded: self.instances.last_upload_bytes,
             cpu_ms,

@@ -14,6 +14,7 @@ use super::Renderer;
 use crate::features::clusters::{AUTO_COMPUTE_ENTER, AUTO_COMPUTE_LEAVE, LightWalk};
 use crate::features::culling::{GpuCulling, OCCLUSION_AUTO_MIN, OcclusionCulling, RasterTarget, TriangleCulling};
 use crate::features::deform::Visit;
+use crate::features::post::PostPrepare;
 use crate::features::shadows::local::LocalCandidate;
 use crate::features::shadows::orchestrator::DirectionalCandidate;
 use crate::frame::{FramePlan, SceneNeeds};
@@ -223,7 +224,6 @@ impl Renderer {
         let visibility = visibility_wanted && self.culling_active && gizmo_vertices == 0;
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
-        let post_settings = &self.settings.post;
         let needs = TargetNeeds {
             msaa: self.settings.msaa,
             display_resolve: self.settings.msaa_resolve == MsaaResolve::Display && output_format.is_srgb(),
@@ -232,9 +232,7 @@ impl Renderer {
             blended_draws: !blend_batches.is_empty(),
             background,
             gizmos: gizmo_vertices > 0,
-            post_processing: post_settings.bloom.is_some()
-                || post_settings.auto_exposure.is_some()
-                || post_settings.fxaa,
+            post_processing: self.post.wants_hdr(&self.settings),
             occlusion_culling: occlusion,
             opaque: match self.draws.opaque_batches() {
                 [] => OpaqueDraws::None,
@@ -299,21 +297,20 @@ impl Renderer {
             }
         }
         let camera_exposure = scene.view.map_or(1.0, |v| v.exposure);
-        let post = self.post.prepare(
-            &device,
-            &queue,
-            &self.pipelines,
-            self.targets.as_ref().expect("made above"),
-            &self.settings.post,
-            scene.delta_seconds,
-            camera_exposure,
-        );
         let targets = self.targets.as_ref().expect("made above");
-        let fxaa = self.fxaa.prepare(&device, &self.pipelines, targets, self.settings.post.fxaa);
+        let post_cx = PostPrepare {
+            device: &device,
+            queue: &queue,
+            pipelines: &self.pipelines,
+            hdr: targets.hdr_view(),
+            size: targets.size,
+            delta_seconds: scene.delta_seconds,
+        };
+        self.post.prepare(&post_cx, &self.settings, camera_exposure);
         let variant = *self.draws.variant();
         let binned = if variant.local_lights == LocalLights::Clustered { self.lights.local_count() } else { 0 };
         let shadow_layers = self.shadows.frame().rendered_layers();
-        let plan = FramePlan::new(SceneNeeds {
+        let mut plan = FramePlan::new(SceneNeeds {
             binned_lights: binned,
             shadow_layers,
             has_opaque: !self.draws.opaque_batches().is_empty(),
@@ -327,13 +324,10 @@ impl Renderer {
             split_sum_table: self.environment.table_pending(),
             deform_jobs: deform_frame.jobs,
             background,
-            bloom: post.bloom,
-            auto_exposure: post.auto_exposure,
-            fxaa,
             gizmo_vertices,
-            direct_output: direct,
             depth: !depth_free,
         });
+        plan.add_post(self.post.decisions());
         PreparedFrame {
             plan,
             batches,

@@ -101,7 +101,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             clusters_ms: median(t.pass(BINNING_PASS)),
             forward_ms: median(t.pass("forward")),
             raster_ms: median(t.pass("visibility raster")).zip(median(t.pass("visibility shade"))),
-            compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DeferredLights),
+            compute: renderer.stats().plan.runs(penumbra_render::frame::Pass::DEFERRED_LIGHTS),
             deferred_ms: median(t.pass("deferred lights")).map(|d| d + median(t.pass("composite")).unwrap_or(0.0)),
             gpu_ms: median(Some(&t.gpu_total)),
             wall_ms: percentile(&t.wall, 0.5),

@@ -180,7 +180,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             median(t.pass("shadow local")).filter(|_| local_layers > 0).map(|ms| ms / local_layers as f64);
         let shadows_ms = (!shadow_passes.is_empty()).then(|| shadow_passes.iter().sum::<f64>());
         let atlas_mib = renderer.memory().shadows as f64 / 1048576.0;
-        assert_eq!(renderer.stats().plan.runs(Pass::Shadows), layers > 0);
+        assert_eq!(renderer.stats().plan.runs(Pass::SHADOWS), layers > 0);
         let settings = RenderSettings { gpu_timing: false, shadows, ..base.clone() };
         let image = frame(&mut app_with(&ctx, settings, on, local, false, args.size)?)?;
         let reference = if local { &local_reference } else { &reference };

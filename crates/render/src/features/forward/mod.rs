@@ -48,7 +48,7 @@ pub struct ForwardInputs<'a> {
     /// With GPU culling: the first `batches` batches (the opaque ones) draw from these
     /// indirect arguments (`culling::ARGS_WORDS` words each, in batch order).
     pub indirect: Option<IndirectDraws<'a>>,
-    /// Draw the environment behind the scene (`Pass::Background`) in this pass, after the
+    /// Draw the environment behind the scene (`Pass::BACKGROUND`) in this pass, after the
     /// opaque batches (with deferred local lights; otherwise `encode_background` composites it
     /// over the resolved frame).
     pub background: bool,

@@ -1,14 +1,19 @@
-//! FXAA: the tonemap pass writes the displayed frame into an 8-bit intermediate (display-encoded
-//! values, so the filter works on what is seen), and this pass filters it into the output
-//! (`shaders/fxaa.wgsl`). Runs when `PostSettings::fxaa` is on and the frame has an HDR target
-//! (a frame drawn straight into the output has no tonemap pass to write the intermediate).
+//! FXAA: the tonemap stage writes the displayed frame into this stage's 8-bit intermediate
+//! (display-encoded values, so the filter works on what is seen), and this pass filters it into
+//! the output (`shaders/fxaa.wgsl`).
 //!
-//! The intermediate is sized with the frame and made again only when the frame's size changes.
+//! A post-processing stage (`features::post`): it runs when FXAA is on and the frame has an
+//! HDR target (a frame drawn straight into the output has no tonemap pass to write the
+//! intermediate). The intermediate is its input: sized with the frame, made again only when
+//! the frame's size changes.
 
+use crate::features::post::{Decision, PostPrepare, PostShared, PostStage, Target};
 use crate::frame_context::FrameContext;
 use crate::gpu::formats::LDR_FORMAT;
+use crate::pass::Pass;
 use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError, parts};
-use crate::targets::FrameTargets;
+
+pub const PASS: Pass = Pass::new("Fxaa", "tonemapped intermediate -> output");
 
 /// What the pass reads: the intermediate and its bind group.
 struct Intermediate {
@@ -18,7 +23,6 @@ struct Intermediate {
 }
 
 pub struct Fxaa {
-    sampler: wgpu::Sampler,
     intermediate: Option<Intermediate>,
 }
 
@@ -26,31 +30,27 @@ impl Fxaa {
     /// Registers FXAA's pipeline family.
     pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
         pipelines.register(FxaaFamily::new(device, &parts::filtered_source_layout(device)));
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("fxaa linear clamp"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
-        Self { sampler, intermediate: None }
+        Self { intermediate: None }
+    }
+}
+
+impl PostStage for Fxaa {
+    /// On or off.
+    type Settings = bool;
+    const PASS: Pass = PASS;
+
+    fn wants_hdr(on: &bool) -> bool {
+        *on
     }
 
-    /// Sizes the intermediate to the frame when FXAA is `on` and the frame has an HDR target;
-    /// returns whether the pass runs.
-    pub fn prepare(
-        &mut self,
-        device: &wgpu::Device,
-        pipelines: &PipelineCache,
-        targets: &FrameTargets,
-        on: bool,
-    ) -> bool {
-        if !on || targets.hdr_view().is_none() {
+    fn prepare(&mut self, cx: &PostPrepare, on: &bool, shared: &mut PostShared) -> Decision {
+        if !*on || cx.hdr.is_none() {
             self.intermediate = None;
-            return false;
+            return Decision::LeftOut("FXAA is off");
         }
-        let size = targets.size;
+        let size = cx.size;
         if self.intermediate.as_ref().is_none_or(|i| i.size != size) {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
+            let texture = cx.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("fxaa input"),
                 size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
                 mip_level_count: 1,
@@ -61,40 +61,33 @@ impl Fxaa {
                 view_formats: &[],
             });
             let view = texture.create_view(&Default::default());
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            let group = cx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("fxaa input"),
-                layout: &pipelines.family::<FxaaFamily>().source,
+                layout: &cx.pipelines.family::<FxaaFamily>().source,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&shared.sampler) },
                 ],
             });
             self.intermediate = Some(Intermediate { size, view, group });
         }
-        true
+        Decision::Runs("FXAA is on")
     }
 
-    /// Where the tonemap pass writes this frame (and its format), when FXAA runs.
-    pub fn tonemap_target(&self) -> Option<(&wgpu::TextureView, wgpu::TextureFormat)> {
-        self.intermediate.as_ref().map(|i| (&i.view, LDR_FORMAT))
+    fn input(&self) -> Option<Target> {
+        self.intermediate.as_ref().map(|i| Target { view: i.view.clone(), format: LDR_FORMAT })
     }
 
-    pub fn gpu_bytes(&self) -> u64 {
-        self.intermediate.as_ref().map_or(0, |i| i.size.0 as u64 * i.size.1 as u64 * 4)
-    }
-
-    /// FXAA from the intermediate into the output.
-    pub fn encode(
-        &self,
-        cx: &mut FrameContext,
-        output: &wgpu::TextureView,
-        output_format: wgpu::TextureFormat,
-    ) -> Result<(), ShaderError> {
+    fn encode(&mut self, cx: &mut FrameContext, _: &PostShared, output: &Target) -> Result<(), ShaderError> {
         let Some(intermediate) = &self.intermediate else { return Ok(()) };
-        let pipeline = cx.pipelines.get::<FxaaFamily>(cx.device, output_format)?;
+        let pipeline = cx.pipelines.get::<FxaaFamily>(cx.device, output.format)?;
         let timestamps = cx.timer.as_deref_mut().and_then(|t| t.pass("fxaa"));
-        parts::draw_fullscreen(cx.encoder, "fxaa", output, pipeline, &intermediate.group, timestamps);
+        parts::draw_fullscreen(cx.encoder, "fxaa", &output.view, pipeline, &intermediate.group, timestamps);
         Ok(())
+    }
+
+    fn gpu_bytes(&self) -> u64 {
+        self.intermediate.as_ref().map_or(0, |i| i.size.0 as u64 * i.size.1 as u64 * 4)
     }
 }
 

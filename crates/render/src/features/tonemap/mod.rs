@@ -1,14 +1,101 @@
-//! Tonemap pass: one full-screen triangle from the resolved HDR target (with bloom and
-//! automatic exposure when on, see `post.rs`, which owns its inputs) into the output.
+//! Tonemap: one full-screen triangle from the resolved HDR frame (with bloom's level 0 and
+//! automatic exposure's correction when they run) into the output, or into the input of the
+//! stage after it (FXAA's intermediate).
+//!
+//! A post-processing stage (`features::post`), after the stages that feed it: it binds the HDR
+//! frame, bloom's level 0 (a 1×1 stand-in without bloom), the chain's sampler and its
+//! parameters buffer, and remakes that group only when a view in it is replaced.
 //!
 //! When nothing reads the HDR colour the pass does not run: the forward shader applies the same
 //! display transform (`shaders/display.wgsl`) and draws into the output, and the clear colour,
 //! which no shader touches, goes through [`display_color`], this module's CPU copy of it.
 
+use crate::features::post::{Decision, PostPrepare, PostShared, PostStage, Target};
 use crate::frame_context::FrameContext;
+use crate::gpu::formats::HDR_FORMAT;
+use crate::pass::Pass;
 use crate::pipelines::parts::{self, sampler, storage, texture};
-use crate::pipelines::{PipelineFamily, ShaderDefs, ShaderError};
+use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
 use crate::resources::draws::Tonemapper;
+
+pub const PASS: Pass = Pass::new("Tonemap", "HDR colour [, bloom chain] [, exposure] -> output (sRGB)");
+
+/// The tonemap stage: its inputs' bind group and the bloom stand-in.
+pub struct Tonemap {
+    bloom_stand_in: wgpu::TextureView,
+    /// The group, and the HDR and bloom views it holds.
+    group: Option<(wgpu::BindGroup, wgpu::TextureView, Option<wgpu::TextureView>)>,
+    /// The curve this frame was prepared with.
+    tonemapper: Tonemapper,
+}
+
+impl Tonemap {
+    /// Registers the tonemap pipeline family.
+    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
+        pipelines.register(TonemapFamily::new(device));
+        let stand_in = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("no bloom"),
+            size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: HDR_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        Self { bloom_stand_in: stand_in.create_view(&Default::default()), group: None, tonemapper: Tonemapper::Neutral }
+    }
+}
+
+impl PostStage for Tonemap {
+    type Settings = Tonemapper;
+    const PASS: Pass = PASS;
+
+    fn wants_hdr(_: &Tonemapper) -> bool {
+        false
+    }
+
+    fn prepare(&mut self, cx: &PostPrepare, tonemapper: &Tonemapper, shared: &mut PostShared) -> Decision {
+        self.tonemapper = *tonemapper;
+        let Some(hdr) = cx.hdr else {
+            self.group = None;
+            return Decision::LeftOut(
+                "nothing reads the HDR colour (MSAA 1, or MSAA resolving display colours; no \
+                 post-processing, environment background, blended draws, gizmos, deferred \
+                 lights or HDR readback): the opaque pass tonemaps and draws into the output",
+            );
+        };
+        let bloom = shared.bloom.clone();
+        if self.group.as_ref().is_none_or(|(_, h, b)| h != hdr || *b != bloom) {
+            let group = cx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("tonemap inputs"),
+                layout: &cx.pipelines.family::<TonemapFamily>().layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr) },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(bloom.as_ref().unwrap_or(&self.bloom_stand_in)),
+                    },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&shared.sampler) },
+                    wgpu::BindGroupEntry { binding: 3, resource: shared.buffer().as_entire_binding() },
+                ],
+            });
+            self.group = Some((group, hdr.clone(), bloom));
+        }
+        Decision::Runs("the HDR colour is tonemapped into the output")
+    }
+
+    fn encode(&mut self, cx: &mut FrameContext, shared: &PostShared, output: &Target) -> Result<(), ShaderError> {
+        let Some((group, _, _)) = &self.group else { return Ok(()) };
+        let key = TonemapKey {
+            tonemapper: self.tonemapper,
+            format: output.format,
+            bloom: shared.bloom.is_some(),
+            auto_exposure: shared.auto_exposure,
+        };
+        encode(cx, group, key, output)
+    }
+}
 
 /// Everything that selects a tonemap pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -60,17 +147,11 @@ impl PipelineFamily for TonemapFamily {
     }
 }
 
-/// Where the tonemapped frame goes.
-pub struct Output<'a> {
-    pub view: &'a wgpu::TextureView,
-    pub format: wgpu::TextureFormat,
-}
-
-pub fn encode(
+fn encode(
     cx: &mut FrameContext,
     inputs: &wgpu::BindGroup,
     key: TonemapKey,
-    output: Output,
+    output: &Target,
 ) -> Result<(), ShaderError> {
     let (encoder, device, pipelines, timer) =
         (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
@@ -78,7 +159,7 @@ pub fn encode(
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("tonemap"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: output.view,
+            view: &output.view,
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },

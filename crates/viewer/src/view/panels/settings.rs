@@ -6,8 +6,8 @@
 use bevy_ecs::world::World;
 use penumbra_engine::components::Camera;
 use penumbra_render::DebugView;
-use penumbra_render::features::post::{AutoExposure, BloomSettings};
 use penumbra_render::features::shadows::ShadowFilter;
+use penumbra_render::{AutoExposure, BloomSettings};
 use penumbra_render::{QualityPreset, Renderer, Tonemapper};
 
 use crate::view::ui_state::Action;
