@@ -3,6 +3,10 @@
 //! to bin, the transparent phase only with blended draws, shadow maps only for layers a shadowed
 //! light's casters reach within sight (the shadow orchestrator decides which), environment
 //! prefiltering only when the environment changed, the background only with an environment.
+//!
+//! The plan's own passes (deform to gizmos) are constants here and their conditions are in
+//! [`FramePlan::new`]; the post-processing chain ([`post_chain`]) follows them, each stage
+//! deciding for itself and the plan listing its decision ([`FramePlan::add_post`]).
 
 use std::fmt;
 

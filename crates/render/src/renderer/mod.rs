@@ -14,10 +14,10 @@ use crate::features::culling::GpuCulling;
 use crate::features::deferred_lights::DeferredLights;
 use crate::features::deform::MeshDeformer;
 use crate::features::environment::EnvironmentLighting;
-use crate::features::forward::{DrawCounts, ForwardFamily};
-use crate::features::gizmos::GizmoFamily;
+use crate::features::forward::{self, DrawCounts, ForwardFamily};
+use crate::features::gizmos::GizmoLines;
 use crate::features::post::PostChain;
-use crate::features::resolve::ResolveFamily;
+use crate::features::resolve;
 use crate::features::shadows::orchestrator::ShadowOrchestrator;
 use crate::features::visibility::{Raster, VisibilityBuffer};
 use crate::frame::{self, Pass};
@@ -98,7 +98,7 @@ pub struct Renderer {
     view: ViewGroup,
     /// Every drawable entity, the batches and the draw slots.
     draws: DrawList,
-    gizmos: crate::features::gizmos::GizmoLines,
+    gizmos: GizmoLines,
     culling: GpuCulling,
     /// The draw list's batch generation `culling` last prepared.
     cull_batches_seen: Option<u64>,
@@ -163,9 +163,8 @@ impl Renderer {
         let view = ViewGroup::new(device);
         let materials = MaterialTable::new(device);
         // Each owner registers its pipeline families; registration order is the order reload
-        // reports list families in. The forward pass and the small passes without an owner of
-        // their own register here.
-        pipelines.register(ForwardFamily::new(device, view.layout(), materials.layout()));
+        // reports list families in.
+        forward::register(device, &mut pipelines, view.layout(), materials.layout());
         let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), materials.layout());
         let shadows = ShadowOrchestrator::new(
             device,
@@ -178,7 +177,7 @@ impl Renderer {
         let deformer = MeshDeformer::new(device, &mut pipelines);
         let clusters = ClusterBinner::new(device, &mut pipelines);
         let deferred = DeferredLights::new(device, &mut pipelines, view.layout());
-        pipelines.register(ResolveFamily::new(device));
+        resolve::register(device, &mut pipelines);
         let textures = TextureCache::new(
             device,
             &ctx.queue,
@@ -187,7 +186,7 @@ impl Renderer {
             ctx.caps.host_import_alignment,
             &mut pipelines,
         );
-        pipelines.register(GizmoFamily::new(device, view.layout()));
+        let gizmos = GizmoLines::new(device, &mut pipelines, view.layout());
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
         let post = frame::post_chain(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
@@ -208,7 +207,7 @@ impl Renderer {
             ),
             view,
             pipelines,
-            gizmos: Default::default(),
+            gizmos,
             culling,
             cull_batches_seen: None,
             cull_triangles_marked: false,

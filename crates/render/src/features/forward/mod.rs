@@ -21,6 +21,17 @@ use crate::targets::FrameTargets;
 mod pipeline;
 pub use pipeline::ForwardFamily;
 
+/// Registers the forward pass's pipeline family (the pass itself holds no resources: it draws
+/// the shared owners' buffers into the frame's targets).
+pub fn register(
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    view: &wgpu::BindGroupLayout,
+    material: &wgpu::BindGroupLayout,
+) {
+    pipelines.register(ForwardFamily::new(device, view, material));
+}
+
 #[derive(Debug, Default, Clone, Copy)]
 pub struct DrawCounts {
     pub draw_calls: u32,

@@ -10,7 +10,7 @@ use penumbra_engine::gizmos::GizmoLine;
 
 use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::pipelines::{PipelineFamily, ShaderDefs, parts};
+use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, parts};
 
 /// Mirrors `VertexIn` in `gizmo.wgsl`: camera-relative position, the other end's, colour, corner.
 pub const GIZMO_VERTEX_BYTES: u64 = 40;
@@ -93,7 +93,6 @@ pub struct GizmoDraw<'a> {
     pub count: u32,
 }
 
-#[derive(Default)]
 pub struct GizmoLines {
     buffer: Option<GrowableBuffer>,
     count: u32,
@@ -101,6 +100,12 @@ pub struct GizmoLines {
 }
 
 impl GizmoLines {
+    /// Registers the gizmo pipeline family.
+    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache, view: &wgpu::BindGroupLayout) -> Self {
+        pipelines.register(GizmoFamily::new(device, view));
+        Self { buffer: None, count: 0, scratch: Vec::new() }
+    }
+
     /// Uploads `lines` relative to `camera`; returns the vertex count (0: nothing to draw).
     pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, lines: &[GizmoLine], camera: Vec3) -> u32 {
         self.count = 0;

@@ -242,7 +242,150 @@ impl<S: 'static> PostChain<S> {
 
 #[cfg(test)]
 mod tests {
+    use std::sync::{Arc, Mutex};
+
     use super::*;
+    use crate::pipelines::ShaderLibrary;
+    use crate::targets::{FrameTargets, TargetsMade};
+
+    /// Stand-in stages: each records, when encoded, its name and the view it was handed.
+    type Log = Arc<Mutex<Vec<(&'static str, wgpu::TextureView)>>>;
+
+    struct Writer {
+        name: &'static str,
+        log: Log,
+    }
+
+    /// A stage that reads the image the stage before it writes, from its own input.
+    struct Reader {
+        name: &'static str,
+        input: wgpu::TextureView,
+        log: Log,
+    }
+
+    impl PostStage for Writer {
+        type Settings = bool;
+        const PASS: Pass = Pass::new("Writer", "");
+        fn wants_hdr(on: &bool) -> bool {
+            *on
+        }
+        fn prepare(&mut self, _: &PostPrepare, on: &bool, shared: &mut PostShared) -> Decision {
+            shared.params.bloom_strength += 1.0;
+            if *on { Decision::Runs("on") } else { Decision::LeftOut("off") }
+        }
+        fn encode(&mut self, _: &mut FrameContext, _: &PostShared, output: &Target) -> Result<(), ShaderError> {
+            self.log.lock().unwrap().push((self.name, output.view.clone()));
+            Ok(())
+        }
+    }
+
+    impl PostStage for Reader {
+        type Settings = bool;
+        const PASS: Pass = Pass::new("Reader", "");
+        fn wants_hdr(on: &bool) -> bool {
+            *on
+        }
+        fn prepare(&mut self, _: &PostPrepare, on: &bool, _: &mut PostShared) -> Decision {
+            if *on { Decision::Runs("on") } else { Decision::LeftOut("off") }
+        }
+        fn input(&self) -> Option<Target> {
+            Some(Target { view: self.input.clone(), format: wgpu::TextureFormat::Rgba8Unorm })
+        }
+        fn encode(&mut self, _: &mut FrameContext, _: &PostShared, output: &Target) -> Result<(), ShaderError> {
+            self.log.lock().unwrap().push((self.name, output.view.clone()));
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn stages_run_in_order_each_writing_into_the_next_running_stages_input_or_the_output() {
+        let ctx = crate::GpuContext::new_headless(&crate::AdapterRequest::default()).expect(crate::INSTALL_HINT);
+        let device = &ctx.device;
+        let view = |label| {
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { width: 4, height: 4, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba8Unorm,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        };
+        let (first_input, second_input, output) = (view("first input"), view("second input"), view("output"));
+        let log = Log::default();
+        let mut chain = PostChain::<[bool; 4]>::new(device)
+            .with(Writer { name: "tonemap", log: log.clone() }, |s| &s[0])
+            .with(Reader { name: "first", input: first_input.clone(), log: log.clone() }, |s| &s[1])
+            .with(Reader { name: "second", input: second_input.clone(), log: log.clone() }, |s| &s[2])
+            .with(Writer { name: "unused", log: log.clone() }, |s| &s[3]);
+        let made = TargetsMade {
+            hdr: true,
+            depth: false,
+            depth_sampled: false,
+            output_format: wgpu::TextureFormat::Rgba8Unorm,
+            shader_resolve: false,
+            hdr_storage: false,
+        };
+        let targets = FrameTargets::new(device, (4, 4), 1, false, made);
+        let mut pipelines = PipelineCache::new(ShaderLibrary::embedded().expect("the embedded shaders compose"));
+        let mut run = |settings: [bool; 4]| {
+            log.lock().unwrap().clear();
+            let cx = PostPrepare {
+                device,
+                queue: &ctx.queue,
+                pipelines: &pipelines,
+                hdr: targets.hdr_view(),
+                size: (4, 4),
+                delta_seconds: 0.0,
+            };
+            chain.prepare(&cx, &settings, 1.0);
+            let mut encoder = device.create_command_encoder(&Default::default());
+            let mut fcx = FrameContext {
+                device,
+                queue: &ctx.queue,
+                encoder: &mut encoder,
+                pipelines: &mut pipelines,
+                timer: None,
+                targets: &targets,
+            };
+            let target = Target { view: output.clone(), format: wgpu::TextureFormat::Rgba8Unorm };
+            assert!(chain.encode(&mut fcx, target).is_none());
+            let decisions: Vec<bool> = chain.decisions().map(|(_, d)| matches!(d, Decision::Runs(_))).collect();
+            assert_eq!(decisions, settings);
+            assert!(chain.wants_hdr(&settings) == settings.iter().any(|on| *on));
+            log.lock().unwrap().clone()
+        };
+        let written = |log: Vec<(&'static str, wgpu::TextureView)>| -> Vec<(&'static str, &'static str)> {
+            log.into_iter()
+                .map(|(name, v)| {
+                    let into = if v == first_input {
+                        "first input"
+                    } else if v == second_input {
+                        "second input"
+                    } else if v == output {
+                        "output"
+                    } else {
+                        "elsewhere"
+                    };
+                    (name, into)
+                })
+                .collect()
+        };
+        assert_eq!(
+            written(run([true, true, true, false])),
+            [("tonemap", "first input"), ("first", "second input"), ("second", "output")]
+        );
+        // A stage left out hands its place on: the one before writes into the next running input.
+        assert_eq!(written(run([true, false, true, false])), [("tonemap", "second input"), ("second", "output")]);
+        assert_eq!(written(run([true, false, false, false])), [("tonemap", "output")]);
+        assert_eq!(written(run([false, false, false, true])), [("unused", "output")]);
+        // Each stage wrote its share of the parameters (the chain starts them neutral each frame).
+        assert_eq!(chain.shared.params.bloom_strength, 2.0);
+    }
 
     #[test]
     fn gpu_post_params_mirror_the_shaders_parameters() {

@@ -10,6 +10,11 @@ use crate::pipelines::parts;
 use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
 use crate::targets::ColorAttachment;
 
+/// Registers the resolve pass's pipeline family.
+pub fn register(device: &wgpu::Device, pipelines: &mut PipelineCache) {
+    pipelines.register(ResolveFamily::new(device));
+}
+
 /// The resolve pipelines, by the format written, and the layout of the multisampled colour they
 /// read.
 pub struct ResolveFamily {
