@@ -14,7 +14,8 @@
 
 // Filament's clamp: below 0.045 perceptual roughness, GGX's D overflows f16 and aliases badly.
 const MIN_PERCEPTUAL_ROUGHNESS: f32 = 0.045;
-// Dielectric reflectance at normal incidence, glTF 2.0 (IOR 1.5).
+// Dielectric reflectance at normal incidence, glTF 2.0 (IOR 1.5) without KHR_materials_ior or
+// KHR_materials_specular.
 const DIELECTRIC_F0: vec3<f32> = vec3<f32>(0.04);
 
 struct Surface {
@@ -22,8 +23,16 @@ struct Surface {
     metallic: f32,
     // base_color · (1 − metallic): the Lambertian lobe of the dielectric half of glTF's mix.
     diffuse_color: vec3<f32>,
-    // Specular reflectance at normal incidence, mixed: 0.04 (dielectric) to base_color (metal).
+    // Specular reflectance at normal incidence, mixed: the dielectric's `dielectric_f0_color` to
+    // base_color (metal).
     f0_color: vec3<f32>,
+    // ... and at grazing incidence: the dielectric's specular strength to 1 (metal).
+    f90_weight: f32,
+    // The dielectric's reflectance at normal incidence, times its specular strength (glTF's
+    // default: 0.04 and 1; KHR_materials_ior and KHR_materials_specular change both), and that
+    // strength. Set with the two above by `with_reflectance`.
+    dielectric_f0_color: vec3<f32>,
+    specular_weight: f32,
     perceptual_roughness: f32,
     alpha: f32,
     n: vec3<f32>,
@@ -34,6 +43,19 @@ struct Surface {
     // f0·A + B) at (n_dot_v, perceptual_roughness): single scattering, from the split-sum table.
     dfg: vec2<f32>,
 };
+
+// The surface's reflectance from its dielectric's F0 (before the specular strength) and
+// specular strength (KHR_materials_specular): the dielectric lobe is `weight` times the lobe of
+// F0 `dielectric_f0_color`, Schlick's F being linear in (F0, F90); metals keep F90 = 1.
+fn with_reflectance(surface: Surface, dielectric_f0_color: vec3<f32>, weight: f32) -> Surface {
+    var s = surface;
+    s.dielectric_f0_color = dielectric_f0_color * weight;
+    s.specular_weight = weight;
+    s.f0_color = mix(s.dielectric_f0_color, s.base_color, s.metallic);
+    // weight + (1 − weight)·metallic: exactly 1 for the default weight.
+    s.f90_weight = weight + (1.0 - weight) * s.metallic;
+    return s;
+}
 
 // GGX / Trowbridge-Reitz normal distribution, α² / (π ((N·H)²(α² − 1) + 1)²) written as
 // (α / (|N × H|² + (N·H α)²))² / π: near the peak of a sharp lobe N·H is within a few f32 steps
@@ -55,19 +77,19 @@ fn v_smith_ggx_correlated(n_dot_v: f32, n_dot_l: f32, alpha: f32) -> f32 {
     return 0.5 / max(gv + gl, 1e-7);
 }
 
-fn f_schlick(f0_color: vec3<f32>, v_dot_h: f32) -> vec3<f32> {
+fn f_schlick(f0_color: vec3<f32>, f90_weight: f32, v_dot_h: f32) -> vec3<f32> {
     let x = 1.0 - v_dot_h;
     let x_sq = x * x;
-    return f0_color + (vec3<f32>(1.0) - f0_color) * (x_sq * x_sq * x);
+    return f0_color + (vec3<f32>(f90_weight) - f0_color) * (x_sq * x_sq * x);
 }
 
 // Directional albedo of the specular lobe, single plus multiple scattering: E = FssEss + Fms·Ems
 // (Fdez-Agüera 2019, "A Multiple-Scattering Microfacet Model for Real-Time Image-based
-// Lighting"), with (A, B) = `Surface::dfg`. For f0_color = 1 it is exactly 1.
-fn specular_albedo(f0_color: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
-    let fss_ess = f0_color * ab.x + ab.y;
+// Lighting"), with (A, B) = `Surface::dfg`. For f0_color = f90_weight = 1 it is exactly 1.
+fn specular_albedo(f0_color: vec3<f32>, f90_weight: f32, ab: vec2<f32>) -> vec3<f32> {
+    let fss_ess = f0_color * ab.x + f90_weight * ab.y;
     let ems = 1.0 - (ab.x + ab.y);
-    let f_avg = f0_color + (vec3<f32>(1.0) - f0_color) / 21.0;
+    let f_avg = f0_color + (vec3<f32>(f90_weight) - f0_color) / 21.0;
     return fss_ess + ems * fss_ess * f_avg / (vec3<f32>(1.0) - ems * f_avg);
 }
 
@@ -80,12 +102,12 @@ fn specular_albedo(f0_color: vec3<f32>, ab: vec2<f32>) -> vec3<f32> {
 // metals lit directly were up to half as bright as the Cycles references of `penumbra report`
 // (tests/reference, spheres scene).
 fn specular_multiscatter(s: Surface) -> vec3<f32> {
-    return multiscatter_scale(s.f0_color, s.dfg.x + s.dfg.y);
+    return multiscatter_scale(s.f0_color, s.f90_weight, s.dfg.x + s.dfg.y);
 }
 
 // `specular_multiscatter` for a given single-scattering albedo of a white lobe.
-fn multiscatter_scale(f0_color: vec3<f32>, ess: f32) -> vec3<f32> {
-    let ems_f_avg = (1.0 - clamp(ess, 0.0, 1.0)) * (f0_color + (vec3<f32>(1.0) - f0_color) / 21.0);
+fn multiscatter_scale(f0_color: vec3<f32>, f90_weight: f32, ess: f32) -> vec3<f32> {
+    let ems_f_avg = (1.0 - clamp(ess, 0.0, 1.0)) * (f0_color + (vec3<f32>(f90_weight) - f0_color) / 21.0);
     return vec3<f32>(1.0) + ems_f_avg / (vec3<f32>(1.0) - ems_f_avg);
 }
 
@@ -108,8 +130,8 @@ struct LobeWeights {
 };
 
 fn lobe_weights(s: Surface) -> LobeWeights {
-    let dielectric_specular = specular_albedo(DIELECTRIC_F0, s.dfg);
-    let metal_specular = specular_albedo(s.base_color, s.dfg);
+    let dielectric_specular = specular_albedo(s.dielectric_f0_color, s.specular_weight, s.dfg);
+    let metal_specular = specular_albedo(s.base_color, 1.0, s.dfg);
     return LobeWeights(
         mix(dielectric_specular, metal_specular, s.metallic),
         s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular)
@@ -128,7 +150,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let f = f_schlick(s.f0_color, v_dot_h) * specular_multiscatter(s);
+    let f = f_schlick(s.f0_color, s.f90_weight, v_dot_h) * specular_multiscatter(s);
     let spec = f * (d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
     let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
@@ -140,7 +162,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
 // implementation darkened rough surfaces seen at grazing angles by up to 8 % against the
 // Cycles references (tests/reference, sun_csm's distant ground).
 fn diffuse_share(s: Surface) -> vec3<f32> {
-    return vec3<f32>(1.0) - specular_albedo(DIELECTRIC_F0, s.dfg);
+    return vec3<f32>(1.0) - specular_albedo(s.dielectric_f0_color, s.specular_weight, s.dfg);
 }
 
 // The two lobes of `direct` apart, for lights whose diffuse and specular parts are seen in
@@ -161,5 +183,5 @@ fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let d_v = d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
     let ms = specular_multiscatter(s);
-    return f_schlick(s.f0_color, v_dot_h) * ms * (d_v * n_dot_l);
+    return f_schlick(s.f0_color, s.f90_weight, v_dot_h) * ms * (d_v * n_dot_l);
 }

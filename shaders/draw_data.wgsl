@@ -25,11 +25,16 @@ struct Material {
     normal_scale: f32,
     occlusion_strength: f32,
     flags: u32,
+    // KHR_materials_specular's strength (the specular texture's alpha multiplies it).
+    specular: f32,
     _pad_a: u32,
     _pad_b: u32,
-    _pad_c: u32,
+    // The dielectric's reflectance at normal incidence before the specular colour texture: the
+    // IOR's ((ior − 1) / (ior + 1))² times the specular colour.
+    dielectric_f0_color: vec3<f32>,
+    _pad_d: u32,
     // Per texture slot two rows of the 2×3 UV transform; row 0's .w is the UV set.
-    uv: array<vec4<f32>, 10>,
+    uv: array<vec4<f32>, 14>,
 };
 
 // A vertex placed by its instance.

@@ -8,7 +8,9 @@
 //
 // Variants (shader defs, set per pipeline by the forward pipeline family (features/forward/pipeline.rs and the draw key in resources/draws.rs) from what each draw uses; code a
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
-// METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, TRANSFORMED_UVS
+// METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, MATERIAL_SPECULAR
+// (KHR_materials_ior / KHR_materials_specular: the dielectric's reflectance from the material,
+// with SPECULAR_TEXTURE and SPECULAR_COLOR_TEXTURE), TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
 // OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
@@ -36,7 +38,7 @@
 #ifdef VISIBILITY_TONEMAP
 #import penumbra::display::{display_rgb, srgb_encode}
 #endif
-#import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS}
+#import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS, with_reflectance}
 #ifndef UNLIT
 #import penumbra::split_sum::split_sum
 #endif
@@ -97,6 +99,10 @@
 @group(1) @binding(7) var occlusion_sampler: sampler;
 @group(1) @binding(8) var emissive_texture: texture_2d<f32>;
 @group(1) @binding(9) var emissive_sampler: sampler;
+@group(1) @binding(10) var specular_texture: texture_2d<f32>;
+@group(1) @binding(11) var specular_sampler: sampler;
+@group(1) @binding(12) var specular_color_texture: texture_2d<f32>;
+@group(1) @binding(13) var specular_color_sampler: sampler;
 
 #ifdef PULLED_VERTICES
 // A triangle-culled draw (cull.wgsl, TRIANGLE_CULLING): each index names its instance and
@@ -430,12 +436,28 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 #endif
     metallic = clamp(metallic, 0.0, 1.0);
     let perceptual_roughness = clamp(roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    // The dielectric's reflectance: glTF's default, or KHR_materials_ior's and
+    // KHR_materials_specular's (F0 clamped to 1 after its texture, the specular strength
+    // scaling the whole dielectric lobe).
+    var dielectric_f0_color = DIELECTRIC_F0;
+    var specular_weight = 1.0;
+#ifdef MATERIAL_SPECULAR
+    var specular_color = mat.dielectric_f0_color;
+#ifdef SPECULAR_COLOR_TEXTURE
+    specular_color *= material_texel(specular_color_texture, specular_color_sampler, mat, 6u, sets).rgb;
+#endif
+    dielectric_f0_color = min(specular_color, vec3<f32>(1.0));
+    specular_weight = clamp(mat.specular, 0.0, 1.0);
+#ifdef SPECULAR_TEXTURE
+    specular_weight *= material_texel(specular_texture, specular_sampler, mat, 5u, sets).a;
+#endif
+#endif
 
     var s: Surface;
     s.base_color = base.rgb;
     s.metallic = metallic;
     s.diffuse_color = base.rgb * (1.0 - metallic);
-    s.f0_color = mix(DIELECTRIC_F0, base.rgb, metallic);
+    s = with_reflectance(s, dielectric_f0_color, specular_weight);
     s.perceptual_roughness = perceptual_roughness;
     s.alpha = perceptual_roughness * perceptual_roughness;
     s.n = n;

@@ -11,7 +11,7 @@
 //                      usually comes from) and metallic as unorm8, packed in .z and .w.
 #define_import_path penumbra::gbuffer
 
-#import penumbra::brdf::{Surface, DIELECTRIC_F0}
+#import penumbra::brdf::{Surface, DIELECTRIC_F0, with_reflectance}
 #import penumbra::split_sum::split_sum
 
 fn sign_not_zero(v: vec2<f32>) -> vec2<f32> {
@@ -60,7 +60,6 @@ fn decode_surface(perceptual_roughness: f32, shape: vec4<u32>, v: vec3<f32>) -> 
     s.base_color = base;
     s.metallic = metallic;
     s.diffuse_color = base * (1.0 - metallic);
-    s.f0_color = mix(DIELECTRIC_F0, base, metallic);
     s.perceptual_roughness = perceptual_roughness;
     s.alpha = perceptual_roughness * perceptual_roughness;
     s.n = oct_decode(vec2<f32>(shape.xy) * unorm_step);
@@ -68,5 +67,7 @@ fn decode_surface(perceptual_roughness: f32, shape: vec4<u32>, v: vec3<f32>) -> 
     s.n_dot_v = max(dot(s.n, v), 1e-4);
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
+    // Only glTF's default dielectric reaches the surface buffer (MaterialFeatures::fits_surface_buffer).
+    s = with_reflectance(s, DIELECTRIC_F0, 1.0);
     return s;
 }

@@ -233,8 +233,8 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let specular_integral = clipped_cos_integral(&in_frame, count) / PI;
     // Multiple scattering as in `brdf::specular_multiscatter`, with the fit's own albedo for
     // F0 = 1 (magnitude.x + magnitude.y) as Ess.
-    let ms = multiscatter_scale(s.f0_color, cell.magnitude.x + cell.magnitude.y);
-    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(1.0) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
+    let ms = multiscatter_scale(s.f0_color, s.f90_weight, cell.magnitude.x + cell.magnitude.y);
+    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(s.f90_weight) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
     // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
     let diffuse = diffuse_share(s) * s.diffuse_color / PI * diffuse_integral;
     return (diffuse + specular) * light.color * window;

@@ -13,15 +13,16 @@ const SIZE: u32 = 64;
 /// Renders one sphere filling most of the frame and returns the HDR pixels inside 85 % of its
 /// projected radius.
 fn furnace(metallic: f32, roughness: f32) -> Vec<[f32; 4]> {
+    furnace_of(|_| StandardMaterial { base_color: Vec4::ONE, metallic, roughness, ..Default::default() })
+}
+
+/// `furnace` with the sphere's material made by `material` (which may add images).
+fn furnace_of(material: impl FnOnce(&mut Assets<Image>) -> StandardMaterial) -> Vec<[f32; 4]> {
     let mut app = App::new();
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
     let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::uv_sphere(1.0, 64, 32));
-    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial {
-        base_color: Vec4::ONE,
-        metallic,
-        roughness,
-        ..Default::default()
-    });
+    let material = material(&mut app.world.resource_mut::<Assets<Image>>());
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(material);
     app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material)));
     app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
     // The sphere subtends 2·asin(1/3) ≈ 39° of the 45° field of view.
@@ -79,4 +80,81 @@ fn smooth_metal_reflects_all_ambient_light() {
 #[test]
 fn half_rough_half_metal_reflects_all_ambient_light() {
     assert_furnace(0.5, 0.5);
+}
+
+/// KHR_materials_ior and KHR_materials_specular move energy between the dielectric's specular
+/// and diffuse lobes and never create or lose it: a white dielectric reflects all ambient light
+/// whatever its IOR, specular strength or specular colour.
+#[test]
+fn white_dielectrics_of_any_ior_and_specular_reflect_all_ambient_light() {
+    for (ior, specular, color) in [
+        (1.0, 1.0, Vec3::ONE),
+        (1.33, 1.0, Vec3::ONE),
+        (2.5, 0.5, Vec3::ONE),
+        (0.0, 1.0, Vec3::new(1.0, 0.2, 0.0)),
+        (1.5, 0.0, Vec3::ONE),
+        (1.5, 1.0, Vec3::splat(30.0)),
+    ] {
+        let px = furnace_of(|_| StandardMaterial {
+            base_color: Vec4::ONE,
+            metallic: 0.0,
+            roughness: 0.5,
+            ior,
+            specular,
+            specular_color: color,
+            ..Default::default()
+        });
+        assert!(px.len() > 500);
+        for p in &px {
+            for c in &p[..3] {
+                assert!(c.is_finite() && (c - 1.0).abs() <= 0.02, "ior {ior} specular {specular} {color}: {p:?}");
+            }
+        }
+    }
+}
+
+fn mean(px: &[[f32; 4]]) -> Vec3 {
+    px.iter().fold(Vec3::ZERO, |a, p| a + Vec3::new(p[0], p[1], p[2])) / px.len() as f32
+}
+
+/// A black dielectric shows only its specular lobe: none at specular strength 0, only Schlick's
+/// grazing edge at IOR 1 (glTF keeps F90 = 1 whatever the IOR), more as the IOR rises, coloured
+/// by the specular colour; with the textures' defaults (white) the extension's shading equals
+/// glTF's core dielectric.
+#[test]
+fn a_black_dielectric_reflects_what_its_ior_and_specular_say() {
+    let black = |ior: f32, specular: f32, color: Vec3| {
+        mean(&furnace_of(|_| StandardMaterial {
+            base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            metallic: 0.0,
+            roughness: 0.5,
+            ior,
+            specular,
+            specular_color: color,
+            ..Default::default()
+        }))
+    };
+    let core = black(1.5, 1.0, Vec3::ONE);
+    assert!(core.min_element() > 0.02 && core.max_element() < 0.2, "{core}");
+    let air = black(1.0, 1.0, Vec3::ONE);
+    assert!(air.min_element() > 0.0 && air.max_element() < 0.5 * core.min_element(), "IOR 1: {air}, 1.5: {core}");
+    assert!(black(1.5, 0.0, Vec3::ONE).max_element() < 1e-4, "specular 0 reflects nothing");
+    let (glass, diamond) = (black(1.45, 1.0, Vec3::ONE), black(2.42, 1.0, Vec3::ONE));
+    assert!(glass.x < core.x && core.x < diamond.x, "{glass} {core} {diamond}");
+    let red = black(0.0, 1.0, Vec3::new(1.0, 0.0, 0.0));
+    assert!(red.x > 0.5 && red.y < 0.05 && red.z < 0.05, "IOR 0 takes its F0 from the colour: {red}");
+    // White specular textures leave the factors as they are: the extension's shader variant
+    // must then give the core dielectric's light.
+    let textured = mean(&furnace_of(|images| {
+        let white = TextureRef::new(images.add(Image::solid([255; 4], "white")));
+        StandardMaterial {
+            base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            metallic: 0.0,
+            roughness: 0.5,
+            specular_texture: Some(white),
+            specular_color_texture: Some(white),
+            ..Default::default()
+        }
+    }));
+    assert!((textured - core).abs().max_element() < 1e-4 * core.max_element().max(1e-3), "{textured} against {core}");
 }

@@ -388,6 +388,14 @@ fn golden_metal_rough_spheres_under_the_sky() {
     env_golden("MetalRoughSpheresNoTextures-sky");
 }
 
+/// KHR_materials_specular (black spheres: only their specular lobe shows): strength and F0
+/// colour by factor and by texture, rows that must match in pairs, F90 staying white under a
+/// yellow F0, and an F0 colour above 1 clamped into a mirror.
+#[test]
+fn golden_specular_test_under_the_studio_environment() {
+    env_golden("SpecularTest-studio");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

@@ -442,3 +442,50 @@ fn obj_totals_and_textures_count_against_the_limits() {
     load_ok(&path, &with_limit("total-image-bytes=340"), "the texture and its chain fit");
     load_ok(&path, &with_limit("vertices=6"), "six vertices fit");
 }
+
+/// KHR_materials_ior and KHR_materials_specular values outside their schemas' ranges are
+/// replaced (the default, or the nearest allowed value) with a warning naming the material and
+/// the value, and the file still loads.
+#[test]
+fn out_of_range_ior_and_specular_are_replaced_with_a_warning_naming_the_material() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_ior", "KHR_materials_specular"],
+  "materials": [{"name": "odd", "extensions": {
+      "KHR_materials_ior": {"ior": 0.5},
+      "KHR_materials_specular": {"specularFactor": 2.0, "specularColorFactor": [-1.0, 0.0, 0.0]}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("odd_specular", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    for expected in
+        ["material \"odd\": KHR_materials_ior ior 0.5", "specularFactor 2 is outside 0..=1", "specularColorFactor"]
+    {
+        assert!(warnings.contains(expected), "{expected:?} in {warnings}");
+    }
+    assert!(!warnings.contains("not supported"), "{warnings}");
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let (_, m) = materials.iter().next().expect("one material");
+    assert_eq!((m.ior, m.specular, m.specular_color), (1.5, 1.0, Vec3::ONE));
+}
+
+/// The specular sample imports every parameter it sets, with no warning.
+#[test]
+fn the_specular_sample_imports_its_factors_and_textures() {
+    let scene = penumbra::engine::import::GltfScene::load(&asset("SpecularTest/SpecularTest.glb"), &Default::default())
+        .expect("loads");
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let all: Vec<&StandardMaterial> = materials.iter().map(|(_, m)| m).collect();
+    assert!(all.iter().any(|m| m.specular == 0.0), "the black sphere's strength 0");
+    assert!(all.iter().any(|m| m.specular_texture.is_some()));
+    assert!(all.iter().any(|m| m.specular_color_texture.is_some()));
+    assert!(all.iter().any(|m| m.specular_color.max_element() > 1.0), "colour factors above 1 are kept");
+}

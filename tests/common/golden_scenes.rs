@@ -152,6 +152,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("DamagedHelmet-studio", 0.253),
     ("MetalRoughSpheresNoTextures-studio", 0.216),
     ("MetalRoughSpheresNoTextures-sky", 0.289),
+    ("SpecularTest-studio", 0.483),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -228,8 +229,12 @@ pub fn sample_model(name: &str) -> GoldenFrame {
 }
 
 /// The environment goldens' names.
-pub const ENVIRONMENT_GOLDENS: &[&str] =
-    &["DamagedHelmet-studio", "MetalRoughSpheresNoTextures-studio", "MetalRoughSpheresNoTextures-sky"];
+pub const ENVIRONMENT_GOLDENS: &[&str] = &[
+    "DamagedHelmet-studio",
+    "MetalRoughSpheresNoTextures-studio",
+    "MetalRoughSpheresNoTextures-sky",
+    "SpecularTest-studio",
+];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
 /// for a low sun from the front-left), 128² cubes.
@@ -238,6 +243,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "DamagedHelmet-studio" => ("DamagedHelmet/DamagedHelmet.glb", false),
         "MetalRoughSpheresNoTextures-studio" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", false),
         "MetalRoughSpheresNoTextures-sky" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", true),
+        "SpecularTest-studio" => ("SpecularTest/SpecularTest.glb", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

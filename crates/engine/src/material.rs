@@ -123,6 +123,20 @@ pub struct StandardMaterial {
     pub double_sided: bool,
     /// KHR_materials_unlit: base colour only, no lighting.
     pub unlit: bool,
+    /// Index of refraction of the dielectric (KHR_materials_ior): its reflectance at normal
+    /// incidence is ((ior − 1) / (ior + 1))², 4 % at the default 1.5. 0 gives a reflectance of 1
+    /// scaled by `specular_color` alone, which is how specular-glossiness materials convert.
+    pub ior: f32,
+    /// KHR_materials_specular: the strength of the dielectric's specular lobe, 0..=1 (what it
+    /// does not reflect goes to the diffuse lobe). Metals are unaffected.
+    pub specular: f32,
+    /// Multiplies `specular`; read from alpha.
+    pub specular_texture: Option<TextureRef>,
+    /// Linear RGB colour of the dielectric's reflectance at normal incidence (its F0 is this
+    /// times the IOR's reflectance, clamped to 1).
+    pub specular_color: Vec3,
+    /// Multiplies `specular_color`; sRGB-encoded RGB.
+    pub specular_color_texture: Option<TextureRef>,
 }
 
 impl Default for StandardMaterial {
@@ -144,6 +158,11 @@ impl Default for StandardMaterial {
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
             unlit: false,
+            ior: DEFAULT_IOR,
+            specular: 1.0,
+            specular_texture: None,
+            specular_color: Vec3::ONE,
+            specular_color_texture: None,
         }
     }
 }
@@ -154,21 +173,59 @@ impl StandardMaterial {
         Self { base_color, metallic: 0.0, roughness, ..Default::default() }
     }
 
-    /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour and emissive, as
-    /// glTF defines them); the others are read as stored.
-    pub const SRGB_SLOTS: [bool; 5] = [true, false, false, false, true];
+    /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour, emissive and
+    /// specular colour, as glTF defines them); the others are read as stored.
+    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = [true, false, false, false, true, false, true];
 
     /// Every texture slot in the fixed order the renderer binds them.
-    pub fn textures(&self) -> [Option<&TextureRef>; 5] {
+    pub fn textures(&self) -> [Option<&TextureRef>; TEXTURE_SLOTS] {
         [
             self.base_color_texture.as_ref(),
             self.metallic_roughness_texture.as_ref(),
             self.normal_texture.as_ref(),
             self.occlusion_texture.as_ref(),
             self.emissive_texture.as_ref(),
+            self.specular_texture.as_ref(),
+            self.specular_color_texture.as_ref(),
         ]
     }
+
+    /// [`Self::textures`], to fill in.
+    pub fn textures_mut(&mut self) -> [&mut Option<TextureRef>; TEXTURE_SLOTS] {
+        [
+            &mut self.base_color_texture,
+            &mut self.metallic_roughness_texture,
+            &mut self.normal_texture,
+            &mut self.occlusion_texture,
+            &mut self.emissive_texture,
+            &mut self.specular_texture,
+            &mut self.specular_color_texture,
+        ]
+    }
+
+    /// The dielectric's reflectance at normal incidence from the IOR alone, ((ior − 1) /
+    /// (ior + 1))² (1 for an IOR of 0).
+    pub fn ior_reflectance(&self) -> f32 {
+        let r = (self.ior - 1.0) / (self.ior + 1.0);
+        r * r
+    }
+
+    /// Whether the dielectric reflects other than glTF's default (IOR 1.5, specular 1, white,
+    /// no specular textures): the shader then reads its specular parameters.
+    pub fn has_custom_specular(&self) -> bool {
+        self.ior != DEFAULT_IOR
+            || self.specular != 1.0
+            || self.specular_color != Vec3::ONE
+            || self.specular_texture.is_some()
+            || self.specular_color_texture.is_some()
+    }
 }
+
+/// How many texture slots a material has ([`StandardMaterial::textures`]).
+pub const TEXTURE_SLOTS: usize = 7;
+
+/// glTF's IOR when a material gives none.
+pub const DEFAULT_IOR: f32 = 1.5;
 
 /// Editing derives nothing else from the asset.
 impl crate::assets::AssetEdit for StandardMaterial {}

@@ -26,7 +26,7 @@ use crate::pipelines::PipelineCache;
 use crate::resources::draws::{AlphaTest, Batch, DebugView, LocalLights, PipelineKey};
 use crate::resources::instances::{GpuInstance, InstanceBuffer};
 use crate::resources::light_store::LightShapes;
-use crate::resources::materials::{AlphaKey, MaterialKey, MaterialTable, SRGB_SLOTS, TextureSet};
+use crate::resources::materials::{AlphaKey, MaterialFeatures, MaterialKey, MaterialTable, SRGB_SLOTS, TextureSet};
 use crate::resources::mesh_pool::{MeshId, MeshPool};
 use crate::resources::textures::{TextureCache, TextureRequest};
 use crate::scene::entity_table::{EntityTable, Replaced};
@@ -111,7 +111,7 @@ pub struct DrawList {
     material_users: HashMap<MaterialKey, u32>,
     mesh_ids: HashMap<Handle<Mesh>, MeshId>,
     /// Material pipeline bits last seen, to notice a material switching alpha mode.
-    material_bits: HashMap<MaterialKey, (AlphaKey, bool, bool, TextureSet)>,
+    material_bits: HashMap<MaterialKey, (AlphaKey, bool, bool, TextureSet, MaterialFeatures)>,
     opaque_batches: Vec<Batch>,
     /// Batch index of each deformed draw's vertex copy (each is a batch of its own).
     deformed_batches: HashMap<MeshId, usize>,
@@ -429,7 +429,7 @@ impl DrawList {
                 continue;
             }
             let m = cx.materials.get(&key).expect("prepared");
-            let bits = (m.alpha, m.unlit, m.double_sided, m.textures);
+            let bits = (m.alpha, m.unlit, m.double_sided, m.textures, m.features);
             if self.material_bits.insert(key, bits) != Some(bits) {
                 self.batches_dirty = true;
             }
@@ -484,8 +484,13 @@ impl DrawList {
             unlit: m.unlit,
             alpha: m.alpha,
             textures: m.textures,
-            // Blended surfaces are not in the surface targets: they walk their own lists.
-            local_lights: if self.variant.deferred_lights && m.alpha != AlphaKey::Blend {
+            features: m.features,
+            // Blended surfaces are not in the surface targets, nor are surfaces with parameters
+            // the surface buffer does not hold: they walk their own lists.
+            local_lights: if self.variant.deferred_lights
+                && m.alpha != AlphaKey::Blend
+                && m.features.fits_surface_buffer()
+            {
                 LocalLights::Deferred
             } else {
                 self.variant.local_lights

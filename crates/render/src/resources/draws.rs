@@ -16,7 +16,7 @@ use crate::gpu::context::Capabilities;
 use crate::gpu::formats::FormatKey;
 use crate::pipelines::ShaderDefs;
 use crate::resources::light_store::LightShapes;
-use crate::resources::materials::{AlphaKey, MaterialKey, TextureSet};
+use crate::resources::materials::{AlphaKey, MaterialFeatures, MaterialKey, TextureSet};
 use crate::resources::mesh_pool::MeshId;
 
 /// Instances `first..first + count` of `draw_slots`, drawn with one pipeline, material and mesh.
@@ -36,6 +36,8 @@ pub struct PipelineKey {
     pub unlit: bool,
     pub alpha: AlphaKey,
     pub textures: TextureSet,
+    /// The material extensions its shading reads.
+    pub features: MaterialFeatures,
     /// How (and whether) local lights are found; without any, their code is left out.
     pub local_lights: LocalLights,
     /// Which lights with a size need their shading code.
@@ -78,6 +80,7 @@ impl PipelineKey {
         let lit = !self.unlit;
         // Deferred: the compute pass shades local lights; fragments only hand it their surface.
         let local = lit && !matches!(self.local_lights, LocalLights::None | LocalLights::Deferred);
+        let specular = lit && self.features.has(MaterialFeatures::SPECULAR);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -90,6 +93,9 @@ impl PipelineKey {
             .with("NORMAL_MAP", lit && t.has(TextureSet::NORMAL))
             .with("OCCLUSION_TEXTURE", lit && t.has(TextureSet::OCCLUSION))
             .with("EMISSIVE_TEXTURE", lit && t.has(TextureSet::EMISSIVE))
+            .with("MATERIAL_SPECULAR", specular)
+            .with("SPECULAR_TEXTURE", specular && t.has(TextureSet::SPECULAR))
+            .with("SPECULAR_COLOR_TEXTURE", specular && t.has(TextureSet::SPECULAR_COLOR))
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))

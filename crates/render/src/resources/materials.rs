@@ -1,5 +1,6 @@
 //! The material table: every material in use packed into one storage buffer (indexed per
-//! instance), plus one bind group per material holding its five textures and samplers.
+//! instance), plus one bind group per material holding its textures and samplers (one pair per
+//! slot of `StandardMaterial::textures`).
 //!
 //! Each frame, prepare visits the materials that draws use; a material is re-packed and its bind
 //! group rebuilt only when its version changed or one of its images was (re)uploaded. Missing
@@ -9,7 +10,7 @@ use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
 use penumbra_engine::Handle;
-use penumbra_engine::material::{AlphaMode, StandardMaterial, UvTransform};
+use penumbra_engine::material::{AlphaMode, StandardMaterial, TEXTURE_SLOTS, UvTransform};
 
 use super::textures::TextureCache;
 use crate::gpu::buffer::GrowableBuffer;
@@ -19,28 +20,52 @@ use crate::scene::world::RenderScene;
 /// Which material textures a draw samples (bits in `StandardMaterial::textures()` order), and
 /// whether any of them maps its coordinate (`TRANSFORMED_UVS`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
-pub struct TextureSet(pub u8);
+pub struct TextureSet(pub u16);
 
 impl TextureSet {
-    pub const BASE_COLOR: u8 = 1;
-    pub const METALLIC_ROUGHNESS: u8 = 2;
-    pub const NORMAL: u8 = 4;
-    pub const OCCLUSION: u8 = 8;
-    pub const EMISSIVE: u8 = 16;
+    pub const BASE_COLOR: u16 = 1;
+    pub const METALLIC_ROUGHNESS: u16 = 1 << 1;
+    pub const NORMAL: u16 = 1 << 2;
+    pub const OCCLUSION: u16 = 1 << 3;
+    pub const EMISSIVE: u16 = 1 << 4;
+    pub const SPECULAR: u16 = 1 << 5;
+    pub const SPECULAR_COLOR: u16 = 1 << 6;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
-    pub const TRANSFORMED_UVS: u8 = 32;
+    pub const TRANSFORMED_UVS: u16 = 1 << 7;
     /// The occlusion texture is the metallic-roughness texture (same image, sampler and
     /// coordinates: glTF's ORM packing, occlusion in red), so one sample serves both.
-    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u8 = 64;
+    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u16 = 1 << 8;
 
-    pub fn has(self, bit: u8) -> bool {
+    pub fn has(self, bit: u16) -> bool {
         self.0 & bit != 0
     }
 }
 
-/// Which of `StandardMaterial::textures()` hold colour (sRGB): base colour and emissive.
-pub const SRGB_SLOTS: [bool; 5] = StandardMaterial::SRGB_SLOTS;
+/// The material extensions a draw's shading reads (each a shader feature, compiled only into
+/// the variants of materials that use it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct MaterialFeatures(pub u8);
+
+impl MaterialFeatures {
+    /// KHR_materials_ior / KHR_materials_specular other than glTF's defaults: the dielectric's
+    /// reflectance and specular strength come from the material.
+    pub const SPECULAR: u8 = 1;
+
+    pub fn has(self, bit: u8) -> bool {
+        self.0 & bit != 0
+    }
+
+    /// Whether the deferred local lights can shade this material: their surface buffer holds
+    /// glTF's core parameters only.
+    pub fn fits_surface_buffer(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// Which of `StandardMaterial::textures()` hold colour (sRGB): base colour, emissive, specular
+/// colour.
+pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = StandardMaterial::SRGB_SLOTS;
 
 pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
 pub const FLAG_DOUBLE_SIDED: u32 = 2;
@@ -57,8 +82,14 @@ pub struct GpuMaterial {
     pub normal_scale: f32,
     pub occlusion_strength: f32,
     pub flags: u32,
-    pub _pad: [u32; 3],
-    pub uv: [[f32; 4]; 10],
+    /// KHR_materials_specular's strength (its texture's alpha multiplies it).
+    pub specular: f32,
+    pub _pad: [u32; 2],
+    /// The dielectric's F0 before its texture: the IOR's reflectance times the specular colour
+    /// (the shader clamps the product with the texture to 1).
+    pub dielectric_f0_color: [f32; 3],
+    pub _pad_d: u32,
+    pub uv: [[f32; 4]; 2 * TEXTURE_SLOTS],
 }
 
 /// Which material a draw uses: `None` is the glTF default material.
@@ -76,17 +107,19 @@ pub struct MaterialEntry {
     pub slot: u32,
     version: u64,
     /// Versions of the images bound in each slot (0: null texture).
-    texture_versions: [u64; 5],
+    texture_versions: [u64; TEXTURE_SLOTS],
     pub bind_group: wgpu::BindGroup,
     pub alpha: AlphaKey,
     pub unlit: bool,
     pub double_sided: bool,
     /// Which slots have a texture: they select the shader variant.
     pub textures: TextureSet,
+    /// Which material extensions its shading reads.
+    pub features: MaterialFeatures,
 }
 
 pub struct MaterialTable {
-    /// The material group: five (texture, sampler) pairs in `StandardMaterial::textures()`
+    /// The material group: a (texture, sampler) pair per slot, in `StandardMaterial::textures()`
     /// order, read by fragment shaders and by the visibility buffer's shading pass.
     layout: wgpu::BindGroupLayout,
     cpu: Vec<GpuMaterial>,
@@ -103,7 +136,7 @@ pub struct MaterialTable {
 impl MaterialTable {
     pub fn new(device: &wgpu::Device) -> Self {
         let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
-        let entries: Vec<_> = (0..5u32)
+        let entries: Vec<_> = (0..TEXTURE_SLOTS as u32)
             .flat_map(|i| [parts::texture(2 * i, true), parts::sampler(2 * i + 1)])
             .map(|e| wgpu::BindGroupLayoutEntry { visibility: lit, ..e })
             .collect();
@@ -158,8 +191,8 @@ impl MaterialTable {
         // Resolve textures first: an image that changed forces a new bind group even when the
         // material itself did not.
         let srgb_slots = SRGB_SLOTS;
-        let mut views = Vec::with_capacity(5);
-        let mut texture_versions = [0u64; 5];
+        let mut views = Vec::with_capacity(TEXTURE_SLOTS);
+        let mut texture_versions = [0u64; TEXTURE_SLOTS];
         for (slot, tex) in material.textures().into_iter().enumerate() {
             let image = tex.and_then(|t| scene.images.get(&t.image).map(|s| (t, s)));
             let uploaded = image.and_then(|(t, _)| textures.get(t.image, srgb_slots[slot]).map(|v| (t, v)));
@@ -198,7 +231,7 @@ impl MaterialTable {
 
         let samplers: Vec<wgpu::Sampler> =
             views.iter().map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone()).collect();
-        let mut entries = Vec::with_capacity(10);
+        let mut entries = Vec::with_capacity(2 * TEXTURE_SLOTS);
         for (i, ((view, _), sampler)) in views.iter().zip(&samplers).enumerate() {
             entries.push(wgpu::BindGroupEntry {
                 binding: 2 * i as u32,
@@ -230,6 +263,7 @@ impl MaterialTable {
                 unlit: material.unlit,
                 double_sided: material.double_sided,
                 textures: texture_set(&material),
+                features: features(&material),
             },
         );
         true
@@ -239,7 +273,7 @@ impl MaterialTable {
     pub fn forget_bind_groups(&mut self) {
         for e in self.entries.values_mut() {
             // No image has this version (0 is the null texture), so the entry reads as stale.
-            e.texture_versions = [u64::MAX; 5];
+            e.texture_versions = [u64::MAX; TEXTURE_SLOTS];
         }
     }
 
@@ -278,7 +312,7 @@ impl MaterialTable {
 /// The textures `m` samples, whether any maps its coordinate, and whether occlusion shares the
 /// metallic-roughness texel (the shader variant).
 fn texture_set(m: &StandardMaterial) -> TextureSet {
-    let mut bits = 0;
+    let mut bits: u16 = 0;
     for (i, tex) in m.textures().iter().enumerate() {
         if let Some(t) = tex {
             bits |= 1 << i;
@@ -293,8 +327,17 @@ fn texture_set(m: &StandardMaterial) -> TextureSet {
     TextureSet(bits)
 }
 
+/// The material extensions `m`'s shading reads.
+fn features(m: &StandardMaterial) -> MaterialFeatures {
+    let mut bits = 0;
+    if !m.unlit && m.has_custom_specular() {
+        bits |= MaterialFeatures::SPECULAR;
+    }
+    MaterialFeatures(bits)
+}
+
 fn pack(m: &StandardMaterial) -> GpuMaterial {
-    let mut uv = [[0.0; 4]; 10];
+    let mut uv = [[0.0; 4]; 2 * TEXTURE_SLOTS];
     for (slot, tex) in m.textures().into_iter().enumerate() {
         let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| (t.transform.matrix(), t.uv_set));
         // Rows of the 2×3 affine part: uv' = (row0 · (u, v, 1), row1 · (u, v, 1)).
@@ -321,7 +364,10 @@ fn pack(m: &StandardMaterial) -> GpuMaterial {
         normal_scale: m.normal_scale,
         occlusion_strength: m.occlusion_strength,
         flags,
-        _pad: [0; 3],
+        specular: m.specular,
+        _pad: [0; 2],
+        dielectric_f0_color: (m.specular_color * m.ior_reflectance()).to_array(),
+        _pad_d: 0,
         uv,
     }
 }
@@ -360,14 +406,26 @@ mod tests {
 
     #[test]
     fn gpu_material_matches_the_wgsl_layout() {
-        // 4 × vec4 of scalars + 10 × vec4 of UV rows.
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 14 * 16);
+        // 5 × vec4 of scalars + two vec4 UV rows per texture slot.
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), (5 + 2 * TEXTURE_SLOTS) * 16);
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuMaterial,
             "forward.wgsl",
             [],
             "Material",
-            [base_color, emissive, alpha_cutoff, metallic, roughness, normal_scale, occlusion_strength, flags, uv]
+            [
+                base_color,
+                emissive,
+                alpha_cutoff,
+                metallic,
+                roughness,
+                normal_scale,
+                occlusion_strength,
+                flags,
+                specular,
+                dielectric_f0_color,
+                uv
+            ]
         );
     }
 }

@@ -4,7 +4,9 @@
 use glam::{Vec2, Vec3, Vec4};
 use gltf::texture::{MagFilter, MinFilter, WrappingMode};
 
-use crate::material::{AlphaMode, FilterMode, Sampler, StandardMaterial, UvTransform, WrapMode};
+use crate::material::{
+    AlphaMode, DEFAULT_IOR, FilterMode, Sampler, StandardMaterial, TEXTURE_SLOTS, UvTransform, WrapMode,
+};
 
 #[derive(Debug, Clone)]
 pub(crate) struct TextureDesc {
@@ -18,7 +20,7 @@ pub(crate) struct TextureDesc {
 #[derive(Debug, Clone)]
 pub(crate) struct MaterialDesc {
     pub material: StandardMaterial,
-    pub textures: [Option<TextureDesc>; 5],
+    pub textures: [Option<TextureDesc>; TEXTURE_SLOTS],
 }
 
 pub(crate) const NORMAL_SLOT: usize = 2;
@@ -79,9 +81,58 @@ fn info(i: gltf::texture::Info) -> TextureDesc {
     texture(i.texture(), i.tex_coord(), tt)
 }
 
-pub(crate) fn convert(m: &gltf::Material) -> MaterialDesc {
+/// The material's name for messages: its name, or its index.
+fn label(m: &gltf::Material) -> String {
+    match (m.name(), m.index()) {
+        (Some(name), _) => format!("material \"{name}\""),
+        (None, Some(i)) => format!("material {i}"),
+        (None, None) => "the default material".to_owned(),
+    }
+}
+
+/// KHR_materials_ior and KHR_materials_specular, checked against their schemas: a value out of
+/// range is replaced by the nearest allowed one (or the default), with a warning naming it.
+fn dielectric(m: &gltf::Material, material: &mut StandardMaterial, warnings: &mut Vec<String>) {
+    if let Some(ior) = m.ior() {
+        material.ior = if ior.is_finite() && (ior == 0.0 || ior >= 1.0) {
+            ior
+        } else {
+            warnings.push(format!(
+                "{}: KHR_materials_ior ior {ior} is neither 0 nor at least 1; using {DEFAULT_IOR}",
+                label(m)
+            ));
+            DEFAULT_IOR
+        };
+    }
+    let Some(specular) = m.specular() else { return };
+    let factor = specular.specular_factor();
+    material.specular = if factor.is_finite() {
+        if !(0.0..=1.0).contains(&factor) {
+            warnings.push(format!(
+                "{}: KHR_materials_specular specularFactor {factor} is outside 0..=1; clamped",
+                label(m)
+            ));
+        }
+        factor.clamp(0.0, 1.0)
+    } else {
+        warnings.push(format!("{}: KHR_materials_specular specularFactor {factor} is not finite; using 1", label(m)));
+        1.0
+    };
+    let color = Vec3::from(specular.specular_color_factor());
+    material.specular_color = if color.is_finite() && color.min_element() >= 0.0 {
+        color
+    } else {
+        warnings.push(format!(
+            "{}: KHR_materials_specular specularColorFactor {color} must be finite and not negative; using white",
+            label(m)
+        ));
+        Vec3::ONE
+    };
+}
+
+pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> MaterialDesc {
     let pbr = m.pbr_metallic_roughness();
-    let material = StandardMaterial {
+    let mut material = StandardMaterial {
         base_color: Vec4::from(pbr.base_color_factor()),
         metallic: pbr.metallic_factor(),
         roughness: pbr.roughness_factor(),
@@ -98,6 +149,8 @@ pub(crate) fn convert(m: &gltf::Material) -> MaterialDesc {
         unlit: m.unlit(),
         ..StandardMaterial::default()
     };
+    dielectric(m, &mut material, warnings);
+    let specular = m.specular();
     let textures = [
         pbr.base_color_texture().map(info),
         pbr.metallic_roughness_texture().map(info),
@@ -110,6 +163,8 @@ pub(crate) fn convert(m: &gltf::Material) -> MaterialDesc {
             texture(t.texture(), t.tex_coord(), tt)
         }),
         m.emissive_texture().map(info),
+        specular.as_ref().and_then(|s| s.specular_texture()).map(info),
+        specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
     ];
     MaterialDesc { material, textures }
 }

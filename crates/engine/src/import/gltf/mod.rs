@@ -44,6 +44,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_lights_ies",
     "PENUMBRA_lights_area",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_materials_unlit",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
@@ -336,14 +338,7 @@ impl SpawnCtx<'_> {
 
 fn resolve_material(d: &MaterialDesc, images: &[Option<Handle<Image>>]) -> StandardMaterial {
     let mut m = d.material.clone();
-    let slots = [
-        &mut m.base_color_texture,
-        &mut m.metallic_roughness_texture,
-        &mut m.normal_texture,
-        &mut m.occlusion_texture,
-        &mut m.emissive_texture,
-    ];
-    for (slot, tex) in slots.into_iter().zip(&d.textures) {
+    for (slot, tex) in m.textures_mut().into_iter().zip(&d.textures) {
         *slot = tex.as_ref().and_then(|t| {
             images.get(t.image).copied().flatten().map(|image| TextureRef {
                 image,
@@ -390,7 +385,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let reads = source::ReadBudget::new(options);
     let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options, &reads)?, options.limits);
 
-    let mut materials: Vec<MaterialDesc> = document.materials().map(|m| materials::convert(&m)).collect();
+    let mut materials: Vec<MaterialDesc> =
+        document.materials().map(|m| materials::convert(&m, &mut warnings)).collect();
     let mut meshes = Vec::new();
     progress(super::ImportStage::Meshes, document.meshes().len());
     for mesh in document.meshes() {

@@ -179,7 +179,7 @@ mod tests {
     }
 
     fn material(mr: usize, ao: usize) -> MaterialDesc {
-        let mut textures: [Option<TextureDesc>; 5] = Default::default();
+        let mut textures: [Option<TextureDesc>; crate::material::TEXTURE_SLOTS] = Default::default();
         textures[METALLIC_ROUGHNESS_SLOT] = texture(mr);
         textures[OCCLUSION_SLOT] = texture(ao);
         MaterialDesc { material: StandardMaterial::default(), textures }
