@@ -396,6 +396,13 @@ fn golden_specular_test_under_the_studio_environment() {
     env_golden("SpecularTest-studio");
 }
 
+/// KHR_materials_pbrSpecularGlossiness converted at import: the specular-glossiness bottle
+/// (left) beside its metallic-roughness twin (textures reduced to 256², see ATTRIBUTION.md).
+#[test]
+fn golden_spec_gloss_bottle_beside_its_metal_rough_twin() {
+    env_golden("SpecGlossVsMetalRough-studio");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

@@ -136,15 +136,6 @@ fn unsupported_required_extension_is_named() {
 }
 
 #[test]
-fn spec_gloss_sample_is_refused_with_the_extension_name() {
-    let err = load_expecting_error(&asset("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf"));
-    assert!(
-        matches!(&err.kind, ImportErrorKind::UnsupportedExtension { name } if name == "KHR_materials_pbrSpecularGlossiness"),
-        "{err}"
-    );
-}
-
-#[test]
 fn uri_outside_the_scene_folder_is_refused() {
     for uri in ["../triangle.bin", "/etc/passwd", "sub/../../triangle.bin"] {
         let path = write_scene("outside", &triangle_json(uri, ""), true);
@@ -488,4 +479,67 @@ fn the_specular_sample_imports_its_factors_and_textures() {
     assert!(all.iter().any(|m| m.specular_texture.is_some()));
     assert!(all.iter().any(|m| m.specular_color_texture.is_some()));
     assert!(all.iter().any(|m| m.specular_color.max_element() > 1.0), "colour factors above 1 are kept");
+}
+
+/// KHR_materials_pbrSpecularGlossiness is converted, not refused: diffuse to base colour,
+/// specular to the specular colour at IOR 0 (F0 = that colour), roughness = 1 − glossiness,
+/// metallic 0; with a warning that the conversion is approximate.
+#[test]
+fn specular_glossiness_factors_convert_to_the_specular_extension_at_ior_zero() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
+  "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],
+  "materials": [{"name": "old", "extensions": {"KHR_materials_pbrSpecularGlossiness": {
+      "diffuseFactor": [0.5, 0.25, 1.0, 1.0], "specularFactor": [0.2, 0.3, 0.4], "glossinessFactor": 0.75}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("spec_gloss", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(
+        warnings.contains("material \"old\": KHR_materials_pbrSpecularGlossiness (archived) converted"),
+        "{warnings}"
+    );
+    assert!(warnings.contains("approximate"), "{warnings}");
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let (_, m) = materials.iter().next().expect("one material");
+    assert_eq!(m.base_color, Vec4::new(0.5, 0.25, 1.0, 1.0));
+    assert_eq!((m.metallic, m.roughness, m.ior, m.specular), (0.0, 0.25, 0.0, 1.0));
+    assert_eq!(m.specular_color, Vec3::new(0.2, 0.3, 0.4));
+    assert_eq!(m.ior_reflectance(), 1.0, "IOR 0: F0 is the specular colour");
+}
+
+/// The sample with a specular-glossiness bottle beside its metallic-roughness twin: the
+/// converted material reads its diffuse texture as base colour, its specular-glossiness texture
+/// as specular colour and, through an image made at import, as roughness.
+#[test]
+fn the_specular_glossiness_sample_converts_its_textures() {
+    let scene = penumbra::engine::import::GltfScene::load(
+        &asset("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf"),
+        &ImportOptions::default(),
+    )
+    .expect("loads");
+    let converted = scene.warnings.iter().filter(|w| w.contains("converted to metallic-roughness")).count();
+    assert_eq!(converted, 2, "{:?}", scene.warnings);
+    assert!(!scene.warnings.iter().any(|w| w.contains("not supported")), "{:?}", scene.warnings);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let bottle = materials
+        .iter()
+        .map(|(_, m)| m)
+        .find(|m| m.specular_color_texture.is_some() && m.normal_texture.is_some())
+        .expect("the specular-glossiness bottle");
+    assert_eq!((bottle.metallic, bottle.roughness, bottle.ior), (0.0, 1.0, 0.0));
+    let (rough, sg) = (bottle.metallic_roughness_texture.unwrap(), bottle.specular_color_texture.unwrap());
+    assert!(bottle.base_color_texture.is_some());
+    assert_ne!(rough.image, sg.image, "roughness comes from an image made from the glossiness");
+    let images = app.world.resource::<Assets<Image>>();
+    let roughness = images.get(rough.image).expect("the roughness image");
+    assert!(roughness.rgba8.chunks_exact(4).all(|p| p[0] == 255 && p[2] == 0), "occlusion 1, metallic 0");
 }

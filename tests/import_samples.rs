@@ -32,9 +32,6 @@ fn every_sample_model_imports() {
             continue;
         }
         let name = dir.file_name().unwrap().to_str().unwrap().to_owned();
-        if name == "SpecGlossVsMetalRough" {
-            continue; // refused on purpose; see import_errors.rs
-        }
         for f in std::fs::read_dir(&dir).unwrap() {
             let f = f.unwrap().path();
             if matches!(f.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {

@@ -153,6 +153,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("MetalRoughSpheresNoTextures-studio", 0.216),
     ("MetalRoughSpheresNoTextures-sky", 0.289),
     ("SpecularTest-studio", 0.483),
+    ("SpecGlossVsMetalRough-studio", 0.210),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -234,6 +235,7 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "MetalRoughSpheresNoTextures-studio",
     "MetalRoughSpheresNoTextures-sky",
     "SpecularTest-studio",
+    "SpecGlossVsMetalRough-studio",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -244,6 +246,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "MetalRoughSpheresNoTextures-studio" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", false),
         "MetalRoughSpheresNoTextures-sky" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", true),
         "SpecularTest-studio" => ("SpecularTest/SpecularTest.glb", false),
+        "SpecGlossVsMetalRough-studio" => ("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

@@ -21,6 +21,10 @@ pub(crate) struct TextureDesc {
 pub(crate) struct MaterialDesc {
     pub material: StandardMaterial,
     pub textures: [Option<TextureDesc>; TEXTURE_SLOTS],
+    /// A specular-glossiness material's glossiness factor, while its metallic-roughness slot
+    /// still names the specular-glossiness image its roughness image is made from
+    /// (`spec_gloss::derive_roughness`).
+    pub glossiness: Option<f32>,
 }
 
 pub(crate) const NORMAL_SLOT: usize = 2;
@@ -74,7 +78,7 @@ fn texture(texture: gltf::Texture, tex_coord: u32, transform: Option<(UvTransfor
     }
 }
 
-fn info(i: gltf::texture::Info) -> TextureDesc {
+pub(crate) fn info(i: gltf::texture::Info) -> TextureDesc {
     let tt = i.texture_transform().map(|t| {
         (UvTransform { offset: t.offset().into(), rotation: t.rotation(), scale: t.scale().into() }, t.tex_coord())
     });
@@ -166,5 +170,9 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         specular.as_ref().and_then(|s| s.specular_texture()).map(info),
         specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
     ];
-    MaterialDesc { material, textures }
+    let mut desc = MaterialDesc { material, textures, glossiness: None };
+    if let Some(sg) = m.pbr_specular_glossiness() {
+        super::spec_gloss::convert(&sg, &mut desc, &label(m), info, warnings);
+    }
+    desc
 }

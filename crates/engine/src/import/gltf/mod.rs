@@ -17,6 +17,7 @@ mod materials;
 mod occlusion_packing;
 mod primitive;
 pub(crate) mod source;
+mod spec_gloss;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -45,6 +46,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "PENUMBRA_lights_area",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_specular",
     "KHR_materials_unlit",
     "KHR_texture_transform",
@@ -419,6 +421,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     }
 
     let mut images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
+    spec_gloss::derive_roughness(&mut materials, &mut images);
     occlusion_packing::pack_occlusion(&mut materials, &mut images);
     let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options, &reads)?;

@@ -182,7 +182,7 @@ mod tests {
         let mut textures: [Option<TextureDesc>; crate::material::TEXTURE_SLOTS] = Default::default();
         textures[METALLIC_ROUGHNESS_SLOT] = texture(mr);
         textures[OCCLUSION_SLOT] = texture(ao);
-        MaterialDesc { material: StandardMaterial::default(), textures }
+        MaterialDesc { material: StandardMaterial::default(), textures, glossiness: None }
     }
 
     #[test]
