@@ -23,16 +23,18 @@ struct Surface {
     metallic: f32,
     // base_color · (1 − metallic): the Lambertian lobe of the dielectric half of glTF's mix.
     diffuse_color: vec3<f32>,
-    // Specular reflectance at normal incidence, mixed: the dielectric's `dielectric_f0_color` to
-    // base_color (metal).
+    // Specular reflectance at normal incidence, mixed: the dielectric's (0.04, or with
+    // MATERIAL_SPECULAR its own times its specular strength) to base_color (metal).
     f0_color: vec3<f32>,
-    // ... and at grazing incidence: the dielectric's specular strength to 1 (metal).
+#ifdef MATERIAL_SPECULAR
+    // KHR_materials_ior / KHR_materials_specular (set by `with_reflectance`): the reflectance at
+    // grazing incidence, the dielectric's specular strength to 1 (metal); and the dielectric
+    // lobe's directional albedo (the light it takes from the diffuse base). Without the
+    // feature both are glTF's constants (`surface_f90`, `dielectric_albedo`), so default
+    // materials compile the core shading unchanged.
     f90_weight: f32,
-    // The dielectric's reflectance at normal incidence, times its specular strength (glTF's
-    // default: 0.04 and 1; KHR_materials_ior and KHR_materials_specular change both), and that
-    // strength. Set with the two above by `with_reflectance`.
-    dielectric_f0_color: vec3<f32>,
-    specular_weight: f32,
+    dielectric_specular: vec3<f32>,
+#endif
     perceptual_roughness: f32,
     alpha: f32,
     n: vec3<f32>,
@@ -46,15 +48,39 @@ struct Surface {
 
 // The surface's reflectance from its dielectric's F0 (before the specular strength) and
 // specular strength (KHR_materials_specular): the dielectric lobe is `weight` times the lobe of
-// F0 `dielectric_f0_color`, Schlick's F being linear in (F0, F90); metals keep F90 = 1.
+// F0 `dielectric_f0_color`, Schlick's F being linear in (F0, F90); metals keep F90 = 1. Needs
+// `dfg`. Without MATERIAL_SPECULAR the arguments are glTF's (DIELECTRIC_F0, 1) and only
+// `f0_color` is set.
 fn with_reflectance(surface: Surface, dielectric_f0_color: vec3<f32>, weight: f32) -> Surface {
     var s = surface;
-    s.dielectric_f0_color = dielectric_f0_color * weight;
-    s.specular_weight = weight;
-    s.f0_color = mix(s.dielectric_f0_color, s.base_color, s.metallic);
-    // weight + (1 − weight)·metallic: exactly 1 for the default weight.
+#ifdef MATERIAL_SPECULAR
+    let dielectric = dielectric_f0_color * weight;
+    s.f0_color = mix(dielectric, s.base_color, s.metallic);
     s.f90_weight = weight + (1.0 - weight) * s.metallic;
+    s.dielectric_specular = specular_albedo(dielectric, weight, s.dfg);
+#else
+    s.f0_color = mix(dielectric_f0_color, s.base_color, s.metallic);
+#endif
     return s;
+}
+
+// The surface's reflectance at grazing incidence.
+fn surface_f90(s: Surface) -> f32 {
+#ifdef MATERIAL_SPECULAR
+    return s.f90_weight;
+#else
+    return 1.0;
+#endif
+}
+
+// The directional albedo of the surface's dielectric specular lobe (single and multiple
+// scattering).
+fn dielectric_albedo(s: Surface) -> vec3<f32> {
+#ifdef MATERIAL_SPECULAR
+    return s.dielectric_specular;
+#else
+    return specular_albedo(DIELECTRIC_F0, 1.0, s.dfg);
+#endif
 }
 
 // GGX / Trowbridge-Reitz normal distribution, α² / (π ((N·H)²(α² − 1) + 1)²) written as
@@ -102,7 +128,7 @@ fn specular_albedo(f0_color: vec3<f32>, f90_weight: f32, ab: vec2<f32>) -> vec3<
 // metals lit directly were up to half as bright as the Cycles references of `penumbra report`
 // (tests/reference, spheres scene).
 fn specular_multiscatter(s: Surface) -> vec3<f32> {
-    return multiscatter_scale(s.f0_color, s.f90_weight, s.dfg.x + s.dfg.y);
+    return multiscatter_scale(s.f0_color, surface_f90(s), s.dfg.x + s.dfg.y);
 }
 
 // `specular_multiscatter` for a given single-scattering albedo of a white lobe.
@@ -130,7 +156,7 @@ struct LobeWeights {
 };
 
 fn lobe_weights(s: Surface) -> LobeWeights {
-    let dielectric_specular = specular_albedo(s.dielectric_f0_color, s.specular_weight, s.dfg);
+    let dielectric_specular = dielectric_albedo(s);
     let metal_specular = specular_albedo(s.base_color, 1.0, s.dfg);
     return LobeWeights(
         mix(dielectric_specular, metal_specular, s.metallic),
@@ -150,7 +176,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let f = f_schlick(s.f0_color, s.f90_weight, v_dot_h) * specular_multiscatter(s);
+    let f = f_schlick(s.f0_color, surface_f90(s), v_dot_h) * specular_multiscatter(s);
     let spec = f * (d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
     let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
@@ -162,7 +188,7 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
 // implementation darkened rough surfaces seen at grazing angles by up to 8 % against the
 // Cycles references (tests/reference, sun_csm's distant ground).
 fn diffuse_share(s: Surface) -> vec3<f32> {
-    return vec3<f32>(1.0) - specular_albedo(s.dielectric_f0_color, s.specular_weight, s.dfg);
+    return vec3<f32>(1.0) - dielectric_albedo(s);
 }
 
 // The two lobes of `direct` apart, for lights whose diffuse and specular parts are seen in
@@ -183,5 +209,5 @@ fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let d_v = d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
     let ms = specular_multiscatter(s);
-    return f_schlick(s.f0_color, s.f90_weight, v_dot_h) * ms * (d_v * n_dot_l);
+    return f_schlick(s.f0_color, surface_f90(s), v_dot_h) * ms * (d_v * n_dot_l);
 }

@@ -25,16 +25,24 @@ struct Material {
     normal_scale: f32,
     occlusion_strength: f32,
     flags: u32,
-    // KHR_materials_specular's strength (the specular texture's alpha multiplies it).
-    specular: f32,
     _pad_a: u32,
     _pad_b: u32,
-    // The dielectric's reflectance at normal incidence before the specular colour texture: the
-    // IOR's ((ior − 1) / (ior + 1))² times the specular colour.
+    _pad_c: u32,
+    // Per core texture slot two rows of the 2×3 UV transform; row 0's .w is the UV set.
+    uv: array<vec4<f32>, 10>,
+};
+
+// The parameters of a material's extensions, a uniform in its material group read only by the
+// variants compiled with them (mirrors `GpuMaterialExtension` in resources/materials.rs), so that
+// materials without extensions load no more than glTF's core parameters.
+struct MaterialExtension {
+    // KHR_materials_ior / KHR_materials_specular: the dielectric's reflectance at normal
+    // incidence before the specular colour texture (the IOR's ((ior − 1) / (ior + 1))² times
+    // the specular colour), and the specular strength (the specular texture's alpha multiplies it).
     dielectric_f0_color: vec3<f32>,
-    _pad_d: u32,
-    // Per texture slot two rows of the 2×3 UV transform; row 0's .w is the UV set.
-    uv: array<vec4<f32>, 14>,
+    specular: f32,
+    // The UV transform rows of the extension slots (specular, specular colour), as `Material::uv`.
+    uv: array<vec4<f32>, 4>,
 };
 
 // A vertex placed by its instance.
@@ -93,8 +101,11 @@ struct UvSets {
 // the transform is read from a storage buffer and some drivers (llvmpipe) do not execute loads in
 // helper invocations: derivatives of loaded values are garbage at triangle edges there.
 fn slot_coord(mat: Material, slot: u32, sets: UvSets) -> TexCoord {
-    let r0 = mat.uv[slot * 2u];
-    let r1 = mat.uv[slot * 2u + 1u];
+    return transformed_coord(mat.uv[slot * 2u], mat.uv[slot * 2u + 1u], sets);
+}
+
+// `slot_coord` from a slot's two transform rows.
+fn transformed_coord(r0: vec4<f32>, r1: vec4<f32>, sets: UvSets) -> TexCoord {
     let second = r0.w > 0.5;
     let uv = select(sets.first, sets.second, second);
     let dx = select(sets.first_ddx, sets.second_ddx, second);

@@ -43,7 +43,7 @@
 #import penumbra::split_sum::split_sum
 #endif
 #import penumbra::light_data::Light
-#import penumbra::draw_data::{Instance, Material, MATERIAL_DOUBLE_SIDED, TexCoord, UvSets, slot_coord, place_vertex}
+#import penumbra::draw_data::{Instance, Material, MaterialExtension, MATERIAL_DOUBLE_SIDED, TexCoord, UvSets, slot_coord, transformed_coord, place_vertex}
 #import penumbra::lights::shade_light
 #ifdef SHADOWS
 #import penumbra::light_data::LIGHT_DIRECTIONAL
@@ -103,6 +103,9 @@
 @group(1) @binding(11) var specular_sampler: sampler;
 @group(1) @binding(12) var specular_color_texture: texture_2d<f32>;
 @group(1) @binding(13) var specular_color_sampler: sampler;
+#ifdef MATERIAL_SPECULAR
+@group(1) @binding(14) var<uniform> material_extension: MaterialExtension;
+#endif
 
 #ifdef PULLED_VERTICES
 // A triangle-culled draw (cull.wgsl, TRIANGLE_CULLING): each index names its instance and
@@ -292,6 +295,23 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #endif
 }
 
+#ifdef MATERIAL_SPECULAR
+// `material_texel` for an extension slot: `slot` counts the extension's slots (0: specular,
+// 1: specular colour), whose transforms are in the material's extension uniform.
+fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
+#ifdef TRANSFORMED_UVS
+    let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
+    return textureSampleGrad(t, s, c.uv, c.ddx, c.ddy);
+#else
+#ifdef VISIBILITY_SHADE
+    return textureSampleGrad(t, s, sets.first, sets.first_ddx, sets.first_ddy);
+#else
+    return textureSample(t, s, sets.first);
+#endif
+#endif
+}
+#endif
+
 #ifdef ALPHA_COVERAGE
 // glTF's alpha test at each of the pixel's 4 samples (the standard positions) instead of once at
 // its centre: the alpha (factor × vertex colour × base colour texel) is evaluated at each sample,
@@ -442,14 +462,14 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     var dielectric_f0_color = DIELECTRIC_F0;
     var specular_weight = 1.0;
 #ifdef MATERIAL_SPECULAR
-    var specular_color = mat.dielectric_f0_color;
+    var specular_color = material_extension.dielectric_f0_color;
 #ifdef SPECULAR_COLOR_TEXTURE
-    specular_color *= material_texel(specular_color_texture, specular_color_sampler, mat, 6u, sets).rgb;
+    specular_color *= extension_texel(specular_color_texture, specular_color_sampler, 1u, sets).rgb;
 #endif
     dielectric_f0_color = min(specular_color, vec3<f32>(1.0));
-    specular_weight = clamp(mat.specular, 0.0, 1.0);
+    specular_weight = clamp(material_extension.specular, 0.0, 1.0);
 #ifdef SPECULAR_TEXTURE
-    specular_weight *= material_texel(specular_texture, specular_sampler, mat, 5u, sets).a;
+    specular_weight *= extension_texel(specular_texture, specular_sampler, 0u, sets).a;
 #endif
 #endif
 
@@ -457,7 +477,6 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s.base_color = base.rgb;
     s.metallic = metallic;
     s.diffuse_color = base.rgb * (1.0 - metallic);
-    s = with_reflectance(s, dielectric_f0_color, specular_weight);
     s.perceptual_roughness = perceptual_roughness;
     s.alpha = perceptual_roughness * perceptual_roughness;
     s.n = n;
@@ -466,6 +485,7 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s.n_dot_v = max(dot(n, v), 1e-4);
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
+    s = with_reflectance(s, dielectric_f0_color, specular_weight);
 #ifdef OCCLUSION_TEXTURE
 #ifdef OCCLUSION_IN_METALLIC_ROUGHNESS
     // The same texel (glTF's ORM packing): occlusion is its red channel.

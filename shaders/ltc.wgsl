@@ -17,7 +17,7 @@
 #define_import_path penumbra::ltc
 
 #import penumbra::common::{PI, safe_normalize}
-#import penumbra::brdf::{Surface, diffuse_share, multiscatter_scale}
+#import penumbra::brdf::{Surface, diffuse_share, multiscatter_scale, surface_f90}
 #import penumbra::light_data::{Light, LIGHT_DISK, range_window}
 
 const LTC_SIZE: u32 = 64u;
@@ -233,8 +233,9 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let specular_integral = clipped_cos_integral(&in_frame, count) / PI;
     // Multiple scattering as in `brdf::specular_multiscatter`, with the fit's own albedo for
     // F0 = 1 (magnitude.x + magnitude.y) as Ess.
-    let ms = multiscatter_scale(s.f0_color, s.f90_weight, cell.magnitude.x + cell.magnitude.y);
-    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(s.f90_weight) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
+    let f90 = surface_f90(s);
+    let ms = multiscatter_scale(s.f0_color, f90, cell.magnitude.x + cell.magnitude.y);
+    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(f90) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
     // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
     let diffuse = diffuse_share(s) * s.diffuse_color / PI * diffuse_integral;
     return (diffuse + specular) * light.color * window;

@@ -67,6 +67,9 @@ impl MaterialFeatures {
 /// colour.
 pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = StandardMaterial::SRGB_SLOTS;
 
+/// The material group's binding of the extension uniform, after the texture slots' pairs.
+const EXTENSION_BINDING: u32 = 2 * TEXTURE_SLOTS as u32;
+
 pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
 pub const FLAG_DOUBLE_SIDED: u32 = 2;
 
@@ -82,14 +85,26 @@ pub struct GpuMaterial {
     pub normal_scale: f32,
     pub occlusion_strength: f32,
     pub flags: u32,
-    /// KHR_materials_specular's strength (its texture's alpha multiplies it).
-    pub specular: f32,
-    pub _pad: [u32; 2],
+    pub _pad: [u32; 3],
+    pub uv: [[f32; 4]; 2 * CORE_SLOTS],
+}
+
+/// glTF's core texture slots, whose transforms `GpuMaterial` holds; the extensions' follow in
+/// `GpuMaterialExtension`.
+const CORE_SLOTS: usize = 5;
+
+/// Mirrors `struct MaterialExtension` in `shaders/draw_data.wgsl`: the parameters of a
+/// material's extensions, a uniform in its material group that only the variants compiled with
+/// them read, so materials without extensions load nothing more.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterialExtension {
     /// The dielectric's F0 before its texture: the IOR's reflectance times the specular colour
     /// (the shader clamps the product with the texture to 1).
     pub dielectric_f0_color: [f32; 3],
-    pub _pad_d: u32,
-    pub uv: [[f32; 4]; 2 * TEXTURE_SLOTS],
+    /// KHR_materials_specular's strength (its texture's alpha multiplies it).
+    pub specular: f32,
+    pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
 }
 
 /// Which material a draw uses: `None` is the glTF default material.
@@ -116,6 +131,8 @@ pub struct MaterialEntry {
     pub textures: TextureSet,
     /// Which material extensions its shading reads.
     pub features: MaterialFeatures,
+    /// Its extension parameters' uniform, bound in its group (held for the group's lifetime).
+    _extension: wgpu::Buffer,
 }
 
 pub struct MaterialTable {
@@ -136,10 +153,11 @@ pub struct MaterialTable {
 impl MaterialTable {
     pub fn new(device: &wgpu::Device) -> Self {
         let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
-        let entries: Vec<_> = (0..TEXTURE_SLOTS as u32)
+        let mut entries: Vec<_> = (0..TEXTURE_SLOTS as u32)
             .flat_map(|i| [parts::texture(2 * i, true), parts::sampler(2 * i + 1)])
             .map(|e| wgpu::BindGroupLayoutEntry { visibility: lit, ..e })
             .collect();
+        entries.push(parts::uniform(EXTENSION_BINDING, lit));
         Self {
             layout: parts::bind_group_layout(device, "material", &entries),
             cpu: Vec::new(),
@@ -228,6 +246,14 @@ impl MaterialTable {
         };
         self.cpu[slot as usize] = pack(&material);
         self.dirty = true;
+        let extension = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("material extension"),
+                contents: bytemuck::bytes_of(&pack_extension(&material)),
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
 
         let samplers: Vec<wgpu::Sampler> =
             views.iter().map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone()).collect();
@@ -242,6 +268,7 @@ impl MaterialTable {
                 resource: wgpu::BindingResource::Sampler(sampler),
             });
         }
+        entries.push(wgpu::BindGroupEntry { binding: EXTENSION_BINDING, resource: extension.as_entire_binding() });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("material textures"),
             layout: &self.layout,
@@ -264,6 +291,7 @@ impl MaterialTable {
                 double_sided: material.double_sided,
                 textures: texture_set(&material),
                 features: features(&material),
+                _extension: extension,
             },
         );
         true
@@ -336,13 +364,33 @@ fn features(m: &StandardMaterial) -> MaterialFeatures {
     MaterialFeatures(bits)
 }
 
-fn pack(m: &StandardMaterial) -> GpuMaterial {
-    let mut uv = [[0.0; 4]; 2 * TEXTURE_SLOTS];
-    for (slot, tex) in m.textures().into_iter().enumerate() {
+/// The rows of the 2×3 affine part of each slot's UV transform, uv' = (row0 · (u, v, 1),
+/// row1 · (u, v, 1)); row 0's last value is the UV set.
+fn uv_rows(m: &StandardMaterial) -> [[[f32; 4]; 2]; TEXTURE_SLOTS] {
+    m.textures().map(|tex| {
         let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| (t.transform.matrix(), t.uv_set));
-        // Rows of the 2×3 affine part: uv' = (row0 · (u, v, 1), row1 · (u, v, 1)).
-        uv[2 * slot] = [mat.x_axis.x, mat.y_axis.x, mat.z_axis.x, set as f32];
-        uv[2 * slot + 1] = [mat.x_axis.y, mat.y_axis.y, mat.z_axis.y, 0.0];
+        [[mat.x_axis.x, mat.y_axis.x, mat.z_axis.x, set as f32], [mat.x_axis.y, mat.y_axis.y, mat.z_axis.y, 0.0]]
+    })
+}
+
+fn pack_extension(m: &StandardMaterial) -> GpuMaterialExtension {
+    let rows = uv_rows(m);
+    let mut uv = [[0.0; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)];
+    for (i, r) in rows[CORE_SLOTS..].iter().enumerate() {
+        uv[2 * i..2 * i + 2].copy_from_slice(r);
+    }
+    GpuMaterialExtension {
+        dielectric_f0_color: (m.specular_color * m.ior_reflectance()).to_array(),
+        specular: m.specular,
+        uv,
+    }
+}
+
+fn pack(m: &StandardMaterial) -> GpuMaterial {
+    let rows = uv_rows(m);
+    let mut uv = [[0.0; 4]; 2 * CORE_SLOTS];
+    for (slot, r) in rows[..CORE_SLOTS].iter().enumerate() {
+        uv[2 * slot..2 * slot + 2].copy_from_slice(r);
     }
     let mut flags = 0;
     if m.normal_texture.is_some() {
@@ -364,10 +412,7 @@ fn pack(m: &StandardMaterial) -> GpuMaterial {
         normal_scale: m.normal_scale,
         occlusion_strength: m.occlusion_strength,
         flags,
-        specular: m.specular,
-        _pad: [0; 2],
-        dielectric_f0_color: (m.specular_color * m.ior_reflectance()).to_array(),
-        _pad_d: 0,
+        _pad: [0; 3],
         uv,
     }
 }
@@ -406,26 +451,21 @@ mod tests {
 
     #[test]
     fn gpu_material_matches_the_wgsl_layout() {
-        // 5 × vec4 of scalars + two vec4 UV rows per texture slot.
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), (5 + 2 * TEXTURE_SLOTS) * 16);
+        // 4 × vec4 of scalars + two vec4 UV rows per core texture slot.
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), (4 + 2 * CORE_SLOTS) * 16);
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuMaterial,
             "forward.wgsl",
             [],
             "Material",
-            [
-                base_color,
-                emissive,
-                alpha_cutoff,
-                metallic,
-                roughness,
-                normal_scale,
-                occlusion_strength,
-                flags,
-                specular,
-                dielectric_f0_color,
-                uv
-            ]
+            [base_color, emissive, alpha_cutoff, metallic, roughness, normal_scale, occlusion_strength, flags, uv]
+        );
+        crate::pipelines::shader_library::assert_mirrors_wgsl!(
+            GpuMaterialExtension,
+            "forward.wgsl",
+            ["MATERIAL_SPECULAR"],
+            "MaterialExtension",
+            [dielectric_f0_color, specular, uv]
         );
     }
 }
