@@ -86,7 +86,7 @@ pub(crate) fn info(i: gltf::texture::Info) -> TextureDesc {
 }
 
 /// The material's name for messages: its name, or its index.
-fn label(m: &gltf::Material) -> String {
+pub(crate) fn label(m: &gltf::Material) -> String {
     match (m.name(), m.index()) {
         (Some(name), _) => format!("material \"{name}\""),
         (None, Some(i)) => format!("material {i}"),
@@ -170,9 +170,5 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         specular.as_ref().and_then(|s| s.specular_texture()).map(info),
         specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
     ];
-    let mut desc = MaterialDesc { material, textures, glossiness: None };
-    if let Some(sg) = m.pbr_specular_glossiness() {
-        super::spec_gloss::convert(&sg, &mut desc, &label(m), info, warnings);
-    }
-    desc
+    MaterialDesc { material, textures, glossiness: None }
 }

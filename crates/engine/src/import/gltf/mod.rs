@@ -387,8 +387,16 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let reads = source::ReadBudget::new(options);
     let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options, &reads)?, options.limits);
 
-    let mut materials: Vec<MaterialDesc> =
-        document.materials().map(|m| materials::convert(&m, &mut warnings)).collect();
+    let mut materials: Vec<MaterialDesc> = document
+        .materials()
+        .map(|m| {
+            let mut desc = materials::convert(&m, &mut warnings);
+            if let Some(sg) = m.pbr_specular_glossiness() {
+                spec_gloss::convert(&sg, &mut desc, &materials::label(&m), materials::info, &mut warnings);
+            }
+            desc
+        })
+        .collect();
     let mut meshes = Vec::new();
     progress(super::ImportStage::Meshes, document.meshes().len());
     for mesh in document.meshes() {
