@@ -35,6 +35,18 @@ struct Surface {
     f90_weight: f32,
     dielectric_specular: vec3<f32>,
 #endif
+#ifdef MATERIAL_CLEARCOAT
+    // KHR_materials_clearcoat (set by `with_coat`): a clear dielectric layer (F0 0.04) of
+    // strength `coat` over the material, with its own roughness and normal. `coat_albedo` is
+    // strength times its lobe's directional albedo seen from the eye: what the coat reflects of
+    // light arriving evenly, and what it takes from the light the material beneath receives.
+    coat: f32,
+    coat_perceptual_roughness: f32,
+    coat_alpha: f32,
+    coat_n: vec3<f32>,
+    coat_n_dot_v: f32,
+    coat_albedo: f32,
+#endif
     perceptual_roughness: f32,
     alpha: f32,
     n: vec3<f32>,
@@ -62,6 +74,43 @@ fn with_reflectance(surface: Surface, dielectric_f0_color: vec3<f32>, weight: f3
     s.f0_color = mix(dielectric_f0_color, s.base_color, s.metallic);
 #endif
     return s;
+}
+
+#ifdef MATERIAL_CLEARCOAT
+// Puts a coat of `strength` and `perceptual_roughness` with normal `n` over the surface; `dfg`
+// is the split-sum table at the coat's N·V and roughness.
+fn with_coat(surface: Surface, strength: f32, perceptual_roughness: f32, n: vec3<f32>, dfg: vec2<f32>) -> Surface {
+    var s = surface;
+    s.coat = strength;
+    s.coat_perceptual_roughness = perceptual_roughness;
+    s.coat_alpha = perceptual_roughness * perceptual_roughness;
+    s.coat_n = n;
+    s.coat_n_dot_v = max(dot(n, s.v), 1e-4);
+    s.coat_albedo = strength * specular_albedo(DIELECTRIC_F0, 1.0, dfg).x;
+    return s;
+}
+
+// The coat's lobe times its N·L towards `l` (its strength and Fresnel included).
+fn coat_cos(s: Surface, l: vec3<f32>) -> f32 {
+    let n_dot_l = dot(s.coat_n, l);
+    if n_dot_l <= 0.0 || s.coat <= 0.0 {
+        return 0.0;
+    }
+    let h = safe_normalize(l + s.v, s.coat_n);
+    let n_dot_h = clamp(dot(s.coat_n, h), 0.0, 1.0);
+    let f = f_schlick(DIELECTRIC_F0, 1.0, clamp(dot(s.v, h), 0.0, 1.0)).x;
+    let d_v = d_ggx(s.coat_n, h, n_dot_h, s.coat_alpha) * v_smith_ggx_correlated(s.coat_n_dot_v, n_dot_l, s.coat_alpha);
+    return s.coat * f * d_v * n_dot_l;
+}
+#endif
+
+// What the material beneath the coat keeps of the light it receives (1 without a coat).
+fn coat_base(s: Surface) -> f32 {
+#ifdef MATERIAL_CLEARCOAT
+    return 1.0 - s.coat_albedo;
+#else
+    return 1.0;
+#endif
 }
 
 // The surface's reflectance at grazing incidence.
@@ -143,7 +192,11 @@ fn multiscatter_scale(f0_color: vec3<f32>, f90_weight: f32, ess: f32) -> vec3<f3
 // white-furnace test checks.
 fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let w = lobe_weights(s);
+#ifdef MATERIAL_CLEARCOAT
+    return ((w.specular + w.diffuse) * coat_base(s) + s.coat_albedo) * l * s.occlusion;
+#else
     return (w.specular + w.diffuse) * l * s.occlusion;
+#endif
 }
 
 // What each lobe returns of light arriving evenly from the whole hemisphere (before
@@ -169,6 +222,15 @@ fn lobe_weights(s: Surface) -> LobeWeights {
 // weighted by `diffuse_share`. Schlick's F is linear in f0_color, so the specular lobes of
 // glTF's mix combine into F(f0_color mixed).
 fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
+#ifdef MATERIAL_CLEARCOAT
+    return direct_beneath(s, l, e) * coat_base(s) + coat_cos(s, l) * e;
+#else
+    return direct_beneath(s, l, e);
+#endif
+}
+
+// `direct` for the material alone (beneath its coat, if it has one).
+fn direct_beneath(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(s.n, l);
     if n_dot_l <= 0.0 {
         return vec3<f32>(0.0);
@@ -195,11 +257,20 @@ fn diffuse_share(s: Surface) -> vec3<f32> {
 // different directions (sphere and tube lights). The diffuse BRDF without N·L (the caller's
 // irradiance includes it; it does not depend on the light's direction, only on the view's):
 fn diffuse_brdf(s: Surface) -> vec3<f32> {
-    return diffuse_share(s) * s.diffuse_color / PI;
+    return diffuse_share(s) * s.diffuse_color / PI * coat_base(s);
 }
 
 // The specular BRDF times N·L, towards `l`.
 fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
+#ifdef MATERIAL_CLEARCOAT
+    return specular_cos_beneath(s, l) * coat_base(s) + vec3<f32>(coat_cos(s, l));
+#else
+    return specular_cos_beneath(s, l);
+#endif
+}
+
+// `specular_cos` for the material alone (beneath its coat, if it has one).
+fn specular_cos_beneath(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(s.n, l);
     if n_dot_l <= 0.0 {
         return vec3<f32>(0.0);

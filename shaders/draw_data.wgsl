@@ -41,8 +41,15 @@ struct MaterialExtension {
     // the specular colour), and the specular strength (the specular texture's alpha multiplies it).
     dielectric_f0_color: vec3<f32>,
     specular: f32,
-    // The UV transform rows of the extension slots (specular, specular colour), as `Material::uv`.
-    uv: array<vec4<f32>, 4>,
+    // KHR_materials_clearcoat: the coat's strength and perceptual roughness (their textures' red
+    // and green multiply them) and its normal map's scale.
+    clearcoat: f32,
+    clearcoat_roughness: f32,
+    clearcoat_normal_scale: f32,
+    _pad: f32,
+    // The UV transform rows of the extension slots (specular, specular colour, clearcoat,
+    // clearcoat roughness, clearcoat normal), as `Material::uv`.
+    uv: array<vec4<f32>, 10>,
 };
 
 // A vertex placed by its instance.

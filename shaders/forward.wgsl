@@ -10,7 +10,9 @@
 // draw does not need is not compiled): ALPHA_MASK, ALPHA_BLEND, UNLIT, BASE_COLOR_TEXTURE,
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, MATERIAL_SPECULAR
 // (KHR_materials_ior / KHR_materials_specular: the dielectric's reflectance from the material,
-// with SPECULAR_TEXTURE and SPECULAR_COLOR_TEXTURE), TRANSFORMED_UVS
+// with SPECULAR_TEXTURE and SPECULAR_COLOR_TEXTURE), MATERIAL_CLEARCOAT (KHR_materials_clearcoat,
+// with CLEARCOAT_TEXTURE, CLEARCOAT_ROUGHNESS_TEXTURE and CLEARCOAT_NORMAL_MAP; both read the
+// material's extension uniform, MATERIAL_EXTENSION), TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
 // OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
@@ -39,6 +41,9 @@
 #import penumbra::display::{display_rgb, srgb_encode}
 #endif
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS, with_reflectance}
+#ifdef MATERIAL_CLEARCOAT
+#import penumbra::brdf::with_coat
+#endif
 #ifndef UNLIT
 #import penumbra::split_sum::split_sum
 #endif
@@ -103,8 +108,14 @@
 @group(1) @binding(11) var specular_sampler: sampler;
 @group(1) @binding(12) var specular_color_texture: texture_2d<f32>;
 @group(1) @binding(13) var specular_color_sampler: sampler;
-#ifdef MATERIAL_SPECULAR
-@group(1) @binding(14) var<uniform> material_extension: MaterialExtension;
+@group(1) @binding(14) var clearcoat_texture: texture_2d<f32>;
+@group(1) @binding(15) var clearcoat_sampler: sampler;
+@group(1) @binding(16) var clearcoat_roughness_texture: texture_2d<f32>;
+@group(1) @binding(17) var clearcoat_roughness_sampler: sampler;
+@group(1) @binding(18) var clearcoat_normal_texture: texture_2d<f32>;
+@group(1) @binding(19) var clearcoat_normal_sampler: sampler;
+#ifdef MATERIAL_EXTENSION
+@group(1) @binding(20) var<uniform> material_extension: MaterialExtension;
 #endif
 
 #ifdef PULLED_VERTICES
@@ -295,9 +306,10 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #endif
 }
 
-#ifdef MATERIAL_SPECULAR
-// `material_texel` for an extension slot: `slot` counts the extension's slots (0: specular,
-// 1: specular colour), whose transforms are in the material's extension uniform.
+#ifdef MATERIAL_EXTENSION
+// `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
+// 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal), whose
+// transforms are in the material's extension uniform.
 fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
@@ -486,6 +498,37 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
     s = with_reflectance(s, dielectric_f0_color, specular_weight);
+#ifdef MATERIAL_CLEARCOAT
+    // The coat follows the geometry's normal, or its own normal map; not the base's.
+    let geometric_n = select(1.0, -1.0, double_sided_back) * safe_normalize(in.normal, v);
+    var coat_n = geometric_n;
+#ifdef CLEARCOAT_NORMAL_MAP
+    let cnm = extension_texel(clearcoat_normal_texture, clearcoat_normal_sampler, 4u, sets);
+    if dot(in.tangent.xyz, in.tangent.xyz) > 1e-12 {
+        let g = safe_normalize(in.normal, v);
+        let flip = select(1.0, -1.0, double_sided_back);
+        // The base's frame (see NORMAL_MAP) about the geometric normal, mirrored on a back face.
+        let t0 = safe_normalize(in.tangent.xyz - g * dot(g, in.tangent.xyz), vec3<f32>(1.0, 0.0, 0.0));
+        let b0 = cross(g, t0) * select(1.0, -1.0, in.tangent.w < 0.0);
+        let ct = flip * t0;
+        let cb = flip * b0;
+        let scale = material_extension.clearcoat_normal_scale;
+        let tn = (cnm.xyz * 2.0 - 1.0) * vec3<f32>(scale, scale, 1.0);
+        coat_n = safe_normalize(ct * tn.x + cb * tn.y + geometric_n * tn.z, geometric_n);
+    }
+#endif
+    var coat = material_extension.clearcoat;
+#ifdef CLEARCOAT_TEXTURE
+    coat *= extension_texel(clearcoat_texture, clearcoat_sampler, 2u, sets).r;
+#endif
+    var coat_roughness = material_extension.clearcoat_roughness;
+#ifdef CLEARCOAT_ROUGHNESS_TEXTURE
+    coat_roughness *= extension_texel(clearcoat_roughness_texture, clearcoat_roughness_sampler, 3u, sets).g;
+#endif
+    coat_roughness = clamp(coat_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    let coat_n_dot_v = max(dot(coat_n, v), 1e-4);
+    s = with_coat(s, clamp(coat, 0.0, 1.0), coat_roughness, coat_n, split_sum(coat_n_dot_v, coat_roughness));
+#endif
 #ifdef OCCLUSION_TEXTURE
 #ifdef OCCLUSION_IN_METALLIC_ROUGHNESS
     // The same texel (glTF's ORM packing): occlusion is its red channel.

@@ -10,7 +10,7 @@
 //   white surface under a uniform environment returns exactly its radiance (the furnace test).
 #define_import_path penumbra::ibl
 
-#import penumbra::brdf::{Surface, lobe_weights}
+#import penumbra::brdf::{Surface, coat_base, lobe_weights}
 #import penumbra::split_sum::linear_sampler
 
 struct EnvironmentParams {
@@ -78,5 +78,15 @@ fn environment_light(s: Surface) -> vec3<f32> {
     let dir = normalize(mix(s.n, r, (1.0 - a) * (sqrt(1.0 - a) + a)));
     let w = lobe_weights(s);
     let light = w.specular * prefiltered_radiance(dir, s.perceptual_roughness) + w.diffuse * diffuse_irradiance(s.n);
+#ifdef MATERIAL_CLEARCOAT
+    // The coat reflects its share along its own normal, at its own roughness (leaning as above);
+    // the material beneath keeps the rest.
+    let rc = reflect(-s.v, s.coat_n);
+    let ac = s.coat_alpha;
+    let coat_dir = normalize(mix(s.coat_n, rc, (1.0 - ac) * (sqrt(1.0 - ac) + ac)));
+    let coat = s.coat_albedo * prefiltered_radiance(coat_dir, s.coat_perceptual_roughness);
+    return (light * coat_base(s) + coat) * s.occlusion;
+#else
     return light * s.occlusion;
+#endif
 }

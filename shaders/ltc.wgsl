@@ -17,7 +17,7 @@
 #define_import_path penumbra::ltc
 
 #import penumbra::common::{PI, safe_normalize}
-#import penumbra::brdf::{Surface, diffuse_share, multiscatter_scale, surface_f90}
+#import penumbra::brdf::{Surface, coat_base, diffuse_share, multiscatter_scale, surface_f90}
 #import penumbra::light_data::{Light, LIGHT_DISK, range_window}
 
 const LTC_SIZE: u32 = 64u;
@@ -238,5 +238,7 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(f90) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
     // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
     let diffuse = diffuse_share(s) * s.diffuse_color / PI * diffuse_integral;
-    return (diffuse + specular) * light.color * window;
+    // Under a coat, the material keeps what the coat leaves (the coat's own reflection of the
+    // rectangle or disk is not evaluated).
+    return (diffuse + specular) * light.color * window * coat_base(s);
 }

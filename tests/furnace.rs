@@ -158,3 +158,57 @@ fn a_black_dielectric_reflects_what_its_ior_and_specular_say() {
     }));
     assert!((textured - core).abs().max_element() < 1e-4 * core.max_element().max(1e-3), "{textured} against {core}");
 }
+
+/// KHR_materials_clearcoat moves light between the coat and the material beneath it and never
+/// creates or loses it: a white material under any coat reflects all ambient light.
+#[test]
+fn white_materials_under_a_clear_coat_reflect_all_ambient_light() {
+    for (metallic, roughness, coat, coat_roughness) in
+        [(0.0, 0.5, 1.0, 0.0), (1.0, 0.2, 1.0, 0.5), (0.0, 1.0, 0.5, 1.0), (0.5, 0.5, 1.0, 0.1)]
+    {
+        let px = furnace_of(|_| StandardMaterial {
+            base_color: Vec4::ONE,
+            metallic,
+            roughness,
+            clearcoat: coat,
+            clearcoat_roughness: coat_roughness,
+            ..Default::default()
+        });
+        assert!(px.len() > 500);
+        for p in &px {
+            for c in &p[..3] {
+                assert!(
+                    c.is_finite() && (c - 1.0).abs() <= 0.02,
+                    "metallic {metallic} roughness {roughness} coat {coat} ({coat_roughness}): {p:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Over a black material the coat alone shows: a dielectric's reflection at full strength,
+/// half of it at half strength, none at 0.
+#[test]
+fn a_coat_over_black_reflects_like_a_dielectric_by_its_strength() {
+    let coated = |coat: f32| {
+        mean(&furnace_of(|_| StandardMaterial {
+            base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            clearcoat: coat,
+            clearcoat_roughness: 0.5,
+            ..Default::default()
+        }))
+    };
+    let dielectric = mean(&furnace_of(|_| StandardMaterial {
+        base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+        metallic: 0.0,
+        roughness: 0.5,
+        ..Default::default()
+    }));
+    let (full, half) = (coated(1.0), coated(0.5));
+    assert!((full - dielectric).abs().max_element() < 0.02 * dielectric.max_element(), "{full} against {dielectric}");
+    assert!((half * 2.0 - full).abs().max_element() < 0.02 * full.max_element(), "{half} x 2 against {full}");
+    assert!(coated(0.0).max_element() < 1e-4);
+}

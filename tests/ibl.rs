@@ -403,6 +403,14 @@ fn golden_spec_gloss_bottle_beside_its_metal_rough_twin() {
     env_golden("SpecGlossVsMetalRough-studio");
 }
 
+/// KHR_materials_clearcoat: coat strength and roughness by factor and by texture, a partial
+/// coat, and the coat's own normal map over a smooth base and a base normal map under a smooth
+/// coat.
+#[test]
+fn golden_clear_coat_test_under_the_studio_environment() {
+    env_golden("ClearCoatTest-studio");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

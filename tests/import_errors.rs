@@ -543,3 +543,49 @@ fn the_specular_glossiness_sample_converts_its_textures() {
     let roughness = images.get(rough.image).expect("the roughness image");
     assert!(roughness.rgba8.chunks_exact(4).all(|p| p[0] == 255 && p[2] == 0), "occlusion 1, metallic 0");
 }
+
+/// KHR_materials_clearcoat is read from the material's JSON: factors, textures and the coat's
+/// normal scale; a factor out of range is clamped and a texture index past the file's textures
+/// is dropped, each with a warning naming the material.
+#[test]
+fn clearcoat_is_read_and_bad_values_are_named() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_clearcoat"],
+  "materials": [{"name": "coated", "extensions": {"KHR_materials_clearcoat": {
+      "clearcoatFactor": 1.5, "clearcoatRoughnessFactor": 0.25,
+      "clearcoatTexture": {"index": 7}}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("clearcoat", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(warnings.contains("material \"coated\": KHR_materials_clearcoat clearcoatFactor 1.5"), "{warnings}");
+    assert!(warnings.contains("clearcoatTexture names no texture of the file (7)"), "{warnings}");
+    assert!(!warnings.contains("not supported"), "{warnings}");
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let (_, m) = materials.iter().next().expect("one material");
+    assert_eq!((m.clearcoat, m.clearcoat_roughness), (1.0, 0.25));
+    assert!(m.clearcoat_texture.is_none());
+}
+
+/// The clearcoat sample imports its coats, their textures and the coat's normal maps.
+#[test]
+fn the_clearcoat_sample_imports_its_coats() {
+    let scene =
+        penumbra::engine::import::GltfScene::load(&asset("ClearCoatTest/ClearCoatTest.glb"), &Default::default())
+            .expect("loads");
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let all: Vec<&StandardMaterial> = materials.iter().map(|(_, m)| m).collect();
+    assert!(all.iter().any(|m| m.clearcoat == 1.0 && m.clearcoat_texture.is_none()));
+    assert!(all.iter().any(|m| m.clearcoat_texture.is_some()), "partial coating");
+    assert!(all.iter().any(|m| m.clearcoat_roughness_texture.is_some()), "roughness variations");
+    assert!(all.iter().any(|m| m.clearcoat_normal_texture.is_some()), "coat normal map");
+}

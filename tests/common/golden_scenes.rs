@@ -154,6 +154,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("MetalRoughSpheresNoTextures-sky", 0.289),
     ("SpecularTest-studio", 0.483),
     ("SpecGlossVsMetalRough-studio", 0.210),
+    ("ClearCoatTest-studio", 0.293),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -236,6 +237,7 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "MetalRoughSpheresNoTextures-sky",
     "SpecularTest-studio",
     "SpecGlossVsMetalRough-studio",
+    "ClearCoatTest-studio",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -247,6 +249,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "MetalRoughSpheresNoTextures-sky" => ("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb", true),
         "SpecularTest-studio" => ("SpecularTest/SpecularTest.glb", false),
         "SpecGlossVsMetalRough-studio" => ("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf", false),
+        "ClearCoatTest-studio" => ("ClearCoatTest/ClearCoatTest.glb", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

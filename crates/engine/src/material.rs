@@ -137,6 +137,19 @@ pub struct StandardMaterial {
     pub specular_color: Vec3,
     /// Multiplies `specular_color`; sRGB-encoded RGB.
     pub specular_color_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat: the strength of a clear dielectric coat (IOR 1.5) over the
+    /// material, 0..=1 (0: none).
+    pub clearcoat: f32,
+    /// Multiplies `clearcoat`; read from red.
+    pub clearcoat_texture: Option<TextureRef>,
+    /// The coat's perceptual roughness.
+    pub clearcoat_roughness: f32,
+    /// Multiplies `clearcoat_roughness`; read from green.
+    pub clearcoat_roughness_texture: Option<TextureRef>,
+    /// The coat's own normal map (tangent space, as `normal_texture`); without it the coat
+    /// follows the geometry's normal, not the base's normal map.
+    pub clearcoat_normal_texture: Option<TextureRef>,
+    pub clearcoat_normal_scale: f32,
 }
 
 impl Default for StandardMaterial {
@@ -163,6 +176,12 @@ impl Default for StandardMaterial {
             specular_texture: None,
             specular_color: Vec3::ONE,
             specular_color_texture: None,
+            clearcoat: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness: 0.0,
+            clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
+            clearcoat_normal_scale: 1.0,
         }
     }
 }
@@ -175,7 +194,7 @@ impl StandardMaterial {
 
     /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour, emissive and
     /// specular colour, as glTF defines them); the others are read as stored.
-    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = [true, false, false, false, true, false, true];
+    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = [true, false, false, false, true, false, true, false, false, false];
 
     /// Every texture slot in the fixed order the renderer binds them.
     pub fn textures(&self) -> [Option<&TextureRef>; TEXTURE_SLOTS] {
@@ -187,6 +206,9 @@ impl StandardMaterial {
             self.emissive_texture.as_ref(),
             self.specular_texture.as_ref(),
             self.specular_color_texture.as_ref(),
+            self.clearcoat_texture.as_ref(),
+            self.clearcoat_roughness_texture.as_ref(),
+            self.clearcoat_normal_texture.as_ref(),
         ]
     }
 
@@ -200,6 +222,9 @@ impl StandardMaterial {
             &mut self.emissive_texture,
             &mut self.specular_texture,
             &mut self.specular_color_texture,
+            &mut self.clearcoat_texture,
+            &mut self.clearcoat_roughness_texture,
+            &mut self.clearcoat_normal_texture,
         ]
     }
 
@@ -222,7 +247,7 @@ impl StandardMaterial {
 }
 
 /// How many texture slots a material has ([`StandardMaterial::textures`]).
-pub const TEXTURE_SLOTS: usize = 7;
+pub const TEXTURE_SLOTS: usize = 10;
 
 /// glTF's IOR when a material gives none.
 pub const DEFAULT_IOR: f32 = 1.5;

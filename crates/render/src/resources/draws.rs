@@ -81,6 +81,7 @@ impl PipelineKey {
         // Deferred: the compute pass shades local lights; fragments only hand it their surface.
         let local = lit && !matches!(self.local_lights, LocalLights::None | LocalLights::Deferred);
         let specular = lit && self.features.has(MaterialFeatures::SPECULAR);
+        let clearcoat = lit && self.features.has(MaterialFeatures::CLEARCOAT);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -96,6 +97,11 @@ impl PipelineKey {
             .with("MATERIAL_SPECULAR", specular)
             .with("SPECULAR_TEXTURE", specular && t.has(TextureSet::SPECULAR))
             .with("SPECULAR_COLOR_TEXTURE", specular && t.has(TextureSet::SPECULAR_COLOR))
+            .with("MATERIAL_CLEARCOAT", clearcoat)
+            .with("CLEARCOAT_TEXTURE", clearcoat && t.has(TextureSet::CLEARCOAT))
+            .with("CLEARCOAT_ROUGHNESS_TEXTURE", clearcoat && t.has(TextureSet::CLEARCOAT_ROUGHNESS))
+            .with("CLEARCOAT_NORMAL_MAP", clearcoat && t.has(TextureSet::CLEARCOAT_NORMAL))
+            .with("MATERIAL_EXTENSION", specular || clearcoat)
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))

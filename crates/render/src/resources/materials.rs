@@ -30,12 +30,15 @@ impl TextureSet {
     pub const EMISSIVE: u16 = 1 << 4;
     pub const SPECULAR: u16 = 1 << 5;
     pub const SPECULAR_COLOR: u16 = 1 << 6;
+    pub const CLEARCOAT: u16 = 1 << 7;
+    pub const CLEARCOAT_ROUGHNESS: u16 = 1 << 8;
+    pub const CLEARCOAT_NORMAL: u16 = 1 << 9;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
-    pub const TRANSFORMED_UVS: u16 = 1 << 7;
+    pub const TRANSFORMED_UVS: u16 = 1 << 10;
     /// The occlusion texture is the metallic-roughness texture (same image, sampler and
     /// coordinates: glTF's ORM packing, occlusion in red), so one sample serves both.
-    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u16 = 1 << 8;
+    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u16 = 1 << 11;
 
     pub fn has(self, bit: u16) -> bool {
         self.0 & bit != 0
@@ -51,6 +54,8 @@ impl MaterialFeatures {
     /// KHR_materials_ior / KHR_materials_specular other than glTF's defaults: the dielectric's
     /// reflectance and specular strength come from the material.
     pub const SPECULAR: u8 = 1;
+    /// KHR_materials_clearcoat with a strength above 0: a clear coat over the material.
+    pub const CLEARCOAT: u8 = 2;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -104,6 +109,12 @@ pub struct GpuMaterialExtension {
     pub dielectric_f0_color: [f32; 3],
     /// KHR_materials_specular's strength (its texture's alpha multiplies it).
     pub specular: f32,
+    /// KHR_materials_clearcoat: the coat's strength and perceptual roughness (their textures'
+    /// red and green multiply them) and its normal map's scale.
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    pub clearcoat_normal_scale: f32,
+    pub _pad: f32,
     pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
 }
 
@@ -361,6 +372,9 @@ fn features(m: &StandardMaterial) -> MaterialFeatures {
     if !m.unlit && m.has_custom_specular() {
         bits |= MaterialFeatures::SPECULAR;
     }
+    if !m.unlit && m.clearcoat > 0.0 {
+        bits |= MaterialFeatures::CLEARCOAT;
+    }
     MaterialFeatures(bits)
 }
 
@@ -382,6 +396,10 @@ fn pack_extension(m: &StandardMaterial) -> GpuMaterialExtension {
     GpuMaterialExtension {
         dielectric_f0_color: (m.specular_color * m.ior_reflectance()).to_array(),
         specular: m.specular,
+        clearcoat: m.clearcoat,
+        clearcoat_roughness: m.clearcoat_roughness,
+        clearcoat_normal_scale: m.clearcoat_normal_scale,
+        _pad: 0.0,
         uv,
     }
 }
@@ -463,9 +481,9 @@ mod tests {
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuMaterialExtension,
             "forward.wgsl",
-            ["MATERIAL_SPECULAR"],
+            ["MATERIAL_EXTENSION"],
             "MaterialExtension",
-            [dielectric_f0_color, specular, uv]
+            [dielectric_f0_color, specular, clearcoat, clearcoat_roughness, clearcoat_normal_scale, uv]
         );
     }
 }

@@ -28,6 +28,8 @@ pub(crate) struct MaterialDesc {
 }
 
 pub(crate) const NORMAL_SLOT: usize = 2;
+/// The slots of tangent-space normal maps: the base's, then the coat's.
+pub(crate) const NORMAL_SLOTS: [usize; 2] = [NORMAL_SLOT, 9];
 
 fn sampler(s: gltf::texture::Sampler) -> Sampler {
     let wrap = |w| match w {
@@ -52,7 +54,7 @@ fn sampler(s: gltf::texture::Sampler) -> Sampler {
 
 /// KHR_texture_transform read from raw extension JSON (normal and occlusion texture infos are
 /// not typed by the gltf crate). Returns the transform and the optional texCoord override.
-fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option<u32>) {
+pub(crate) fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option<u32>) {
     let pair = |key: &str, default: Vec2| {
         v.get(key)
             .and_then(|a| a.as_array())
@@ -68,7 +70,11 @@ fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option<u32>) {
     (t, v.get("texCoord").and_then(|c| c.as_u64()).map(|c| c as u32))
 }
 
-fn texture(texture: gltf::Texture, tex_coord: u32, transform: Option<(UvTransform, Option<u32>)>) -> TextureDesc {
+pub(crate) fn texture(
+    texture: gltf::Texture,
+    tex_coord: u32,
+    transform: Option<(UvTransform, Option<u32>)>,
+) -> TextureDesc {
     let (transform, uv_override) = transform.unwrap_or_default();
     TextureDesc {
         image: texture.source().index(),
@@ -169,6 +175,10 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         m.emissive_texture().map(info),
         specular.as_ref().and_then(|s| s.specular_texture()).map(info),
         specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
+        // The coat's three slots: `clearcoat::read`.
+        None,
+        None,
+        None,
     ];
     MaterialDesc { material, textures, glossiness: None }
 }

@@ -11,6 +11,7 @@
 mod accessor;
 mod animation;
 mod area_lights;
+mod clearcoat;
 mod ies_lights;
 pub(crate) mod images;
 mod materials;
@@ -44,6 +45,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "EXT_lights_ies",
     "PENUMBRA_lights_area",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_pbrSpecularGlossiness",
@@ -391,9 +393,11 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         .materials()
         .map(|m| {
             let mut desc = materials::convert(&m, &mut warnings);
+            let label = materials::label(&m);
             if let Some(sg) = m.pbr_specular_glossiness() {
-                spec_gloss::convert(&sg, &mut desc, &materials::label(&m), materials::info, &mut warnings);
+                spec_gloss::convert(&sg, &mut desc, &label, materials::info, &mut warnings);
             }
+            clearcoat::read(&m, &document, &mut desc, &label, &mut warnings);
             desc
         })
         .collect();
@@ -411,10 +415,10 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             }
             let material = prim.material().index();
             let needs = primitive::GeometryNeeds {
-                normal_map_uv_set: material
-                    .and_then(|m| materials.get(m))
-                    .and_then(|m| m.textures[materials::NORMAL_SLOT].as_ref())
-                    .map(|t| t.uv_set),
+                // The base's normal map, else the coat's: either needs tangents.
+                normal_map_uv_set: material.and_then(|m| materials.get(m)).and_then(|m| {
+                    materials::NORMAL_SLOTS.iter().find_map(|&slot| m.textures[slot].as_ref()).map(|t| t.uv_set)
+                }),
             };
             match primitive::build(&prim, &buffers, &needs, mesh.index())? {
                 primitive::Built::Mesh(mesh, notes) => {
