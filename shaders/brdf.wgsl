@@ -46,6 +46,8 @@ struct Surface {
     coat_n: vec3<f32>,
     coat_n_dot_v: f32,
     coat_albedo: f32,
+    // Multiple scattering of the coat's lobe (`specular_multiscatter` for F0 0.04).
+    coat_multiscatter: f32,
 #endif
     perceptual_roughness: f32,
     alpha: f32,
@@ -87,6 +89,7 @@ fn with_coat(surface: Surface, strength: f32, perceptual_roughness: f32, n: vec3
     s.coat_n = n;
     s.coat_n_dot_v = max(dot(n, s.v), 1e-4);
     s.coat_albedo = strength * specular_albedo(DIELECTRIC_F0, 1.0, dfg).x;
+    s.coat_multiscatter = multiscatter_scale(DIELECTRIC_F0, 1.0, dfg.x + dfg.y).x;
     return s;
 }
 
@@ -100,7 +103,7 @@ fn coat_cos(s: Surface, l: vec3<f32>) -> f32 {
     let n_dot_h = clamp(dot(s.coat_n, h), 0.0, 1.0);
     let f = f_schlick(DIELECTRIC_F0, 1.0, clamp(dot(s.v, h), 0.0, 1.0)).x;
     let d_v = d_ggx(s.coat_n, h, n_dot_h, s.coat_alpha) * v_smith_ggx_correlated(s.coat_n_dot_v, n_dot_l, s.coat_alpha);
-    return s.coat * f * d_v * n_dot_l;
+    return s.coat * f * s.coat_multiscatter * d_v * n_dot_l;
 }
 #endif
 

@@ -500,8 +500,8 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s = with_reflectance(s, dielectric_f0_color, specular_weight);
 #ifdef MATERIAL_CLEARCOAT
     // The coat follows the geometry's normal, or its own normal map; not the base's.
-    let geometric_n = select(1.0, -1.0, double_sided_back) * safe_normalize(in.normal, v);
-    var coat_n = geometric_n;
+    let coat_geometric_n = select(1.0, -1.0, double_sided_back) * safe_normalize(in.normal, v);
+    var coat_n = coat_geometric_n;
 #ifdef CLEARCOAT_NORMAL_MAP
     let cnm = extension_texel(clearcoat_normal_texture, clearcoat_normal_sampler, 4u, sets);
     if dot(in.tangent.xyz, in.tangent.xyz) > 1e-12 {
@@ -514,7 +514,7 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
         let cb = flip * b0;
         let scale = material_extension.clearcoat_normal_scale;
         let tn = (cnm.xyz * 2.0 - 1.0) * vec3<f32>(scale, scale, 1.0);
-        coat_n = safe_normalize(ct * tn.x + cb * tn.y + geometric_n * tn.z, geometric_n);
+        coat_n = safe_normalize(ct * tn.x + cb * tn.y + coat_geometric_n * tn.z, coat_geometric_n);
     }
 #endif
     var coat = material_extension.clearcoat;

@@ -18,6 +18,9 @@
 
 #import penumbra::common::{PI, safe_normalize}
 #import penumbra::brdf::{Surface, coat_base, diffuse_share, multiscatter_scale, surface_f90}
+#ifdef MATERIAL_CLEARCOAT
+#import penumbra::brdf::DIELECTRIC_F0
+#endif
 #import penumbra::light_data::{Light, LIGHT_DISK, range_window}
 
 const LTC_SIZE: u32 = 64u;
@@ -196,17 +199,45 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     if window <= 0.0 {
         return vec3<f32>(0.0);
     }
+    let lobe = ltc_lobe(light, to_light, s.n, s.v, s.n_dot_v, s.perceptual_roughness);
+    // lobe: the diffuse (clipped cosine) integral, the specular integral, the fit's magnitude.
+    // Multiple scattering as in `brdf::specular_multiscatter`, with the fit's own albedo for
+    // F0 = 1 (magnitude.x + magnitude.y) as Ess.
+    let f90 = surface_f90(s);
+    let ms = multiscatter_scale(s.f0_color, f90, lobe.z + lobe.w);
+    let specular = (s.f0_color * lobe.z + (vec3<f32>(f90) - s.f0_color) * lobe.w) * lobe.y * ms;
+    // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
+    let diffuse = diffuse_share(s) * s.diffuse_color / PI * lobe.x;
+#ifdef MATERIAL_CLEARCOAT
+    // Under a coat the material keeps what the coat leaves; the coat reflects the light with
+    // its own lobe (F0 0.04), about its own normal.
+    var coat = 0.0;
+    if s.coat > 0.0 {
+        let c = ltc_lobe(light, to_light, s.coat_n, s.v, s.coat_n_dot_v, s.coat_perceptual_roughness);
+        let f0 = DIELECTRIC_F0.x;
+        coat = s.coat * (f0 * c.z + (1.0 - f0) * c.w) * c.y * s.coat_multiscatter;
+    }
+    return ((diffuse + specular) * coat_base(s) + coat) * light.color * window;
+#else
+    return (diffuse + specular) * light.color * window;
+#endif
+}
+
+// The light's polygon seen by a lobe of `perceptual_roughness` about normal `n` from `v`:
+// (the clipped cosine integral, the specular integral (normalised), the fit's magnitude for F0
+// and for 1 − F0).
+fn ltc_lobe(light: Light, to_light: vec3<f32>, n: vec3<f32>, v: vec3<f32>, n_dot_v: f32, perceptual_roughness: f32) -> vec4<f32> {
     // Shading frame: z along the normal, x in the plane of normal and view (the fit's frame);
     // any x when the view is along the normal (the lobe is isotropic there).
-    let along_view = s.v - s.n * dot(s.v, s.n);
+    let along_view = v - n * dot(v, n);
     var tan_x: vec3<f32>;
     if dot(along_view, along_view) < 1e-8 {
-        tan_x = normalize(cross(s.n, select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(s.n.x) > 0.9)));
+        tan_x = normalize(cross(n, select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9)));
     } else {
-        tan_x = normalize(along_view - s.n * dot(along_view, s.n));
+        tan_x = normalize(along_view - n * dot(along_view, n));
     }
-    let tan_y = cross(s.n, tan_x);
-    let to_frame = transpose(mat3x3<f32>(tan_x, tan_y, s.n));
+    let tan_y = cross(n, tan_x);
+    let to_frame = transpose(mat3x3<f32>(tan_x, tan_y, n));
 
     var corners: array<vec3<f32>, 17>;
     let outline_count = outline(light, to_light, &corners);
@@ -218,11 +249,11 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     var in_frame: array<vec3<f32>, 17>;
     let count = clip_to_horizon(&corners, outline_count, &in_frame);
     if count < 3u {
-        return vec3<f32>(0.0);
+        return vec4<f32>(0.0);
     }
     let diffuse_integral = clipped_cos_integral(&in_frame, count);
 
-    let cell = ltc_lookup(vec2<f32>(s.perceptual_roughness, sqrt(1.0 - clamp(s.n_dot_v, 0.0, 1.0))));
+    let cell = ltc_lookup(vec2<f32>(perceptual_roughness, sqrt(1.0 - clamp(n_dot_v, 0.0, 1.0))));
     let m = cell.inverse_m;
     let inverse_m = mat3x3<f32>(vec3<f32>(m.x, 0.0, m.y), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(m.z, 0.0, m.w));
     for (var i = 0u; i < count; i++) {
@@ -231,14 +262,5 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     // The transformed cosine is normalised (it integrates to π over the hemisphere); the fit's
     // magnitude restores the lobe's albedo, split into F0 and 1 − F0 shares (Schlick).
     let specular_integral = clipped_cos_integral(&in_frame, count) / PI;
-    // Multiple scattering as in `brdf::specular_multiscatter`, with the fit's own albedo for
-    // F0 = 1 (magnitude.x + magnitude.y) as Ess.
-    let f90 = surface_f90(s);
-    let ms = multiscatter_scale(s.f0_color, f90, cell.magnitude.x + cell.magnitude.y);
-    let specular = (s.f0_color * cell.magnitude.x + (vec3<f32>(f90) - s.f0_color) * cell.magnitude.y) * specular_integral * ms;
-    // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
-    let diffuse = diffuse_share(s) * s.diffuse_color / PI * diffuse_integral;
-    // Under a coat, the material keeps what the coat leaves (the coat's own reflection of the
-    // rectangle or disk is not evaluated).
-    return (diffuse + specular) * light.color * window * coat_base(s);
+    return vec4<f32>(diffuse_integral, specular_integral, cell.magnitude.x, cell.magnitude.y);
 }

@@ -18,13 +18,23 @@ fn furnace(metallic: f32, roughness: f32) -> Vec<[f32; 4]> {
 
 /// `furnace` with the sphere's material made by `material` (which may add images).
 fn furnace_of(material: impl FnOnce(&mut Assets<Image>) -> StandardMaterial) -> Vec<[f32; 4]> {
+    lit_sphere(material, |world| {
+        world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
+    })
+}
+
+/// `furnace_of` with the light `light` spawns instead of the ambient light.
+fn lit_sphere(
+    material: impl FnOnce(&mut Assets<Image>) -> StandardMaterial,
+    light: impl FnOnce(&mut World),
+) -> Vec<[f32; 4]> {
     let mut app = App::new();
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
     let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::uv_sphere(1.0, 64, 32));
     let material = material(&mut app.world.resource_mut::<Assets<Image>>());
     let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(material);
     app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material)));
-    app.world.spawn(AmbientLight { color: Vec3::ONE, intensity: 1.0 });
+    light(&mut app.world);
     // The sphere subtends 2·asin(1/3) ≈ 39° of the 45° field of view.
     app.world.spawn((
         Camera { exposure: Exposure::unit(), ..Default::default() },
@@ -34,6 +44,7 @@ fn furnace_of(material: impl FnOnce(&mut Assets<Image>) -> StandardMaterial) -> 
     app.insert_resource(Renderer::new(gpu(), settings).unwrap());
     app.insert_resource(RenderOutput::Headless { width: SIZE, height: SIZE });
     app.update();
+    assert_eq!(app.world.resource::<Renderer>().shader_error(), None);
     let hdr = app.world.resource::<Renderer>().read_hdr().unwrap();
     let disc = (1.0f32 / 3.0).asin().tan() / 22.5f32.to_radians().tan() * SIZE as f32 / 2.0;
     let c = SIZE as f32 / 2.0;
@@ -211,4 +222,53 @@ fn a_coat_over_black_reflects_like_a_dielectric_by_its_strength() {
     assert!((full - dielectric).abs().max_element() < 0.02 * dielectric.max_element(), "{full} against {dielectric}");
     assert!((half * 2.0 - full).abs().max_element() < 0.02 * full.max_element(), "{half} x 2 against {full}");
     assert!(coated(0.0).max_element() < 1e-4);
+}
+
+/// The coat's lobe is a dielectric's (F0 0.04) of the coat's roughness, under every kind of
+/// light: a full coat over a black material with no specular lobe of its own reflects a point
+/// light, a directional light and a rectangle light as a black dielectric of the coat's
+/// roughness does.
+#[test]
+fn a_coat_reflects_lights_as_a_dielectric_of_its_roughness() {
+    let lights: [(&str, fn(&mut World)); 3] = [
+        ("point", |w| {
+            w.spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(1.5, 1.0, 2.5)));
+        }),
+        ("directional", |w| {
+            w.spawn((
+                DirectionalLight { illuminance: 2.0, ..Default::default() },
+                Transform::from_xyz(1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        }),
+        ("rectangle", |w| {
+            w.spawn((
+                RectLight { luminance: 2.0, width: 1.5, height: 1.0, ..Default::default() },
+                Transform::from_xyz(1.0, 1.5, 2.5).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        }),
+    ];
+    let black = Vec4::new(0.0, 0.0, 0.0, 1.0);
+    for (name, light) in lights {
+        let coated = mean(&lit_sphere(
+            |_| StandardMaterial {
+                base_color: black,
+                metallic: 0.0,
+                roughness: 1.0,
+                specular: 0.0,
+                clearcoat: 1.0,
+                clearcoat_roughness: 0.3,
+                ..Default::default()
+            },
+            light,
+        ));
+        let dielectric = mean(&lit_sphere(
+            |_| StandardMaterial { base_color: black, metallic: 0.0, roughness: 0.3, ..Default::default() },
+            light,
+        ));
+        assert!(dielectric.max_element() > 1e-4, "{name}: the dielectric is lit: {dielectric}");
+        assert!(
+            (coated - dielectric).abs().max_element() < 0.03 * dielectric.max_element(),
+            "{name}: coat {coated} against dielectric {dielectric}"
+        );
+    }
 }
