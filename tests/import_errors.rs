@@ -434,6 +434,14 @@ fn obj_totals_and_textures_count_against_the_limits() {
     load_ok(&path, &with_limit("vertices=6"), "six vertices fit");
 }
 
+/// `scene` spawned into a fresh world (its materials and images are the world's assets).
+fn spawned(scene: &penumbra::engine::import::GltfScene) -> App {
+    let mut app = App::new();
+    app.add_plugins(CorePlugin);
+    scene.spawn(&mut app.world);
+    app
+}
+
 /// KHR_materials_ior and KHR_materials_specular values outside their schemas' ranges are
 /// replaced (the default, or the nearest allowed value) with a warning naming the material and
 /// the value, and the file still loads.
@@ -456,9 +464,7 @@ fn out_of_range_ior_and_specular_are_replaced_with_a_warning_naming_the_material
         assert!(warnings.contains(expected), "{expected:?} in {warnings}");
     }
     assert!(!warnings.contains("not supported"), "{warnings}");
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    scene.spawn(&mut app.world);
+    let app = spawned(&scene);
     let materials = app.world.resource::<Assets<StandardMaterial>>();
     let (_, m) = materials.iter().next().expect("one material");
     assert_eq!((m.ior, m.specular, m.specular_color), (1.5, 1.0, Vec3::ONE));
@@ -470,9 +476,7 @@ fn the_specular_sample_imports_its_factors_and_textures() {
     let scene = penumbra::engine::import::GltfScene::load(&asset("SpecularTest/SpecularTest.glb"), &Default::default())
         .expect("loads");
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    scene.spawn(&mut app.world);
+    let app = spawned(&scene);
     let materials = app.world.resource::<Assets<StandardMaterial>>();
     let all: Vec<&StandardMaterial> = materials.iter().map(|(_, m)| m).collect();
     assert!(all.iter().any(|m| m.specular == 0.0), "the black sphere's strength 0");
@@ -502,9 +506,7 @@ fn specular_glossiness_factors_convert_to_the_specular_extension_at_ior_zero() {
         "{warnings}"
     );
     assert!(warnings.contains("approximate"), "{warnings}");
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    scene.spawn(&mut app.world);
+    let app = spawned(&scene);
     let materials = app.world.resource::<Assets<StandardMaterial>>();
     let (_, m) = materials.iter().next().expect("one material");
     assert_eq!(m.base_color, Vec4::new(0.5, 0.25, 1.0, 1.0));
@@ -526,9 +528,7 @@ fn the_specular_glossiness_sample_converts_its_textures() {
     let converted = scene.warnings.iter().filter(|w| w.contains("converted to metallic-roughness")).count();
     assert_eq!(converted, 2, "{:?}", scene.warnings);
     assert!(!scene.warnings.iter().any(|w| w.contains("not supported")), "{:?}", scene.warnings);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    scene.spawn(&mut app.world);
+    let app = spawned(&scene);
     let materials = app.world.resource::<Assets<StandardMaterial>>();
     let bottle = materials
         .iter()
@@ -563,9 +563,7 @@ fn clearcoat_is_read_and_bad_values_are_named() {
     assert!(warnings.contains("material \"coated\": KHR_materials_clearcoat clearcoatFactor 1.5"), "{warnings}");
     assert!(warnings.contains("clearcoatTexture names no texture of the file (7)"), "{warnings}");
     assert!(!warnings.contains("not supported"), "{warnings}");
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    scene.spawn(&mut app.world);
+    let app = spawned(&scene);
     let materials = app.world.resource::<Assets<StandardMaterial>>();
     let (_, m) = materials.iter().next().expect("one material");
     assert_eq!((m.clearcoat, m.clearcoat_roughness), (1.0, 0.25));
@@ -579,9 +577,7 @@ fn the_clearcoat_sample_imports_its_coats() {
         penumbra::engine::import::GltfScene::load(&asset("ClearCoatTest/ClearCoatTest.glb"), &Default::default())
             .expect("loads");
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    let mut app = App::new();
-    app.add_plugins(CorePlugin);
-    scene.spawn(&mut app.world);
+    let app = spawned(&scene);
     let materials = app.world.resource::<Assets<StandardMaterial>>();
     let all: Vec<&StandardMaterial> = materials.iter().map(|(_, m)| m).collect();
     assert!(all.iter().any(|m| m.clearcoat == 1.0 && m.clearcoat_texture.is_none()));
