@@ -104,19 +104,22 @@
 @group(1) @binding(7) var occlusion_sampler: sampler;
 @group(1) @binding(8) var emissive_texture: texture_2d<f32>;
 @group(1) @binding(9) var emissive_sampler: sampler;
-@group(1) @binding(10) var specular_texture: texture_2d<f32>;
-@group(1) @binding(11) var specular_sampler: sampler;
-@group(1) @binding(12) var specular_color_texture: texture_2d<f32>;
-@group(1) @binding(13) var specular_color_sampler: sampler;
-@group(1) @binding(14) var clearcoat_texture: texture_2d<f32>;
-@group(1) @binding(15) var clearcoat_sampler: sampler;
-@group(1) @binding(16) var clearcoat_roughness_texture: texture_2d<f32>;
-@group(1) @binding(17) var clearcoat_roughness_sampler: sampler;
-@group(1) @binding(18) var clearcoat_normal_texture: texture_2d<f32>;
-@group(1) @binding(19) var clearcoat_normal_sampler: sampler;
+// The material extension group (resources/materials/extension.rs): bound only for materials
+// that use a glTF material extension, holding what those extensions read. A texture's binding
+// is fixed by its slot; the group holds only the textures of the material's extensions.
 #ifdef MATERIAL_EXTENSION
-@group(1) @binding(20) var<uniform> material_extension: MaterialExtension;
+@group(3) @binding(0) var<uniform> material_extension: MaterialExtension;
 #endif
+@group(3) @binding(1) var specular_texture: texture_2d<f32>;
+@group(3) @binding(2) var specular_sampler: sampler;
+@group(3) @binding(3) var specular_color_texture: texture_2d<f32>;
+@group(3) @binding(4) var specular_color_sampler: sampler;
+@group(3) @binding(5) var clearcoat_texture: texture_2d<f32>;
+@group(3) @binding(6) var clearcoat_sampler: sampler;
+@group(3) @binding(7) var clearcoat_roughness_texture: texture_2d<f32>;
+@group(3) @binding(8) var clearcoat_roughness_sampler: sampler;
+@group(3) @binding(9) var clearcoat_normal_texture: texture_2d<f32>;
+@group(3) @binding(10) var clearcoat_normal_sampler: sampler;
 
 #ifdef PULLED_VERTICES
 // A triangle-culled draw (cull.wgsl, TRIANGLE_CULLING): each index names its instance and

@@ -45,7 +45,13 @@ impl GroupBuilder {
         let entries: Vec<wgpu::BindGroupLayoutEntry> = self.entries.iter().map(|(_, e)| *e).collect();
         let layout =
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries: &entries });
-        SharedGroup { label, names: self.entries.into_iter().map(|(n, _)| n).collect(), layout }
+        let fragment_textures = entries
+            .iter()
+            .filter(|e| {
+                e.visibility.contains(wgpu::ShaderStages::FRAGMENT) && matches!(e.ty, wgpu::BindingType::Texture { .. })
+            })
+            .count() as u32;
+        SharedGroup { label, names: self.entries.into_iter().map(|(n, _)| n).collect(), layout, fragment_textures }
     }
 }
 
@@ -54,6 +60,7 @@ pub struct SharedGroup {
     label: &'static str,
     names: Vec<&'static str>,
     layout: wgpu::BindGroupLayout,
+    fragment_textures: u32,
 }
 
 /// The resources of one bind group, collected from the owners in declaration order.
@@ -77,6 +84,12 @@ impl<'a> GroupResources<'a> {
 impl SharedGroup {
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
         &self.layout
+    }
+
+    /// How many textures the fragment stage samples from this group (against the device's
+    /// per-stage limit).
+    pub fn fragment_textures(&self) -> u32 {
+        self.fragment_textures
     }
 
     /// A bind group of `resources`, which must name the declared bindings in their order (an

@@ -92,6 +92,11 @@ impl ViewGroup {
         self.group.layout()
     }
 
+    /// How many textures a fragment shader samples from the view group.
+    pub fn fragment_textures(&self) -> u32 {
+        self.group.fragment_textures()
+    }
+
     pub fn uniform(&self) -> &wgpu::Buffer {
         &self.uniform
     }

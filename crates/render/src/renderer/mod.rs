@@ -161,11 +161,11 @@ impl Renderer {
         };
         let mut pipelines = PipelineCache::new(shaders);
         let view = ViewGroup::new(device);
-        let materials = MaterialTable::new(device);
+        let materials = MaterialTable::new(device, view.fragment_textures());
         // Each owner registers its pipeline families; registration order is the order reload
         // reports list families in.
-        forward::register(device, &mut pipelines, view.layout(), materials.layout());
-        let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), materials.layout());
+        forward::register(&mut pipelines, view.layout(), &materials);
+        let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), &materials);
         let shadows = ShadowOrchestrator::new(
             device,
             ctx.caps.array_layers,

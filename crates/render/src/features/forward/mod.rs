@@ -15,6 +15,7 @@ use crate::frame_context::FrameContext;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey, TopologyKey};
 use crate::resources::materials::MaterialTable;
+use crate::resources::materials::extension::EXTENSION_GROUP;
 use crate::resources::mesh_pool::MeshPool;
 use crate::targets::FrameTargets;
 
@@ -23,13 +24,8 @@ pub use pipeline::ForwardFamily;
 
 /// Registers the forward pass's pipeline family (the pass itself holds no resources: it draws
 /// the shared owners' buffers into the frame's targets).
-pub fn register(
-    device: &wgpu::Device,
-    pipelines: &mut PipelineCache,
-    view: &wgpu::BindGroupLayout,
-    material: &wgpu::BindGroupLayout,
-) {
-    pipelines.register(ForwardFamily::new(device, view, material));
+pub fn register(pipelines: &mut PipelineCache, view: &wgpu::BindGroupLayout, materials: &MaterialTable) {
+    pipelines.register(ForwardFamily::new(view, materials));
 }
 
 #[derive(Debug, Default, Clone, Copy)]
@@ -328,6 +324,9 @@ fn draw(
         }
         if bound_material != Some(b.material) {
             pass.set_bind_group(1, &material.bind_group, &[]);
+            if let Some((extension, _)) = &material.extension {
+                pass.set_bind_group(EXTENSION_GROUP, extension, &[]);
+            }
             bound_material = Some(b.material);
         }
         let per_primitive = match b.key.topology {

@@ -2,20 +2,27 @@
 //! shader variant of `forward.wgsl` and its raster state), with the view and material groups.
 
 use crate::gpu::formats::SURFACE_SHAPE_FORMAT;
-use crate::pipelines::{PipelineFamily, ShaderDefs, parts};
+use crate::pipelines::{PipelineFamily, ShaderDefs};
 use crate::resources::draws::{LocalLights, PipelineKey, TopologyKey};
-use crate::resources::materials::AlphaKey;
+use crate::resources::materials::extension::PipelineLayouts;
+use crate::resources::materials::{AlphaKey, MaterialTable};
 use crate::resources::mesh_pool::GpuVertex;
 
 /// The forward pass's pipelines (`forward.wgsl`), one per [`PipelineKey`]: the shader variant
 /// and raster state of a batch.
 pub struct ForwardFamily {
-    layout: wgpu::PipelineLayout,
+    /// The view and material groups, and the extension group of the key's material extensions.
+    layouts: PipelineLayouts,
 }
 
 impl ForwardFamily {
-    pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, material: &wgpu::BindGroupLayout) -> Self {
-        Self { layout: parts::pipeline_layout(device, "forward", &[view, material]) }
+    pub fn new(view: &wgpu::BindGroupLayout, materials: &MaterialTable) -> Self {
+        let layouts = PipelineLayouts::new(
+            "forward",
+            &[Some(view), Some(materials.layout())],
+            materials.extension_layouts().clone(),
+        );
+        Self { layouts }
     }
 }
 
@@ -30,7 +37,7 @@ impl PipelineFamily for ForwardFamily {
     }
 
     fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &PipelineKey) -> wgpu::RenderPipeline {
-        forward_pipeline(device, &self.layout, module, *key)
+        forward_pipeline(device, &self.layouts.get(device, key.features), module, *key)
     }
 }
 

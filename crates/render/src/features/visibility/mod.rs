@@ -38,6 +38,7 @@ use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::formats::DISPLAY_FORMAT;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey};
+use crate::resources::materials::extension::EXTENSION_GROUP;
 use crate::resources::materials::{MaterialKey, MaterialTable};
 use crate::resources::mesh_pool::MeshPool;
 
@@ -217,9 +218,9 @@ impl VisibilityBuffer {
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
         view: &wgpu::BindGroupLayout,
-        material: &wgpu::BindGroupLayout,
+        materials: &MaterialTable,
     ) -> Self {
-        pipelines.register(ShadeFamily::new(device, view, material));
+        pipelines.register(ShadeFamily::new(device, view, materials));
         pipelines.register(RasterFamily::new(device));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
@@ -540,6 +541,9 @@ impl VisibilityBuffer {
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(1, &material.bind_group, &[]);
                 pass.set_bind_group(2, &bound.shade[g], &[]);
+                if let Some((extension, _)) = &material.extension {
+                    pass.set_bind_group(EXTENSION_GROUP, extension, &[]);
+                }
                 pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
             }
         }

@@ -6,6 +6,8 @@ use crate::gpu::formats::{DISPLAY_FORMAT, FormatKey, HDR_FORMAT};
 use crate::pipelines::parts::{self, storage, storage_rw, uniform};
 use crate::pipelines::{PipelineFamily, ShaderDefs};
 use crate::resources::draws::{AlphaTest, LocalLights, PipelineKey, Tonemapper};
+use crate::resources::materials::MaterialTable;
+use crate::resources::materials::extension::PipelineLayouts;
 
 /// The rasteriser's entry points, in `visibility_raster.wgsl`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -140,11 +142,13 @@ impl PipelineFamily for RasterFamily {
 /// writing HDR colour or writing display colour.
 pub struct ShadeFamily {
     pub shade: [wgpu::BindGroupLayout; 2],
-    pipeline: [wgpu::PipelineLayout; 2],
+    /// Per output kind: the view, material and shade groups, and the extension group of the
+    /// key's material extensions.
+    pipeline: [PipelineLayouts; 2],
 }
 
 impl ShadeFamily {
-    pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, material: &wgpu::BindGroupLayout) -> Self {
+    pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, materials: &MaterialTable) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
         let shade = [HDR_FORMAT, DISPLAY_FORMAT].map(|format| {
             parts::bind_group_layout(
@@ -161,7 +165,10 @@ impl ShadeFamily {
                 ],
             )
         });
-        let pipeline = [0, 1].map(|i| parts::pipeline_layout(device, "visibility shade", &[view, material, &shade[i]]));
+        let pipeline = [0, 1].map(|i| {
+            let groups = [Some(view), Some(materials.layout()), Some(&shade[i])];
+            PipelineLayouts::new("visibility shade", &groups, materials.extension_layouts().clone())
+        });
         Self { shade, pipeline }
     }
 
@@ -181,8 +188,8 @@ impl PipelineFamily for ShadeFamily {
     }
 
     fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &ShadeKey) -> wgpu::ComputePipeline {
-        let layout = &self.pipeline[key.output.display() as usize];
-        parts::compute_pipeline(device, layout, module, "cs_shade", "visibility shade")
+        let layout = self.pipeline[key.output.display() as usize].get(device, key.forward.features);
+        parts::compute_pipeline(device, &layout, module, "cs_shade", "visibility shade")
     }
 }
 

@@ -1,17 +1,23 @@
 //! The material table: every material in use packed into one storage buffer (indexed per
-//! instance), plus one bind group per material holding its textures and samplers (one pair per
-//! slot of `StandardMaterial::textures`).
+//! instance), plus one bind group per material holding its core textures and samplers (one pair
+//! per glTF core slot of `StandardMaterial::textures`), and for a material that uses glTF
+//! material extensions a second group with their parameters and textures ([`extension`]).
 //!
 //! Each frame, prepare visits the materials that draws use; a material is re-packed and its bind
-//! group rebuilt only when its version changed or one of its images was (re)uploaded. Missing
+//! groups rebuilt only when its version changed or one of its images was (re)uploaded. Missing
 //! textures bind the null texture, so every draw has a complete bind group.
 
-use std::collections::HashMap;
+pub mod extension;
+
+use std::sync::Arc;
+
+use std::collections::{HashMap, HashSet};
 
 use bytemuck::{Pod, Zeroable};
 use penumbra_engine::Handle;
 use penumbra_engine::material::{AlphaMode, StandardMaterial, TEXTURE_SLOTS, UvTransform};
 
+use self::extension::{ExtensionLayouts, texture_binding};
 use super::textures::TextureCache;
 use crate::gpu::buffer::GrowableBuffer;
 use crate::pipelines::parts;
@@ -20,27 +26,27 @@ use crate::scene::world::RenderScene;
 /// Which material textures a draw samples (bits in `StandardMaterial::textures()` order), and
 /// whether any of them maps its coordinate (`TRANSFORMED_UVS`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
-pub struct TextureSet(pub u16);
+pub struct TextureSet(pub u32);
 
 impl TextureSet {
-    pub const BASE_COLOR: u16 = 1;
-    pub const METALLIC_ROUGHNESS: u16 = 1 << 1;
-    pub const NORMAL: u16 = 1 << 2;
-    pub const OCCLUSION: u16 = 1 << 3;
-    pub const EMISSIVE: u16 = 1 << 4;
-    pub const SPECULAR: u16 = 1 << 5;
-    pub const SPECULAR_COLOR: u16 = 1 << 6;
-    pub const CLEARCOAT: u16 = 1 << 7;
-    pub const CLEARCOAT_ROUGHNESS: u16 = 1 << 8;
-    pub const CLEARCOAT_NORMAL: u16 = 1 << 9;
+    pub const BASE_COLOR: u32 = 1;
+    pub const METALLIC_ROUGHNESS: u32 = 1 << 1;
+    pub const NORMAL: u32 = 1 << 2;
+    pub const OCCLUSION: u32 = 1 << 3;
+    pub const EMISSIVE: u32 = 1 << 4;
+    pub const SPECULAR: u32 = 1 << 5;
+    pub const SPECULAR_COLOR: u32 = 1 << 6;
+    pub const CLEARCOAT: u32 = 1 << 7;
+    pub const CLEARCOAT_ROUGHNESS: u32 = 1 << 8;
+    pub const CLEARCOAT_NORMAL: u32 = 1 << 9;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
-    pub const TRANSFORMED_UVS: u16 = 1 << 10;
+    pub const TRANSFORMED_UVS: u32 = 1 << 30;
     /// The occlusion texture is the metallic-roughness texture (same image, sampler and
     /// coordinates: glTF's ORM packing, occlusion in red), so one sample serves both.
-    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u16 = 1 << 11;
+    pub const OCCLUSION_IN_METALLIC_ROUGHNESS: u32 = 1 << 31;
 
-    pub fn has(self, bit: u16) -> bool {
+    pub fn has(self, bit: u32) -> bool {
         self.0 & bit != 0
     }
 }
@@ -72,9 +78,6 @@ impl MaterialFeatures {
 /// colour.
 pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = StandardMaterial::SRGB_SLOTS;
 
-/// The material group's binding of the extension uniform, after the texture slots' pairs.
-const EXTENSION_BINDING: u32 = 2 * TEXTURE_SLOTS as u32;
-
 pub const FLAG_HAS_NORMAL_MAP: u32 = 1;
 pub const FLAG_DOUBLE_SIDED: u32 = 2;
 
@@ -94,29 +97,9 @@ pub struct GpuMaterial {
     pub uv: [[f32; 4]; 2 * CORE_SLOTS],
 }
 
-/// glTF's core texture slots, whose transforms `GpuMaterial` holds; the extensions' follow in
-/// `GpuMaterialExtension`.
+/// glTF's core texture slots, which the material group binds and whose transforms `GpuMaterial`
+/// holds; the extensions' follow in the extension group.
 const CORE_SLOTS: usize = 5;
-
-/// Mirrors `struct MaterialExtension` in `shaders/draw_data.wgsl`: the parameters of a
-/// material's extensions, a uniform in its material group that only the variants compiled with
-/// them read, so materials without extensions load nothing more.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuMaterialExtension {
-    /// The dielectric's F0 before its texture: the IOR's reflectance times the specular colour
-    /// (the shader clamps the product with the texture to 1).
-    pub dielectric_f0_color: [f32; 3],
-    /// KHR_materials_specular's strength (its texture's alpha multiplies it).
-    pub specular: f32,
-    /// KHR_materials_clearcoat: the coat's strength and perceptual roughness (their textures'
-    /// red and green multiply them) and its normal map's scale.
-    pub clearcoat: f32,
-    pub clearcoat_roughness: f32,
-    pub clearcoat_normal_scale: f32,
-    pub _pad: f32,
-    pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
-}
 
 /// Which material a draw uses: `None` is the glTF default material.
 pub type MaterialKey = Option<Handle<StandardMaterial>>;
@@ -135,6 +118,8 @@ pub struct MaterialEntry {
     /// Versions of the images bound in each slot (0: null texture).
     texture_versions: [u64; TEXTURE_SLOTS],
     pub bind_group: wgpu::BindGroup,
+    /// Its extension group ([`extension`]) and the group's uniform, if it uses an extension.
+    pub extension: Option<(wgpu::BindGroup, wgpu::Buffer)>,
     pub alpha: AlphaKey,
     pub unlit: bool,
     pub double_sided: bool,
@@ -142,14 +127,14 @@ pub struct MaterialEntry {
     pub textures: TextureSet,
     /// Which material extensions its shading reads.
     pub features: MaterialFeatures,
-    /// Its extension parameters' uniform, bound in its group (held for the group's lifetime).
-    _extension: wgpu::Buffer,
 }
 
 pub struct MaterialTable {
-    /// The material group: a (texture, sampler) pair per slot, in `StandardMaterial::textures()`
-    /// order, read by fragment shaders and by the visibility buffer's shading pass.
+    /// The material group: a (texture, sampler) pair per core slot, in
+    /// `StandardMaterial::textures()` order, read by fragment shaders and by the visibility
+    /// buffer's shading pass.
     layout: wgpu::BindGroupLayout,
+    extension_layouts: Arc<ExtensionLayouts>,
     cpu: Vec<GpuMaterial>,
     buffer: GrowableBuffer,
     entries: HashMap<MaterialKey, MaterialEntry>,
@@ -158,19 +143,23 @@ pub struct MaterialTable {
     default_material: StandardMaterial,
     dirty: bool,
     /// (material, slot) pairs already warned about a missing image, so the log says it once.
-    warned_missing: std::collections::HashSet<(MaterialKey, usize)>,
+    warned_missing: HashSet<(MaterialKey, usize)>,
+    /// Materials already warned about extension textures past the texture budget.
+    warned_budget: HashSet<MaterialKey>,
 }
 
 impl MaterialTable {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// `view_textures`: how many textures the view group samples in a stage (the extension
+    /// group's texture budget is what the device allows beyond it and the core slots).
+    pub fn new(device: &wgpu::Device, view_textures: u32) -> Self {
         let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
-        let mut entries: Vec<_> = (0..TEXTURE_SLOTS as u32)
+        let entries: Vec<_> = (0..CORE_SLOTS as u32)
             .flat_map(|i| [parts::texture(2 * i, true), parts::sampler(2 * i + 1)])
             .map(|e| wgpu::BindGroupLayoutEntry { visibility: lit, ..e })
             .collect();
-        entries.push(parts::uniform(EXTENSION_BINDING, lit));
         Self {
             layout: parts::bind_group_layout(device, "material", &entries),
+            extension_layouts: Arc::new(ExtensionLayouts::new(device, view_textures + CORE_SLOTS as u32)),
             cpu: Vec::new(),
             buffer: GrowableBuffer::new(
                 device,
@@ -183,7 +172,13 @@ impl MaterialTable {
             default_material: StandardMaterial::default(),
             dirty: false,
             warned_missing: Default::default(),
+            warned_budget: Default::default(),
         }
+    }
+
+    /// The extension group's layouts, which the pipelines of materials with extensions share.
+    pub fn extension_layouts(&self) -> &Arc<ExtensionLayouts> {
+        &self.extension_layouts
     }
 
     pub fn buffer(&self) -> &wgpu::Buffer {
@@ -257,34 +252,72 @@ impl MaterialTable {
         };
         self.cpu[slot as usize] = pack(&material);
         self.dirty = true;
-        let extension = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("material extension"),
-                contents: bytemuck::bytes_of(&pack_extension(&material)),
-                usage: wgpu::BufferUsages::UNIFORM,
-            },
-        );
-
         let samplers: Vec<wgpu::Sampler> =
             views.iter().map(|(_, s)| textures.sampler(device, &s.unwrap_or_default()).clone()).collect();
-        let mut entries = Vec::with_capacity(2 * TEXTURE_SLOTS);
-        for (i, ((view, _), sampler)) in views.iter().zip(&samplers).enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 2 * i as u32,
-                resource: wgpu::BindingResource::TextureView(view),
-            });
-            entries.push(wgpu::BindGroupEntry {
-                binding: 2 * i as u32 + 1,
-                resource: wgpu::BindingResource::Sampler(sampler),
-            });
-        }
-        entries.push(wgpu::BindGroupEntry { binding: EXTENSION_BINDING, resource: extension.as_entire_binding() });
+        let entries: Vec<wgpu::BindGroupEntry> = (0..CORE_SLOTS)
+            .flat_map(|i| {
+                [
+                    wgpu::BindGroupEntry {
+                        binding: 2 * i as u32,
+                        resource: wgpu::BindingResource::TextureView(&views[i].0),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2 * i as u32 + 1,
+                        resource: wgpu::BindingResource::Sampler(&samplers[i]),
+                    },
+                ]
+            })
+            .collect();
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("material textures"),
             layout: &self.layout,
             entries: &entries,
         });
+        let features = features(&material);
+        let mut texture_set = texture_set(&material);
+        let mut extension = None;
+        if features.0 != 0 {
+            let bound = self.extension_layouts.bound_slots(features);
+            let left_out: Vec<usize> =
+                (CORE_SLOTS..TEXTURE_SLOTS).filter(|&s| texture_set.has(1 << s) && bound & (1 << s) == 0).collect();
+            if !left_out.is_empty() {
+                texture_set.0 &= !left_out.iter().fold(0, |m, s| m | (1u32 << s));
+                if self.warned_budget.insert(key) {
+                    tracing::warn!(
+                        "material {key:?}: this GPU samples at most {} textures per shader stage; the textures \
+                         of its extensions in slots {left_out:?} of StandardMaterial::textures() are left out \
+                         (their factors still apply)",
+                        device.limits().max_sampled_textures_per_shader_stage
+                    );
+                }
+            }
+            let buffer = wgpu::util::DeviceExt::create_buffer_init(
+                device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("material extension"),
+                    contents: bytemuck::bytes_of(&extension::pack(&material)),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                },
+            );
+            let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }];
+            for slot in (CORE_SLOTS..TEXTURE_SLOTS).filter(|s| bound & (1 << s) != 0) {
+                let b = texture_binding(slot);
+                entries.push(wgpu::BindGroupEntry {
+                    binding: b,
+                    resource: wgpu::BindingResource::TextureView(&views[slot].0),
+                });
+                entries.push(wgpu::BindGroupEntry {
+                    binding: b + 1,
+                    resource: wgpu::BindingResource::Sampler(&samplers[slot]),
+                });
+            }
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("material extensions"),
+                layout: &self.extension_layouts.layout(device, features),
+                entries: &entries,
+            });
+            extension = Some((group, buffer));
+        }
         let alpha = match material.alpha_mode {
             AlphaMode::Opaque => AlphaKey::Opaque,
             AlphaMode::Mask(_) => AlphaKey::Mask,
@@ -300,9 +333,9 @@ impl MaterialTable {
                 alpha,
                 unlit: material.unlit,
                 double_sided: material.double_sided,
-                textures: texture_set(&material),
-                features: features(&material),
-                _extension: extension,
+                textures: texture_set,
+                features,
+                extension,
             },
         );
         true
@@ -351,7 +384,7 @@ impl MaterialTable {
 /// The textures `m` samples, whether any maps its coordinate, and whether occlusion shares the
 /// metallic-roughness texel (the shader variant).
 fn texture_set(m: &StandardMaterial) -> TextureSet {
-    let mut bits: u16 = 0;
+    let mut bits: u32 = 0;
     for (i, tex) in m.textures().iter().enumerate() {
         if let Some(t) = tex {
             bits |= 1 << i;
@@ -385,23 +418,6 @@ fn uv_rows(m: &StandardMaterial) -> [[[f32; 4]; 2]; TEXTURE_SLOTS] {
         let (mat, set) = tex.map_or((glam::Mat3::IDENTITY, 0), |t| (t.transform.matrix(), t.uv_set));
         [[mat.x_axis.x, mat.y_axis.x, mat.z_axis.x, set as f32], [mat.x_axis.y, mat.y_axis.y, mat.z_axis.y, 0.0]]
     })
-}
-
-fn pack_extension(m: &StandardMaterial) -> GpuMaterialExtension {
-    let rows = uv_rows(m);
-    let mut uv = [[0.0; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)];
-    for (i, r) in rows[CORE_SLOTS..].iter().enumerate() {
-        uv[2 * i..2 * i + 2].copy_from_slice(r);
-    }
-    GpuMaterialExtension {
-        dielectric_f0_color: (m.specular_color * m.ior_reflectance()).to_array(),
-        specular: m.specular,
-        clearcoat: m.clearcoat,
-        clearcoat_roughness: m.clearcoat_roughness,
-        clearcoat_normal_scale: m.clearcoat_normal_scale,
-        _pad: 0.0,
-        uv,
-    }
 }
 
 fn pack(m: &StandardMaterial) -> GpuMaterial {
@@ -479,7 +495,7 @@ mod tests {
             [base_color, emissive, alpha_cutoff, metallic, roughness, normal_scale, occlusion_strength, flags, uv]
         );
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
-            GpuMaterialExtension,
+            extension::GpuMaterialExtension,
             "forward.wgsl",
             ["MATERIAL_EXTENSION"],
             "MaterialExtension",
