@@ -11,6 +11,10 @@
 #define_import_path penumbra::brdf
 
 #import penumbra::common::{PI, safe_normalize}
+#ifdef MATERIAL_SHEEN
+#import penumbra::sheen::sheen_cos_white
+#import penumbra::split_sum::sheen_albedo
+#endif
 
 // Filament's clamp: below 0.045 perceptual roughness, GGX's D overflows f16 and aliases badly.
 const MIN_PERCEPTUAL_ROUGHNESS: f32 = 0.045;
@@ -48,6 +52,18 @@ struct Surface {
     coat_albedo: f32,
     // Multiple scattering of the coat's lobe (`specular_multiscatter` for F0 0.04).
     coat_multiscatter: f32,
+#endif
+#ifdef MATERIAL_SHEEN
+    // KHR_materials_sheen (set by `with_sheen`): a layer of fibres of colour `sheen_color` over
+    // the material (beneath a coat). `sheen_scale_v` is the albedo scaling seen from the eye,
+    // 1 − max(sheen colour) · E(n·v), E being the white sheen lobe's directional albedo; light
+    // from direction l scales the material beneath by the lesser of it and 1 − max · E(n·l),
+    // as the extension specifies.
+    sheen_color: vec3<f32>,
+    sheen_perceptual_roughness: f32,
+    sheen_alpha: f32,
+    sheen_albedo_v: f32,
+    sheen_scale_v: f32,
 #endif
     perceptual_roughness: f32,
     alpha: f32,
@@ -106,6 +122,48 @@ fn coat_cos(s: Surface, l: vec3<f32>) -> f32 {
     return s.coat * f * s.coat_multiscatter * d_v * n_dot_l;
 }
 #endif
+
+#ifdef MATERIAL_SHEEN
+// Puts a sheen of `color` and `perceptual_roughness` (clamped as the specular lobe's) over the
+// surface.
+fn with_sheen(surface: Surface, color: vec3<f32>, perceptual_roughness: f32) -> Surface {
+    var s = surface;
+    let r = clamp(perceptual_roughness, MIN_PERCEPTUAL_ROUGHNESS, 1.0);
+    s.sheen_color = color;
+    s.sheen_perceptual_roughness = r;
+    s.sheen_alpha = r * r;
+    s.sheen_albedo_v = sheen_albedo(s.n_dot_v, r);
+    s.sheen_scale_v = 1.0 - max(color.r, max(color.g, color.b)) * s.sheen_albedo_v;
+    return s;
+}
+
+// The sheen lobe times N·L towards `l`.
+fn sheen_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(s.n, l);
+    if n_dot_l <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let h = safe_normalize(l + s.v, s.n);
+    return s.sheen_color * sheen_cos_white(s.n, h, s.n_dot_v, n_dot_l, s.sheen_alpha);
+}
+
+// What the material beneath the sheen keeps of light from `l` and seen from the eye.
+fn sheen_scale(s: Surface, l: vec3<f32>) -> f32 {
+    let n_dot_l = clamp(dot(s.n, l), 0.0, 1.0);
+    let max_color = max(s.sheen_color.r, max(s.sheen_color.g, s.sheen_color.b));
+    return min(s.sheen_scale_v, 1.0 - max_color * sheen_albedo(n_dot_l, s.sheen_perceptual_roughness));
+}
+#endif
+
+// What the material beneath a sheen keeps of light seen from the eye, for light whose direction
+// the caller does not resolve (the environment, area lights' diffuse part): 1 without a sheen.
+fn sheen_base(s: Surface) -> f32 {
+#ifdef MATERIAL_SHEEN
+    return s.sheen_scale_v;
+#else
+    return 1.0;
+#endif
+}
 
 // What the material beneath the coat keeps of the light it receives (1 without a coat).
 fn coat_base(s: Surface) -> f32 {
@@ -195,10 +253,14 @@ fn multiscatter_scale(f0_color: vec3<f32>, f90_weight: f32, ess: f32) -> vec3<f3
 // white-furnace test checks.
 fn ambient(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let w = lobe_weights(s);
+    var beneath = w.specular + w.diffuse;
+#ifdef MATERIAL_SHEEN
+    beneath = beneath * s.sheen_scale_v + s.sheen_color * s.sheen_albedo_v;
+#endif
 #ifdef MATERIAL_CLEARCOAT
-    return ((w.specular + w.diffuse) * coat_base(s) + s.coat_albedo) * l * s.occlusion;
+    return (beneath * coat_base(s) + s.coat_albedo) * l * s.occlusion;
 #else
-    return (w.specular + w.diffuse) * l * s.occlusion;
+    return beneath * l * s.occlusion;
 #endif
 }
 
@@ -232,8 +294,17 @@ fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
 #endif
 }
 
-// `direct` for the material alone (beneath its coat, if it has one).
+// `direct` for the material beneath its coat, if it has one: with its sheen over it.
 fn direct_beneath(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
+#ifdef MATERIAL_SHEEN
+    return direct_base(s, l, e) * sheen_scale(s, l) + sheen_cos(s, l) * e;
+#else
+    return direct_base(s, l, e);
+#endif
+}
+
+// `direct` for glTF's core material alone.
+fn direct_base(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(s.n, l);
     if n_dot_l <= 0.0 {
         return vec3<f32>(0.0);
@@ -260,7 +331,7 @@ fn diffuse_share(s: Surface) -> vec3<f32> {
 // different directions (sphere and tube lights). The diffuse BRDF without N·L (the caller's
 // irradiance includes it; it does not depend on the light's direction, only on the view's):
 fn diffuse_brdf(s: Surface) -> vec3<f32> {
-    return diffuse_share(s) * s.diffuse_color / PI * coat_base(s);
+    return diffuse_share(s) * s.diffuse_color / PI * sheen_base(s) * coat_base(s);
 }
 
 // The specular BRDF times N·L, towards `l`.
@@ -272,8 +343,17 @@ fn specular_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
 #endif
 }
 
-// `specular_cos` for the material alone (beneath its coat, if it has one).
+// `specular_cos` for the material beneath its coat, if it has one: with its sheen over it.
 fn specular_cos_beneath(s: Surface, l: vec3<f32>) -> vec3<f32> {
+#ifdef MATERIAL_SHEEN
+    return specular_cos_base(s, l) * sheen_scale(s, l) + sheen_cos(s, l);
+#else
+    return specular_cos_base(s, l);
+#endif
+}
+
+// `specular_cos` for glTF's core material alone.
+fn specular_cos_base(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(s.n, l);
     if n_dot_l <= 0.0 {
         return vec3<f32>(0.0);

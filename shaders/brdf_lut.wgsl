@@ -1,10 +1,15 @@
 // The split-sum table (Karis 2013): for n·v (u) and perceptual roughness (v), the directional
 // albedo of glTF's specular lobe as scale A and bias B on f0, ∫ f_spec·cosθ = f0·A + B, by
 // importance sampling GGX with the same height-correlated Smith visibility as brdf.wgsl's
-// direct light. Computed once, on first use, into a 64² table.
+// direct light. Computed once, on first use, into a 64² table. Its third channel is the
+// directional albedo of KHR_materials_sheen's lobe for a white sheen at (n·v, the sheen's
+// perceptual roughness), ∫ f_sheen·cosθ (sheen.wgsl), by cosine-weighted sampling (the Charlie
+// distribution has no convenient importance sampling and its lobe is wide).
 
 #import penumbra::brdf::v_smith_ggx_correlated
 #import penumbra::cubemap::{hammersley, importance_sample_ggx}
+#import penumbra::common::PI
+#import penumbra::sheen::sheen_cos_white
 
 @group(0) @binding(0) var table: texture_storage_2d<rgba16float, write>;
 
@@ -38,5 +43,25 @@ fn integrate_brdf(@builtin(global_invocation_id) id: vec3<u32>) {
         a += (1.0 - fc) * weight;
         b += fc * weight;
     }
-    textureStore(table, id.xy, vec4<f32>(a / f32(LUT_SAMPLES), b / f32(LUT_SAMPLES), 0.0, 1.0));
+    textureStore(table, id.xy, vec4<f32>(a / f32(LUT_SAMPLES), b / f32(LUT_SAMPLES), sheen_albedo(v, alpha), 1.0));
+}
+
+// ∫ f_sheen·cosθ dl for a white sheen: with l drawn with pdf cosθ / π, the mean of f_sheen · π.
+fn sheen_albedo(v: vec3<f32>, alpha: f32) -> f32 {
+    let n = vec3<f32>(0.0, 0.0, 1.0);
+    // The sheen's roughness is clamped as the shading clamps it (MIN_PERCEPTUAL_ROUGHNESS).
+    let a = max(alpha, 0.045 * 0.045);
+    var sum = 0.0;
+    for (var i = 0u; i < LUT_SAMPLES; i++) {
+        let u = hammersley(i, LUT_SAMPLES);
+        let phi = 2.0 * PI * u.y;
+        let sin_theta = sqrt(u.x);
+        let l = vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), sqrt(1.0 - u.x));
+        if l.z <= 0.0 {
+            continue;
+        }
+        let h = normalize(l + v);
+        sum += sheen_cos_white(n, h, v.z, l.z, a) / l.z;
+    }
+    return sum * PI / f32(LUT_SAMPLES);
 }

@@ -46,10 +46,14 @@ struct MaterialExtension {
     clearcoat: f32,
     clearcoat_roughness: f32,
     clearcoat_normal_scale: f32,
+    // KHR_materials_sheen: the sheen's perceptual roughness and linear colour (their textures'
+    // alpha and RGB multiply them).
+    sheen_roughness: f32,
+    sheen_color: vec3<f32>,
     _pad: f32,
     // The UV transform rows of the extension slots (specular, specular colour, clearcoat,
-    // clearcoat roughness, clearcoat normal), as `Material::uv`.
-    uv: array<vec4<f32>, 10>,
+    // clearcoat roughness, clearcoat normal, sheen colour, sheen roughness), as `Material::uv`.
+    uv: array<vec4<f32>, 14>,
 };
 
 // A vertex placed by its instance.

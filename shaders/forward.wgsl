@@ -11,8 +11,9 @@
 // METALLIC_ROUGHNESS_TEXTURE, NORMAL_MAP, OCCLUSION_TEXTURE, EMISSIVE_TEXTURE, MATERIAL_SPECULAR
 // (KHR_materials_ior / KHR_materials_specular: the dielectric's reflectance from the material,
 // with SPECULAR_TEXTURE and SPECULAR_COLOR_TEXTURE), MATERIAL_CLEARCOAT (KHR_materials_clearcoat,
-// with CLEARCOAT_TEXTURE, CLEARCOAT_ROUGHNESS_TEXTURE and CLEARCOAT_NORMAL_MAP; both read the
-// material's extension uniform, MATERIAL_EXTENSION), TRANSFORMED_UVS
+// with CLEARCOAT_TEXTURE, CLEARCOAT_ROUGHNESS_TEXTURE and CLEARCOAT_NORMAL_MAP), MATERIAL_SHEEN
+// (KHR_materials_sheen, with SHEEN_COLOR_TEXTURE and SHEEN_ROUGHNESS_TEXTURE; these three read
+// the material's extension group, MATERIAL_EXTENSION), TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
 // OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
@@ -43,6 +44,9 @@
 #import penumbra::brdf::{Surface, DIELECTRIC_F0, MIN_PERCEPTUAL_ROUGHNESS, with_reflectance}
 #ifdef MATERIAL_CLEARCOAT
 #import penumbra::brdf::with_coat
+#endif
+#ifdef MATERIAL_SHEEN
+#import penumbra::brdf::with_sheen
 #endif
 #ifndef UNLIT
 #import penumbra::split_sum::split_sum
@@ -120,6 +124,10 @@
 @group(3) @binding(8) var clearcoat_roughness_sampler: sampler;
 @group(3) @binding(9) var clearcoat_normal_texture: texture_2d<f32>;
 @group(3) @binding(10) var clearcoat_normal_sampler: sampler;
+@group(3) @binding(11) var sheen_color_texture: texture_2d<f32>;
+@group(3) @binding(12) var sheen_color_sampler: sampler;
+@group(3) @binding(13) var sheen_roughness_texture: texture_2d<f32>;
+@group(3) @binding(14) var sheen_roughness_sampler: sampler;
 
 #ifdef PULLED_VERTICES
 // A triangle-culled draw (cull.wgsl, TRIANGLE_CULLING): each index names its instance and
@@ -311,8 +319,8 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 
 #ifdef MATERIAL_EXTENSION
 // `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
-// 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal), whose
-// transforms are in the material's extension uniform.
+// 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal, 5: sheen
+// colour, 6: sheen roughness), whose transforms are in the material's extension uniform.
 fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
@@ -501,6 +509,17 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
     s = with_reflectance(s, dielectric_f0_color, specular_weight);
+#ifdef MATERIAL_SHEEN
+    var sheen_color = material_extension.sheen_color;
+#ifdef SHEEN_COLOR_TEXTURE
+    sheen_color *= extension_texel(sheen_color_texture, sheen_color_sampler, 5u, sets).rgb;
+#endif
+    var sheen_roughness = material_extension.sheen_roughness;
+#ifdef SHEEN_ROUGHNESS_TEXTURE
+    sheen_roughness *= extension_texel(sheen_roughness_texture, sheen_roughness_sampler, 6u, sets).a;
+#endif
+    s = with_sheen(s, clamp(sheen_color, vec3<f32>(0.0), vec3<f32>(1.0)), sheen_roughness);
+#endif
 #ifdef MATERIAL_CLEARCOAT
     // The coat follows the geometry's normal, or its own normal map; not the base's.
     let coat_geometric_n = select(1.0, -1.0, double_sided_back) * safe_normalize(in.normal, v);

@@ -77,7 +77,16 @@ fn environment_light(s: Surface) -> vec3<f32> {
     let a = s.alpha;
     let dir = normalize(mix(s.n, r, (1.0 - a) * (sqrt(1.0 - a) + a)));
     let w = lobe_weights(s);
-    let light = w.specular * prefiltered_radiance(dir, s.perceptual_roughness) + w.diffuse * diffuse_irradiance(s.n);
+    var light = w.specular * prefiltered_radiance(dir, s.perceptual_roughness) + w.diffuse * diffuse_irradiance(s.n);
+#ifdef MATERIAL_SHEEN
+    // The sheen reflects its directional albedo's share of the environment prefiltered at its
+    // roughness about the reflected direction (leaning as above, as Filament does); the
+    // material beneath keeps the albedo scaling.
+    let sa = s.sheen_alpha;
+    let sheen_dir = normalize(mix(s.n, r, (1.0 - sa) * (sqrt(1.0 - sa) + sa)));
+    let sheen = s.sheen_color * s.sheen_albedo_v * prefiltered_radiance(sheen_dir, s.sheen_perceptual_roughness);
+    light = light * s.sheen_scale_v + sheen;
+#endif
 #ifdef MATERIAL_CLEARCOAT
     // The coat reflects its share along its own normal, at its own roughness (leaning as above);
     // the material beneath keeps the rest.

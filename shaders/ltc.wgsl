@@ -208,6 +208,13 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
     let specular = (s.f0_color * lobe.z + (vec3<f32>(f90) - s.f0_color) * lobe.w) * lobe.y * ms;
     // The dielectric's diffuse lobe gets what its specular lobe leaves, as in `direct`.
     let diffuse = diffuse_share(s) * s.diffuse_color / PI * lobe.x;
+    var beneath = diffuse + specular;
+#ifdef MATERIAL_SHEEN
+    // The sheen's lobe is nearly as wide as the hemisphere: its response is taken as that of a
+    // diffuse lobe of its directional albedo (the light's clipped-cosine integral, lobe.x), and
+    // the material beneath keeps the albedo scaling seen from the eye.
+    beneath = beneath * s.sheen_scale_v + s.sheen_color * (s.sheen_albedo_v / PI * lobe.x);
+#endif
 #ifdef MATERIAL_CLEARCOAT
     // Under a coat the material keeps what the coat leaves; the coat reflects the light with
     // its own lobe (F0 0.04), about its own normal.
@@ -217,9 +224,9 @@ fn ltc_light(s: Surface, light: Light, to_light: vec3<f32>) -> vec3<f32> {
         let f0 = DIELECTRIC_F0.x;
         coat = s.coat * (f0 * c.z + (1.0 - f0) * c.w) * c.y * s.coat_multiscatter;
     }
-    return ((diffuse + specular) * coat_base(s) + coat) * light.color * window;
+    return (beneath * coat_base(s) + coat) * light.color * window;
 #else
-    return (diffuse + specular) * light.color * window;
+    return beneath * light.color * window;
 #endif
 }
 

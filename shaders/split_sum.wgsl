@@ -13,3 +13,10 @@
 fn split_sum(n_dot_v: f32, perceptual_roughness: f32) -> vec2<f32> {
     return textureSampleLevel(brdf_lut, linear_sampler, vec2<f32>(n_dot_v, perceptual_roughness), 0.0).rg;
 }
+
+// The directional albedo of a white KHR_materials_sheen lobe (sheen.wgsl) at (n·x, the sheen's
+// perceptual roughness): what it reflects of light arriving evenly, and the albedo scaling of
+// the material beneath it.
+fn sheen_albedo(n_dot_x: f32, perceptual_roughness: f32) -> f32 {
+    return textureSampleLevel(brdf_lut, linear_sampler, vec2<f32>(n_dot_x, perceptual_roughness), 0.0).b;
+}

@@ -272,3 +272,98 @@ fn a_coat_reflects_lights_as_a_dielectric_of_its_roughness() {
         );
     }
 }
+
+/// KHR_materials_sheen's albedo scaling: the material beneath keeps what the sheen does not
+/// reflect, so a white material under a white sheen of any roughness reflects all ambient light.
+#[test]
+fn white_materials_under_a_white_sheen_reflect_all_ambient_light() {
+    for (metallic, roughness, sheen_roughness) in [(0.0, 0.5, 0.0), (0.0, 1.0, 0.3), (1.0, 0.3, 0.7), (0.5, 0.8, 1.0)] {
+        let px = furnace_of(|_| StandardMaterial {
+            base_color: Vec4::ONE,
+            metallic,
+            roughness,
+            sheen_color: Vec3::ONE,
+            sheen_roughness,
+            ..Default::default()
+        });
+        assert!(px.len() > 500);
+        for p in &px {
+            for c in &p[..3] {
+                assert!(
+                    c.is_finite() && (c - 1.0).abs() <= 0.02,
+                    "metallic {metallic} roughness {roughness} sheen roughness {sheen_roughness}: {p:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Over a black material the sheen alone shows, in proportion to its colour, more as its
+/// fibres lean (rougher), and not at all when black.
+#[test]
+fn a_sheen_over_black_reflects_in_proportion_to_its_colour() {
+    let sheen = |color: Vec3, sheen_roughness: f32| {
+        mean(&furnace_of(|_| StandardMaterial {
+            base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            sheen_color: color,
+            sheen_roughness,
+            ..Default::default()
+        }))
+    };
+    let white = sheen(Vec3::ONE, 0.5);
+    assert!(white.min_element() > 0.05, "a white sheen reflects: {white}");
+    let tinted = sheen(Vec3::new(1.0, 0.5, 0.0), 0.5);
+    let expected = white * Vec3::new(1.0, 0.5, 0.0);
+    assert!((tinted - expected).abs().max_element() < 0.01 * white.max_element(), "{tinted} against {expected}");
+    assert!(sheen(Vec3::ONE, 1.0).x > sheen(Vec3::ONE, 0.2).x, "rougher fibres reflect more");
+    assert!(sheen(Vec3::ZERO, 0.5).max_element() < 1e-4);
+}
+
+/// The sheen reflects every kind of light, and lights a black material nowhere beyond where the
+/// light reaches: a point, a directional and a rectangle light each light a black sphere under a
+/// white sheen, and a white sheen over white never returns more than the material alone plus
+/// the sheen's own reflection.
+#[test]
+fn a_sheen_reflects_every_kind_of_light() {
+    let lights: [(&str, fn(&mut World)); 3] = [
+        ("point", |w| {
+            w.spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(1.5, 1.0, 2.5)));
+        }),
+        ("directional", |w| {
+            w.spawn((
+                DirectionalLight { illuminance: 2.0, ..Default::default() },
+                Transform::from_xyz(1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        }),
+        ("rectangle", |w| {
+            w.spawn((
+                RectLight { luminance: 2.0, width: 1.5, height: 1.0, ..Default::default() },
+                Transform::from_xyz(1.0, 1.5, 2.5).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        }),
+    ];
+    let black = Vec4::new(0.0, 0.0, 0.0, 1.0);
+    for (name, light) in lights {
+        let material = |base: Vec4, sheen: Vec3| StandardMaterial {
+            base_color: base,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            sheen_color: sheen,
+            sheen_roughness: 0.5,
+            ..Default::default()
+        };
+        let sheen_only = mean(&lit_sphere(|_| material(black, Vec3::ONE), light));
+        let base_only = mean(&lit_sphere(|_| material(Vec4::ONE, Vec3::ZERO), light));
+        let both = mean(&lit_sphere(|_| material(Vec4::ONE, Vec3::ONE), light));
+        assert!(sheen_only.min_element() > 1e-3, "{name}: the sheen reflects: {sheen_only}");
+        assert!(
+            both.max_element() < base_only.max_element() + sheen_only.max_element(),
+            "{name}: the material beneath keeps less under a sheen: {both} against {base_only} + {sheen_only}"
+        );
+        assert!(both.max_element() > base_only.max_element() * 0.5, "{name}: {both} against {base_only}");
+    }
+}

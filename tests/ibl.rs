@@ -411,6 +411,13 @@ fn golden_clear_coat_test_under_the_studio_environment() {
     env_golden("ClearCoatTest-studio");
 }
 
+/// KHR_materials_sheen: the cloth's sheen colour and roughness textures (tiled by a
+/// KHR_texture_transform) under the sky and its low sun, whose grazing light the fibres catch.
+#[test]
+fn golden_sheen_cloth_under_the_sky_and_a_low_sun() {
+    env_golden("SheenCloth-sky");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

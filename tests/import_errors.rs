@@ -570,6 +570,35 @@ fn clearcoat_is_read_and_bad_values_are_named() {
     assert!(m.clearcoat_texture.is_none());
 }
 
+/// KHR_materials_sheen is read from the material's JSON: the sheen's colour, roughness and
+/// textures; a colour out of range is clamped, a malformed one falls back to black, and a
+/// texture index past the file's textures is dropped, each with a warning naming the material.
+#[test]
+fn sheen_is_read_and_bad_values_are_named() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_sheen"],
+  "materials": [{"name": "velvet", "extensions": {"KHR_materials_sheen": {
+      "sheenColorFactor": [1.5, 0.5, 0.25], "sheenRoughnessFactor": 0.75,
+      "sheenColorTexture": {"index": 3}}}},
+    {"name": "broken", "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, "a", 0]}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("sheen", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(warnings.contains("material \"velvet\": KHR_materials_sheen sheenColorFactor"), "{warnings}");
+    assert!(warnings.contains("is outside 0..=1; clamped"), "{warnings}");
+    assert!(warnings.contains("sheenColorTexture names no texture of the file (3)"), "{warnings}");
+    assert!(warnings.contains("material \"broken\": KHR_materials_sheen sheenColorFactor"), "{warnings}");
+    assert!(!warnings.contains("not supported"), "{warnings}");
+    let app = spawned(&scene);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let velvet = materials.iter().map(|(_, m)| m).find(|m| m.sheen_roughness == 0.75).expect("the velvet");
+    assert_eq!(velvet.sheen_color, Vec3::new(1.0, 0.5, 0.25));
+    assert!(velvet.sheen_color_texture.is_none());
+}
+
 /// The clearcoat sample imports its coats, their textures and the coat's normal maps.
 #[test]
 fn the_clearcoat_sample_imports_its_coats() {

@@ -155,6 +155,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("SpecularTest-studio", 0.483),
     ("SpecGlossVsMetalRough-studio", 0.210),
     ("ClearCoatTest-studio", 0.293),
+    ("SheenCloth-sky", 0.105),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -238,6 +239,7 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "SpecularTest-studio",
     "SpecGlossVsMetalRough-studio",
     "ClearCoatTest-studio",
+    "SheenCloth-sky",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -250,6 +252,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "SpecularTest-studio" => ("SpecularTest/SpecularTest.glb", false),
         "SpecGlossVsMetalRough-studio" => ("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf", false),
         "ClearCoatTest-studio" => ("ClearCoatTest/ClearCoatTest.glb", false),
+        "SheenCloth-sky" => ("SheenCloth/SheenCloth.gltf", true),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

@@ -1,5 +1,6 @@
-//! `StandardMaterial`: glTF 2.0 metallic-roughness, with the extensions Penumbra supports
-//! (KHR_materials_emissive_strength, KHR_materials_unlit, KHR_texture_transform).
+//! `StandardMaterial`: glTF 2.0 metallic-roughness, with the material extensions Penumbra
+//! supports (emissive strength, unlit, IOR, specular, clearcoat, sheen; KHR_texture_transform;
+//! specular-glossiness converts to it at import).
 //! Colours are linear; textures say which image, sampler, UV set and UV transform they use.
 
 use glam::{Mat3, Vec2, Vec3, Vec4};
@@ -150,6 +151,15 @@ pub struct StandardMaterial {
     /// follows the geometry's normal, not the base's normal map.
     pub clearcoat_normal_texture: Option<TextureRef>,
     pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen: the linear colour of a layer of fibres over the material (the
+    /// velvet's or cloth's rim), black for none.
+    pub sheen_color: Vec3,
+    /// Multiplies `sheen_color`; sRGB-encoded RGB.
+    pub sheen_color_texture: Option<TextureRef>,
+    /// The sheen's perceptual roughness (its Charlie distribution's α is the square).
+    pub sheen_roughness: f32,
+    /// Multiplies `sheen_roughness`; read from alpha.
+    pub sheen_roughness_texture: Option<TextureRef>,
 }
 
 impl Default for StandardMaterial {
@@ -182,6 +192,10 @@ impl Default for StandardMaterial {
             clearcoat_roughness_texture: None,
             clearcoat_normal_texture: None,
             clearcoat_normal_scale: 1.0,
+            sheen_color: Vec3::ZERO,
+            sheen_color_texture: None,
+            sheen_roughness: 0.0,
+            sheen_roughness_texture: None,
         }
     }
 }
@@ -193,8 +207,9 @@ impl StandardMaterial {
     }
 
     /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour, emissive and
-    /// specular colour, as glTF defines them); the others are read as stored.
-    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = [true, false, false, false, true, false, true, false, false, false];
+    /// specular colour and sheen colour, as glTF defines them); the others are read as stored.
+    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] =
+        [true, false, false, false, true, false, true, false, false, false, true, false];
 
     /// Every texture slot in the fixed order the renderer binds them.
     pub fn textures(&self) -> [Option<&TextureRef>; TEXTURE_SLOTS] {
@@ -209,6 +224,8 @@ impl StandardMaterial {
             self.clearcoat_texture.as_ref(),
             self.clearcoat_roughness_texture.as_ref(),
             self.clearcoat_normal_texture.as_ref(),
+            self.sheen_color_texture.as_ref(),
+            self.sheen_roughness_texture.as_ref(),
         ]
     }
 
@@ -225,6 +242,8 @@ impl StandardMaterial {
             &mut self.clearcoat_texture,
             &mut self.clearcoat_roughness_texture,
             &mut self.clearcoat_normal_texture,
+            &mut self.sheen_color_texture,
+            &mut self.sheen_roughness_texture,
         ]
     }
 
@@ -233,6 +252,11 @@ impl StandardMaterial {
     pub fn ior_reflectance(&self) -> f32 {
         let r = (self.ior - 1.0) / (self.ior + 1.0);
         r * r
+    }
+
+    /// Whether the material has a sheen (KHR_materials_sheen with a colour other than black).
+    pub fn has_sheen(&self) -> bool {
+        self.sheen_color.max_element() > 0.0
     }
 
     /// Whether the dielectric reflects other than glTF's default (IOR 1.5, specular 1, white,
@@ -247,7 +271,7 @@ impl StandardMaterial {
 }
 
 /// How many texture slots a material has ([`StandardMaterial::textures`]).
-pub const TEXTURE_SLOTS: usize = 10;
+pub const TEXTURE_SLOTS: usize = 12;
 
 /// glTF's IOR when a material gives none.
 pub const DEFAULT_IOR: f32 = 1.5;

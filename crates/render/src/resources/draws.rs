@@ -82,6 +82,7 @@ impl PipelineKey {
         let local = lit && !matches!(self.local_lights, LocalLights::None | LocalLights::Deferred);
         let specular = lit && self.features.has(MaterialFeatures::SPECULAR);
         let clearcoat = lit && self.features.has(MaterialFeatures::CLEARCOAT);
+        let sheen = lit && self.features.has(MaterialFeatures::SHEEN);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -101,7 +102,10 @@ impl PipelineKey {
             .with("CLEARCOAT_TEXTURE", clearcoat && t.has(TextureSet::CLEARCOAT))
             .with("CLEARCOAT_ROUGHNESS_TEXTURE", clearcoat && t.has(TextureSet::CLEARCOAT_ROUGHNESS))
             .with("CLEARCOAT_NORMAL_MAP", clearcoat && t.has(TextureSet::CLEARCOAT_NORMAL))
-            .with("MATERIAL_EXTENSION", specular || clearcoat)
+            .with("MATERIAL_SHEEN", sheen)
+            .with("SHEEN_COLOR_TEXTURE", sheen && t.has(TextureSet::SHEEN_COLOR))
+            .with("SHEEN_ROUGHNESS_TEXTURE", sheen && t.has(TextureSet::SHEEN_ROUGHNESS))
+            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen)
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))

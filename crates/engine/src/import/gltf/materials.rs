@@ -29,7 +29,13 @@ pub(crate) struct MaterialDesc {
 
 pub(crate) const NORMAL_SLOT: usize = 2;
 /// The slots of tangent-space normal maps: the base's, then the coat's.
-pub(crate) const NORMAL_SLOTS: [usize; 2] = [NORMAL_SLOT, 9];
+pub(crate) const NORMAL_SLOTS: [usize; 2] = [NORMAL_SLOT, CLEARCOAT_NORMAL_SLOT];
+/// The extensions' slots that `material_extensions` fills.
+pub(crate) const CLEARCOAT_SLOT: usize = 7;
+pub(crate) const CLEARCOAT_ROUGHNESS_SLOT: usize = 8;
+pub(crate) const CLEARCOAT_NORMAL_SLOT: usize = 9;
+pub(crate) const SHEEN_COLOR_SLOT: usize = 10;
+pub(crate) const SHEEN_ROUGHNESS_SLOT: usize = 11;
 
 fn sampler(s: gltf::texture::Sampler) -> Sampler {
     let wrap = |w| match w {
@@ -175,7 +181,9 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         m.emissive_texture().map(info),
         specular.as_ref().and_then(|s| s.specular_texture()).map(info),
         specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
-        // The coat's three slots: `clearcoat::read`.
+        // The coat's and the sheen's slots: `material_extensions::read`.
+        None,
+        None,
         None,
         None,
         None,

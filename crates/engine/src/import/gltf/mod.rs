@@ -11,9 +11,9 @@
 mod accessor;
 mod animation;
 mod area_lights;
-mod clearcoat;
 mod ies_lights;
 pub(crate) mod images;
+mod material_extensions;
 mod materials;
 mod occlusion_packing;
 mod primitive;
@@ -49,6 +49,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_pbrSpecularGlossiness",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_unlit",
     "KHR_texture_transform",
@@ -397,7 +398,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             if let Some(sg) = m.pbr_specular_glossiness() {
                 spec_gloss::convert(&sg, &mut desc, &label, materials::info, &mut warnings);
             }
-            clearcoat::read(&m, &document, &mut desc, &label, &mut warnings);
+            material_extensions::read(&m, &document, &mut desc, &label, &mut warnings);
             desc
         })
         .collect();

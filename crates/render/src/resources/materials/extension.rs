@@ -28,8 +28,11 @@ pub const EXTENSION_GROUP: u32 = 3;
 
 /// Which `StandardMaterial::textures()` slots each extension reads, in the order the texture
 /// budget is spent (an extension earlier in the list keeps its textures first).
-const FEATURE_SLOTS: &[(u8, &[usize])] =
-    &[(MaterialFeatures::SPECULAR, &[5, 6]), (MaterialFeatures::CLEARCOAT, &[7, 8, 9])];
+const FEATURE_SLOTS: &[(u8, &[usize])] = &[
+    (MaterialFeatures::SPECULAR, &[5, 6]),
+    (MaterialFeatures::CLEARCOAT, &[7, 8, 9]),
+    (MaterialFeatures::SHEEN, &[10, 11]),
+];
 
 /// The binding of extension slot `slot`'s texture (its sampler follows): after the uniform at 0,
 /// two per extension slot in slot order, whether or not the layout holds them.
@@ -53,6 +56,10 @@ pub struct GpuMaterialExtension {
     pub clearcoat: f32,
     pub clearcoat_roughness: f32,
     pub clearcoat_normal_scale: f32,
+    /// KHR_materials_sheen: the sheen's perceptual roughness and linear colour (their textures'
+    /// alpha and RGB multiply them).
+    pub sheen_roughness: f32,
+    pub sheen_color: [f32; 3],
     pub _pad: f32,
     pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
 }
@@ -70,6 +77,8 @@ pub fn pack(m: &StandardMaterial) -> GpuMaterialExtension {
         clearcoat: m.clearcoat,
         clearcoat_roughness: m.clearcoat_roughness,
         clearcoat_normal_scale: m.clearcoat_normal_scale,
+        sheen_roughness: m.sheen_roughness,
+        sheen_color: m.sheen_color.to_array(),
         _pad: 0.0,
         uv,
     }

@@ -39,6 +39,8 @@ impl TextureSet {
     pub const CLEARCOAT: u32 = 1 << 7;
     pub const CLEARCOAT_ROUGHNESS: u32 = 1 << 8;
     pub const CLEARCOAT_NORMAL: u32 = 1 << 9;
+    pub const SHEEN_COLOR: u32 = 1 << 10;
+    pub const SHEEN_ROUGHNESS: u32 = 1 << 11;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
     pub const TRANSFORMED_UVS: u32 = 1 << 30;
@@ -62,6 +64,8 @@ impl MaterialFeatures {
     pub const SPECULAR: u8 = 1;
     /// KHR_materials_clearcoat with a strength above 0: a clear coat over the material.
     pub const CLEARCOAT: u8 = 2;
+    /// KHR_materials_sheen with a colour other than black: a layer of fibres over the material.
+    pub const SHEEN: u8 = 4;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -408,6 +412,9 @@ fn features(m: &StandardMaterial) -> MaterialFeatures {
     if !m.unlit && m.clearcoat > 0.0 {
         bits |= MaterialFeatures::CLEARCOAT;
     }
+    if !m.unlit && m.has_sheen() {
+        bits |= MaterialFeatures::SHEEN;
+    }
     MaterialFeatures(bits)
 }
 
@@ -499,7 +506,16 @@ mod tests {
             "forward.wgsl",
             ["MATERIAL_EXTENSION"],
             "MaterialExtension",
-            [dielectric_f0_color, specular, clearcoat, clearcoat_roughness, clearcoat_normal_scale, uv]
+            [
+                dielectric_f0_color,
+                specular,
+                clearcoat,
+                clearcoat_roughness,
+                clearcoat_normal_scale,
+                sheen_roughness,
+                sheen_color,
+                uv
+            ]
         );
     }
 }
