@@ -53,6 +53,15 @@ struct Surface {
     // Multiple scattering of the coat's lobe (`specular_multiscatter` for F0 0.04).
     coat_multiscatter: f32,
 #endif
+#ifdef MATERIAL_TRANSMISSION
+    // KHR_materials_transmission (set by the caller): the share of light passing through
+    // (transmission × (1 − metallic)), its tint (base colour × the volume's attenuation), and
+    // the GGX α of the transmitted lobe (the surface's, scaled by the IOR's refraction as the
+    // Khronos sample viewer does).
+    transmission: f32,
+    transmission_tint: vec3<f32>,
+    transmission_alpha: f32,
+#endif
 #ifdef MATERIAL_SHEEN
     // KHR_materials_sheen (set by `with_sheen`): a layer of fibres of colour `sheen_color` over
     // the material (beneath a coat). `sheen_scale_v` is the albedo scaling seen from the eye,
@@ -287,12 +296,36 @@ fn lobe_weights(s: Surface) -> LobeWeights {
 // weighted by `diffuse_share`. Schlick's F is linear in f0_color, so the specular lobes of
 // glTF's mix combine into F(f0_color mixed).
 fn direct(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
+    var beneath = direct_beneath(s, l, e);
+#ifdef MATERIAL_TRANSMISSION
+    beneath += transmission_cos(s, l) * sheen_base(s) * e;
+#endif
 #ifdef MATERIAL_CLEARCOAT
-    return direct_beneath(s, l, e) * coat_base(s) + coat_cos(s, l) * e;
+    return beneath * coat_base(s) + coat_cos(s, l) * e;
 #else
-    return direct_beneath(s, l, e);
+    return beneath;
 #endif
 }
+
+#ifdef MATERIAL_TRANSMISSION
+// Light from behind the surface passing through it towards the eye: the transmitted GGX lobe
+// about the light's direction mirrored to the front (the thin-surface model of the Khronos
+// sample viewer), times what the surface's reflection leaves (1 − F), its tint and its share,
+// times |N·L|. Zero for light in front.
+fn transmission_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(s.n, l);
+    if n_dot_l >= 0.0 || s.transmission <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let mirrored = reflect(l, s.n);
+    let h = safe_normalize(mirrored + s.v, s.n);
+    let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
+    let f = f_schlick(s.f0_color, surface_f90(s), clamp(dot(s.v, h), 0.0, 1.0));
+    let d_v = d_ggx(s.n, h, n_dot_h, s.transmission_alpha)
+        * v_smith_ggx_correlated(s.n_dot_v, -n_dot_l, s.transmission_alpha);
+    return (vec3<f32>(1.0) - f) * s.transmission_tint * (s.transmission * d_v * -n_dot_l);
+}
+#endif
 
 // `direct` for the material beneath its coat, if it has one: with its sheen over it.
 fn direct_beneath(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {

@@ -50,10 +50,21 @@ struct MaterialExtension {
     // alpha and RGB multiply them).
     sheen_roughness: f32,
     sheen_color: vec3<f32>,
+    // KHR_materials_transmission's share (its texture's red multiplies it); KHR_materials_volume:
+    // what white light becomes after attenuation_distance (f32's largest: none) and the volume's
+    // thickness in mesh units (its texture's green multiplies it); the IOR refraction bends by
+    // and KHR_materials_dispersion's spread of it.
+    transmission: f32,
+    attenuation_color: vec3<f32>,
+    thickness: f32,
+    attenuation_distance: f32,
+    ior: f32,
+    dispersion: f32,
     _pad: f32,
     // The UV transform rows of the extension slots (specular, specular colour, clearcoat,
-    // clearcoat roughness, clearcoat normal, sheen colour, sheen roughness), as `Material::uv`.
-    uv: array<vec4<f32>, 14>,
+    // clearcoat roughness, clearcoat normal, sheen colour, sheen roughness, transmission,
+    // thickness), as `Material::uv`.
+    uv: array<vec4<f32>, 18>,
 };
 
 // A vertex placed by its instance.

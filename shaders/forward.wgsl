@@ -12,8 +12,11 @@
 // (KHR_materials_ior / KHR_materials_specular: the dielectric's reflectance from the material,
 // with SPECULAR_TEXTURE and SPECULAR_COLOR_TEXTURE), MATERIAL_CLEARCOAT (KHR_materials_clearcoat,
 // with CLEARCOAT_TEXTURE, CLEARCOAT_ROUGHNESS_TEXTURE and CLEARCOAT_NORMAL_MAP), MATERIAL_SHEEN
-// (KHR_materials_sheen, with SHEEN_COLOR_TEXTURE and SHEEN_ROUGHNESS_TEXTURE; these three read
-// the material's extension group, MATERIAL_EXTENSION), TRANSFORMED_UVS
+// (KHR_materials_sheen, with SHEEN_COLOR_TEXTURE and SHEEN_ROUGHNESS_TEXTURE),
+// MATERIAL_TRANSMISSION (KHR_materials_transmission with _volume and _dispersion, with
+// TRANSMISSION_TEXTURE and THICKNESS_TEXTURE: the opaque colour's copy is seen through the
+// surface, see transmitted_light; these four read the material's extension group,
+// MATERIAL_EXTENSION), TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
 // OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
@@ -47,6 +50,9 @@
 #endif
 #ifdef MATERIAL_SHEEN
 #import penumbra::brdf::with_sheen
+#endif
+#ifdef MATERIAL_TRANSMISSION
+#import penumbra::brdf::{coat_base, dielectric_albedo, sheen_base}
 #endif
 #ifndef UNLIT
 #import penumbra::split_sum::split_sum
@@ -128,6 +134,15 @@
 @group(3) @binding(12) var sheen_color_sampler: sampler;
 @group(3) @binding(13) var sheen_roughness_texture: texture_2d<f32>;
 @group(3) @binding(14) var sheen_roughness_sampler: sampler;
+@group(3) @binding(15) var transmission_texture: texture_2d<f32>;
+@group(3) @binding(16) var transmission_factor_sampler: sampler;
+@group(3) @binding(17) var thickness_texture: texture_2d<f32>;
+@group(3) @binding(18) var thickness_sampler: sampler;
+#ifdef MATERIAL_TRANSMISSION
+// The opaque colour's copy with its mip chain (features/transmission), as exposed radiance.
+@group(2) @binding(0) var transmission_scene: texture_2d<f32>;
+@group(2) @binding(1) var transmission_sampler: sampler;
+#endif
 
 #ifdef PULLED_VERTICES
 // A triangle-culled draw (cull.wgsl, TRIANGLE_CULLING): each index names its instance and
@@ -202,6 +217,11 @@ struct VertexOut {
 #endif
 #endif
     @location(6) @interpolate(flat) material: u32,
+#ifdef MATERIAL_TRANSMISSION
+    // The instance's scale (the mean length of its axes): KHR_materials_volume's thickness is
+    // in the mesh's units.
+    @location(7) @interpolate(flat) model_scale: f32,
+#endif
 };
 
 // A vertex as the rasteriser interpolates it: placed camera-relative by its instance.
@@ -220,6 +240,9 @@ fn vertex_out(inst: Instance, v: VertexAttributes) -> VertexOut {
     out.color = v.color;
 #endif
     out.material = inst.material;
+#ifdef MATERIAL_TRANSMISSION
+    out.model_scale = (length(placed.linear[0]) + length(placed.linear[1]) + length(placed.linear[2])) / 3.0;
+#endif
     return out;
 }
 
@@ -320,7 +343,8 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #ifdef MATERIAL_EXTENSION
 // `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
 // 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal, 5: sheen
-// colour, 6: sheen roughness), whose transforms are in the material's extension uniform.
+// colour, 6: sheen roughness, 7: transmission, 8: thickness), whose transforms are in the
+// material's extension uniform.
 fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
@@ -332,6 +356,49 @@ fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> v
     return textureSample(t, s, sets.first);
 #endif
 #endif
+}
+#endif
+
+#ifdef MATERIAL_TRANSMISSION
+// The light that passes through surface `s` towards the eye, before the surface's tint: the
+// opaque colour's copy read where the ray refracted by the IOR leaves a volume `thickness`
+// deep (thin walls, thickness 0, show what is straight behind), blurred by reading a coarser
+// level the rougher the surface (scaled by the IOR's refraction as the Khronos sample viewer
+// does: IOR 1 bends and blurs nothing). KHR_materials_dispersion
+// refracts red, green and blue by IORs spread by (IOR − 1) · dispersion / 40 about it.
+fn transmitted_light(s: Surface, rel_position: vec3<f32>, thickness: f32) -> vec3<f32> {
+    let ior = max(material_extension.ior, 1.0);
+    let width = f32(textureDimensions(transmission_scene).x);
+    let lod = log2(width) * s.perceptual_roughness * clamp(ior * 2.0 - 2.0, 0.0, 1.0);
+    var seen: vec3<f32>;
+    let spread = (ior - 1.0) * 0.025 * max(material_extension.dispersion, 0.0);
+    if spread > 0.0 {
+        seen = vec3<f32>(
+            seen_through(s, rel_position, thickness, ior - spread, lod).r,
+            seen_through(s, rel_position, thickness, ior, lod).g,
+            seen_through(s, rel_position, thickness, ior + spread, lod).b
+        );
+    } else {
+        seen = seen_through(s, rel_position, thickness, ior, lod);
+    }
+    // The copy holds exposed radiance; the caller's colour is exposed at the end.
+    return seen / max(view.exposure, 1e-30);
+}
+
+// What the volume leaves of light crossing `thickness` of it (Beer's law).
+fn volume_attenuation(thickness: f32) -> vec3<f32> {
+    let distance = material_extension.attenuation_distance;
+    return pow(max(material_extension.attenuation_color, vec3<f32>(1e-6)), vec3<f32>(thickness / distance));
+}
+
+// The copy where the ray refracted by `ior` leaves a volume `thickness` deep.
+fn seen_through(s: Surface, rel_position: vec3<f32>, thickness: f32, ior: f32, lod: f32) -> vec3<f32> {
+    let refracted = refract(-s.v, s.n, 1.0 / ior);
+    let exit = rel_position + safe_normalize(refracted, -s.v) * thickness;
+    let clip = view.clip_from_rel * vec4<f32>(exit, 1.0);
+    let ndc = clip.xy / max(clip.w, 1e-30);
+    let uv = vec2<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y);
+    return textureSampleLevel(transmission_scene, transmission_sampler, uv, lod).rgb;
 }
 #endif
 
@@ -551,6 +618,27 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     let coat_n_dot_v = max(dot(coat_n, v), 1e-4);
     s = with_coat(s, clamp(coat, 0.0, 1.0), coat_roughness, coat_n, split_sum(coat_n_dot_v, coat_roughness));
 #endif
+#ifdef MATERIAL_TRANSMISSION
+    // KHR_materials_transmission: this share of the dielectric's diffuse lobe passes through
+    // instead (metals transmit nothing); what it shows is added after the lights.
+    var transmission = material_extension.transmission;
+#ifdef TRANSMISSION_TEXTURE
+    transmission *= extension_texel(transmission_texture, transmission_factor_sampler, 7u, sets).r;
+#endif
+    transmission = clamp(transmission, 0.0, 1.0);
+    var thickness = material_extension.thickness;
+#ifdef THICKNESS_TEXTURE
+    thickness *= extension_texel(thickness_texture, thickness_sampler, 8u, sets).g;
+#endif
+    let volume_thickness = max(thickness, 0.0) * in.model_scale;
+    s.transmission = transmission * (1.0 - metallic);
+    s.transmission_tint = base.rgb * volume_attenuation(volume_thickness);
+    let transmission_ior = max(material_extension.ior, 1.0);
+    s.transmission_alpha = max(s.alpha * clamp(transmission_ior * 2.0 - 2.0, 0.0, 1.0), MIN_PERCEPTUAL_ROUGHNESS * MIN_PERCEPTUAL_ROUGHNESS);
+    let transmitted = transmitted_light(s, in.rel_position, volume_thickness) * s.transmission * s.transmission_tint
+        * (vec3<f32>(1.0) - dielectric_albedo(s));
+    s.diffuse_color *= 1.0 - transmission;
+#endif
 #ifdef OCCLUSION_TEXTURE
 #ifdef OCCLUSION_IN_METALLIC_ROUGHNESS
     // The same texel (glTF's ORM packing): occlusion is its red channel.
@@ -607,6 +695,9 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
         color += shade_light(s, lights[i], in.rel_position, view.camera_position);
     }
 #endif
+#endif
+#ifdef MATERIAL_TRANSMISSION
+    color += transmitted * sheen_base(s) * coat_base(s);
 #endif
     var emissive = mat.emissive;
 #ifdef EMISSIVE_TEXTURE

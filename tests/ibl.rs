@@ -418,6 +418,27 @@ fn golden_sheen_cloth_under_the_sky_and_a_low_sun() {
     env_golden("SheenCloth-sky");
 }
 
+/// KHR_materials_transmission: spheres transmitting by factor and by texture, rough and
+/// metallic, with and without alpha blending, over a checkered cloth.
+#[test]
+fn golden_transmission_test_under_the_studio_environment() {
+    env_golden("TransmissionTest-studio");
+}
+
+/// KHR_materials_volume: cubes whose volume attenuates by colour, thickness factor, thickness
+/// texture, node scale and attenuation distance.
+#[test]
+fn golden_attenuation_test_under_the_studio_environment() {
+    env_golden("AttenuationTest-studio");
+}
+
+/// KHR_materials_transmission with KHR_materials_ior: spheres from smooth to rough, in rows of
+/// IOR from diamond's 2.42 to air's 1.0, refracting and blurring the grid behind them.
+#[test]
+fn golden_transmission_roughness_and_ior_under_the_studio_environment() {
+    env_golden("TransmissionRoughnessTest-studio");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

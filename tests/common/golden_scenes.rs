@@ -156,6 +156,9 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("SpecGlossVsMetalRough-studio", 0.210),
     ("ClearCoatTest-studio", 0.293),
     ("SheenCloth-sky", 0.105),
+    ("TransmissionTest-studio", 0.203),
+    ("AttenuationTest-studio", 0.194),
+    ("TransmissionRoughnessTest-studio", 0.391),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -240,6 +243,9 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "SpecGlossVsMetalRough-studio",
     "ClearCoatTest-studio",
     "SheenCloth-sky",
+    "TransmissionTest-studio",
+    "AttenuationTest-studio",
+    "TransmissionRoughnessTest-studio",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -253,6 +259,9 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "SpecGlossVsMetalRough-studio" => ("SpecGlossVsMetalRough/SpecGlossVsMetalRough.gltf", false),
         "ClearCoatTest-studio" => ("ClearCoatTest/ClearCoatTest.glb", false),
         "SheenCloth-sky" => ("SheenCloth/SheenCloth.gltf", true),
+        "TransmissionTest-studio" => ("TransmissionTest/TransmissionTest.glb", false),
+        "AttenuationTest-studio" => ("AttenuationTest/AttenuationTest.glb", false),
+        "TransmissionRoughnessTest-studio" => ("TransmissionRoughnessTest/TransmissionRoughnessTest.glb", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

@@ -1,5 +1,6 @@
 //! `StandardMaterial`: glTF 2.0 metallic-roughness, with the material extensions Penumbra
-//! supports (emissive strength, unlit, IOR, specular, clearcoat, sheen; KHR_texture_transform;
+//! supports (emissive strength, unlit, IOR, specular, clearcoat, sheen, transmission, volume,
+//! dispersion; KHR_texture_transform;
 //! specular-glossiness converts to it at import).
 //! Colours are linear; textures say which image, sampler, UV set and UV transform they use.
 
@@ -160,6 +161,25 @@ pub struct StandardMaterial {
     pub sheen_roughness: f32,
     /// Multiplies `sheen_roughness`; read from alpha.
     pub sheen_roughness_texture: Option<TextureRef>,
+    /// KHR_materials_transmission: the share of the dielectric's diffuse lobe that passes
+    /// through the surface instead (glass, water, clear plastic), 0..=1. Seen through, what lies
+    /// behind is refracted by `ior`, blurred by `roughness` and tinted by the base colour.
+    pub transmission: f32,
+    /// Multiplies `transmission`; read from red.
+    pub transmission_texture: Option<TextureRef>,
+    /// KHR_materials_volume: the thickness of the volume beneath the surface, in the mesh's own
+    /// units (the node's scale applies). 0 is a thin wall: no refraction, no attenuation.
+    pub thickness: f32,
+    /// Multiplies `thickness`; read from green.
+    pub thickness_texture: Option<TextureRef>,
+    /// The distance (world units) light travels in the volume before its colour is reduced to
+    /// `attenuation_color` (Beer's law); infinite: no attenuation.
+    pub attenuation_distance: f32,
+    /// Linear RGB: what white light becomes after `attenuation_distance` in the volume.
+    pub attenuation_color: Vec3,
+    /// KHR_materials_dispersion: how much the IOR varies with wavelength, as 20 / Abbe number
+    /// (0: none). Spreads the refracted colours apart.
+    pub dispersion: f32,
 }
 
 impl Default for StandardMaterial {
@@ -196,6 +216,13 @@ impl Default for StandardMaterial {
             sheen_color_texture: None,
             sheen_roughness: 0.0,
             sheen_roughness_texture: None,
+            transmission: 0.0,
+            transmission_texture: None,
+            thickness: 0.0,
+            thickness_texture: None,
+            attenuation_distance: f32::INFINITY,
+            attenuation_color: Vec3::ONE,
+            dispersion: 0.0,
         }
     }
 }
@@ -209,7 +236,7 @@ impl StandardMaterial {
     /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour, emissive and
     /// specular colour and sheen colour, as glTF defines them); the others are read as stored.
     pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] =
-        [true, false, false, false, true, false, true, false, false, false, true, false];
+        [true, false, false, false, true, false, true, false, false, false, true, false, false, false];
 
     /// Every texture slot in the fixed order the renderer binds them.
     pub fn textures(&self) -> [Option<&TextureRef>; TEXTURE_SLOTS] {
@@ -226,6 +253,8 @@ impl StandardMaterial {
             self.clearcoat_normal_texture.as_ref(),
             self.sheen_color_texture.as_ref(),
             self.sheen_roughness_texture.as_ref(),
+            self.transmission_texture.as_ref(),
+            self.thickness_texture.as_ref(),
         ]
     }
 
@@ -244,6 +273,8 @@ impl StandardMaterial {
             &mut self.clearcoat_normal_texture,
             &mut self.sheen_color_texture,
             &mut self.sheen_roughness_texture,
+            &mut self.transmission_texture,
+            &mut self.thickness_texture,
         ]
     }
 
@@ -259,6 +290,11 @@ impl StandardMaterial {
         self.sheen_color.max_element() > 0.0
     }
 
+    /// Whether light passes through the material (KHR_materials_transmission above 0).
+    pub fn has_transmission(&self) -> bool {
+        self.transmission > 0.0
+    }
+
     /// Whether the dielectric reflects other than glTF's default (IOR 1.5, specular 1, white,
     /// no specular textures): the shader then reads its specular parameters.
     pub fn has_custom_specular(&self) -> bool {
@@ -271,7 +307,7 @@ impl StandardMaterial {
 }
 
 /// How many texture slots a material has ([`StandardMaterial::textures`]).
-pub const TEXTURE_SLOTS: usize = 12;
+pub const TEXTURE_SLOTS: usize = 14;
 
 /// glTF's IOR when a material gives none.
 pub const DEFAULT_IOR: f32 = 1.5;

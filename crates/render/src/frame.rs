@@ -93,10 +93,16 @@ impl Pass {
     /// Gizmo lines (axes, selection boxes, debug lines), last in the render pass that ends the
     /// frame's drawing, depth-tested against the scene.
     pub const GIZMOS: Pass = Pass::new("Gizmos", "gizmo line vertices, depth -> HDR colour");
+
+    pub const TRANSMISSION: Pass = Pass::new(
+        "Transmission",
+        "HDR colour after the opaque draws and the background -> its copy with a mip chain, which \
+         transmissive draws read",
+    );
 }
 
 /// The plan's own passes in the order they can run; the post-processing chain's follow.
-const CORE: [Pass; 13] = [
+const CORE: [Pass; 14] = [
     Pass::ENVIRONMENT_PREFILTER,
     Pass::DEFORM,
     Pass::CULL,
@@ -108,6 +114,7 @@ const CORE: [Pass; 13] = [
     Pass::BACKGROUND,
     Pass::OCCLUSION_LATE,
     Pass::DEFERRED_LIGHTS,
+    Pass::TRANSMISSION,
     Pass::TRANSPARENT,
     Pass::GIZMOS,
 ];
@@ -152,6 +159,8 @@ pub struct SceneNeeds {
     pub gizmo_vertices: u32,
     /// The frame has a depth target (not when nothing drawn can cover a pixel twice).
     pub depth: bool,
+    /// Transmissive draws exist (drawn with the blended ones, after the transmission copy).
+    pub transmission: bool,
 }
 
 impl FramePlan {
@@ -172,6 +181,7 @@ impl FramePlan {
             background,
             gizmo_vertices,
             depth,
+            transmission,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -226,8 +236,17 @@ impl FramePlan {
                 "local lights shaded in compute (long cluster lists, or --light-walk compute)",
             ));
         }
+        if transmission {
+            passes.push((
+                Pass::TRANSMISSION,
+                "transmissive draws see the scene behind them: the opaque colour is copied before they draw",
+            ));
+        }
         if has_blend {
-            passes.push((Pass::TRANSPARENT, "blended draws exist"));
+            passes.push((
+                Pass::TRANSPARENT,
+                if transmission { "transmissive or blended draws exist, back to front" } else { "blended draws exist" },
+            ));
         }
         if gizmo_vertices > 0 {
             passes.push((Pass::GIZMOS, "the scene has gizmo lines to draw"));
@@ -283,7 +302,8 @@ impl FramePlan {
                         "occlusion culling off (auto: fewer than 10 000 opaque instances or a CPU adapter)"
                     }
                     Pass::DEFERRED_LIGHTS => "local lights are shaded in the fragment shader, or there are none",
-                    Pass::TRANSPARENT => "no blended draws",
+                    Pass::TRANSMISSION => "no transmissive draws",
+                    Pass::TRANSPARENT => "no blended or transmissive draws",
                     Pass::GIZMOS => "no gizmo lines",
                     _ => unreachable!("every core pass has its reason"),
                 };

@@ -15,4 +15,5 @@ pub mod post;
 pub mod resolve;
 pub mod shadows;
 pub mod tonemap;
+pub mod transmission;
 pub mod visibility;

@@ -6,7 +6,7 @@ use super::Renderer;
 use super::prepare::PreparedFrame;
 use crate::features::culling::CullInputs;
 use crate::features::deferred_lights::DeferredKey;
-use crate::features::forward::{self, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase};
+use crate::features::forward::{self, DrawCounts, ForwardInputs, IndirectDraws, OpaquePhase, Rest};
 use crate::features::post::Target;
 use crate::features::tonemap;
 use crate::features::visibility::ShadeOutput;
@@ -33,13 +33,14 @@ impl Renderer {
             visibility,
             deferred,
             background,
+            transmission,
             variant,
             solid_background,
             camera_exposure,
             ..
         } = frame;
-        let (opaque_len, total, direct, visibility, deferred, background) =
-            (*opaque_len, *total, *direct, *visibility, *deferred, *background);
+        let (opaque_len, total, direct, visibility, deferred, background, transmission) =
+            (*opaque_len, *total, *direct, *visibility, *deferred, *background, *transmission);
         let device = self.ctx.device.clone();
         let queue = self.ctx.queue.clone();
         let targets = self.targets.as_ref().expect("made by prepare");
@@ -103,8 +104,9 @@ impl Renderer {
         let view_bind_group = self.view.bind_group();
         // The background is composited over the resolved frame (one sample a pixel, after the
         // surfaces left their coverage in alpha), except with deferred local lights, whose
-        // colour alpha carries roughness: then the forward pass draws it where depth is clear.
-        let composite_background = plan.runs(Pass::BACKGROUND) && !deferred;
+        // colour alpha carries roughness, and with transmissive draws, which must see it in the
+        // copy: then the forward pass draws it where depth is clear.
+        let composite_background = plan.runs(Pass::BACKGROUND) && !deferred && !transmission;
         let inputs = ForwardInputs {
             targets,
             output,
@@ -119,6 +121,7 @@ impl Renderer {
             }),
             background: plan.runs(Pass::BACKGROUND) && !composite_background,
             gizmos: if plan.runs(Pass::GIZMOS) { self.gizmos.draw() } else { None },
+            transmission: if transmission { self.transmission.bind_group() } else { None },
         };
         let opaque_count = self.draws.opaque_batches().len();
         let (mut counts, mut forward_error) = if plan.runs(Pass::OCCLUSION_LATE) {
@@ -188,8 +191,19 @@ impl Renderer {
                 forward_error = Some(e);
                 computed = false;
             }
-            let (after, error) =
-                forward::encode_after_deferred(&mut cx, &inputs, batches, opaque_count, &self.deferred, computed);
+            let rest = Rest { deferred: Some((&self.deferred, computed)), draws: !transmission };
+            let (after, error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
+            counts += after;
+            forward_error = forward_error.or(error);
+        }
+        if transmission {
+            // The opaque pass (or the deferred composite) resolved the colour and kept its
+            // targets: copy it, then draw the transmissive and blended surfaces over it.
+            if let Some(hdr) = targets.hdr_view() {
+                self.transmission.encode_copy(&mut cx, hdr);
+            }
+            let rest = Rest { deferred: None, draws: true };
+            let (after, error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
             counts += after;
             forward_error = forward_error.or(error);
         }

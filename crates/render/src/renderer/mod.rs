@@ -19,6 +19,7 @@ use crate::features::gizmos::GizmoLines;
 use crate::features::post::PostChain;
 use crate::features::resolve;
 use crate::features::shadows::orchestrator::ShadowOrchestrator;
+use crate::features::transmission::Transmission;
 use crate::features::visibility::{Raster, VisibilityBuffer};
 use crate::frame::{self, Pass};
 use crate::gpu::context::GpuContext;
@@ -122,6 +123,8 @@ pub struct Renderer {
     /// The newest shader problem; cleared by the next successful reload.
     shader_error: Option<ShaderError>,
     deferred: DeferredLights,
+    /// The opaque colour's copy that transmissive surfaces see through.
+    transmission: Transmission,
     /// The last binning refusal, reported once until it changes.
     binning_error: Option<BinningTooLarge>,
     /// Devices lost and replaced so far.
@@ -164,7 +167,8 @@ impl Renderer {
         let materials = MaterialTable::new(device, view.fragment_textures());
         // Each owner registers its pipeline families; registration order is the order reload
         // reports list families in.
-        forward::register(&mut pipelines, view.layout(), &materials);
+        let transmission = Transmission::new(device, &mut pipelines);
+        forward::register(&mut pipelines, view.layout(), &materials, transmission.layout());
         let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), &materials);
         let shadows = ShadowOrchestrator::new(
             device,
@@ -224,6 +228,7 @@ impl Renderer {
             shader_watcher,
             shader_error,
             deferred,
+            transmission,
             binning_error: None,
             device_losses: 0,
             recovery: Default::default(),
@@ -401,7 +406,7 @@ impl Renderer {
             clusters: self.clusters.gpu_bytes(),
             shadows: self.shadows.gpu_bytes(),
             environment: self.environment.bytes(),
-            post: self.post.gpu_bytes(),
+            post: self.post.gpu_bytes() + self.transmission.bytes(),
             deform: self.deformer.gpu_bytes(),
         }
     }

@@ -22,6 +22,7 @@ use crate::gpu::formats::FormatKey;
 use crate::pipelines::ShaderError;
 use crate::resources::draw_list::{DrawContext, FrameVariant, SceneBounds};
 use crate::resources::draws::{Batch, DebugView, LocalLights};
+use crate::resources::materials::MaterialFeatures;
 use crate::scene::world::{LightKind, RenderScene};
 use crate::targets::{FrameTargets, MsaaResolve, OpaqueDraws, TargetNeeds, TargetsMade};
 use crate::view::ViewSources;
@@ -44,6 +45,8 @@ pub(super) struct PreparedFrame {
     pub deferred: bool,
     /// The environment is drawn behind the scene.
     pub background: bool,
+    /// Transmissive surfaces are drawn: the opaque colour is copied before them.
+    pub transmission: bool,
     pub variant: FrameVariant,
     /// The environment's solid background colour, if it has one (else the settings' clear colour).
     pub solid_background: Option<[f32; 3]>,
@@ -116,6 +119,7 @@ impl Renderer {
         rebind |= self.prepare_shadows(scene, size);
         self.draws.rebuild_if_dirty(&draw_cx!(self));
         let blend_batches = self.draws.sort_blended(&draw_cx!(self), scene);
+        let transmission = blend_batches.iter().any(|(b, _)| b.key.features.has(MaterialFeatures::TRANSMISSION));
         // Every lit surface reads its specular albedo from the split-sum table (brdf.wgsl).
         let opaque = self.draws.opaque_batches();
         let lit_draws = || opaque.iter().chain(blend_batches.iter().map(|(b, _)| b)).any(|b| !b.key.unlit);
@@ -281,6 +285,7 @@ impl Renderer {
             ));
         }
         self.deferred.prepare(&device, &self.pipelines, self.targets.as_ref().expect("made above"));
+        let transmission_error = self.transmission.prepare(&device, &mut self.pipelines, size, transmission).err();
 
         let mut batches = self.draws.opaque_batches().to_vec();
         let blend_first = opaque_len as u32;
@@ -326,6 +331,7 @@ impl Renderer {
             background,
             gizmo_vertices,
             depth: !depth_free,
+            transmission,
         });
         plan.add_post(self.post.decisions());
         PreparedFrame {
@@ -337,10 +343,11 @@ impl Renderer {
             visibility,
             deferred,
             background,
+            transmission,
             variant,
             solid_background: env_frame.solid_background,
             camera_exposure,
-            cull_error,
+            cull_error: cull_error.or(transmission_error),
             instance_upload_ms,
         }
     }

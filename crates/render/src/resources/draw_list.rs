@@ -540,7 +540,9 @@ impl DrawList {
             let (Some(key), Some(mesh_id)) = (self.pipeline_key(cx, d), self.draw_mesh_id(cx, entity, d)) else {
                 continue;
             };
-            if key.alpha == AlphaKey::Blend {
+            // Transmissive surfaces are drawn after the opaque colour is copied, back to front
+            // with blended ones (`features::transmission`).
+            if key.alpha == AlphaKey::Blend || key.features.has(MaterialFeatures::TRANSMISSION) {
                 self.blend_entities.push(entity);
             } else {
                 items.push((key, d.material, mesh_id, d.mesh, d.slot));

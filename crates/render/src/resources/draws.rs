@@ -83,6 +83,7 @@ impl PipelineKey {
         let specular = lit && self.features.has(MaterialFeatures::SPECULAR);
         let clearcoat = lit && self.features.has(MaterialFeatures::CLEARCOAT);
         let sheen = lit && self.features.has(MaterialFeatures::SHEEN);
+        let transmission = lit && self.features.has(MaterialFeatures::TRANSMISSION);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -105,7 +106,10 @@ impl PipelineKey {
             .with("MATERIAL_SHEEN", sheen)
             .with("SHEEN_COLOR_TEXTURE", sheen && t.has(TextureSet::SHEEN_COLOR))
             .with("SHEEN_ROUGHNESS_TEXTURE", sheen && t.has(TextureSet::SHEEN_ROUGHNESS))
-            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen)
+            .with("MATERIAL_TRANSMISSION", transmission)
+            .with("TRANSMISSION_TEXTURE", transmission && t.has(TextureSet::TRANSMISSION))
+            .with("THICKNESS_TEXTURE", transmission && t.has(TextureSet::THICKNESS))
+            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen || transmission)
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))

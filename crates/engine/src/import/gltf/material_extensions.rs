@@ -1,5 +1,6 @@
 //! The glTF material extensions the gltf crate has no typed support for, read from each
-//! material's raw extension JSON: KHR_materials_clearcoat and KHR_materials_sheen. Values are
+//! material's raw extension JSON: KHR_materials_clearcoat, _sheen, _transmission, _volume and
+//! _dispersion. Values are
 //! checked against each extension's schema (a factor outside its range is clamped, a value that
 //! is not a number falls back to the extension's default, a texture index past the file's
 //! textures is dropped), each with a warning naming the material and the extension.
@@ -8,7 +9,7 @@ use glam::Vec3;
 
 use super::materials::{
     CLEARCOAT_NORMAL_SLOT, CLEARCOAT_ROUGHNESS_SLOT, CLEARCOAT_SLOT, MaterialDesc, SHEEN_COLOR_SLOT,
-    SHEEN_ROUGHNESS_SLOT, TextureDesc, texture, transform_from_json,
+    SHEEN_ROUGHNESS_SLOT, THICKNESS_SLOT, TRANSMISSION_SLOT, TextureDesc, texture, transform_from_json,
 };
 
 /// Fills `desc` from the extensions of `m` this module reads.
@@ -25,6 +26,34 @@ pub(crate) fn read(
     if let Some(ext) = Reader::new(m, "KHR_materials_sheen", document, label, warnings) {
         sheen(ext, desc);
     }
+    if let Some(mut ext) = Reader::new(m, "KHR_materials_transmission", document, label, warnings) {
+        desc.material.transmission = ext.factor("transmissionFactor", 0.0);
+        desc.textures[TRANSMISSION_SLOT] = ext.texture("transmissionTexture").map(|(t, _)| t);
+    }
+    if let Some(ext) = Reader::new(m, "KHR_materials_volume", document, label, warnings) {
+        volume(ext, desc);
+    }
+    if let Some(mut ext) = Reader::new(m, "KHR_materials_dispersion", document, label, warnings) {
+        desc.material.dispersion = ext.non_negative("dispersion", 0.0);
+    }
+}
+
+fn volume(mut ext: Reader, desc: &mut MaterialDesc) {
+    let m = &mut desc.material;
+    m.thickness = ext.non_negative("thicknessFactor", 0.0);
+    desc.textures[THICKNESS_SLOT] = ext.texture("thicknessTexture").map(|(t, _)| t);
+    m.attenuation_color = ext.color("attenuationColor", Vec3::ONE);
+    // The schema: a positive distance; infinity (the default) when absent.
+    m.attenuation_distance = match ext.ext.get("attenuationDistance") {
+        None => f32::INFINITY,
+        Some(v) => match v.as_f64().map(|f| f as f32) {
+            Some(d) if d > 0.0 => d,
+            _ => {
+                ext.warn(format!("attenuationDistance {v} is not a positive number; no attenuation"));
+                f32::INFINITY
+            }
+        },
+    };
 }
 
 fn clearcoat(mut ext: Reader, desc: &mut MaterialDesc) {
@@ -82,6 +111,18 @@ impl<'a> Reader<'a> {
             }
             _ => {
                 self.warn(format!("{key} {v} is not a number; using {default}"));
+                default
+            }
+        }
+    }
+
+    /// A factor of at least 0 (thickness, dispersion).
+    fn non_negative(&mut self, key: &str, default: f32) -> f32 {
+        let Some(v) = self.ext.get(key) else { return default };
+        match v.as_f64().map(|f| f as f32) {
+            Some(f) if f.is_finite() && f >= 0.0 => f,
+            _ => {
+                self.warn(format!("{key} {v} is not a finite number of at least 0; using {default}"));
                 default
             }
         }

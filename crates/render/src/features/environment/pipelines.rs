@@ -27,7 +27,9 @@ pub enum BackgroundMode {
     /// Inside the forward pass of `samples` samples, after the opaque draws, where the depth is
     /// still the far plane: with deferred local lights, whose colour alpha carries roughness
     /// (the pass also writes the surface target, which the background leaves alone).
-    InPass { samples: u32 },
+    /// `surface`: the pass also writes the deferred lights' surface target (transmissive
+    /// frames draw the background in the pass without one, so that their copy holds it).
+    InPass { samples: u32, surface: bool },
     /// Over the resolved frame, weighted by what the surfaces left uncovered (1 − alpha): one
     /// sample a pixel instead of one a sample.
     Composite,
@@ -205,7 +207,7 @@ impl PipelineFamily for BackgroundFamily {
         let (samples, depth_stencil, targets) = match *mode {
             // Only where the depth is still the cleared far plane: no surface there. Alpha keeps
             // what the clear wrote (deferred lights read it as "no surface").
-            BackgroundMode::InPass { samples } => (
+            BackgroundMode::InPass { samples, surface } => (
                 samples,
                 Some(wgpu::DepthStencilState {
                     format: DEPTH_FORMAT,
@@ -214,14 +216,15 @@ impl PipelineFamily for BackgroundFamily {
                     stencil: wgpu::StencilState::default(),
                     bias: wgpu::DepthBiasState::default(),
                 }),
-                vec![
+                [
                     color(None),
                     Some(wgpu::ColorTargetState {
                         format: SURFACE_SHAPE_FORMAT,
                         blend: None,
                         write_mask: wgpu::ColorWrites::empty(),
                     }),
-                ],
+                ][..if surface { 2 } else { 1 }]
+                    .to_vec(),
             ),
             // Premultiplied "under": the frame holds the surfaces' radiance with their coverage
             // in alpha (cleared to 0), so the background adds where coverage is short.

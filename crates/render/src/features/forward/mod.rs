@@ -14,8 +14,8 @@ use crate::features::gizmos::{GizmoDraw, GizmoFamily};
 use crate::frame_context::FrameContext;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey, TopologyKey};
-use crate::resources::materials::MaterialTable;
-use crate::resources::materials::extension::EXTENSION_GROUP;
+use crate::resources::materials::extension::{EXTENSION_GROUP, TRANSMISSION_GROUP};
+use crate::resources::materials::{MaterialFeatures, MaterialTable};
 use crate::resources::mesh_pool::MeshPool;
 use crate::targets::FrameTargets;
 
@@ -24,8 +24,13 @@ pub use pipeline::ForwardFamily;
 
 /// Registers the forward pass's pipeline family (the pass itself holds no resources: it draws
 /// the shared owners' buffers into the frame's targets).
-pub fn register(pipelines: &mut PipelineCache, view: &wgpu::BindGroupLayout, materials: &MaterialTable) {
-    pipelines.register(ForwardFamily::new(view, materials));
+pub fn register(
+    pipelines: &mut PipelineCache,
+    view: &wgpu::BindGroupLayout,
+    materials: &MaterialTable,
+    transmission: &wgpu::BindGroupLayout,
+) {
+    pipelines.register(ForwardFamily::new(view, materials, transmission));
 }
 
 #[derive(Debug, Default, Clone, Copy)]
@@ -61,6 +66,10 @@ pub struct ForwardInputs<'a> {
     pub background: bool,
     /// Gizmo lines drawn last in the pass that ends the frame's drawing.
     pub gizmos: Option<GizmoDraw<'a>>,
+    /// The frame draws transmissive surfaces, which bind this group (the opaque colour's copy,
+    /// `features::transmission`): the opaque pass then keeps its targets for the copy, and
+    /// [`encode_rest`] draws them with the blended ones.
+    pub transmission: Option<&'a wgpu::BindGroup>,
 }
 
 #[derive(Clone, Copy)]
@@ -116,7 +125,10 @@ pub fn encode(
     let mut error = compile(device, pipelines, batches, 0, inputs.indirect);
     let samples = inputs.targets.samples;
     if inputs.background
-        && let Err(e) = pipelines.get::<BackgroundFamily>(device, BackgroundMode::InPass { samples })
+        && let Err(e) = pipelines.get::<BackgroundFamily>(
+            device,
+            BackgroundMode::InPass { samples, surface: inputs.targets.deferred.is_some() },
+        )
     {
         error = Some(e);
     }
@@ -135,7 +147,10 @@ pub fn encode(
     }
     let (early, late) = (phase == OpaquePhase::Early, phase == OpaquePhase::Late);
     // Multisampled colour need not be stored once resolved (unless a later pass goes on).
-    let ends = split.is_none() && !early;
+    let ends = split.is_none() && !early && inputs.transmission.is_none();
+    // With transmissive draws the pass resolves for the transmission copy and keeps its
+    // targets for the draws after it.
+    let resolves = ends || (split.is_none() && !early && inputs.transmission.is_some());
     let store = if resolve.is_some() && ends { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     let clear_surface = |view| {
         let load = if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT) };
@@ -151,7 +166,7 @@ pub fn encode(
     let mut attachments = vec![Some(wgpu::RenderPassColorAttachment {
         view: color,
         depth_slice: None,
-        resolve_target: if ends { resolve } else { None },
+        resolve_target: if resolves { resolve } else { None },
         ops: wgpu::Operations { load: if late { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(clear) }, store },
     })];
     if let Some(d) = split {
@@ -182,7 +197,8 @@ pub fn encode(
     // half of occlusion culling leaves it to the late half.
     if inputs.background
         && !early
-        && let Some(pipeline) = pipelines.cached::<BackgroundFamily>(&BackgroundMode::InPass { samples })
+        && let Some(pipeline) = pipelines
+            .cached::<BackgroundFamily>(&BackgroundMode::InPass { samples, surface: inputs.targets.deferred.is_some() })
     {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, inputs.view_bind_group, &[]);
@@ -191,34 +207,56 @@ pub fn encode(
     if ends {
         counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
         draw_gizmos(&mut pass, pipelines, inputs);
-        drop(pass);
+    }
+    drop(pass);
+    if resolves {
         super::resolve::encode(encoder, device, pipelines, &attachment, timer);
     }
     (counts, error)
 }
 
-/// After the deferred-lights pass: adds its light to the frame (when `add_local_light`: the pass
-/// ran), then draws the blended batches (`batches[opaque_count..]`) over it, and resolves.
+/// What [`encode_rest`] draws after the opaque pass kept its targets.
+#[derive(Clone, Copy)]
+pub struct Rest<'a> {
+    /// After the deferred-lights pass: adds its light to the frame (with `true`: the pass ran).
+    pub deferred: Option<(&'a DeferredLights, bool)>,
+    /// Then draws the rest of the batches (`batches[opaque_count..]`: transmissive and blended,
+    /// back to front) and the gizmos, and resolves. Without, the pass ends keeping its targets
+    /// (the transmission copy reads them before the rest is drawn).
+    pub draws: bool,
+}
+
+/// Goes on from the opaque pass that kept its targets: adds the deferred-lights pass's light
+/// and draws the transmissive and blended batches, as `rest` says.
 #[allow(clippy::too_many_arguments)]
-pub fn encode_after_deferred(
+pub fn encode_rest(
     cx: &mut FrameContext,
     inputs: &ForwardInputs,
     batches: &[Batch],
     opaque_count: usize,
-    deferred: &DeferredLights,
-    add_local_light: bool,
+    rest: Rest,
 ) -> (DrawCounts, Option<ShaderError>) {
     let (encoder, device, pipelines, mut timer) =
         (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
     let targets = inputs.targets;
-    let Some(composite_group) = deferred.composite_group() else { return (DrawCounts::default(), None) };
+    let composite_group = match rest.deferred {
+        Some((deferred, _)) => match deferred.composite_group() {
+            Some(g) => Some(g),
+            None => return (DrawCounts::default(), None),
+        },
+        None => None,
+    };
     let start = opaque_count.min(batches.len());
-    let blended = &batches[start..];
+    let blended = if rest.draws { &batches[start..] } else { &[] };
     let mut error = compile(device, pipelines, blended, start, inputs.indirect);
-    if let Err(e) = pipelines.get::<CompositeFamily>(device, targets.samples) {
+    if composite_group.is_some()
+        && let Err(e) = pipelines.get::<CompositeFamily>(device, targets.samples)
+    {
         error = Some(e);
     }
-    if let Some(e) = compile_gizmos(device, pipelines, inputs) {
+    if rest.draws
+        && let Some(e) = compile_gizmos(device, pipelines, inputs)
+    {
         error = Some(e);
     }
     let (attachment, resolve_error) =
@@ -226,10 +264,12 @@ pub fn encode_after_deferred(
     if resolve_error.is_some() {
         error = resolve_error;
     }
+    // Without the draws, the pass resolves for the transmission copy.
     let (color, resolve) = (attachment.draw, attachment.pass_resolve);
-    let store = if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
+    let store = if resolve.is_some() && rest.draws { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
+    let depth_store = if rest.draws { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store };
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("deferred composite and blended draws"),
+        label: Some(if rest.draws { "transmissive and blended draws" } else { "deferred composite" }),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view: color,
             depth_slice: None,
@@ -238,20 +278,26 @@ pub fn encode_after_deferred(
         })],
         depth_stencil_attachment: targets.depth_view.as_ref().map(|view| wgpu::RenderPassDepthStencilAttachment {
             view,
-            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Discard }),
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: depth_store }),
             stencil_ops: None,
         }),
-        timestamp_writes: timer.as_deref_mut().and_then(|t| t.pass("composite")),
+        timestamp_writes: timer
+            .as_deref_mut()
+            .and_then(|t| t.pass(if rest.draws { "transparent" } else { "composite" })),
         occlusion_query_set: None,
         multiview_mask: None,
     });
-    if add_local_light && let Some(composite) = pipelines.cached::<CompositeFamily>(&targets.samples) {
+    if let (Some((_, true)), Some(group)) = (rest.deferred, composite_group)
+        && let Some(composite) = pipelines.cached::<CompositeFamily>(&targets.samples)
+    {
         pass.set_pipeline(composite);
-        pass.set_bind_group(0, composite_group, &[]);
+        pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
-    let counts = draw(&mut pass, pipelines, inputs, blended, opaque_count.min(batches.len()));
-    draw_gizmos(&mut pass, pipelines, inputs);
+    let counts = draw(&mut pass, pipelines, inputs, blended, start);
+    if rest.draws {
+        draw_gizmos(&mut pass, pipelines, inputs);
+    }
     drop(pass);
     super::resolve::encode(encoder, device, pipelines, &attachment, timer);
     (counts, error)
@@ -326,6 +372,11 @@ fn draw(
             pass.set_bind_group(1, &material.bind_group, &[]);
             if let Some((extension, _)) = &material.extension {
                 pass.set_bind_group(EXTENSION_GROUP, extension, &[]);
+            }
+            if material.features.has(MaterialFeatures::TRANSMISSION)
+                && let Some(transmission) = inputs.transmission
+            {
+                pass.set_bind_group(TRANSMISSION_GROUP, transmission, &[]);
             }
             bound_material = Some(b.material);
         }

@@ -16,12 +16,13 @@ pub struct ForwardFamily {
 }
 
 impl ForwardFamily {
-    pub fn new(view: &wgpu::BindGroupLayout, materials: &MaterialTable) -> Self {
+    pub fn new(view: &wgpu::BindGroupLayout, materials: &MaterialTable, transmission: &wgpu::BindGroupLayout) -> Self {
         let layouts = PipelineLayouts::new(
             "forward",
             &[Some(view), Some(materials.layout())],
             materials.extension_layouts().clone(),
-        );
+        )
+        .with_transmission(transmission);
         Self { layouts }
     }
 }

@@ -25,6 +25,8 @@ use crate::pipelines::parts;
 
 /// The group index of the extension group in every pipeline that binds it.
 pub const EXTENSION_GROUP: u32 = 3;
+/// The group index of the opaque colour's copy in transmissive materials' pipelines.
+pub const TRANSMISSION_GROUP: u32 = 2;
 
 /// Which `StandardMaterial::textures()` slots each extension reads, in the order the texture
 /// budget is spent (an extension earlier in the list keeps its textures first).
@@ -32,6 +34,7 @@ const FEATURE_SLOTS: &[(u8, &[usize])] = &[
     (MaterialFeatures::SPECULAR, &[5, 6]),
     (MaterialFeatures::CLEARCOAT, &[7, 8, 9]),
     (MaterialFeatures::SHEEN, &[10, 11]),
+    (MaterialFeatures::TRANSMISSION, &[12, 13]),
 ];
 
 /// The binding of extension slot `slot`'s texture (its sampler follows): after the uniform at 0,
@@ -60,6 +63,17 @@ pub struct GpuMaterialExtension {
     /// alpha and RGB multiply them).
     pub sheen_roughness: f32,
     pub sheen_color: [f32; 3],
+    /// KHR_materials_transmission's share (its texture's red multiplies it).
+    pub transmission: f32,
+    /// KHR_materials_volume: what white light becomes after `attenuation_distance` (infinite:
+    /// no attenuation) and the volume's thickness in the mesh's units (its texture's green
+    /// multiplies it).
+    pub attenuation_color: [f32; 3],
+    pub thickness: f32,
+    pub attenuation_distance: f32,
+    /// The IOR refraction bends by, and KHR_materials_dispersion's spread of it.
+    pub ior: f32,
+    pub dispersion: f32,
     pub _pad: f32,
     pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
 }
@@ -79,6 +93,13 @@ pub fn pack(m: &StandardMaterial) -> GpuMaterialExtension {
         clearcoat_normal_scale: m.clearcoat_normal_scale,
         sheen_roughness: m.sheen_roughness,
         sheen_color: m.sheen_color.to_array(),
+        transmission: m.transmission,
+        attenuation_color: m.attenuation_color.to_array(),
+        thickness: m.thickness,
+        // f32::MAX rather than infinity: WGSL may assume values are finite.
+        attenuation_distance: m.attenuation_distance.min(f32::MAX),
+        ior: m.ior,
+        dispersion: m.dispersion,
         _pad: 0.0,
         uv,
     }
@@ -135,11 +156,13 @@ impl ExtensionLayouts {
 }
 
 /// Pipeline layouts per set of material extensions: `groups` (groups 0 to 2) alone for
-/// materials without extensions, then the extension group as group 3.
+/// materials without extensions, then the extension group as group 3; for transmissive
+/// materials, `transmission` (the opaque colour's copy) as group 2.
 pub struct PipelineLayouts {
     label: &'static str,
     groups: Vec<Option<wgpu::BindGroupLayout>>,
     extensions: std::sync::Arc<ExtensionLayouts>,
+    transmission: Option<wgpu::BindGroupLayout>,
     made: Mutex<HashMap<MaterialFeatures, wgpu::PipelineLayout>>,
 }
 
@@ -150,7 +173,19 @@ impl PipelineLayouts {
         extensions: std::sync::Arc<ExtensionLayouts>,
     ) -> Self {
         debug_assert!(groups.len() <= EXTENSION_GROUP as usize);
-        Self { label, groups: groups.iter().map(|g| g.cloned()).collect(), extensions, made: Default::default() }
+        Self {
+            label,
+            groups: groups.iter().map(|g| g.cloned()).collect(),
+            extensions,
+            transmission: None,
+            made: Default::default(),
+        }
+    }
+
+    /// With `layout` as group 2 of transmissive materials' pipelines.
+    pub fn with_transmission(self, layout: &wgpu::BindGroupLayout) -> Self {
+        debug_assert!(self.groups.len() <= 2);
+        Self { transmission: Some(layout.clone()), ..self }
     }
 
     /// The pipeline layout of a material with `features`.
@@ -161,6 +196,9 @@ impl PipelineLayouts {
                 let mut groups = self.groups.clone();
                 if features.0 != 0 {
                     groups.resize(EXTENSION_GROUP as usize, None);
+                    if features.has(MaterialFeatures::TRANSMISSION) {
+                        groups[TRANSMISSION_GROUP as usize] = self.transmission.clone();
+                    }
                     groups.push(Some(self.extensions.layout(device, features)));
                 }
                 let refs: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| g.as_ref()).collect();

@@ -41,6 +41,8 @@ impl TextureSet {
     pub const CLEARCOAT_NORMAL: u32 = 1 << 9;
     pub const SHEEN_COLOR: u32 = 1 << 10;
     pub const SHEEN_ROUGHNESS: u32 = 1 << 11;
+    pub const TRANSMISSION: u32 = 1 << 12;
+    pub const THICKNESS: u32 = 1 << 13;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
     pub const TRANSFORMED_UVS: u32 = 1 << 30;
@@ -66,6 +68,9 @@ impl MaterialFeatures {
     pub const CLEARCOAT: u8 = 2;
     /// KHR_materials_sheen with a colour other than black: a layer of fibres over the material.
     pub const SHEEN: u8 = 4;
+    /// KHR_materials_transmission above 0 (with KHR_materials_volume and _dispersion): light
+    /// passes through; drawn after the opaque colour is copied (`features::transmission`).
+    pub const TRANSMISSION: u8 = 8;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -415,6 +420,9 @@ fn features(m: &StandardMaterial) -> MaterialFeatures {
     if !m.unlit && m.has_sheen() {
         bits |= MaterialFeatures::SHEEN;
     }
+    if !m.unlit && m.has_transmission() {
+        bits |= MaterialFeatures::TRANSMISSION;
+    }
     MaterialFeatures(bits)
 }
 
@@ -514,6 +522,12 @@ mod tests {
                 clearcoat_normal_scale,
                 sheen_roughness,
                 sheen_color,
+                transmission,
+                attenuation_color,
+                thickness,
+                attenuation_distance,
+                ior,
+                dispersion,
                 uv
             ]
         );
