@@ -599,6 +599,39 @@ fn sheen_is_read_and_bad_values_are_named() {
     assert!(velvet.sheen_color_texture.is_none());
 }
 
+/// KHR_materials_transmission, _volume and _dispersion are read from the material's JSON; a
+/// negative thickness, a non-positive attenuation distance and a negative dispersion fall back
+/// to the extension's defaults, each with a warning naming the material.
+#[test]
+fn transmission_and_volume_are_read_and_bad_values_are_named() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_dispersion"],
+  "materials": [{"name": "glass", "extensions": {
+      "KHR_materials_transmission": {"transmissionFactor": 0.75},
+      "KHR_materials_volume": {"thicknessFactor": 0.5, "attenuationDistance": 2.0,
+                               "attenuationColor": [0.5, 0.25, 1.0]},
+      "KHR_materials_dispersion": {"dispersion": 0.3}}},
+    {"name": "bad", "extensions": {
+      "KHR_materials_transmission": {"transmissionFactor": 1},
+      "KHR_materials_volume": {"thicknessFactor": -1, "attenuationDistance": 0},
+      "KHR_materials_dispersion": {"dispersion": -2}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("transmission", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(warnings.contains("material \"bad\": KHR_materials_volume thicknessFactor -1"), "{warnings}");
+    assert!(warnings.contains("attenuationDistance 0 is not a positive number"), "{warnings}");
+    assert!(warnings.contains("KHR_materials_dispersion dispersion -2"), "{warnings}");
+    assert!(!warnings.contains("not supported"), "{warnings}");
+    let app = spawned(&scene);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let glass = materials.iter().map(|(_, m)| m).find(|m| m.transmission == 0.75).expect("the glass");
+    assert_eq!((glass.thickness, glass.attenuation_distance, glass.dispersion), (0.5, 2.0, 0.3));
+    assert_eq!(glass.attenuation_color, Vec3::new(0.5, 0.25, 1.0));
+}
+
 /// The clearcoat sample imports its coats, their textures and the coat's normal maps.
 #[test]
 fn the_clearcoat_sample_imports_its_coats() {
