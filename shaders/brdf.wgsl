@@ -53,6 +53,16 @@ struct Surface {
     // Multiple scattering of the coat's lobe (`specular_multiscatter` for F0 0.04).
     coat_multiscatter: f32,
 #endif
+#ifdef MATERIAL_ANISOTROPY
+    // KHR_materials_anisotropy (set by `with_anisotropy`): the strength, the direction of
+    // stretching (`anisotropic_t`, perpendicular to n) and the one across it, and GGX's α
+    // along each: mix(α, 1, strength²) along, α across, as the extension specifies.
+    anisotropy: f32,
+    anisotropic_t: vec3<f32>,
+    anisotropic_b: vec3<f32>,
+    alpha_t: f32,
+    alpha_b: f32,
+#endif
 #ifdef MATERIAL_TRANSMISSION
     // KHR_materials_transmission (set by the caller): the share of light passing through
     // (transmission × (1 − metallic)), its tint (base colour × the volume's attenuation), and
@@ -172,6 +182,41 @@ fn sheen_base(s: Surface) -> f32 {
 #else
     return 1.0;
 #endif
+}
+
+#ifdef MATERIAL_ANISOTROPY
+// Stretches the surface's specular lobe by `strength` along `t` (made perpendicular to n).
+fn with_anisotropy(surface: Surface, strength: f32, t: vec3<f32>) -> Surface {
+    var s = surface;
+    s.anisotropy = strength;
+    s.anisotropic_t = safe_normalize(t - s.n * dot(s.n, t), t);
+    s.anisotropic_b = cross(s.n, s.anisotropic_t);
+    s.alpha_t = mix(s.alpha, 1.0, strength * strength);
+    s.alpha_b = s.alpha;
+    return s;
+}
+#endif
+
+// The specular lobe's D · V towards `l` with half vector `h`: GGX with height-correlated
+// Smith visibility, or with MATERIAL_ANISOTROPY their anisotropic forms (Burley 2012; Heitz
+// 2014), with α along and across the anisotropy's direction.
+fn specular_d_v(s: Surface, l: vec3<f32>, h: vec3<f32>, n_dot_h: f32, n_dot_l: f32) -> f32 {
+#ifdef MATERIAL_ANISOTROPY
+    if s.anisotropy > 0.0 {
+        let t = s.anisotropic_t;
+        let b = s.anisotropic_b;
+        let at = s.alpha_t;
+        let ab = s.alpha_b;
+        let a2 = at * ab;
+        let f = vec3<f32>(ab * dot(t, h), at * dot(b, h), a2 * n_dot_h);
+        let w2 = a2 / max(dot(f, f), 1e-30);
+        let d = a2 * w2 * w2 / PI;
+        let view_term = n_dot_l * length(vec3<f32>(at * dot(t, s.v), ab * dot(b, s.v), s.n_dot_v));
+        let light_term = s.n_dot_v * length(vec3<f32>(at * dot(t, l), ab * dot(b, l), n_dot_l));
+        return d * 0.5 / max(view_term + light_term, 1e-7);
+    }
+#endif
+    return d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
 }
 
 // What the material beneath the coat keeps of the light it receives (1 without a coat).
@@ -346,7 +391,7 @@ fn direct_base(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let f = f_schlick(s.f0_color, surface_f90(s), v_dot_h) * specular_multiscatter(s);
-    let spec = f * (d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha));
+    let spec = f * specular_d_v(s, l, h, n_dot_h, n_dot_l);
     let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
 }
@@ -394,7 +439,7 @@ fn specular_cos_base(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let d_v = d_ggx(s.n, h, n_dot_h, s.alpha) * v_smith_ggx_correlated(s.n_dot_v, n_dot_l, s.alpha);
+    let d_v = specular_d_v(s, l, h, n_dot_h, n_dot_l);
     let ms = specular_multiscatter(s);
     return f_schlick(s.f0_color, surface_f90(s), v_dot_h) * ms * (d_v * n_dot_l);
 }

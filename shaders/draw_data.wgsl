@@ -60,11 +60,15 @@ struct MaterialExtension {
     attenuation_distance: f32,
     ior: f32,
     dispersion: f32,
-    _pad: f32,
+    // KHR_materials_anisotropy: the strength (its texture's blue multiplies it) and the
+    // rotation's (cos, sin), which turns the texture's direction (or the tangent).
+    anisotropy_strength: f32,
+    anisotropy_direction: vec2<f32>,
+    _pad: vec2<f32>,
     // The UV transform rows of the extension slots (specular, specular colour, clearcoat,
     // clearcoat roughness, clearcoat normal, sheen colour, sheen roughness, transmission,
-    // thickness), as `Material::uv`.
-    uv: array<vec4<f32>, 18>,
+    // thickness, anisotropy), as `Material::uv`.
+    uv: array<vec4<f32>, 20>,
 };
 
 // A vertex placed by its instance.

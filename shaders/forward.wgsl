@@ -15,8 +15,9 @@
 // (KHR_materials_sheen, with SHEEN_COLOR_TEXTURE and SHEEN_ROUGHNESS_TEXTURE),
 // MATERIAL_TRANSMISSION (KHR_materials_transmission with _volume and _dispersion, with
 // TRANSMISSION_TEXTURE and THICKNESS_TEXTURE: the opaque colour's copy is seen through the
-// surface, see transmitted_light; these four read the material's extension group,
-// MATERIAL_EXTENSION), TRANSFORMED_UVS
+// surface, see transmitted_light), MATERIAL_ANISOTROPY (KHR_materials_anisotropy, with
+// ANISOTROPY_TEXTURE; these five read the material's extension group, MATERIAL_EXTENSION),
+// TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
 // OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
 // (with CLUSTERED_LIGHTS, or UNBOUNDED_LIGHTS for the window-error reference; SPHERE_TUBE_LIGHTS
@@ -53,6 +54,9 @@
 #endif
 #ifdef MATERIAL_TRANSMISSION
 #import penumbra::brdf::{coat_base, dielectric_albedo, sheen_base}
+#endif
+#ifdef MATERIAL_ANISOTROPY
+#import penumbra::brdf::with_anisotropy
 #endif
 #ifndef UNLIT
 #import penumbra::split_sum::split_sum
@@ -138,6 +142,8 @@
 @group(3) @binding(16) var transmission_factor_sampler: sampler;
 @group(3) @binding(17) var thickness_texture: texture_2d<f32>;
 @group(3) @binding(18) var thickness_sampler: sampler;
+@group(3) @binding(19) var anisotropy_texture: texture_2d<f32>;
+@group(3) @binding(20) var anisotropy_sampler: sampler;
 #ifdef MATERIAL_TRANSMISSION
 // The opaque colour's copy with its mip chain (features/transmission), as exposed radiance.
 @group(2) @binding(0) var transmission_scene: texture_2d<f32>;
@@ -343,8 +349,8 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #ifdef MATERIAL_EXTENSION
 // `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
 // 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal, 5: sheen
-// colour, 6: sheen roughness, 7: transmission, 8: thickness), whose transforms are in the
-// material's extension uniform.
+// colour, 6: sheen roughness, 7: transmission, 8: thickness, 9: anisotropy), whose transforms
+// are in the material's extension uniform.
 fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
@@ -576,6 +582,29 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
     s = with_reflectance(s, dielectric_f0_color, specular_weight);
+#ifdef MATERIAL_ANISOTROPY
+    // KHR_materials_anisotropy: the direction in tangent space (the texture's, else the
+    // tangent), turned by the rotation, placed in the geometry's tangent frame (mirrored on a
+    // back face, as the normal map's).
+    var anisotropy = material_extension.anisotropy_strength;
+    var direction = vec2<f32>(1.0, 0.0);
+#ifdef ANISOTROPY_TEXTURE
+    let anisotropy_texel = extension_texel(anisotropy_texture, anisotropy_sampler, 9u, sets);
+    direction = safe_normalize(vec3<f32>(anisotropy_texel.rg * 2.0 - 1.0, 0.0), vec3<f32>(1.0, 0.0, 0.0)).xy;
+    anisotropy *= anisotropy_texel.b;
+#endif
+    let rotation = material_extension.anisotropy_direction;
+    direction = vec2<f32>(
+        rotation.x * direction.x - rotation.y * direction.y,
+        rotation.y * direction.x + rotation.x * direction.y
+    );
+    let frame_n = safe_normalize(in.normal, v);
+    let any_t = safe_normalize(cross(frame_n, select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(frame_n.x) > 0.9)), vec3<f32>(1.0, 0.0, 0.0));
+    let frame_t = safe_normalize(in.tangent.xyz - frame_n * dot(frame_n, in.tangent.xyz), any_t);
+    let frame_b = cross(frame_n, frame_t) * select(1.0, -1.0, in.tangent.w < 0.0);
+    let facing = select(1.0, -1.0, double_sided_back);
+    s = with_anisotropy(s, clamp(anisotropy, 0.0, 1.0), facing * (frame_t * direction.x + frame_b * direction.y));
+#endif
 #ifdef MATERIAL_SHEEN
     var sheen_color = material_extension.sheen_color;
 #ifdef SHEEN_COLOR_TEXTURE

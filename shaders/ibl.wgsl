@@ -12,6 +12,9 @@
 
 #import penumbra::brdf::{Surface, coat_base, lobe_weights}
 #import penumbra::split_sum::linear_sampler
+#ifdef MATERIAL_ANISOTROPY
+#import penumbra::common::safe_normalize
+#endif
 
 struct EnvironmentParams {
     // cos and sin of the environment's turn about +Y.
@@ -71,7 +74,18 @@ fn prefiltered_radiance(dir: vec3<f32>, roughness: f32) -> vec3<f32> {
 
 // Light the environment sends towards the eye from surface `s`.
 fn environment_light(s: Surface) -> vec3<f32> {
-    let r = reflect(-s.v, s.n);
+    var r = reflect(-s.v, s.n);
+#ifdef MATERIAL_ANISOTROPY
+    // An anisotropic lobe reflects about a normal bent towards the plane across its direction,
+    // the more the stronger and smoother it is (the Khronos sample viewer's bent normal).
+    if s.anisotropy > 0.0 {
+        let across = cross(s.anisotropic_t, s.v);
+        let anisotropic_n = cross(across, s.anisotropic_t);
+        let bend = 1.0 - s.anisotropy * (1.0 - s.perceptual_roughness);
+        let bend4 = bend * bend * bend * bend;
+        r = reflect(-s.v, safe_normalize(mix(anisotropic_n, s.n, bend4), s.n));
+    }
+#endif
     // Rough lobes lean towards the normal (Lagarde and de Rousiers 2014, "Moving Frostbite to
     // PBR", §4.9.3): the prefiltered cube was made with n = v = r.
     let a = s.alpha;

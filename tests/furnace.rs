@@ -367,3 +367,55 @@ fn a_sheen_reflects_every_kind_of_light() {
         assert!(both.max_element() > base_only.max_element() * 0.5, "{name}: {both} against {base_only}");
     }
 }
+
+/// KHR_materials_anisotropy moves the specular lobe's energy around and never creates or loses
+/// it: an anisotropic white metal or dielectric reflects all ambient light.
+#[test]
+fn white_anisotropic_materials_reflect_all_ambient_light() {
+    for (metallic, roughness, strength) in [(1.0, 0.3, 1.0), (0.0, 0.5, 0.6), (1.0, 0.8, 0.3)] {
+        let px = furnace_of(|_| StandardMaterial {
+            base_color: Vec4::ONE,
+            metallic,
+            roughness,
+            anisotropy_strength: strength,
+            ..Default::default()
+        });
+        for p in &px {
+            for c in &p[..3] {
+                assert!(
+                    c.is_finite() && (c - 1.0).abs() <= 0.02,
+                    "metallic {metallic} roughness {roughness} anisotropy {strength}: {p:?}"
+                );
+            }
+        }
+    }
+}
+
+/// An anisotropic lobe stretches a point light's highlight along the anisotropy's direction: a
+/// smooth metal sphere's highlight covers more pixels, the stronger the anisotropy.
+#[test]
+fn anisotropy_stretches_a_highlight() {
+    let highlight = |strength: f32| {
+        let px = lit_sphere(
+            |_| StandardMaterial {
+                base_color: Vec4::ONE,
+                metallic: 1.0,
+                roughness: 0.2,
+                anisotropy_strength: strength,
+                ..Default::default()
+            },
+            |w| {
+                w.spawn((PointLight { intensity: 50.0, ..Default::default() }, Transform::from_xyz(0.5, 0.5, 3.0)));
+            },
+        );
+        let peak = px.iter().map(|p| p[0]).fold(0.0, f32::max);
+        (px.iter().filter(|p| p[0] > 0.25 * peak).count(), peak)
+    };
+    let (round, round_peak) = highlight(0.0);
+    let (stretched, stretched_peak) = highlight(1.0);
+    assert!(round > 0 && round_peak > 0.0);
+    assert!(
+        stretched as f32 > 2.0 * round as f32,
+        "stretched {stretched} pixels (peak {stretched_peak}) against round {round} (peak {round_peak})"
+    );
+}

@@ -439,6 +439,13 @@ fn golden_transmission_roughness_and_ior_under_the_studio_environment() {
     env_golden("TransmissionRoughnessTest-studio");
 }
 
+/// KHR_materials_anisotropy: spheres of anisotropy strength 0 to 1 (columns) at three
+/// roughnesses (rows), their highlights stretched along the tangent.
+#[test]
+fn golden_anisotropy_strength_under_the_studio_environment() {
+    env_golden("AnisotropyStrengthTest-studio");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

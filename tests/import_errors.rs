@@ -632,6 +632,54 @@ fn transmission_and_volume_are_read_and_bad_values_are_named() {
     assert_eq!(glass.attenuation_color, Vec3::new(0.5, 0.25, 1.0));
 }
 
+/// KHR_materials_anisotropy is read from the material's JSON (strength, rotation, texture),
+/// and a rotation that is not a number is named with the material.
+#[test]
+fn anisotropy_is_read_and_bad_values_are_named() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_anisotropy"],
+  "materials": [{"name": "brushed", "extensions": {"KHR_materials_anisotropy": {
+      "anisotropyStrength": 0.6, "anisotropyRotation": 1.5}}},
+    {"name": "bad", "extensions": {"KHR_materials_anisotropy": {"anisotropyRotation": "left"}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("anisotropy", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(warnings.contains("material \"bad\": KHR_materials_anisotropy anisotropyRotation"), "{warnings}");
+    assert!(!warnings.contains("not supported"), "{warnings}");
+    let app = spawned(&scene);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let brushed = materials.iter().map(|(_, m)| m).find(|m| m.anisotropy_strength == 0.6).expect("the brushed");
+    assert_eq!(brushed.anisotropy_rotation, 1.5);
+}
+
+/// The anisotropy sample imports every sphere's strength, without a warning.
+#[test]
+fn the_anisotropy_sample_imports_its_strengths() {
+    let scene = penumbra::engine::import::GltfScene::load(
+        &asset("AnisotropyStrengthTest/AnisotropyStrengthTest.glb"),
+        &Default::default(),
+    )
+    .expect("loads");
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mut app = spawned(&scene);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let strengths: std::collections::BTreeSet<u32> =
+        materials.iter().map(|(_, m)| (m.anisotropy_strength * 100.0).round() as u32).collect();
+    assert!(strengths.len() >= 4 && strengths.contains(&0) && strengths.contains(&100), "{strengths:?}");
+    let drawn: Vec<(Handle<Mesh>, Handle<StandardMaterial>)> =
+        app.world.query::<(&Mesh3d, &MeshMaterial3d)>().iter(&app.world).map(|(m, mat)| (m.0, mat.0)).collect();
+    let (meshes, materials) = (app.world.resource::<Assets<Mesh>>(), app.world.resource::<Assets<StandardMaterial>>());
+    let anisotropic: Vec<_> =
+        drawn.iter().filter(|(_, mat)| materials.get(*mat).is_ok_and(|m| m.has_anisotropy())).collect();
+    assert!(!anisotropic.is_empty());
+    for (mesh, _) in anisotropic {
+        assert!(!meshes.get(*mesh).expect("live").tangents.is_empty(), "anisotropic meshes get tangents");
+    }
+}
+
 /// The clearcoat sample imports its coats, their textures and the coat's normal maps.
 #[test]
 fn the_clearcoat_sample_imports_its_coats() {

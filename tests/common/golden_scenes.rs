@@ -159,6 +159,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("TransmissionTest-studio", 0.203),
     ("AttenuationTest-studio", 0.194),
     ("TransmissionRoughnessTest-studio", 0.391),
+    ("AnisotropyStrengthTest-studio", 0.159),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -246,6 +247,7 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "TransmissionTest-studio",
     "AttenuationTest-studio",
     "TransmissionRoughnessTest-studio",
+    "AnisotropyStrengthTest-studio",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -262,6 +264,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "TransmissionTest-studio" => ("TransmissionTest/TransmissionTest.glb", false),
         "AttenuationTest-studio" => ("AttenuationTest/AttenuationTest.glb", false),
         "TransmissionRoughnessTest-studio" => ("TransmissionRoughnessTest/TransmissionRoughnessTest.glb", false),
+        "AnisotropyStrengthTest-studio" => ("AnisotropyStrengthTest/AnisotropyStrengthTest.glb", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

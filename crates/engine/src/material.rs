@@ -1,6 +1,6 @@
 //! `StandardMaterial`: glTF 2.0 metallic-roughness, with the material extensions Penumbra
 //! supports (emissive strength, unlit, IOR, specular, clearcoat, sheen, transmission, volume,
-//! dispersion; KHR_texture_transform;
+//! dispersion, anisotropy; KHR_texture_transform;
 //! specular-glossiness converts to it at import).
 //! Colours are linear; textures say which image, sampler, UV set and UV transform they use.
 
@@ -180,6 +180,16 @@ pub struct StandardMaterial {
     /// KHR_materials_dispersion: how much the IOR varies with wavelength, as 20 / Abbe number
     /// (0: none). Spreads the refracted colours apart.
     pub dispersion: f32,
+    /// KHR_materials_anisotropy: how much the specular highlight stretches along the
+    /// anisotropy direction (brushed metal, hair), 0..=1. The roughness along it becomes
+    /// mix(α, 1, strength²); across it stays α.
+    pub anisotropy_strength: f32,
+    /// Radians, counter-clockwise from the tangent (in tangent space): the direction of
+    /// stretching, or the rotation of the texture's directions.
+    pub anisotropy_rotation: f32,
+    /// Red and green: the direction in tangent space ([0, 1] maps to [−1, 1]); blue multiplies
+    /// the strength. Linear.
+    pub anisotropy_texture: Option<TextureRef>,
 }
 
 impl Default for StandardMaterial {
@@ -223,6 +233,9 @@ impl Default for StandardMaterial {
             attenuation_distance: f32::INFINITY,
             attenuation_color: Vec3::ONE,
             dispersion: 0.0,
+            anisotropy_strength: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_texture: None,
         }
     }
 }
@@ -236,7 +249,7 @@ impl StandardMaterial {
     /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour, emissive and
     /// specular colour and sheen colour, as glTF defines them); the others are read as stored.
     pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] =
-        [true, false, false, false, true, false, true, false, false, false, true, false, false, false];
+        [true, false, false, false, true, false, true, false, false, false, true, false, false, false, false];
 
     /// Every texture slot in the fixed order the renderer binds them.
     pub fn textures(&self) -> [Option<&TextureRef>; TEXTURE_SLOTS] {
@@ -255,6 +268,7 @@ impl StandardMaterial {
             self.sheen_roughness_texture.as_ref(),
             self.transmission_texture.as_ref(),
             self.thickness_texture.as_ref(),
+            self.anisotropy_texture.as_ref(),
         ]
     }
 
@@ -275,6 +289,7 @@ impl StandardMaterial {
             &mut self.sheen_roughness_texture,
             &mut self.transmission_texture,
             &mut self.thickness_texture,
+            &mut self.anisotropy_texture,
         ]
     }
 
@@ -288,6 +303,11 @@ impl StandardMaterial {
     /// Whether the material has a sheen (KHR_materials_sheen with a colour other than black).
     pub fn has_sheen(&self) -> bool {
         self.sheen_color.max_element() > 0.0
+    }
+
+    /// Whether the specular lobe is anisotropic (KHR_materials_anisotropy above 0).
+    pub fn has_anisotropy(&self) -> bool {
+        self.anisotropy_strength > 0.0
     }
 
     /// Whether light passes through the material (KHR_materials_transmission above 0).
@@ -307,7 +327,7 @@ impl StandardMaterial {
 }
 
 /// How many texture slots a material has ([`StandardMaterial::textures`]).
-pub const TEXTURE_SLOTS: usize = 14;
+pub const TEXTURE_SLOTS: usize = 15;
 
 /// glTF's IOR when a material gives none.
 pub const DEFAULT_IOR: f32 = 1.5;

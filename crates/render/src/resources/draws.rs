@@ -84,6 +84,7 @@ impl PipelineKey {
         let clearcoat = lit && self.features.has(MaterialFeatures::CLEARCOAT);
         let sheen = lit && self.features.has(MaterialFeatures::SHEEN);
         let transmission = lit && self.features.has(MaterialFeatures::TRANSMISSION);
+        let anisotropy = lit && self.features.has(MaterialFeatures::ANISOTROPY);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -109,7 +110,9 @@ impl PipelineKey {
             .with("MATERIAL_TRANSMISSION", transmission)
             .with("TRANSMISSION_TEXTURE", transmission && t.has(TextureSet::TRANSMISSION))
             .with("THICKNESS_TEXTURE", transmission && t.has(TextureSet::THICKNESS))
-            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen || transmission)
+            .with("MATERIAL_ANISOTROPY", anisotropy)
+            .with("ANISOTROPY_TEXTURE", anisotropy && t.has(TextureSet::ANISOTROPY))
+            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen || transmission || anisotropy)
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))

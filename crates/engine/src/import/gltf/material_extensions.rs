@@ -1,6 +1,6 @@
 //! The glTF material extensions the gltf crate has no typed support for, read from each
-//! material's raw extension JSON: KHR_materials_clearcoat, _sheen, _transmission, _volume and
-//! _dispersion. Values are
+//! material's raw extension JSON: KHR_materials_clearcoat, _sheen, _transmission, _volume,
+//! _dispersion and _anisotropy. Values are
 //! checked against each extension's schema (a factor outside its range is clamped, a value that
 //! is not a number falls back to the extension's default, a texture index past the file's
 //! textures is dropped), each with a warning naming the material and the extension.
@@ -8,7 +8,7 @@
 use glam::Vec3;
 
 use super::materials::{
-    CLEARCOAT_NORMAL_SLOT, CLEARCOAT_ROUGHNESS_SLOT, CLEARCOAT_SLOT, MaterialDesc, SHEEN_COLOR_SLOT,
+    ANISOTROPY_SLOT, CLEARCOAT_NORMAL_SLOT, CLEARCOAT_ROUGHNESS_SLOT, CLEARCOAT_SLOT, MaterialDesc, SHEEN_COLOR_SLOT,
     SHEEN_ROUGHNESS_SLOT, THICKNESS_SLOT, TRANSMISSION_SLOT, TextureDesc, texture, transform_from_json,
 };
 
@@ -35,6 +35,11 @@ pub(crate) fn read(
     }
     if let Some(mut ext) = Reader::new(m, "KHR_materials_dispersion", document, label, warnings) {
         desc.material.dispersion = ext.non_negative("dispersion", 0.0);
+    }
+    if let Some(mut ext) = Reader::new(m, "KHR_materials_anisotropy", document, label, warnings) {
+        desc.material.anisotropy_strength = ext.factor("anisotropyStrength", 0.0);
+        desc.material.anisotropy_rotation = ext.finite("anisotropyRotation", 0.0);
+        desc.textures[ANISOTROPY_SLOT] = ext.texture("anisotropyTexture").map(|(t, _)| t);
     }
 }
 
@@ -111,6 +116,18 @@ impl<'a> Reader<'a> {
             }
             _ => {
                 self.warn(format!("{key} {v} is not a number; using {default}"));
+                default
+            }
+        }
+    }
+
+    /// Any finite number (an angle).
+    fn finite(&mut self, key: &str, default: f32) -> f32 {
+        let Some(v) = self.ext.get(key) else { return default };
+        match v.as_f64().map(|f| f as f32) {
+            Some(f) if f.is_finite() => f,
+            _ => {
+                self.warn(format!("{key} {v} is not a finite number; using {default}"));
                 default
             }
         }

@@ -38,6 +38,7 @@ pub(crate) const SHEEN_COLOR_SLOT: usize = 10;
 pub(crate) const SHEEN_ROUGHNESS_SLOT: usize = 11;
 pub(crate) const TRANSMISSION_SLOT: usize = 12;
 pub(crate) const THICKNESS_SLOT: usize = 13;
+pub(crate) const ANISOTROPY_SLOT: usize = 14;
 
 fn sampler(s: gltf::texture::Sampler) -> Sampler {
     let wrap = |w| match w {
@@ -183,7 +184,9 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         m.emissive_texture().map(info),
         specular.as_ref().and_then(|s| s.specular_texture()).map(info),
         specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
-        // The coat's, sheen's, transmission's and volume's slots: `material_extensions::read`.
+        // The coat's, sheen's, transmission's, volume's and anisotropy's slots:
+        // `material_extensions::read`.
+        None,
         None,
         None,
         None,

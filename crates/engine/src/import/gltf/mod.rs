@@ -45,6 +45,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "EXT_lights_ies",
     "PENUMBRA_lights_area",
+    "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
@@ -419,9 +420,13 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             }
             let material = prim.material().index();
             let needs = primitive::GeometryNeeds {
-                // The base's normal map, else the coat's: either needs tangents.
+                // The base's normal map, else the coat's: either needs tangents; so does an
+                // anisotropic lobe (its direction is in tangent space), in its texture's set.
                 normal_map_uv_set: material.and_then(|m| materials.get(m)).and_then(|m| {
-                    materials::NORMAL_SLOTS.iter().find_map(|&slot| m.textures[slot].as_ref()).map(|t| t.uv_set)
+                    materials::NORMAL_SLOTS.iter().find_map(|&slot| m.textures[slot].as_ref()).map(|t| t.uv_set).or(m
+                        .material
+                        .has_anisotropy()
+                        .then(|| m.textures[materials::ANISOTROPY_SLOT].as_ref().map_or(0, |t| t.uv_set)))
                 }),
             };
             match primitive::build(&prim, &buffers, &needs, mesh.index())? {

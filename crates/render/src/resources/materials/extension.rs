@@ -35,6 +35,7 @@ const FEATURE_SLOTS: &[(u8, &[usize])] = &[
     (MaterialFeatures::CLEARCOAT, &[7, 8, 9]),
     (MaterialFeatures::SHEEN, &[10, 11]),
     (MaterialFeatures::TRANSMISSION, &[12, 13]),
+    (MaterialFeatures::ANISOTROPY, &[14]),
 ];
 
 /// The binding of extension slot `slot`'s texture (its sampler follows): after the uniform at 0,
@@ -74,7 +75,11 @@ pub struct GpuMaterialExtension {
     /// The IOR refraction bends by, and KHR_materials_dispersion's spread of it.
     pub ior: f32,
     pub dispersion: f32,
-    pub _pad: f32,
+    /// KHR_materials_anisotropy: the strength (its texture's blue multiplies it) and the
+    /// rotation's (cos, sin), which turns the texture's direction (or the tangent).
+    pub anisotropy_strength: f32,
+    pub anisotropy_direction: [f32; 2],
+    pub _pad: [f32; 2],
     pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
 }
 
@@ -100,7 +105,9 @@ pub fn pack(m: &StandardMaterial) -> GpuMaterialExtension {
         attenuation_distance: m.attenuation_distance.min(f32::MAX),
         ior: m.ior,
         dispersion: m.dispersion,
-        _pad: 0.0,
+        anisotropy_strength: m.anisotropy_strength,
+        anisotropy_direction: [m.anisotropy_rotation.cos(), m.anisotropy_rotation.sin()],
+        _pad: [0.0; 2],
         uv,
     }
 }

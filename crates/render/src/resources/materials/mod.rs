@@ -43,6 +43,7 @@ impl TextureSet {
     pub const SHEEN_ROUGHNESS: u32 = 1 << 11;
     pub const TRANSMISSION: u32 = 1 << 12;
     pub const THICKNESS: u32 = 1 << 13;
+    pub const ANISOTROPY: u32 = 1 << 14;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
     pub const TRANSFORMED_UVS: u32 = 1 << 30;
@@ -71,6 +72,8 @@ impl MaterialFeatures {
     /// KHR_materials_transmission above 0 (with KHR_materials_volume and _dispersion): light
     /// passes through; drawn after the opaque colour is copied (`features::transmission`).
     pub const TRANSMISSION: u8 = 8;
+    /// KHR_materials_anisotropy above 0: the specular lobe stretches along a direction.
+    pub const ANISOTROPY: u8 = 16;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -423,6 +426,9 @@ fn features(m: &StandardMaterial) -> MaterialFeatures {
     if !m.unlit && m.has_transmission() {
         bits |= MaterialFeatures::TRANSMISSION;
     }
+    if !m.unlit && m.has_anisotropy() {
+        bits |= MaterialFeatures::ANISOTROPY;
+    }
     MaterialFeatures(bits)
 }
 
@@ -528,6 +534,8 @@ mod tests {
                 attenuation_distance,
                 ior,
                 dispersion,
+                anisotropy_strength,
+                anisotropy_direction,
                 uv
             ]
         );
