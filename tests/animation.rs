@@ -131,6 +131,7 @@ fn posed(name: &str, rel: &str, clip: Option<&str>, time: f32, camera: CameraCho
         camera,
         exposure_ev100: None,
         animation: Some(AnimationShot { clip: clip.map(str::to_owned), time }),
+        variant: None,
     };
     let image = render_asset(rel, &shot, RenderSettings::default());
     check_golden(name, &image, Tolerance::default());

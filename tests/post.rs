@@ -178,10 +178,9 @@ fn golden_damaged_helmet_with_bloom_fxaa_and_auto_exposure() {
 /// DamagedHelmet under the studio environment with one post-processing setting.
 fn helmet_golden(name: &str, msaa: u32, post: PostSettings) {
     use penumbra::engine::import::{GltfScene, ImportOptions};
-    use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stage_scene};
+    use penumbra::render::headless::{ShotSettings, render_frames, stage_scene};
     let scene = GltfScene::load(&common::asset("DamagedHelmet/DamagedHelmet.glb"), &ImportOptions::default()).unwrap();
-    let shot =
-        ShotSettings { size: Some((256, 256)), camera: CameraChoice::Auto, exposure_ev100: None, animation: None };
+    let shot = ShotSettings { size: Some((256, 256)), ..Default::default() };
     let (mut app, size) = stage_scene(&scene, &shot).unwrap();
     app.insert_resource(Environment::default());
     let settings = RenderSettings {

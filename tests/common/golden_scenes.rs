@@ -223,7 +223,7 @@ pub fn check_golden_frame(make: &dyn Fn() -> GoldenFrame, tol: Tolerance) -> Gol
 
 fn staged(name: &str, rel: &str, camera: CameraChoice, size: (u32, u32), settings: RenderSettings) -> GoldenFrame {
     let scene = GltfScene::load(&asset(rel), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let shot = ShotSettings { size: Some(size), camera, exposure_ev100: None, animation: None };
+    let shot = ShotSettings { size: Some(size), camera, ..Default::default() };
     let (app, size) = stage_scene(&scene, &shot).unwrap_or_else(|e| panic!("{e}"));
     GoldenFrame { name: name.to_string(), app, size, settings }
 }

@@ -25,6 +25,7 @@ pub mod picking;
 pub mod primitives;
 pub mod scenes;
 pub mod time;
+pub mod variants;
 
 use bevy_ecs::schedule::IntoScheduleConfigs;
 
@@ -44,6 +45,7 @@ impl Plugin for CorePlugin {
             .add_systems(
                 PostUpdate,
                 (
+                    variants::apply_material_variants,
                     animation::animate,
                     components::transform::propagate_transforms,
                     components::visibility::propagate_visibility,
@@ -71,6 +73,7 @@ pub mod prelude {
     pub use crate::material::{AlphaMode, StandardMaterial, TextureRef};
     pub use crate::mesh::{Mesh, MorphTarget, Topology};
     pub use crate::time::{Time, TimeMode};
+    pub use crate::variants::{SceneVariants, VariantMaterials, select_variant};
     pub use bevy_ecs::prelude::*;
     pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 }

@@ -12,9 +12,10 @@ use penumbra_engine::{App, CorePlugin, Time};
 use crate::renderer::{Renderer, RendererError};
 use crate::{RenderOutput, RenderPlugin};
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum CameraChoice {
     /// Frame the scene's bounds from +Z.
+    #[default]
     Auto,
     /// Frame the scene's bounds from a direction: `yaw` degrees about +Y from +Z towards +X,
     /// then `pitch` degrees up.
@@ -33,6 +34,8 @@ pub struct ShotSettings {
     /// Poses an animated scene at one time of one clip (paused there). `None`: the scene as
     /// spawned, its first clip playing from time 0 with the fixed step.
     pub animation: Option<AnimationShot>,
+    /// KHR_materials_variants: the material variant to show (`None`: each primitive's own).
+    pub variant: Option<String>,
 }
 
 /// Which animation pose a screenshot shows.
@@ -46,7 +49,7 @@ pub struct AnimationShot {
 
 impl Default for ShotSettings {
     fn default() -> Self {
-        Self { size: None, camera: CameraChoice::Auto, exposure_ev100: None, animation: None }
+        Self { size: None, camera: CameraChoice::Auto, exposure_ev100: None, animation: None, variant: None }
     }
 }
 
@@ -67,6 +70,8 @@ pub enum ShotError {
     Animation(#[from] PlayerError),
     #[error("--animation/--time: the scene has no animations")]
     NoAnimations,
+    #[error(transparent)]
+    Variant(#[from] penumbra_engine::variants::VariantError),
     #[error(transparent)]
     Render(#[from] RendererError),
 }
@@ -96,6 +101,9 @@ pub fn stage_scene(scene: &impl SpawnScene, settings: &ShotSettings) -> Result<(
     let root = scene.spawn(&mut app.world);
     if let Some(shot) = &settings.animation {
         pose_animation(&mut app.world, root, shot)?;
+    }
+    if let Some(name) = &settings.variant {
+        penumbra_engine::variants::select_variant(&mut app.world, root, name)?;
     }
     // One update without a renderer: transforms propagate, nothing is drawn.
     app.update();

@@ -95,6 +95,10 @@ pub struct SceneArgs {
     /// Let relative URIs in the file reach outside its folder.
     #[arg(long)]
     pub allow_outside_folder: bool,
+    /// Show the file's material variant NAME (KHR_materials_variants; default: each
+    /// primitive's own material).
+    #[arg(long, value_name = "NAME")]
+    pub variant: Option<String>,
     /// Raise or lower an import limit (repeatable), e.g. `--limit vertices=1e9 --limit image-bytes=2G`.
     #[arg(long = "limit", value_name = "NAME=N", value_parser = parse_limit, long_help = LIMIT_HELP)]
     pub limits: Vec<String>,

@@ -175,8 +175,12 @@ pub fn clone_scene(world: &mut World, root: Entity) -> Option<Entity> {
     let transform = world.get::<crate::components::Transform>(root).copied();
     let visibility = world.get::<crate::components::Visibility>(root).copied();
     let player = world.get::<crate::animation::AnimationPlayer>(root).cloned();
+    let variants = world.get::<crate::variants::SceneVariants>(root).cloned();
     let copy = spawn_instance(world, &source);
     let mut e = world.entity_mut(copy);
+    if let Some(v) = variants {
+        e.insert(v);
+    }
     if let Some(t) = transform {
         e.insert(t);
     }

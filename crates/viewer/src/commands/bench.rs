@@ -39,7 +39,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return super::bench_soak::run(&args);
     }
     let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
-    let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
+    let shot = ShotSettings {
+        size: Some(args.size),
+        exposure_ev100: args.look.exposure,
+        variant: args.scene_args.variant.clone(),
+        ..Default::default()
+    };
     shot.validate()?;
     if args.frames == 0 {
         return Err(anyhow!("--frames must be at least 1"));

@@ -28,6 +28,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.frames == 0 || args.count.is_empty() {
         return Err(anyhow!("--frames must be at least 1 and --count needs a value"));
     }
+    if args.scene_args.variant.is_some() {
+        return Err(anyhow!("--variant: the characters bench spawns its own crowd; it takes no variant"));
+    }
     let model = args.model.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MODEL));
     let scene = std::sync::Arc::new(SceneFile::load(&model, &crate::scene::options(&args.scene_args))?);
     let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };

@@ -52,7 +52,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let adapter = ctx.describe();
     let renderer = Renderer::new(ctx, settings.clone())?;
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
-    let shot = ShotSettings { size: Some(args.size), exposure_ev100: args.look.exposure, ..Default::default() };
+    let shot = ShotSettings {
+        size: Some(args.size),
+        exposure_ev100: args.look.exposure,
+        variant: args.scene_args.variant.clone(),
+        ..Default::default()
+    };
     let (mut app, size) = stage_scene(&scene, &shot)?;
     let env_label = environment.as_ref().map_or("none".to_owned(), |_| format!("--env {}", args.look.env));
     if let Some(env) = environment {

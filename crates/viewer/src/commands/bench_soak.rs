@@ -28,6 +28,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.frames == 0 {
         return Err(anyhow!("--frames must be at least 1"));
     }
+    if args.scene_args.variant.is_some() {
+        return Err(anyhow!("--variant: the soak bench cycles through several scenes; it takes no variant"));
+    }
     let mut scenes = vec![Arc::new(scene::load(None, &args.scene_args)?)];
     let options = scene::options(&args.scene_args);
     for p in REPO_SCENES.iter().map(Path::new).filter(|p| p.exists()) {

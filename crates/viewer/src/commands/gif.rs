@@ -49,6 +49,7 @@ pub fn run(args: GifArgs) -> Result<()> {
         camera: CameraChoice::Orbit { yaw: 0.0, pitch: args.pitch },
         exposure_ev100: args.look.exposure,
         animation: None,
+        variant: args.scene_args.variant.clone(),
     };
     let (mut app, _) = stage_scene(&scene, &shot)?;
     if let Some(env) = args.look.environment()? {

@@ -23,6 +23,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         camera: args.camera,
         exposure_ev100: args.look.exposure,
         animation: args.animation_shot(),
+        variant: args.scene_args.variant.clone(),
     };
     shot.validate()?;
     let gpu = std::thread::spawn(move || -> Result<Renderer> {

@@ -27,7 +27,6 @@ use bevy_ecs::world::Mut;
 use glam::Vec2;
 use penumbra_engine::components::GlobalTransform;
 use penumbra_engine::import::SceneFile;
-use penumbra_render::headless::CameraChoice;
 use penumbra_render::{GpuContext, RenderScene, RenderSettings, Renderer};
 use penumbra_viewer::surface::WindowSurface;
 use winit::application::ApplicationHandler;
@@ -42,7 +41,7 @@ use orbit::OrbitState;
 use overlay::Overlay;
 use recent::RecentFiles;
 use screenshot::Screenshots;
-use staged::Staged;
+use staged::{FirstLook, Staged};
 use ui_state::{Action, FrameInfo, UiState};
 
 pub fn run(args: ViewArgs) -> Result<()> {
@@ -185,16 +184,24 @@ impl Running {
         for w in file_warnings(file) {
             tracing::warn!("{w}");
         }
-        // Command-line camera and exposure apply to the first scene; later ones are framed.
-        let choice = if first { args.camera } else { CameraChoice::Auto };
-        let exposure = if first { args.look.exposure } else { None };
+        // Command-line camera, exposure and variant apply to the first scene; later ones are
+        // framed and show their own materials.
+        let look = if first {
+            FirstLook {
+                camera: args.camera,
+                exposure_ev100: args.look.exposure,
+                variant: args.scene_args.variant.clone(),
+            }
+        } else {
+            FirstLook::default()
+        };
         // The environment carries over from the scene before (the panel may have changed it).
         let env = match &self.scene {
             Some(s) => s.app.world.get_resource().cloned(),
             None => args.look.environment()?,
         };
         let renderer = Renderer::new(self.ctx.clone(), self.settings.clone())?;
-        Staged::new(file, path, choice, exposure, env, self.surface.size(), renderer)
+        Staged::new(file, path, look, env, self.surface.size(), renderer)
     }
 
     fn open(&mut self, path: PathBuf, args: &ViewArgs) {
@@ -280,6 +287,7 @@ impl Running {
         let loading = self.loader.as_ref().map(|l| (l.name(), l.progress(), l.started.elapsed().as_secs_f32()));
         let cameras = self.scene.as_ref().map(|s| s.cameras.clone()).unwrap_or_default();
         let through = self.scene.as_ref().and_then(|s| s.through.map(|(i, _)| i));
+        let variants = self.scene.as_mut().map(|s| s.variants()).unwrap_or_default();
         let screenshot = std::mem::take(&mut self.screenshot_requested);
         let (overlay, ui, window, screenshots, recent) =
             (&mut self.overlay, &mut self.ui, self.surface.window.clone(), &self.screenshots, &self.recent.paths);
@@ -303,14 +311,24 @@ impl Running {
                         recent,
                         cameras,
                         through,
+                        variants,
                         scene_name: &name,
                     };
                     overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, false, ui, Some(world), &info)
                 })
             }
             None => {
-                let info =
-                    FrameInfo { renderer: None, fps, frame_ms, loading, recent, cameras, through, scene_name: "" };
+                let info = FrameInfo {
+                    renderer: None,
+                    fps,
+                    frame_ms,
+                    loading,
+                    recent,
+                    cameras,
+                    through,
+                    variants,
+                    scene_name: "",
+                };
                 overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, true, ui, None, &info)
             }
         };
@@ -338,6 +356,13 @@ impl Running {
             Action::LookThrough(index) => {
                 if let Some(s) = self.scene.as_mut()
                     && let Err(e) = s.look_through(index)
+                {
+                    self.ui.set_status(e.to_string());
+                }
+            }
+            Action::Variant(name) => {
+                if let Some(s) = self.scene.as_mut()
+                    && let Err(e) = s.select_variant(name.as_deref())
                 {
                     self.ui.set_status(e.to_string());
                 }

@@ -3,6 +3,7 @@
 //! looked through. Every loaded file gets a fresh `Staged` with its own renderer (asset handles
 //! and entities are per world, so nothing GPU-side carries over); the old one is dropped whole.
 
+use penumbra_engine::variants::SceneVariants;
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
@@ -35,23 +36,32 @@ pub struct Staged {
     pub cameras: Vec<(usize, String)>,
 }
 
+/// What the command line asks of the first scene the viewer stages (later ones get defaults).
+#[derive(Debug, Clone, Default)]
+pub struct FirstLook {
+    pub camera: CameraChoice,
+    pub exposure_ev100: Option<f32>,
+    /// The material variant to show (KHR_materials_variants).
+    pub variant: Option<String>,
+}
+
 impl Staged {
     pub fn new(
         file: &SceneFile,
         path: Option<PathBuf>,
-        choice: CameraChoice,
-        exposure_ev100: Option<f32>,
+        look: FirstLook,
         environment: Option<Environment>,
         size: (u32, u32),
         renderer: Renderer,
     ) -> Result<Staged> {
+        let FirstLook { camera: choice, exposure_ev100, variant } = look;
         // The viewer's camera is always an orbit camera; a file camera chosen on the command
         // line is looked through from the start.
         let orbit_choice = match choice {
             CameraChoice::Orbit { .. } => choice,
             _ => CameraChoice::Auto,
         };
-        let shot = ShotSettings { size: Some(size), camera: orbit_choice, exposure_ev100, animation: None };
+        let shot = ShotSettings { size: Some(size), camera: orbit_choice, exposure_ev100, animation: None, variant };
         let (mut app, _) = stage_scene(file, &shot)?;
         if let Some(env) = environment {
             app.insert_resource(env);
@@ -82,6 +92,27 @@ impl Staged {
     }
 
     /// The file's cameras: glTF index and node name, in index order.
+    /// The scene's material variants and the one shown (none listed: the file has none).
+    pub fn variants(&mut self) -> SceneVariants {
+        let mut q = self.app.world.query::<&SceneVariants>();
+        q.iter(&self.app.world).next().cloned().unwrap_or_default()
+    }
+
+    /// Shows material variant `name` (`None`: each primitive's own material).
+    pub fn select_variant(&mut self, name: Option<&str>) -> Result<()> {
+        let mut q = self.app.world.query_filtered::<Entity, bevy_ecs::query::With<SceneVariants>>();
+        let Some(root) = q.iter(&self.app.world).next() else { return Ok(()) };
+        match name {
+            Some(name) => penumbra_engine::variants::select_variant(&mut self.app.world, root, name)?,
+            None => {
+                if let Some(mut v) = self.app.world.get_mut::<SceneVariants>(root) {
+                    v.active = None;
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn list_cameras(&mut self) -> Vec<(usize, String)> {
         let mut q = self.app.world.query::<(&GltfCamera, Option<&Name>)>();
         let mut v: Vec<(usize, String)> = q

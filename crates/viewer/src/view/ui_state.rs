@@ -2,6 +2,7 @@
 //! that persists across frames ([`UiState`]), what the viewer knows this frame ([`FrameInfo`]),
 //! and the colour of error text.
 
+use penumbra_engine::variants::SceneVariants;
 use std::path::PathBuf;
 
 use bevy_ecs::entity::Entity;
@@ -17,6 +18,8 @@ pub enum Action {
     Settings(RenderSettings),
     /// Look through the file's camera of this glTF index (`None`: the orbit camera).
     LookThrough(Option<usize>),
+    /// Show the file's material variant of this name (`None`: each primitive's own material).
+    Variant(Option<String>),
     FrameScene,
     Focus(Entity),
     Vsync(bool),
@@ -83,6 +86,8 @@ pub struct FrameInfo<'a> {
     /// The file's cameras (glTF index, name) and the one looked through.
     pub cameras: Vec<(usize, String)>,
     pub through: Option<usize>,
+    /// The file's material variants (KHR_materials_variants) and the one shown.
+    pub variants: SceneVariants,
     pub scene_name: &'a str,
 }
 

@@ -19,6 +19,7 @@ mod occlusion_packing;
 mod primitive;
 pub(crate) mod source;
 mod spec_gloss;
+mod variants;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -55,6 +56,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_unlit",
+    "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
@@ -123,6 +125,8 @@ struct NodeDesc {
 struct PrimitiveDesc {
     mesh: Arc<Mesh>,
     material: Option<usize>,
+    /// KHR_materials_variants: (variant, material) pairs.
+    variants: Vec<(usize, usize)>,
 }
 
 /// A decoded, validated glTF file: plain data, ready to spawn any number of times.
@@ -142,6 +146,8 @@ pub struct GltfScene {
     animations: Arc<[AnimationClip]>,
     /// Root nodes of the scene to spawn.
     roots: Vec<usize>,
+    /// KHR_materials_variants: the file's variant names.
+    variants: Vec<String>,
     scene_index: Option<usize>,
     /// Things the file uses that Penumbra ignores (optional extensions), for the user to see.
     pub warnings: Vec<String>,
@@ -169,6 +175,11 @@ impl GltfScene {
 
     pub fn animations(&self) -> &[AnimationClip] {
         &self.animations
+    }
+
+    /// KHR_materials_variants: the file's material variant names, in its order.
+    pub fn variant_names(&self) -> &[String] {
+        &self.variants
     }
 
     /// Spawns the selected scene under a new [`SceneRoot`] entity and returns it.
@@ -208,6 +219,11 @@ impl GltfScene {
                 .collect()
         };
         let root = SceneRoot::spawn(world, &self.path, self.scene_index);
+        if !self.variants.is_empty() {
+            world
+                .entity_mut(root)
+                .insert(crate::variants::SceneVariants { names: self.variants.clone(), active: None });
+        }
         world.entity_mut(root).insert(super::SceneAssets {
             meshes: mesh_handles.iter().flatten().map(|(h, _)| *h).collect(),
             materials: material_handles.iter().copied().chain([default_material]).collect(),
@@ -225,6 +241,7 @@ impl GltfScene {
             materials: &material_handles,
             default_material,
             ies_profiles: &ies_handles,
+            root,
         };
         // Per node: its entity, then the entities drawing its mesh (itself for one primitive).
         let mut spawned: Vec<Vec<Entity>> = vec![Vec::new(); self.nodes.len()];
@@ -282,9 +299,30 @@ struct SpawnCtx<'a> {
     materials: &'a [Handle<StandardMaterial>],
     default_material: Handle<StandardMaterial>,
     ies_profiles: &'a [Handle<IesProfile>],
+    /// The scene's root, whose `SceneVariants` selects the primitives' variants.
+    root: Entity,
 }
 
 impl SpawnCtx<'_> {
+    /// Gives the entity drawing primitive `k` of mesh `m` its materials per variant, if any
+    /// variant maps it.
+    fn insert_variants(
+        &self,
+        world: &mut World,
+        entity: Entity,
+        m: usize,
+        k: usize,
+        default: Handle<StandardMaterial>,
+    ) {
+        let mappings = &self.scene.meshes[m].1[k].variants;
+        if mappings.is_empty() {
+            return;
+        }
+        let by_variant =
+            mappings.iter().map(|&(v, mat)| (self.scene.variants[v].clone(), self.materials[mat])).collect();
+        world.entity_mut(entity).insert(crate::variants::VariantMaterials { root: self.root, default, by_variant });
+    }
+
     /// Returns the node's entity, followed by its primitives' entities when it has several.
     fn spawn_node(&self, world: &mut World, node: usize, parent: Entity) -> Vec<Entity> {
         let desc = &self.scene.nodes[node];
@@ -327,6 +365,7 @@ impl SpawnCtx<'_> {
             let material = |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
             if let [(mesh, mat)] = prims.as_slice() {
                 world.entity_mut(id).insert((Mesh3d(*mesh), MeshMaterial3d(material(*mat))));
+                self.insert_variants(world, id, m, 0, material(*mat));
             } else {
                 let mesh_name = &self.scene.meshes[m].0;
                 for (k, (mesh, mat)) in prims.iter().enumerate() {
@@ -337,7 +376,9 @@ impl SpawnCtx<'_> {
                         MeshMaterial3d(material(*mat)),
                         ChildOf(id),
                     ));
-                    out.push(child.id());
+                    let child = child.id();
+                    self.insert_variants(world, child, m, k, material(*mat));
+                    out.push(child);
                 }
             }
         }
@@ -406,6 +447,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             desc
         })
         .collect();
+    let variant_names = variants::names(&document, &mut warnings);
     let mut meshes = Vec::new();
     progress(super::ImportStage::Meshes, document.meshes().len());
     for mesh in document.meshes() {
@@ -429,10 +471,13 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
                         .then(|| m.textures[materials::ANISOTROPY_SLOT].as_ref().map_or(0, |t| t.uv_set)))
                 }),
             };
-            match primitive::build(&prim, &buffers, &needs, mesh.index())? {
+            let mesh_index = mesh.index();
+            match primitive::build(&prim, &buffers, &needs, mesh_index)? {
                 primitive::Built::Mesh(mesh, notes) => {
                     warnings.extend(notes);
-                    prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material })
+                    let variants =
+                        variants::mappings(&prim, mesh_index, variant_names.len(), materials.len(), &mut warnings);
+                    prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material, variants })
                 }
                 primitive::Built::Skipped(why) => warnings.push(why),
             }
@@ -539,6 +584,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         skins,
         animations,
         roots,
+        variants: variant_names,
         scene_index: options.scene.or_else(|| document.default_scene().map(|s| s.index())),
         warnings,
     })

@@ -93,8 +93,12 @@ pub fn run(args: ReportArgs) -> Result<()> {
             let renderer = Renderer::new(ctx.clone(), settings)?;
             // Exposure scale exactly 1: the HDR target holds radiance, as the references do.
             let unit = Some(Exposure::unit().ev100);
-            let shot =
-                ShotSettings { size: Some(size), camera: CameraChoice::Gltf(0), exposure_ev100: unit, animation: None };
+            let shot = ShotSettings {
+                size: Some(size),
+                camera: CameraChoice::Gltf(0),
+                exposure_ev100: unit,
+                ..Default::default()
+            };
             let (mut app, size) = stage_scene(&file, &shot).with_context(|| s.path.display().to_string())?;
             app.insert_resource(renderer);
             app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
@@ -245,7 +249,7 @@ mod tests {
             size: Some((64, 64)),
             camera: CameraChoice::Gltf(0),
             exposure_ev100: Some(-2.0),
-            animation: None,
+            ..Default::default()
         };
         let (mut app, size) = stage_scene(&file, &shot).unwrap();
         app.insert_resource(renderer);

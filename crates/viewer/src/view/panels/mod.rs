@@ -68,6 +68,19 @@ pub fn menu_bar(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
                     actions.push(Action::FrameScene);
                 }
             });
+            if !info.variants.names.is_empty() {
+                ui.menu_button("Variants", |ui| {
+                    let active = info.variants.active.as_deref();
+                    if ui.selectable_label(active.is_none(), "Each part's own material").clicked() {
+                        actions.push(Action::Variant(None));
+                    }
+                    for name in &info.variants.names {
+                        if ui.selectable_label(active == Some(name.as_str()), name).clicked() {
+                            actions.push(Action::Variant(Some(name.clone())));
+                        }
+                    }
+                });
+            }
             if ui.button("Screenshot").on_hover_text("Save the scene without the UI as a PNG (F12)").clicked() {
                 actions.push(Action::Screenshot);
             }
