@@ -11,6 +11,9 @@
 #define_import_path penumbra::brdf
 
 #import penumbra::common::{PI, safe_normalize}
+#ifdef MATERIAL_IRIDESCENCE
+#import penumbra::iridescence::iridescent_fresnel
+#endif
 #ifdef MATERIAL_SHEEN
 #import penumbra::sheen::sheen_cos_white
 #import penumbra::split_sum::sheen_albedo
@@ -52,6 +55,16 @@ struct Surface {
     coat_albedo: f32,
     // Multiple scattering of the coat's lobe (`specular_multiscatter` for F0 0.04).
     coat_multiscatter: f32,
+#endif
+#ifdef MATERIAL_IRIDESCENCE
+    // KHR_materials_iridescence (set by `with_iridescence`): the film's strength, its
+    // reflectance seen from the eye (the dielectric's and the metal's, mixed by metalness; it
+    // replaces Schlick's Fresnel by that strength), and the directional albedos it gives the
+    // dielectric's and the metal's lobes.
+    iridescence: f32,
+    iridescence_fresnel: vec3<f32>,
+    iridescence_dielectric_albedo: vec3<f32>,
+    iridescence_metal_albedo: vec3<f32>,
 #endif
 #ifdef MATERIAL_ANISOTROPY
     // KHR_materials_anisotropy (set by `with_anisotropy`): the strength, the direction of
@@ -184,6 +197,41 @@ fn sheen_base(s: Surface) -> f32 {
 #endif
 }
 
+#ifdef MATERIAL_IRIDESCENCE
+// Puts a thin film of `strength`, IOR `film_ior` and `thickness` nanometres over the surface;
+// the dielectric's reflectance beneath it is `dielectric_f0_color` at `weight`, as
+// `with_reflectance` was given. The film's reflectance is evaluated once, at n·v (as the
+// Khronos sample viewer does), and used for every light.
+fn with_iridescence(
+    surface: Surface,
+    strength: f32,
+    film_ior: f32,
+    thickness: f32,
+    dielectric_f0_color: vec3<f32>,
+    weight: f32,
+) -> Surface {
+    var s = surface;
+    let dielectric = iridescent_fresnel(film_ior, s.n_dot_v, thickness, dielectric_f0_color) * weight;
+    let metal = iridescent_fresnel(film_ior, s.n_dot_v, thickness, s.base_color);
+    s.iridescence = strength;
+    s.iridescence_fresnel = mix(dielectric, metal, s.metallic);
+    s.iridescence_dielectric_albedo = dielectric * (s.dfg.x + s.dfg.y);
+    s.iridescence_metal_albedo = metal * (s.dfg.x + s.dfg.y);
+    return s;
+}
+#endif
+
+// The specular lobe's Fresnel at v·h: Schlick's, or with MATERIAL_IRIDESCENCE mixed with the
+// thin film's by its strength.
+fn surface_fresnel(s: Surface, v_dot_h: f32) -> vec3<f32> {
+    let schlick = f_schlick(s.f0_color, surface_f90(s), v_dot_h);
+#ifdef MATERIAL_IRIDESCENCE
+    return mix(schlick, s.iridescence_fresnel, s.iridescence);
+#else
+    return schlick;
+#endif
+}
+
 #ifdef MATERIAL_ANISOTROPY
 // Stretches the surface's specular lobe by `strength` along `t` (made perpendicular to n).
 fn with_anisotropy(surface: Surface, strength: f32, t: vec3<f32>) -> Surface {
@@ -241,9 +289,24 @@ fn surface_f90(s: Surface) -> f32 {
 // scattering).
 fn dielectric_albedo(s: Surface) -> vec3<f32> {
 #ifdef MATERIAL_SPECULAR
-    return s.dielectric_specular;
+    let albedo = s.dielectric_specular;
 #else
-    return specular_albedo(DIELECTRIC_F0, 1.0, s.dfg);
+    let albedo = specular_albedo(DIELECTRIC_F0, 1.0, s.dfg);
+#endif
+#ifdef MATERIAL_IRIDESCENCE
+    return mix(albedo, s.iridescence_dielectric_albedo, s.iridescence);
+#else
+    return albedo;
+#endif
+}
+
+// The directional albedo of the surface's metal lobe.
+fn metal_albedo(s: Surface) -> vec3<f32> {
+    let albedo = specular_albedo(s.base_color, 1.0, s.dfg);
+#ifdef MATERIAL_IRIDESCENCE
+    return mix(albedo, s.iridescence_metal_albedo, s.iridescence);
+#else
+    return albedo;
 #endif
 }
 
@@ -329,7 +392,7 @@ struct LobeWeights {
 
 fn lobe_weights(s: Surface) -> LobeWeights {
     let dielectric_specular = dielectric_albedo(s);
-    let metal_specular = specular_albedo(s.base_color, 1.0, s.dfg);
+    let metal_specular = metal_albedo(s);
     return LobeWeights(
         mix(dielectric_specular, metal_specular, s.metallic),
         s.diffuse_color * (vec3<f32>(1.0) - dielectric_specular)
@@ -365,7 +428,7 @@ fn transmission_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let mirrored = reflect(l, s.n);
     let h = safe_normalize(mirrored + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
-    let f = f_schlick(s.f0_color, surface_f90(s), clamp(dot(s.v, h), 0.0, 1.0));
+    let f = surface_fresnel(s, clamp(dot(s.v, h), 0.0, 1.0));
     let d_v = d_ggx(s.n, h, n_dot_h, s.transmission_alpha)
         * v_smith_ggx_correlated(s.n_dot_v, -n_dot_l, s.transmission_alpha);
     return (vec3<f32>(1.0) - f) * s.transmission_tint * (s.transmission * d_v * -n_dot_l);
@@ -390,7 +453,7 @@ fn direct_base(s: Surface, l: vec3<f32>, e: vec3<f32>) -> vec3<f32> {
     let h = safe_normalize(l + s.v, s.n);
     let n_dot_h = clamp(dot(s.n, h), 0.0, 1.0);
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
-    let f = f_schlick(s.f0_color, surface_f90(s), v_dot_h) * specular_multiscatter(s);
+    let f = surface_fresnel(s, v_dot_h) * specular_multiscatter(s);
     let spec = f * specular_d_v(s, l, h, n_dot_h, n_dot_l);
     let diffuse = diffuse_share(s) * s.diffuse_color / PI;
     return (diffuse + spec) * e * n_dot_l;
@@ -441,5 +504,5 @@ fn specular_cos_base(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let v_dot_h = clamp(dot(s.v, h), 0.0, 1.0);
     let d_v = specular_d_v(s, l, h, n_dot_h, n_dot_l);
     let ms = specular_multiscatter(s);
-    return f_schlick(s.f0_color, surface_f90(s), v_dot_h) * ms * (d_v * n_dot_l);
+    return surface_fresnel(s, v_dot_h) * ms * (d_v * n_dot_l);
 }

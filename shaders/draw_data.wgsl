@@ -64,11 +64,16 @@ struct MaterialExtension {
     // rotation's (cos, sin), which turns the texture's direction (or the tangent).
     anisotropy_strength: f32,
     anisotropy_direction: vec2<f32>,
+    // KHR_materials_iridescence: the film's strength (its texture's red multiplies it), its IOR
+    // and its thickness range in nanometres (the thickness texture's green picks).
+    iridescence: f32,
+    iridescence_ior: f32,
+    iridescence_thickness: vec2<f32>,
     _pad: vec2<f32>,
     // The UV transform rows of the extension slots (specular, specular colour, clearcoat,
     // clearcoat roughness, clearcoat normal, sheen colour, sheen roughness, transmission,
-    // thickness, anisotropy), as `Material::uv`.
-    uv: array<vec4<f32>, 20>,
+    // thickness, anisotropy, iridescence, iridescence thickness), as `Material::uv`.
+    uv: array<vec4<f32>, 24>,
 };
 
 // A vertex placed by its instance.

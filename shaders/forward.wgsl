@@ -16,7 +16,9 @@
 // MATERIAL_TRANSMISSION (KHR_materials_transmission with _volume and _dispersion, with
 // TRANSMISSION_TEXTURE and THICKNESS_TEXTURE: the opaque colour's copy is seen through the
 // surface, see transmitted_light), MATERIAL_ANISOTROPY (KHR_materials_anisotropy, with
-// ANISOTROPY_TEXTURE; these five read the material's extension group, MATERIAL_EXTENSION),
+// ANISOTROPY_TEXTURE), MATERIAL_IRIDESCENCE (KHR_materials_iridescence, with
+// IRIDESCENCE_TEXTURE and IRIDESCENCE_THICKNESS_TEXTURE; these six read the material's
+// extension group, MATERIAL_EXTENSION),
 // TRANSFORMED_UVS
 // (some texture reads TEXCOORD_1 or has a KHR_texture_transform, see material_texel),
 // OCCLUSION_IN_METALLIC_ROUGHNESS (one texture for both: sampled once), LOCAL_LIGHTS
@@ -57,6 +59,9 @@
 #endif
 #ifdef MATERIAL_ANISOTROPY
 #import penumbra::brdf::with_anisotropy
+#endif
+#ifdef MATERIAL_IRIDESCENCE
+#import penumbra::brdf::with_iridescence
 #endif
 #ifndef UNLIT
 #import penumbra::split_sum::split_sum
@@ -144,6 +149,10 @@
 @group(3) @binding(18) var thickness_sampler: sampler;
 @group(3) @binding(19) var anisotropy_texture: texture_2d<f32>;
 @group(3) @binding(20) var anisotropy_sampler: sampler;
+@group(3) @binding(21) var iridescence_texture: texture_2d<f32>;
+@group(3) @binding(22) var iridescence_sampler: sampler;
+@group(3) @binding(23) var iridescence_thickness_texture: texture_2d<f32>;
+@group(3) @binding(24) var iridescence_thickness_sampler: sampler;
 #ifdef MATERIAL_TRANSMISSION
 // The opaque colour's copy with its mip chain (features/transmission), as exposed radiance.
 @group(2) @binding(0) var transmission_scene: texture_2d<f32>;
@@ -349,8 +358,8 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #ifdef MATERIAL_EXTENSION
 // `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
 // 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal, 5: sheen
-// colour, 6: sheen roughness, 7: transmission, 8: thickness, 9: anisotropy), whose transforms
-// are in the material's extension uniform.
+// colour, 6: sheen roughness, 7: transmission, 8: thickness, 9: anisotropy, 10: iridescence,
+// 11: iridescence thickness), whose transforms are in the material's extension uniform.
 fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
     let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
@@ -582,6 +591,20 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     s.occlusion = 1.0;
     s.dfg = split_sum(s.n_dot_v, perceptual_roughness);
     s = with_reflectance(s, dielectric_f0_color, specular_weight);
+#ifdef MATERIAL_IRIDESCENCE
+    // KHR_materials_iridescence: the film's strength and thickness (the thickness texture's
+    // green picks within the range; without it, the maximum).
+    var iridescence = material_extension.iridescence;
+#ifdef IRIDESCENCE_TEXTURE
+    iridescence *= extension_texel(iridescence_texture, iridescence_sampler, 10u, sets).r;
+#endif
+    let film_range = material_extension.iridescence_thickness;
+    var film = film_range.y;
+#ifdef IRIDESCENCE_THICKNESS_TEXTURE
+    film = mix(film_range.x, film_range.y, extension_texel(iridescence_thickness_texture, iridescence_thickness_sampler, 11u, sets).g);
+#endif
+    s = with_iridescence(s, clamp(iridescence, 0.0, 1.0), material_extension.iridescence_ior, max(film, 0.0), dielectric_f0_color, specular_weight);
+#endif
 #ifdef MATERIAL_ANISOTROPY
     // KHR_materials_anisotropy: the direction in tangent space (the texture's, else the
     // tangent), turned by the rotation, placed in the geometry's tangent frame (mirrored on a

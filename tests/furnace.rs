@@ -419,3 +419,35 @@ fn anisotropy_stretches_a_highlight() {
         "stretched {stretched} pixels (peak {stretched_peak}) against round {round} (peak {round_peak})"
     );
 }
+
+/// KHR_materials_iridescence replaces the dielectric's Fresnel and its diffuse base keeps what
+/// the film's reflection leaves, so a white dielectric under any film reflects all ambient
+/// light; the film's colour changes with its thickness.
+#[test]
+fn a_thin_film_moves_colour_around_and_keeps_energy() {
+    let film = |base: Vec4, thickness: f32| {
+        furnace_of(|_| StandardMaterial {
+            base_color: base,
+            metallic: 0.0,
+            roughness: 0.3,
+            iridescence: 1.0,
+            iridescence_thickness_max: thickness,
+            ..Default::default()
+        })
+    };
+    for thickness in [100.0, 300.0, 700.0] {
+        for p in &film(Vec4::ONE, thickness) {
+            for c in &p[..3] {
+                assert!(c.is_finite() && (c - 1.0).abs() <= 0.02, "thickness {thickness}: {p:?}");
+            }
+        }
+    }
+    let black = Vec4::new(0.0, 0.0, 0.0, 1.0);
+    let (thin, thick) = (mean(&film(black, 250.0)), mean(&film(black, 450.0)));
+    let hue = |c: Vec3| c / c.max_element().max(1e-6);
+    assert!(thin.max_element() > 0.01 && thick.max_element() > 0.01, "{thin} {thick}");
+    assert!(
+        (hue(thin) - hue(thick)).abs().max_element() > 0.1,
+        "the film's colour follows its thickness: {thin} against {thick}"
+    );
+}

@@ -446,6 +446,14 @@ fn golden_anisotropy_strength_under_the_studio_environment() {
     env_golden("AnisotropyStrengthTest-studio");
 }
 
+/// KHR_materials_iridescence: three heads, a plain film, a film over a dark metal with a
+/// thickness texture, and a film over glass, lit by the file's own sun (so the default
+/// environment is the sky made for it).
+#[test]
+fn golden_iridescence_suzanne_under_its_sun_and_sky() {
+    env_golden("IridescenceSuzanne-sky");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

@@ -680,6 +680,41 @@ fn the_anisotropy_sample_imports_its_strengths() {
     }
 }
 
+/// KHR_materials_iridescence is read from the material's JSON; a film IOR below 1 falls back to
+/// the default with a warning naming the material; the sample imports without warnings.
+#[test]
+fn iridescence_is_read_and_bad_values_are_named() {
+    let json = triangle_json(
+        "triangle.bin",
+        r#""extensionsUsed": ["KHR_materials_iridescence"],
+  "materials": [{"name": "bubble", "extensions": {"KHR_materials_iridescence": {
+      "iridescenceFactor": 0.8, "iridescenceIor": 1.4, "iridescenceThicknessMinimum": 50,
+      "iridescenceThicknessMaximum": 600}}},
+    {"name": "bad", "extensions": {"KHR_materials_iridescence": {"iridescenceIor": 0.5}}}],"#,
+    )
+    .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("iridescence", &json, true);
+    let scene = penumbra::engine::import::GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(
+        warnings.contains("material \"bad\": KHR_materials_iridescence iridescenceIor 0.5 is below 1"),
+        "{warnings}"
+    );
+    let app = spawned(&scene);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let bubble = materials.iter().map(|(_, m)| m).find(|m| m.iridescence == 0.8).expect("the bubble");
+    assert_eq!(
+        (bubble.iridescence_ior, bubble.iridescence_thickness_min, bubble.iridescence_thickness_max),
+        (1.4, 50.0, 600.0)
+    );
+    let sample = penumbra::engine::import::GltfScene::load(
+        &asset("IridescenceSuzanne/IridescenceSuzanne.glb"),
+        &Default::default(),
+    )
+    .expect("loads");
+    assert!(sample.warnings.is_empty(), "{:?}", sample.warnings);
+}
+
 /// The clearcoat sample imports its coats, their textures and the coat's normal maps.
 #[test]
 fn the_clearcoat_sample_imports_its_coats() {

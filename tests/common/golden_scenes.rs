@@ -160,6 +160,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("AttenuationTest-studio", 0.194),
     ("TransmissionRoughnessTest-studio", 0.391),
     ("AnisotropyStrengthTest-studio", 0.159),
+    ("IridescenceSuzanne-sky", 0.668),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -248,6 +249,7 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "AttenuationTest-studio",
     "TransmissionRoughnessTest-studio",
     "AnisotropyStrengthTest-studio",
+    "IridescenceSuzanne-sky",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -265,6 +267,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "AttenuationTest-studio" => ("AttenuationTest/AttenuationTest.glb", false),
         "TransmissionRoughnessTest-studio" => ("TransmissionRoughnessTest/TransmissionRoughnessTest.glb", false),
         "AnisotropyStrengthTest-studio" => ("AnisotropyStrengthTest/AnisotropyStrengthTest.glb", false),
+        "IridescenceSuzanne-sky" => ("IridescenceSuzanne/IridescenceSuzanne.glb", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {

@@ -1,6 +1,6 @@
 //! `StandardMaterial`: glTF 2.0 metallic-roughness, with the material extensions Penumbra
 //! supports (emissive strength, unlit, IOR, specular, clearcoat, sheen, transmission, volume,
-//! dispersion, anisotropy; KHR_texture_transform;
+//! dispersion, anisotropy, iridescence; KHR_texture_transform;
 //! specular-glossiness converts to it at import).
 //! Colours are linear; textures say which image, sampler, UV set and UV transform they use.
 
@@ -190,6 +190,18 @@ pub struct StandardMaterial {
     /// Red and green: the direction in tangent space ([0, 1] maps to [−1, 1]); blue multiplies
     /// the strength. Linear.
     pub anisotropy_texture: Option<TextureRef>,
+    /// KHR_materials_iridescence: the strength of a thin film over the material (soap
+    /// bubbles, oil, anodised metal), 0..=1; its colours come from interference.
+    pub iridescence: f32,
+    /// Multiplies `iridescence`; read from red.
+    pub iridescence_texture: Option<TextureRef>,
+    /// The film's index of refraction.
+    pub iridescence_ior: f32,
+    /// The film's thickness in nanometres: the texture's green picks between the two; without
+    /// a texture it is the maximum.
+    pub iridescence_thickness_min: f32,
+    pub iridescence_thickness_max: f32,
+    pub iridescence_thickness_texture: Option<TextureRef>,
 }
 
 impl Default for StandardMaterial {
@@ -236,6 +248,12 @@ impl Default for StandardMaterial {
             anisotropy_strength: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_texture: None,
+            iridescence: 0.0,
+            iridescence_texture: None,
+            iridescence_ior: 1.3,
+            iridescence_thickness_min: 100.0,
+            iridescence_thickness_max: 400.0,
+            iridescence_thickness_texture: None,
         }
     }
 }
@@ -248,8 +266,10 @@ impl StandardMaterial {
 
     /// Which of [`Self::textures`]' slots hold sRGB-encoded colour (base colour, emissive and
     /// specular colour and sheen colour, as glTF defines them); the others are read as stored.
-    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] =
-        [true, false, false, false, true, false, true, false, false, false, true, false, false, false, false];
+    pub const SRGB_SLOTS: [bool; TEXTURE_SLOTS] = [
+        true, false, false, false, true, false, true, false, false, false, true, false, false, false, false, false,
+        false,
+    ];
 
     /// Every texture slot in the fixed order the renderer binds them.
     pub fn textures(&self) -> [Option<&TextureRef>; TEXTURE_SLOTS] {
@@ -269,6 +289,8 @@ impl StandardMaterial {
             self.transmission_texture.as_ref(),
             self.thickness_texture.as_ref(),
             self.anisotropy_texture.as_ref(),
+            self.iridescence_texture.as_ref(),
+            self.iridescence_thickness_texture.as_ref(),
         ]
     }
 
@@ -290,6 +312,8 @@ impl StandardMaterial {
             &mut self.transmission_texture,
             &mut self.thickness_texture,
             &mut self.anisotropy_texture,
+            &mut self.iridescence_texture,
+            &mut self.iridescence_thickness_texture,
         ]
     }
 
@@ -303,6 +327,11 @@ impl StandardMaterial {
     /// Whether the material has a sheen (KHR_materials_sheen with a colour other than black).
     pub fn has_sheen(&self) -> bool {
         self.sheen_color.max_element() > 0.0
+    }
+
+    /// Whether a thin film colours the reflection (KHR_materials_iridescence above 0).
+    pub fn has_iridescence(&self) -> bool {
+        self.iridescence > 0.0
     }
 
     /// Whether the specular lobe is anisotropic (KHR_materials_anisotropy above 0).
@@ -327,7 +356,7 @@ impl StandardMaterial {
 }
 
 /// How many texture slots a material has ([`StandardMaterial::textures`]).
-pub const TEXTURE_SLOTS: usize = 15;
+pub const TEXTURE_SLOTS: usize = 17;
 
 /// glTF's IOR when a material gives none.
 pub const DEFAULT_IOR: f32 = 1.5;

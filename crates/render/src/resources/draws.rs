@@ -85,6 +85,7 @@ impl PipelineKey {
         let sheen = lit && self.features.has(MaterialFeatures::SHEEN);
         let transmission = lit && self.features.has(MaterialFeatures::TRANSMISSION);
         let anisotropy = lit && self.features.has(MaterialFeatures::ANISOTROPY);
+        let iridescence = lit && self.features.has(MaterialFeatures::IRIDESCENCE);
         ShaderDefs::default()
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
@@ -112,7 +113,10 @@ impl PipelineKey {
             .with("THICKNESS_TEXTURE", transmission && t.has(TextureSet::THICKNESS))
             .with("MATERIAL_ANISOTROPY", anisotropy)
             .with("ANISOTROPY_TEXTURE", anisotropy && t.has(TextureSet::ANISOTROPY))
-            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen || transmission || anisotropy)
+            .with("MATERIAL_IRIDESCENCE", iridescence)
+            .with("IRIDESCENCE_TEXTURE", iridescence && t.has(TextureSet::IRIDESCENCE))
+            .with("IRIDESCENCE_THICKNESS_TEXTURE", iridescence && t.has(TextureSet::IRIDESCENCE_THICKNESS))
+            .with("MATERIAL_EXTENSION", specular || clearcoat || sheen || transmission || anisotropy || iridescence)
             .with("TRANSFORMED_UVS", t.has(TextureSet::TRANSFORMED_UVS))
             // Set only with both textures (materials.rs).
             .with("OCCLUSION_IN_METALLIC_ROUGHNESS", lit && t.has(TextureSet::OCCLUSION_IN_METALLIC_ROUGHNESS))

@@ -1,6 +1,6 @@
 //! The glTF material extensions the gltf crate has no typed support for, read from each
 //! material's raw extension JSON: KHR_materials_clearcoat, _sheen, _transmission, _volume,
-//! _dispersion and _anisotropy. Values are
+//! _dispersion, _anisotropy and _iridescence. Values are
 //! checked against each extension's schema (a factor outside its range is clamped, a value that
 //! is not a number falls back to the extension's default, a texture index past the file's
 //! textures is dropped), each with a warning naming the material and the extension.
@@ -8,8 +8,9 @@
 use glam::Vec3;
 
 use super::materials::{
-    ANISOTROPY_SLOT, CLEARCOAT_NORMAL_SLOT, CLEARCOAT_ROUGHNESS_SLOT, CLEARCOAT_SLOT, MaterialDesc, SHEEN_COLOR_SLOT,
-    SHEEN_ROUGHNESS_SLOT, THICKNESS_SLOT, TRANSMISSION_SLOT, TextureDesc, texture, transform_from_json,
+    ANISOTROPY_SLOT, CLEARCOAT_NORMAL_SLOT, CLEARCOAT_ROUGHNESS_SLOT, CLEARCOAT_SLOT, IRIDESCENCE_SLOT,
+    IRIDESCENCE_THICKNESS_SLOT, MaterialDesc, SHEEN_COLOR_SLOT, SHEEN_ROUGHNESS_SLOT, THICKNESS_SLOT,
+    TRANSMISSION_SLOT, TextureDesc, texture, transform_from_json,
 };
 
 /// Fills `desc` from the extensions of `m` this module reads.
@@ -41,6 +42,25 @@ pub(crate) fn read(
         desc.material.anisotropy_rotation = ext.finite("anisotropyRotation", 0.0);
         desc.textures[ANISOTROPY_SLOT] = ext.texture("anisotropyTexture").map(|(t, _)| t);
     }
+    if let Some(ext) = Reader::new(m, "KHR_materials_iridescence", document, label, warnings) {
+        iridescence(ext, desc);
+    }
+}
+
+fn iridescence(mut ext: Reader, desc: &mut MaterialDesc) {
+    let m = &mut desc.material;
+    m.iridescence = ext.factor("iridescenceFactor", 0.0);
+    desc.textures[IRIDESCENCE_SLOT] = ext.texture("iridescenceTexture").map(|(t, _)| t);
+    m.iridescence_ior = match ext.non_negative("iridescenceIor", 1.3) {
+        ior if ior >= 1.0 => ior,
+        ior => {
+            ext.warn(format!("iridescenceIor {ior} is below 1; using 1.3"));
+            1.3
+        }
+    };
+    m.iridescence_thickness_min = ext.non_negative("iridescenceThicknessMinimum", 100.0);
+    m.iridescence_thickness_max = ext.non_negative("iridescenceThicknessMaximum", 400.0);
+    desc.textures[IRIDESCENCE_THICKNESS_SLOT] = ext.texture("iridescenceThicknessTexture").map(|(t, _)| t);
 }
 
 fn volume(mut ext: Reader, desc: &mut MaterialDesc) {

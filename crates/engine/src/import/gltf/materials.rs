@@ -39,6 +39,8 @@ pub(crate) const SHEEN_ROUGHNESS_SLOT: usize = 11;
 pub(crate) const TRANSMISSION_SLOT: usize = 12;
 pub(crate) const THICKNESS_SLOT: usize = 13;
 pub(crate) const ANISOTROPY_SLOT: usize = 14;
+pub(crate) const IRIDESCENCE_SLOT: usize = 15;
+pub(crate) const IRIDESCENCE_THICKNESS_SLOT: usize = 16;
 
 fn sampler(s: gltf::texture::Sampler) -> Sampler {
     let wrap = |w| match w {
@@ -186,6 +188,8 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         specular.as_ref().and_then(|s| s.specular_color_texture()).map(info),
         // The coat's, sheen's, transmission's, volume's and anisotropy's slots:
         // `material_extensions::read`.
+        None,
+        None,
         None,
         None,
         None,

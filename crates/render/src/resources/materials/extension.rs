@@ -36,6 +36,7 @@ const FEATURE_SLOTS: &[(u8, &[usize])] = &[
     (MaterialFeatures::SHEEN, &[10, 11]),
     (MaterialFeatures::TRANSMISSION, &[12, 13]),
     (MaterialFeatures::ANISOTROPY, &[14]),
+    (MaterialFeatures::IRIDESCENCE, &[15, 16]),
 ];
 
 /// The binding of extension slot `slot`'s texture (its sampler follows): after the uniform at 0,
@@ -79,6 +80,11 @@ pub struct GpuMaterialExtension {
     /// rotation's (cos, sin), which turns the texture's direction (or the tangent).
     pub anisotropy_strength: f32,
     pub anisotropy_direction: [f32; 2],
+    /// KHR_materials_iridescence: the film's strength (its texture's red multiplies it), its
+    /// IOR, and its thickness range in nanometres (the thickness texture's green picks).
+    pub iridescence: f32,
+    pub iridescence_ior: f32,
+    pub iridescence_thickness: [f32; 2],
     pub _pad: [f32; 2],
     pub uv: [[f32; 4]; 2 * (TEXTURE_SLOTS - CORE_SLOTS)],
 }
@@ -107,6 +113,9 @@ pub fn pack(m: &StandardMaterial) -> GpuMaterialExtension {
         dispersion: m.dispersion,
         anisotropy_strength: m.anisotropy_strength,
         anisotropy_direction: [m.anisotropy_rotation.cos(), m.anisotropy_rotation.sin()],
+        iridescence: m.iridescence,
+        iridescence_ior: m.iridescence_ior,
+        iridescence_thickness: [m.iridescence_thickness_min, m.iridescence_thickness_max],
         _pad: [0.0; 2],
         uv,
     }

@@ -44,6 +44,8 @@ impl TextureSet {
     pub const TRANSMISSION: u32 = 1 << 12;
     pub const THICKNESS: u32 = 1 << 13;
     pub const ANISOTROPY: u32 = 1 << 14;
+    pub const IRIDESCENCE: u32 = 1 << 15;
+    pub const IRIDESCENCE_THICKNESS: u32 = 1 << 16;
     /// Some texture reads TEXCOORD_1 or has a KHR_texture_transform. Without this bit every
     /// texture samples TEXCOORD_0 as it is, with the sampler's own derivatives.
     pub const TRANSFORMED_UVS: u32 = 1 << 30;
@@ -74,6 +76,8 @@ impl MaterialFeatures {
     pub const TRANSMISSION: u8 = 8;
     /// KHR_materials_anisotropy above 0: the specular lobe stretches along a direction.
     pub const ANISOTROPY: u8 = 16;
+    /// KHR_materials_iridescence above 0: a thin film's interference colours the reflection.
+    pub const IRIDESCENCE: u8 = 32;
 
     pub fn has(self, bit: u8) -> bool {
         self.0 & bit != 0
@@ -429,6 +433,9 @@ fn features(m: &StandardMaterial) -> MaterialFeatures {
     if !m.unlit && m.has_anisotropy() {
         bits |= MaterialFeatures::ANISOTROPY;
     }
+    if !m.unlit && m.has_iridescence() {
+        bits |= MaterialFeatures::IRIDESCENCE;
+    }
     MaterialFeatures(bits)
 }
 
@@ -536,6 +543,9 @@ mod tests {
                 dispersion,
                 anisotropy_strength,
                 anisotropy_direction,
+                iridescence,
+                iridescence_ior,
+                iridescence_thickness,
                 uv
             ]
         );
