@@ -61,6 +61,9 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
+    // Metadata (XMP packets): nothing in them changes what is drawn.
+    "KHR_xmp",
+    "KHR_xmp_json_ld",
 ];
 
 #[derive(Debug, Clone, Default)]
