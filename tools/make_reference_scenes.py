@@ -49,8 +49,17 @@ class Builder:
         self.buf += data
         return len(self.doc["bufferViews"]) - 1
 
-    def geometry(self, positions, normals, indices):
-        """Accessors for a triangle list; returns the primitive's attribute dict and indices."""
+    def geometry(self, positions, normals, indices, uvs=None):
+        """Accessors for a triangle list (with TEXCOORD_0 if `uvs`); returns the primitive's
+        attribute dict and indices."""
+        prim = self._geometry(positions, normals, indices)
+        if uvs is not None:
+            uv = self._view(b"".join(struct.pack("<2f", *t) for t in uvs), 34962)
+            self.doc["accessors"].append({"bufferView": uv, "componentType": 5126, "count": len(uvs), "type": "VEC2"})
+            prim["attributes"]["TEXCOORD_0"] = len(self.doc["accessors"]) - 1
+        return prim
+
+    def _geometry(self, positions, normals, indices):
         pv = self._view(b"".join(struct.pack("<3f", *p) for p in positions), 34962)
         nv = self._view(b"".join(struct.pack("<3f", *n) for n in normals), 34962)
         iv = self._view(b"".join(struct.pack("<I", i) for i in indices), 34963)
@@ -63,17 +72,21 @@ class Builder:
         n = len(acc)
         return {"attributes": {"POSITION": n - 3, "NORMAL": n - 2}, "indices": n - 1}
 
-    def material(self, name, color, metallic=0.0, roughness=0.8):
-        self.doc["materials"].append(
-            {
-                "name": name,
-                "pbrMetallicRoughness": {
-                    "baseColorFactor": list(color) + [1.0],
-                    "metallicFactor": metallic,
-                    "roughnessFactor": roughness,
-                },
-            }
-        )
+    def material(self, name, color, metallic=0.0, roughness=0.8, extensions=None, **fields):
+        m = {
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": list(color) + [1.0],
+                "metallicFactor": metallic,
+                "roughnessFactor": roughness,
+            },
+        }
+        if extensions:
+            m["extensions"] = extensions
+            used = self.doc.setdefault("extensionsUsed", [])
+            used += [e for e in extensions if e not in used]
+        m.update(fields)
+        self.doc["materials"].append(m)
         return len(self.doc["materials"]) - 1
 
     def node(self, node):
@@ -163,6 +176,13 @@ def axis_angle(axis, deg):
 
 
 # --- meshes ----------------------------------------------------------------------------------
+
+
+def sphere_uv(radius, sectors=48, stacks=24):
+    """`sphere` with longitude and latitude as UVs (u along the equator: its tangent)."""
+    pos, nrm, idx = sphere(radius, sectors, stacks)
+    uvs = [[j / sectors, i / stacks] for i in range(stacks + 1) for j in range(sectors + 1)]
+    return pos, nrm, idx, uvs
 
 
 def sphere(radius, sectors=48, stacks=24):
@@ -343,7 +363,73 @@ def helmet():
     print(f"wrote {os.path.relpath(path, ROOT)}")
 
 
+def extension_scene(name, materials, description):
+    """Three spheres of one material extension at three settings, under the spheres scene's sun
+    and point light, on black."""
+    b = Builder()
+    geom = b.geometry(*sphere_uv(0.42))
+    for col, (label, color, metallic, rough, ext) in enumerate(materials):
+        m = b.material(label, color, metallic, rough, ext)
+        b.mesh_node(f"sphere_{label}", geom, m, (col - 1.0, 0.0, 0.0))
+    b.light("sun", {"type": "directional", "intensity": 2.5}, (0, 0, 0), look_rotation((0, 0, 0), (-0.4, -0.5, -1.0)))
+    b.light("point", {"type": "point", "intensity": 6.0, "color": [1.0, 0.9, 0.8]}, (2.5, 2.0, 2.5))
+    b.camera((0, 0, 3.6), (0, 0, 0), 40)
+    b.doc["asset"]["extras"] = {"description": description}
+    b.write(os.path.join(SCENES, f"{name}.gltf"))
+
+
+def extension_scenes():
+    """One scene per material extension that Blender's glTF importer maps (coat, sheen,
+    specular and IOR, anisotropy, thin film), and a glass pane in front of a two-coloured
+    emitting wall for transmission."""
+    red, blue, grey = (0.8, 0.1, 0.08), (0.05, 0.1, 0.35), (0.5, 0.5, 0.5)
+    coat = lambda f, r: {"KHR_materials_clearcoat": {"clearcoatFactor": f, "clearcoatRoughnessFactor": r}}
+    extension_scene("ext_coat", [("coat_full_smooth", red, 0.0, 0.6, coat(1.0, 0.05)),
+                                 ("coat_half_rough", red, 0.0, 0.6, coat(0.5, 0.4)),
+                                 ("coat_over_metal", (0.9, 0.6, 0.3), 1.0, 0.5, coat(1.0, 0.1))],
+                    "KHR_materials_clearcoat")
+    sheen = lambda c, r: {"KHR_materials_sheen": {"sheenColorFactor": c, "sheenRoughnessFactor": r}}
+    extension_scene("ext_sheen", [("sheen_white_soft", blue, 0.0, 0.8, sheen([0.8, 0.8, 0.8], 0.3)),
+                                  ("sheen_white_rough", blue, 0.0, 0.8, sheen([0.8, 0.8, 0.8], 0.8)),
+                                  ("sheen_gold", (0.05, 0.05, 0.05), 0.0, 0.9, sheen([1.0, 0.7, 0.2], 0.5))],
+                    "KHR_materials_sheen")
+    spec = lambda ior, f, c: {"KHR_materials_ior": {"ior": ior},
+                              "KHR_materials_specular": {"specularFactor": f, "specularColorFactor": c}}
+    extension_scene("ext_specular", [("ior_1_2", grey, 0.0, 0.3, spec(1.2, 1.0, [1, 1, 1])),
+                                     ("ior_2_0", grey, 0.0, 0.3, spec(2.0, 1.0, [1, 1, 1])),
+                                     ("half_specular_tinted", grey, 0.0, 0.3, spec(1.5, 0.5, [1.0, 0.6, 0.3]))],
+                    "KHR_materials_ior and KHR_materials_specular")
+    aniso = lambda s, r: {"KHR_materials_anisotropy": {"anisotropyStrength": s, "anisotropyRotation": r}}
+    extension_scene("ext_anisotropy", [("aniso_0_5", (0.9, 0.9, 0.9), 1.0, 0.3, aniso(0.5, 0.0)),
+                                       ("aniso_1", (0.9, 0.9, 0.9), 1.0, 0.3, aniso(1.0, 0.0)),
+                                       ("aniso_1_turned", (0.9, 0.9, 0.9), 1.0, 0.3, aniso(1.0, 1.5707963))],
+                    "KHR_materials_anisotropy")
+    film = lambda t: {"KHR_materials_iridescence": {"iridescenceFactor": 1.0, "iridescenceIor": 1.3,
+                                                    "iridescenceThicknessMaximum": t}}
+    extension_scene("ext_iridescence", [("film_250", (0.05, 0.05, 0.05), 0.0, 0.2, film(250)),
+                                        ("film_400", (0.05, 0.05, 0.05), 0.0, 0.2, film(400)),
+                                        ("film_over_metal", (0.6, 0.6, 0.6), 1.0, 0.2, film(550))],
+                    "KHR_materials_iridescence")
+    # Transmission: thin panes (no volume) in front of an emitting wall, half orange, half blue.
+    b = Builder()
+    wall = quad(1.6, 2.4, 1)
+    for x, c in ((-0.8, [1.0, 0.5, 0.1]), (0.8, [0.1, 0.3, 1.0])):
+        m = b.material(f"wall_{x}", (0, 0, 0), 0.0, 1.0, None, emissiveFactor=c)
+        b.mesh_node(f"wall_{x}", b.geometry(*wall), m, (x, 0, -1.0), axis_angle((1, 0, 0), 90))
+    pane = quad(0.8, 0.8, 1)
+    glass = lambda base, r: {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+    for col, (base, rough) in enumerate([((1, 1, 1), 0.0), ((1.0, 0.8, 0.8), 0.0), ((0.8, 1.0, 0.8), 0.3)]):
+        m = b.material(f"pane_{col}", base, 0.0, rough, glass(base, rough))
+        b.mesh_node(f"pane_{col}", b.geometry(*pane), m, (col - 1.0, 0.0, 0.0), axis_angle((1, 0, 0), 90))
+    # A dim light, so that neither renderer adds lights of its own to an unlit scene.
+    b.light("point", {"type": "point", "intensity": 1.0}, (0.0, 3.0, 3.0))
+    b.camera((0, 0, 3.6), (0, 0, 0), 40)
+    b.doc["asset"]["extras"] = {"description": "KHR_materials_transmission"}
+    b.write(os.path.join(SCENES, "ext_transmission.gltf"))
+
+
 if __name__ == "__main__":
+    extension_scenes()
     spheres()
     cornell()
     sun_csm()
