@@ -209,6 +209,7 @@ fn material(ui: &mut egui::Ui, world: &mut World, e: Entity) {
         }
         ui.checkbox(&mut m.double_sided, "double sided");
         ui.label(format!("alpha: {:?}{}", m.alpha_mode, if m.unlit { ", unlit" } else { "" }));
+        extensions(ui, &mut m);
     });
     if m != before
         && let Some(mut assets) = world.get_resource_mut::<Assets<StandardMaterial>>()
@@ -216,4 +217,40 @@ fn material(ui: &mut egui::Ui, world: &mut World, e: Entity) {
     {
         *slot = m;
     }
+}
+
+/// The glTF material extensions' factors: each one above its neutral value switches its
+/// shader feature on for the material (compiled on first use).
+fn extensions(ui: &mut egui::Ui, m: &mut StandardMaterial) {
+    egui::CollapsingHeader::new("Extensions").default_open(false).show(ui, |ui| {
+        let drag = |ui: &mut egui::Ui, v: &mut f32, range: std::ops::RangeInclusive<f32>, label: &str| {
+            ui.add(egui::DragValue::new(v).range(range).speed(0.01).prefix(format!("{label} ")));
+        };
+        ui.label("specular and IOR");
+        drag(ui, &mut m.ior, 1.0..=3.0, "IOR");
+        ui.add(egui::Slider::new(&mut m.specular, 0.0..=1.0).text("specular"));
+        labelled_color(ui, "specular colour", &mut m.specular_color);
+        ui.label("clear coat");
+        ui.add(egui::Slider::new(&mut m.clearcoat, 0.0..=1.0).text("coat"));
+        ui.add(egui::Slider::new(&mut m.clearcoat_roughness, 0.0..=1.0).text("coat roughness"));
+        ui.label("sheen");
+        labelled_color(ui, "sheen colour", &mut m.sheen_color);
+        ui.add(egui::Slider::new(&mut m.sheen_roughness, 0.0..=1.0).text("sheen roughness"));
+        ui.label("transmission and volume");
+        ui.add(egui::Slider::new(&mut m.transmission, 0.0..=1.0).text("transmission"));
+        drag(ui, &mut m.thickness, 0.0..=f32::MAX, "thickness");
+        labelled_color(ui, "attenuation colour", &mut m.attenuation_color);
+        drag(ui, &mut m.attenuation_distance, 1e-3..=f32::INFINITY, "attenuation distance");
+        drag(ui, &mut m.dispersion, 0.0..=10.0, "dispersion");
+        ui.label("anisotropy");
+        ui.add(egui::Slider::new(&mut m.anisotropy_strength, 0.0..=1.0).text("strength"));
+        ui.add(
+            egui::Slider::new(&mut m.anisotropy_rotation, -std::f32::consts::PI..=std::f32::consts::PI)
+                .text("rotation"),
+        );
+        ui.label("iridescence");
+        ui.add(egui::Slider::new(&mut m.iridescence, 0.0..=1.0).text("film"));
+        drag(ui, &mut m.iridescence_ior, 1.0..=3.0, "film IOR");
+        drag(ui, &mut m.iridescence_thickness_max, 0.0..=2000.0, "film thickness (nm)");
+    });
 }
