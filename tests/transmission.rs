@@ -198,3 +198,23 @@ fn a_light_behind_a_pane_shines_through_it() {
     assert!(through.min_element() > 0.05, "the light shines through: {through}");
     assert!(opaque.max_element() < 0.02, "an opaque pane lit from behind: {opaque}");
 }
+
+/// KHR_materials_dispersion: through a slanted volume, red and blue refract by different IORs
+/// and land on different sides of the backdrop's edge (colour fringes); without dispersion
+/// every pixel stays grey.
+#[test]
+fn dispersion_splits_colours_at_an_edge() {
+    let fringe = |dispersion: f32| {
+        let mut app = scene();
+        backdrop(&mut app, Vec3::ZERO, Vec3::ONE);
+        let material = StandardMaterial { thickness: 1.0, ior: 1.8, dispersion, ..glass(Vec3::ONE) };
+        let slanted = Transform::from_xyz(0.0, 0.0, 0.0)
+            .with_rotation(Quat::from_rotation_y(0.6) * Quat::from_rotation_x(std::f32::consts::FRAC_PI_2));
+        spawn_mesh(&mut app, Mesh::plane(3.0), material, slanted);
+        let px = render(&mut app, 1);
+        (0..SIZE).map(|x| at(&px, x, SIZE / 2)).map(|c| (c.x - c.z).abs()).fold(0.0, f32::max)
+    };
+    let (none, some) = (fringe(0.0), fringe(8.0));
+    assert!(none < 0.01, "without dispersion the edge stays grey: {none}");
+    assert!(some > 0.1, "with dispersion red and blue part: {some}");
+}
