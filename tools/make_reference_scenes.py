@@ -410,13 +410,15 @@ def extension_scenes():
                                         ("film_400", (0.05, 0.05, 0.05), 0.0, 0.2, film(400)),
                                         ("film_over_metal", (0.6, 0.6, 0.6), 1.0, 0.2, film(550))],
                     "KHR_materials_iridescence")
-    # Transmission: thin panes (no volume) in front of an emitting wall, half orange, half blue.
+    # Transmission: thin panes (no volume: thin-walled) in front of an emitting wall, half orange,
+    # half blue. Each pane is a closed slab 1 cm thick, so that Cycles, which has no thin-walled
+    # model, refracts into it and back out (a 1 cm offset at most) instead of into a half-space.
     b = Builder()
     wall = quad(1.6, 2.4, 1)
     for x, c in ((-0.8, [1.0, 0.5, 0.1]), (0.8, [0.1, 0.3, 1.0])):
         m = b.material(f"wall_{x}", (0, 0, 0), 0.0, 1.0, None, emissiveFactor=c)
         b.mesh_node(f"wall_{x}", b.geometry(*wall), m, (x, 0, -1.0), axis_angle((1, 0, 0), 90))
-    pane = quad(0.8, 0.8, 1)
+    pane = box(0.8, 0.01, 0.8)
     glass = lambda base, r: {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
     for col, (base, rough) in enumerate([((1, 1, 1), 0.0), ((1.0, 0.8, 0.8), 0.0), ((0.8, 1.0, 0.8), 0.3)]):
         m = b.material(f"pane_{col}", base, 0.0, rough, glass(base, rough))
