@@ -454,6 +454,13 @@ fn golden_iridescence_suzanne_under_its_sun_and_sky() {
     env_golden("IridescenceSuzanne-sky");
 }
 
+/// KHR_materials_iridescence over transmission and volume: the lamp's glass ball carries a thin
+/// film whose thickness a texture sets.
+#[test]
+fn golden_iridescence_lamp_under_the_studio_environment() {
+    env_golden("IridescenceLamp-studio");
+}
+
 #[test]
 fn background_composited_or_drawn_in_pass_gives_the_same_frame() {
     // With deferred local lights (compute) the forward pass draws the background where depth

@@ -161,6 +161,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("TransmissionRoughnessTest-studio", 0.391),
     ("AnisotropyStrengthTest-studio", 0.159),
     ("IridescenceSuzanne-sky", 0.668),
+    ("IridescenceLamp-studio", 0.210),
     ("shadows_night_club", 0.370),
     ("shadows_damaged_helmet", 0.325),
 ];
@@ -250,6 +251,7 @@ pub const ENVIRONMENT_GOLDENS: &[&str] = &[
     "TransmissionRoughnessTest-studio",
     "AnisotropyStrengthTest-studio",
     "IridescenceSuzanne-sky",
+    "IridescenceLamp-studio",
 ];
 
 /// A model under the default environment (the studio gradient, or with `-sky` the sky made
@@ -268,6 +270,7 @@ pub fn environment_golden(name: &str) -> GoldenFrame {
         "TransmissionRoughnessTest-studio" => ("TransmissionRoughnessTest/TransmissionRoughnessTest.glb", false),
         "AnisotropyStrengthTest-studio" => ("AnisotropyStrengthTest/AnisotropyStrengthTest.glb", false),
         "IridescenceSuzanne-sky" => ("IridescenceSuzanne/IridescenceSuzanne.glb", false),
+        "IridescenceLamp-studio" => ("IridescenceLamp/IridescenceLamp.gltf", false),
         _ => panic!("no environment golden {name}"),
     };
     let settings = RenderSettings {
