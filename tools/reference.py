@@ -25,6 +25,11 @@ see tests/reference/README.md):
 - glTF `range` is ignored (Cycles has none): Penumbra's window is one source of error the
   report measures.
 - The camera is created from the file's JSON too (vertical field of view, near plane).
+- KHR_materials_anisotropy: the importer passes the strength s to the Principled BSDF's own
+  anisotropy, whose α pair is (α/a, α·a) with a = sqrt(1 - 0.9·anisotropic), not the
+  extension's (mix(α, 1, s²), α). For a factor-only material the Principled roughness and
+  anisotropy are set here so that Cycles' pair is the extension's (as far as anisotropic ≤ 1
+  reaches: an aspect down to sqrt(0.1)).
 - The world is black (the default world adds ambient light); the view transform is Standard
   (not AgX), no dithering, no denoising, no adaptive sampling, no clamping; the pixel filter
   is a 1-pixel box (Cycles' default is a 1.5-pixel Blackman-Harris), like a multisample resolve.
@@ -168,6 +173,29 @@ def area(name, ext, matrix):
     obj.visible_camera = False
 
 
+def anisotropy_as_gltf(doc):
+    """Gives each factor-only KHR_materials_anisotropy material the Principled roughness and
+    anisotropy whose GGX α pair is the extension's (see the module docstring)."""
+    for m in doc.get("materials", []):
+        ext = m.get("extensions", {}).get("KHR_materials_anisotropy")
+        if ext is None or "anisotropyTexture" in ext or "metallicRoughnessTexture" in m.get("pbrMetallicRoughness", {}):
+            continue
+        strength = ext.get("anisotropyStrength", 0.0)
+        alpha = m.get("pbrMetallicRoughness", {}).get("roughnessFactor", 1.0) ** 2
+        along = alpha + (1.0 - alpha) * strength * strength
+        across = alpha
+        # Blender: along = r² / a, across = r² · a, a = sqrt(1 - 0.9 · anisotropic).
+        r2 = math.sqrt(along * across)
+        aspect2 = across / along
+        anisotropic = min((1.0 - aspect2) / 0.9, 1.0)
+        mat = bpy.data.materials.get(m.get("name", ""))
+        bsdf = mat and next((n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+        if bsdf is None:
+            continue
+        bsdf.inputs["Roughness"].default_value = math.sqrt(r2)
+        bsdf.inputs["Anisotropic"].default_value = anisotropic
+
+
 def pbr_neutral(c):
     """Khronos PBR Neutral, as shaders/tonemap.wgsl applies it."""
     start, desat = 0.8 - 0.04, 0.15
@@ -218,6 +246,7 @@ def main():
         if obj.type in ("LIGHT", "CAMERA"):
             bpy.data.objects.remove(obj, do_unlink=True)
 
+    anisotropy_as_gltf(doc)
     scene = bpy.context.scene
     matrices = world_matrices(doc, doc.get("scene", 0))
     lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])

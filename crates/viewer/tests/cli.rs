@@ -327,3 +327,36 @@ fn gif_is_a_turntable_round_the_scene() {
         assert!(!o.status.success() && stderr(&o).contains(bad[0]), "{bad:?}: {}", stderr(&o));
     }
 }
+
+/// `--variant NAME` shows a file's material variant (KHR_materials_variants): the image differs
+/// from the file's own materials; a name the file lacks is refused with the file's variants
+/// listed, and no image is written.
+#[test]
+fn variant_flag_switches_materials_and_refuses_unknown_names() {
+    let dir = out_dir("variants");
+    let render = |variant: Option<&str>, name: &str| {
+        let out = dir.join(name);
+        let scene = asset("VariantsTest/VariantsTest.gltf");
+        let mut args = vec!["render", scene.as_str(), "--out", out.to_str().unwrap(), "--size", "48x48"];
+        if let Some(v) = variant {
+            args.extend(["--variant", v]);
+        }
+        let o = penumbra(&args);
+        (o, out)
+    };
+    let (own, own_path) = render(None, "own.png");
+    assert!(own.status.success(), "{}", stderr(&own));
+    let (blue, blue_path) = render(Some("Blue metal"), "blue.png");
+    assert!(blue.status.success(), "{}", stderr(&blue));
+    assert_ne!(std::fs::read(own_path).unwrap(), std::fs::read(blue_path).unwrap(), "the variant changes the image");
+    let (bad, bad_path) = render(Some("Purple"), "bad.png");
+    assert!(!bad.status.success());
+    assert!(
+        stderr(&bad).contains(
+            "--variant Purple: the scene has no variant of that name (its variants: Red plastic, Blue metal, Green velvet)"
+        ),
+        "{}",
+        stderr(&bad)
+    );
+    assert!(!bad_path.exists(), "nothing written for a refused variant");
+}

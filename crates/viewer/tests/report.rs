@@ -19,7 +19,7 @@ const HIGH_BOUNDS: [(&str, f64, bool); 11] = [
     ("ext_coat", 0.013, true),
     ("ext_sheen", 0.053, true),
     ("ext_specular", 0.013, true),
-    ("ext_anisotropy", 0.064, true),
+    ("ext_anisotropy", 0.025, true),
     ("ext_iridescence", 0.018, true),
     ("ext_transmission", 0.037, false),
 ];
