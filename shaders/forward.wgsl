@@ -340,10 +340,26 @@ fn cluster_heat(frag_xy: vec2<f32>, rel: vec3<f32>) -> vec3<f32> {
 // TEXCOORD_0 as it is and the sampler takes its own derivatives: explicit gradients cost more to
 // compile and to run (on llvmpipe each such read adds LLVM time that hot reload waits for: see
 // docs/shaders.md, "What a lavapipe compile costs"). With it, the coordinate and its gradients
-// come from slot_coord.
+// come from the slot's transform rows (transformed_coord).
 fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets: UvSets) -> vec4<f32> {
+    return slot_texel(t, s, mat.uv[slot * 2u], mat.uv[slot * 2u + 1u], sets);
+}
+
+#ifdef MATERIAL_EXTENSION
+// `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
+// 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal, 5: sheen
+// colour, 6: sheen roughness, 7: transmission, 8: thickness, 9: anisotropy, 10: iridescence,
+// 11: iridescence thickness), whose transforms are in the material's extension uniform.
+fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
+    return slot_texel(t, s, material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
+}
+#endif
+
+// A texture's texel at this fragment, for the slot whose transform rows are `r0` and `r1` (read
+// only with TRANSFORMED_UVS).
+fn slot_texel(t: texture_2d<f32>, s: sampler, r0: vec4<f32>, r1: vec4<f32>, sets: UvSets) -> vec4<f32> {
 #ifdef TRANSFORMED_UVS
-    let c = slot_coord(mat, slot, sets);
+    let c = transformed_coord(r0, r1, sets);
     return textureSampleGrad(t, s, c.uv, c.ddx, c.ddy);
 #else
 #ifdef VISIBILITY_SHADE
@@ -354,25 +370,6 @@ fn material_texel(t: texture_2d<f32>, s: sampler, mat: Material, slot: u32, sets
 #endif
 #endif
 }
-
-#ifdef MATERIAL_EXTENSION
-// `material_texel` for an extension slot: `slot` counts the extensions' slots (0: specular,
-// 1: specular colour, 2: clearcoat, 3: clearcoat roughness, 4: clearcoat normal, 5: sheen
-// colour, 6: sheen roughness, 7: transmission, 8: thickness, 9: anisotropy, 10: iridescence,
-// 11: iridescence thickness), whose transforms are in the material's extension uniform.
-fn extension_texel(t: texture_2d<f32>, s: sampler, slot: u32, sets: UvSets) -> vec4<f32> {
-#ifdef TRANSFORMED_UVS
-    let c = transformed_coord(material_extension.uv[slot * 2u], material_extension.uv[slot * 2u + 1u], sets);
-    return textureSampleGrad(t, s, c.uv, c.ddx, c.ddy);
-#else
-#ifdef VISIBILITY_SHADE
-    return textureSampleGrad(t, s, sets.first, sets.first_ddx, sets.first_ddy);
-#else
-    return textureSample(t, s, sets.first);
-#endif
-#endif
-}
-#endif
 
 #ifdef MATERIAL_TRANSMISSION
 // The light that passes through surface `s` towards the eye, before the surface's tint: the

@@ -124,6 +124,26 @@ fn white_dielectrics_of_any_ior_and_specular_reflect_all_ambient_light() {
     }
 }
 
+/// A point, a directional and a rectangle light, each lighting the sphere from the front
+/// right: the kinds whose shading paths differ (punctual, and the LTC integral).
+const THREE_LIGHTS: [(&str, fn(&mut World)); 3] = [
+    ("point", |w| {
+        w.spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(1.5, 1.0, 2.5)));
+    }),
+    ("directional", |w| {
+        w.spawn((
+            DirectionalLight { illuminance: 2.0, ..Default::default() },
+            Transform::from_xyz(1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+        ));
+    }),
+    ("rectangle", |w| {
+        w.spawn((
+            RectLight { luminance: 2.0, width: 1.5, height: 1.0, ..Default::default() },
+            Transform::from_xyz(1.0, 1.5, 2.5).looking_at(Vec3::ZERO, Vec3::Y),
+        ));
+    }),
+];
+
 fn mean(px: &[[f32; 4]]) -> Vec3 {
     px.iter().fold(Vec3::ZERO, |a, p| a + Vec3::new(p[0], p[1], p[2])) / px.len() as f32
 }
@@ -230,23 +250,7 @@ fn a_coat_over_black_reflects_like_a_dielectric_by_its_strength() {
 /// roughness does.
 #[test]
 fn a_coat_reflects_lights_as_a_dielectric_of_its_roughness() {
-    let lights: [(&str, fn(&mut World)); 3] = [
-        ("point", |w| {
-            w.spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(1.5, 1.0, 2.5)));
-        }),
-        ("directional", |w| {
-            w.spawn((
-                DirectionalLight { illuminance: 2.0, ..Default::default() },
-                Transform::from_xyz(1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-        }),
-        ("rectangle", |w| {
-            w.spawn((
-                RectLight { luminance: 2.0, width: 1.5, height: 1.0, ..Default::default() },
-                Transform::from_xyz(1.0, 1.5, 2.5).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-        }),
-    ];
+    let lights = THREE_LIGHTS;
     let black = Vec4::new(0.0, 0.0, 0.0, 1.0);
     for (name, light) in lights {
         let coated = mean(&lit_sphere(
@@ -328,23 +332,7 @@ fn a_sheen_over_black_reflects_in_proportion_to_its_colour() {
 /// the sheen's own reflection.
 #[test]
 fn a_sheen_reflects_every_kind_of_light() {
-    let lights: [(&str, fn(&mut World)); 3] = [
-        ("point", |w| {
-            w.spawn((PointLight { intensity: 20.0, ..Default::default() }, Transform::from_xyz(1.5, 1.0, 2.5)));
-        }),
-        ("directional", |w| {
-            w.spawn((
-                DirectionalLight { illuminance: 2.0, ..Default::default() },
-                Transform::from_xyz(1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-        }),
-        ("rectangle", |w| {
-            w.spawn((
-                RectLight { luminance: 2.0, width: 1.5, height: 1.0, ..Default::default() },
-                Transform::from_xyz(1.0, 1.5, 2.5).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-        }),
-    ];
+    let lights = THREE_LIGHTS;
     let black = Vec4::new(0.0, 0.0, 0.0, 1.0);
     for (name, light) in lights {
         let material = |base: Vec4, sheen: Vec3| StandardMaterial {
