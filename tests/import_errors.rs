@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use penumbra::engine::import::{ImportErrorKind, ImportOptions, Limit, load_scene};
+use penumbra::engine::import::{GltfScene, ImportError, ImportErrorKind, ImportOptions, Limit, load_scene};
 use penumbra::prelude::*;
 
 mod common;
@@ -729,4 +729,243 @@ fn the_clearcoat_sample_imports_its_coats() {
     assert!(all.iter().any(|m| m.clearcoat_texture.is_some()), "partial coating");
     assert!(all.iter().any(|m| m.clearcoat_roughness_texture.is_some()), "roughness variations");
     assert!(all.iter().any(|m| m.clearcoat_normal_texture.is_some()), "coat normal map");
+}
+
+// ---- Degenerate and spec-violating values (issue: reliability round two) ----
+
+/// The triangle fixture with `extra_root` JSON members added (cameras, lights, materials …)
+/// and `node` members added to its one node; loads it and returns the scene or the error.
+fn triangle_with(name: &str, extra_root: &str, node: &str) -> (PathBuf, Result<GltfScene, ImportError>) {
+    let json = triangle_json("triangle.bin", extra_root)
+        .replace(r#""nodes": [{"mesh": 0}]"#, &format!(r#""nodes": [{{"mesh": 0{node}}}]"#));
+    let path = write_scene(name, &json, true);
+    let loaded = GltfScene::load(&path, &ImportOptions::default());
+    (path, loaded)
+}
+
+fn camera_json(camera: &str) -> String {
+    format!(r#""cameras": [{camera}],"#)
+}
+
+/// Cameras the glTF schema forbids are refused, naming the file and the camera: before, each
+/// loaded and rendered an empty (or upside-down) frame without a word.
+#[test]
+fn cameras_the_specification_forbids_are_refused_by_name() {
+    let perspective =
+        |fields: &str| format!(r#"{{"name": "Main", "type": "perspective", "perspective": {{{fields}}}}}"#);
+    let cases = [
+        (perspective(r#""yfov": 0, "znear": 0.1"#), "yfov 0"),
+        (perspective(r#""yfov": -0.8, "znear": 0.1"#), "yfov -0.8"),
+        (perspective(r#""yfov": 0.8, "znear": 0"#), "znear 0"),
+        (perspective(r#""yfov": 0.8, "znear": 10, "zfar": 5"#), "zfar 5"),
+        (perspective(r#""yfov": 0.8, "znear": 10, "zfar": 10"#), "zfar 10"),
+        (perspective(r#""yfov": 0.8, "znear": 0.1, "aspectRatio": 0"#), "aspectRatio 0"),
+        (perspective(r#""yfov": 1e39, "znear": 0.1"#), "yfov inf"),
+        (
+            r#"{"name": "Main", "type": "orthographic", "orthographic": {"xmag": 0, "ymag": 1, "znear": 0, "zfar": 10}}"#
+                .to_owned(),
+            "xmag 0",
+        ),
+        (
+            r#"{"name": "Main", "type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 5, "zfar": 1}}"#
+                .to_owned(),
+            "zfar 1",
+        ),
+    ];
+    for (i, (camera, expected)) in cases.iter().enumerate() {
+        let json = triangle_json("triangle.bin", &camera_json(camera));
+        let path = write_scene(&format!("camera-{i}"), &json, true);
+        let err = load_expecting_error(&path);
+        assert!(matches!(err.kind, ImportErrorKind::Camera { index: 0, .. }), "{err}");
+        let msg = err.to_string();
+        assert!(msg.contains("camera 0 (\"Main\")") && msg.contains(expected), "{expected}: {msg}");
+    }
+}
+
+/// What the schema only advises against is made sensible with a warning: a field of view of π
+/// or more (the projection flips beyond it), a negative magnification (a mirrored image).
+#[test]
+fn cameras_the_specification_advises_against_are_fixed_with_a_warning() {
+    let camera = r#"{"type": "perspective", "perspective": {"yfov": 4.0, "znear": 0.1}},
+        {"type": "orthographic", "orthographic": {"xmag": -2, "ymag": 1, "znear": 0, "zfar": 10}}"#;
+    let (_, loaded) = triangle_with("camera-advised", &camera_json(camera), r#", "camera": 0, "scale": [0, 1, 1]"#);
+    let scene = loaded.expect("loads");
+    let warnings = scene.warnings.join("\n");
+    assert!(warnings.contains("camera 0 (\"camera0\"): yfov 4 is not below π"), "{warnings}");
+    assert!(warnings.contains("camera 1 (\"camera1\"): xmag -2 is negative"), "{warnings}");
+    assert!(warnings.contains("node 0 (camera 0) has scale [0.0, 1.0, 1.0]"), "{warnings}");
+    let mut app = spawned(&scene);
+    let mut q = app.world.query::<&Camera>();
+    let projections: Vec<Projection> = q.iter(&app.world).map(|c| c.projection).collect();
+    assert!(
+        projections.iter().any(|p| matches!(p, Projection::Perspective { yfov, .. } if *yfov < std::f32::consts::PI)),
+        "{projections:?}"
+    );
+    assert!(
+        projections.iter().all(|p| !matches!(p, Projection::Orthographic { ymag, .. } if *ymag < 0.0)),
+        "{projections:?}"
+    );
+}
+
+/// Light values the shading cannot carry are clamped at import with a warning: before, a point
+/// light of 1e36 cd vanished (an overflow to infinity, then NaN) and a negative colour darkened
+/// what it lit.
+#[test]
+fn lights_beyond_what_shading_carries_are_clamped_with_a_warning() {
+    let lights = r#""extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "intensity": 1e36, "name": "Nova"},
+            {"type": "spot", "color": [1, -0.5, 1], "intensity": 10, "range": -2,
+             "spot": {"innerConeAngle": 1.0, "outerConeAngle": 0.5}},
+            {"type": "directional", "intensity": 3e38, "color": [1, 1e39, 1]}
+        ]}},"#;
+    let (_, loaded) = triangle_with("lights", lights, "");
+    let scene = loaded.expect("loads");
+    let warnings = scene.warnings.join("\n");
+    for expected in [
+        "light 0 (\"Nova\"): intensity 1000000000000000000000000000000000000 cd is beyond what shading carries",
+        "light 1: color [1, -0.5, 1] must be finite and not negative; using [1, 0, 1]",
+        "light 1: range -2 must be above 0",
+        "light 1: spot cone angles inner 1, outer 0.5",
+        "light 2: color [1, inf, 1] must be finite",
+    ] {
+        assert!(warnings.contains(expected), "{expected:?} in\n{warnings}");
+    }
+    let max = penumbra::engine::import::gltf::punctual_lights::MAX_INTENSITY;
+    let json = triangle_json("triangle.bin", lights).replace(
+        r#""nodes": [{"mesh": 0}]"#,
+        r#""nodes": [{"mesh": 0, "children": [1, 2, 3]},
+            {"extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"extensions": {"KHR_lights_punctual": {"light": 2}}}]"#,
+    );
+    let path = write_scene("lights-spawned", &json, true);
+    let mut app = spawned(&GltfScene::load(&path, &ImportOptions::default()).expect("loads"));
+    let point = *app.world.query::<&PointLight>().single(&app.world).unwrap();
+    assert_eq!(point.intensity, max);
+    let spot = *app.world.query::<&SpotLight>().single(&app.world).unwrap();
+    assert_eq!((spot.color, spot.range), (Vec3::new(1.0, 0.0, 1.0), None));
+    assert!(spot.inner_cone_angle < spot.outer_cone_angle);
+    let sun = *app.world.query::<&DirectionalLight>().single(&app.world).unwrap();
+    assert!(sun.color.is_finite() && (sun.color * sun.illuminance).max_element() <= max * 1.0001, "{sun:?}");
+}
+
+/// Non-finite or out-of-range material factors are replaced at import with a warning: before,
+/// an occlusion strength of −inf turned the object black without a word.
+#[test]
+fn material_factors_outside_the_schema_are_replaced_with_a_warning() {
+    let materials = r#""materials": [{"name": "Bad",
+        "pbrMetallicRoughness": {"baseColorFactor": [1, 2, -1, 1], "metallicFactor": 5, "roughnessFactor": -1e39},
+        "normalTexture": {"index": 0, "scale": 1e39},
+        "occlusionTexture": {"index": 0, "strength": -1e39},
+        "emissiveFactor": [0, 0, 1e39],
+        "alphaMode": "MASK", "alphaCutoff": -1}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": "texel.png"}],"#;
+    let json = triangle_json("triangle.bin", materials)
+        .replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "material": 0"#);
+    let path = write_scene("materials", &json, true);
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([255; 4])).save(path.with_file_name("texel.png")).unwrap();
+    let scene = GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let warnings = scene.warnings.join("\n");
+    for expected in [
+        "material \"Bad\": baseColorFactor.g 2 is outside 0.0..=1.0; using 1",
+        "baseColorFactor.b -1 is outside",
+        "metallicFactor 5 is outside 0.0..=1.0; using 1",
+        "roughnessFactor -inf is not a finite number; using 1",
+        "normalTexture.scale inf is not a finite number; using 1",
+        "occlusionTexture.strength -inf is not a finite number; using 1",
+        "emissiveFactor.b inf is not a finite number; using 0",
+        "alphaCutoff -1 is outside",
+    ] {
+        assert!(warnings.contains(expected), "{expected:?} in\n{warnings}");
+    }
+    let app = spawned(&scene);
+    let materials = app.world.resource::<Assets<StandardMaterial>>();
+    let (_, m) = materials.iter().next().expect("one material");
+    assert_eq!(m.base_color, Vec4::new(1.0, 1.0, 0.0, 1.0));
+    assert_eq!((m.metallic, m.roughness, m.normal_scale, m.occlusion_strength), (1.0, 1.0, 1.0, 1.0));
+    assert_eq!(m.emissive, Vec3::ZERO);
+}
+
+/// `extras` may be any JSON value anywhere (the schema says "any"): it is ignored, never an
+/// error. Before, an array or a number was refused as a malformed file.
+#[test]
+fn extras_of_every_json_type_are_accepted() {
+    for (i, extras) in [r#"[1, 2]"#, "5", r#""text""#, "true", "null", r#"{"a": {"b": [null]}}"#].iter().enumerate() {
+        let root = format!(r#""extras": {extras},"#);
+        let (path, loaded) = triangle_with(&format!("extras-{i}"), &root, &format!(r#", "extras": {extras}"#));
+        let scene = loaded.unwrap_or_else(|e| panic!("extras {extras}: {e}"));
+        assert!(scene.warnings.is_empty(), "{path:?}: {:?}", scene.warnings);
+    }
+}
+
+/// glTF 1.0 is another format: refused by name (as JSON of either shape, and as GLB version 1),
+/// as is a file that needs a newer glTF than 2.0.
+#[test]
+fn gltf_1_and_newer_versions_are_refused_by_name() {
+    let json = triangle_json("triangle.bin", "").replace(r#""version": "2.0""#, r#""version": "1.0""#);
+    let err = load_expecting_error(&write_scene("version-1", &json, true));
+    assert!(err.to_string().contains("asset.version \"1.0\" is glTF 1.0"), "{err}");
+    // A real glTF 1.0 file's JSON: objects where 2.0 has arrays.
+    let v1 = r#"{"asset": {"version": "1.0"}, "scene": "s", "scenes": {"s": {"nodes": []}}, "nodes": {}}"#;
+    let err = load_expecting_error(&write_scene("version-1-shape", v1, false));
+    assert!(err.to_string().contains("glTF 1.0"), "{err}");
+    let json =
+        triangle_json("triangle.bin", "").replace(r#""version": "2.0""#, r#""version": "2.0", "minVersion": "2.1""#);
+    let err = load_expecting_error(&write_scene("min-version", &json, true));
+    assert!(err.to_string().contains("minVersion \"2.1\""), "{err}");
+    let mut glb = std::fs::read(asset("BoxTextured/BoxTextured.glb")).unwrap();
+    glb[4] = 1;
+    let path = scratch_dir("glb-1").join("box.glb");
+    std::fs::write(&path, &glb).unwrap();
+    let err = load_expecting_error(&path);
+    assert!(err.to_string().contains("GLB version 1 is glTF 1.0"), "{err}");
+}
+
+/// A GLB whose header declares fewer bytes than the file holds loads what the header declares,
+/// with a warning; a buffer of byteLength 0 (the schema's minimum is 1) is skipped with one.
+#[test]
+fn short_glb_lengths_and_empty_buffers_are_named() {
+    let mut glb = std::fs::read(asset("BoxTextured/BoxTextured.glb")).unwrap();
+    let len = glb.len();
+    glb.extend_from_slice(&[0; 64]);
+    let path = scratch_dir("glb-long").join("box.glb");
+    std::fs::write(&path, &glb).unwrap();
+    let scene = GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    let expected = format!("the GLB header declares {len} bytes but the file has {}", len + 64);
+    assert!(scene.warnings.iter().any(|w| w.contains(&expected)), "{:?}", scene.warnings);
+
+    let json = triangle_json("triangle.bin", "").replace(
+        r#""uri": "triangle.bin", "byteLength": 36}]"#,
+        r#""uri": "triangle.bin", "byteLength": 36}, {"uri": "empty.bin", "byteLength": 0}]"#,
+    );
+    let path = write_scene("empty-buffer", &json, true);
+    std::fs::write(path.with_file_name("empty.bin"), b"").unwrap();
+    let scene = GltfScene::load(&path, &ImportOptions::default()).expect("loads");
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("buffers[1] has byteLength 0 (glTF requires at least 1)")),
+        "{:?}",
+        scene.warnings
+    );
+}
+
+/// The scene path itself must be a regular file: a FIFO would block the import forever (buffer
+/// and image URIs were already checked; the scene path was not), a folder is named as one.
+#[cfg(unix)]
+#[test]
+fn a_scene_path_that_is_not_a_regular_file_is_refused() {
+    let dir = scratch_dir("fifo");
+    let fifo = dir.join("scene.gltf");
+    let status = std::process::Command::new("mkfifo").arg(&fifo).status().expect("mkfifo runs");
+    assert!(status.success());
+    let err = load_expecting_error(&fifo);
+    assert!(matches!(err.kind, ImportErrorKind::NotAFile { .. }), "{err}");
+    assert!(err.to_string().contains("it is a FIFO (named pipe), not a regular file"), "{err}");
+    let folder = dir.join("folder.glb");
+    std::fs::create_dir(&folder).unwrap();
+    assert!(load_expecting_error(&folder).to_string().contains("it is a folder"));
+    let obj = dir.join("scene.obj");
+    std::process::Command::new("mkfifo").arg(&obj).status().unwrap();
+    assert!(matches!(load_expecting_error(&obj).kind, ImportErrorKind::NotAFile { .. }));
 }

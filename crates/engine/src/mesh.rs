@@ -178,6 +178,54 @@ impl Mesh {
         }
     }
 
+    /// Triangles of a triangle list whose UVs (in `uv_set`) have zero area: all three corners at
+    /// one UV, or on one line. A normal map has no direction on them (MikkTSpace cannot derive a
+    /// tangent there).
+    pub fn degenerate_uv_triangles(&self, uv_set: u32) -> usize {
+        let uvs = if uv_set == 0 { &self.uv0 } else { &self.uv1 };
+        if self.topology != Topology::TriangleList || uvs.len() != self.positions.len() {
+            return 0;
+        }
+        let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or(Vec2::ZERO);
+        let flat = |t: &[u32]| (uv(t[1]) - uv(t[0])).perp_dot(uv(t[2]) - uv(t[0])) == 0.0;
+        match &self.indices {
+            Some(idx) => idx.chunks_exact(3).filter(|t| flat(t)).count(),
+            None => (0..self.positions.len() as u32).collect::<Vec<_>>().chunks_exact(3).filter(|t| flat(t)).count(),
+        }
+    }
+
+    /// Makes every tangent frame usable: a tangent (nearly) parallel to its vertex's normal
+    /// gives no direction to a normal map (the shader's Gram-Schmidt step divides by zero: black
+    /// and white noise). Such tangents are replaced by MikkTSpace's from `uv_set` where those
+    /// are usable, else by any direction perpendicular to the normal (the map then has an
+    /// arbitrary but stable orientation there, as a surface without UV direction must).
+    /// Returns how many vertices were repaired.
+    pub fn repair_tangent_frames(&mut self, uv_set: u32) -> usize {
+        if self.tangents.len() != self.positions.len() || self.normals.len() != self.positions.len() {
+            return 0;
+        }
+        // A sine of 1e-3 between the two: beyond that the frame is noise in f16 normal maps.
+        let usable = |t: Vec4, n: Vec3| {
+            let t = t.truncate();
+            t.is_finite() && t.cross(n).length_squared() > 1e-6 * t.length_squared() * n.length_squared()
+        };
+        let broken: Vec<usize> =
+            (0..self.tangents.len()).filter(|&i| !usable(self.tangents[i], self.normals[i])).collect();
+        if broken.is_empty() {
+            return 0;
+        }
+        let mut generated = self.clone();
+        let mikk = generated.generate_tangents(uv_set).is_ok();
+        for &i in &broken {
+            let n = self.normals[i];
+            self.tangents[i] = match mikk.then(|| generated.tangents[i]) {
+                Some(t) if usable(t, n) => t,
+                _ => n.normalize_or(Vec3::Z).any_orthonormal_vector().extend(1.0),
+            };
+        }
+        broken.len()
+    }
+
     /// Expands indices so every triangle owns its three vertices (needed for flat normals).
     pub fn unindex(&mut self) {
         let Some(indices) = self.indices.take() else {

@@ -133,6 +133,24 @@ impl GlobalTransform {
     pub fn right(&self) -> Vec3 {
         self.0.matrix3.mul_vec3(Vec3::X).normalize_or(Vec3::X)
     }
+    /// The rotation with scale (and shear) taken out: the frame a camera looks along. Defined for
+    /// every transform: an axis scaled to zero (glTF allows zero scale) is rebuilt from the other
+    /// two, and with fewer than two usable axes the view keeps what it can (−Z, else identity).
+    /// A mirroring transform gives the rotation of its unmirrored twin, as
+    /// `to_scale_rotation_translation` does.
+    pub fn rotation(&self) -> Quat {
+        let m = self.0.matrix3;
+        let axis = |v: glam::Vec3A| Vec3::from(v).try_normalize();
+        let (x, y, z) = (axis(m.x_axis), axis(m.y_axis), axis(m.z_axis));
+        let Some(z) = z.or_else(|| x?.cross(y?).try_normalize()) else {
+            return Quat::IDENTITY;
+        };
+        let y = y
+            .and_then(|y| (y - z * y.dot(z)).try_normalize())
+            .or_else(|| x.and_then(|x| z.cross(x).try_normalize()))
+            .unwrap_or_else(|| z.any_orthonormal_vector());
+        Quat::from_mat3(&glam::Mat3::from_cols(y.cross(z), y, z)).normalize()
+    }
     /// Whether the transform mirrors space (negative determinant), which flips triangle winding.
     pub fn is_mirrored(&self) -> bool {
         self.0.matrix3.determinant() < 0.0
@@ -267,6 +285,20 @@ mod tests {
         app.world.get_mut::<Transform>(child).unwrap().translation.y = 3.0;
         app.update();
         assert_eq!(app.world.get::<GlobalTransform>(grandchild).unwrap().translation(), Vec3::new(1.0, 3.0, 0.0));
+    }
+
+    #[test]
+    fn rotation_ignores_scale_even_zero_scale() {
+        let r = Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 0.2);
+        for scale in [Vec3::ONE, Vec3::new(2.0, 0.5, 3.0), Vec3::new(0.0, 1.0, 1.0), Vec3::new(1.0, 1.0, 0.0)] {
+            let g = GlobalTransform(Affine3A::from_scale_rotation_translation(scale, r, Vec3::new(1e6, 2.0, 3.0)));
+            assert!(g.rotation().angle_between(r) < 1e-4, "scale {scale}: {:?} vs {r:?}", g.rotation());
+        }
+        // Only the view direction survives: it is kept.
+        let g = GlobalTransform(Affine3A::from_scale_rotation_translation(Vec3::new(0.0, 0.0, 1.0), r, Vec3::ZERO));
+        assert!((g.rotation() * Vec3::NEG_Z).distance(r * Vec3::NEG_Z) < 1e-5);
+        let g = GlobalTransform(Affine3A::from_scale_rotation_translation(Vec3::ZERO, r, Vec3::ZERO));
+        assert!(g.rotation().is_finite());
     }
 
     #[test]

@@ -58,6 +58,10 @@ pub enum ImportErrorKind {
     IesProfile { index: usize, uri: String, reason: String },
     #[error("{}{reason}", line.map_or_else(String::new, |l| format!("line {l}: ")))]
     Obj { line: Option<usize>, reason: String },
+    #[error("camera {index} (\"{name}\"): {reason}")]
+    Camera { index: usize, name: String, reason: String },
+    #[error("it is {what}, not a regular file")]
+    NotAFile { what: &'static str },
     #[error("skin {index}: {reason}")]
     Skin { index: usize, reason: String },
     #[error("animation {index}: {reason}")]

@@ -32,6 +32,34 @@ pub fn decode_texture(
     gltf::images::decode(bytes, 0, label, label.to_owned(), options)
 }
 
+/// Reads a scene file whole. Only a regular file: reading a FIFO, a socket or a device would
+/// block forever or never end (image and buffer URIs get the same check in `gltf::source`).
+pub(crate) fn read_scene_file(path: &Path) -> Result<Vec<u8>, ImportError> {
+    let fail = |kind| ImportError::new(path, kind);
+    let meta = std::fs::metadata(path).map_err(|e| fail(ImportErrorKind::Io(e)))?;
+    if !meta.is_file() {
+        return Err(fail(ImportErrorKind::NotAFile { what: file_kind(&meta.file_type()) }));
+    }
+    std::fs::read(path).map_err(|e| fail(ImportErrorKind::Io(e)))
+}
+
+fn file_kind(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+    }
+    if t.is_dir() { "a folder" } else { "not a regular file" }
+}
+
 /// A decoded scene file of any supported format: what phase one of an import produces.
 #[derive(Debug, Clone)]
 pub enum SceneFile {

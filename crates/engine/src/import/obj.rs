@@ -71,7 +71,7 @@ pub struct ObjScene {
 
 impl ObjScene {
     pub fn load(path: &Path, options: &ImportOptions) -> Result<ObjScene, ImportError> {
-        let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, ImportErrorKind::Io(e)))?;
+        let bytes = crate::import::read_scene_file(path)?;
         Self::from_bytes(&bytes, path, options)
     }
 

@@ -151,6 +151,51 @@ fn dielectric(m: &gltf::Material, material: &mut StandardMaterial, warnings: &mu
     };
 }
 
+/// The core factors, checked against glTF's schema: a factor outside its range is clamped, a
+/// non-finite one (which would turn the surface black or NaN) replaced by its default, each with
+/// a warning naming the material.
+fn core_factors(label: &str, m: &mut StandardMaterial, warnings: &mut Vec<String>) {
+    let defaults = StandardMaterial::default();
+    let mut check = |key: &str, value: &mut f32, default: f32, range: std::ops::RangeInclusive<f32>| {
+        if value.is_nan() || (value.is_infinite() && !range.contains(value)) {
+            warnings.push(format!("{label}: {key} {value} is not a finite number; using {default}"));
+            *value = default;
+        } else if !range.contains(value) {
+            let clamped = value.clamp(*range.start(), *range.end());
+            warnings.push(format!("{label}: {key} {value} is outside {range:?}; using {clamped}"));
+            *value = clamped;
+        }
+    };
+    for (c, name) in ["r", "g", "b", "a"].iter().enumerate() {
+        check(&format!("baseColorFactor.{name}"), &mut m.base_color[c], 1.0, 0.0..=1.0);
+    }
+    check("metallicFactor", &mut m.metallic, defaults.metallic, 0.0..=1.0);
+    check("roughnessFactor", &mut m.roughness, defaults.roughness, 0.0..=1.0);
+    check("normalTexture.scale", &mut m.normal_scale, 1.0, f32::MIN..=f32::MAX);
+    check("occlusionTexture.strength", &mut m.occlusion_strength, 1.0, 0.0..=1.0);
+    for (c, name) in ["r", "g", "b"].iter().enumerate() {
+        check(&format!("emissiveFactor.{name}"), &mut m.emissive[c], 0.0, 0.0..=1.0);
+    }
+    check("KHR_materials_emissive_strength emissiveStrength", &mut m.emissive_strength, 1.0, 0.0..=f32::MAX);
+    if let AlphaMode::Mask(cutoff) = &mut m.alpha_mode {
+        check("alphaCutoff", cutoff, 0.5, 0.0..=f32::MAX);
+    }
+}
+
+/// KHR_texture_transform's numbers must be finite: a non-finite offset, scale or rotation makes
+/// every texel lookup NaN. Such a transform is dropped with a warning.
+pub(crate) fn check_transforms(desc: &mut MaterialDesc, label: &str, warnings: &mut Vec<String>) {
+    for (slot, t) in desc.textures.iter_mut().enumerate().filter_map(|(i, t)| Some((i, t.as_mut()?))) {
+        let UvTransform { offset, rotation, scale } = t.transform;
+        if !(offset.is_finite() && rotation.is_finite() && scale.is_finite()) {
+            warnings.push(format!(
+                "{label}: texture slot {slot}'s KHR_texture_transform (offset {offset}, rotation {rotation},                  scale {scale}) is not finite; ignored"
+            ));
+            t.transform = UvTransform::default();
+        }
+    }
+}
+
 pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> MaterialDesc {
     let pbr = m.pbr_metallic_roughness();
     let mut material = StandardMaterial {
@@ -170,6 +215,7 @@ pub(crate) fn convert(m: &gltf::Material, warnings: &mut Vec<String>) -> Materia
         unlit: m.unlit(),
         ..StandardMaterial::default()
     };
+    core_factors(&label(m), &mut material, warnings);
     dielectric(m, &mut material, warnings);
     let specular = m.specular();
     let textures = [

@@ -11,12 +11,14 @@
 mod accessor;
 mod animation;
 mod area_lights;
+mod cameras;
 mod ies_lights;
 pub(crate) mod images;
 mod material_extensions;
 mod materials;
 mod occlusion_packing;
 mod primitive;
+pub mod punctual_lights;
 pub(crate) mod source;
 mod spec_gloss;
 mod variants;
@@ -25,13 +27,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use bevy_ecs::prelude::*;
-use glam::{Mat4, Vec3};
+use glam::Mat4;
 
 use crate::animation::{AnimationClip, AnimationPlayer};
 use crate::assets::{Assets, Handle};
 use crate::components::{
-    Camera, DirectionalLight, Exposure, IesLight, Mesh3d, MeshMaterial3d, MorphWeights, Name, PointLight, Projection,
-    SkinnedMesh, SpotLight, Transform, Visibility,
+    Camera, Exposure, IesLight, Mesh3d, MeshMaterial3d, MorphWeights, Name, SkinnedMesh, Transform, Visibility,
 };
 use crate::ies::IesProfile;
 use crate::image::Image;
@@ -40,6 +41,7 @@ use crate::material::{StandardMaterial, TextureRef};
 use crate::mesh::Mesh;
 use accessor::Buffers;
 use materials::MaterialDesc;
+use punctual_lights::LightDesc;
 
 /// Extensions Penumbra implements. A file that lists any other in `extensionsRequired` is refused.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
@@ -104,13 +106,6 @@ pub struct GltfCamera {
 }
 
 #[derive(Debug, Clone)]
-enum LightDesc {
-    Directional(DirectionalLight),
-    Point(PointLight),
-    Spot(SpotLight),
-}
-
-#[derive(Debug, Clone)]
 struct NodeDesc {
     name: String,
     transform: Transform,
@@ -141,7 +136,7 @@ pub struct GltfScene {
     materials: Vec<MaterialDesc>,
     images: Vec<Option<Arc<Image>>>,
     nodes: Vec<NodeDesc>,
-    cameras: Vec<(String, Projection, Option<f32>)>,
+    cameras: Vec<cameras::CameraDesc>,
     lights: Vec<LightDesc>,
     /// EXT_lights_ies profiles.
     ies_profiles: Vec<Arc<IesProfile>>,
@@ -160,7 +155,7 @@ pub struct GltfScene {
 impl GltfScene {
     /// Reads and decodes `path`.
     pub fn load(path: &Path, options: &ImportOptions) -> Result<GltfScene, ImportError> {
-        let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, ImportErrorKind::Io(e)))?;
+        let bytes = crate::import::read_scene_file(path)?;
         Self::from_bytes(&bytes, path, options)
     }
 
@@ -406,9 +401,19 @@ fn resolve_material(d: &MaterialDesc, images: &[Option<Handle<Image>>]) -> Stand
 }
 
 fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<GltfScene, ImportErrorKind> {
-    source::check_glb_header(bytes)?;
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| ImportErrorKind::Malformed(e.to_string()))?;
+    let mut warnings = Vec::new();
+    let bytes = source::check_glb_header(bytes, &mut warnings)?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+        // A glTF 1.0 file has another JSON shape: say so rather than what serde found missing.
+        match source::probe_version(bytes) {
+            Some(v) if source::check_version(&v, None).is_err() => {
+                source::check_version(&v, None).expect_err("checked in the guard")
+            }
+            _ => ImportErrorKind::Malformed(e.to_string()),
+        }
+    })?;
+    let asset = &document.as_json().asset;
+    source::check_version(&asset.version, asset.min_version.as_deref())?;
 
     // Required extensions first: a file that needs what we lack must be refused by name, before
     // validation complains about its contents in less useful terms.
@@ -417,11 +422,12 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     }
     validate(&document)?;
     check_totals(&document, &options.limits)?;
-    let mut warnings: Vec<String> = document
-        .extensions_used()
-        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
-        .map(|e| format!("optional extension {e} is not supported and is ignored"))
-        .collect();
+    warnings.extend(
+        document
+            .extensions_used()
+            .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+            .map(|e| format!("optional extension {e} is not supported and is ignored")),
+    );
 
     let progress = |stage, total| {
         if let Some(p) = &options.progress {
@@ -437,7 +443,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     progress(super::ImportStage::Buffers, document.buffers().len());
     let roots = scene_roots(&document, options.scene, &options.limits)?;
     let reads = source::ReadBudget::new(options);
-    let buffers = Buffers::new(load_buffers(&document, blob, base_dir, options, &reads)?, options.limits);
+    let buffers =
+        Buffers::new(load_buffers(&document, blob, base_dir, options, &reads, &mut warnings)?, options.limits);
 
     let mut materials: Vec<MaterialDesc> = document
         .materials()
@@ -448,6 +455,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
                 spec_gloss::convert(&sg, &mut desc, &label, materials::info, &mut warnings);
             }
             material_extensions::read(&m, &document, &mut desc, &label, &mut warnings);
+            materials::check_transforms(&mut desc, &label, &mut warnings);
             desc
         })
         .collect();
@@ -527,51 +535,9 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let skins = animation::load_skins(&document, &buffers)?;
     check_skinned_meshes(&nodes, &meshes, &skins)?;
     let animations: Arc<[AnimationClip]> = animation::load_animations(&document, &buffers)?.into();
-    let cameras = document
-        .cameras()
-        .map(|c| {
-            let name = c.name().map_or_else(|| format!("camera{}", c.index()), str::to_owned);
-            // The file's aspect ratio is kept aside (it sizes default screenshots) rather than
-            // baked into the projection: forced onto a viewport of another shape it would stretch
-            // the image. Vertical field of view (or ymag) is what the camera keeps.
-            let (projection, aspect_ratio) = match c.projection() {
-                gltf::camera::Projection::Perspective(p) => {
-                    (Projection::Perspective { yfov: p.yfov(), znear: p.znear(), aspect_ratio: None }, p.aspect_ratio())
-                }
-                gltf::camera::Projection::Orthographic(o) => (
-                    Projection::Orthographic { xmag: None, ymag: o.ymag(), znear: o.znear(), zfar: o.zfar() },
-                    Some(o.xmag() / o.ymag()),
-                ),
-            };
-            (name, projection, aspect_ratio.filter(|a| a.is_finite() && *a > 0.0))
-        })
-        .collect();
-    let lights = document
-        .lights()
-        .into_iter()
-        .flatten()
-        .map(|l| {
-            let color = Vec3::from(l.color());
-            match l.kind() {
-                gltf::khr_lights_punctual::Kind::Directional => {
-                    LightDesc::Directional(DirectionalLight { color, illuminance: l.intensity(), ..Default::default() })
-                }
-                gltf::khr_lights_punctual::Kind::Point => {
-                    LightDesc::Point(PointLight { color, intensity: l.intensity(), range: l.range(), shadows: true })
-                }
-                gltf::khr_lights_punctual::Kind::Spot { inner_cone_angle, outer_cone_angle } => {
-                    LightDesc::Spot(SpotLight {
-                        color,
-                        intensity: l.intensity(),
-                        range: l.range(),
-                        inner_cone_angle,
-                        outer_cone_angle,
-                        shadows: true,
-                    })
-                }
-            }
-        })
-        .collect();
+    let cameras = cameras::convert(&document, &mut warnings)?;
+    cameras::check_nodes(&document, &mut warnings);
+    let lights = punctual_lights::convert(&document, &mut warnings);
 
     for w in &warnings {
         tracing::warn!("{}: {w}", path.display());
@@ -681,11 +647,19 @@ fn load_buffers(
     base_dir: &Path,
     options: &ImportOptions,
     reads: &source::ReadBudget,
+    warnings: &mut Vec<String>,
 ) -> Result<Vec<Vec<u8>>, ImportErrorKind> {
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let index = buffer.index();
         options.limits.check(Limit::BufferBytes, "a buffer's byteLength", buffer.length() as u64)?;
+        if buffer.length() == 0 {
+            // glTF requires at least 1; an empty buffer can hold nothing a bufferView could
+            // name (each of those is checked against the buffer's length), so it is skipped.
+            warnings.push(format!("buffers[{index}] has byteLength 0 (glTF requires at least 1); ignored"));
+            buffers.push(Vec::new());
+            continue;
+        }
         let (uri, data) = match buffer.source() {
             gltf::buffer::Source::Bin => {
                 let data = blob.take().ok_or_else(|| ImportErrorKind::Buffer {

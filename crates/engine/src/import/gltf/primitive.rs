@@ -128,16 +128,30 @@ pub(crate) fn build(
         if mesh.normals.is_empty() {
             mesh.compute_flat_normals();
         }
-        if let Some(set) = needs.normal_map_uv_set
-            && mesh.tangents.is_empty()
-        {
+        if let Some(set) = needs.normal_map_uv_set {
             let has_uvs = if set == 0 { !mesh.uv0.is_empty() } else { !mesh.uv1.is_empty() };
-            if has_uvs {
+            if mesh.tangents.is_empty() && has_uvs {
                 mesh.generate_tangents(set).map_err(|source| ImportErrorKind::Mesh {
                     mesh: mesh_index,
                     primitive,
                     source,
                 })?;
+            }
+            // A few zero-area UV triangles are common and harmless (MikkTSpace takes their
+            // neighbours' direction); UVs that are all one point leave the map no direction at all.
+            let triangles = mesh.indices.as_ref().map_or(mesh.positions.len(), Vec::len) / 3;
+            if has_uvs && triangles > 0 && mesh.degenerate_uv_triangles(set) == triangles {
+                notes.push(format!(
+                    "mesh {mesh_index} primitive {primitive}: the normal map's TEXCOORD_{set} has zero area on \
+                     every triangle (all UVs equal or in a line), so the map has no direction on this mesh"
+                ));
+            }
+            let repaired = mesh.repair_tangent_frames(set);
+            if repaired > 0 {
+                notes.push(format!(
+                    "mesh {mesh_index} primitive {primitive}: {repaired} vertices had tangents parallel to their \
+                     normals; rebuilt (MikkTSpace where the UVs allow, else any perpendicular direction)"
+                ));
             }
         }
     }

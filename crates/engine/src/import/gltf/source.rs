@@ -11,9 +11,13 @@ use crate::import::{ImportErrorKind, Limit};
 
 /// A GLB header is 12 bytes: magic, version, total length. The gltf crate subtracts 12 from the
 /// declared length without checking it, so a truncated or hostile header is refused here first.
-pub(crate) fn check_glb_header(bytes: &[u8]) -> Result<(), ImportErrorKind> {
+/// A GLB's header checked against the file: its version must be 2 (GLB 1 is glTF 1.0, another
+/// format), and its length must not pass the end of the file. Returns the bytes the header
+/// declares: bytes after them are not part of the GLB (a warning, not an error: the GLB itself
+/// is whole).
+pub(crate) fn check_glb_header<'a>(bytes: &'a [u8], warnings: &mut Vec<String>) -> Result<&'a [u8], ImportErrorKind> {
     if !bytes.starts_with(b"glTF") {
-        return Ok(());
+        return Ok(bytes);
     }
     if bytes.len() < 20 {
         return Err(ImportErrorKind::Malformed(format!(
@@ -21,7 +25,15 @@ pub(crate) fn check_glb_header(bytes: &[u8]) -> Result<(), ImportErrorKind> {
             bytes.len()
         )));
     }
-    let declared = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes")) as usize;
+    let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
+    let version = word(4);
+    if version != 2 {
+        return Err(ImportErrorKind::Malformed(format!(
+            "GLB version {version}{}: Penumbra reads glTF 2.0 (GLB version 2) only",
+            if version == 1 { " is glTF 1.0, a different format" } else { " is unknown" }
+        )));
+    }
+    let declared = word(8) as usize;
     if declared < 20 || declared > bytes.len() {
         return Err(ImportErrorKind::Malformed(format!(
             "GLB header declares {declared} bytes but the file has {}{}",
@@ -29,7 +41,63 @@ pub(crate) fn check_glb_header(bytes: &[u8]) -> Result<(), ImportErrorKind> {
             if declared > bytes.len() { " (truncated?)" } else { "" }
         )));
     }
+    if declared < bytes.len() {
+        warnings.push(format!(
+            "the GLB header declares {declared} bytes but the file has {}; the {} bytes after the GLB are ignored",
+            bytes.len(),
+            bytes.len() - declared
+        ));
+    }
+    Ok(&bytes[..declared])
+}
+
+/// `asset.version` (and `minVersion`) must name glTF 2.x: glTF 1.0 files are another format
+/// that would otherwise fail to parse in confusing terms, or parse and render wrongly.
+pub(crate) fn check_version(version: &str, min_version: Option<&str>) -> Result<(), ImportErrorKind> {
+    let major_minor = |v: &str| -> Option<(u32, u32)> {
+        let (major, minor) = v.split_once('.')?;
+        Some((major.parse().ok()?, minor.parse().ok()?))
+    };
+    match major_minor(version) {
+        Some((2, _)) => {}
+        Some((1, _)) => {
+            return Err(ImportErrorKind::Malformed(format!(
+                "asset.version \"{version}\" is glTF 1.0, a different format; Penumbra reads glTF 2.0 (convert it, \
+                 for example with Blender or gltf-pipeline)"
+            )));
+        }
+        _ => {
+            return Err(ImportErrorKind::Malformed(format!(
+                "asset.version \"{version}\" is not a glTF 2.x version; Penumbra reads glTF 2.0"
+            )));
+        }
+    }
+    if let Some(min) = min_version
+        && major_minor(min).is_none_or(|v| v > (2, 0))
+    {
+        return Err(ImportErrorKind::Malformed(format!(
+            "asset.minVersion \"{min}\": the file needs a glTF version newer than the 2.0 Penumbra reads"
+        )));
+    }
     Ok(())
+}
+
+/// The `asset` of a file that did not parse as glTF 2.0: enough to tell a glTF 1.0 file (whose
+/// JSON has another shape) from a broken one.
+pub(crate) fn probe_version(bytes: &[u8]) -> Option<String> {
+    let json = if bytes.starts_with(b"glTF") {
+        // GLB 1 has its content chunk after a 20-byte header; GLB 2 its JSON chunk after 20 too
+        // (12 of header, 8 of chunk header), both with the length at byte 12.
+        let len = u32::from_le_bytes(bytes.get(12..16)?.try_into().ok()?) as usize;
+        bytes.get(20..20usize.checked_add(len)?)?
+    } else {
+        bytes
+    };
+    let root: gltf::json::Value = gltf::json::deserialize::from_slice(json).ok()?;
+    match root.get("asset")?.get("version")? {
+        gltf::json::Value::String(s) => Some(s.clone()),
+        v => Some(v.to_string()),
+    }
 }
 
 #[derive(Debug)]
@@ -336,8 +404,39 @@ mod tests {
         let mut glb = b"glTF\x02\0\0\0".to_vec();
         glb.extend_from_slice(&5u32.to_le_bytes());
         glb.extend_from_slice(&[0; 8]);
-        assert!(check_glb_header(&glb).is_err());
-        assert!(check_glb_header(b"glTF").is_err());
-        assert!(check_glb_header(b"{\"asset\":{}}").is_ok());
+        let w = &mut Vec::new();
+        assert!(check_glb_header(&glb, w).is_err());
+        assert!(check_glb_header(b"glTF", w).is_err());
+        assert!(check_glb_header(b"{\"asset\":{}}", w).is_ok());
+        assert!(w.is_empty());
+    }
+
+    #[test]
+    fn glb_versions_and_lengths() {
+        let glb = |version: u32, declared: u32, len: usize| {
+            let mut b = b"glTF".to_vec();
+            b.extend_from_slice(&version.to_le_bytes());
+            b.extend_from_slice(&declared.to_le_bytes());
+            b.resize(len, 0);
+            b
+        };
+        let w = &mut Vec::new();
+        let err = check_glb_header(&glb(1, 24, 24), w).unwrap_err().to_string();
+        assert!(err.contains("glTF 1.0"), "{err}");
+        assert_eq!(check_glb_header(&glb(2, 24, 24), w).unwrap().len(), 24);
+        assert!(w.is_empty());
+        assert_eq!(check_glb_header(&glb(2, 24, 40), w).unwrap().len(), 24);
+        assert!(w[0].contains("16 bytes after the GLB are ignored"), "{w:?}");
+    }
+
+    #[test]
+    fn only_gltf_2_versions_are_read() {
+        assert!(check_version("2.0", None).is_ok());
+        assert!(check_version("2.1", Some("2.0")).is_ok());
+        assert!(check_version("1.0", None).unwrap_err().to_string().contains("glTF 1.0"));
+        assert!(check_version("3.0", None).is_err());
+        assert!(check_version("two", None).is_err());
+        assert!(check_version("2.1", Some("2.1")).is_err());
+        assert_eq!(probe_version(br#"{"asset": {"version": "1.0"}, "meshes": {}}"#).as_deref(), Some("1.0"));
     }
 }

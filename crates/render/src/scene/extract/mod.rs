@@ -118,10 +118,10 @@ fn extract_deforms(
 fn extract_view(cameras: Query<(&Camera, &GlobalTransform, &InheritedVisibility)>, mut scene: ResMut<RenderScene>) {
     let view = cameras.iter().filter(|(c, _, v)| c.is_active && v.0).max_by_key(|(c, ..)| c.order).map(
         |(camera, transform, _)| {
-            // Only rotation and translation define the view; a scaled camera would skew it.
-            let (_, rotation, translation) = transform.0.to_scale_rotation_translation();
+            // Only rotation and translation define the view; a scaled camera would skew it, and
+            // a zero-scaled one has no inverse.
             ExtractedView {
-                world_from_view: Affine3A::from_rotation_translation(rotation, translation),
+                world_from_view: Affine3A::from_rotation_translation(transform.rotation(), transform.translation()),
                 projection: camera.projection,
                 exposure: camera.exposure.scale(),
             }
