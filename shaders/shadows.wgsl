@@ -32,6 +32,9 @@ struct ShadowCascade {
     depth_range: f32,
     // 1 when the layer was rendered this frame; 0 when no caster reaches the cascade (lit).
     rendered: u32,
+    // How far the casters' depths may be off, in this cascade's depth units: f32 rounding of
+    // caster positions as far from the camera as the farthest caster (see orchestrator.rs).
+    depth_precision: f32,
 };
 
 struct DirectionalShadow {
@@ -155,7 +158,7 @@ fn cascade_visibility(c: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32, a
     if clip.z > 1.0 || any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
         return 1.0;
     }
-    let depth = clip.z + shadows.depth_tolerance;
+    let depth = clip.z + shadows.depth_tolerance + cascade.depth_precision;
     var radius = 1.0;
     if shadows.filter_mode == FILTER_PCSS {
         radius = pcss_radius(c, uv, depth, cascade, angular_tan, angle);

@@ -405,3 +405,156 @@ fn broken_vertex_data_is_repaired_at_import_and_reported() {
     render_app(&mut app, SIZE, settings());
     assert_finite_hdr(&hdr_of(&app), "repaired vertex data");
 }
+
+/// A quad facing +Z, normal-mapped with a flat normal map, with the given tangent at every
+/// vertex (or none), imported through glTF.
+fn normal_mapped_quad(
+    name: &str,
+    tangent: Option<[f32; 4]>,
+    uv: Option<[f32; 2]>,
+) -> penumbra::engine::import::GltfScene {
+    let positions = [[-1.0f32, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]];
+    let uvs = [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]].map(|c| uv.unwrap_or(c));
+    let mut bytes = Vec::new();
+    for v in positions.iter().flatten() {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    for _ in 0..4 {
+        for c in [0.0f32, 0.0, 1.0] {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for v in uvs.iter().flatten() {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    for _ in 0..4 {
+        for c in tangent.unwrap_or([1.0, 0.0, 0.0, 1.0]) {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bytes.extend_from_slice(&i.to_le_bytes());
+    }
+    let tangent_attribute = if tangent.is_some() { r#", "TANGENT": 3"# } else { "" };
+    let json = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2{tangent_attribute}}},
+     "indices": 4, "material": 0}}]}}],
+  "materials": [{{"normalTexture": {{"index": 0}}, "pbrMetallicRoughness": {{"metallicFactor": 0, "roughnessFactor": 0.4}}}}],
+  "textures": [{{"source": 0}}], "images": [{{"uri": "flat.png"}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 0, "byteOffset": 48, "componentType": 5126, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 0, "byteOffset": 96, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 0, "byteOffset": 128, "componentType": 5126, "count": 4, "type": "VEC4"}},
+    {{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 192}}, {{"buffer": 0, "byteOffset": 192, "byteLength": 12}}],
+  "buffers": [{{"byteLength": 204, "uri": "quad.bin"}}]}}"#
+    );
+    let dir = common::scratch_dir(name);
+    std::fs::write(dir.join("quad.bin"), bytes).unwrap();
+    image::RgbImage::from_pixel(4, 4, image::Rgb([128, 128, 255])).save(dir.join("flat.png")).unwrap();
+    let path = dir.join("quad.gltf");
+    std::fs::write(&path, json).unwrap();
+    penumbra::engine::import::GltfScene::load(&path, &Default::default()).unwrap()
+}
+
+fn render_quad(scene: &penumbra::engine::import::GltfScene) -> (Vec<u8>, Vec<[f32; 4]>) {
+    let mut app = scene_app();
+    scene.spawn(&mut app.world);
+    let sun = Transform::from_xyz(0.3, 0.4, 1.0).looking_at(Vec3::ZERO, Vec3::Y);
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun));
+    app.world.spawn(unit_camera(Transform::from_xyz(0.0, 0.0, 3.0), 0.1));
+    let px = render_app(&mut app, SIZE, settings());
+    (px, hdr_of(&app))
+}
+
+/// Tangents parallel to the normals (with a normal map) gave the shader's tangent frame no
+/// direction: black and white noise over the surface. They are rebuilt at import (MikkTSpace)
+/// with a warning, and the quad renders as with good tangents; so does one whose UVs are all
+/// one point (no direction to rebuild from), with a warning naming it.
+#[test]
+fn tangents_parallel_to_normals_are_rebuilt() {
+    let good = normal_mapped_quad("tangents_good", Some([1.0, 0.0, 0.0, 1.0]), None);
+    assert!(good.warnings.is_empty(), "{:?}", good.warnings);
+    let (good_px, _) = render_quad(&good);
+    let parallel = normal_mapped_quad("tangents_parallel", Some([0.0, 0.0, 1.0, 1.0]), None);
+    let warnings = parallel.warnings.join("\n");
+    assert!(warnings.contains("4 vertices had tangents parallel to their normals; rebuilt"), "{warnings}");
+    let (px, hdr) = render_quad(&parallel);
+    assert_finite_hdr(&hdr, "tangents parallel to normals");
+    let e = flip_mean(&good_px, &px, SIZE.0, SIZE.1);
+    assert!(e < 1e-3, "FLIP mean {e} against the quad with good tangents");
+
+    let one_uv = normal_mapped_quad("tangents_one_uv", None, Some([0.5, 0.5]));
+    let warnings = one_uv.warnings.join("\n");
+    assert!(warnings.contains("zero area on every triangle"), "{warnings}");
+    let (px, hdr) = render_quad(&one_uv);
+    assert_finite_hdr(&hdr, "all UVs equal");
+    let e = flip_mean(&good_px, &px, SIZE.0, SIZE.1);
+    assert!(e < 1e-3, "FLIP mean {e} against the quad with good tangents");
+}
+
+/// A ground plane and a cube lit by a sun, seen from a three-quarter view.
+fn sunlit_ground(ground: f32, sun: Quat) -> Vec<u8> {
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(ground), StandardMaterial::from_color(Vec4::ONE, 0.8), Transform::IDENTITY);
+    spawn_mesh(
+        &mut app,
+        Mesh::cuboid(Vec3::ONE),
+        StandardMaterial::from_color(Vec4::ONE, 0.8),
+        Transform::from_xyz(0.0, 1.5, 0.0),
+    );
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, Transform::from_rotation(sun)));
+    app.world.spawn(unit_camera(Transform::from_xyz(6.0, 5.0, 8.0).looking_at(Vec3::ZERO, Vec3::Y), 0.1));
+    render_app(&mut app, (160, 120), RenderSettings::default())
+}
+
+/// A sun exactly overhead drew false shadow streaks across a ground facing it (FLIP 0.084
+/// against a sun tilted by a thousandth of a radian; now 1e-4): the ground's depth in the map
+/// and its depth as a receiver are one surface computed two ways, and with no depth slope
+/// there is nothing for the slope-scaled bias to hide. Receivers now move toward the light by a
+/// few ulps of the casters' distance (`DEPTH_PRECISION_ULPS`).
+#[test]
+fn a_sun_straight_down_shadows_a_ground_as_one_slightly_tilted() {
+    let down = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let straight = sunlit_ground(20.0, down);
+    let tilted = sunlit_ground(20.0, Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2 + 1e-3));
+    let e = flip_mean(&straight, &tilted, 160, 120);
+    assert!(e < 0.01, "FLIP mean {e} between the sun straight down and tilted by 1e-3 rad");
+}
+
+/// A ground a million metres wide shadowed the near half of itself (its corners, 7e5 m from the
+/// camera, carry centimetres of f32 rounding into the cascades' stored depth); 2e5 m was clean.
+/// Now both look like a 200 m ground under the same sun.
+#[test]
+fn a_ground_a_million_metres_wide_does_not_shadow_itself() {
+    let sun = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2 + 0.3);
+    let reference = sunlit_ground(200.0, sun);
+    // Below the horizon only: beyond 200 m the smaller ground ends.
+    let near_half = |px: &[u8]| px[px.len() / 2..].to_vec();
+    for ground in [2e5, 1e6] {
+        let px = sunlit_ground(ground, sun);
+        let e = flip_mean(&near_half(&reference), &near_half(&px), 160, 60);
+        assert!(e < 0.02, "ground {ground} m: FLIP mean {e} of the near half against a 200 m ground");
+    }
+}
+
+/// A camera node scaled to zero on one axis (glTF allows zero scale) has no inverse: its view
+/// was NaN and the frame empty. The view keeps the node's rotation and position.
+#[test]
+fn a_zero_scaled_camera_sees_what_an_unscaled_one_sees() {
+    let shot = |scale: Vec3| {
+        let mut app = reference_scene(1.0, Vec3::ZERO);
+        let mut q = app.world.query::<(&Camera, &mut Transform)>();
+        for (_, mut t) in q.iter_mut(&mut app.world) {
+            t.scale = scale;
+        }
+        render_app(&mut app, SIZE, settings())
+    };
+    let unscaled = shot(Vec3::ONE);
+    for scale in [Vec3::new(0.0, 1.0, 1.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(2.0, 0.5, 3.0)] {
+        let e = flip_mean(&unscaled, &shot(scale), SIZE.0, SIZE.1);
+        assert!(e < 1e-4, "camera scale {scale}: FLIP mean {e}");
+    }
+}

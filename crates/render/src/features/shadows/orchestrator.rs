@@ -90,6 +90,9 @@ pub struct ShadowFrame {
     pub redraw: Vec<bool>,
     /// Spot and point lights' maps.
     pub local: LocalFrame,
+    /// The farthest a caster's bounds reach from the camera (metres): how large the
+    /// camera-relative positions are whose depths the cascades store (see `DEPTH_PRECISION_ULPS`).
+    pub caster_extent: f64,
 }
 
 impl ShadowFrame {
@@ -147,6 +150,16 @@ impl Atlas {
         self.size as u64 * self.size as u64 * 4 * self.texture.depth_or_array_layers() as u64
     }
 }
+
+/// A caster's stored depth is its camera-relative position (f32) times the cascade's matrix, so
+/// it is off by a few units in the last place of that position's size: for a caster vertex 10⁶ m
+/// from the camera, centimetres, whatever the cascade's depth range. A receiver's own depth comes
+/// from its position near the camera and is exact in comparison, so where the caster and the
+/// receiver are one surface (a ground facing the light, which has no depth slope for the
+/// slope-scaled bias to hide, or a huge ground) the comparison goes either way from texel to
+/// texel: streaks, or a whole cascade in shadow. Receivers are moved this many ulps of the
+/// farthest caster's distance toward the light; for a scene ten metres across, micrometres.
+pub const DEPTH_PRECISION_ULPS: f64 = 4.0;
 
 /// A receiver's depth tolerance on a backend that rounds depth at 2⁻²⁴ of 1 (GL, see
 /// `Capabilities::exact_depth`): eight such steps. Without it a surface facing the light, whose
@@ -419,8 +432,9 @@ impl ShadowOrchestrator {
             aspect,
         };
         let forward = rotation * DVec3::NEG_Z;
+        let caster_extent = corners(&bounds.casters).map(|p| (p - eye).length()).fold(0.0, f64::max);
         let deepest_receiver = corners(&bounds.receivers).map(|p| (p - eye).dot(forward)).fold(f64::MIN, f64::max);
-        let mut frame = ShadowFrame::default();
+        let mut frame = ShadowFrame { caster_extent, ..Default::default() };
         for candidate in lit {
             let direction = candidate.light.direction;
             let towards_light = -direction.as_dvec3().normalize();
@@ -464,6 +478,9 @@ impl ShadowOrchestrator {
                 texel_size: c.texel_size as f32,
                 depth_range: depth_range as f32,
                 rendered: frame.rendered[i] as u32,
+                depth_precision: (DEPTH_PRECISION_ULPS * f32::EPSILON as f64 * frame.caster_extent / depth_range)
+                    as f32,
+                _pad: [0; 3],
             };
         }
         for (i, l) in frame.lights.iter().enumerate() {
