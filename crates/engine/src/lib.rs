@@ -20,6 +20,7 @@ pub mod import;
 pub mod material;
 pub mod mesh;
 pub mod mip_chain;
+pub mod output;
 pub mod parallel;
 pub mod picking;
 pub mod primitives;

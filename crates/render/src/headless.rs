@@ -64,6 +64,10 @@ pub enum ShotError {
     NoSuchCamera { index: usize, count: usize },
     #[error("--size {0}x{1}: each side must be between 1 and {MAX_SIZE}")]
     Size(u32, u32),
+    #[error(
+        "the camera's aspect ratio {aspect} gives no image of at most {MAX_SIZE} pixels a side with both sides at least 1; give --size WxH"
+    )]
+    DerivedSize { aspect: f32 },
     #[error("--exposure {0}: must be a finite EV100 between {lo} and {hi}", lo = EV100_RANGE.start(), hi = EV100_RANGE.end())]
     Exposure(f32),
     #[error("--animation/--time: {0}")]
@@ -143,7 +147,10 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
                 }
             }
             let aspect = found.ok_or(ShotError::NoSuchCamera { index, count })?.unwrap_or(1.0);
-            settings.size.unwrap_or(((default_height as f32 * aspect).round().max(1.0) as u32, default_height))
+            match settings.size {
+                Some(size) => size,
+                None => size_for_aspect(default_height, aspect)?,
+            }
         }
         CameraChoice::Auto | CameraChoice::Orbit { .. } => {
             let size = settings.size.unwrap_or((default_height, default_height));
@@ -168,6 +175,23 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
         }
     }
     Ok(size)
+}
+
+/// The default output size for a camera of `aspect` (width / height): `height` tall, or, where
+/// the width would pass [`MAX_SIZE`], as wide as that and as tall as the aspect gives. An aspect
+/// so extreme that a side rounds to 0 pixels is an error asking for `--size`.
+pub fn size_for_aspect(height: u32, aspect: f32) -> Result<(u32, u32), ShotError> {
+    let bad = || ShotError::DerivedSize { aspect };
+    if !(aspect.is_finite() && aspect > 0.0) {
+        return Err(bad());
+    }
+    let (w, h) = (height as f64 * aspect as f64, height as f64);
+    let fit = (MAX_SIZE as f64 / w).min(MAX_SIZE as f64 / h).min(1.0);
+    let (w, h) = ((w * fit).round(), (h * fit).round());
+    if w < 1.0 || h < 1.0 {
+        return Err(bad());
+    }
+    Ok((w as u32, h as u32))
 }
 
 /// Renders `frames` fixed-step updates of a staged app and returns the last frame's RGBA8, or
@@ -231,8 +255,8 @@ impl HeadlessRunner {
             app.update();
             for (_, path) in self.screenshots.iter().filter(|(f, _)| *f == frame) {
                 let pixels = app.world.resource::<Renderer>().read_frame().map_err(ShotError::from)?;
-                image::save_buffer(path, &pixels, w, h, image::ColorType::Rgba8)
-                    .map_err(|e| HeadlessError::Write { path: path.clone(), reason: e.to_string() })?;
+                penumbra_engine::output::save_image(path, &pixels, (w, h), image::ExtendedColorType::Rgba8)
+                    .map_err(|e| HeadlessError::Write { path: path.clone(), reason: e.reason })?;
                 shots.push(pixels);
             }
         }

@@ -48,7 +48,7 @@ pub use features::visibility::Raster;
 pub use gpu::context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT, RetryBackoff};
 pub use pipelines::{ReloadReport, ShaderError};
 pub use quality::QualityPreset;
-pub use renderer::{Renderer, RendererError};
+pub use renderer::{FrameError, Renderer, RendererError};
 pub use resources::draws::{AlphaTest, DebugView, LocalLights, Tonemapper};
 pub use scene::world::RenderScene;
 pub use settings::{PostSettings, RenderSettings, SettingsError, ShaderSource};

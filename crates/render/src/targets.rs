@@ -244,14 +244,92 @@ impl FrameTargets {
     }
 
     pub fn bytes(&self) -> u64 {
-        let px = self.size.0 as u64 * self.size.1 as u64;
-        let samples = self.samples as u64;
+        let made = Made {
+            hdr: self.hdr.is_some(),
+            display_msaa: self.display_msaa.is_some(),
+            depth: self.depth_view.is_some(),
+            deferred: self.deferred.is_some(),
+        };
+        made.bytes(self.size, self.samples)
+    }
+
+    /// [`FrameTargets::new`] inside error scopes: a device that cannot hold the targets (out of
+    /// memory, or a size past its limits) is an error saying what was asked for and what it
+    /// needs, with what a single-sampled frame would need, rather than wgpu's panic.
+    pub fn try_new(
+        device: &wgpu::Device,
+        size: (u32, u32),
+        samples: u32,
+        deferred: bool,
+        made: TargetsMade,
+    ) -> Result<Self, TargetsError> {
+        let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let targets = Self::new(device, size, samples, deferred, made);
+        let invalid = pollster::block_on(validation.pop());
+        let out_of_memory = pollster::block_on(memory.pop());
+        let Some(error) = out_of_memory.or(invalid) else { return Ok(targets) };
+        let planned = |samples| Made::planned(samples, deferred, &made).bytes(size, samples);
+        Err(TargetsError {
+            size,
+            samples,
+            bytes: planned(samples),
+            single_sampled_bytes: (samples > 1).then(|| planned(1)),
+            reason: error.to_string(),
+        })
+    }
+}
+
+/// The frame's targets could not be made.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error(
+    "the frame's targets for {w}x{h} at MSAA {samples} need {need} of GPU memory and the device could not make them \
+     ({reason}){hint}",
+    w = size.0,
+    h = size.1,
+    need = mib(*bytes),
+    hint = single_sampled_bytes.map_or_else(String::new, |b| format!("; MSAA 1 (--msaa 1) needs {}", mib(b)))
+)]
+pub struct TargetsError {
+    pub size: (u32, u32),
+    pub samples: u32,
+    pub bytes: u64,
+    pub single_sampled_bytes: Option<u64>,
+    pub reason: String,
+}
+
+fn mib(bytes: u64) -> String {
+    if bytes >= 1 << 30 {
+        format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+    } else {
+        format!("{:.0} MiB", bytes as f64 / (1u64 << 20) as f64)
+    }
+}
+
+/// Which targets a frame has, for their sizes.
+struct Made {
+    hdr: bool,
+    display_msaa: bool,
+    depth: bool,
+    deferred: bool,
+}
+
+impl Made {
+    /// What [`FrameTargets::new`] makes for these arguments.
+    fn planned(samples: u32, deferred: bool, made: &TargetsMade) -> Made {
+        let hdr = made.hdr || deferred;
+        Made { hdr, display_msaa: !hdr && samples > 1, depth: made.depth || deferred, deferred }
+    }
+
+    fn bytes(&self, size: (u32, u32), samples: u32) -> u64 {
+        let px = size.0 as u64 * size.1 as u64;
+        let samples = samples as u64;
         // Depth 4 B per sample; HDR 8 B per sample plus the single-sampled resolve target;
         // deferred lights add 8 B of surface per sample and 8 B of local light per pixel.
-        let depth = if self.depth_view.is_some() { px * 4 * samples } else { 0 };
-        let hdr = if self.hdr.is_some() { px * 8 * samples + if samples > 1 { px * 8 } else { 0 } } else { 0 };
-        let deferred = if self.deferred.is_some() { px * (8 * samples + 8) } else { 0 };
-        let display = if self.display_msaa.is_some() { px * 4 * samples } else { 0 };
+        let depth = if self.depth { px * 4 * samples } else { 0 };
+        let hdr = if self.hdr { px * 8 * samples + if samples > 1 { px * 8 } else { 0 } } else { 0 };
+        let deferred = if self.deferred { px * (8 * samples + 8) } else { 0 };
+        let display = if self.display_msaa { px * 4 * samples } else { 0 };
         depth + hdr + deferred + display
     }
 }

@@ -62,6 +62,11 @@ pub fn repository_shaders() -> Option<PathBuf> {
 }
 
 impl Command {
+    /// Whether the command opens a window (everything but `view` runs headless).
+    pub fn opens_window(&self) -> bool {
+        matches!(self, Command::View(_))
+    }
+
     /// Whether the command reloads shaders from a watched folder while it runs.
     pub fn watches_shaders(&self) -> bool {
         match self {

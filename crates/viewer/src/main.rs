@@ -12,6 +12,27 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+/// A headless command needs no display, and must not go looking for one: Mesa's Vulkan
+/// device-select layer connects to the Wayland display named in the environment to rank GPUs,
+/// and libwayland prints "error: XDG_RUNTIME_DIR is invalid or not set in the environment."
+/// where there is none (a CI job, `ssh` from a desktop session). Penumbra ranks adapters itself.
+/// A file-size limit (`ulimit -f`) becomes a write error (EFBIG) that names the file, instead of
+/// a SIGXFSZ that kills the process with a partial file behind it.
+///
+/// # Safety
+/// Changes the process environment and a signal disposition: call before any other thread.
+unsafe fn run_headless() {
+    for var in ["WAYLAND_DISPLAY", "WAYLAND_SOCKET", "DISPLAY"] {
+        // SAFETY: the caller guarantees no other thread reads the environment.
+        unsafe { std::env::remove_var(var) };
+    }
+    #[cfg(unix)]
+    // SAFETY: ignoring a signal has no preconditions.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+}
+
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     tracing_subscriber::fmt()
@@ -21,6 +42,10 @@ fn main() -> ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
+    if !args.command.opens_window() {
+        // SAFETY: no other thread exists yet, and no GPU instance.
+        unsafe { run_headless() };
+    }
     // SAFETY: no other thread exists yet, and no GPU instance.
     let watches_shaders = args.command.watches_shaders();
     if let Some(applied) = unsafe { args.cpu_shader_compile.mode(watches_shaders).apply() } {

@@ -360,3 +360,140 @@ fn variant_flag_switches_materials_and_refuses_unknown_names() {
     );
     assert!(!bad_path.exists(), "nothing written for a refused variant");
 }
+
+/// What every output gets: the format checked before rendering (an existing file with an
+/// unsupported extension is left as it was; before, it was emptied to 0 bytes), a failed write
+/// an error with the operating system's reason and a failing status (before, `/dev/full` exited
+/// 0 for small images), and no partial file left in the folder.
+#[test]
+fn outputs_are_written_whole_or_not_at_all() {
+    let dir = out_dir("outputs");
+    let scene = asset("BoxTextured/BoxTextured.glb");
+    let render = |out: &Path| penumbra(&["render", &scene, "--out", out.to_str().unwrap(), "--size", "48x32"]);
+
+    let webp = dir.join("photo.webp");
+    std::fs::write(&webp, b"an existing photo").unwrap();
+    let o = render(&webp);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("photo.webp: .webp is not an image format Penumbra writes"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&webp).unwrap(), b"an existing photo");
+
+    let jpeg = dir.join("photo.jpg");
+    std::fs::write(&jpeg, b"an older photo").unwrap();
+    let o = render(&jpeg);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(image::open(&jpeg).unwrap().width(), 48, "an RGBA frame is written as JPEG without alpha");
+
+    let o = render(&dir.join("missing/out.png"));
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("missing/out.png: its folder"), "{}", stderr(&o));
+
+    #[cfg(target_os = "linux")]
+    {
+        let o = render(Path::new("/dev/full"));
+        assert!(!o.status.success(), "a write to a full device must fail");
+        assert!(stderr(&o).contains("cannot write /dev/full: No space left on device"), "{}", stderr(&o));
+        let o = penumbra(&["gif", &scene, "--out", "/dev/full", "--size", "16x16", "--frames", "2"]);
+        assert!(!o.status.success(), "a GIF written to a full device must fail");
+        assert!(stderr(&o).contains("cannot write /dev/full: No space left on device"), "{}", stderr(&o));
+    }
+
+    let gif = dir.join("turn.png");
+    let o = penumbra(&["gif", &scene, "--out", gif.to_str().unwrap(), "--size", "16x16", "--frames", "2"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("name the output *.gif"), "{}", stderr(&o));
+    assert!(!gif.exists());
+
+    let leftovers: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".partial"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// A glTF with one camera of the given aspect ratio over a triangle.
+fn scene_with_camera_aspect(dir: &Path, aspect: &str) -> PathBuf {
+    let bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|f| f.to_le_bytes()).collect();
+    std::fs::write(dir.join("triangle.bin"), bin).unwrap();
+    let json = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0}}, {{"camera": 0, "translation": [0.3, 0.3, 3]}}],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.5, "znear": 0.1, "aspectRatio": {aspect}}}}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+  "buffers": [{{"uri": "triangle.bin", "byteLength": 36}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}}]}}"#
+    );
+    let path = dir.join(format!("aspect-{aspect}.gltf"));
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+/// A size derived from file data is checked as `--size` is: a camera 40 times wider than tall
+/// asked for a 20480-pixel-wide image without `--size`, and wgpu's validation panicked. Now the
+/// default image fits within the 16384 limit at the camera's shape, and a shape no image can
+/// have is an error asking for `--size`.
+#[test]
+fn sizes_derived_from_a_files_camera_are_validated() {
+    let dir = out_dir("derived-size");
+    let out = dir.join("wide.png");
+    let wide = scene_with_camera_aspect(&dir, "40");
+    let o = penumbra(&["render", wide.to_str().unwrap(), "--camera", "0", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&out).unwrap();
+    assert_eq!((img.width(), img.height()), (16384, 410));
+
+    let thin = scene_with_camera_aspect(&dir, "1e-6");
+    let o = penumbra(&["render", thin.to_str().unwrap(), "--camera", "0", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("aspect ratio 0.000001 gives no image") && stderr(&o).contains("--size"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// Running out of GPU memory is an error saying what was asked for, what it needed and what
+/// would fit, not wgpu's panic: `--size 16384x16384` at MSAA 4 in a process limited to 10 GB of
+/// address space (lavapipe's GPU memory is the process's).
+#[cfg(target_os = "linux")]
+#[test]
+fn out_of_gpu_memory_is_an_error_with_what_would_fit() {
+    let dir = out_dir("oom");
+    let out = dir.join("big.png");
+    let command = format!(
+        "ulimit -v 10000000 && exec '{}' render '{}' --size 16384x16384 --msaa 4 --out '{}'",
+        env!("CARGO_BIN_EXE_penumbra"),
+        asset("BoxTextured/BoxTextured.glb"),
+        out.display()
+    );
+    let o = Command::new("sh").args(["-c", &command]).output().unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("the frame's targets for 16384x16384 at MSAA 4 need 10.0 GiB of GPU memory")
+            && err.contains("MSAA 1 (--msaa 1) needs 2.0 GiB"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+/// A headless command never goes looking for a display: Mesa's Vulkan device-select layer
+/// connected to the Wayland display named in the environment, and libwayland printed
+/// "error: XDG_RUNTIME_DIR is invalid or not set in the environment." twice on every run.
+#[test]
+fn headless_commands_print_no_display_errors() {
+    let dir = out_dir("no-display");
+    let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(["render", &asset("BoxTextured/BoxTextured.glb"), "--size", "16x16", "--out"])
+        .arg(dir.join("a.png"))
+        .env("WAYLAND_DISPLAY", "wayland-0")
+        .env("DISPLAY", ":99")
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "", "a headless render prints nothing");
+}

@@ -175,6 +175,8 @@ pub struct GpuContext {
     pub caps: Capabilities,
     /// Set by the device-lost callback (a driver reset, a removed GPU, `Device::destroy`).
     lost: Arc<AtomicBool>,
+    /// The first out-of-memory error no error scope caught, until the renderer takes it.
+    out_of_memory: Arc<std::sync::Mutex<Option<String>>>,
     /// How the adapter was chosen, to choose again after a loss.
     request: AdapterRequest,
 }
@@ -324,11 +326,21 @@ impl GpuContext {
         });
         // wgpu's default handler panics on any uncaptured error, which is right for Penumbra's
         // own bugs; once the device is lost every call fails, and those failures are expected
-        // until the renderer replaces the device.
+        // until the renderer replaces the device. Running out of memory is not a bug: the first
+        // such error is kept for the renderer to report (the frame fails with it), and what
+        // fails after it, using what could not be made, is its consequence.
         let flag = lost.clone();
+        let out_of_memory = Arc::new(std::sync::Mutex::new(None::<String>));
+        let oom = out_of_memory.clone();
+        let ran_out = AtomicBool::new(false);
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
             if flag.load(Ordering::Acquire) {
                 tracing::debug!("on a lost device: {error}");
+            } else if matches!(error, wgpu::Error::OutOfMemory { .. }) {
+                ran_out.store(true, Ordering::Release);
+                oom.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert_with(|| error.to_string());
+            } else if ran_out.load(Ordering::Acquire) {
+                tracing::debug!("after running out of GPU memory: {error}");
             } else {
                 panic!("wgpu error: {error}");
             }
@@ -356,8 +368,14 @@ impl GpuContext {
                 subpixel_bits,
             },
             lost,
+            out_of_memory,
             request: request.clone(),
         })
+    }
+
+    /// The out-of-memory error that no error scope caught since the last call, if any.
+    pub fn take_out_of_memory(&self) -> Option<String> {
+        self.out_of_memory.lock().unwrap_or_else(|e| e.into_inner()).take()
     }
 
     /// Whether the device was lost; a lost device never comes back (make a new context).

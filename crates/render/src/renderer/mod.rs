@@ -45,11 +45,22 @@ pub enum RendererError {
     #[error(transparent)]
     Shader(#[from] ShaderError),
     #[error(transparent)]
+    Frame(#[from] FrameError),
+    #[error(transparent)]
     Settings(#[from] SettingsError),
     #[error(transparent)]
     Readback(#[from] ReadbackError),
     #[error(transparent)]
     Context(#[from] crate::gpu::context::ContextError),
+}
+
+/// Why a frame failed on the GPU side: what the device could not hold.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum FrameError {
+    #[error(transparent)]
+    Targets(#[from] crate::targets::TargetsError),
+    #[error("the GPU ran out of memory while making the frame ({0}); try a smaller --size or --msaa 1")]
+    OutOfMemory(String),
 }
 
 /// The draw list's view of the renderer's owners (a macro, so that its borrows stay of
@@ -122,6 +133,8 @@ pub struct Renderer {
     shader_watcher: Option<ShaderWatcher>,
     /// The newest shader problem; cleared by the next successful reload.
     shader_error: Option<ShaderError>,
+    /// Why the last frame failed (`Renderer::frame_error`).
+    frame_error: Option<FrameError>,
     deferred: DeferredLights,
     /// The opaque colour's copy that transmissive surfaces see through.
     transmission: Transmission,
@@ -227,6 +240,7 @@ impl Renderer {
             last_submission: None,
             shader_watcher,
             shader_error,
+            frame_error: None,
             deferred,
             transmission,
             binning_error: None,
@@ -426,13 +440,30 @@ impl Renderer {
         self.poll_shader_changes();
         let device = self.ctx.device.clone();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-        let frame = self.prepare_frame(scene, &mut encoder, output, output_format, size);
+        let frame = match self.prepare_frame(scene, &mut encoder, output, output_format, size) {
+            Ok(frame) => frame,
+            Err(e) => {
+                // Nothing is drawn: the frame fails with the reason, and the next frame tries
+                // again (a smaller size or another setting may fit).
+                // Headless reads return it and the viewer shows it: logged only for `-v`.
+                tracing::info!("frame not drawn: {e}");
+                self.frame_error = Some(FrameError::Targets(e));
+                return;
+            }
+        };
         let prepare_ms = cpu_start.elapsed().as_secs_f64() * 1e3;
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
         }
         let counts = self.encode_frame(&frame, &mut encoder, output, output_format, size);
         self.submit(encoder, frame, counts, cpu_start, prepare_ms);
+        self.frame_error = self.ctx.take_out_of_memory().map(FrameError::OutOfMemory);
+    }
+
+    /// Why the last frame was not drawn, or was drawn with something missing for lack of GPU
+    /// memory; `None` after a good frame. Headless reads ([`Renderer::read_frame`]) fail with it.
+    pub fn frame_error(&self) -> Option<&FrameError> {
+        self.frame_error.as_ref()
     }
 
     /// Submits the frame's commands and records what it did.

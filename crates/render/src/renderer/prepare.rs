@@ -24,7 +24,7 @@ use crate::resources::draw_list::{DrawContext, FrameVariant, SceneBounds};
 use crate::resources::draws::{Batch, DebugView, LocalLights};
 use crate::resources::materials::MaterialFeatures;
 use crate::scene::world::{LightKind, RenderScene};
-use crate::targets::{FrameTargets, MsaaResolve, OpaqueDraws, TargetNeeds, TargetsMade};
+use crate::targets::{FrameTargets, MsaaResolve, OpaqueDraws, TargetNeeds, TargetsError, TargetsMade};
 use crate::view::ViewSources;
 
 /// What prepare decided for the frame: the plan, the batches as this frame draws them, and what
@@ -65,7 +65,7 @@ impl Renderer {
         output: &wgpu::TextureView,
         output_format: wgpu::TextureFormat,
         size: (u32, u32),
-    ) -> PreparedFrame {
+    ) -> Result<PreparedFrame, TargetsError> {
         let device = self.ctx.device.clone();
         let queue = self.ctx.queue.clone();
 
@@ -269,7 +269,9 @@ impl Renderer {
                 || t.depth_sampled != occlusion
                 || t.display_msaa.as_ref().is_some_and(|v| v.texture().format() != output_format)
         }) {
-            self.targets = Some(FrameTargets::new(
+            // The old targets go first: their memory may be what the new ones need.
+            self.targets = None;
+            self.targets = Some(FrameTargets::try_new(
                 &device,
                 size,
                 target_samples,
@@ -282,7 +284,7 @@ impl Renderer {
                     shader_resolve: self.ctx.caps.shader_msaa_resolve,
                     hdr_storage,
                 },
-            ));
+            )?);
         }
         self.deferred.prepare(&device, &self.pipelines, self.targets.as_ref().expect("made above"));
         let transmission_error = self.transmission.prepare(&device, &mut self.pipelines, size, transmission).err();
@@ -334,7 +336,7 @@ impl Renderer {
             transmission,
         });
         plan.add_post(self.post.decisions());
-        PreparedFrame {
+        Ok(PreparedFrame {
             plan,
             batches,
             opaque_len,
@@ -349,7 +351,7 @@ impl Renderer {
             camera_exposure,
             cull_error: cull_error.or(transmission_error),
             instance_upload_ms,
-        }
+        })
     }
 
     /// Syncs and uploads the light store, chooses how fragments find local lights, and prepares

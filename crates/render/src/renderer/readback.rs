@@ -98,6 +98,9 @@ impl Renderer {
         if let Some(e) = &self.shader_error {
             return Err(RendererError::Shader(e.clone()));
         }
+        if let Some(e) = &self.frame_error {
+            return Err(RendererError::Frame(e.clone()));
+        }
         Ok(self.read_headless()?)
     }
 

@@ -15,6 +15,7 @@ use image::codecs::gif::{GifEncoder, Repeat};
 use image::{Delay, Frame, RgbaImage};
 use penumbra_engine::components::{Camera, Transform};
 use penumbra_engine::framing::{framing_camera_from, world_bounds};
+use penumbra_engine::output;
 use penumbra_engine::{Time, TimeMode};
 use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, Renderer};
@@ -41,6 +42,10 @@ fn validate(args: &GifArgs) -> Result<()> {
 
 pub fn run(args: GifArgs) -> Result<()> {
     validate(&args)?;
+    output::check_destination(&args.out)?;
+    if !args.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("gif")) && !output::is_device(&args.out) {
+        bail!("{}: `penumbra gif` writes GIF files; name the output *.gif", args.out.display());
+    }
     let settings = args.look.render_settings(false, None)?;
     let size = args.size;
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
@@ -69,26 +74,43 @@ pub fn run(args: GifArgs) -> Result<()> {
     app.insert_resource(Renderer::new(ctx, settings)?);
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
 
-    let file = std::fs::File::create(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let mut encoder = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
-    encoder.set_repeat(Repeat::Infinite).with_context(|| format!("writing {}", args.out.display()))?;
+    // Frames are encoded as they are rendered, into a file that replaces `--out` only when the
+    // last frame is in (a failed render or write leaves no partial GIF and an old file intact).
     let delay = Delay::from_saturating_duration(Duration::from_secs_f32(step));
     let progress = Progress::new(args.frames);
-    for i in 0..args.frames {
-        let turn = Quat::from_rotation_y(std::f32::consts::TAU * i as f32 / args.frames as f32);
-        if let Some(mut t) = app.world.get_mut::<Transform>(camera) {
-            t.translation = center + turn * offset;
-            t.rotation = turn * start.rotation;
+    let mut failed = None;
+    let written = output::write_file(&args.out, |out| {
+        let mut encoder = GifEncoder::new_with_speed(out, 10);
+        encoder.set_repeat(Repeat::Infinite).map_err(std::io::Error::other)?;
+        for i in 0..args.frames {
+            let turn = Quat::from_rotation_y(std::f32::consts::TAU * i as f32 / args.frames as f32);
+            if let Some(mut t) = app.world.get_mut::<Transform>(camera) {
+                t.translation = center + turn * offset;
+                t.rotation = turn * start.rotation;
+            }
+            app.update();
+            let pixels = match app.world.resource::<Renderer>().read_frame() {
+                Ok(pixels) => pixels,
+                Err(e) => {
+                    let message = e.to_string();
+                    failed = Some(anyhow::Error::from(e));
+                    return Err(std::io::Error::other(message));
+                }
+            };
+            let image = RgbaImage::from_raw(size.0, size.1, pixels)
+                .ok_or_else(|| std::io::Error::other("read back the wrong number of pixels"))?;
+            encoder.encode_frame(Frame::from_parts(image, 0, 0, delay)).map_err(|e| match e {
+                image::ImageError::IoError(io) => io,
+                other => std::io::Error::other(other),
+            })?;
+            progress.show(i + 1);
         }
-        app.update();
-        let pixels = app.world.resource::<Renderer>().read_frame()?;
-        let image = RgbaImage::from_raw(size.0, size.1, pixels).context("read back the wrong number of pixels")?;
-        encoder
-            .encode_frame(Frame::from_parts(image, 0, 0, delay))
-            .with_context(|| format!("writing {}", args.out.display()))?;
-        progress.show(i + 1);
+        Ok(())
+    });
+    if let Some(e) = failed {
+        return Err(e);
     }
-    drop(encoder);
+    written?;
     progress.finish(&args.out);
     Ok(())
 }

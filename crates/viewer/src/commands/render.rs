@@ -7,7 +7,8 @@
 
 use std::time::Instant;
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Result, anyhow};
+use penumbra_engine::output;
 use penumbra_render::headless::{ShotSettings, render_frames, stage_scene};
 use penumbra_render::{AdapterRequest, GpuContext, Renderer};
 
@@ -26,6 +27,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         variant: args.scene_args.variant.clone(),
     };
     shot.validate()?;
+    // Where the image goes is checked before anything is rendered: a bad name costs no render.
+    output::image_format(&args.out)?;
+    output::check_destination(&args.out)?;
     let gpu = std::thread::spawn(move || -> Result<Renderer> {
         let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
         step("GPU context");
@@ -53,9 +57,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let renderer = renderer?;
     let pixels = render_frames(&mut app, renderer, size, args.frames)?;
     step("rendered and read back");
-    image::save_buffer(&args.out, &pixels, size.0, size.1, image::ColorType::Rgba8)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    step("PNG written");
+    output::save_image(&args.out, &pixels, size, image::ExtendedColorType::Rgba8)?;
+    step("image written");
     if args.explain {
         print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
     }

@@ -4,6 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
+use penumbra_engine::output;
+
 const KEEP: usize = 10;
 
 pub struct RecentFiles {
@@ -39,7 +41,12 @@ impl RecentFiles {
         self.paths.truncate(KEEP);
         let Some(file) = &self.file else { return };
         let text: String = self.paths.iter().map(|p| format!("{}\n", p.display())).collect();
-        let saved = file.parent().map_or(Ok(()), std::fs::create_dir_all).and_then(|_| std::fs::write(file, text));
+        // Written whole or not at all: a full disk must not empty the list.
+        let saved = file
+            .parent()
+            .map_or(Ok(()), std::fs::create_dir_all)
+            .map_err(|e| e.to_string())
+            .and_then(|_| output::write_file(file, |out| out.write_all(text.as_bytes())).map_err(|e| e.reason));
         if let Err(e) = saved {
             tracing::warn!("cannot save the recent-files list {}: {e}", file.display());
         }

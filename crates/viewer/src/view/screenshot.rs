@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 
+use penumbra_engine::output;
 use penumbra_render::{RenderScene, Renderer};
 
 /// Screenshots being written, and their outcomes.
@@ -64,19 +65,17 @@ fn save(dir: &Path, size: (u32, u32), mut rgba: Vec<u8>) -> Result<PathBuf, Stri
     std::fs::create_dir_all(dir).map_err(|e| format!("screenshot folder {}: {e}", dir.display()))?;
     // The swap chain's alpha is whatever compositing left there; a screenshot is opaque.
     rgba.chunks_exact_mut(4).for_each(|p| p[3] = 255);
-    let image = image::RgbaImage::from_raw(size.0, size.1, rgba).ok_or("screenshot: wrong pixel count")?;
     for n in 1..10_000 {
         let path = dir.join(format!("penumbra-{n:04}.png"));
-        match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
-            Ok(file) => {
-                let mut writer = std::io::BufWriter::new(file);
-                image
-                    .write_to(&mut writer, image::ImageFormat::Png)
-                    .map_err(|e| format!("screenshot {}: {e}", path.display()))?;
-                return Ok(path);
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
-            Err(e) => return Err(format!("screenshot {}: {e}", path.display())),
+        if path.exists() {
+            continue;
+        }
+        // Written whole under a temporary name, then given this one unless another screenshot
+        // took it meanwhile (then the next number).
+        match output::save_new_image(&path, &rgba, size, image::ExtendedColorType::Rgba8) {
+            Ok(()) => return Ok(path),
+            Err(_) if path.exists() => continue,
+            Err(e) => return Err(format!("screenshot: {e}")),
         }
     }
     Err(format!("screenshot: {} already holds 9999 screenshots", dir.display()))

@@ -19,6 +19,7 @@ use std::io::Write as _;
 
 use anyhow::{Context, Result, bail};
 use penumbra_engine::components::Exposure;
+use penumbra_engine::output;
 use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
 use penumbra_render::{
     AdapterRequest, GpuContext, QualityPreset, RenderOutput, RenderSettings, Renderer, ShaderSource,
@@ -113,18 +114,10 @@ pub fn run(args: ReportArgs) -> Result<()> {
             if let Some(dir) = &args.images {
                 std::fs::create_dir_all(dir)?;
                 let reference_png = dir.join(format!("{}.reference.png", s.name));
-                image::save_buffer(
-                    &reference_png,
-                    &metrics::display_rgb8(&reference),
-                    size.0,
-                    size.1,
-                    image::ColorType::Rgb8,
-                )
-                .with_context(|| format!("cannot write {}", reference_png.display()))?;
+                let rgb = image::ExtendedColorType::Rgb8;
+                output::save_image(&reference_png, &metrics::display_rgb8(&reference), size, rgb)?;
                 for (suffix, pixels) in [("png", &rgb8), ("flip.png", &direct.flip_map)] {
-                    let out = dir.join(format!("{}.{preset}.{suffix}", s.name));
-                    image::save_buffer(&out, pixels, size.0, size.1, image::ColorType::Rgb8)
-                        .with_context(|| format!("cannot write {}", out.display()))?;
+                    output::save_image(&dir.join(format!("{}.{preset}.{suffix}", s.name)), pixels, size, rgb)?;
                 }
             }
 
@@ -155,7 +148,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     let table = table(&rows, &title, args.timing_size);
     print!("{table}");
     let csv_path = args.out.join(format!("{}.csv", args.label));
-    std::fs::write(&csv_path, csv(&rows)).with_context(|| format!("cannot write {}", csv_path.display()))?;
+    output::write_file(&csv_path, |out| out.write_all(csv(&rows).as_bytes()))?;
     let png_path = args.out.join(format!("{}.png", args.label));
     let lines: Vec<plot::Line> = scenes
         .iter()

@@ -89,6 +89,5 @@ pub fn draw(path: &Path, title: &str, y_label: &str, lines: &[Line]) -> Result<(
             .map_err(err)?;
         root.present().map_err(err)?;
     }
-    image::save_buffer(path, &buf, w, h, image::ColorType::Rgb8)
-        .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))
+    Ok(penumbra_engine::output::save_image(path, &buf, (w, h), image::ExtendedColorType::Rgb8)?)
 }

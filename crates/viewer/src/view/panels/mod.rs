@@ -176,6 +176,15 @@ pub fn messages(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
             },
         );
     }
+    if let Some(e) = info.renderer.and_then(|r| r.frame_error()) {
+        egui::Window::new("The frame could not be drawn")
+            .collapsible(false)
+            .anchor(egui::Align2::CENTER_BOTTOM, [0.0, -8.0])
+            .show(ui.ctx(), |ui| {
+                ui.label(RichText::new(e.to_string()).color(Color32::LIGHT_RED));
+                ui.label("A smaller window or Render settings > MSAA 1 may fit.");
+            });
+    }
     const STATUS_SECONDS: f32 = 6.0;
     if let Some((status, _)) = state.status.as_ref().filter(|(_, t)| t.elapsed().as_secs_f32() < STATUS_SECONDS) {
         egui::Area::new(egui::Id::unique("penumbra status line"))
