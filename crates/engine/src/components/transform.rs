@@ -139,6 +139,12 @@ impl GlobalTransform {
     /// A mirroring transform gives the rotation of its unmirrored twin, as
     /// `to_scale_rotation_translation` does.
     pub fn rotation(&self) -> Quat {
+        // glam's decomposition where it is defined, so that ordinary cameras keep exactly the
+        // view they always had.
+        let (_, rotation, _) = self.0.to_scale_rotation_translation();
+        if rotation.is_finite() && (rotation.length() - 1.0).abs() < 1e-3 {
+            return rotation;
+        }
         let m = self.0.matrix3;
         let axis = |v: glam::Vec3A| Vec3::from(v).try_normalize();
         let (x, y, z) = (axis(m.x_axis), axis(m.y_axis), axis(m.z_axis));

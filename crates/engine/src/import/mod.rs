@@ -32,6 +32,13 @@ pub fn decode_texture(
     gltf::images::decode(bytes, 0, label, label.to_owned(), options)
 }
 
+/// A number from a file as messages print it: plainly where that is short (`0.5`, `-1`, `1e-5`
+/// as `0.00001`), in exponent form where plain digits would run on (`1e30`, `-1e-30`).
+pub(crate) fn num(v: f32) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&a) { format!("{v}") } else { format!("{v:e}") }
+}
+
 /// Reads a scene file whole. Only a regular file: reading a FIFO, a socket or a device would
 /// block forever or never end (image and buffer URIs get the same check in `gltf::source`).
 pub(crate) fn read_scene_file(path: &Path) -> Result<Vec<u8>, ImportError> {

@@ -6,7 +6,7 @@
 //! rotation and translation), so a zero-scaled camera node is only warned about.
 
 use crate::components::Projection;
-use crate::import::ImportErrorKind;
+use crate::import::{ImportErrorKind, num};
 
 /// The widest vertical field of view kept: glTF says yfov SHOULD be below π, where the
 /// projection's tan(yfov / 2) goes to infinity and then changes sign.
@@ -27,7 +27,11 @@ fn camera(c: &gltf::Camera, warnings: &mut Vec<String>) -> Result<CameraDesc, Im
     let name = c.name().map_or_else(|| format!("camera{}", c.index()), str::to_owned);
     let fail = |reason: String| ImportErrorKind::Camera { index: c.index(), name: name.clone(), reason };
     let positive = |key: &str, v: f32| {
-        if v.is_finite() && v > 0.0 { Ok(v) } else { Err(fail(format!("{key} {v} must be a finite number above 0"))) }
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(fail(format!("{key} {} must be a finite number above 0", num(v))))
+        }
     };
     // The file's aspect ratio is kept aside (it sizes default screenshots) rather than baked into
     // the projection: forced onto a viewport of another shape it would stretch the image.
@@ -39,13 +43,14 @@ fn camera(c: &gltf::Camera, warnings: &mut Vec<String>) -> Result<CameraDesc, Im
             if let Some(zfar) = p.zfar()
                 && !(zfar.is_finite() && zfar > znear)
             {
-                return Err(fail(format!("zfar {zfar} must be a finite number above znear {znear}")));
+                return Err(fail(format!("zfar {} must be a finite number above znear {}", num(zfar), num(znear))));
             }
             let aspect_ratio = p.aspect_ratio().map(|a| positive("aspectRatio", a)).transpose()?;
             if yfov > MAX_YFOV {
                 warnings.push(format!(
-                    "camera {} (\"{name}\"): yfov {yfov} is not below π, as glTF asks; using {MAX_YFOV} (179°)",
-                    c.index()
+                    "camera {} (\"{name}\"): yfov {} is not below π, as glTF asks; using {MAX_YFOV} (179°)",
+                    c.index(),
+                    num(yfov)
                 ));
                 yfov = MAX_YFOV;
             }
@@ -55,14 +60,15 @@ fn camera(c: &gltf::Camera, warnings: &mut Vec<String>) -> Result<CameraDesc, Im
         gltf::camera::Projection::Orthographic(o) => {
             let mut magnification = |key: &str, v: f32| {
                 if !v.is_finite() || v == 0.0 {
-                    return Err(fail(format!("{key} {v} must be a finite number other than 0")));
+                    return Err(fail(format!("{key} {} must be a finite number other than 0", num(v))));
                 }
                 if v < 0.0 {
                     warnings.push(format!(
-                        "camera {} (\"{name}\"): {key} {v} is negative, which glTF advises against (it mirrors \
+                        "camera {} (\"{name}\"): {key} {} is negative, which glTF advises against (it mirrors \
                          the image); using {}",
                         c.index(),
-                        -v
+                        num(v),
+                        num(-v)
                     ));
                 }
                 Ok(v.abs())
@@ -71,10 +77,10 @@ fn camera(c: &gltf::Camera, warnings: &mut Vec<String>) -> Result<CameraDesc, Im
             let ymag = magnification("ymag", o.ymag())?;
             let (znear, zfar) = (o.znear(), o.zfar());
             if !(znear.is_finite() && znear >= 0.0) {
-                return Err(fail(format!("znear {znear} must be a finite number of at least 0")));
+                return Err(fail(format!("znear {} must be a finite number of at least 0", num(znear))));
             }
             if !(zfar.is_finite() && zfar > znear) {
-                return Err(fail(format!("zfar {zfar} must be a finite number above znear {znear}")));
+                return Err(fail(format!("zfar {} must be a finite number above znear {}", num(zfar), num(znear))));
             }
             Ok((name.clone(), Projection::Orthographic { xmag: None, ymag, znear, zfar }, Some(xmag / ymag)))
         }

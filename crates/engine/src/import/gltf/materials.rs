@@ -4,6 +4,7 @@
 use glam::{Vec2, Vec3, Vec4};
 use gltf::texture::{MagFilter, MinFilter, WrappingMode};
 
+use crate::import::num;
 use crate::material::{
     AlphaMode, DEFAULT_IOR, FilterMode, Sampler, StandardMaterial, TEXTURE_SLOTS, UvTransform, WrapMode,
 };
@@ -157,12 +158,17 @@ fn dielectric(m: &gltf::Material, material: &mut StandardMaterial, warnings: &mu
 fn core_factors(label: &str, m: &mut StandardMaterial, warnings: &mut Vec<String>) {
     let defaults = StandardMaterial::default();
     let mut check = |key: &str, value: &mut f32, default: f32, range: std::ops::RangeInclusive<f32>| {
-        if value.is_nan() || (value.is_infinite() && !range.contains(value)) {
-            warnings.push(format!("{label}: {key} {value} is not a finite number; using {default}"));
+        if !value.is_finite() {
+            warnings.push(format!("{label}: {key} {} is not a finite number; using {default}", num(*value)));
             *value = default;
         } else if !range.contains(value) {
             let clamped = value.clamp(*range.start(), *range.end());
-            warnings.push(format!("{label}: {key} {value} is outside {range:?}; using {clamped}"));
+            let allowed = if *range.end() == f32::MAX {
+                format!("below {}", range.start())
+            } else {
+                format!("outside {}..={}", range.start(), range.end())
+            };
+            warnings.push(format!("{label}: {key} {} is {allowed}; using {clamped}", num(*value)));
             *value = clamped;
         }
     };

@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use bevy_ecs::prelude::*;
-use glam::Mat4;
+use glam::{Mat4, Vec3};
 
 use crate::animation::{AnimationClip, AnimationPlayer};
 use crate::assets::{Assets, Handle};
@@ -511,17 +511,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         .nodes()
         .map(|n| NodeDesc {
             name: n.name().map_or_else(|| format!("node{}", n.index()), str::to_owned),
-            transform: match n.transform() {
-                gltf::scene::Transform::Matrix { matrix } => Transform::from_matrix(Mat4::from_cols_array_2d(&matrix)),
-                gltf::scene::Transform::Decomposed { translation, rotation, scale } => Transform {
-                    translation: translation.into(),
-                    // A zero quaternion is invalid glTF but seen in the wild; identity, not NaN.
-                    rotation: glam::Vec4::from_array(rotation)
-                        .try_normalize()
-                        .map_or(glam::Quat::IDENTITY, glam::Quat::from_vec4),
-                    scale: scale.into(),
-                },
-            },
+            transform: node_transform(&n, &mut warnings),
             children: n.children().map(|c| c.index()).collect(),
             mesh: n.mesh().map(|m| m.index()),
             camera: n.camera().map(|c| c.index()),
@@ -558,6 +548,50 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         scene_index: options.scene.or_else(|| document.default_scene().map(|s| s.index())),
         warnings,
     })
+}
+
+/// A node's transform, checked against the schema: every number finite (a non-finite one is
+/// replaced, translation by 0, scale by 1, rotation and matrix by the identity) and the rotation
+/// a unit quaternion (normalised; a zero one, seen in the wild, is the identity), each with a
+/// warning naming the node. Zero and negative scales are valid glTF and kept.
+fn node_transform(n: &gltf::Node, warnings: &mut Vec<String>) -> Transform {
+    let mut warn = |what: String| warnings.push(format!("node {} (\"{}\"): {what}", n.index(), n.name().unwrap_or("")));
+    match n.transform() {
+        gltf::scene::Transform::Matrix { matrix } => {
+            let m = Mat4::from_cols_array_2d(&matrix);
+            if m.is_finite() {
+                Transform::from_matrix(m)
+            } else {
+                warn("matrix has a non-finite element; using the identity".into());
+                Transform::IDENTITY
+            }
+        }
+        gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
+            let mut translation = Vec3::from(translation);
+            if !translation.is_finite() {
+                warn(format!("translation {translation} is not finite; its non-finite parts are 0"));
+                translation = Vec3::from_array(translation.to_array().map(|c| if c.is_finite() { c } else { 0.0 }));
+            }
+            let mut scale = Vec3::from(scale);
+            if !scale.is_finite() {
+                warn(format!("scale {scale} is not finite; its non-finite parts are 1"));
+                scale = Vec3::from_array(scale.to_array().map(|c| if c.is_finite() { c } else { 1.0 }));
+            }
+            let q = glam::Vec4::from_array(rotation);
+            let length = q.length();
+            let rotation = if !(length.is_finite() && length > 0.0) {
+                warn(format!("rotation {q} is not a unit quaternion (length {length}); using the identity"));
+                glam::Quat::IDENTITY
+            } else {
+                // Exporters write unit quaternions rounded to f32: a few ulps off is no news.
+                if (length - 1.0).abs() > 1e-3 {
+                    warn(format!("rotation {q} is not a unit quaternion (length {length}); normalised"));
+                }
+                glam::Quat::from_vec4(q / length)
+            };
+            Transform { translation, rotation, scale }
+        }
+    }
 }
 
 /// Every joint index a skinned vertex uses (with non-zero weight) must name one of its skin's

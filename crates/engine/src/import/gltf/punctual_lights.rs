@@ -10,6 +10,7 @@
 use glam::Vec3;
 
 use crate::components::{DirectionalLight, PointLight, SpotLight};
+use crate::import::num;
 
 /// The largest intensity (candela) or illuminance (lux) kept; see the module doc.
 pub const MAX_INTENSITY: f32 = 1e15;
@@ -40,6 +41,10 @@ fn light(l: &gltf::khr_lights_punctual::Light, warnings: &mut Vec<String>) -> Li
         warn(format!("color {raw} must be finite and not negative; using {fixed}"));
         fixed
     };
+    if color.max_element() > 1.0 {
+        // The extension's colour is 0..=1; a larger one still means what it says (brighter).
+        warn(format!("color {color} is outside 0..=1 (the extension's range); kept"));
+    }
     let unit = match l.kind() {
         gltf::khr_lights_punctual::Kind::Directional => "lux",
         _ => "cd",
@@ -48,12 +53,14 @@ fn light(l: &gltf::khr_lights_punctual::Light, warnings: &mut Vec<String>) -> Li
     // What shading multiplies is colour × intensity: a colour above 1 takes from the headroom.
     let headroom = MAX_INTENSITY / color.max_element().max(1.0);
     let intensity = if raw.is_nan() || raw < 0.0 {
-        warn(format!("intensity {raw} must be a number of at least 0; using 0"));
+        warn(format!("intensity {} must be a number of at least 0; using 0", num(raw)));
         0.0
     } else if raw > headroom {
         warn(format!(
-            "intensity {raw} {unit} is beyond what shading carries (colour × intensity up to {MAX_INTENSITY:e}); \
-             clamped to {headroom:e}"
+            "intensity {} {unit} is beyond what shading carries (colour × intensity up to {MAX_INTENSITY:e}); \
+             clamped to {}",
+            num(raw),
+            num(headroom)
         ));
         headroom
     } else {
@@ -65,7 +72,7 @@ fn light(l: &gltf::khr_lights_punctual::Light, warnings: &mut Vec<String>) -> Li
         } else {
             // +inf is as good as no range at all, and says the same thing.
             if r != f32::INFINITY {
-                warn(format!("range {r} must be above 0; ignored (no range)"));
+                warn(format!("range {} must be above 0; ignored (no range)", num(r)));
             }
             None
         }
