@@ -130,7 +130,8 @@ pub(crate) fn build(
         }
         if let Some(set) = needs.normal_map_uv_set {
             let has_uvs = if set == 0 { !mesh.uv0.is_empty() } else { !mesh.uv1.is_empty() };
-            if mesh.tangents.is_empty() && has_uvs {
+            let from_file = !mesh.tangents.is_empty();
+            if !from_file && has_uvs {
                 mesh.generate_tangents(set).map_err(|source| ImportErrorKind::Mesh {
                     mesh: mesh_index,
                     primitive,
@@ -146,8 +147,10 @@ pub(crate) fn build(
                      every triangle (all UVs equal or in a line), so the map has no direction on this mesh"
                 ));
             }
+            // Generated tangents can be degenerate too (MikkTSpace's fallback where UVs give no
+            // direction): repaired the same way, but only the file's own are news to its author.
             let repaired = mesh.repair_tangent_frames(set);
-            if repaired > 0 {
+            if repaired > 0 && from_file {
                 notes.push(format!(
                     "mesh {mesh_index} primitive {primitive}: {repaired} vertices had tangents parallel to their \
                      normals; rebuilt (MikkTSpace where the UVs allow, else any perpendicular direction)"
