@@ -22,7 +22,9 @@
 #import penumbra::light_data::Light
 
 struct ShadowCascade {
-    // Light clip space (x, y in −1..1; depth 1 at the light's side) from camera-relative positions.
+    // Light clip space (x, y in −1..1; depth 1 at the light's side) from camera-relative positions,
+    // for receivers: their depth is raised by the casters' f32 precision (see orchestrator.rs,
+    // DEPTH_PRECISION_ULPS).
     clip_from_rel: mat4x4<f32>,
     // View depth where the cascade ends.
     far: f32,
@@ -32,9 +34,6 @@ struct ShadowCascade {
     depth_range: f32,
     // 1 when the layer was rendered this frame; 0 when no caster reaches the cascade (lit).
     rendered: u32,
-    // How far the casters' depths may be off, in this cascade's depth units: f32 rounding of
-    // caster positions as far from the camera as the farthest caster (see orchestrator.rs).
-    depth_precision: f32,
 };
 
 struct DirectionalShadow {
@@ -158,7 +157,7 @@ fn cascade_visibility(c: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32, a
     if clip.z > 1.0 || any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
         return 1.0;
     }
-    let depth = clip.z + shadows.depth_tolerance + cascade.depth_precision;
+    let depth = clip.z + shadows.depth_tolerance;
     var radius = 1.0;
     if shadows.filter_mode == FILTER_PCSS {
         radius = pcss_radius(c, uv, depth, cascade, angular_tan, angle);

@@ -4,7 +4,7 @@
 
 use penumbra::prelude::*;
 use penumbra::render::AlphaTest;
-use penumbra::render::{RenderSettings, Renderer};
+use penumbra::render::{RenderOutput, RenderSettings, Renderer};
 
 mod common;
 use common::{brightness, render_app, scene_app, spawn_mesh};
@@ -728,4 +728,20 @@ fn a_multisampled_frame_times_its_resolve_where_the_shader_resolves() {
     // pass is timed too, so the passes add up to the frame; on a GPU the render pass resolves
     // and no such pass exists (no setting forces the shader resolve there).
     assert_eq!(passes.contains(&"resolve"), caps.shader_msaa_resolve, "{passes:?}");
+}
+
+/// A frame larger than the device's textures can be (a size from a file, or a script) fails
+/// with the reason instead of wgpu's validation panic, and the next frame of a size that fits
+/// draws again.
+#[test]
+fn a_frame_larger_than_the_gpus_textures_is_an_error_not_a_panic() {
+    let mut app = scene_app();
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 0.0, 3.0)));
+    render_app(&mut app, (8, 8), RenderSettings::default());
+    let max = app.world.resource::<Renderer>().context().device.limits().max_texture_dimension_2d;
+    app.insert_resource(RenderOutput::Headless { width: max + 1, height: 4 });
+    app.update();
+    let err = app.world.resource::<Renderer>().read_frame().expect_err("too wide for the GPU");
+    assert!(err.to_string().contains(&format!("is larger than this GPU's textures can be ({max} a side)")), "{err}");
+    render_app(&mut app, (8, 8), RenderSettings::default());
 }

@@ -61,6 +61,8 @@ pub enum FrameError {
     Targets(#[from] crate::targets::TargetsError),
     #[error("the GPU ran out of memory while making the frame ({0}); try a smaller --size or --msaa 1")]
     OutOfMemory(String),
+    #[error("a {}x{} frame is larger than this GPU's textures can be ({max} a side)", size.0, size.1)]
+    Size { size: (u32, u32), max: u32 },
 }
 
 /// The draw list's view of the renderer's owners (a macro, so that its borrows stay of

@@ -2,7 +2,7 @@
 //! pixels, HDR colour, culling's counts and automatic exposure's state. Each waits for the GPU;
 //! none is on a frame's path.
 
-use super::{Renderer, RendererError};
+use super::{FrameError, Renderer, RendererError};
 use crate::gpu::readback::{self, ReadbackError};
 use crate::scene::world::RenderScene;
 use crate::targets::MsaaResolve;
@@ -50,6 +50,12 @@ impl Renderer {
         // A 0×0 request draws into a 1×1 texture: compare with what was made, or it is made again
         // every frame.
         let size = (size.0.max(1), size.1.max(1));
+        let max = self.ctx.device.limits().max_texture_dimension_2d;
+        if size.0 > max || size.1 > max {
+            // A validation error (a panic) if asked of wgpu: the frame fails with the reason.
+            self.frame_error = Some(FrameError::Size { size, max });
+            return;
+        }
         // Resolving display colours averages them in linear light, through an sRGB target (the
         // driver then encodes); otherwise the shaders encode into a unorm target.
         let format = if self.settings.msaa > 1 && self.settings.msaa_resolve == MsaaResolve::Display {

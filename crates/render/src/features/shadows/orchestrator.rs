@@ -158,7 +158,8 @@ impl Atlas {
 /// receiver are one surface (a ground facing the light, which has no depth slope for the
 /// slope-scaled bias to hide, or a huge ground) the comparison goes either way from texel to
 /// texel: streaks, or a whole cascade in shadow. Receivers are moved this many ulps of the
-/// farthest caster's distance toward the light; for a scene ten metres across, micrometres.
+/// farthest caster's distance toward the light (added to the depth translation of the
+/// receivers' matrix); for a scene ten metres across, micrometres.
 pub const DEPTH_PRECISION_ULPS: f64 = 4.0;
 
 /// A receiver's depth tolerance on a backend that rounds depth at 2⁻²⁴ of 1 (GL, see
@@ -472,15 +473,17 @@ impl ShadowOrchestrator {
             let depth_row =
                 DVec3::new(c.clip_from_world.x_axis.z, c.clip_from_world.y_axis.z, c.clip_from_world.z_axis.z);
             let depth_range = 1.0 / depth_row.length().max(f64::MIN_POSITIVE);
+            // Receivers' depth raised by the casters' precision: folded into the matrix's depth
+            // translation, so the shader pays nothing for it.
+            let mut clip_from_rel = c.clip_from_rel;
+            clip_from_rel.w_axis.z +=
+                (DEPTH_PRECISION_ULPS * f32::EPSILON as f64 * frame.caster_extent / depth_range) as f32;
             gpu.cascades[i] = GpuCascade {
-                clip_from_rel: c.clip_from_rel.to_cols_array_2d(),
+                clip_from_rel: clip_from_rel.to_cols_array_2d(),
                 far: c.far,
                 texel_size: c.texel_size as f32,
                 depth_range: depth_range as f32,
                 rendered: frame.rendered[i] as u32,
-                depth_precision: (DEPTH_PRECISION_ULPS * f32::EPSILON as f64 * frame.caster_extent / depth_range)
-                    as f32,
-                _pad: [0; 3],
             };
         }
         for (i, l) in frame.lights.iter().enumerate() {

@@ -12,8 +12,6 @@ pub(super) struct GpuCascade {
     pub(super) texel_size: f32,
     pub(super) depth_range: f32,
     pub(super) rendered: u32,
-    pub(super) depth_precision: f32,
-    pub(super) _pad: [u32; 3],
 }
 
 /// Mirrors `DirectionalShadow` in `shaders/shadows.wgsl`.
@@ -87,7 +85,7 @@ mod tests {
             "forward.wgsl",
             SHADOW_DEFS,
             "ShadowCascade",
-            [clip_from_rel, far, texel_size, depth_range, rendered, depth_precision]
+            [clip_from_rel, far, texel_size, depth_range, rendered]
         );
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuDirectionalShadow,
