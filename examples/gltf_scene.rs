@@ -59,7 +59,8 @@ fn default_model() -> PathBuf {
 
 #[cfg_attr(test, allow(dead_code))]
 fn main() {
-    let model = std::env::args().skip(1).find(|a| !a.starts_with("--") && a.contains('.')).map(PathBuf::from);
+    // The first argument that is not a flag (`--headless x.png` is the screenshot, not the model).
+    let model = penumbra::program_args().into_iter().find(|a| !a.starts_with("--")).map(PathBuf::from);
     let mut app = App::new();
     if let Err(e) = build(&mut app, &model.unwrap_or_else(default_model)) {
         eprintln!("error: {e}");

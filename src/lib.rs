@@ -90,6 +90,26 @@ impl RunMode {
     }
 }
 
+/// The program's own arguments: the command line without the program name and without the
+/// [`RunMode`] flags and their values (`--headless OUT`, `--frames N`, `--size WxH`), so that an
+/// example's `MODEL.glb` is never confused with the screenshot's path.
+pub fn program_args() -> Vec<String> {
+    strip_run_flags(std::env::args().skip(1))
+}
+
+fn strip_run_flags(args: impl IntoIterator<Item = String>) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut args = args.into_iter();
+    while let Some(a) = args.next() {
+        if matches!(a.as_str(), "--headless" | "--frames" | "--size") {
+            args.next();
+        } else {
+            out.push(a);
+        }
+    }
+    out
+}
+
 /// Runs `app` in a window, or headless when the command line says `--headless OUT.png` (see
 /// [`RunMode`]). Exits the process with a message on a bad flag or a failed run.
 pub fn run(app: &mut App) {
@@ -111,6 +131,12 @@ pub fn run(app: &mut App) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn program_args_leave_out_the_run_flags_and_their_values() {
+        let args = ["--headless", "/tmp/x.png", "model.glb", "--frames", "3", "--size", "64x32", "--other"];
+        assert_eq!(strip_run_flags(args.map(String::from)), ["model.glb", "--other"]);
+    }
 
     fn mode(args: &[&str]) -> Result<RunMode, String> {
         RunMode::from_args(args.iter().map(|s| s.to_string()))

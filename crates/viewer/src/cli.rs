@@ -20,12 +20,8 @@ pub struct Cli {
     /// Log progress (info level; RUST_LOG overrides).
     #[arg(short, long, global = true)]
     pub verbose: bool,
-    /// How a CPU rasteriser (lavapipe) compiles shaders: `fast` (LLVM without optimisation: a
-    /// hot reload of the lit shader takes about 40 % less time, frames take 1.4 to 1.7 times as
-    /// long), `optimized`, or `auto`: fast while the command watches a shader folder (`view`
-    /// while the checkout it was built from exists, or with `--shader-dir`; `bench
-    /// --shader-edits`), optimized otherwise.
-    /// GPU drivers ignore it.
+    /// CPU rasterisers (lavapipe) only: `fast` or `optimized` shader compiles; `auto` is fast
+    /// while shaders are watched for edits (docs/cli.md). GPU drivers ignore it.
     #[arg(long, global = true, value_enum, default_value_t = CpuCompileArg::Auto)]
     pub cpu_shader_compile: CpuCompileArg,
     #[command(subcommand)]
@@ -372,7 +368,7 @@ fn parse_clusters(s: &str) -> Result<ClusterConfig, String> {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// A .gltf or .glb file.
+    /// A .gltf, .glb or .obj file.
     #[arg(value_name = "SCENE")]
     pub path: PathBuf,
     /// Output PNG.
@@ -502,7 +498,7 @@ pub struct ViewArgs {
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// A .gltf or .glb file (default: the embedded default scene).
+    /// A .gltf, .glb or .obj file (default: the embedded default scene).
     #[arg(value_name = "SCENE")]
     pub path: Option<PathBuf>,
     #[arg(long, value_parser = parse_size, default_value = "1920x1080")]

@@ -8,6 +8,7 @@ mod commands;
 mod scene;
 mod view;
 
+use std::io::IsTerminal;
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -41,6 +42,8 @@ fn main() -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(if args.verbose { "info" } else { "warn" })),
         )
         .with_writer(std::io::stderr)
+        // Colour only for a person at a terminal, and never where NO_COLOR is set (no-color.org).
+        .with_ansi(std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty()))
         .init();
     if !args.command.opens_window() {
         // SAFETY: no other thread exists yet, and no GPU instance.

@@ -497,3 +497,38 @@ fn headless_commands_print_no_display_errors() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "", "a headless render prints nothing");
 }
+
+/// Output that says only what matters: a file with the same problem in every mesh gets one
+/// warning per kind with a count (49 lines for MetalRoughSpheresNoTextures's degenerate triangles
+/// before; `-v` still lists them all), and no colour codes when stderr is not a terminal.
+#[test]
+fn warnings_are_one_line_per_kind_and_uncoloured_off_a_terminal() {
+    let dir = out_dir("warning-summary");
+    let out = dir.join("spheres.png");
+    let scene = asset("MetalRoughSpheresNoTextures/MetalRoughSpheresNoTextures.glb");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", scene.as_str(), "--size", "32x32", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        penumbra(&args)
+    };
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(!err.contains('\u{1b}'), "colour codes off a terminal: {err:?}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].contains("degenerate triangles") && lines[0].contains("more like it; `-v` lists them"), "{err}");
+    let verbose = stderr(&run(&["-v"]));
+    let listed = verbose.lines().filter(|l| l.contains("degenerate triangles")).count();
+    assert!(listed > 10, "-v lists every primitive's warning: {listed}");
+}
+
+/// The help says what the commands take: `render` reads OBJ too, and the top-level help does not
+/// open with a paragraph about LLVM.
+#[test]
+fn help_texts_say_what_the_commands_take() {
+    let top = String::from_utf8_lossy(&penumbra(&["--help"]).stdout).into_owned();
+    assert!(!top.contains("LLVM"), "{top}");
+    let render = String::from_utf8_lossy(&penumbra(&["render", "--help"]).stdout).into_owned();
+    assert!(render.contains(".gltf, .glb or .obj"), "{render}");
+}

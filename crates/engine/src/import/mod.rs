@@ -9,6 +9,7 @@ pub mod gltf;
 pub mod limits;
 pub mod obj;
 pub mod progress;
+mod report;
 
 use std::path::Path;
 use std::sync::Arc;

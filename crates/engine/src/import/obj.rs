@@ -269,9 +269,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<ObjS
     if objects.is_empty() {
         warnings.push("the file has no faces".into());
     }
-    for w in &warnings {
-        tracing::warn!("{}: {w}", path.display());
-    }
+    crate::import::report::log_warnings(path, &warnings);
     Ok(ObjScene { path: path.to_path_buf(), objects, materials: descs, images, warnings })
 }
 

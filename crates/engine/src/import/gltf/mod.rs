@@ -529,9 +529,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     cameras::check_nodes(&document, &mut warnings);
     let lights = punctual_lights::convert(&document, &mut warnings);
 
-    for w in &warnings {
-        tracing::warn!("{}: {w}", path.display());
-    }
+    crate::import::report::log_warnings(path, &warnings);
     Ok(GltfScene {
         path: path.to_path_buf(),
         meshes,
