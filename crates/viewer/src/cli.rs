@@ -130,8 +130,14 @@ fn parse_limit(s: &str) -> Result<String, String> {
 
 #[derive(Args, Debug, Clone)]
 pub struct LookArgs {
-    #[arg(long, value_enum, default_value_t = TonemapArg::Neutral)]
-    pub tonemap: TonemapArg,
+    /// `reference`: the image a path tracer's raw output is, for comparing against one:
+    /// radiance × 1 (EV100 −0.263), no environment, a black background, no tonemapping. Flags
+    /// given beside it (`--exposure`, `--env`, `--tonemap`, `--background-color`) win.
+    #[arg(long, value_enum, default_value_t = LookArg::Default)]
+    pub look: LookArg,
+    /// Display transform: `neutral` (the default), `aces`, or `none` (radiance clamped to 1).
+    #[arg(long, value_enum)]
+    pub tonemap: Option<TonemapArg>,
     /// Quality preset: sets MSAA, shadow atlas size, cascades, shadow filter, cluster grid and
     /// the light cutoff together (`high` is the default); the flags for each override it.
     #[arg(long, default_value = "high", value_parser = parse_quality, value_name = "low|medium|high|ultra")]
@@ -223,8 +229,9 @@ pub struct LookArgs {
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a
     /// neutral studio gradient when it has none), `sky`, `studio`, `none`, or an
     /// equirectangular Radiance .hdr or OpenEXR file.
-    #[arg(long, default_value = "auto", value_name = "auto|sky|studio|none|FILE")]
-    pub env: String,
+    /// (Default `auto`; `none` with `--look reference`.)
+    #[arg(long, value_name = "auto|sky|studio|none|FILE")]
+    pub env: Option<String>,
     /// Multiplies the environment's radiance (light and background).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_name = "FACTOR")]
     pub env_intensity: f32,
@@ -239,6 +246,12 @@ pub struct LookArgs {
     /// --background-blur roughness reflects it), or the solid clear `color`.
     #[arg(long, value_enum, default_value_t = BackgroundArg::Environment)]
     pub background: BackgroundArg,
+    /// The colour behind the scene where no environment is drawn (`--env none`, or
+    /// `--background color`): linear `R,G,B` (each 0 to 65504) or sRGB `#RRGGBB`, radiance like
+    /// the scene's (exposed and tonemapped with it; shown as given with `--look reference`).
+    /// Default a near-black grey (0.02,0.02,0.025); black with `--look reference`.
+    #[arg(long, value_parser = parse_color, value_name = "R,G,B|#RRGGBB")]
+    pub background_color: Option<[f32; 3]>,
     /// Perceptual roughness of the blurred background, 0 to 1.
     #[arg(long, default_value_t = 0.5, value_name = "ROUGHNESS")]
     pub background_blur: f32,
@@ -277,6 +290,32 @@ fn parse_ev_range(s: &str) -> Result<(f32, f32), String> {
     Ok((n(a)?, n(b)?))
 }
 
+/// `--look`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LookArg {
+    Default,
+    Reference,
+}
+
+/// `--background-color`: linear `R,G,B` or sRGB `#RRGGBB`, as linear RGB.
+fn parse_color(s: &str) -> Result<[f32; 3], String> {
+    if let Some(hex) = s.strip_prefix('#') {
+        let bytes = (hex.len() == 6 && hex.is_ascii())
+            .then(|| (0..3).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).ok()).collect::<Option<Vec<u8>>>())
+            .flatten()
+            .ok_or_else(|| format!("{s:?} is not #RRGGBB"))?;
+        return Ok(std::array::from_fn(|i| penumbra_engine::color::srgb_to_linear(bytes[i] as f32 / 255.0)));
+    }
+    let parts: Vec<&str> = s.split(',').collect();
+    let values: Option<Vec<f32>> = parts.iter().map(|v| v.trim().parse::<f32>().ok()).collect();
+    match values {
+        Some(v) if v.len() == 3 && v.iter().all(|c| c.is_finite() && (0.0..=65504.0).contains(c)) => {
+            Ok([v[0], v[1], v[2]])
+        }
+        _ => Err(format!("{s:?} is neither R,G,B (three linear values, 0 to 65504) nor #RRGGBB")),
+    }
+}
+
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackgroundArg {
     Environment,
@@ -285,9 +324,32 @@ pub enum BackgroundArg {
 }
 
 impl LookArgs {
+    fn reference(&self) -> bool {
+        self.look == LookArg::Reference
+    }
+
+    /// `--env`, or what `--look` implies.
+    pub fn env_name(&self) -> &str {
+        self.env.as_deref().unwrap_or(if self.reference() { "none" } else { "auto" })
+    }
+
+    /// `--exposure`, or what `--look` implies (`None`: the camera's own).
+    pub fn exposure_ev100(&self) -> Option<f32> {
+        self.exposure.or(self.reference().then(|| penumbra_engine::components::Exposure::unit().ev100))
+    }
+
+    /// The clear colour behind the scene: `--background-color`, or what `--look` implies.
+    pub fn clear_color(&self) -> [f32; 3] {
+        self.background_color.unwrap_or(if self.reference() {
+            [0.0; 3]
+        } else {
+            RenderSettings::default().clear_color.map(|c| c as f32)
+        })
+    }
+
     /// The environment these flags ask for (`None` for `--env none`); reads an image file.
     pub fn environment(&self) -> anyhow::Result<Option<Environment>> {
-        let source = match self.env.as_str() {
+        let source = match self.env_name() {
             "none" => return Ok(None),
             "auto" => EnvironmentSource::Auto,
             "sky" => EnvironmentSource::Sky(Sky::default()),
@@ -303,7 +365,7 @@ impl LookArgs {
             background: match self.background {
                 BackgroundArg::Environment => Background::Environment,
                 BackgroundArg::Blurred => Background::Blurred(self.background_blur),
-                BackgroundArg::Color => Background::Color(RenderSettings::default().clear_color.map(|c| c as f32)),
+                BackgroundArg::Color => Background::Color(self.clear_color()),
             },
         };
         env.validate().map_err(|e| {
@@ -650,7 +712,11 @@ impl LookArgs {
             None => ShaderSource::Embedded,
         };
         let mut settings = RenderSettings {
-            tonemapper: self.tonemap.into(),
+            tonemapper: self
+                .tonemap
+                .unwrap_or(if self.reference() { TonemapArg::None } else { TonemapArg::Neutral })
+                .into(),
+            clear_color: self.clear_color().map(f64::from),
             shaders,
             light_walk: match self.light_walk {
                 LightWalkArg::Auto => LightWalk::Auto,

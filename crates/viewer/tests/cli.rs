@@ -532,3 +532,36 @@ fn help_texts_say_what_the_commands_take() {
     let render = String::from_utf8_lossy(&penumbra(&["render", "--help"]).stdout).into_owned();
     assert!(render.contains(".gltf, .glb or .obj"), "{render}");
 }
+
+/// `--look reference` is a path tracer's raw output in one flag: radiance × 1, no environment,
+/// a black background, no tonemapping (UnlitTest's orange, linear (1, 0.2176, 0), is sRGB
+/// (255, 128, 0) exactly); `--background-color` sets the clear colour, linear or sRGB hex.
+#[test]
+fn the_reference_look_and_the_background_colour() {
+    let dir = out_dir("look");
+    let scene = asset("UnlitTest/UnlitTest.glb");
+    let pixels = |extra: &[&str]| {
+        let out = dir.join("look.png");
+        let mut args = vec!["render", scene.as_str(), "--size", "64x64", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = penumbra(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let img = image::open(&out).unwrap().to_rgba8();
+        [img.get_pixel(0, 0).0, img.get_pixel(16, 32).0]
+    };
+    let [background, orange] = pixels(&["--look", "reference"]);
+    assert_eq!(background, [0, 0, 0, 255]);
+    assert_eq!(orange, [255, 128, 0, 255]);
+    let [background, orange] = pixels(&[]);
+    assert_ne!(background, [0, 0, 0, 255], "the default look draws the environment");
+    assert_ne!(orange, [255, 128, 0, 255], "the default look tonemaps");
+    assert_eq!(pixels(&["--look", "reference", "--background-color", "#ff8000"])[0], [255, 128, 0, 255]);
+    assert_eq!(pixels(&["--look", "reference", "--background-color", "0,0,1"])[0], [0, 0, 255, 255]);
+    // Radiance like the scene's: the default look exposes and tonemaps it too.
+    let tonemapped = pixels(&["--env", "none", "--background-color", "0,0,1"])[0];
+    assert!(tonemapped[2] > 200 && tonemapped[2] < 255, "{tonemapped:?}");
+    assert_eq!(pixels(&["--look", "reference", "--tonemap", "neutral"])[0], [0, 0, 0, 255]);
+    let o = penumbra(&["render", &scene, "--out", "x.png", "--background-color", "1,2"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--background-color"), "{}", stderr(&o));
+}

@@ -41,7 +41,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
     let shot = ShotSettings {
         size: Some(args.size),
-        exposure_ev100: args.look.exposure,
+        exposure_ev100: args.look.exposure_ev100(),
         variant: args.scene_args.variant.clone(),
         ..Default::default()
     };
@@ -62,7 +62,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let env_label = match &environment {
         None => "none".to_owned(),
         Some(_) if args.env_churn => "sky, sun turning 1° a frame (prefiltered every frame)".to_owned(),
-        Some(_) => format!("--env {}, {}² faces", args.look.env, settings.environment.cube_size_for(cpu_adapter)),
+        Some(_) => {
+            format!("--env {}, {}² faces", args.look.env_name(), settings.environment.cube_size_for(cpu_adapter))
+        }
     };
     if let Some(mut env) = environment {
         if args.env_churn {

@@ -54,12 +54,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let shot = ShotSettings {
         size: Some(args.size),
-        exposure_ev100: args.look.exposure,
+        exposure_ev100: args.look.exposure_ev100(),
         variant: args.scene_args.variant.clone(),
         ..Default::default()
     };
     let (mut app, size) = stage_scene(&scene, &shot)?;
-    let env_label = environment.as_ref().map_or("none".to_owned(), |_| format!("--env {}", args.look.env));
+    let env_label = environment.as_ref().map_or("none".to_owned(), |_| format!("--env {}", args.look.env_name()));
     if let Some(env) = environment {
         app.insert_resource(env);
     }

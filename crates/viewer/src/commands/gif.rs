@@ -52,7 +52,7 @@ pub fn run(args: GifArgs) -> Result<()> {
     let shot = ShotSettings {
         size: Some(size),
         camera: CameraChoice::Orbit { yaw: 0.0, pitch: args.pitch },
-        exposure_ev100: args.look.exposure,
+        exposure_ev100: args.look.exposure_ev100(),
         animation: None,
         variant: args.scene_args.variant.clone(),
     };

@@ -22,7 +22,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let shot = ShotSettings {
         size: args.size,
         camera: args.camera,
-        exposure_ev100: args.look.exposure,
+        exposure_ev100: args.look.exposure_ev100(),
         animation: args.animation_shot(),
         variant: args.scene_args.variant.clone(),
     };

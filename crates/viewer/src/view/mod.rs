@@ -189,7 +189,7 @@ impl Running {
         let look = if first {
             FirstLook {
                 camera: args.camera,
-                exposure_ev100: args.look.exposure,
+                exposure_ev100: args.look.exposure_ev100(),
                 variant: args.scene_args.variant.clone(),
             }
         } else {
