@@ -15,7 +15,9 @@ use penumbra::render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::headless::{CameraChoice, ShotSettings, render_frames, stage_scene};
 use penumbra::render::{GpuContext, RenderSettings, Renderer};
 
-use super::{Shot, Tolerance, asset, check_golden, flip_percentile, gpu, made_the_goldens, scene_app, spawn_mesh};
+use super::{
+    Shot, Tolerance, asset, check_golden, flip_weighted_percentile, gpu, made_the_goldens, scene_app, spawn_mesh,
+};
 
 /// From the front-right and above, so three faces of a model show.
 pub const THREE_QUARTER: CameraChoice = CameraChoice::Orbit { yaw: 35.0, pitch: 25.0 };
@@ -191,7 +193,7 @@ pub fn turn_sensitivity(ctx: &GpuContext, make: &dyn Fn() -> GoldenFrame, still:
     [DRIVER_TURN_PX, -DRIVER_TURN_PX]
         .map(|px| {
             let turned = make().turned(px).render(ctx.clone());
-            flip_percentile(&still.rgba8, &turned.rgba8, still.width, still.height, percentile)
+            flip_weighted_percentile(&still.rgba8, &turned.rgba8, still.width, still.height, percentile)
         })
         .into_iter()
         .fold(0.0f32, f32::max)
@@ -210,12 +212,12 @@ pub fn check_golden_frame(make: &dyn Fn() -> GoldenFrame, tol: Tolerance) -> Gol
         // For the record on other drivers (`--nocapture`): docs/quality.md lists these.
         let (golden, (w, h)) = (golden.into_rgba8(), frame.size);
         println!(
-            "{} on {}: FLIP mean {:.5}, {}th percentile {:.4} (limit {:.3})",
+            "{} on {}: FLIP mean {:.5}, error-weighted {}th percentile {:.4} (limit {:.3})",
             frame.name,
             ctx.info.name,
             super::flip_mean(golden.as_raw(), &shot.rgba8, w, h),
             tol.percentile * 100.0,
-            flip_percentile(golden.as_raw(), &shot.rgba8, w, h, tol.percentile),
+            flip_weighted_percentile(golden.as_raw(), &shot.rgba8, w, h, tol.percentile),
             tol.at_percentile
         );
     }

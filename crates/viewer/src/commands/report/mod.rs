@@ -172,12 +172,22 @@ fn table(rows: &[Row], title: &str, timing: (u32, u32)) -> String {
     let _ = writeln!(t, "{title}; times at {}x{}, error at the references' size", timing.0, timing.1);
     let _ = writeln!(
         t,
-        "{:<10} {:<7} {:>8} {:>8} {:>8} | {:>9} {:>9} {:>8} | {:>9} {:>8}",
-        "scene", "preset", "GPU ms", "CPU ms", "GPU MiB", "FLIP mean", "FLIP p99", "PSNR dB", "GI FLIP", "GI PSNR"
+        "{:<10} {:<7} {:>8} {:>8} {:>8} | {:>9} {:>9} {:>9} {:>8} | {:>9} {:>8}",
+        "scene",
+        "preset",
+        "GPU ms",
+        "CPU ms",
+        "GPU MiB",
+        "FLIP mean",
+        "FLIP p99",
+        "FLIP wp99",
+        "PSNR dB",
+        "GI FLIP",
+        "GI PSNR"
     );
     let _ = writeln!(
         t,
-        "{:<10} {:<7} {:>8} {:>8} {:>8} | {:^28} | {:^18}",
+        "{:<10} {:<7} {:>8} {:>8} {:>8} | {:^38} | {:^18}",
         "", "", "", "", "", "vs direct light", "vs global illum."
     );
     for r in rows {
@@ -186,7 +196,7 @@ fn table(rows: &[Row], title: &str, timing: (u32, u32)) -> String {
         });
         let _ = writeln!(
             t,
-            "{:<10} {:<7} {:>8.3} {:>8.3} {:>8.1} | {:>9.4} {:>9.4} {:>8.2} | {:>9} {:>8}",
+            "{:<10} {:<7} {:>8.3} {:>8.3} {:>8.1} | {:>9.4} {:>9.4} {:>9.4} {:>8.2} | {:>9} {:>8}",
             r.scene,
             r.preset.name(),
             r.gpu_ms,
@@ -194,6 +204,7 @@ fn table(rows: &[Row], title: &str, timing: (u32, u32)) -> String {
             r.gpu_mib,
             r.direct.flip_mean,
             r.direct.flip_p99,
+            r.direct.flip_weighted_p99,
             r.direct.psnr_db,
             gi_flip,
             gi_psnr
@@ -204,15 +215,16 @@ fn table(rows: &[Row], title: &str, timing: (u32, u32)) -> String {
 
 fn csv(rows: &[Row]) -> String {
     let mut c = String::from(
-        "scene,preset,gpu_ms,cpu_ms,gpu_mib,flip_mean_direct,flip_p99_direct,psnr_db_direct,flip_mean_gi,flip_p99_gi,psnr_db_gi\n",
+        "scene,preset,gpu_ms,cpu_ms,gpu_mib,flip_mean_direct,flip_p99_direct,flip_weighted_p99_direct,psnr_db_direct,\
+         flip_mean_gi,flip_p99_gi,flip_weighted_p99_gi,psnr_db_gi\n",
     );
     for r in rows {
-        let gi =
-            r.gi.as_ref()
-                .map_or(",,".to_string(), |g| format!("{:.5},{:.5},{:.3}", g.flip_mean, g.flip_p99, g.psnr_db));
+        let gi = r.gi.as_ref().map_or(",,,".to_string(), |g| {
+            format!("{:.5},{:.5},{:.5},{:.3}", g.flip_mean, g.flip_p99, g.flip_weighted_p99, g.psnr_db)
+        });
         let _ = writeln!(
             c,
-            "{},{},{:.4},{:.4},{:.2},{:.5},{:.5},{:.3},{gi}",
+            "{},{},{:.4},{:.4},{:.2},{:.5},{:.5},{:.5},{:.3},{gi}",
             r.scene,
             r.preset.name(),
             r.gpu_ms,
@@ -220,6 +232,7 @@ fn csv(rows: &[Row]) -> String {
             r.gpu_mib,
             r.direct.flip_mean,
             r.direct.flip_p99,
+            r.direct.flip_weighted_p99,
             r.direct.psnr_db
         );
     }
