@@ -376,7 +376,11 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     let in_scene = |rgba: &[u8]| boxed(rgba);
     assert_eq!(in_scene(&cleared.0), boxed(&closer.0), "the box stays after clicking on nothing");
 
-    // F12 writes the scene, without the panels, as a PNG of the window's size.
+    // F12 writes the scene, without the panels and without the selection box, as a PNG of the
+    // window's size (the model is selected again first; before, the box was in the file).
+    viewer.xdotool(&["mousemove", "--window", &win, "160", "132", "click", "1"]);
+    let reselected = viewer.settled("the selection again");
+    assert!(boxed(&reselected.0) > 0, "the selection box is back");
     viewer.xdotool(&["key", "F12"]);
     let shot = shots.join("penumbra-0001.png");
     let deadline = Instant::now() + Duration::from_secs(30);
@@ -388,6 +392,9 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     assert_eq!((png.width(), png.height()), (W, H));
     let shown = flip_middle(png.as_raw(), &closer.0, W, H);
     assert!(shown < 0.02, "the screenshot differs from the window's scene: FLIP {shown:.4}");
+    assert_eq!(boxed(png.as_raw()), boxed(&closer.0), "the selection box is in the screenshot");
+    viewer.xdotool(&["mousemove", "--window", &win, "300", "200", "click", "1"]);
+    viewer.settled("clearing the selection again");
 
     // Opening a broken file (Ctrl+O, type, Enter) reports it and keeps the scene.
     let broken = dir.join("broken.glb");

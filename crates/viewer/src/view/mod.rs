@@ -267,10 +267,13 @@ impl Running {
         }
         if let Some(s) = self.scene.as_mut() {
             s.advance_camera(dt);
+            // A screenshot is the scene without the UI: the frame it copies draws no selection
+            // box and no axes (they come back the next frame).
+            let shot = self.screenshot_requested;
             let request = gizmos::GizmoRequest {
-                world_axes: self.ui.world_axes,
-                local_axes: self.ui.local_axes,
-                selected: self.ui.selected,
+                world_axes: self.ui.world_axes && !shot,
+                local_axes: self.ui.local_axes && !shot,
+                selected: self.ui.selected.filter(|_| !shot),
                 camera: s.camera,
             };
             gizmos::update(&mut s.app.world, &request);
