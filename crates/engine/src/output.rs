@@ -161,8 +161,7 @@ pub fn save_image(
     size: (u32, u32),
     color: image::ExtendedColorType,
 ) -> Result<(), OutputError> {
-    let format = image_format(path)?;
-    write_file(path, |out| encode(out, format, pixels, size, color))
+    save_image_with(path, Replace::Yes, pixels, size, color)
 }
 
 /// As [`save_image`] but never replacing an existing file ([`write_new_file`]).
@@ -172,8 +171,18 @@ pub fn save_new_image(
     size: (u32, u32),
     color: image::ExtendedColorType,
 ) -> Result<(), OutputError> {
+    save_image_with(path, Replace::No, pixels, size, color)
+}
+
+fn save_image_with(
+    path: &Path,
+    replace: Replace,
+    pixels: &[u8],
+    size: (u32, u32),
+    color: image::ExtendedColorType,
+) -> Result<(), OutputError> {
     let format = image_format(path)?;
-    write_new_file(path, |out| encode(out, format, pixels, size, color))
+    write_with(path, replace, |out| encode(out, format, pixels, size, color))
 }
 
 fn encode(
