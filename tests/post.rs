@@ -180,7 +180,11 @@ fn helmet_golden(name: &str, msaa: u32, post: PostSettings) {
     use penumbra::engine::import::{GltfScene, ImportOptions};
     use penumbra::render::headless::{ShotSettings, render_frames, stage_scene};
     let scene = GltfScene::load(&common::asset("DamagedHelmet/DamagedHelmet.glb"), &ImportOptions::default()).unwrap();
-    let shot = ShotSettings { size: Some((256, 256)), ..Default::default() };
+    let shot = ShotSettings {
+        size: Some((256, 256)),
+        camera: penumbra::render::headless::CameraChoice::FRONT,
+        ..Default::default()
+    };
     let (mut app, size) = stage_scene(&scene, &shot).unwrap();
     app.insert_resource(Environment::default());
     let settings = RenderSettings {

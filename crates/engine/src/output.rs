@@ -140,14 +140,18 @@ fn set_default_permissions(file: &std::fs::File) {
 
 #[cfg(unix)]
 fn current_umask() -> u32 {
-    // /proc/self/status has it on Linux without changing it; elsewhere assume the common 022.
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            let line = s.lines().find(|l| l.starts_with("Umask:"))?;
-            u32::from_str_radix(line.trim_start_matches("Umask:").trim(), 8).ok()
-        })
-        .unwrap_or(0o022)
+    // Read once: programs set their umask at start, if at all. /proc/self/status has it on
+    // Linux without changing it; elsewhere assume the common 022.
+    static UMASK: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *UMASK.get_or_init(|| {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                let line = s.lines().find(|l| l.starts_with("Umask:"))?;
+                u32::from_str_radix(line.trim_start_matches("Umask:").trim(), 8).ok()
+            })
+            .unwrap_or(0o022)
+    })
 }
 
 #[cfg(not(unix))]

@@ -4,17 +4,22 @@
 
 use bevy_ecs::prelude::*;
 use penumbra_engine::animation::{AnimationPlayer, PlayerError};
-use penumbra_engine::components::{Camera, Exposure};
+use penumbra_engine::bounds::Aabb;
+use penumbra_engine::components::{Camera, Exposure, GlobalTransform};
+use penumbra_engine::environment::Environment;
 use penumbra_engine::framing::{framing_camera_from, world_bounds};
 use penumbra_engine::import::{GltfCamera, SpawnScene};
 use penumbra_engine::{App, CorePlugin, Time};
 
+use crate::metering::ExposureChoice;
 use crate::renderer::{Renderer, RendererError};
 use crate::{RenderOutput, RenderPlugin};
 
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum CameraChoice {
-    /// Frame the scene's bounds from +Z.
+    /// The file's first camera where it has one that sees the scene; otherwise the scene's
+    /// bounds framed from [`CameraChoice::THREE_QUARTER`] (over the whole first clip for an
+    /// animated scene).
     #[default]
     Auto,
     /// Frame the scene's bounds from a direction: `yaw` degrees about +Y from +Z towards +X,
@@ -24,13 +29,65 @@ pub enum CameraChoice {
     Gltf(usize),
 }
 
+impl CameraChoice {
+    /// The default framing: turned 35° from the front (+Z) towards +X and 25° above, the view
+    /// sample-model screenshots use. No axis-aligned plane is seen edge-on from it (the
+    /// flattest, a plane facing ±X, shows 52 % of its width).
+    pub const THREE_QUARTER: CameraChoice = CameraChoice::Orbit { yaw: 35.0, pitch: 25.0 };
+    /// Straight from the front, looking down −Z.
+    pub const FRONT: CameraChoice = CameraChoice::Orbit { yaw: 0.0, pitch: 0.0 };
+}
+
+/// How the staged camera and its exposure were chosen, for `--explain` and the viewer's
+/// Stats panel. [`stage_camera`] inserts it as a resource.
+#[derive(Resource, Debug, Clone, PartialEq)]
+pub struct StagedView {
+    pub camera: ViewSource,
+    pub exposure: ExposureChoice,
+}
+
+/// Where the staged view looks from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ViewSource {
+    /// A file camera: its glTF index, node name, the number the file has, and whether it was
+    /// asked for (`--camera N`) rather than picked by default.
+    File { index: usize, name: Option<String>, count: usize, asked: bool },
+    /// The scene's bounds framed from a direction, and why not a file camera.
+    Framed { yaw: f32, pitch: f32, why: &'static str },
+}
+
+impl std::fmt::Display for ViewSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ViewSource::File { index, name, count, asked } => {
+                write!(f, "the file's camera {index}")?;
+                if let Some(name) = name {
+                    write!(f, " \"{name}\"")?;
+                }
+                let how = if *asked {
+                    "asked for"
+                } else {
+                    "the file's first; --camera orbit:YAW:PITCH frames the scene instead"
+                };
+                write!(f, " ({how}; the file has {count})")
+            }
+            ViewSource::Framed { yaw, pitch, why } => {
+                write!(f, "the scene framed from yaw {yaw}°, pitch {pitch}° ({why})")
+            }
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct ShotSettings {
     /// `None`: 512 pixels high, as wide as the camera's aspect ratio asks (square otherwise).
     pub size: Option<(u32, u32)>,
     pub camera: CameraChoice,
-    /// Overrides the camera's exposure.
+    /// The exposure, EV100. `None`: metered from the scene's lights ([`crate::metering`]),
+    /// EV100 0 for a scene without lights.
     pub exposure_ev100: Option<f32>,
+    /// The environment to stage the scene in (metering counts its light).
+    pub environment: Option<Environment>,
     /// Poses an animated scene at one time of one clip (paused there). `None`: the scene as
     /// spawned, its first clip playing from time 0 with the fixed step.
     pub animation: Option<AnimationShot>,
@@ -49,14 +106,20 @@ pub struct AnimationShot {
 
 impl Default for ShotSettings {
     fn default() -> Self {
-        Self { size: None, camera: CameraChoice::Auto, exposure_ev100: None, animation: None, variant: None }
+        Self {
+            size: None,
+            camera: CameraChoice::Auto,
+            exposure_ev100: None,
+            environment: None,
+            animation: None,
+            variant: None,
+        }
     }
 }
 
 /// Largest texture dimension wgpu guarantees on desktop GPUs (and lavapipe's limit).
 pub const MAX_SIZE: u32 = 16384;
-/// EV100 far outside any real scene (a moonless night is about −3, noon sun 15).
-pub const EV100_RANGE: std::ops::RangeInclusive<f32> = -30.0..=40.0;
+pub use crate::metering::EV100_RANGE;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ShotError {
@@ -109,6 +172,9 @@ pub fn stage_scene(scene: &impl SpawnScene, settings: &ShotSettings) -> Result<(
     if let Some(name) = &settings.variant {
         penumbra_engine::variants::select_variant(&mut app.world, root, name)?;
     }
+    if let Some(env) = &settings.environment {
+        app.insert_resource(env.clone());
+    }
     // One update without a renderer: transforms propagate, nothing is drawn.
     app.update();
     let size = stage_camera(&mut app, settings)?;
@@ -131,50 +197,180 @@ pub fn pose_animation(world: &mut World, root: Entity, shot: &AnimationShot) -> 
     Ok(())
 }
 
-/// Chooses (or frames) the camera in an already-updated app; returns the output size.
+/// Chooses (or frames) the camera in an already-updated app and sets its exposure; returns the
+/// output size. Records the choices as the [`StagedView`] resource.
 pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32), ShotError> {
-    let world = &mut app.world;
     let default_height = 512;
-    let size = match settings.camera {
+    let cameras = file_cameras(&mut app.world);
+    let bounds = framing_bounds(app, settings);
+    let world = &mut app.world;
+    let (choice, why) = match settings.camera {
+        CameraChoice::Auto => auto_camera(world, &cameras, &bounds),
+        c => (c, "--camera"),
+    };
+    let (size, view, metered_cameras) = match choice {
         CameraChoice::Gltf(index) => {
-            let mut q = world.query::<(&mut Camera, &GltfCamera)>();
-            let count = q.iter(world).count();
             let mut found = None;
-            for (mut cam, g) in q.iter_mut(world) {
-                cam.is_active = g.index == index;
-                if g.index == index {
-                    found = Some(g.aspect_ratio);
+            for &(i, entity, aspect) in &cameras {
+                if let Some(mut cam) = world.get_mut::<Camera>(entity) {
+                    cam.is_active = i == index;
+                }
+                if i == index {
+                    found = Some((entity, aspect));
                 }
             }
-            let aspect = found.ok_or(ShotError::NoSuchCamera { index, count })?.unwrap_or(1.0);
-            match settings.size {
+            let (entity, aspect) = found.ok_or(ShotError::NoSuchCamera { index, count: cameras.len() })?;
+            let size = match settings.size {
                 Some(size) => size,
-                None => size_for_aspect(default_height, aspect)?,
-            }
+                None => size_for_aspect(default_height, aspect.unwrap_or(1.0))?,
+            };
+            let name = world.get::<penumbra_engine::components::Name>(entity).map(|n| n.as_str().to_owned());
+            let asked = settings.camera != CameraChoice::Auto;
+            let view = ViewSource::File { index, name, count: cameras.len(), asked };
+            (size, view, cameras.iter().map(|c| c.1).collect::<Vec<_>>())
         }
         CameraChoice::Auto | CameraChoice::Orbit { .. } => {
-            let size = settings.size.unwrap_or((default_height, default_height));
-            let bounds = world_bounds(world);
-            let direction = match settings.camera {
-                CameraChoice::Orbit { yaw, pitch } => {
-                    let (yaw, pitch) = (yaw.to_radians(), pitch.to_radians());
-                    glam::Vec3::new(yaw.sin() * pitch.cos(), pitch.sin(), yaw.cos() * pitch.cos())
-                }
-                _ => glam::Vec3::Z,
+            let (yaw, pitch) = match choice {
+                CameraChoice::Orbit { yaw, pitch } => (yaw, pitch),
+                _ => (0.0, 0.0),
             };
+            let size = settings.size.unwrap_or((default_height, default_height));
+            let (y, p) = (yaw.to_radians(), pitch.to_radians());
+            let direction = glam::Vec3::new(y.sin() * p.cos(), p.sin(), y.cos() * p.cos());
             let (camera, transform) =
                 framing_camera_from(&bounds, direction, 45f32.to_radians(), size.0 as f32 / size.1 as f32);
-            world.spawn((camera, transform));
-            size
+            let entity = world.spawn((camera, transform)).id();
+            let mut all = vec![entity];
+            all.extend(cameras.iter().map(|c| c.1));
+            (size, ViewSource::Framed { yaw, pitch, why }, all)
         }
     };
-    if let Some(ev100) = settings.exposure_ev100 {
-        let mut q = world.query::<&mut Camera>();
-        for mut c in q.iter_mut(world) {
-            c.exposure = Exposure { ev100 };
+    let exposure = match settings.exposure_ev100 {
+        Some(ev100) => ExposureChoice::Given { ev100 },
+        None => match crate::metering::meter(world, &bounds) {
+            Some(m) => ExposureChoice::Metered(m),
+            None => ExposureChoice::Unlit,
+        },
+    };
+    // Authored cameras keep their exposure unless one is given; glTF cameras carry none, so
+    // they and the framing camera take the chosen one.
+    let given = settings.exposure_ev100.is_some();
+    let mut q = world.query::<(Entity, &mut Camera)>();
+    for (e, mut c) in q.iter_mut(world) {
+        if given || metered_cameras.contains(&e) {
+            c.exposure = Exposure { ev100: exposure.ev100() };
         }
     }
+    world.insert_resource(StagedView { camera: view, exposure });
     Ok(size)
+}
+
+/// What [`CameraChoice::Auto`] picks: the file's first camera where it sees any of `bounds`,
+/// else the three-quarter framing (and why).
+fn auto_camera(world: &World, cameras: &[(usize, Entity, Option<f32>)], bounds: &Aabb) -> (CameraChoice, &'static str) {
+    match cameras.first() {
+        Some(&(index, entity, _)) if sees(world, entity, bounds) => (CameraChoice::Gltf(index), ""),
+        Some(&(index, ..)) => {
+            tracing::warn!("the file's camera {index} sees none of the scene: framing the scene instead");
+            (CameraChoice::THREE_QUARTER, "the file's camera sees none of the scene")
+        }
+        None => (CameraChoice::THREE_QUARTER, "the file has no camera"),
+    }
+}
+
+/// The file camera [`CameraChoice::Auto`] looks through in an already-updated app, if any
+/// (the viewer offers it first while keeping its own orbit camera).
+pub fn default_file_camera(app: &mut App) -> Option<usize> {
+    let cameras = file_cameras(&mut app.world);
+    if cameras.is_empty() {
+        return None;
+    }
+    let bounds = world_bounds(&mut app.world);
+    match auto_camera(&app.world, &cameras, &bounds).0 {
+        CameraChoice::Gltf(index) => Some(index),
+        _ => None,
+    }
+}
+
+/// The file's cameras: glTF index, entity and aspect ratio, in index order.
+fn file_cameras(world: &mut World) -> Vec<(usize, Entity, Option<f32>)> {
+    let mut q = world.query::<(Entity, &GltfCamera)>();
+    let mut v: Vec<_> = q.iter(world).map(|(e, g)| (g.index, e, g.aspect_ratio)).collect();
+    v.sort_by_key(|c| c.0);
+    v
+}
+
+/// Whether any of `bounds` lies inside `camera`'s view (a corner or the centre in its frustum,
+/// or the camera inside the box).
+fn sees(world: &World, camera: Entity, bounds: &Aabb) -> bool {
+    let (Some(cam), Some(g)) = (world.get::<Camera>(camera), world.get::<GlobalTransform>(camera)) else {
+        return false;
+    };
+    if bounds.is_empty() {
+        return true;
+    }
+    let eye = g.translation();
+    if (bounds.min.cmple(eye) & eye.cmple(bounds.max)).all() {
+        return true;
+    }
+    let view_from_world = glam::Affine3A::from_rotation_translation(g.rotation(), eye).inverse();
+    let clip_from_view = cam.projection.clip_from_view(1.0);
+    let (c, h) = (bounds.center(), bounds.half_extents());
+    std::iter::once(c).chain((0..8).map(|i| c + h * glam::Vec3::new(sign(i & 1), sign(i & 2), sign(i & 4)))).any(|p| {
+        let clip = clip_from_view * view_from_world.transform_point3(p).extend(1.0);
+        clip.w > 0.0 && clip.x.abs() <= clip.w && clip.y.abs() <= clip.w
+    })
+}
+
+fn sign(bit: u32) -> f32 {
+    if bit == 0 { -1.0 } else { 1.0 }
+}
+
+/// Intervals a clip is cut into when framing an animated scene (poses at both ends count).
+const FRAMING_SAMPLES: u32 = 16;
+
+/// The bounds to frame: the scene as staged, or, for a scene whose first clip plays, the union
+/// of its poses at [`FRAMING_SAMPLES`] + 1 times over the clip (a walk cycle that leaves its rest
+/// pose stays in the frame). The player is put back where it was.
+fn framing_bounds(app: &mut App, settings: &ShotSettings) -> Aabb {
+    let mut bounds = world_bounds(&mut app.world);
+    if settings.animation.is_some() {
+        return bounds;
+    }
+    let mut q = app.world.query::<(Entity, &AnimationPlayer)>();
+    let players: Vec<(Entity, f32, f32, bool)> = q
+        .iter(&app.world)
+        .filter_map(|(e, p)| Some((e, p.active_clip()?.duration(), p.time(), p.is_paused())))
+        .filter(|(_, duration, ..)| *duration > 0.0 && duration.is_finite())
+        .collect();
+    if players.is_empty() {
+        return bounds;
+    }
+    // Sampling updates take no time: the clock ends where it was.
+    let saved = app.world.resource::<Time>().clone();
+    app.world.resource_mut::<Time>().set_mode(penumbra_engine::TimeMode::Fixed(std::time::Duration::ZERO));
+    for k in 0..=FRAMING_SAMPLES {
+        for &(e, duration, ..) in &players {
+            if let Some(mut p) = app.world.get_mut::<AnimationPlayer>(e) {
+                p.pause();
+                let _ = p.seek(duration * k as f32 / FRAMING_SAMPLES as f32);
+            }
+        }
+        app.update();
+        bounds = bounds.union(&world_bounds(&mut app.world));
+    }
+    for &(e, _, time, paused) in &players {
+        if let Some(mut p) = app.world.get_mut::<AnimationPlayer>(e) {
+            let _ = p.seek(time);
+            if !paused {
+                p.resume();
+            }
+        }
+    }
+    // Posed where it was, then the clock put back.
+    app.update();
+    *app.world.resource_mut::<Time>() = saved;
+    bounds
 }
 
 /// The default output size for a camera of `aspect` (width / height): `height` tall, or, where

@@ -22,6 +22,7 @@ pub mod frame;
 pub mod frame_context;
 pub mod gpu;
 pub mod headless;
+pub mod metering;
 pub mod pass;
 pub mod pipelines;
 pub mod quality;

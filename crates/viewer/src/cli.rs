@@ -152,8 +152,9 @@ pub struct LookArgs {
     /// without an HDR target.
     #[arg(long, value_enum, value_name = "radiance|display")]
     pub msaa_resolve: Option<MsaaResolveArg>,
-    /// Exposure as EV100 (default: the camera's, EV100 0, which scales radiance by 1/1.2;
-    /// −0.263 maps radiance 1 to 1).
+    /// Exposure as EV100 (−0.263 maps radiance 1 to 1). Default: metered from the scene's
+    /// lights at the framed objects, EV100 = log2(lux / 2.5) (a 6,830 lux sun: 11.4); EV100 0
+    /// for a scene without lights. `--explain` says which.
     #[arg(long, allow_negative_numbers = true)]
     pub exposure: Option<f32>,
     /// Read WGSL from this folder instead of the embedded shaders (`view` also watches it and
@@ -439,8 +440,10 @@ pub struct RenderArgs {
     /// WIDTHxHEIGHT (default 512 high, camera's aspect).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// `auto` frames the scene from the front (+Z); `orbit:YAW:PITCH` frames it from that
-    /// direction (degrees); N uses the file's camera N.
+    /// `auto`: the file's first camera where it has one that sees the scene, else the scene
+    /// framed from a raised three-quarter view (yaw 35°, pitch 25°; animated scenes over their
+    /// whole first clip); `front` frames it from +Z; `orbit:YAW:PITCH` from that direction
+    /// (degrees); N uses the file's camera N.
     #[arg(long, default_value = "auto", value_parser = parse_camera)]
     pub camera: CameraChoice,
     /// Fixed-step (60 Hz) frames to run before the screenshot.
@@ -541,6 +544,9 @@ pub struct ViewArgs {
     /// A .gltf, .glb or .obj file (default: the embedded default scene).
     #[arg(value_name = "SCENE")]
     pub path: Option<PathBuf>,
+    /// `auto`: the file's first camera where it has one that sees the scene (the Camera menu
+    /// switches), else a raised three-quarter view; `front`, `orbit:YAW:PITCH` or N as for
+    /// `render`.
     #[arg(long, default_value = "auto", value_parser = parse_camera)]
     pub camera: CameraChoice,
     #[command(flatten)]
@@ -556,6 +562,20 @@ pub struct ViewArgs {
     /// Where F12 saves screenshots (penumbra-NNNN.png, the first free number).
     #[arg(long, value_name = "DIR")]
     pub screenshot_dir: Option<PathBuf>,
+    /// Panels to open with the window, comma-separated: stats, tree, inspector, settings,
+    /// environment (the View menu opens and closes them; none by default: the scene gets the
+    /// window).
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "PANELS")]
+    pub panels: Vec<PanelArg>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PanelArg {
+    Stats,
+    Tree,
+    Inspector,
+    Settings,
+    Environment,
 }
 
 #[derive(Args, Debug)]
@@ -687,6 +707,9 @@ fn parse_camera(s: &str) -> Result<CameraChoice, String> {
     if s == "auto" {
         return Ok(CameraChoice::Auto);
     }
+    if s == "front" {
+        return Ok(CameraChoice::FRONT);
+    }
     if let Some(rest) = s.strip_prefix("orbit:") {
         let (yaw, pitch) = rest.split_once(':').ok_or_else(|| format!("{s:?}: expected orbit:YAW:PITCH (degrees)"))?;
         let deg = |v: &str| {
@@ -699,7 +722,7 @@ fn parse_camera(s: &str) -> Result<CameraChoice, String> {
     }
     s.parse()
         .map(CameraChoice::Gltf)
-        .map_err(|_| format!("{s:?} is neither `auto`, `orbit:YAW:PITCH` nor a camera index"))
+        .map_err(|_| format!("{s:?} is neither `auto`, `front`, `orbit:YAW:PITCH` nor a camera index"))
 }
 
 impl LookArgs {

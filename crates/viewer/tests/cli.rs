@@ -565,3 +565,34 @@ fn the_reference_look_and_the_background_colour() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("--background-color"), "{}", stderr(&o));
 }
+
+/// `--explain` says which view and which exposure a render used, and why (issue 47): a file
+/// without a camera is framed from the raised three-quarter view, one with a camera is seen
+/// through it, and a sun-lit file is metered (a 6,830 lux sun: EV100 11.7 with its sky), a
+/// given exposure wins.
+#[test]
+fn explain_says_how_the_view_and_the_exposure_were_chosen() {
+    let dir = out_dir("explain-view");
+    let out = dir.join("x.png");
+    let explain = |scene: &str, extra: &[&str]| {
+        let mut args = vec!["render", scene, "--size", "48x48", "--explain", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = penumbra(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let line = |key: &str| {
+            text.lines().find(|l| l.starts_with(key)).unwrap_or_else(|| panic!("no {key}:\n{text}")).to_owned()
+        };
+        (line("View: "), line("Exposure: "))
+    };
+    let sun = asset("Defaults/SunLit.gltf");
+    let (view, exposure) = explain(&sun, &[]);
+    assert_eq!(view, "View: the scene framed from yaw 35°, pitch 25° (the file has no camera)");
+    assert!(exposure.starts_with("Exposure: EV100 11.") && exposure.contains("metered"), "{exposure}");
+    let (view, exposure) = explain(&sun, &["--exposure", "3", "--camera", "front"]);
+    assert_eq!(view, "View: the scene framed from yaw 0°, pitch 0° (--camera)");
+    assert_eq!(exposure, "Exposure: EV100 3.00, given");
+    let (view, exposure) = explain(&asset("Cameras/Cameras.gltf"), &[]);
+    assert!(view.starts_with("View: the file's camera 0") && view.contains("the file has 2"), "{view}");
+    assert!(exposure.contains("EV100 0 (the scene has no lights"), "{exposure}");
+}

@@ -147,6 +147,23 @@ impl Viewer {
         (rgba, g.width as u32, g.height as u32)
     }
 
+    /// As [`Viewer::settled`], without asking for the model to be visible (a view from close
+    /// up may show no background to tell it from).
+    fn settled_any(&mut self, what: &str) -> (Vec<u8>, u32, u32) {
+        let deadline = Instant::now() + Duration::from_secs(90);
+        let mut last = self.capture();
+        loop {
+            std::thread::sleep(Duration::from_millis(700));
+            assert!(self.alive(), "the viewer exited during {what}; its log:\n{}", self.log());
+            let next = self.capture();
+            if next == last {
+                return next;
+            }
+            assert!(Instant::now() < deadline, "{what}: the window never settled; log:\n{}", self.log());
+            last = next;
+        }
+    }
+
     /// Captures until two in a row match (the camera has settled and the frame is drawn), once
     /// the first scene has loaded: on a loaded machine the loading panel can hold still for
     /// longer than the capture interval.
@@ -170,6 +187,48 @@ impl Viewer {
             last = next;
         }
     }
+}
+
+impl Viewer {
+    /// Where the viewer last said it draws the scene: (x, y, width, height) in the window.
+    fn viewport(&self) -> (u32, u32, u32, u32) {
+        let log = self.log();
+        let line = log
+            .lines()
+            .rev()
+            .find(|l| l.contains("viewport at ("))
+            .unwrap_or_else(|| panic!("no viewport logged:\n{log}"));
+        let nums: Vec<u32> =
+            line.split(|c: char| !c.is_ascii_digit()).filter(|s| !s.is_empty()).map(|s| s.parse().unwrap()).collect();
+        // "... viewport at (X, Y), WxH of the AxB window (left L, right R)": the last eight.
+        let n = &nums[nums.len() - 8..];
+        (n[0], n[1], n[2], n[3])
+    }
+
+    /// Seconds of CPU the viewer has used (user + system).
+    fn cpu_seconds(&self) -> f64 {
+        let stat =
+            std::fs::read_to_string(format!("/proc/{}/stat", self.process.0.id())).expect("the viewer's /proc stat");
+        // Fields after the command's closing parenthesis; utime and stime are the 12th and 13th.
+        let fields: Vec<&str> = stat.rsplit_once(')').unwrap().1.split_whitespace().collect();
+        let ticks: f64 = fields[11].parse::<f64>().unwrap() + fields[12].parse::<f64>().unwrap();
+        ticks / 100.0
+    }
+}
+
+/// The rows and columns of `frame` inside `rect`, as a tightly packed RGBA8 image.
+fn crop((rgba, w, _): &(Vec<u8>, u32, u32), (x, y, cw, ch): (u32, u32, u32, u32)) -> Vec<u8> {
+    let mut out = Vec::with_capacity((cw * ch * 4) as usize);
+    for row in y..y + ch {
+        let start = ((row * w + x) * 4) as usize;
+        out.extend_from_slice(&rgba[start..start + (cw * 4) as usize]);
+    }
+    out
+}
+
+/// FLIP mean of two images of the same size.
+fn flip_mean(a: &[u8], b: &[u8], w: u32, h: u32) -> f32 {
+    flip_rows(a, b, w, 0, h)
 }
 
 fn penumbra() -> Command {
@@ -260,11 +319,17 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     save(&dir.join("first_frame.png"), &first.0, W, H);
     assert!(error < 0.05, "first frame: FLIP {error:.4} against {} (see {})", golden_path.display(), dir.display());
 
-    // A horizontal drag of one window height turns the camera half way round the vertical
-    // axis: the view from behind, which a headless render from yaw 180° shows.
+    // The scene is drawn below the menu bar, in the whole width (no panels are open).
+    let viewport = viewer.viewport();
+    let (_, vy, vw, vh) = viewport;
+    assert!(vy > 0 && vy < 40 && vw == W && vy + vh == H, "viewport {viewport:?} in a {W}x{H} window");
+
+    // A horizontal drag of one viewport height turns the camera half way round the vertical
+    // axis: from the default view (yaw 35°, pitch 25°) to the one from behind (yaw 215°),
+    // which a headless render at the viewport's size shows.
     let win = viewer.window.to_string();
     viewer.xdotool(&["mousemove", "--window", &win, "40", "140", "mousedown", "1"]);
-    for x in (60..=280).step_by(20) {
+    for x in (40..=40 + vh).step_by(15).chain([40 + vh]).skip(1) {
         viewer.xdotool(&["mousemove", "--window", &win, &x.to_string(), "140"]);
     }
     viewer.xdotool(&["mouseup", "1"]);
@@ -277,14 +342,14 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/DamagedHelmet.glb"))
         .arg("--out")
         .arg(&reference)
-        .args(common)
-        .args(["--camera", "orbit:180:0"])
+        .args(["--background", "color", "--msaa", "4", "--size", &format!("{vw}x{vh}")])
+        .args(["--camera", "orbit:215:25"])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let reference = image::open(&reference).unwrap().into_rgba8();
-    let turned = flip_middle(reference.as_raw(), &behind.0, W, H);
-    let unmoved = flip_middle(&first.0, &behind.0, W, H);
+    let turned = flip_mean(reference.as_raw(), &crop(&behind, viewport), vw, vh);
+    let unmoved = flip_mean(&crop(&first, viewport), &crop(&behind, viewport), vw, vh);
     assert!(
         turned < 0.06 && unmoved > 2.0 * turned,
         "after the drag: FLIP {turned:.4} against the view from behind, {unmoved:.4} against the first frame"
@@ -389,17 +454,18 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
         std::thread::sleep(Duration::from_millis(200));
     }
     let png = image::open(&shot).unwrap().into_rgba8();
-    assert_eq!((png.width(), png.height()), (W, H));
-    let shown = flip_middle(png.as_raw(), &closer.0, W, H);
+    assert_eq!((png.width(), png.height()), (vw, vh), "the screenshot is not the viewport's size");
+    let shown = flip_mean(png.as_raw(), &crop(&closer, viewport), vw, vh);
     assert!(shown < 0.02, "the screenshot differs from the window's scene: FLIP {shown:.4}");
-    assert_eq!(boxed(png.as_raw()), boxed(&closer.0), "the selection box is in the screenshot");
+    let yellow_in = |rgba: &[u8]| yellow(rgba);
+    assert_eq!(yellow_in(png.as_raw()), yellow_in(&crop(&closer, viewport)), "the selection box is in the screenshot");
     viewer.xdotool(&["mousemove", "--window", &win, "300", "200", "click", "1"]);
     viewer.settled("clearing the selection again");
 
-    // Opening a broken file (Ctrl+O, type, Enter) reports it and keeps the scene.
+    // Opening a broken file (Ctrl+L, type its path, Enter) reports it and keeps the scene.
     let broken = dir.join("broken.glb");
     std::fs::write(&broken, b"glTF\x02\x00\x00\x00not really a binary glTF").unwrap();
-    viewer.xdotool(&["key", "ctrl+o"]);
+    viewer.xdotool(&["key", "ctrl+l"]);
     std::thread::sleep(Duration::from_millis(1500));
     viewer.xdotool(&["type", "--delay", "20", broken.to_str().unwrap()]);
     viewer.xdotool(&["key", "Return"]);
@@ -413,7 +479,13 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
     assert!(line.contains("ERROR"), "the broken file was not reported as an error: {line}");
     assert!(viewer.alive());
 
-    // Esc quits cleanly.
+    // The error stays in a dialog: the first Esc closes it (the viewer keeps running), the
+    // second quits, cleanly.
+    let with_dialog = viewer.settled("the error dialog");
+    viewer.xdotool(&["key", "Escape"]);
+    let without = viewer.settled("the error dialog closed");
+    assert!(viewer.alive(), "Esc with the error dialog open quit the viewer");
+    assert!(with_dialog != without, "Esc did not close the error dialog");
     viewer.xdotool(&["key", "Escape"]);
     let deadline = Instant::now() + Duration::from_secs(20);
     let status = loop {
@@ -427,7 +499,8 @@ fn viewer_in_a_window_orbits_zooms_saves_and_survives_bad_files_and_resizes() {
 }
 
 /// HiDPI: at scale factor 2 a window of 160×120 logical pixels has a 320×240 framebuffer, and the
-/// scene is rendered at that resolution (it matches a headless 320×240 render), not upscaled.
+/// scene is rendered at that resolution (its viewport matches a headless render of its size),
+/// not upscaled.
 #[test]
 fn viewer_renders_at_the_physical_size_of_a_hidpi_window() {
     let (_server, display) = xvfb();
@@ -436,35 +509,38 @@ fn viewer_renders_at_the_physical_size_of_a_hidpi_window() {
     let mut viewer = Viewer::start(&display, &dir, &args, &[("WINIT_X11_SCALE_FACTOR", "2")]);
     let frame = viewer.settled("the first frame at scale 2");
     assert_eq!((frame.1, frame.2), (W, H), "the framebuffer does not follow the physical size");
+    // The scene is drawn below the menu bar (twice as tall at scale 2), in physical pixels.
+    let viewport = viewer.viewport();
+    let (_, vy, vw, vh) = viewport;
+    assert!(vw == W && vy > 40 && vy < 80 && vy + vh == H, "viewport {viewport:?} at scale 2");
     let reference = dir.join("headless.png");
     let o = penumbra()
         .arg("render")
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/DamagedHelmet.glb"))
         .arg("--out")
         .arg(&reference)
-        .args(["--size", "320x240", "--background", "color", "--msaa", "4"])
+        .args(["--size", &format!("{vw}x{vh}"), "--background", "color", "--msaa", "4"])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let reference = image::open(&reference).unwrap().into_rgba8();
     save(&dir.join("window.png"), &frame.0, W, H);
-    // The menu bar is twice as tall at scale 2: compare below it.
-    let error = flip_rows(reference.as_raw(), &frame.0, W, 2 * TOP, H - BOTTOM);
-    assert!(error < 0.03, "HiDPI window vs headless 320×240: FLIP {error:.4} (see {})", dir.display());
+    let error = flip_mean(reference.as_raw(), &crop(&frame, viewport), vw, vh);
+    assert!(error < 0.03, "HiDPI viewport vs headless {vw}×{vh}: FLIP {error:.4} (see {})", dir.display());
 }
 
 /// Surface and device loss (issue 11), injected by `surface.rs`: every third image request
-/// reports the surface lost (`PENUMBRA_DEBUG_SURFACE_LOSS=3`) and the 600th destroys the GPU
-/// device (`PENUMBRA_DEBUG_DEVICE_LOSS=600`), late enough that the scene has usually loaded (a
-/// loss during the load leaves no scene to move: the staged scene then starts on the new
-/// device). The viewer creates the surface again each time, makes a new device, and keeps
+/// reports the surface lost (`PENUMBRA_DEBUG_SURFACE_LOSS=3`) and the 120th destroys the GPU
+/// device (`PENUMBRA_DEBUG_DEVICE_LOSS=120`), late enough that the scene has usually loaded (a
+/// still viewer asks for few images while it loads; a loss during the load leaves no scene to
+/// move: the staged scene then starts on the new device). The viewer creates the surface again each time, makes a new device, and keeps
 /// showing the scene as the golden shows it.
 #[test]
 fn viewer_survives_lost_surfaces_and_a_lost_device() {
     let (_server, display) = xvfb();
     let dir = scratch("surface-loss");
     let args = ["--size", "320x240", "--background", "color", "--msaa", "4"];
-    let env = [("PENUMBRA_DEBUG_SURFACE_LOSS", "3"), ("PENUMBRA_DEBUG_DEVICE_LOSS", "600")];
+    let env = [("PENUMBRA_DEBUG_SURFACE_LOSS", "3"), ("PENUMBRA_DEBUG_DEVICE_LOSS", "120")];
     let mut viewer = Viewer::start(&display, &dir, &args, &env);
     let expected = image::open(golden("first_frame.png")).unwrap().into_rgba8();
     let shows_scene = |viewer: &mut Viewer, what: &str| {
@@ -485,15 +561,154 @@ fn viewer_survives_lost_surfaces_and_a_lost_device() {
         }
     };
     shows_scene(&mut viewer, "frames between lost surfaces");
+    // A still viewer draws (and asks for surface images) only when something changes: the
+    // pointer moving over it keeps frames coming until the device is lost and replaced.
+    let win = viewer.window.to_string();
     let deadline = Instant::now() + Duration::from_secs(60);
     while !viewer.log().contains("the window has a new GPU device") {
         assert!(viewer.alive(), "the viewer exited; log:\n{}", viewer.log());
         assert!(Instant::now() < deadline, "the device was not replaced; log:\n{}", viewer.log());
-        std::thread::sleep(Duration::from_millis(200));
+        for x in [150, 170] {
+            viewer.xdotool(&["mousemove", "--window", &win, &x.to_string(), "200"]);
+        }
     }
     shows_scene(&mut viewer, "frames on the new device");
     let log = viewer.log();
     let recreated = log.matches("created it again").count();
     assert!(recreated >= 3, "the surface was not lost and recreated repeatedly ({recreated} times); log:\n{log}");
     assert!(viewer.alive(), "the viewer exited; log:\n{log}");
+}
+
+/// The UI keeps its own input and its panels dock (issue 47), at 640×400 with every panel open:
+/// the panels sit beside the scene (the scene is drawn only in what they leave, and the whole
+/// model is in it); Esc with a menu open closes the menu, not the viewer; a click that closes a
+/// menu does not reach the scene (the selection stays); the file browser opens (Ctrl+O) and Esc
+/// closes it; a still window uses next to no CPU; sixty wheel notches in never take the camera
+/// through the model's surface.
+#[test]
+fn viewer_ui_keeps_its_input_and_docks_its_panels() {
+    let (_server, display) = xvfb();
+    let dir = scratch("ui");
+    let (w, h) = (640u32, 400u32);
+    let args = [
+        "--size",
+        "640x400",
+        "--background",
+        "color",
+        "--msaa",
+        "1",
+        "--panels",
+        "stats,tree,inspector,settings,environment",
+    ];
+    let mut viewer = Viewer::start(&display, &dir, &args, &[]);
+    let win = viewer.window.to_string();
+    viewer.xdotool(&["windowfocus", "--sync", &win]);
+    let docked = viewer.settled("the first frame with every panel");
+    save(&dir.join("docked.png"), &docked.0, w, h);
+    assert_eq!((docked.1, docked.2), (w, h));
+    // The loading panel covers the whole load: from the file read, it says it prepares the
+    // first frame (staging and the shader compiles of that frame come after), and the scene
+    // replaces it only with its first frame on screen.
+    let log = viewer.log();
+    let at = |what: &str| log.find(what).unwrap_or_else(|| panic!("no {what:?} in the log:\n{log}"));
+    assert!(
+        at("preparing the first frame of") < at(", staged in ") && at(", staged in ") < at("on screen, "),
+        "the load's steps are out of order:\n{log}"
+    );
+
+    // Docked: a left and a right column and the scene between them, inside the window.
+    let viewport = viewer.viewport();
+    let (vx, vy, vw, vh) = viewport;
+    assert!(vx >= 120 && vx + vw <= w - 120 && vw >= w / 3, "panels and viewport: {viewport:?} of {w}x{h}");
+    assert!(vy > 0 && vy + vh == h, "viewport {viewport:?}");
+    // The panels are opaque UI, not scene: their columns hold the panel colours, with no
+    // model pixels under them; the model is wholly inside the viewport.
+    let scene_only = crop(&docked, viewport);
+    let b = model_box(&(scene_only.clone(), vw, vh)).expect("the model is in the viewport");
+    assert!(inside(b, vw, vh), "the model reaches the viewport's edge: {b:?} in {vw}x{vh}");
+    let panel_fill = |x0: u32, x1: u32| {
+        let (mut dark, mut n) = (0, 0);
+        for y in (vy + 10..h - 10).step_by(7) {
+            for x in (x0..x1).step_by(7) {
+                let p = &docked.0[((y * w + x) * 4) as usize..][..3];
+                dark += usize::from(p.iter().all(|&c| c < 70));
+                n += 1;
+            }
+        }
+        dark as f32 / n as f32
+    };
+    assert!(panel_fill(2, vx - 2) > 0.6, "the left column is not a panel");
+    assert!(panel_fill(vx + vw + 2, w - 2) > 0.6, "the right column is not a panel");
+
+    // A still window: no frames, next to no CPU.
+    let before = viewer.cpu_seconds();
+    std::thread::sleep(Duration::from_secs(3));
+    let idle = viewer.cpu_seconds() - before;
+    assert!(idle < 0.15, "a still window used {idle:.2} s of CPU in 3 s");
+
+    // Select the model (a click in the middle of the viewport): the yellow box.
+    let (cx, cy) = (vx + vw / 2, vy + vh / 2);
+    let yellow = |rgba: &[u8]| {
+        rgba.chunks_exact(4).filter(|p| p[0] > 150 && p[1] > 120 && (p[2] as i32) < p[1] as i32 - 80).count()
+    };
+    viewer.xdotool(&["mousemove", "--window", &win, &cx.to_string(), &cy.to_string(), "click", "1"]);
+    let selected = viewer.settled("the selection");
+    let boxed = yellow(&crop(&selected, viewport));
+    assert!(boxed > 20, "no selection box after a click on the model");
+
+    // Esc with a menu open closes the menu and nothing else.
+    viewer.xdotool(&["mousemove", "--window", &win, "55", "12", "click", "1"]);
+    let menu = viewer.settled("the View menu");
+    assert!(menu != selected, "the View menu did not open");
+    viewer.xdotool(&["key", "Escape"]);
+    // The pointer back where it was for the comparison (it highlights what it hovers).
+    viewer.xdotool(&["mousemove", "--window", &win, &cx.to_string(), &cy.to_string()]);
+    let closed = viewer.settled("Esc on the menu");
+    assert!(viewer.alive(), "Esc with a menu open quit the viewer; log:\n{}", viewer.log());
+    // The stats panel's numbers change with every frame: compared left of it.
+    let steady = (0, 0, vx + vw, h);
+    save(&dir.join("selected.png"), &selected.0, w, h);
+    save(&dir.join("menu_closed.png"), &closed.0, w, h);
+    assert!(crop(&closed, steady) == crop(&selected, steady), "Esc did not close the menu (or changed the scene)");
+
+    // A click on the scene while a menu is open closes the menu, and the scene does not see it:
+    // the selection stays (before, it was cleared by the click).
+    viewer.xdotool(&["mousemove", "--window", &win, "55", "12", "click", "1"]);
+    viewer.settled("the View menu again");
+    let empty = (vx + vw - 12, vy + 12);
+    viewer.xdotool(&["mousemove", "--window", &win, &empty.0.to_string(), &empty.1.to_string(), "click", "1"]);
+    let after = viewer.settled("a click beside the menu");
+    assert_eq!(yellow(&crop(&after, viewport)), boxed, "the click that closed the menu reached the scene");
+
+    // The file browser: Ctrl+O shows it over the scene, Esc closes it.
+    viewer.xdotool(&["key", "ctrl+o"]);
+    let browser = viewer.settled("the file browser");
+    save(&dir.join("browser.png"), &browser.0, w, h);
+    let changed = flip_mean(&crop(&after, viewport), &crop(&browser, viewport), vw, vh);
+    assert!(changed > 0.05, "Ctrl+O showed no file browser (FLIP {changed:.4})");
+    viewer.xdotool(&["key", "Escape"]);
+    let gone = viewer.settled("the file browser closed");
+    assert!(viewer.alive(), "Esc in the file browser quit the viewer");
+    assert!(crop(&gone, steady) == crop(&after, steady), "Esc did not close the file browser");
+
+    // Sixty notches in, with the pointer on the model: the camera closes in on its surface and
+    // stops short of it, so the viewport is filled by the model, not by what is behind it.
+    viewer.xdotool(&["mousemove", "--window", &win, &cx.to_string(), &cy.to_string()]);
+    for _ in 0..6 {
+        viewer.xdotool(&["click", "--repeat", "10", "--delay", "30", "4"]);
+    }
+    let near = viewer.settled_any("sixty notches in");
+    save(&dir.join("near.png"), &near.0, w, h);
+    let scene = crop(&near, viewport);
+    let bg = &crop(&docked, viewport)[..3];
+    let background_pixels = scene
+        .chunks_exact(4)
+        .filter(|p| p[..3].iter().zip(bg).all(|(a, c)| (*a as i32 - *c as i32).abs() <= BACKGROUND_TOLERANCE))
+        .count();
+    let fraction = background_pixels as f32 / (vw * vh) as f32;
+    assert!(
+        fraction < 0.05,
+        "after zooming in, {fraction:.2} of the viewport is background: the camera went through the model"
+    );
+    assert!(viewer.alive());
 }

@@ -10,14 +10,16 @@ use std::path::Path;
 
 /// Logs `warnings` for the file at `path`, grouped by kind.
 pub(crate) fn log_warnings(path: &Path, warnings: &[String]) {
-    for (first, count) in group(warnings) {
+    let kinds = group(warnings);
+    let grouped = warnings.len() > kinds.len();
+    for (first, count) in kinds {
         if count == 1 {
             tracing::warn!("{}: {first}", path.display());
         } else {
             tracing::warn!("{}: {first} (and {} more like it; `-v` lists them)", path.display(), count - 1);
         }
     }
-    if warnings.len() > group(warnings).len() {
+    if grouped {
         for w in warnings {
             tracing::info!("{}: {w}", path.display());
         }

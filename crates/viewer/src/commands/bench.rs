@@ -39,10 +39,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return super::bench_soak::run(&args);
     }
     let settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
+    let environment = args.look.environment()?;
     let shot = ShotSettings {
         size: Some(args.size),
         exposure_ev100: args.look.exposure_ev100(),
         variant: args.scene_args.variant.clone(),
+        environment: environment.clone().filter(|_| !args.env_churn),
         ..Default::default()
     };
     shot.validate()?;
@@ -58,7 +60,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let renderer = Renderer::new(ctx, settings.clone())?;
     let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
     let (mut app, size) = stage_scene(&scene, &shot)?;
-    let environment = args.look.environment()?;
     let env_label = match &environment {
         None => "none".to_owned(),
         Some(_) if args.env_churn => "sky, sun turning 1° a frame (prefiltered every frame)".to_owned(),

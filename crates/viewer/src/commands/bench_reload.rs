@@ -56,13 +56,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         size: Some(args.size),
         exposure_ev100: args.look.exposure_ev100(),
         variant: args.scene_args.variant.clone(),
+        environment: environment.clone(),
         ..Default::default()
     };
     let (mut app, size) = stage_scene(&scene, &shot)?;
     let env_label = environment.as_ref().map_or("none".to_owned(), |_| format!("--env {}", args.look.env_name()));
-    if let Some(env) = environment {
-        app.insert_resource(env);
-    }
     app.insert_resource(renderer);
     app.insert_resource(RenderOutput::Headless { width: size.0, height: size.1 });
     // The shader generation the frame drew with, and when it was submitted.

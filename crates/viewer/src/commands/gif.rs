@@ -55,11 +55,9 @@ pub fn run(args: GifArgs) -> Result<()> {
         exposure_ev100: args.look.exposure_ev100(),
         animation: None,
         variant: args.scene_args.variant.clone(),
+        environment: args.look.environment()?,
     };
     let (mut app, _) = stage_scene(&scene, &shot)?;
-    if let Some(env) = args.look.environment()? {
-        app.insert_resource(env);
-    }
     let step = args.seconds / args.frames as f32;
     app.world.resource_mut::<Time>().set_mode(TimeMode::Fixed(Duration::from_secs_f32(step)));
     let (camera, start) = {

@@ -19,12 +19,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
     let settings = args.look.render_settings(false, None)?;
-    let shot = ShotSettings {
+    let mut shot = ShotSettings {
         size: args.size,
         camera: args.camera,
         exposure_ev100: args.look.exposure_ev100(),
         animation: args.animation_shot(),
         variant: args.scene_args.variant.clone(),
+        environment: None,
     };
     shot.validate()?;
     // Where the image goes is checked before anything is rendered: a bad name costs no render.
@@ -40,12 +41,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let staged = (|| -> Result<_> {
         let scene = scene::load(Some(&args.path), &args.scene_args)?;
         step("scene decoded");
-        let environment = args.look.environment()?;
+        shot.environment = args.look.environment()?;
         step("environment read");
-        let (mut app, size) = stage_scene(&scene, &shot)?;
-        if let Some(env) = environment {
-            app.insert_resource(env);
-        }
+        let (app, size) = stage_scene(&scene, &shot)?;
         step("scene staged");
         Ok((scene, app, size))
     })();
@@ -60,6 +58,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     output::save_image(&args.out, &pixels, size, image::ExtendedColorType::Rgba8)?;
     step("image written");
     if args.explain {
+        if let Some(view) = app.world.get_resource::<penumbra_render::headless::StagedView>() {
+            println!("View: {}\nExposure: {}", view.camera, view.exposure);
+        }
         print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
     }
     // Freeing is part of the command's time: the decoded images (over 100 MB for DamagedHelmet)

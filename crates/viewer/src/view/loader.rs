@@ -19,6 +19,10 @@ pub struct Loader {
     pub started: Instant,
     progress: ImportProgress,
     outcome: mpsc::Receiver<Result<SceneFile, String>>,
+    /// The import's outcome, once it has arrived: the next frame shows "preparing" over the old
+    /// scene, the one after stages it (the GPU work and shader compiles of its first frame
+    /// happen then, under that message).
+    pub ready: Option<Result<SceneFile, String>>,
 }
 
 impl Loader {
@@ -36,18 +40,21 @@ impl Loader {
                 let _ = send.send(scene::load_with(job.as_deref(), &options).map_err(|e| e.to_string()));
             })
             .expect("spawning a thread");
-        Loader { path: owned, started: Instant::now(), progress, outcome }
+        Loader { path: owned, started: Instant::now(), progress, outcome, ready: None }
     }
 
-    /// The finished import, once; `None` while it runs.
-    pub fn poll(&self) -> Option<Result<SceneFile, String>> {
-        match self.outcome.try_recv() {
-            Ok(r) => Some(r),
-            Err(mpsc::TryRecvError::Empty) => None,
-            Err(mpsc::TryRecvError::Disconnected) => {
-                Some(Err(format!("{}: the import stopped unexpectedly", self.name())))
-            }
+    /// Collects the finished import into [`Self::ready`]; whether it is there.
+    pub fn poll(&mut self) -> bool {
+        if self.ready.is_none() {
+            self.ready = match self.outcome.try_recv() {
+                Ok(r) => Some(r),
+                Err(mpsc::TryRecvError::Empty) => None,
+                Err(mpsc::TryRecvError::Disconnected) => {
+                    Some(Err(format!("{}: the import stopped unexpectedly", self.name())))
+                }
+            };
         }
+        self.ready.is_some()
     }
 
     pub fn progress(&self) -> ProgressSnapshot {

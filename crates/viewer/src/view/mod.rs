@@ -1,13 +1,17 @@
-//! `penumbra view`: the interactive viewer. A winit window; the scene drawn by the renderer
-//! into the swap-chain image; the egui overlay ([`overlay`], [`panels`]) drawn over it.
+//! `penumbra view`: the interactive viewer. A winit window; the egui UI ([`overlay`], [`panels`])
+//! with its panels docked round a viewport; the scene drawn by the renderer into the viewport's
+//! texture, which the UI shows as an image.
 //!
-//! Each frame: a finished background load ([`loader`]) replaces the scene ([`staged`]); input
-//! moves the orbit camera's goal and the camera eases towards it ([`orbit`]); axes and the
-//! selection box become gizmo lines ([`gizmos`]); `App::update`
-//! runs the schedules (extraction included); the renderer draws the extracted scene; an F12
-//! screenshot copies that image before the overlay draws ([`screenshot`]); the overlay's
-//! actions are carried out. Resizes reconfigure the surface at the window's physical size; a
-//! 0×0 (minimised) window skips frames.
+//! Each frame: a finished background load ([`loader`]) replaces the scene ([`staged`]) one frame
+//! after its import completes (that frame says it is preparing); input moves the orbit camera's
+//! goal and the camera eases towards it ([`orbit`]); axes and the selection box become gizmo
+//! lines ([`gizmos`]); `App::update` runs the schedules (extraction included); the UI is laid out
+//! (the panels edit the world) and decides the viewport; the renderer draws the extracted scene
+//! at the viewport's size; an F12 screenshot copies that texture ([`screenshot`]); the UI is
+//! painted over the swap-chain image; its actions are carried out. Frames are drawn only when
+//! something changes ([`Running::moving`]); a still window sleeps and wakes a few times a second
+//! for what comes without input. Resizes reconfigure the surface at the window's physical size;
+//! a 0×0 (minimised) window skips frames.
 
 mod gizmos;
 mod loader;
@@ -25,13 +29,14 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, anyhow, bail};
 use bevy_ecs::world::Mut;
 use glam::Vec2;
+use penumbra_engine::animation::AnimationPlayer;
 use penumbra_engine::components::GlobalTransform;
 use penumbra_engine::import::SceneFile;
 use penumbra_render::{GpuContext, RenderScene, RenderSettings, Renderer};
 use penumbra_viewer::surface::WindowSurface;
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
-use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, StartCause, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::window::{Window, WindowId};
 
@@ -85,6 +90,8 @@ struct Input {
     /// selects; a drag orbits).
     press: Option<(Vec2, bool)>,
     last_click: Option<(Instant, Vec2)>,
+    /// A button went down while a menu was open: the press and its release belong to the UI.
+    ui_press: bool,
 }
 
 /// Smoothed frame rate for the stats panel.
@@ -110,7 +117,14 @@ struct Running {
     recent: RecentFiles,
     screenshots: Screenshots,
     screenshot_requested: bool,
-    can_copy_surface: bool,
+    viewport: Viewport,
+    /// The last frame was not drawn (no surface image, a lost device): try again.
+    missed_frame: bool,
+    /// The scene was drawn into a viewport image the UI did not show yet.
+    image_pending: bool,
+    /// A scene just staged (its name, when its load began): logged when its first frame is
+    /// presented.
+    first_frame_of: Option<(String, Instant)>,
     settings: RenderSettings,
     /// Spaces out attempts to replace a lost device.
     device_retry: penumbra_render::RetryBackoff,
@@ -128,7 +142,14 @@ impl Viewer {
         let now = Instant::now();
         let screenshot_dir = self.args.screenshot_dir.clone().unwrap_or_else(|| PathBuf::from("."));
         Ok(Running {
-            can_copy_surface: surface.config.usage.contains(wgpu::TextureUsages::COPY_SRC),
+            missed_frame: false,
+            image_pending: false,
+            first_frame_of: None,
+            viewport: Viewport {
+                rect: (0, 0, surface.config.width, surface.config.height),
+                changed: false,
+                target: None,
+            },
             surface,
             ctx,
             scene: None,
@@ -137,7 +158,7 @@ impl Viewer {
             input: Input::default(),
             clock: FrameClock { last: now, window_start: now, frames: 0, fps: 0.0, frame_ms: 0.0 },
             overlay,
-            ui: UiState::new(!self.args.no_vsync),
+            ui: UiState::new(!self.args.no_vsync, &self.args.panels),
             recent: RecentFiles::load(),
             screenshots: Screenshots::new(screenshot_dir),
             screenshot_requested: false,
@@ -150,8 +171,23 @@ impl Viewer {
 impl Running {
     /// Takes a finished load: a new scene replaces the current one; a failure leaves it.
     fn poll_loader(&mut self, args: &ViewArgs) -> Result<()> {
-        let Some(outcome) = self.loader.as_ref().and_then(Loader::poll) else { return Ok(()) };
-        let loader = self.loader.take().expect("polled");
+        let Some(loader) = self.loader.as_mut() else { return Ok(()) };
+        // The frame the import finishes shows "preparing" (staging and the first frame's shader
+        // compiles take a while); the next one stages it.
+        if loader.ready.is_none() {
+            loader.poll();
+            match &loader.ready {
+                None => return Ok(()),
+                Some(Ok(_)) => {
+                    tracing::info!("preparing the first frame of {}", loader.name());
+                    return Ok(());
+                }
+                // A failed import has no first frame to prepare: reported now.
+                Some(Err(_)) => {}
+            }
+        }
+        let mut loader = self.loader.take().expect("checked above");
+        let outcome = loader.ready.take().expect("checked above");
         let first = std::mem::replace(&mut self.first_load, false);
         let imported = loader.started.elapsed().as_secs_f32();
         let staging = Instant::now();
@@ -162,6 +198,7 @@ impl Running {
                 // The import ran beside the window; staging (spawning, the renderer) blocks it.
                 let staged_in = staging.elapsed().as_secs_f32();
                 tracing::info!("loaded {}: imported in {imported:.2} s, staged in {staged_in:.2} s", staged.name);
+                self.first_frame_of = Some((staged.name.clone(), loader.started));
                 if let Some(p) = &staged.path {
                     self.recent.add(p);
                 }
@@ -201,7 +238,7 @@ impl Running {
             None => args.look.environment()?,
         };
         let renderer = Renderer::new(self.ctx.clone(), self.settings.clone())?;
-        Staged::new(file, path, look, env, self.surface.size(), renderer)
+        Staged::new(file, path, look, env, self.viewport.size(), renderer)
     }
 
     fn open(&mut self, path: PathBuf, args: &ViewArgs) {
@@ -220,12 +257,15 @@ impl Running {
         if let Some(s) = self.scene.as_mut() {
             s.app.world.resource_mut::<Renderer>().replace_device(ctx.clone())?;
         }
-        self.can_copy_surface = self.surface.config.usage.contains(wgpu::TextureUsages::COPY_SRC);
+        // The viewport's texture and its registration belonged to the old device.
+        self.viewport.target = None;
         self.ctx = ctx;
         Ok(())
     }
 
     fn frame(&mut self, args: &ViewArgs, event_loop: &ActiveEventLoop) -> Result<()> {
+        // Cleared once the frame is presented; a frame that returns early is tried again.
+        self.missed_frame = true;
         // wgpu reports a lost device from its maintenance: poll, then look.
         let _ = self.ctx.device.poll(wgpu::PollType::Poll);
         if self.ctx.is_lost() {
@@ -265,8 +305,9 @@ impl Running {
                 }
             }
         }
+        let aspect = self.aspect();
         if let Some(s) = self.scene.as_mut() {
-            s.advance_camera(dt);
+            s.advance_camera(dt, aspect);
             // A screenshot is the scene without the UI: the frame it copies draws no selection
             // box and no axes (they come back the next frame).
             let shot = self.screenshot_requested;
@@ -280,44 +321,71 @@ impl Running {
             s.app.update();
         }
         let Some(texture) = self.surface.acquire(&self.ctx.device) else { return Ok(()) };
-        let view = texture.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let ui_view = texture.texture.create_view(&wgpu::TextureViewDescriptor {
             format: Some(self.surface.config.format.remove_srgb_suffix()),
             ..Default::default()
         });
         let size = self.surface.size();
         let format = self.surface.config.format;
-        let loading = self.loader.as_ref().map(|l| (l.name(), l.progress(), l.started.elapsed().as_secs_f32()));
+        let loading = self
+            .loader
+            .as_ref()
+            .map(|l| (l.name(), l.progress(), l.started.elapsed().as_secs_f32(), l.ready.is_some()));
         let cameras = self.scene.as_ref().map(|s| s.cameras.clone()).unwrap_or_default();
         let through = self.scene.as_ref().and_then(|s| s.through.map(|(i, _)| i));
         let variants = self.scene.as_mut().map(|s| s.variants()).unwrap_or_default();
+        let exposure = self.scene.as_mut().and_then(|s| s.exposure_summary());
         let screenshot = std::mem::take(&mut self.screenshot_requested);
-        let (overlay, ui, window, screenshots, recent) =
-            (&mut self.overlay, &mut self.ui, self.surface.window.clone(), &self.screenshots, &self.recent.paths);
+        let image = self.overlay.viewport_texture();
+        // The first frame with a scene registers the viewport's image after the UI is laid
+        // out: it shows from the next frame.
+        self.image_pending = self.scene.is_some() && image.is_none();
+        let (overlay, ui, window, screenshots, recent, viewport) = (
+            &mut self.overlay,
+            &mut self.ui,
+            self.surface.window.clone(),
+            &self.screenshots,
+            &self.recent.paths,
+            &mut self.viewport,
+        );
         let (fps, frame_ms) = (self.clock.fps, self.clock.frame_ms);
-        let copy = self.can_copy_surface;
         let ctx = self.ctx.clone();
         let actions = match self.scene.as_mut() {
             Some(s) => {
                 let name = s.name.clone();
                 s.app.world.resource_scope(|world, mut renderer: Mut<Renderer>| {
-                    let scene = world.resource::<RenderScene>();
-                    renderer.render(scene, &view, format, size);
-                    if screenshot {
-                        screenshots.capture(&mut renderer, scene, copy.then_some(&texture.texture), size);
-                    }
-                    let info = FrameInfo {
-                        renderer: Some(&renderer),
-                        fps,
-                        frame_ms,
-                        loading,
-                        recent,
-                        cameras,
-                        through,
-                        variants,
-                        scene_name: &name,
+                    // The UI first: the docked panels decide the viewport the scene is drawn at.
+                    let actions = {
+                        let info = FrameInfo {
+                            renderer: Some(&renderer),
+                            fps,
+                            frame_ms,
+                            loading,
+                            recent,
+                            cameras,
+                            through,
+                            variants,
+                            exposure,
+                            scene_name: &name,
+                            viewport: image,
+                        };
+                        overlay.run(&window, ui, Some(world), &info)
                     };
-                    overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, false, ui, Some(world), &info)
+                    let pixels = overlay.viewport_pixels(ui).unwrap_or((0, 0, size.0, size.1));
+                    viewport.set_rect(pixels, size);
+                    let (w, h) = (pixels.2, pixels.3);
+                    if w > 0 && h > 0 {
+                        let (target, remade) = viewport.target(&ctx.device, format, (w, h));
+                        if remade || image.is_none() {
+                            overlay.set_viewport_texture(&ctx.device, &target.ui_view);
+                        }
+                        let scene = world.resource::<RenderScene>();
+                        renderer.render(scene, &target.view, format, (w, h));
+                        if screenshot {
+                            screenshots.capture(&mut renderer, scene, Some(&target.texture), (w, h));
+                        }
+                    }
+                    actions
                 })
             }
             None => {
@@ -330,12 +398,24 @@ impl Running {
                     cameras,
                     through,
                     variants,
+                    exposure: None,
                     scene_name: "",
+                    viewport: None,
                 };
-                overlay.draw(&window, &ctx.device, &ctx.queue, &ui_view, size, true, ui, None, &info)
+                let actions = overlay.run(&window, ui, None, &info);
+                viewport.set_rect(overlay.viewport_pixels(ui).unwrap_or((0, 0, size.0, size.1)), size);
+                actions
             }
         };
+        overlay.paint(&ctx.device, &ctx.queue, &ui_view, size);
         ctx.queue.present(texture);
+        self.missed_frame = false;
+        if let Some((name, started)) = self.first_frame_of.take() {
+            tracing::info!(
+                "first frame of {name} on screen, {:.2} s after opening it",
+                started.elapsed().as_secs_f32()
+            );
+        }
         for action in actions {
             self.act(action, args, event_loop);
         }
@@ -410,7 +490,7 @@ impl Running {
     }
 
     fn aspect(&self) -> f32 {
-        let (w, h) = self.surface.size();
+        let (w, h) = self.viewport.size();
         w.max(1) as f32 / h.max(1) as f32
     }
 
@@ -422,14 +502,18 @@ impl Running {
             Key::Named(NamedKey::F2) => self.ui.world_axes ^= true,
             Key::Named(NamedKey::F3) => self.ui.local_axes ^= true,
             Key::Named(NamedKey::F12) => self.screenshot_requested = true,
-            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("o") => self.ui.open_dialog = true,
+            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("o") => {
+                self.ui.browse(self.recent.paths.first().and_then(|p| p.parent()).map(Into::into))
+            }
+            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("l") => self.ui.open_dialog = true,
             Key::Character(c) if c.eq_ignore_ascii_case("f") => self.act(Action::FrameScene, args, event_loop),
             _ => {}
         }
     }
 
     fn on_click(&mut self, at: Vec2) {
-        let size = self.surface.size();
+        let size = self.viewport.size();
+        let at = self.viewport.local(at);
         let now = Instant::now();
         let double =
             self.input.last_click.is_some_and(|(t, p)| now - t < Duration::from_millis(400) && p.distance(at) < 6.0);
@@ -475,7 +559,39 @@ impl ApplicationHandler for Viewer {
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(r) = self.running.as_mut() else { return };
         let args = &self.args;
-        if r.overlay.on_window_event(&r.surface.window, &event) {
+        // Esc closes the open menu or dialog first; only with nothing open does it quit.
+        if let WindowEvent::KeyboardInput { event: key, .. } = &event
+            && key.state == ElementState::Pressed
+            && key.logical_key == Key::Named(NamedKey::Escape)
+            && (r.overlay.popup_open() || r.ui.dialog_open())
+        {
+            r.overlay.on_window_event(&r.surface.window, &event, r.ui.viewport);
+            if r.overlay.popup_open() {
+                r.overlay.close_popups();
+            } else {
+                r.ui.close_dialog();
+            }
+            r.surface.window.request_redraw();
+            return;
+        }
+        // A press while a menu is open only closes the menu (as desktop menus do): neither it
+        // nor its release reaches the scene.
+        if let WindowEvent::MouseInput { state, .. } = &event {
+            match state {
+                ElementState::Pressed if r.overlay.popup_open() => r.input.ui_press = true,
+                ElementState::Released if std::mem::take(&mut r.input.ui_press) => {
+                    r.overlay.on_window_event(&r.surface.window, &event, r.ui.viewport);
+                    (r.input.left, r.input.middle, r.input.right, r.input.press) = (false, false, false, None);
+                    return;
+                }
+                _ => {}
+            }
+            if r.input.ui_press {
+                r.overlay.on_window_event(&r.surface.window, &event, r.ui.viewport);
+                return;
+            }
+        }
+        if r.overlay.on_window_event(&r.surface.window, &event, r.ui.viewport) {
             // egui took it; a button released over a panel still ends a drag.
             if let WindowEvent::MouseInput { state: ElementState::Released, .. } = event {
                 (r.input.left, r.input.middle, r.input.right, r.input.press) = (false, false, false, None);
@@ -519,7 +635,7 @@ impl ApplicationHandler for Viewer {
                 if dragging {
                     s.take_over_file_camera();
                 }
-                let h = r.surface.config.height as f32;
+                let h = r.viewport.size().1 as f32;
                 if r.input.middle || r.input.right || (r.input.left && r.input.modifiers.shift_key()) {
                     let yfov = s.yfov();
                     s.orbit.pan(d.x, d.y, h, yfov);
@@ -528,17 +644,25 @@ impl ApplicationHandler for Viewer {
                 }
             }
             WindowEvent::MouseWheel { delta, .. } => {
+                // One step per wheel event at most: platforms report a notch as one line or as
+                // three, and a step is a fixed fraction of the way.
                 let notches = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => y,
-                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                    MouseScrollDelta::LineDelta(_, y) => y.clamp(-1.0, 1.0),
+                    MouseScrollDelta::PixelDelta(p) => (p.y as f32 / 40.0).clamp(-1.0, 1.0),
                 };
-                let size = r.surface.size();
-                let cursor = r.input.cursor;
+                let size = r.viewport.size();
+                let cursor = r.viewport.local(r.input.cursor);
                 let Some(s) = r.scene.as_mut() else { return };
                 s.take_over_file_camera();
-                // Zoom toward the point under the cursor (on the plane through the target).
+                // Toward the surface under the cursor where it is nearer than the orbit's
+                // centre, else the point at the centre's distance along the cursor's ray: each
+                // step covers a fraction of the way, so the camera never passes either.
                 let ray = s.ray_through(cursor, size);
-                let towards = ray.origin + ray.direction * s.orbit.current.distance;
+                let at_centre = ray.origin + ray.direction * s.orbit.current.distance;
+                let towards = match s.pick(cursor, size) {
+                    Some((_, hit)) if hit.distance(ray.origin) < at_centre.distance(ray.origin) => hit,
+                    _ => at_centre,
+                };
                 s.orbit.zoom(notches, Some(towards));
             }
             WindowEvent::DroppedFile(path) => {
@@ -564,9 +688,154 @@ impl ApplicationHandler for Viewer {
                     event_loop.exit();
                     return;
                 }
-                r.surface.window.request_redraw();
+                // A still scene is not drawn again until something changes.
+                if r.moving() {
+                    r.surface.window.request_redraw();
+                }
+                return;
             }
             _ => {}
         }
+        // Input changes what the window shows (hover, a drag, a key): draw the next frame.
+        if let Some(r) = self.running.as_mut() {
+            r.surface.window.request_redraw();
+        }
+    }
+
+    fn new_events(&mut self, _event_loop: &ActiveEventLoop, cause: StartCause) {
+        if let (StartCause::ResumeTimeReached { .. }, Some(r)) = (cause, self.running.as_mut())
+            && r.wants_frame()
+        {
+            r.surface.window.request_redraw();
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        // Still, the loop sleeps and looks a few times a second for what arrives without input
+        // (a load's progress, a shader saved, a screenshot written).
+        event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + IDLE_WAKE));
+    }
+}
+
+/// How often a still viewer wakes to look for changes that come without input.
+const IDLE_WAKE: Duration = Duration::from_millis(250);
+
+impl Running {
+    /// Whether the next frame can differ from this one with no input: the camera still easing,
+    /// an animation playing, automatic exposure adapting, egui animating, a frame not drawn.
+    fn moving(&mut self) -> bool {
+        if std::mem::take(&mut self.viewport.changed) {
+            return true;
+        }
+        if self.screenshot_requested || self.image_pending || self.ctx.is_lost() {
+            return true;
+        }
+        if self.overlay.repaint_delay().is_some_and(|d| d < IDLE_WAKE) {
+            return true;
+        }
+        if self.loader.as_ref().is_some_and(|l| l.ready.is_some()) {
+            return true;
+        }
+        let Some(s) = self.scene.as_mut() else { return false };
+        if s.orbit.current != s.orbit.goal || self.settings.post.auto_exposure.is_some() {
+            return true;
+        }
+        let mut q = s.app.world.query::<&AnimationPlayer>();
+        q.iter(&s.app.world).any(|p| p.active().is_some() && !p.is_paused() && !p.is_finished())
+    }
+
+    /// While still: whether something arrived that the window must show. A load's progress
+    /// (at the wake rate), a shader reload, a screenshot written, the status line's end.
+    fn wants_frame(&mut self) -> bool {
+        if self.loader.is_some() || self.screenshots.in_flight() > 0 || self.missed_frame {
+            return true;
+        }
+        if self.ui.status.as_ref().is_some_and(|(_, posted)| posted.elapsed() >= ui_state::STATUS_SHOWN) {
+            self.ui.status = None;
+            return true;
+        }
+        let Some(s) = self.scene.as_mut() else { return false };
+        s.app.world.resource_mut::<Renderer>().poll_shader_changes().is_some()
+    }
+}
+
+/// Where the scene is drawn: the window less the menu bar and the docked panels, in physical
+/// pixels, and the texture the renderer draws it into (shown by the overlay as an image).
+#[derive(Default)]
+struct Viewport {
+    /// x, y, width, height in the window, as the UI last laid it out.
+    rect: (u32, u32, u32, u32),
+    /// The rect changed in the last layout: the camera (its aspect, its fitted field of view)
+    /// takes it on the next frame.
+    changed: bool,
+    target: Option<ViewportTarget>,
+}
+
+struct ViewportTarget {
+    texture: wgpu::Texture,
+    /// What the renderer draws into (the surface's format, sRGB-encoding on write).
+    view: wgpu::TextureView,
+    /// The same texels without sRGB decoding, for egui, which blends and samples its images
+    /// as the encoded values.
+    ui_view: wgpu::TextureView,
+    size: (u32, u32),
+}
+
+impl Viewport {
+    /// Takes the rect the UI laid out; a change is logged (window tests read where the scene is).
+    fn set_rect(&mut self, rect: (u32, u32, u32, u32), window: (u32, u32)) {
+        if rect != self.rect {
+            let (x, y, w, h) = rect;
+            tracing::info!(
+                "viewport at ({x}, {y}), {w}x{h} of the {}x{} window (left {x}, right {})",
+                window.0,
+                window.1,
+                window.0.saturating_sub(x + w)
+            );
+            self.rect = rect;
+            self.changed = true;
+        }
+    }
+
+    fn size(&self) -> (u32, u32) {
+        (self.rect.2.max(1), self.rect.3.max(1))
+    }
+
+    /// A window position relative to the viewport's corner.
+    fn local(&self, p: Vec2) -> Vec2 {
+        p - Vec2::new(self.rect.0 as f32, self.rect.1 as f32)
+    }
+
+    /// The texture for a frame of `size` (made again when the size or format changes); whether
+    /// it is new.
+    fn target(
+        &mut self,
+        device: &wgpu::Device,
+        format: wgpu::TextureFormat,
+        size: (u32, u32),
+    ) -> (&ViewportTarget, bool) {
+        let fits = self.target.as_ref().is_some_and(|t| t.size == size && t.texture.format() == format);
+        if !fits {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("viewport"),
+                size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[format.remove_srgb_suffix()],
+            });
+            let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+            let ui_view = texture.create_view(&wgpu::TextureViewDescriptor {
+                format: Some(format.remove_srgb_suffix()),
+                ..Default::default()
+            });
+            self.target = Some(ViewportTarget { texture, view, ui_view, size });
+        }
+        (self.target.as_ref().expect("made above"), !fits)
     }
 }

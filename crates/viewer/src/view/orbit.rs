@@ -40,6 +40,8 @@ pub struct OrbitCamera {
 /// How fast the camera closes the gap to its goal: 1 − e^(−rate·dt) of it per frame.
 const SMOOTHING_RATE: f32 = 18.0;
 const PITCH_LIMIT: f32 = 1.55;
+/// The fraction of the way to the point under the cursor one wheel notch moves the camera.
+pub const ZOOM_STEP: f32 = 0.12;
 
 impl OrbitCamera {
     pub fn new(state: OrbitState) -> Self {
@@ -62,10 +64,11 @@ impl OrbitCamera {
         self.goal.target += (-dx * right + dy * up) * world_per_pixel;
     }
 
-    /// Wheel: each notch moves 15 % of the way; `towards` (a world point under the cursor) pulls
-    /// the target along so the zoom heads where the user points.
+    /// Wheel: each notch in moves the camera [`ZOOM_STEP`] of the way to `towards` (the surface
+    /// or the point under the cursor; without one, the target), so it never reaches or passes
+    /// it; a notch out undoes one in. The target moves along in proportion.
     pub fn zoom(&mut self, notches: f32, towards: Option<Vec3>) {
-        let factor = 0.85f32.powf(notches);
+        let factor = (1.0 - ZOOM_STEP).powf(notches);
         let new_distance = (self.goal.distance * factor).max(self.min_distance);
         if let Some(p) = towards {
             let moved = 1.0 - new_distance / self.goal.distance;
@@ -124,6 +127,33 @@ mod tests {
         }
         let settled = cam.update(1.0 / 60.0);
         assert_eq!(cam.update(1.0 / 60.0), settled);
+    }
+
+    #[test]
+    fn zooming_in_never_passes_the_point_it_heads_for() {
+        let start = OrbitState { target: Vec3::ZERO, distance: 10.0, yaw: 0.3, pitch: 0.2 };
+        let mut cam = OrbitCamera::new(start);
+        // A surface point between the camera and the target, off the axis.
+        let eye = start.transform().translation;
+        let surface = eye.lerp(Vec3::new(0.5, 0.2, 0.0), 0.6);
+        let mut last = eye.distance(surface);
+        for notch in 0..200 {
+            cam.zoom(1.0, Some(surface));
+            let now = cam.goal.transform().translation;
+            let gap = now.distance(surface);
+            // Each notch covers ZOOM_STEP of what is left, and the camera stays on its side.
+            assert!(
+                (gap / last - (1.0 - ZOOM_STEP)).abs() < 1e-3 || cam.goal.distance <= cam.min_distance * 1.0001,
+                "notch {notch}: {last} -> {gap}"
+            );
+            assert!((surface - now).dot(eye - surface) < 0.0, "notch {notch}: passed the surface");
+            last = gap;
+        }
+        // Out again: one notch out undoes one in.
+        let mut cam = OrbitCamera::new(start);
+        cam.zoom(1.0, None);
+        cam.zoom(-1.0, None);
+        assert!((cam.goal.distance - start.distance).abs() < 1e-4);
     }
 
     #[test]

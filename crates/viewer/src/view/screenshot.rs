@@ -15,6 +15,8 @@ use penumbra_render::{RenderScene, Renderer};
 /// Screenshots being written, and their outcomes.
 pub struct Screenshots {
     dir: PathBuf,
+    /// Captures whose outcome has not been collected yet.
+    in_flight: std::cell::Cell<usize>,
     done: mpsc::Receiver<Result<PathBuf, String>>,
     send: mpsc::Sender<Result<PathBuf, String>>,
 }
@@ -22,7 +24,7 @@ pub struct Screenshots {
 impl Screenshots {
     pub fn new(dir: PathBuf) -> Screenshots {
         let (send, done) = mpsc::channel();
-        Screenshots { dir, done, send }
+        Screenshots { dir, in_flight: std::cell::Cell::new(0), done, send }
     }
 
     /// Reads `texture` (the frame without UI; when `None`, re-renders into the renderer's
@@ -48,6 +50,7 @@ impl Screenshots {
             }
         };
         let (dir, send) = (self.dir.clone(), self.send.clone());
+        self.in_flight.set(self.in_flight.get() + 1);
         std::thread::spawn(move || {
             let outcome = pixels.map_err(|e| format!("screenshot: {e}")).and_then(|px| save(&dir, size, px));
             let _ = send.send(outcome);
@@ -56,7 +59,14 @@ impl Screenshots {
 
     /// Outcomes of finished saves.
     pub fn finished(&self) -> Vec<Result<PathBuf, String>> {
-        self.done.try_iter().collect()
+        let done: Vec<_> = self.done.try_iter().collect();
+        self.in_flight.set(self.in_flight.get().saturating_sub(done.len()));
+        done
+    }
+
+    /// Captures still being written (their outcome not yet collected by [`Self::finished`]).
+    pub fn in_flight(&self) -> usize {
+        self.in_flight.get()
     }
 }
 

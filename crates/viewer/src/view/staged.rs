@@ -17,7 +17,7 @@ use penumbra_engine::framing::{framing_camera_from, world_bounds};
 use penumbra_engine::import::{GltfCamera, SceneFile};
 use penumbra_engine::picking::{Ray, raycast};
 use penumbra_engine::{App, Time, TimeMode};
-use penumbra_render::headless::{CameraChoice, ShotSettings, stage_scene};
+use penumbra_render::headless::{CameraChoice, ShotSettings, StagedView, default_file_camera, stage_scene};
 use penumbra_render::{RenderOutput, Renderer};
 
 use super::orbit::{OrbitCamera, OrbitState};
@@ -34,7 +34,18 @@ pub struct Staged {
     pub through: Option<(usize, Entity)>,
     /// The file's cameras (glTF index, node name), listed once at staging for the Camera menu.
     pub cameras: Vec<(usize, String)>,
+    /// The orbit camera's lens: its vertical field of view in a landscape viewport. A portrait
+    /// viewport (docked panels can make one) keeps this field of view across its width instead
+    /// ([`fitted_yfov`]), so a framed model stays in view.
+    pub lens_yfov: f32,
+    /// The near plane the scene was framed with; zoomed in closer, the near plane comes in
+    /// with the camera ([`NEAR_PER_DISTANCE`] of the orbit distance), so a surface the camera
+    /// closes in on is never cut away.
+    pub lens_znear: f32,
 }
+
+/// The near plane's distance as a fraction of the orbit distance, at most.
+const NEAR_PER_DISTANCE: f32 = 0.05;
 
 /// What the command line asks of the first scene the viewer stages (later ones get defaults).
 #[derive(Debug, Clone, Default)]
@@ -56,16 +67,26 @@ impl Staged {
     ) -> Result<Staged> {
         let FirstLook { camera: choice, exposure_ev100, variant } = look;
         // The viewer's camera is always an orbit camera; a file camera chosen on the command
-        // line is looked through from the start.
+        // line, or by default the file's first (where it sees the scene), is looked through
+        // from the start.
         let orbit_choice = match choice {
             CameraChoice::Orbit { .. } => choice,
-            _ => CameraChoice::Auto,
+            _ => CameraChoice::THREE_QUARTER,
         };
-        let shot = ShotSettings { size: Some(size), camera: orbit_choice, exposure_ev100, animation: None, variant };
+        let shot = ShotSettings {
+            size: Some(size),
+            camera: orbit_choice,
+            exposure_ev100,
+            environment,
+            animation: None,
+            variant,
+        };
         let (mut app, _) = stage_scene(file, &shot)?;
-        if let Some(env) = environment {
-            app.insert_resource(env);
-        }
+        let file_camera = match choice {
+            CameraChoice::Gltf(index) => Some(index),
+            CameraChoice::Auto => default_file_camera(&mut app),
+            CameraChoice::Orbit { .. } => None,
+        };
         app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
         let camera = {
             let mut q = app.world.query_filtered::<(Entity, &Camera), Without<GltfCamera>>();
@@ -82,16 +103,40 @@ impl Staged {
         };
         app.insert_resource(renderer);
         app.insert_resource(RenderOutput::External);
-        let mut staged =
-            Staged { app, path, name, camera, orbit: OrbitCamera::new(state), through: None, cameras: Vec::new() };
+        let mut staged = Staged {
+            app,
+            path,
+            name,
+            camera,
+            orbit: OrbitCamera::new(state),
+            through: None,
+            cameras: Vec::new(),
+            lens_yfov: 45f32.to_radians(),
+            lens_znear: 0.1,
+        };
+        if let Some(c) = staged.app.world.get::<Camera>(camera) {
+            staged.lens_znear = c.projection.znear();
+        }
         staged.cameras = staged.list_cameras();
-        if let CameraChoice::Gltf(index) = choice {
+        if let Some(index) = file_camera {
             staged.look_through(Some(index))?;
         }
         Ok(staged)
     }
 
-    /// The file's cameras: glTF index and node name, in index order.
+    /// The active camera's exposure, and how the staged one was chosen (metered, given, or
+    /// EV100 0 for a scene without lights).
+    pub fn exposure_summary(&mut self) -> Option<String> {
+        let mut q = self.app.world.query::<&Camera>();
+        let ev = q.iter(&self.app.world).find(|c| c.is_active)?.exposure.ev100;
+        let chosen = self.app.world.get_resource::<StagedView>().map(|v| v.exposure);
+        Some(match chosen {
+            Some(c) if (c.ev100() - ev).abs() < 1e-4 => c.to_string(),
+            Some(c) => format!("EV100 {ev:.2} (set here; staged at {c})"),
+            None => format!("EV100 {ev:.2}"),
+        })
+    }
+
     /// The scene's material variants and the one shown (none listed: the file has none).
     pub fn variants(&mut self) -> SceneVariants {
         let mut q = self.app.world.query::<&SceneVariants>();
@@ -160,6 +205,10 @@ impl Staged {
         let bounds = world_bounds(&mut self.app.world);
         let state = orbit_from(&g, &bounds);
         self.orbit = OrbitCamera::new(state);
+        if let Projection::Perspective { yfov, znear, .. } = cam.projection {
+            self.lens_yfov = yfov;
+            self.lens_znear = znear;
+        }
         if let Some(mut ours) = self.app.world.get_mut::<Camera>(self.camera) {
             *ours = Camera { is_active: true, ..cam };
         }
@@ -197,9 +246,21 @@ impl Staged {
         raycast(&mut self.app.world, ray).map(|hit| (hit.entity, hit.point))
     }
 
-    /// Writes the eased orbit pose into the viewer camera (unless a file camera is in use).
-    pub fn advance_camera(&mut self, dt: f32) {
+    /// Writes the eased orbit pose into the viewer camera (unless a file camera is in use), and
+    /// its field of view fitted to the viewport's `aspect`.
+    pub fn advance_camera(&mut self, dt: f32, aspect: f32) {
         let transform: Transform = self.orbit.update(dt);
+        let fitted = fitted_yfov(self.lens_yfov, aspect);
+        let near = self.lens_znear.min(self.orbit.current.distance * NEAR_PER_DISTANCE);
+        // Written only when it changes: a write marks the camera changed.
+        let current = self.app.world.get::<Camera>(self.camera).map(|c| c.projection);
+        if self.through.is_none()
+            && let Some(Projection::Perspective { yfov, znear, aspect_ratio }) = current
+            && (yfov != fitted || znear != near)
+            && let Some(mut c) = self.app.world.get_mut::<Camera>(self.camera)
+        {
+            c.projection = Projection::Perspective { yfov: fitted, znear: near, aspect_ratio };
+        }
         if self.through.is_none()
             && let Some(mut t) = self.app.world.get_mut::<Transform>(self.camera)
             && *t != transform
@@ -207,6 +268,15 @@ impl Staged {
             *t = transform;
         }
     }
+}
+
+/// The vertical field of view that shows `lens_yfov` across the narrower side of a viewport of
+/// `aspect` (width / height): the lens's own in landscape, wider in portrait.
+pub fn fitted_yfov(lens_yfov: f32, aspect: f32) -> f32 {
+    if aspect >= 1.0 || aspect.is_nan() || aspect <= 0.0 {
+        return lens_yfov;
+    }
+    2.0 * ((0.5 * lens_yfov).tan() / aspect).atan()
 }
 
 /// The orbit state of a camera pose: it looks at the point of its view ray nearest the scene's

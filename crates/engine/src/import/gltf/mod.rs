@@ -405,10 +405,8 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     let bytes = source::check_glb_header(bytes, &mut warnings)?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
         // A glTF 1.0 file has another JSON shape: say so rather than what serde found missing.
-        match source::probe_version(bytes) {
-            Some(v) if source::check_version(&v, None).is_err() => {
-                source::check_version(&v, None).expect_err("checked in the guard")
-            }
+        match source::probe_version(bytes).map(|v| source::check_version(&v, None)) {
+            Some(Err(refused)) => refused,
             _ => ImportErrorKind::Malformed(e.to_string()),
         }
     })?;

@@ -60,6 +60,25 @@ const SH_FACE_MAX: u32 = 32;
 /// Stand-in radiance scale of the studio gradient: straight up, at the horizon, straight down
 /// (cd/m²). With the default exposure (EV100 0) the sky above reads 0.83 before tonemapping.
 pub const STUDIO_RADIANCE: [f32; 3] = [1.0, 0.6, 0.25];
+/// The studio gradient's radiance towards world direction `d` (unit), as `env_source.wgsl`
+/// draws it (grey: one value for R, G and B).
+pub fn studio_radiance(d: Vec3) -> f32 {
+    let smooth = |x: f32| x * x * (3.0 - 2.0 * x);
+    let [up_l, horizon, down_l] = STUDIO_RADIANCE;
+    let (up, down) = (smooth(d.y.clamp(0.0, 1.0)), smooth((-d.y).clamp(0.0, 1.0)));
+    horizon + (up_l - horizon) * up.sqrt() + (down_l - horizon) * down.sqrt()
+}
+
+/// The sky the renderer makes for a procedural environment (`Auto` or `Sky`) in a scene whose
+/// brightest directional light is `sun` (direction towards it, lux); `None` where it draws the
+/// studio gradient instead (and for images, which are their own radiance).
+pub fn sky_for(env: &Environment, sun: Option<(Vec3, f32)>) -> Option<sky::SkyParams> {
+    match resolve(env, sun).0 {
+        Source::Sky(p) => Some(p),
+        _ => None,
+    }
+}
+
 /// Most GGX samples per texel of any level.
 pub const MAX_SAMPLES: u32 = 4096;
 /// Uniform buffer stride between per-level filter parameters.

@@ -38,6 +38,23 @@ pub struct SkyParams {
     pub scale: f32,
 }
 
+impl SkyParams {
+    /// Luminance (cd/m²) arriving from world direction `d` (unit), as `env_source.wgsl` draws
+    /// it less the horizon's blend: Preetham's distribution above the horizon, the grey ground
+    /// below.
+    pub fn luminance(&self, d: Vec3) -> f32 {
+        if d.y < 0.0 {
+            return self.ground * self.scale;
+        }
+        let above = Vec3::new(d.x, d.y.max(0.02), d.z).normalize();
+        let gamma = above.dot(self.sun).clamp(-1.0, 1.0).acos();
+        let c = self.perez_lum;
+        let f = (1.0 + c.x * (c.y / above.y.max(0.01)).exp())
+            * (1.0 + c.z * (c.w * gamma).exp() + self.perez_e.x * gamma.cos() * gamma.cos());
+        (self.zenith.x * f * self.scale).max(0.0)
+    }
+}
+
 struct Perez {
     a: f32,
     b: f32,

@@ -11,6 +11,12 @@ fn playback(p: &AnimationPlayer) -> (Option<usize>, f32, f32, bool, Repeat) {
     (p.active(), p.time(), p.speed(), p.is_paused(), p.repeat())
 }
 
+/// Whether the scene has a player with clips (the panel shows only then).
+pub fn has_clips(world: &mut World) -> bool {
+    let mut q = world.query::<&AnimationPlayer>();
+    q.iter(world).any(|p| !p.clips().is_empty())
+}
+
 pub fn panel(ui: &mut egui::Ui, world: &mut World) {
     let found = {
         let mut q = world.query::<(Entity, &AnimationPlayer)>();
@@ -29,7 +35,7 @@ pub fn panel(ui: &mut egui::Ui, world: &mut World) {
 fn edit(ui: &mut egui::Ui, player: &mut AnimationPlayer) {
     let n = player.clips().len();
     let title = format!("Animation ({n} clip{})", if n == 1 { "" } else { "s" });
-    egui::Window::new(title).default_open(true).anchor(egui::Align2::LEFT_BOTTOM, [8.0, -8.0]).show(ui.ctx(), |ui| {
+    egui::CollapsingHeader::new(title).default_open(true).show(ui, |ui| {
         let active = player.active();
         let names: Vec<String> = player.clips().iter().map(|c| c.name.clone()).collect();
         let mut chosen = None;

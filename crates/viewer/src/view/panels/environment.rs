@@ -22,10 +22,7 @@ pub fn load_environment(env: &mut Option<Environment>, path: &Path) -> Result<St
 pub fn panel(ui: &mut egui::Ui, world: &mut World, path: &mut String, status: &mut Option<Result<String, String>>) {
     let before = world.get_resource::<Environment>().cloned();
     let mut env = before.clone();
-    egui::Window::new("Environment")
-        .default_open(true)
-        .anchor(egui::Align2::RIGHT_TOP, [-8.0, 32.0])
-        .show(ui.ctx(), |ui| edit(ui, &mut env, path, status));
+    egui::CollapsingHeader::new("Environment").default_open(true).show(ui, |ui| edit(ui, &mut env, path, status));
     if env != before {
         match env {
             Some(e) => world.insert_resource(e),

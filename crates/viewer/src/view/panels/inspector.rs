@@ -14,86 +14,83 @@ use penumbra_engine::components::{
 use penumbra_engine::material::StandardMaterial;
 
 pub fn panel(ui: &mut egui::Ui, world: &mut World, selected: Option<Entity>) {
-    egui::Window::new("Inspector").default_open(true).anchor(egui::Align2::LEFT_TOP, [8.0, 64.0]).show(
-        ui.ctx(),
-        |ui| {
-            let Some(e) = selected.filter(|&e| world.get_entity(e).is_ok()) else {
-                ui.label("Click an object, or a row of the scene tree.");
-                return;
-            };
-            let name = world.get::<Name>(e).map_or_else(|| "(unnamed)".to_owned(), |n| n.as_str().to_owned());
-            ui.heading(name);
-            ui.label(format!("entity {}", e.index()));
-            edit::<Transform>(ui, world, e, "Transform", transform);
-            edit::<Visibility>(ui, world, e, "Visibility", |ui, v| {
-                ui.horizontal(|ui| {
-                    ui.selectable_value(v, Visibility::Inherited, "inherited");
-                    ui.selectable_value(v, Visibility::Visible, "visible");
-                    ui.selectable_value(v, Visibility::Hidden, "hidden");
-                });
+    egui::CollapsingHeader::new("Inspector").default_open(true).show(ui, |ui| {
+        let Some(e) = selected.filter(|&e| world.get_entity(e).is_ok()) else {
+            ui.label("Click an object, or a row of the scene tree.");
+            return;
+        };
+        let name = world.get::<Name>(e).map_or_else(|| "(unnamed)".to_owned(), |n| n.as_str().to_owned());
+        ui.heading(name);
+        ui.label(format!("entity {}", e.index()));
+        edit::<Transform>(ui, world, e, "Transform", transform);
+        edit::<Visibility>(ui, world, e, "Visibility", |ui, v| {
+            ui.horizontal(|ui| {
+                ui.selectable_value(v, Visibility::Inherited, "inherited");
+                ui.selectable_value(v, Visibility::Visible, "visible");
+                ui.selectable_value(v, Visibility::Hidden, "hidden");
             });
-            material(ui, world, e);
-            edit::<DirectionalLight>(ui, world, e, "Directional light", |ui, l| {
-                color(ui, &mut l.color);
-                ui.add(egui::DragValue::new(&mut l.illuminance).range(0.0..=f32::MAX).speed(10.0).suffix(" lux"));
-                ui.checkbox(&mut l.shadows, "shadows");
+        });
+        material(ui, world, e);
+        edit::<DirectionalLight>(ui, world, e, "Directional light", |ui, l| {
+            color(ui, &mut l.color);
+            ui.add(egui::DragValue::new(&mut l.illuminance).range(0.0..=f32::MAX).speed(10.0).suffix(" lux"));
+            ui.checkbox(&mut l.shadows, "shadows");
+        });
+        edit::<PointLight>(ui, world, e, "Point light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.intensity, " cd");
+            range(ui, &mut l.range);
+            ui.checkbox(&mut l.shadows, "shadows");
+        });
+        edit::<SpotLight>(ui, world, e, "Spot light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.intensity, " cd");
+            range(ui, &mut l.range);
+            ui.horizontal(|ui| {
+                ui.label("cone inner / outer");
+                ui.drag_angle(&mut l.inner_cone_angle);
+                ui.drag_angle(&mut l.outer_cone_angle);
             });
-            edit::<PointLight>(ui, world, e, "Point light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.intensity, " cd");
-                range(ui, &mut l.range);
-                ui.checkbox(&mut l.shadows, "shadows");
-            });
-            edit::<SpotLight>(ui, world, e, "Spot light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.intensity, " cd");
-                range(ui, &mut l.range);
-                ui.horizontal(|ui| {
-                    ui.label("cone inner / outer");
-                    ui.drag_angle(&mut l.inner_cone_angle);
-                    ui.drag_angle(&mut l.outer_cone_angle);
-                });
-                let outer = l.outer_cone_angle.clamp(1e-3, std::f32::consts::FRAC_PI_2);
-                l.outer_cone_angle = outer;
-                l.inner_cone_angle = l.inner_cone_angle.clamp(0.0, outer);
-                ui.checkbox(&mut l.shadows, "shadows");
-            });
-            edit::<SphereLight>(ui, world, e, "Sphere light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.intensity, " cd");
-                ui.add(egui::DragValue::new(&mut l.radius).range(0.0..=f32::MAX).speed(0.01).prefix("radius "));
-                range(ui, &mut l.range);
-            });
-            edit::<TubeLight>(ui, world, e, "Tube light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.intensity, " cd");
-                ui.add(egui::DragValue::new(&mut l.length).range(0.0..=f32::MAX).speed(0.01).prefix("length "));
-                ui.add(egui::DragValue::new(&mut l.radius).range(0.0..=f32::MAX).speed(0.01).prefix("radius "));
-                range(ui, &mut l.range);
-            });
-            edit::<RectLight>(ui, world, e, "Rectangle light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.luminance, " nit");
-                ui.add(egui::DragValue::new(&mut l.width).range(0.0..=f32::MAX).speed(0.01).prefix("width "));
-                ui.add(egui::DragValue::new(&mut l.height).range(0.0..=f32::MAX).speed(0.01).prefix("height "));
-                range(ui, &mut l.range);
-            });
-            edit::<DiskLight>(ui, world, e, "Disk light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.luminance, " nit");
-                ui.add(egui::DragValue::new(&mut l.radius).range(0.0..=f32::MAX).speed(0.01).prefix("radius "));
-                range(ui, &mut l.range);
-            });
-            edit::<AmbientLight>(ui, world, e, "Ambient light", |ui, l| {
-                color(ui, &mut l.color);
-                intensity(ui, &mut l.intensity, "");
-            });
-            edit::<Camera>(ui, world, e, "Camera", |ui, c| {
-                ui.add(egui::Slider::new(&mut c.exposure.ev100, -6.0..=18.0).text("exposure (EV100)"));
-                ui.checkbox(&mut c.is_active, "active");
-            });
-        },
-    );
+            let outer = l.outer_cone_angle.clamp(1e-3, std::f32::consts::FRAC_PI_2);
+            l.outer_cone_angle = outer;
+            l.inner_cone_angle = l.inner_cone_angle.clamp(0.0, outer);
+            ui.checkbox(&mut l.shadows, "shadows");
+        });
+        edit::<SphereLight>(ui, world, e, "Sphere light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.intensity, " cd");
+            ui.add(egui::DragValue::new(&mut l.radius).range(0.0..=f32::MAX).speed(0.01).prefix("radius "));
+            range(ui, &mut l.range);
+        });
+        edit::<TubeLight>(ui, world, e, "Tube light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.intensity, " cd");
+            ui.add(egui::DragValue::new(&mut l.length).range(0.0..=f32::MAX).speed(0.01).prefix("length "));
+            ui.add(egui::DragValue::new(&mut l.radius).range(0.0..=f32::MAX).speed(0.01).prefix("radius "));
+            range(ui, &mut l.range);
+        });
+        edit::<RectLight>(ui, world, e, "Rectangle light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.luminance, " nit");
+            ui.add(egui::DragValue::new(&mut l.width).range(0.0..=f32::MAX).speed(0.01).prefix("width "));
+            ui.add(egui::DragValue::new(&mut l.height).range(0.0..=f32::MAX).speed(0.01).prefix("height "));
+            range(ui, &mut l.range);
+        });
+        edit::<DiskLight>(ui, world, e, "Disk light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.luminance, " nit");
+            ui.add(egui::DragValue::new(&mut l.radius).range(0.0..=f32::MAX).speed(0.01).prefix("radius "));
+            range(ui, &mut l.range);
+        });
+        edit::<AmbientLight>(ui, world, e, "Ambient light", |ui, l| {
+            color(ui, &mut l.color);
+            intensity(ui, &mut l.intensity, "");
+        });
+        edit::<Camera>(ui, world, e, "Camera", |ui, c| {
+            ui.add(egui::Slider::new(&mut c.exposure.ev100, -6.0..=18.0).text("exposure (EV100)"));
+            ui.checkbox(&mut c.is_active, "active");
+        });
+    });
 }
 
 /// Shows `T` of `e` (if it has one) under `title`; writes it back only when the edit changed it.

@@ -10,6 +10,7 @@ mod stats;
 mod tree;
 
 use bevy_ecs::world::World;
+use egui::emath::GuiRounding;
 use egui::{Color32, RichText};
 
 pub use environment::load_environment;
@@ -22,6 +23,9 @@ pub fn menu_bar(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
                 if ui.button("Open…  (Ctrl+O)").clicked() {
+                    state.browse(info.recent.first().and_then(|p| p.parent()).map(Into::into));
+                }
+                if ui.button("Open location…  (Ctrl+L)").clicked() {
                     state.open_dialog = true;
                 }
                 ui.menu_button("Recent", |ui| {
@@ -89,7 +93,17 @@ pub fn menu_bar(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
     });
 }
 
-/// The panels that show and edit the scene.
+/// Widest a side panel may be, as a fraction of the window: two open side panels leave the
+/// scene at least 40 % of it.
+const SIDE_FRACTION: f32 = 0.3;
+/// A side panel's width when it opens, and the narrowest it can be dragged to (points).
+const SIDE_WIDTH: f32 = 240.0;
+const SIDE_MIN: f32 = 120.0;
+
+/// The panels that show and edit the scene, docked: the scene tree and the inspector on the
+/// left, stats, render settings and the environment on the right, the animation controls at
+/// the bottom. Docked panels never overlap each other or leave the window; the scene is drawn
+/// in what remains ([`viewport`]).
 pub fn scene_panels(
     ui: &mut egui::Ui,
     state: &mut UiState,
@@ -97,28 +111,74 @@ pub fn scene_panels(
     info: &FrameInfo<'_>,
     actions: &mut Vec<Action>,
 ) {
-    if state.show_environment {
-        environment::panel(ui, world, &mut state.env_path, &mut state.env_status);
+    let width = ui.ctx().content_rect().width();
+    let max = (width * SIDE_FRACTION).max(SIDE_MIN);
+    let side = |panel: egui::Panel| {
+        panel.resizable(true).default_size(SIDE_WIDTH.min(max)).size_range(SIDE_MIN.min(max)..=max)
+    };
+    if animation::has_clips(world) {
+        egui::Panel::bottom("animation").show(ui, |ui| animation::panel(ui, world));
     }
-    animation::panel(ui, world);
-    if state.show_tree {
-        tree::panel(ui, world, &mut state.selected, actions);
+    if state.show_tree || state.show_inspector {
+        side(egui::Panel::left("scene")).show(ui, |ui| {
+            egui::ScrollArea::both().auto_shrink([false, false]).show(ui, |ui| {
+                if state.show_tree {
+                    tree::panel(ui, world, &mut state.selected, actions);
+                }
+                if state.show_inspector {
+                    inspector::panel(ui, world, state.selected);
+                }
+            });
+        });
     }
-    if state.show_inspector {
-        inspector::panel(ui, world, state.selected);
+    let renderer = info.renderer;
+    let right = state.show_environment || (renderer.is_some() && (state.show_stats || state.show_settings));
+    if right {
+        side(egui::Panel::right("tools")).show(ui, |ui| {
+            egui::ScrollArea::both().auto_shrink([false, false]).show(ui, |ui| {
+                if let Some(renderer) = renderer {
+                    if state.show_stats {
+                        stats::panel(ui, renderer, info);
+                    }
+                    if state.show_settings {
+                        settings::panel(ui, world, renderer, &mut state.vsync, actions);
+                    }
+                }
+                if state.show_environment {
+                    environment::panel(ui, world, &mut state.env_path, &mut state.env_status);
+                }
+            });
+        });
     }
-    if let Some(renderer) = info.renderer {
-        if state.show_stats {
-            stats::panel(ui, renderer, info);
+}
+
+/// What the docked panels leave: the scene's image (`info.viewport`, rendered at this rect's
+/// size in pixels the frame before it is shown), and the rect, recorded in `state`.
+pub fn viewport(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>) {
+    egui::CentralPanel::no_frame().show(ui, |ui| {
+        let ppp = ui.ctx().pixels_per_point();
+        let rect = ui.max_rect().round_to_pixels(ppp);
+        state.viewport = Some(rect);
+        if let Some(texture) = info.viewport {
+            let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+            ui.painter().image(texture, rect, uv, Color32::WHITE);
         }
-        if state.show_settings {
-            settings::panel(ui, world, renderer, &mut state.vsync, actions);
-        }
-    }
+    });
 }
 
 /// The open dialog, load progress and errors, the shader error and the status line.
 pub fn messages(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, actions: &mut Vec<Action>) {
+    if let Some(dialog) = state.file_dialog.as_mut() {
+        dialog.show(ui.ctx());
+        if dialog.selected() {
+            if let Some(path) = dialog.path() {
+                actions.push(Action::Open(path.to_path_buf()));
+            }
+            state.file_dialog = None;
+        } else if !dialog.visible() {
+            state.file_dialog = None;
+        }
+    }
     if state.open_dialog {
         let mut open = true;
         egui::Window::new("Open a scene").collapsible(false).open(&mut open).show(ui.ctx(), |ui| {
@@ -136,12 +196,19 @@ pub fn messages(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
         });
         state.open_dialog &= open;
     }
-    if let Some((name, progress, seconds)) = &info.loading {
+    if let Some((name, progress, seconds, preparing)) = &info.loading {
         egui::Window::new("Loading")
             .collapsible(false)
             .title_bar(false)
             .anchor(egui::Align2::CENTER_BOTTOM, [0.0, -24.0])
             .show(ui.ctx(), |ui| {
+                if *preparing {
+                    ui.label(format!(
+                        "Loading {name} ({seconds:.1} s): preparing the first frame (GPU resources, shaders)"
+                    ));
+                    ui.add(egui::ProgressBar::new(1.0).animate(true));
+                    return;
+                }
                 ui.label(format!("Loading {name} ({seconds:.1} s): {}", progress.stage.describe()));
                 let counted =
                     if progress.total > 0 { format!(" {}/{}", progress.done, progress.total) } else { String::new() };
@@ -185,8 +252,7 @@ pub fn messages(ui: &mut egui::Ui, state: &mut UiState, info: &FrameInfo<'_>, ac
                 ui.label("A smaller window or Render settings > MSAA 1 may fit.");
             });
     }
-    const STATUS_SECONDS: f32 = 6.0;
-    if let Some((status, _)) = state.status.as_ref().filter(|(_, t)| t.elapsed().as_secs_f32() < STATUS_SECONDS) {
+    if let Some((status, _)) = state.status.as_ref().filter(|(_, t)| t.elapsed() < super::ui_state::STATUS_SHOWN) {
         egui::Area::new(egui::Id::unique("penumbra status line"))
             .anchor(egui::Align2::RIGHT_BOTTOM, [-8.0, -8.0])
             .show(ui.ctx(), |ui| {

@@ -15,74 +15,70 @@ use crate::view::ui_state::Action;
 pub fn panel(ui: &mut egui::Ui, world: &mut World, renderer: &Renderer, vsync: &mut bool, actions: &mut Vec<Action>) {
     let before = renderer.settings().clone();
     let mut s = before.clone();
-    egui::Window::new("Render settings").default_open(true).anchor(egui::Align2::RIGHT_BOTTOM, [-8.0, -32.0]).show(
-        ui.ctx(),
-        |ui| {
-            ui.horizontal(|ui| {
-                ui.label("tonemapper");
-                for (t, name) in
-                    [(Tonemapper::Neutral, "neutral"), (Tonemapper::Aces, "ACES"), (Tonemapper::None, "clamp")]
-                {
-                    ui.selectable_value(&mut s.tonemapper, t, name);
-                }
-            });
-            exposure(ui, world);
-            ui.horizontal(|ui| {
-                ui.label("quality");
-                let current = QualityPreset::matching(&s);
-                for p in QualityPreset::ALL {
-                    if ui.selectable_label(current == Some(p), p.name()).clicked() {
-                        p.apply(&mut s);
-                    }
-                }
-                if current.is_none() {
-                    ui.weak("(custom)");
-                }
-            });
-            ui.horizontal(|ui| {
-                ui.label("shadows");
-                ui.selectable_value(&mut s.shadows.filter, ShadowFilter::Pcf, "PCF");
-                ui.selectable_value(&mut s.shadows.filter, ShadowFilter::Pcss, "PCSS");
-            });
-            ui.horizontal(|ui| {
-                ui.label("MSAA");
-                ui.selectable_value(&mut s.msaa, 1, "off");
-                ui.selectable_value(&mut s.msaa, 4, "4×");
-                ui.checkbox(&mut s.post.fxaa, "FXAA");
-            });
-            let mut bloom = s.post.bloom.is_some();
-            ui.horizontal(|ui| {
-                ui.checkbox(&mut bloom, "bloom");
-                match (&mut s.post.bloom, bloom) {
-                    (Some(b), true) => {
-                        ui.add(egui::Slider::new(&mut b.strength, 0.0..=1.0).text("strength"));
-                    }
-                    (None, true) => s.post.bloom = Some(BloomSettings::default()),
-                    (_, false) => s.post.bloom = None,
-                }
-            });
-            let mut auto = s.post.auto_exposure.is_some();
-            ui.checkbox(&mut auto, "automatic exposure");
-            if auto != s.post.auto_exposure.is_some() {
-                s.post.auto_exposure = auto.then(AutoExposure::default);
+    egui::CollapsingHeader::new("Render settings").default_open(true).show(ui, |ui| {
+        ui.horizontal(|ui| {
+            ui.label("tonemapper");
+            for (t, name) in [(Tonemapper::Neutral, "neutral"), (Tonemapper::Aces, "ACES"), (Tonemapper::None, "clamp")]
+            {
+                ui.selectable_value(&mut s.tonemapper, t, name);
             }
-            ui.horizontal(|ui| {
-                ui.label("debug view");
-                for (v, name) in [
-                    (DebugView::None, "off"),
-                    (DebugView::ClusterHeat, "light clusters"),
-                    (DebugView::Cascades, "cascades"),
-                    (DebugView::Normals, "normals"),
-                    (DebugView::Uvs, "UVs"),
-                ] {
-                    ui.selectable_value(&mut s.debug_view, v, name);
+        });
+        exposure(ui, world);
+        ui.horizontal(|ui| {
+            ui.label("quality");
+            let current = QualityPreset::matching(&s);
+            for p in QualityPreset::ALL {
+                if ui.selectable_label(current == Some(p), p.name()).clicked() {
+                    p.apply(&mut s);
                 }
-            });
-            if ui.checkbox(vsync, "vsync").changed() {
-                actions.push(Action::Vsync(*vsync));
             }
-        },
-    );
+            if current.is_none() {
+                ui.weak("(custom)");
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("shadows");
+            ui.selectable_value(&mut s.shadows.filter, ShadowFilter::Pcf, "PCF");
+            ui.selectable_value(&mut s.shadows.filter, ShadowFilter::Pcss, "PCSS");
+        });
+        ui.horizontal(|ui| {
+            ui.label("MSAA");
+            ui.selectable_value(&mut s.msaa, 1, "off");
+            ui.selectable_value(&mut s.msaa, 4, "4×");
+            ui.checkbox(&mut s.post.fxaa, "FXAA");
+        });
+        let mut bloom = s.post.bloom.is_some();
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut bloom, "bloom");
+            match (&mut s.post.bloom, bloom) {
+                (Some(b), true) => {
+                    ui.add(egui::Slider::new(&mut b.strength, 0.0..=1.0).text("strength"));
+                }
+                (None, true) => s.post.bloom = Some(BloomSettings::default()),
+                (_, false) => s.post.bloom = None,
+            }
+        });
+        let mut auto = s.post.auto_exposure.is_some();
+        ui.checkbox(&mut auto, "automatic exposure");
+        if auto != s.post.auto_exposure.is_some() {
+            s.post.auto_exposure = auto.then(AutoExposure::default);
+        }
+        ui.horizontal(|ui| {
+            ui.label("debug view");
+            for (v, name) in [
+                (DebugView::None, "off"),
+                (DebugView::ClusterHeat, "light clusters"),
+                (DebugView::Cascades, "cascades"),
+                (DebugView::Normals, "normals"),
+                (DebugView::Uvs, "UVs"),
+            ] {
+                ui.selectable_value(&mut s.debug_view, v, name);
+            }
+        });
+        if ui.checkbox(vsync, "vsync").changed() {
+            actions.push(Action::Vsync(*vsync));
+        }
+    });
     if s != before {
         actions.push(Action::Settings(s));
     }

@@ -12,7 +12,7 @@ fn mib(bytes: u64) -> String {
 
 pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
     let s = renderer.stats();
-    egui::Window::new("Stats").default_open(true).anchor(egui::Align2::RIGHT_TOP, [-8.0, 64.0]).show(ui.ctx(), |ui| {
+    egui::CollapsingHeader::new("Stats").default_open(true).show(ui, |ui| {
         egui::Grid::new("stats").num_columns(2).striped(true).show(ui, |ui| {
             let mut row = |name: &str, value: String| {
                 ui.label(name);
@@ -30,6 +30,7 @@ pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
             row("triangles", s.primitives.to_string());
             row("lights", format!("{} ({} local)", s.lights, s.local_lights));
             row("pipelines", s.pipelines.to_string());
+
             if renderer.context().info.device_type == wgpu::DeviceType::Cpu {
                 // The CPU rasteriser's compile mode decides both reload latency and frame time.
                 row(
@@ -41,6 +42,10 @@ pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
                 );
             }
         });
+        if let Some(exposure) = &info.exposure {
+            // Long (how it was metered): wrapped under the grid, not a column that widens it.
+            ui.add(egui::Label::new(format!("exposure: {exposure}")).wrap());
+        }
         if let Some(gpu) = &s.gpu {
             ui.collapsing("GPU passes", |ui| {
                 egui::Grid::new("passes").num_columns(2).striped(true).show(ui, |ui| {

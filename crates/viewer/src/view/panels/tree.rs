@@ -22,20 +22,14 @@ pub fn panel(ui: &mut egui::Ui, world: &mut World, selected: &mut Option<Entity>
         v.sort();
         v
     };
-    egui::Window::new("Scene")
-        .default_open(false)
-        .anchor(egui::Align2::LEFT_TOP, [8.0, 32.0])
-        .default_height(300.0)
-        .show(ui.ctx(), |ui| {
-            egui::ScrollArea::vertical().max_height(360.0).show(ui, |ui| {
-                for &root in roots.iter().take(MAX_ROOTS) {
-                    node(ui, world, root, selected, actions);
-                }
-                if roots.len() > MAX_ROOTS {
-                    ui.label(format!("… and {} more", roots.len() - MAX_ROOTS));
-                }
-            });
-        });
+    egui::CollapsingHeader::new("Scene tree").default_open(true).show(ui, |ui| {
+        for &root in roots.iter().take(MAX_ROOTS) {
+            node(ui, world, root, selected, actions);
+        }
+        if roots.len() > MAX_ROOTS {
+            ui.label(format!("… and {} more", roots.len() - MAX_ROOTS));
+        }
+    });
 }
 
 /// What kind of thing an entity is, for its row.
