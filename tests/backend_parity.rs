@@ -94,5 +94,5 @@ fn golden_suite_on_gl() {
         }
     }
     assert!(failed.is_empty(), "{} of {} goldens differ on GL:\n{}", failed.len(), frames.len(), failed.join("\n"));
-    assert_eq!(frames.len(), 35);
+    assert_eq!(frames.len(), 36);
 }

@@ -33,6 +33,7 @@ fn every_sample_golden_has_its_test() {
         "TextureTransformTest",
         "EmissiveStrengthTest",
         "BoxWithSpaces",
+        "SimpleInstancing",
     ];
     let listed: Vec<&str> = SAMPLE_MODELS.iter().map(|(name, ..)| *name).collect();
     assert_eq!(listed, tested);
@@ -136,4 +137,11 @@ fn emissive_strength_test() {
 #[test]
 fn box_with_spaces() {
     golden("BoxWithSpaces");
+}
+
+/// EXT_mesh_gpu_instancing: 125 instances of one cube in a 5×5×5 grid, turned and scaled one
+/// by one (before the extension was read, one cube).
+#[test]
+fn simple_instancing() {
+    golden("SimpleInstancing");
 }

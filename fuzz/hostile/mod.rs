@@ -7,7 +7,8 @@
 //! directional light, everything in data URIs). [`cases`] lists mutations of it: every numeric
 //! field of cameras, lights, materials, nodes, accessors and buffer views set to 0, negative,
 //! tiny, huge, beyond f32 (infinite once read) and fractional; `extras` of every JSON type on
-//! every kind of object; NaN and infinity in each vertex attribute's binary data. Each case says
+//! every kind of object; EXT_mesh_gpu_instancing on the cube with valid and broken attributes;
+//! NaN and infinity in each vertex attribute's binary data. Each case says
 //! whether the specification allows the value ([`Expect`]).
 //!
 //! `tests/hostile_inputs.rs` runs every case through the importer and the renderer with the
@@ -401,6 +402,29 @@ pub fn cases() -> Vec<Case> {
                 json,
             });
         }
+    }
+    // EXT_mesh_gpu_instancing on the cube, its attributes taken from the scene's own accessors:
+    // 0 (VEC3 × 4, the ground's positions), 1 (VEC3 × 4, normals), 2 (VEC4 × 4, tangents: w = ±1,
+    // so not unit quaternions), 6 (VEC3 × 24).
+    let instancing: [(&str, Value, Expect, &[&'static str]); 7] = [
+        ("translations", json!({"TRANSLATION": 0}), Expect::Valid, &[]),
+        ("translations and scales", json!({"TRANSLATION": 0, "SCALE": 1}), Expect::Valid, &[]),
+        ("no accessor 99", json!({"TRANSLATION": 99}), Expect::Named, &["TRANSLATION"]),
+        ("counts 4 and 24", json!({"TRANSLATION": 0, "SCALE": 6}), Expect::Named, &["count"]),
+        ("a VEC3 rotation", json!({"ROTATION": 0}), Expect::Named, &["ROTATION"]),
+        ("non-unit rotations", json!({"ROTATION": 2}), Expect::Named, &["rotation"]),
+        ("no attributes", json!({}), Expect::Named, &["attributes"]),
+    ];
+    for (what, attributes, expect, names) in instancing {
+        let mut json = base.clone();
+        json["extensionsUsed"].as_array_mut().expect("a list").push(json!("EXT_mesh_gpu_instancing"));
+        let ext = if attributes.as_object().is_some_and(|o| o.is_empty()) {
+            json!({})
+        } else {
+            json!({"attributes": attributes})
+        };
+        set(&mut json, "/nodes/1/extensions", json!({"EXT_mesh_gpu_instancing": ext}));
+        out.push(Case { label: format!("cube instanced: {what}"), names: names.to_vec(), expect, json });
     }
     for (attribute, name) in ["POSITION", "NORMAL", "TANGENT", "TEXCOORD_0"].iter().enumerate() {
         for value in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0] {

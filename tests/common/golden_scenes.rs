@@ -46,6 +46,7 @@ pub const SAMPLE_MODELS: &[(&str, &str, CameraChoice)] = &[
     ("TextureTransformTest", "TextureTransformTest/TextureTransformTest.gltf", FRONT),
     ("EmissiveStrengthTest", "EmissiveStrengthTest/EmissiveStrengthTest.glb", FRONT),
     ("BoxWithSpaces", "BoxWithSpaces/Box With Spaces.gltf", THREE_QUARTER),
+    ("SimpleInstancing", "SimpleInstancing/SimpleInstancing.glb", THREE_QUARTER),
 ];
 
 /// The defaults, with what the renderer would otherwise choose per adapter pinned: anisotropic
@@ -151,6 +152,7 @@ pub const TURN_SENSITIVITY: &[(&str, f32)] = &[
     ("TextureTransformTest", 0.365),
     ("EmissiveStrengthTest", 0.281),
     ("BoxWithSpaces", 0.071),
+    ("SimpleInstancing", 0.227),
     ("DamagedHelmet-studio", 0.253),
     ("MetalRoughSpheresNoTextures-studio", 0.216),
     ("MetalRoughSpheresNoTextures-sky", 0.289),

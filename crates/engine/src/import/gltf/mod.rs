@@ -14,6 +14,7 @@ mod area_lights;
 mod cameras;
 mod ies_lights;
 pub(crate) mod images;
+mod instancing;
 mod material_extensions;
 mod materials;
 mod occlusion_packing;
@@ -63,6 +64,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
     // Metadata (XMP packets): nothing in them changes what is drawn.
     "KHR_xmp",
     "KHR_xmp_json_ld",
@@ -118,6 +120,8 @@ struct NodeDesc {
     skin: Option<usize>,
     /// The node's morph weights (glTF `node.weights`), else its mesh's.
     weights: Option<Vec<f32>>,
+    /// EXT_mesh_gpu_instancing: the mesh is drawn once per transform, under the node's.
+    instances: Option<Arc<[Transform]>>,
 }
 
 #[derive(Debug, Clone)]
@@ -264,12 +268,15 @@ impl GltfScene {
         for (node, entities) in spawned.iter().enumerate() {
             let desc = &self.nodes[node];
             let Some(mesh) = desc.mesh else { continue };
+            // The node itself when it draws its one primitive, else the entities after it: one
+            // per primitive, instance after instance (EXT_mesh_gpu_instancing).
             let drawn = if entities.len() > 1 { &entities[1..] } else { entities.as_slice() };
             let prims = &self.meshes[mesh].1;
+            let prims = prims.iter().cycle().take(drawn.len());
             if let Some(skin) = desc.skin.map(|s| &self.skins[s]) {
                 let joints: Vec<Entity> =
                     skin.joints.iter().map(|&j| spawned[j].first().copied().unwrap_or(Entity::PLACEHOLDER)).collect();
-                for (&e, p) in drawn.iter().zip(prims) {
+                for (&e, p) in drawn.iter().zip(prims.clone()) {
                     if p.mesh.is_skinned() {
                         world.entity_mut(e).insert(SkinnedMesh {
                             inverse_bindposes: skin.inverse_bindposes.clone(),
@@ -278,7 +285,7 @@ impl GltfScene {
                     }
                 }
             }
-            let targets = prims.iter().map(|p| p.mesh.morph_targets.len()).max().unwrap_or(0);
+            let targets = self.meshes[mesh].1.iter().map(|p| p.mesh.morph_targets.len()).max().unwrap_or(0);
             if targets > 0 {
                 let mut weights = desc.weights.clone().unwrap_or_default();
                 weights.resize(targets, 0.0);
@@ -359,27 +366,43 @@ impl SpawnCtx<'_> {
         }
         let id = e.id();
         let mut out = vec![id];
-        if let Some(m) = desc.mesh {
-            let prims = &self.meshes[m];
-            let material = |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
-            if let [(mesh, mat)] = prims.as_slice() {
-                world.entity_mut(id).insert((Mesh3d(*mesh), MeshMaterial3d(material(*mat))));
-                self.insert_variants(world, id, m, 0, material(*mat));
-            } else {
-                let mesh_name = &self.scene.meshes[m].0;
-                for (k, (mesh, mat)) in prims.iter().enumerate() {
-                    let child = world.spawn((
-                        Name::new(format!("{mesh_name} primitive {k}")),
-                        Transform::IDENTITY,
-                        Mesh3d(*mesh),
-                        MeshMaterial3d(material(*mat)),
-                        ChildOf(id),
-                    ));
-                    let child = child.id();
-                    self.insert_variants(world, child, m, k, material(*mat));
-                    out.push(child);
-                }
+        if let (Some(m), Some(instances)) = (desc.mesh, &desc.instances) {
+            // One child per instance, holding the mesh as a node would; the node keeps its own
+            // transform (and animation) above them all.
+            for (i, t) in instances.iter().enumerate() {
+                let instance = world.spawn((Name::new(format!("{} instance {i}", desc.name)), *t, ChildOf(id))).id();
+                out.extend(self.spawn_mesh(world, m, instance, true));
             }
+        } else if let Some(m) = desc.mesh {
+            out.extend(self.spawn_mesh(world, m, id, false));
+        }
+        out
+    }
+
+    /// Puts mesh `m` on `holder` (one primitive) or on one child of it per primitive; returns
+    /// the entities that draw (`holder` too when `list_holder` and it draws the mesh itself).
+    fn spawn_mesh(&self, world: &mut World, m: usize, holder: Entity, list_holder: bool) -> Vec<Entity> {
+        let prims = &self.meshes[m];
+        let material = |p: Option<usize>| p.map_or(self.default_material, |i| self.materials[i]);
+        if let [(mesh, mat)] = prims.as_slice() {
+            world.entity_mut(holder).insert((Mesh3d(*mesh), MeshMaterial3d(material(*mat))));
+            self.insert_variants(world, holder, m, 0, material(*mat));
+            return if list_holder { vec![holder] } else { Vec::new() };
+        }
+        let mesh_name = &self.scene.meshes[m].0;
+        let mut out = Vec::new();
+        for (k, (mesh, mat)) in prims.iter().enumerate() {
+            let child = world
+                .spawn((
+                    Name::new(format!("{mesh_name} primitive {k}")),
+                    Transform::IDENTITY,
+                    Mesh3d(*mesh),
+                    MeshMaterial3d(material(*mat)),
+                    ChildOf(holder),
+                ))
+                .id();
+            self.insert_variants(world, child, m, k, material(*mat));
+            out.push(child);
         }
         out
     }
@@ -505,6 +528,10 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         document.nodes().map(|n| ies_lights::node_light(&n, ies_profiles.len())).collect::<Result<_, _>>()?;
     let area_node_lights: Vec<Option<area_lights::AreaLightDesc>> =
         document.nodes().map(|n| area_lights::node_light(&n)).collect::<Result<_, _>>()?;
+    let node_instances: Vec<Option<Arc<[Transform]>>> = document
+        .nodes()
+        .map(|n| instancing::node_instances(&n, &document, &buffers, &mut warnings))
+        .collect::<Result<_, _>>()?;
     let nodes = document
         .nodes()
         .map(|n| NodeDesc {
@@ -518,6 +545,7 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             area_light: area_node_lights[n.index()],
             skin: n.skin().map(|s| s.index()),
             weights: n.weights().or_else(|| n.mesh().and_then(|m| m.weights())).map(<[f32]>::to_vec),
+            instances: node_instances[n.index()].clone(),
         })
         .collect::<Vec<NodeDesc>>();
     let skins = animation::load_skins(&document, &buffers)?;
