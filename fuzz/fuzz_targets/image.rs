@@ -1,6 +1,6 @@
 //! Image bytes through Penumbra's decoders: textures (PNG, JPEG via zune-jpeg or the image
-//! crate) under the import limits, and environment maps (Radiance .hdr, OpenEXR). The first
-//! byte picks the path.
+//! crate, WebP lossless and lossy) under the import limits, and environment maps (Radiance
+//! .hdr, OpenEXR). The first byte picks the path.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

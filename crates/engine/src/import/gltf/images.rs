@@ -82,7 +82,7 @@ pub(crate) fn decode(
         .with_guessed_format()
         .map_err(|e| err(format!("cannot read: {e}")))?;
     if reader.format().is_none() {
-        return Err(err("unknown image format (Penumbra decodes PNG and JPEG)".into()));
+        return Err(err("unknown image format (Penumbra decodes PNG, JPEG and WebP)".into()));
     }
     // The RGBA8 copy made after decoding is outside the decoder's own allocation limit: check
     // its size from the header first.

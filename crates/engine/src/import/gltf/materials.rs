@@ -82,6 +82,16 @@ pub(crate) fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option
     (t, v.get("texCoord").and_then(|c| c.as_u64()).map(|c| c as u32))
 }
 
+/// The extension naming a WebP image for a texture.
+pub(crate) const WEBP: &str = "EXT_texture_webp";
+
+/// The image a texture samples: the one EXT_texture_webp names (checked against the file's
+/// images at validation), else its `source`; `None` when it has neither.
+pub(crate) fn texture_image(texture: &gltf::Texture) -> Option<usize> {
+    let webp = texture.extension_value(WEBP).and_then(|e| e.get("source")).and_then(|s| s.as_u64());
+    webp.map(|i| i as usize).or_else(|| texture.source().map(|s| s.index()))
+}
+
 pub(crate) fn texture(
     texture: gltf::Texture,
     tex_coord: u32,
@@ -89,7 +99,8 @@ pub(crate) fn texture(
 ) -> TextureDesc {
     let (transform, uv_override) = transform.unwrap_or_default();
     TextureDesc {
-        image: texture.source().index(),
+        // A texture without an image points past the images: resolved to none, untextured.
+        image: texture_image(&texture).unwrap_or(usize::MAX),
         sampler: sampler(texture.sampler()),
         uv_set: uv_override.unwrap_or(tex_coord),
         transform,

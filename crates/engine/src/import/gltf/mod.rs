@@ -65,6 +65,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
+    "EXT_texture_webp",
     // Metadata (XMP packets): nothing in them changes what is drawn.
     "KHR_xmp",
     "KHR_xmp_json_ld",
@@ -519,6 +520,13 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         step();
     }
 
+    for texture in document.textures().filter(|t| materials::texture_image(t).is_none()) {
+        warnings.push(format!(
+            "texture {} has no image (no source, no {}); materials using it are drawn untextured",
+            texture.index(),
+            materials::WEBP
+        ));
+    }
     let mut images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
     spec_gloss::derive_roughness(&mut materials, &mut images);
     occlusion_packing::pack_occlusion(&mut materials, &mut images);
@@ -658,6 +666,24 @@ fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
         };
         if let Some(problem) = problem {
             return Err(ImportErrorKind::Invalid(format!("images[{i}] {problem}")));
+        }
+    }
+    // A texture samples its EXT_texture_webp image where it names one, else its `source`
+    // (which the extension lets a file leave out): an index outside `images` is invalid.
+    for (t, texture) in document.textures().enumerate() {
+        let webp = texture.extension_value(materials::WEBP).map(|e| e.get("source").and_then(|s| s.as_u64()));
+        let bad = match webp {
+            Some(Some(i)) if (i as usize) < root.images.len() => None,
+            Some(source) => Some(format!(
+                "textures[{t}].extensions.{}.source is {}, but the file has {} images",
+                materials::WEBP,
+                source.map_or("missing or not an index".to_owned(), |i| i.to_string()),
+                root.images.len()
+            )),
+            None => None,
+        };
+        if let Some(bad) = bad {
+            return Err(ImportErrorKind::Invalid(bad));
         }
     }
     // gltf-json's own primitive check indexes `accessors` with POSITION unchecked (a panic on an
