@@ -174,3 +174,20 @@ fn non_finite_and_non_unit_instances_are_repaired_with_a_warning() {
         assert!(g.0.is_finite() && (g.rotation().length() - 1.0).abs() < 1e-5, "{g:?}");
     }
 }
+
+#[test]
+fn instances_count_against_the_node_limit() {
+    // SimpleInstancing: 1 node and 125 instances of a one-primitive mesh.
+    let mut options = ImportOptions::default();
+    options.limits.apply("nodes=100").unwrap();
+    let err = GltfScene::load(&asset("SimpleInstancing/SimpleInstancing.glb"), &options).expect_err("over the limit");
+    match &err.kind {
+        ImportErrorKind::LimitExceeded { name, .. } => {
+            assert_eq!(*name, penumbra::engine::import::Limit::Nodes, "{err}")
+        }
+        _ => panic!("expected the node limit, got: {err}"),
+    }
+    assert!(err.to_string().contains("EXT_mesh_gpu_instancing"), "{err}");
+    options.limits.apply("nodes=126").unwrap();
+    GltfScene::load(&asset("SimpleInstancing/SimpleInstancing.glb"), &options).unwrap_or_else(|e| panic!("{e}"));
+}

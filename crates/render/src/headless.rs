@@ -32,7 +32,7 @@ pub enum CameraChoice {
 impl CameraChoice {
     /// The default framing: turned 35° from the front (+Z) towards +X and 25° above, the view
     /// sample-model screenshots use. No axis-aligned plane is seen edge-on from it (the
-    /// flattest, a plane facing ±X, shows 52 % of its width).
+    /// flattest, a plane lying in XZ, shows 42 % of its depth; one facing ±X shows 52 %).
     pub const THREE_QUARTER: CameraChoice = CameraChoice::Orbit { yaw: 35.0, pitch: 25.0 };
     /// Straight from the front, looking down −Z.
     pub const FRONT: CameraChoice = CameraChoice::Orbit { yaw: 0.0, pitch: 0.0 };
@@ -269,7 +269,9 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
 /// else the three-quarter framing (and why).
 fn auto_camera(world: &World, cameras: &[(usize, Entity, Option<f32>)], bounds: &Aabb) -> (CameraChoice, &'static str) {
     match cameras.first() {
-        Some(&(index, entity, _)) if sees(world, entity, bounds) => (CameraChoice::Gltf(index), ""),
+        Some(&(index, entity, aspect)) if sees(world, entity, aspect.unwrap_or(1.0), bounds) => {
+            (CameraChoice::Gltf(index), "")
+        }
         Some(&(index, ..)) => {
             tracing::warn!("the file's camera {index} sees none of the scene: framing the scene instead");
             (CameraChoice::THREE_QUARTER, "the file's camera sees none of the scene")
@@ -279,13 +281,14 @@ fn auto_camera(world: &World, cameras: &[(usize, Entity, Option<f32>)], bounds: 
 }
 
 /// The file camera [`CameraChoice::Auto`] looks through in an already-updated app, if any
-/// (the viewer offers it first while keeping its own orbit camera).
-pub fn default_file_camera(app: &mut App) -> Option<usize> {
+/// (the viewer offers it first while keeping its own orbit camera): the same choice
+/// [`stage_camera`] makes with `settings`.
+pub fn default_file_camera(app: &mut App, settings: &ShotSettings) -> Option<usize> {
     let cameras = file_cameras(&mut app.world);
     if cameras.is_empty() {
         return None;
     }
-    let bounds = world_bounds(&mut app.world);
+    let bounds = framing_bounds(app, settings);
     match auto_camera(&app.world, &cameras, &bounds).0 {
         CameraChoice::Gltf(index) => Some(index),
         _ => None,
@@ -300,26 +303,27 @@ fn file_cameras(world: &mut World) -> Vec<(usize, Entity, Option<f32>)> {
     v
 }
 
-/// Whether any of `bounds` lies inside `camera`'s view (a corner or the centre in its frustum,
-/// or the camera inside the box).
-fn sees(world: &World, camera: Entity, bounds: &Aabb) -> bool {
+/// Whether `bounds` can be in `camera`'s view at the aspect ratio it will render at: the box
+/// is outside only where all its corners lie beyond one plane of the view volume (x and y within
+/// ±w, depth between the near plane and the far one, in reverse-Z clip space), for perspective
+/// and orthographic cameras alike.
+fn sees(world: &World, camera: Entity, aspect: f32, bounds: &Aabb) -> bool {
     let (Some(cam), Some(g)) = (world.get::<Camera>(camera), world.get::<GlobalTransform>(camera)) else {
         return false;
     };
     if bounds.is_empty() {
         return true;
     }
-    let eye = g.translation();
-    if (bounds.min.cmple(eye) & eye.cmple(bounds.max)).all() {
-        return true;
-    }
-    let view_from_world = glam::Affine3A::from_rotation_translation(g.rotation(), eye).inverse();
-    let clip_from_view = cam.projection.clip_from_view(1.0);
+    let view_from_world = glam::Affine3A::from_rotation_translation(g.rotation(), g.translation()).inverse();
+    let clip_from_view = cam.projection.clip_from_view(aspect);
     let (c, h) = (bounds.center(), bounds.half_extents());
-    std::iter::once(c).chain((0..8).map(|i| c + h * glam::Vec3::new(sign(i & 1), sign(i & 2), sign(i & 4)))).any(|p| {
-        let clip = clip_from_view * view_from_world.transform_point3(p).extend(1.0);
-        clip.w > 0.0 && clip.x.abs() <= clip.w && clip.y.abs() <= clip.w
-    })
+    let corners: Vec<glam::Vec4> = (0..8)
+        .map(|i| c + h * glam::Vec3::new(sign(i & 1), sign(i & 2), sign(i & 4)))
+        .map(|p| clip_from_view * view_from_world.transform_point3(p).extend(1.0))
+        .collect();
+    let planes: [fn(&glam::Vec4) -> bool; 6] =
+        [|v| v.x <= v.w, |v| -v.x <= v.w, |v| v.y <= v.w, |v| -v.y <= v.w, |v| v.z <= v.w, |v| v.z >= 0.0];
+    planes.iter().all(|inside| corners.iter().any(inside))
 }
 
 fn sign(bit: u32) -> f32 {

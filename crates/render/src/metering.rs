@@ -179,12 +179,14 @@ impl MeteredLight {
                 Kind::Point(i) => *i,
                 Kind::Spot(i, cos_inner, cos_outer) => {
                     let cd = toward_p.dot(self.forward);
-                    let t = ((cd - cos_outer) / (cos_inner - cos_outer).max(1e-4)).clamp(0.0, 1.0);
+                    // As the light store shapes it: a 0.001 floor for a hard-edged cone.
+                    let t = ((cd - cos_outer) / (cos_inner - cos_outer).max(0.001)).clamp(0.0, 1.0);
                     i * t * t
                 }
                 Kind::Panel(i) => i * toward_p.dot(self.forward).max(0.0),
                 Kind::Ies(profile, scale) => {
-                    let up = self.forward.cross(self.right);
+                    // Local +Y: C = 90° (ies.wgsl measures C from +X towards +Y).
+                    let up = self.right.cross(self.forward);
                     let gamma = toward_p.dot(self.forward).clamp(-1.0, 1.0).acos().to_degrees();
                     let c = toward_p.dot(up).atan2(toward_p.dot(self.right)).to_degrees();
                     profile.candela_at(gamma, c) * scale
@@ -226,8 +228,10 @@ fn scene_lights(world: &mut World) -> Vec<MeteredLight> {
         ($component:ty, |$l:ident| $kind:expr, $range:expr) => {
             let mut q = world.query::<(&$component, Option<&GlobalTransform>, Option<&InheritedVisibility>)>();
             for ($l, g, v) in q.iter(world) {
-                if visible(v) {
-                    out.push(placed(g, $kind, $l.color, $range));
+                // The renderer places lights by their GlobalTransform and leaves out one without.
+                let kind = $kind;
+                if visible(v) && (g.is_some() || matches!(kind, Kind::Ambient(_))) {
+                    out.push(placed(g, kind, $l.color, $range));
                 }
             }
         };
@@ -237,13 +241,21 @@ fn scene_lights(world: &mut World) -> Vec<MeteredLight> {
     collect!(PointLight, |l| Kind::Point(l.intensity), l.range);
     collect!(SphereLight, |l| Kind::Point(l.intensity), l.range);
     collect!(TubeLight, |l| Kind::Point(l.intensity), l.range);
-    collect!(SpotLight, |l| Kind::Spot(l.intensity, l.inner_cone_angle.cos(), l.outer_cone_angle.cos()), l.range);
+    // Cones clamped as the light store clamps them (outer at most π/2, inner within it).
+    collect!(
+        SpotLight,
+        |l| {
+            let outer = l.outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
+            Kind::Spot(l.intensity, l.inner_cone_angle.clamp(0.0, outer).cos(), outer.cos())
+        },
+        l.range
+    );
     collect!(RectLight, |l| Kind::Panel(l.luminance * l.width * l.height), l.range);
     collect!(DiskLight, |l| Kind::Panel(l.luminance * std::f32::consts::PI * l.radius * l.radius), l.range);
     let mut q = world.query::<(&IesLight, Option<&GlobalTransform>, Option<&InheritedVisibility>)>();
     let profiles = world.get_resource::<Assets<IesProfile>>().map(|a| {
         q.iter(world)
-            .filter(|(_, _, v)| visible(*v))
+            .filter(|(_, g, v)| visible(*v) && g.is_some())
             .filter_map(|(l, g, _)| {
                 Some(placed(g, Kind::Ies(Box::new(a.get(l.profile).ok()?.clone()), l.scale), l.color, l.range))
             })

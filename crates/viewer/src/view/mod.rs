@@ -118,8 +118,11 @@ struct Running {
     screenshots: Screenshots,
     screenshot_requested: bool,
     viewport: Viewport,
-    /// The last frame was not drawn (no surface image, a lost device): try again.
+    /// The last frame was not drawn (no surface image, a lost device): tried again at the next
+    /// wake.
     missed_frame: bool,
+    /// When egui asked to be drawn again (its repaint delay after the last frame).
+    repaint_at: Option<Instant>,
     /// The scene was drawn into a viewport image the UI did not show yet.
     image_pending: bool,
     /// A scene just staged (its name, when its load began): logged when its first frame is
@@ -143,6 +146,7 @@ impl Viewer {
         let screenshot_dir = self.args.screenshot_dir.clone().unwrap_or_else(|| PathBuf::from("."));
         Ok(Running {
             missed_frame: false,
+            repaint_at: None,
             image_pending: false,
             first_frame_of: None,
             viewport: Viewport {
@@ -221,8 +225,9 @@ impl Running {
         for w in file_warnings(file) {
             tracing::warn!("{w}");
         }
-        // Command-line camera, exposure and variant apply to the first scene; later ones are
-        // framed and show their own materials.
+        // Command-line camera, exposure and variant apply to the first scene; later ones get the
+        // defaults (their file's camera, else the framed view; metered exposure; their own
+        // materials).
         let look = if first {
             FirstLook {
                 camera: args.camera,
@@ -339,7 +344,8 @@ impl Running {
         let image = self.overlay.viewport_texture();
         // The first frame with a scene registers the viewport's image after the UI is laid
         // out: it shows from the next frame.
-        self.image_pending = self.scene.is_some() && image.is_none();
+        let (_, _, vw, vh) = self.viewport.rect;
+        self.image_pending = self.scene.is_some() && image.is_none() && vw > 0 && vh > 0;
         let (overlay, ui, window, screenshots, recent, viewport) = (
             &mut self.overlay,
             &mut self.ui,
@@ -410,6 +416,7 @@ impl Running {
         overlay.paint(&ctx.device, &ctx.queue, &ui_view, size);
         ctx.queue.present(texture);
         self.missed_frame = false;
+        self.repaint_at = self.overlay.repaint_delay().filter(|d| !d.is_zero()).map(|d| Instant::now() + d);
         if let Some((name, started)) = self.first_frame_of.take() {
             tracing::info!(
                 "first frame of {name} on screen, {:.2} s after opening it",
@@ -519,6 +526,9 @@ impl Running {
             self.input.last_click.is_some_and(|(t, p)| now - t < Duration::from_millis(400) && p.distance(at) < 6.0);
         self.input.last_click = if double { None } else { Some((now, at)) };
         let Some(s) = self.scene.as_mut() else { return };
+        // Picking casts from the orbit camera: looking through a file camera, it takes over
+        // that camera's pose first, so the ray goes through what is on screen.
+        s.take_over_file_camera();
         let hit = s.pick(at, size);
         // The box round it shows the selection; View > Inspector shows what it is (opening the
         // panel on every click would cover the scene in a small window).
@@ -582,12 +592,14 @@ impl ApplicationHandler for Viewer {
                 ElementState::Released if std::mem::take(&mut r.input.ui_press) => {
                     r.overlay.on_window_event(&r.surface.window, &event, r.ui.viewport);
                     (r.input.left, r.input.middle, r.input.right, r.input.press) = (false, false, false, None);
+                    r.surface.window.request_redraw();
                     return;
                 }
                 _ => {}
             }
             if r.input.ui_press {
                 r.overlay.on_window_event(&r.surface.window, &event, r.ui.viewport);
+                r.surface.window.request_redraw();
                 return;
             }
         }
@@ -596,6 +608,8 @@ impl ApplicationHandler for Viewer {
             if let WindowEvent::MouseInput { state: ElementState::Released, .. } = event {
                 (r.input.left, r.input.middle, r.input.right, r.input.press) = (false, false, false, None);
             }
+            // What the UI took changes what it shows (a click, a key in a text field).
+            r.surface.window.request_redraw();
             return;
         }
         match event {
@@ -712,8 +726,11 @@ impl ApplicationHandler for Viewer {
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         // Still, the loop sleeps and looks a few times a second for what arrives without input
-        // (a load's progress, a shader saved, a screenshot written).
-        event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + IDLE_WAKE));
+        // (a load's progress, a shader saved, a screenshot written), sooner where egui asked to
+        // be drawn again.
+        let idle = Instant::now() + IDLE_WAKE;
+        let wake = self.running.as_ref().and_then(|r| r.repaint_at).map_or(idle, |at| at.min(idle));
+        event_loop.set_control_flow(ControlFlow::WaitUntil(wake));
     }
 }
 
@@ -722,7 +739,8 @@ const IDLE_WAKE: Duration = Duration::from_millis(250);
 
 impl Running {
     /// Whether the next frame can differ from this one with no input: the camera still easing,
-    /// an animation playing, automatic exposure adapting, egui animating, a frame not drawn.
+    /// an animation playing, automatic exposure adapting, egui animating, a screenshot asked
+    /// for, a viewport image not shown yet, the viewport's size changed.
     fn moving(&mut self) -> bool {
         if std::mem::take(&mut self.viewport.changed) {
             return true;
@@ -730,7 +748,7 @@ impl Running {
         if self.screenshot_requested || self.image_pending || self.ctx.is_lost() {
             return true;
         }
-        if self.overlay.repaint_delay().is_some_and(|d| d < IDLE_WAKE) {
+        if self.overlay.repaint_delay().is_some_and(|d| d.is_zero()) {
             return true;
         }
         if self.loader.as_ref().is_some_and(|l| l.ready.is_some()) {
@@ -748,6 +766,11 @@ impl Running {
     /// (at the wake rate), a shader reload, a screenshot written, the status line's end.
     fn wants_frame(&mut self) -> bool {
         if self.loader.is_some() || self.screenshots.in_flight() > 0 || self.missed_frame {
+            return true;
+        }
+        // egui asked to be drawn again by now (a tooltip's delay, a caret's blink).
+        if self.repaint_at.is_some_and(|at| Instant::now() >= at) {
+            self.repaint_at = None;
             return true;
         }
         if self.ui.status.as_ref().is_some_and(|(_, posted)| posted.elapsed() >= ui_state::STATUS_SHOWN) {

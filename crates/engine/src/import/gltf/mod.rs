@@ -540,6 +540,21 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         .nodes()
         .map(|n| instancing::node_instances(&n, &document, &buffers, &mut warnings))
         .collect::<Result<_, _>>()?;
+    // Each instance spawns an entity per primitive: with the nodes, what the node limit bounds.
+    let instanced: u64 = document
+        .nodes()
+        .filter_map(|n| {
+            let count = node_instances[n.index()].as_ref()?.len() as u64;
+            Some(count * n.mesh().map_or(1, |m| m.primitives().len().max(1)) as u64)
+        })
+        .sum();
+    if instanced > 0 {
+        options.limits.check(
+            Limit::Nodes,
+            "the nodes and the entities EXT_mesh_gpu_instancing spawns (instances × primitives)",
+            document.nodes().len() as u64 + instanced,
+        )?;
+    }
     let nodes = document
         .nodes()
         .map(|n| NodeDesc {
