@@ -44,6 +44,9 @@ impl CameraChoice {
 pub struct StagedView {
     pub camera: ViewSource,
     pub exposure: ExposureChoice,
+    /// The bounds the view was framed on and metered at (over the first clip for an
+    /// animated scene).
+    pub bounds: Aabb,
 }
 
 /// Where the staged view looks from.
@@ -261,7 +264,7 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
             c.exposure = Exposure { ev100: exposure.ev100() };
         }
     }
-    world.insert_resource(StagedView { camera: view, exposure });
+    world.insert_resource(StagedView { camera: view, exposure, bounds });
     Ok(size)
 }
 
@@ -280,15 +283,18 @@ fn auto_camera(world: &World, cameras: &[(usize, Entity, Option<f32>)], bounds: 
     }
 }
 
-/// The file camera [`CameraChoice::Auto`] looks through in an already-updated app, if any
-/// (the viewer offers it first while keeping its own orbit camera): the same choice
-/// [`stage_camera`] makes with `settings`.
-pub fn default_file_camera(app: &mut App, settings: &ShotSettings) -> Option<usize> {
+/// The file camera [`CameraChoice::Auto`] would look through in an app [`stage_camera`]
+/// staged, if any (the viewer offers it first while keeping its own orbit camera): the same
+/// choice, on the bounds staging framed.
+pub fn default_file_camera(app: &mut App) -> Option<usize> {
     let cameras = file_cameras(&mut app.world);
     if cameras.is_empty() {
         return None;
     }
-    let bounds = framing_bounds(app, settings);
+    let bounds = match app.world.get_resource::<StagedView>() {
+        Some(view) => view.bounds,
+        None => world_bounds(&mut app.world),
+    };
     match auto_camera(&app.world, &cameras, &bounds).0 {
         CameraChoice::Gltf(index) => Some(index),
         _ => None,

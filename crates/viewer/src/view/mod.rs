@@ -356,6 +356,20 @@ impl Running {
         );
         let (fps, frame_ms) = (self.clock.fps, self.clock.frame_ms);
         let ctx = self.ctx.clone();
+        // What the UI shows without a scene; a scene adds its renderer, exposure and image.
+        let info = FrameInfo {
+            renderer: None,
+            fps,
+            frame_ms,
+            loading,
+            recent,
+            cameras,
+            through,
+            variants,
+            exposure: None,
+            scene_name: "",
+            viewport: None,
+        };
         let actions = match self.scene.as_mut() {
             Some(s) => {
                 let name = s.name.clone();
@@ -364,16 +378,10 @@ impl Running {
                     let actions = {
                         let info = FrameInfo {
                             renderer: Some(&renderer),
-                            fps,
-                            frame_ms,
-                            loading,
-                            recent,
-                            cameras,
-                            through,
-                            variants,
                             exposure,
                             scene_name: &name,
                             viewport: image,
+                            ..info
                         };
                         overlay.run(&window, ui, Some(world), &info)
                     };
@@ -395,19 +403,6 @@ impl Running {
                 })
             }
             None => {
-                let info = FrameInfo {
-                    renderer: None,
-                    fps,
-                    frame_ms,
-                    loading,
-                    recent,
-                    cameras,
-                    through,
-                    variants,
-                    exposure: None,
-                    scene_name: "",
-                    viewport: None,
-                };
                 let actions = overlay.run(&window, ui, None, &info);
                 viewport.set_rect(overlay.viewport_pixels(ui).unwrap_or((0, 0, size.0, size.1)), size);
                 actions

@@ -84,7 +84,7 @@ impl Staged {
         let (mut app, _) = stage_scene(file, &shot)?;
         let file_camera = match choice {
             CameraChoice::Gltf(index) => Some(index),
-            CameraChoice::Auto => default_file_camera(&mut app, &shot),
+            CameraChoice::Auto => default_file_camera(&mut app),
             CameraChoice::Orbit { .. } => None,
         };
         app.world.resource_mut::<Time>().set_mode(TimeMode::Real);
