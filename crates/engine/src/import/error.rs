@@ -43,6 +43,8 @@ pub enum ImportErrorKind {
     Image { index: usize, uri: String, reason: String },
     #[error("URI {uri:?} points outside the scene's folder (pass --allow-outside-folder to permit it)")]
     UriOutsideFolder { uri: String },
+    #[error("bufferView {index}: {reason}")]
+    BufferView { index: usize, reason: String },
     #[error("accessor {index}: {reason}")]
     Accessor { index: usize, reason: String },
     #[error("mesh {mesh} primitive {primitive}: {reason}")]

@@ -9,7 +9,7 @@
 //! few bytes of JSON decode into gigabytes, nor decode one large accessor a thousand times.
 
 use std::cell::Cell;
-use std::ops::Deref;
+use std::collections::HashMap;
 
 use gltf::accessor::{DataType, Dimensions};
 
@@ -54,33 +54,52 @@ impl From<String> for AccessorError {
 
 pub(crate) type AccessorResult<T> = Result<T, AccessorError>;
 
-/// The file's buffers, and what decoding accessors from them has allocated so far.
+/// The file's buffers, its bufferViews that were stored compressed (decoded, by view index), and
+/// what decoding accessors from them has allocated so far.
 pub(crate) struct Buffers {
     data: Vec<Vec<u8>>,
+    decoded_views: HashMap<usize, Vec<u8>>,
     limits: ImportLimits,
     decoded: Cell<u64>,
 }
 
 impl Buffers {
-    pub(crate) fn new(data: Vec<Vec<u8>>, limits: ImportLimits) -> Self {
-        Self { data, limits, decoded: Cell::new(0) }
+    pub(crate) fn new(data: Vec<Vec<u8>>, decoded_views: HashMap<usize, Vec<u8>>, limits: ImportLimits) -> Self {
+        Self { data, decoded_views, limits, decoded: Cell::new(0) }
+    }
+
+    /// The bytes of a bufferView: its decoded data when it was stored compressed
+    /// (`EXT_meshopt_compression`), else its window of its buffer, checked to lie inside it.
+    pub(crate) fn view(&self, view: &gltf::buffer::View) -> Result<&[u8], String> {
+        if let Some(decoded) = self.decoded_views.get(&view.index()) {
+            // decode_views checked that the view's byteLength fits in what it decodes to.
+            return Ok(&decoded[..view.length()]);
+        }
+        let index = view.buffer().index();
+        let buffer = self.data.get(index).ok_or_else(|| format!("buffer {index} does not exist"))?;
+        view.offset().checked_add(view.length()).and_then(|end| buffer.get(view.offset()..end)).ok_or_else(|| {
+            format!(
+                "bufferView {} (offset {}, length {}) runs past the end of buffer {index} ({} bytes)",
+                view.index(),
+                view.offset(),
+                view.length(),
+                buffer.len()
+            )
+        })
+    }
+
+    pub(crate) fn limits(&self) -> &ImportLimits {
+        &self.limits
     }
 
     /// Charges `count` elements of `elem_bytes` decoded bytes each, before they are allocated.
-    fn charge(&self, count: usize, elem_bytes: usize) -> AccessorResult<()> {
+    pub(crate) fn charge(&self, count: usize, elem_bytes: usize) -> AccessorResult<()> {
         let lim = |e| AccessorError::Limit(e);
         self.limits.check(Limit::AccessorElements, "an accessor's element count", count as u64).map_err(lim)?;
         let total = self.decoded.get().saturating_add((count as u64).saturating_mul(elem_bytes as u64));
         self.limits.check(Limit::DecodedBytes, "decoded accessor data", total).map_err(lim)?;
         self.decoded.set(total);
         Ok(())
-    }
-}
-
-impl Deref for Buffers {
-    type Target = [Vec<u8>];
-    fn deref(&self) -> &[Vec<u8>] {
-        &self.data
     }
 }
 
@@ -130,31 +149,20 @@ fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
     }
 }
 
-/// The byte window `[start, start + stride·(count−1) + elem)` inside a view inside a buffer.
+/// The byte window `[start, start + stride·(count−1) + elem)` inside a view.
 fn strided_window<'b>(
-    buffers: &'b [Vec<u8>],
+    buffers: &'b Buffers,
     view: &gltf::buffer::View,
     offset_in_view: usize,
     count: usize,
     elem_size: usize,
     stride_override: Option<usize>,
 ) -> Result<(&'b [u8], usize), String> {
-    let buffer =
-        buffers.get(view.buffer().index()).ok_or_else(|| format!("buffer {} does not exist", view.buffer().index()))?;
     let stride = stride_override.unwrap_or(view.stride().unwrap_or(elem_size));
     if stride < elem_size {
         return Err(format!("byteStride {stride} is smaller than the element size {elem_size}"));
     }
-    let view_end = view.offset().checked_add(view.length()).filter(|&end| end <= buffer.len()).ok_or_else(|| {
-        format!(
-            "bufferView {} (offset {}, length {}) runs past the end of buffer {} ({} bytes)",
-            view.index(),
-            view.offset(),
-            view.length(),
-            view.buffer().index(),
-            buffer.len()
-        )
-    })?;
+    let bytes = buffers.view(view)?;
     if count == 0 {
         return Ok((&[], stride));
     }
@@ -162,16 +170,15 @@ fn strided_window<'b>(
         .checked_mul(count - 1)
         .and_then(|n| n.checked_add(elem_size))
         .and_then(|n| n.checked_add(offset_in_view))
-        .filter(|&n| n <= view.length())
+        .filter(|&n| n <= bytes.len())
         .ok_or_else(|| {
             format!(
                 "{count} elements of {elem_size} bytes at stride {stride} from offset {offset_in_view} do not fit in bufferView {} ({} bytes)",
                 view.index(),
-                view.length()
+                bytes.len()
             )
         })?;
-    let start = view.offset() + offset_in_view;
-    Ok((&buffer[start..view_end.min(view.offset() + needed)], stride))
+    Ok((&bytes[offset_in_view..needed], stride))
 }
 
 /// Decodes an accessor of `N` components per element to `f32`.

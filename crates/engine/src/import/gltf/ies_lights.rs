@@ -15,6 +15,7 @@ use glam::Vec3;
 use gltf::json::Value;
 
 use super::ImportOptions;
+use super::accessor::Buffers;
 use super::source::{ReadBudget, ReadLimit, read_uri};
 use crate::ies::IesProfile;
 use crate::import::ImportErrorKind;
@@ -37,7 +38,7 @@ fn invalid(at: String, what: &str) -> ImportErrorKind {
 /// Parses every profile the file lists.
 pub(crate) fn load_profiles(
     document: &gltf::Document,
-    buffers: &[Vec<u8>],
+    buffers: &Buffers,
     base_dir: &Path,
     file: &str,
     options: &ImportOptions,
@@ -75,13 +76,7 @@ pub(crate) fn load_profiles(
                     .views()
                     .nth(view_index as usize)
                     .ok_or_else(|| err(format!("the file has {} buffer views", document.views().len())))?;
-                let buffer = buffers.get(view.buffer().index()).ok_or_else(|| err("buffer missing".into()))?;
-                let bytes = view
-                    .offset()
-                    .checked_add(view.length())
-                    .filter(|&end| end <= buffer.len())
-                    .map(|end| buffer[view.offset()..end].to_vec())
-                    .ok_or_else(|| err(format!("runs past the end of buffer {}", view.buffer().index())))?;
+                let bytes = buffers.view(&view).map_err(&err)?.to_vec();
                 (source, bytes)
             }
             _ => return Err(invalid(at, "needs exactly one of \"uri\" and \"bufferView\"")),

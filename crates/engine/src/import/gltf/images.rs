@@ -6,6 +6,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::ImportOptions;
+use super::accessor::Buffers;
 use super::source::{ReadBudget, ReadLimit, read_uri};
 use crate::image::Image;
 use crate::import::{ImportErrorKind, Limit};
@@ -19,26 +20,17 @@ pub(crate) enum ImageBytes<'a> {
 /// Encoded bytes of glTF image `index`, from a buffer view or a URI.
 pub(crate) fn image_bytes<'a>(
     image: &gltf::Image,
-    buffers: &'a [Vec<u8>],
+    buffers: &'a Buffers,
     base_dir: &Path,
     options: &ImportOptions,
     reads: &ReadBudget,
 ) -> Result<ImageBytes<'a>, ImportErrorKind> {
     let index = image.index();
     match image.source() {
-        gltf::image::Source::View { view, .. } => {
-            let err =
-                |reason: String| ImportErrorKind::Image { index, uri: format!("bufferView {}", view.index()), reason };
-            let buffer = buffers.get(view.buffer().index()).ok_or_else(|| err("buffer missing".into()))?;
-            let end = view.offset().checked_add(view.length()).filter(|&e| e <= buffer.len()).ok_or_else(|| {
-                err(format!(
-                    "bufferView runs past the end of buffer {} ({} bytes)",
-                    view.buffer().index(),
-                    buffer.len()
-                ))
-            })?;
-            Ok(ImageBytes::Slice(&buffer[view.offset()..end]))
-        }
+        gltf::image::Source::View { view, .. } => buffers
+            .view(&view)
+            .map(ImageBytes::Slice)
+            .map_err(|reason| ImportErrorKind::Image { index, uri: format!("bufferView {}", view.index()), reason }),
         gltf::image::Source::Uri { uri, .. } => read_uri(base_dir, uri, options, ReadLimit::image(options), reads)
             .map(ImageBytes::Owned)
             .map_err(|e| e.into_kind(uri, |reason| ImportErrorKind::Image { index, uri: uri.to_owned(), reason })),

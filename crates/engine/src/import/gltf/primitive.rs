@@ -4,7 +4,8 @@
 use glam::{Vec2, Vec3, Vec4};
 use gltf::mesh::{Mode, Semantic};
 
-use super::accessor::{AccessorError, Buffers, read_f32, read_indices};
+use super::accessor::{AccessorError, AccessorResult, Buffers, read_f32, read_indices};
+use super::draco::{self, DracoPrimitive};
 use crate::import::ImportErrorKind;
 use crate::mesh::{Mesh, MorphTarget, Topology};
 
@@ -21,7 +22,22 @@ pub(crate) enum Built {
     Skipped(String),
 }
 
+/// An attribute's values: from the primitive's Draco stream where it carries the attribute,
+/// else from the accessor.
+fn read_attribute<const N: usize>(
+    draco: Option<&DracoPrimitive>,
+    semantic: &Semantic,
+    accessor: &gltf::Accessor,
+    buffers: &Buffers,
+) -> AccessorResult<Vec<[f32; N]>> {
+    match draco.and_then(|d| d.read::<N>(semantic, accessor, buffers)) {
+        Some(values) => values,
+        None => read_f32::<N>(accessor, buffers),
+    }
+}
+
 pub(crate) fn build(
+    document: &gltf::Document,
     prim: &gltf::Primitive,
     buffers: &Buffers,
     needs: &GeometryNeeds,
@@ -29,10 +45,16 @@ pub(crate) fn build(
 ) -> Result<Built, ImportErrorKind> {
     let primitive = prim.index();
     let acc_err = |a: &gltf::Accessor, e: AccessorError| e.into_kind(a.index());
+    let draco = draco::decode(document, prim, buffers)
+        .map_err(|e| e.into_kind_with(|reason| ImportErrorKind::Primitive { mesh: mesh_index, primitive, reason }))?;
+    let draco = draco.as_ref();
+    let read = |s: Semantic| prim.get(&s).map(|a| (s, a));
     let read3 = |s: Semantic| -> Result<Option<Vec<Vec3>>, ImportErrorKind> {
-        prim.get(&s)
-            .map(|a| {
-                read_f32::<3>(&a, buffers).map(|v| v.into_iter().map(Vec3::from).collect()).map_err(|e| acc_err(&a, e))
+        read(s)
+            .map(|(s, a)| {
+                read_attribute::<3>(draco, &s, &a, buffers)
+                    .map(|v| v.into_iter().map(Vec3::from).collect())
+                    .map_err(|e| acc_err(&a, e))
             })
             .transpose()
     };
@@ -44,34 +66,53 @@ pub(crate) fn build(
     let n = positions.len();
     let mut mesh = Mesh { positions, ..Default::default() };
     mesh.normals = read3(Semantic::Normals)?.unwrap_or_default();
-    if let Some(a) = prim.get(&Semantic::Tangents) {
-        mesh.tangents = read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec4::from).collect();
+    if let Some((s, a)) = read(Semantic::Tangents) {
+        mesh.tangents = read_attribute::<4>(draco, &s, &a, buffers)
+            .map_err(|e| acc_err(&a, e))?
+            .into_iter()
+            .map(Vec4::from)
+            .collect();
     }
     for (set, dst) in [(0, &mut mesh.uv0), (1, &mut mesh.uv1)] {
-        if let Some(a) = prim.get(&Semantic::TexCoords(set)) {
-            *dst = read_f32::<2>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec2::from).collect();
+        if let Some((s, a)) = read(Semantic::TexCoords(set)) {
+            *dst = read_attribute::<2>(draco, &s, &a, buffers)
+                .map_err(|e| acc_err(&a, e))?
+                .into_iter()
+                .map(Vec2::from)
+                .collect();
         }
     }
-    if let Some(a) = prim.get(&Semantic::Colors(0)) {
+    if let Some((s, a)) = read(Semantic::Colors(0)) {
         mesh.colors = match a.dimensions() {
-            gltf::accessor::Dimensions::Vec3 => read_f32::<3>(&a, buffers)
+            gltf::accessor::Dimensions::Vec3 => read_attribute::<3>(draco, &s, &a, buffers)
                 .map_err(|e| acc_err(&a, e))?
                 .into_iter()
                 .map(|c| Vec3::from(c).extend(1.0))
                 .collect(),
-            _ => read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec4::from).collect(),
+            _ => read_attribute::<4>(draco, &s, &a, buffers)
+                .map_err(|e| acc_err(&a, e))?
+                .into_iter()
+                .map(Vec4::from)
+                .collect(),
         };
     }
 
-    if let Some(a) = prim.get(&Semantic::Joints(0)) {
+    if let Some((s, a)) = read(Semantic::Joints(0)) {
         if a.normalized() || !matches!(a.data_type(), gltf::accessor::DataType::U8 | gltf::accessor::DataType::U16) {
             return Err(acc_err(&a, String::from("JOINTS_0 must be unsigned bytes or shorts, not normalized").into()));
         }
-        mesh.joints =
-            read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(|j| j.map(|x| x as u16)).collect();
+        mesh.joints = read_attribute::<4>(draco, &s, &a, buffers)
+            .map_err(|e| acc_err(&a, e))?
+            .into_iter()
+            .map(|j| j.map(|x| x as u16))
+            .collect();
     }
-    if let Some(a) = prim.get(&Semantic::Weights(0)) {
-        mesh.weights = read_f32::<4>(&a, buffers).map_err(|e| acc_err(&a, e))?.into_iter().map(Vec4::from).collect();
+    if let Some((s, a)) = read(Semantic::Weights(0)) {
+        mesh.weights = read_attribute::<4>(draco, &s, &a, buffers)
+            .map_err(|e| acc_err(&a, e))?
+            .into_iter()
+            .map(Vec4::from)
+            .collect();
     }
     for (target_index, target) in prim.morph_targets().enumerate() {
         let mut t = MorphTarget::default();
@@ -91,11 +132,13 @@ pub(crate) fn build(
         mesh.morph_targets.push(t);
     }
 
-    let elements: Option<Vec<u32>> = match prim.indices() {
-        Some(a) => Some(read_indices(&a, buffers).map_err(|e| acc_err(&a, e))?),
-        None => None,
+    let (mode, elements) = match (draco, prim.indices()) {
+        // Draco's triangles are a list whatever the primitive's mode (4 or 5) says.
+        (Some(d), _) => (Mode::Triangles, Some(d.indices())),
+        (None, Some(a)) => (prim.mode(), Some(read_indices(&a, buffers).map_err(|e| acc_err(&a, e))?)),
+        (None, None) => (prim.mode(), None),
     };
-    let (topology, indices) = expand_topology(prim.mode(), elements, n);
+    let (topology, indices) = expand_topology(mode, elements, n);
     mesh.topology = topology;
     mesh.indices = indices;
     // Dangling indices must be caught before anything below indexes attribute arrays by them.
