@@ -125,6 +125,7 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
         rgba8: checker,
         label: "alpha checker".into(),
         mips: None,
+        compressed: None,
     });
     let fence = StandardMaterial {
         base_color_texture: Some(TextureRef::new(image)),

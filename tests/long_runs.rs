@@ -109,6 +109,7 @@ fn a_lost_device_is_replaced_and_the_scene_drawn_again() {
         rgba8: vec![255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255],
         label: "checker".into(),
         mips: None,
+        compressed: None,
     });
     let mut material = StandardMaterial::from_color(Vec4::ONE, 0.5);
     material.base_color_texture = Some(penumbra::engine::material::TextureRef::new(image));

@@ -226,6 +226,7 @@ fn masked_ramp_columns(ramp: AlphaRamp, msaa: u32, cutoff: f32) -> [f32; 3] {
         rgba8: (0..n).flat_map(|i| [255, 255, 255, (i * 255 / (n - 1)) as u8]).collect(),
         label: "alpha ramp".into(),
         mips: None,
+        compressed: None,
     };
     match ramp {
         AlphaRamp::VertexColors => {
@@ -392,6 +393,7 @@ fn golden_primitives() {
         rgba8: checker,
         label: "checker".into(),
         mips: None,
+        compressed: None,
     });
     let material =
         StandardMaterial { base_color_texture: Some(TextureRef::new(image)), roughness: 0.5, ..Default::default() };
@@ -544,6 +546,7 @@ fn anisotropy_is_a_setting_that_applies_to_textures_already_bound() {
         rgba8,
         label: "checker".into(),
         mips: None,
+        compressed: None,
     });
     let texture = penumbra::engine::material::TextureRef::new(image);
     let material = StandardMaterial { base_color_texture: Some(texture), unlit: true, ..white() };
@@ -590,8 +593,7 @@ fn mip_chains_made_on_the_cpu_draw_what_the_gpu_makes() {
     // Noise of every colour, so that every level of the chain differs from its neighbours.
     let mut rng = penumbra::engine::scenes::SplitMix64(7);
     let rgba8: Vec<u8> = (0..side * side * 4).map(|_| (rng.next_u64() >> 56) as u8).collect();
-    let texture_of =
-        |mips: Option<MipChain>| Image { width: side, height: side, rgba8: rgba8.clone(), label: "noise".into(), mips };
+    let texture_of = |mips: Option<MipChain>| Image { mips, ..Image::rgba8(side, side, rgba8.clone(), "noise") };
     let floor = |mips: Option<MipChain>| {
         let mut app = scene_app();
         app.world.spawn((

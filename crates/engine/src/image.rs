@@ -1,7 +1,13 @@
-//! `Image`: decoded texel data, always 8-bit RGBA. Whether the bytes are sRGB-encoded or linear
-//! is not a property of the image but of the material slot that samples it (base colour and
-//! emissive are sRGB, the others linear), so the render side picks the view format per use.
+//! `Image`: texel data, 8-bit RGBA, or a GPU-transcodable texture (`compressed`: KTX2 + Basis
+//! Universal) that the renderer transcodes to what the adapter samples. Whether the bytes are
+//! sRGB-encoded or linear is not a property of the image but of the material slot that samples it
+//! (base colour and emissive are sRGB, the others linear), so the render side picks the view
+//! format per use.
 
+use std::borrow::Cow;
+use std::sync::Arc;
+
+use crate::compressed_image::CompressedImage;
 use crate::mip_chain::MipChain;
 
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -15,12 +21,40 @@ pub struct Image {
     /// Levels 1.. made where the image was decoded, for the colour space its material slots
     /// read it in (`mip_chain`); `None`: the renderer makes the chain on the GPU.
     pub mips: Option<MipChain>,
+    /// A texture stored compressed (KTX2 + Basis Universal): `rgba8` is then empty and the
+    /// renderer transcodes each mip level from here; [`Image::texels`] decodes for the CPU.
+    pub compressed: Option<Arc<CompressedImage>>,
 }
 
 impl Image {
     /// A 1×1 image of one colour.
     pub fn solid(rgba: [u8; 4], label: impl Into<String>) -> Self {
-        Self { width: 1, height: 1, rgba8: rgba.to_vec(), label: label.into(), mips: None }
+        Self::rgba8(1, 1, rgba.to_vec(), label)
+    }
+
+    /// An image of RGBA8 texels (`width * height * 4` bytes, rows top to bottom).
+    pub fn rgba8(width: u32, height: u32, rgba8: Vec<u8>, label: impl Into<String>) -> Self {
+        Self { width, height, rgba8, label: label.into(), mips: None, compressed: None }
+    }
+
+    /// A compressed texture (its base level's size; no texels on the host).
+    pub fn compressed(image: CompressedImage, label: impl Into<String>) -> Self {
+        Self {
+            width: image.width,
+            height: image.height,
+            rgba8: Vec::new(),
+            label: label.into(),
+            mips: None,
+            compressed: Some(Arc::new(image)),
+        }
+    }
+
+    /// The base level's RGBA8 texels: borrowed, or decoded from the compressed texture.
+    pub fn texels(&self) -> Result<Cow<'_, [u8]>, String> {
+        match &self.compressed {
+            Some(c) => c.decode_rgba8().map(Cow::Owned),
+            None => Ok(Cow::Borrowed(&self.rgba8)),
+        }
     }
 
     /// The mip chain below this image, averaged in linear light when `srgb`.

@@ -11,6 +11,7 @@ pub mod assets;
 pub mod bounds;
 pub mod color;
 pub mod components;
+pub mod compressed_image;
 pub mod environment;
 pub mod framing;
 pub mod gizmos;

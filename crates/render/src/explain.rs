@@ -57,5 +57,13 @@ pub fn explain(renderer: &Renderer) -> String {
     ] {
         let _ = writeln!(out, "     {name:<22} {:>10.1} KiB", bytes as f64 / 1024.0);
     }
+    if m.textures_rgba8 > m.textures {
+        let _ = writeln!(
+            out,
+            "     (textures as RGBA8 would take {:.1} KiB: block compression saves {:.1} KiB)",
+            m.textures_rgba8 as f64 / 1024.0,
+            (m.textures_rgba8 - m.textures) as f64 / 1024.0
+        );
+    }
     out
 }

@@ -52,6 +52,9 @@ impl FrameStats {
 pub struct MemoryStats {
     pub mesh_pool: u64,
     pub textures: u64,
+    /// What the textures would take as RGBA8 with full mip chains (`textures` less this is what
+    /// block-compressed KTX2 textures saved).
+    pub textures_rgba8: u64,
     pub instances: u64,
     pub targets: u64,
     pub lights: u64,

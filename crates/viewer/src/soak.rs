@@ -155,8 +155,7 @@ impl Soak {
                 |i| if (i / 4 + i / side / 4).is_multiple_of(2) { [a, b, 255 - a, 255] } else { [b, a, 128, 255] },
             )
             .collect();
-        let image =
-            Image { width: side, height: side, rgba8, label: format!("soak texture {}", self.frame), mips: None };
+        let image = Image::rgba8(side, side, rgba8, format!("soak texture {}", self.frame));
         let handle = self.app.world.resource_mut::<Assets<Image>>().add(image);
         self.textures.push_back(handle);
         if self.textures.len() > TEXTURES_ALIVE {

@@ -282,6 +282,12 @@ impl GpuContext {
         if indirect_first_instance {
             features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
         }
+        // Block-compressed texture formats the adapter samples: KTX2 / Basis Universal textures
+        // are transcoded to one of them (resources::textures), else to RGBA8.
+        features |= available
+            & (wgpu::Features::TEXTURE_COMPRESSION_BC
+                | wgpu::Features::TEXTURE_COMPRESSION_ASTC
+                | wgpu::Features::TEXTURE_COMPRESSION_ETC2);
         let desc = wgpu::DeviceDescriptor {
             label: Some("penumbra"),
             required_features: features,

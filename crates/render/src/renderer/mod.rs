@@ -413,6 +413,7 @@ impl Renderer {
         MemoryStats {
             mesh_pool: pool.vertex_capacity_bytes + pool.index_capacity_bytes,
             textures: self.textures.gpu_bytes(),
+            textures_rgba8: self.textures.rgba8_bytes(),
             instances: self.instances.buffer().size()
                 + self.draws.slots().capacity()
                 + self.culling.gpu_bytes()

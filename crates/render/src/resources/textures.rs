@@ -19,15 +19,24 @@
 //! scheduler stacks showed the render thread waiting there through each submission; one
 //! submission shortens a headless screenshot, docs/performance.md, "A headless screenshot").
 //! With imports lavapipe stages only the small levels, so its uploads stay one submission.
+//!
+//! A compressed image (KTX2 + Basis Universal, `penumbra_engine::compressed_image`) is
+//! transcoded level by level, here, to the first block format the device samples (BC7, ASTC
+//! 4×4, ETC2 RGBA: a quarter of RGBA8's memory) with the file's own mip chain; to RGBA8 where the
+//! device has none of them, or where the file has no chain (block formats cannot be rendered to,
+//! so the chain is made on the GPU from RGBA8), or where its size is not a whole number of
+//! blocks. [`TextureCache::rgba8_bytes`] beside [`TextureCache::gpu_bytes`] says what
+//! compression saved.
 
 use std::collections::HashMap;
 use std::sync::Arc;
 
 use penumbra_engine::Handle;
 use penumbra_engine::color::srgb_to_linear;
+use penumbra_engine::compressed_image::{CompressedImage, Target};
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
-use penumbra_engine::mip_chain::{MipChain, mip_level_count};
+use penumbra_engine::mip_chain::{MipChain, MipLevel, mip_level_count};
 
 use super::mipmap::MipmapFamily;
 use crate::pipelines::{PipelineCache, parts};
@@ -45,6 +54,8 @@ pub struct GpuTexture {
     /// The image version it was made from.
     pub version: u64,
     pub bytes: u64,
+    /// What it would take as RGBA8 with a full mip chain.
+    pub rgba8_bytes: u64,
 }
 
 /// An image that some material needs in one colour space.
@@ -120,6 +131,12 @@ impl TextureCache {
         self.textures.values().map(|t| t.bytes).sum()
     }
 
+    /// What the uploaded textures would take as RGBA8 with full mip chains: `gpu_bytes` less
+    /// this is what block compression saved.
+    pub fn rgba8_bytes(&self) -> u64 {
+        self.textures.values().map(|t| t.rgba8_bytes).sum()
+    }
+
     /// Whether `image` in this colour space must be (re)uploaded for `version`.
     pub fn is_stale(&self, image: Handle<Image>, srgb: bool, version: u64) -> bool {
         self.textures.get(&(image, srgb)).is_none_or(|t| t.version != version)
@@ -150,8 +167,12 @@ impl TextureCache {
             if !self.is_stale(r.image, r.srgb, r.version) {
                 continue;
             }
-            let upload = self.create_texture(device, queue, encoder, &mut copies, pipelines, &r.data, r.srgb);
-            let texture = GpuTexture { view: upload.view, version: r.version, bytes: upload.bytes };
+            let upload = match &r.data.compressed {
+                Some(c) => self.create_compressed(device, queue, encoder, &mut copies, pipelines, &r.data, c, r.srgb),
+                None => self.create_texture(device, queue, encoder, &mut copies, pipelines, &r.data, r.srgb),
+            };
+            let rgba8_bytes = upload.rgba8_bytes.unwrap_or(upload.bytes);
+            let texture = GpuTexture { view: upload.view, version: r.version, bytes: upload.bytes, rgba8_bytes };
             self.textures.insert((r.image, r.srgb), texture);
             uploaded = true;
             staged += upload.staged;
@@ -282,7 +303,104 @@ impl TextureCache {
             }
             None => self.render_mip_chain(device, encoder, pipelines, &texture, view_format, shader_srgb, &image.label),
         }
-        Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged }
+        Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged, rgba8_bytes: None }
+    }
+
+    /// A KTX2 + Basis Universal image: its levels transcoded to the device's block format, or
+    /// RGBA8 (see the module doc). A level that does not transcode (corrupt data the import's
+    /// checks did not reach) is logged, naming the image, and the texture is left white.
+    #[allow(clippy::too_many_arguments)]
+    fn create_compressed(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        copies: &mut Option<wgpu::CommandEncoder>,
+        pipelines: &mut PipelineCache,
+        owner: &Arc<Image>,
+        c: &CompressedImage,
+        srgb: bool,
+    ) -> Upload {
+        let rgba8_bytes = Some(c.rgba8_bytes());
+        let max = device.limits().max_texture_dimension_2d;
+        // The first level the device can hold (every chain ends at 1×1).
+        let first = (0..c.levels).find(|&l| c.level_size(l).0 <= max && c.level_size(l).1 <= max);
+        let Some(first) = first else {
+            let image = self.decoded(c, 0, owner).unwrap_or_else(|e| white(owner, &e));
+            let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
+            up.rgba8_bytes = rgba8_bytes;
+            return up;
+        };
+        let (width, height) = c.level_size(first);
+        let target = block_target(device.features()).filter(|_| {
+            // Block formats cannot be rendered to (no GPU chain) and need whole blocks.
+            c.levels > 1 && width.is_multiple_of(4) && height.is_multiple_of(4)
+        });
+        let Some(target) = target else {
+            // RGBA8: the file's chain where it has one, else the GPU makes it.
+            let mut image = self.decoded(c, first, owner).unwrap_or_else(|e| white(owner, &e));
+            if c.levels > first + 1 {
+                let levels: Result<Vec<_>, String> = (first + 1..c.levels)
+                    .map(|l| {
+                        let (width, height) = c.level_size(l);
+                        c.transcode(l, Target::Rgba8).map(|rgba8| MipLevel { width, height, rgba8 })
+                    })
+                    .collect();
+                match levels.map(|levels| MipChain { srgb, levels }) {
+                    Ok(chain) if image.fits(&chain) => image.mips = Some(chain),
+                    Ok(_) => {}
+                    Err(e) => tracing::error!("{}: {e}; its mip chain is made on the GPU", owner.label),
+                }
+            }
+            let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
+            up.rgba8_bytes = rgba8_bytes;
+            return up;
+        };
+        let format = block_format(target, srgb);
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(&owner.label),
+            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            mip_level_count: c.levels - first,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let mut bytes = 0;
+        for level in first..c.levels {
+            let (w, h) = c.level_size(level);
+            let blocks = match c.transcode(level, target) {
+                Ok(blocks) => blocks,
+                Err(e) => {
+                    let image = white(owner, &e);
+                    let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
+                    up.rgba8_bytes = rgba8_bytes;
+                    return up;
+                }
+            };
+            let (bw, bh) = (w.div_ceil(4), h.div_ceil(4));
+            queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: level - first,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                &blocks,
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(bw * 16), rows_per_image: Some(bh) },
+                // Copies of block formats cover whole blocks: the level's physical size.
+                wgpu::Extent3d { width: bw * 4, height: bh * 4, depth_or_array_layers: 1 },
+            );
+            bytes += blocks.len() as u64;
+        }
+        Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged: bytes, rgba8_bytes }
+    }
+
+    /// Level `level` of a compressed image as an RGBA8 image (no chain).
+    fn decoded(&self, c: &CompressedImage, level: u32, owner: &Image) -> Result<Image, String> {
+        let (w, h) = c.level_size(level);
+        c.transcode(level, Target::Rgba8).map(|rgba8| Image::rgba8(w, h, rgba8, owner.label.clone()))
     }
 
     /// Levels 1.. of `texture` from level 0, on the GPU (`shaders/mipmap.wgsl`), through views of
@@ -335,6 +453,42 @@ struct Upload {
     view: wgpu::TextureView,
     bytes: u64,
     staged: u64,
+    /// For a compressed image: its size as RGBA8 with a full chain.
+    rgba8_bytes: Option<u64>,
+}
+
+/// The first block format the device samples, best first: BC7 and ASTC 4×4 keep UASTC's quality,
+/// ETC2 loses some.
+fn block_target(features: wgpu::Features) -> Option<Target> {
+    if features.contains(wgpu::Features::TEXTURE_COMPRESSION_BC) {
+        Some(Target::Bc7)
+    } else if features.contains(wgpu::Features::TEXTURE_COMPRESSION_ASTC) {
+        Some(Target::Astc4x4)
+    } else if features.contains(wgpu::Features::TEXTURE_COMPRESSION_ETC2) {
+        Some(Target::Etc2Rgba)
+    } else {
+        None
+    }
+}
+
+fn block_format(target: Target, srgb: bool) -> wgpu::TextureFormat {
+    use wgpu::TextureFormat as F;
+    match (target, srgb) {
+        (Target::Bc7, true) => F::Bc7RgbaUnormSrgb,
+        (Target::Bc7, false) => F::Bc7RgbaUnorm,
+        (Target::Astc4x4, true) => F::Astc { block: wgpu::AstcBlock::B4x4, channel: wgpu::AstcChannel::UnormSrgb },
+        (Target::Astc4x4, false) => F::Astc { block: wgpu::AstcBlock::B4x4, channel: wgpu::AstcChannel::Unorm },
+        (Target::Etc2Rgba, true) => F::Etc2Rgba8UnormSrgb,
+        (Target::Etc2Rgba, false) => F::Etc2Rgba8Unorm,
+        (Target::Rgba8, true) => F::Rgba8UnormSrgb,
+        (Target::Rgba8, false) => F::Rgba8Unorm,
+    }
+}
+
+/// A white 1×1 stand-in for an image that does not transcode, after saying so.
+fn white(owner: &Image, error: &str) -> Image {
+    tracing::error!("{}: {error}; drawn untextured", owner.label);
+    Image::solid([255; 4], owner.label.clone())
 }
 
 /// One texture level's texels.
@@ -408,13 +562,9 @@ fn fit_within(image: &Image, max: u32, srgb: bool) -> Image {
     // Every chain ends at 1×1, which fits any device.
     let first = chain.levels.iter().position(|l| l.width <= max && l.height <= max).unwrap_or(chain.levels.len() - 1);
     let level = &chain.levels[first];
-    Image {
-        width: level.width,
-        height: level.height,
-        rgba8: level.rgba8.clone(),
-        label: image.label.clone(),
-        mips: Some(MipChain { srgb, levels: chain.levels[first + 1..].to_vec() }),
-    }
+    let mut fitted = Image::rgba8(level.width, level.height, level.rgba8.clone(), image.label.clone());
+    fitted.mips = Some(MipChain { srgb, levels: chain.levels[first + 1..].to_vec() });
+    fitted
 }
 
 /// The sRGB curve's inverse at each 8-bit value.
@@ -461,8 +611,19 @@ mod tests {
     }
 
     #[test]
+    fn compressed_textures_take_the_best_block_format_the_device_samples() {
+        use wgpu::Features as F;
+        assert_eq!(block_target(F::empty()), None, "RGBA8 without any");
+        assert_eq!(block_target(F::TEXTURE_COMPRESSION_ETC2), Some(Target::Etc2Rgba));
+        assert_eq!(block_target(F::TEXTURE_COMPRESSION_ETC2 | F::TEXTURE_COMPRESSION_ASTC), Some(Target::Astc4x4));
+        assert_eq!(block_target(F::all()), Some(Target::Bc7));
+        assert_eq!(block_format(Target::Bc7, true), wgpu::TextureFormat::Bc7RgbaUnormSrgb);
+        assert_eq!(block_format(Target::Etc2Rgba, false), wgpu::TextureFormat::Etc2Rgba8Unorm);
+    }
+
+    #[test]
     fn oversized_images_are_halved_until_they_fit() {
-        let img = Image { width: 10, height: 3, rgba8: vec![200; 10 * 3 * 4], label: "t".into(), mips: None };
+        let img = Image::rgba8(10, 3, vec![200; 10 * 3 * 4], "t");
         let fitted = fit_within(&img, 4, false);
         assert_eq!((fitted.width, fitted.height), (2, 1));
         assert!(fitted.rgba8.iter().all(|&b| b == 200));
@@ -472,7 +633,7 @@ mod tests {
         // sRGB images average in linear light, as every other chain does: black and white
         // columns meet at 188, not 128.
         let stripes: Vec<u8> = (0..8 * 2).flat_map(|i| if i % 2 == 0 { [0, 0, 0, 255] } else { [255; 4] }).collect();
-        let img = Image { width: 8, height: 2, rgba8: stripes, label: "s".into(), mips: None };
+        let img = Image::rgba8(8, 2, stripes, "s");
         let fitted = fit_within(&img, 4, true);
         assert_eq!((fitted.width, fitted.height), (4, 1));
         assert_eq!(&fitted.rgba8[..4], &[188, 188, 188, 255]);

@@ -8,6 +8,7 @@ use std::path::Path;
 use super::ImportOptions;
 use super::accessor::Buffers;
 use super::source::{ReadBudget, ReadLimit, read_uri};
+use crate::compressed_image::CompressedImage;
 use crate::image::Image;
 use crate::import::{ImportErrorKind, Limit};
 
@@ -47,6 +48,10 @@ pub(crate) fn decoded_size(bytes: &[u8]) -> Option<u64> {
 /// What importing the encoded image holds once decoded: level 0 and the mip chain import makes
 /// (`TotalImageBytes` counts this), from the header alone.
 pub(crate) fn held_size(bytes: &[u8]) -> Option<u64> {
+    if crate::compressed_image::is_ktx2(bytes) {
+        // Held as the file; the RGBA8 size bounds what decoding it for the CPU can take.
+        return Some(bytes.len() as u64);
+    }
     let (w, h) = dimensions(bytes)?;
     Some(w as u64 * h as u64 * 4 + crate::mip_chain::chain_bytes(w, h))
 }
@@ -63,6 +68,11 @@ pub(crate) fn decode(
     options: &ImportOptions,
 ) -> Result<Image, ImportErrorKind> {
     let err = |reason: String| ImportErrorKind::Image { index, uri: uri.to_owned(), reason };
+    if crate::compressed_image::is_ktx2(bytes) {
+        let image = CompressedImage::parse(bytes.to_vec(), options.limits.image_dimension).map_err(err)?;
+        options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", image.rgba8_bytes())?;
+        return Ok(Image::compressed(image, label));
+    }
     // JPEG straight to RGBA with zune-jpeg: the image crate decodes to RGB and then converts,
     // which for a 2048² texture is 12 MiB more memory to fault in and one more pass over it.
     if bytes.starts_with(&[0xff, 0xd8, 0xff])
@@ -74,7 +84,9 @@ pub(crate) fn decode(
         .with_guessed_format()
         .map_err(|e| err(format!("cannot read: {e}")))?;
     if reader.format().is_none() {
-        return Err(err("unknown image format (Penumbra decodes PNG, JPEG and WebP)".into()));
+        return Err(
+            err("unknown image format (Penumbra decodes PNG, JPEG, WebP and KTX2 with Basis Universal)".into()),
+        );
     }
     // The RGBA8 copy made after decoding is outside the decoder's own allocation limit: check
     // its size from the header first.
@@ -95,7 +107,7 @@ pub(crate) fn decode(
         other => err(format!("cannot decode: {other}")),
     })?;
     let rgba = decoded.into_rgba8();
-    Ok(Image { width: rgba.width(), height: rgba.height(), rgba8: rgba.into_raw(), label, mips: None })
+    Ok(Image::rgba8(rgba.width(), rgba.height(), rgba.into_raw(), label))
 }
 
 /// `Ok(None)`: a JPEG zune-jpeg cannot turn into RGBA (CMYK, say); the caller falls back to the
@@ -123,5 +135,5 @@ fn decode_jpeg_rgba(bytes: &[u8], label: &str, options: &ImportOptions) -> Resul
     }
     let mut rgba8 = vec![0u8; size as usize];
     decoder.decode_into(&mut rgba8).map_err(|e| format!("cannot decode JPEG: {e}"))?;
-    Ok(Some(Image { width: w as u32, height: h as u32, rgba8, label: label.to_owned(), mips: None }))
+    Ok(Some(Image::rgba8(w as u32, h as u32, rgba8, label)))
 }

@@ -84,12 +84,14 @@ pub(crate) fn transform_from_json(v: &gltf::json::Value) -> (UvTransform, Option
 
 /// The extension naming a WebP image for a texture.
 pub(crate) const WEBP: &str = "EXT_texture_webp";
+pub(crate) const BASISU: &str = "KHR_texture_basisu";
 
-/// The image a texture samples: the one EXT_texture_webp names (checked against the file's
-/// images at validation), else its `source`; `None` when it has neither.
+/// The image a texture samples: the one KHR_texture_basisu or EXT_texture_webp names (checked
+/// against the file's images at validation; KTX2 first, it is what the GPU samples compressed),
+/// else its `source`; `None` when it has none.
 pub(crate) fn texture_image(texture: &gltf::Texture) -> Option<usize> {
-    let webp = texture.extension_value(WEBP).and_then(|e| e.get("source")).and_then(|s| s.as_u64());
-    webp.map(|i| i as usize).or_else(|| texture.source().map(|s| s.index()))
+    let named = |ext| texture.extension_value(ext).and_then(|e| e.get("source")).and_then(|s| s.as_u64());
+    named(BASISU).or_else(|| named(WEBP)).map(|i| i as usize).or_else(|| texture.source().map(|s| s.index()))
 }
 
 pub(crate) fn texture(

@@ -114,7 +114,9 @@ fn decode_view(
 
     // The extension's own rules on strides, per mode and filter.
     let stride_ok = match (mode, filter) {
-        (Mode::Attributes, Filter::None | Filter::Exponential) => stride.is_multiple_of(4) && (4..=256).contains(&stride),
+        (Mode::Attributes, Filter::None | Filter::Exponential) => {
+            stride.is_multiple_of(4) && (4..=256).contains(&stride)
+        }
         (Mode::Attributes, Filter::Octahedral | Filter::Color) => stride == 4 || stride == 8,
         (Mode::Attributes, Filter::Quaternion) => stride == 8,
         (Mode::Triangles | Mode::Indices, Filter::None) => stride == 2 || stride == 4,

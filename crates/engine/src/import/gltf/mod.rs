@@ -68,6 +68,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
+    "KHR_texture_basisu",
     "KHR_draco_mesh_compression",
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
@@ -184,6 +185,12 @@ impl GltfScene {
 
     pub fn animations(&self) -> &[AnimationClip] {
         &self.animations
+    }
+
+    /// The decoded images materials use (one per distinct source), in file order.
+    pub fn images(&self) -> impl Iterator<Item = &Image> {
+        let mut seen = std::collections::HashSet::new();
+        self.images.iter().flatten().filter(move |i| seen.insert(Arc::as_ptr(i))).map(|i| &**i)
     }
 
     /// KHR_materials_variants: the file's material variant names, in its order.
@@ -534,7 +541,11 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         ));
     }
     let mut images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
-    spec_gloss::derive_roughness(&mut materials, &mut images);
+    spec_gloss::derive_roughness(&mut materials, &mut images).map_err(|(index, reason)| ImportErrorKind::Image {
+        index,
+        uri: "its glossiness, read for roughness".into(),
+        reason,
+    })?;
     occlusion_packing::pack_occlusion(&mut materials, &mut images);
     let file = path.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let ies_profiles = ies_lights::load_profiles(&document, &buffers, base_dir, &file, options, &reads)?;
@@ -692,19 +703,20 @@ fn validate(document: &gltf::Document) -> Result<(), ImportErrorKind> {
     // A texture samples its EXT_texture_webp image where it names one, else its `source`
     // (which the extension lets a file leave out): an index outside `images` is invalid.
     for (t, texture) in document.textures().enumerate() {
-        let webp = texture.extension_value(materials::WEBP).map(|e| e.get("source").and_then(|s| s.as_u64()));
-        let bad = match webp {
-            Some(Some(i)) if (i as usize) < root.images.len() => None,
-            Some(source) => Some(format!(
-                "textures[{t}].extensions.{}.source is {}, but the file has {} images",
-                materials::WEBP,
-                source.map_or("missing or not an index".to_owned(), |i| i.to_string()),
-                root.images.len()
-            )),
-            None => None,
-        };
-        if let Some(bad) = bad {
-            return Err(ImportErrorKind::Invalid(bad));
+        for name in [materials::BASISU, materials::WEBP] {
+            let source = texture.extension_value(name).map(|e| e.get("source").and_then(|s| s.as_u64()));
+            let bad = match source {
+                Some(Some(i)) if (i as usize) < root.images.len() => None,
+                Some(source) => Some(format!(
+                    "textures[{t}].extensions.{name}.source is {}, but the file has {} images",
+                    source.map_or("missing or not an index".to_owned(), |i| i.to_string()),
+                    root.images.len()
+                )),
+                None => None,
+            };
+            if let Some(bad) = bad {
+                return Err(ImportErrorKind::Invalid(bad));
+            }
         }
     }
     // gltf-json's own primitive check indexes `accessors` with POSITION unchecked (a panic on an
@@ -948,7 +960,10 @@ fn decode_images(
         };
         // The chain is made here, on the thread that decoded the image, while it is fresh.
         let image = images::decode(bytes, *index, uri, label.clone(), options).map(|mut image| {
-            image.mips = Some(image.build_mips(*srgb));
+            // A compressed texture brings its own chain (or the renderer makes one).
+            if image.compressed.is_none() {
+                image.mips = Some(image.build_mips(*srgb));
+            }
             image
         });
         if let Some(p) = &options.progress {

@@ -146,6 +146,7 @@ fn packed_image(mr: &Image, ao: &Image) -> Option<Image> {
         rgba8: with_red_of(&mr.rgba8, &ao.rgba8),
         label: format!("{} with occlusion from {}", mr.label, ao.label),
         mips: Some(MipChain { srgb: false, levels }),
+        compressed: None,
     })
 }
 
@@ -169,7 +170,7 @@ mod tests {
         let rgba8 = (0..w * h)
             .flat_map(|i| [rgba[0].wrapping_add(i as u8), rgba[1].wrapping_add(3 * i as u8), rgba[2], rgba[3]])
             .collect();
-        let mut img = Image { width: w, height: h, rgba8, label: label.into(), mips: None };
+        let mut img = Image::rgba8(w, h, rgba8, label);
         img.mips = Some(img.build_mips(false));
         Arc::new(img)
     }

@@ -84,7 +84,10 @@ pub(crate) fn convert(
 
 /// Gives each material converted with a glossiness texture its roughness image (made once per
 /// source image and factor); returns how many images were made.
-pub(crate) fn derive_roughness(materials: &mut [MaterialDesc], images: &mut Vec<Option<Arc<Image>>>) -> usize {
+pub(crate) fn derive_roughness(
+    materials: &mut [MaterialDesc],
+    images: &mut Vec<Option<Arc<Image>>>,
+) -> Result<usize, (usize, String)> {
     let mut made: HashMap<(*const Image, u32), usize> = HashMap::new();
     for m in materials.iter_mut() {
         let (Some(glossiness), Some(slot)) = (m.glossiness, &mut m.textures[METALLIC_ROUGHNESS_SLOT]) else {
@@ -94,36 +97,36 @@ pub(crate) fn derive_roughness(materials: &mut [MaterialDesc], images: &mut Vec<
             continue;
         };
         let key = (Arc::as_ptr(&source), glossiness.to_bits());
-        let index = *made.entry(key).or_insert_with(|| {
-            images.push(Some(Arc::new(roughness_image(&source, glossiness))));
-            images.len() - 1
-        });
+        let index = match made.get(&key) {
+            Some(&index) => index,
+            None => {
+                let image = roughness_image(&source, glossiness).map_err(|e| (slot.image, e))?;
+                images.push(Some(Arc::new(image)));
+                made.insert(key, images.len() - 1);
+                images.len() - 1
+            }
+        };
         slot.image = index;
         m.glossiness = None;
     }
-    made.len()
+    Ok(made.len())
 }
 
 /// Roughness 1 − `glossiness` × alpha in green, metallic 0 in blue, occlusion 1 in red, with its
 /// own mip chain (linear: roughness is data).
-fn roughness_image(source: &Image, glossiness: f32) -> Image {
-    let rgba8 = source
-        .rgba8
+fn roughness_image(source: &Image, glossiness: f32) -> Result<Image, String> {
+    let texels = source.texels().map_err(|e| format!("{}: {e}", source.label))?;
+    let rgba8 = texels
         .chunks_exact(4)
         .flat_map(|p| {
             let rough = 1.0 - glossiness * (p[3] as f32 / 255.0);
             [255, (rough.clamp(0.0, 1.0) * 255.0).round() as u8, 0, 255]
         })
         .collect();
-    let mut image = Image {
-        width: source.width,
-        height: source.height,
-        rgba8,
-        label: format!("{} (roughness from glossiness {glossiness})", source.label),
-        mips: None,
-    };
+    let label = format!("{} (roughness from glossiness {glossiness})", source.label);
+    let mut image = Image::rgba8(source.width, source.height, rgba8, label);
     image.mips = Some(image.build_mips(false));
-    image
+    Ok(image)
 }
 
 #[cfg(test)]
@@ -132,9 +135,8 @@ mod tests {
 
     #[test]
     fn roughness_is_one_minus_glossiness_times_alpha() {
-        let source =
-            Image { width: 2, height: 1, rgba8: vec![10, 20, 30, 255, 10, 20, 30, 0], label: "sg".into(), mips: None };
-        let r = roughness_image(&source, 0.5);
+        let source = Image::rgba8(2, 1, vec![10, 20, 30, 255, 10, 20, 30, 0], "sg");
+        let r = roughness_image(&source, 0.5).unwrap();
         assert_eq!(r.rgba8, vec![255, 128, 0, 255, 255, 255, 0, 255]);
         assert!(r.mips.as_ref().is_some_and(|c| !c.srgb && r.fits(c)));
     }

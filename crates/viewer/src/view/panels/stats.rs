@@ -76,6 +76,11 @@ pub fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &FrameInfo<'_>) {
                     ui.monospace(mib(bytes));
                     ui.end_row();
                 }
+                if m.textures_rgba8 > m.textures {
+                    ui.label("saved by texture compression");
+                    ui.monospace(mib(m.textures_rgba8 - m.textures));
+                    ui.end_row();
+                }
             });
         });
     });
