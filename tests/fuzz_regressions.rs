@@ -6,6 +6,7 @@
 
 use std::path::Path;
 
+use penumbra::engine::compressed_image::Target;
 use penumbra::engine::environment::EnvironmentImage;
 use penumbra::engine::ies::IesProfile;
 use penumbra::engine::import::{GltfScene, ImportOptions, ObjScene, decode_texture};
@@ -69,7 +70,15 @@ fn obj_ies_shader_and_image_crashers_are_errors_now() {
     replay("image", |b| {
         let Some((&pick, bytes)) = b.split_first() else { return };
         if pick & 1 == 0 {
-            let _ = decode_texture(bytes, "fuzz.png", &ImportOptions::default());
+            // As the fuzz target: a KTX2 texture that loads is transcoded level by level.
+            if let Ok(image) = decode_texture(bytes, "fuzz.png", &ImportOptions::default())
+                && let Some(c) = &image.compressed
+            {
+                for level in 0..c.levels {
+                    let _ = c.transcode(level, Target::Bc7);
+                    let _ = c.transcode(level, Target::Rgba8);
+                }
+            }
         } else {
             let _ = EnvironmentImage::from_bytes(bytes, "fuzz.hdr");
         }

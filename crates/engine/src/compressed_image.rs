@@ -89,8 +89,10 @@ impl std::fmt::Debug for CompressedImage {
 }
 
 /// Checks that every range the KTX2 header's index names (data format descriptor, key/value
-/// data, supercompression global data, each mip level) lies inside the file: a truncated file
-/// is refused here rather than found at upload.
+/// data, supercompression global data, each mip level) lies inside the file, and that no level
+/// declares more uncompressed bytes than its size holds in 16-byte blocks: a truncated file is
+/// refused here rather than found at upload, and a zstd level cannot make the transcoder allocate
+/// what its header claims (the fuzzer found a 58 PB claim that aborted the process).
 fn check_ranges(bytes: &[u8]) -> Result<(), String> {
     let u32_at = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap()) as u64);
     let u64_at = |at: usize| bytes.get(at..at + 8).map(|b| u64::from_le_bytes(b.try_into().unwrap()));
@@ -109,9 +111,18 @@ fn check_ranges(bytes: &[u8]) -> Result<(), String> {
     inside("data format descriptor".into(), u32_at(48).ok_or_else(truncated)?, u32_at(52).ok_or_else(truncated)?)?;
     inside("key/value data".into(), u32_at(56).ok_or_else(truncated)?, u32_at(60).ok_or_else(truncated)?)?;
     inside("supercompression data".into(), u64_at(64).ok_or_else(truncated)?, u64_at(72).ok_or_else(truncated)?)?;
+    let (width, height) = (u32_at(20).ok_or_else(truncated)?, u32_at(24).ok_or_else(truncated)?);
     for level in 0..levels.min(32) as usize {
         let at = 80 + level * 24;
         inside(format!("mip level {level}"), u64_at(at).ok_or_else(truncated)?, u64_at(at + 8).ok_or_else(truncated)?)?;
+        let (w, h) = ((width >> level).max(1), (height >> level).max(1));
+        let most = w.div_ceil(4) * h.div_ceil(4) * 16;
+        let uncompressed = u64_at(at + 16).ok_or_else(truncated)?;
+        if uncompressed > most {
+            return Err(format!(
+                "is corrupt: mip level {level} ({w}×{h}) declares {uncompressed} uncompressed bytes, more than its {most}"
+            ));
+        }
     }
     Ok(())
 }
