@@ -141,6 +141,11 @@ fn broken_draco_data_is_an_error_naming_the_primitive() {
     let path = draco_variant("draco-lines", |j| j["meshes"][0]["primitives"][0]["mode"] = 1.into(), |_| {});
     assert!(load_error(&path).contains("cannot be Draco-compressed"));
 
+    // More points than the POSITION accessor declares.
+    let path = draco_variant("draco-count", |j| j["accessors"][2]["count"] = 10.into(), |_| {});
+    let e = load_error(&path);
+    assert!(e.contains("decodes to 24 points, more than the 10 its POSITION accessor declares"), "{e}");
+
     // A bufferView that does not exist.
     let path = draco_variant(
         "draco-view",
@@ -219,6 +224,14 @@ fn broken_meshopt_data_is_an_error_naming_the_buffer_view() {
         bin[at] = 0xff;
     });
     assert!(load_error(&path).contains("does not decode"));
+
+    // The view's own stride differs from the extension's.
+    let path = meshopt_variant("meshopt-view-stride", |j, _| {
+        let v = first_compressed(j);
+        let stride = j["bufferViews"][v]["extensions"][KHR]["byteStride"].as_u64().unwrap();
+        j["bufferViews"][v]["byteStride"] = (stride + 4).into();
+    });
+    assert!(load_error(&path).contains("differs from the extension's"));
 
     // A stride the codec does not allow, and compressed data past the end of its buffer.
     let path = meshopt_variant("meshopt-stride", |j, _| {

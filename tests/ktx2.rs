@@ -80,9 +80,34 @@ fn broken_ktx2_files_are_errors_naming_the_image() {
         let err = load(&variant("ktx2-truncated", gltf, |b| b.truncate(b.len() / 2))).expect_err("must fail");
         assert!(matches!(err.kind, ImportErrorKind::Image { .. }), "{err}");
         assert!(err.to_string().contains(image) && err.to_string().contains("scene.gltf"), "{err}");
+        // A chain past 1×1: more levels than a 256×256 image has.
+        let err = load(&variant("ktx2-levels", gltf, |b| b[40..44].copy_from_slice(&10u32.to_le_bytes())))
+            .expect_err("must fail");
+        assert!(err.to_string().contains("has 10 mip levels, more than the 9 a 256×256 image has"), "{err}");
         // Not Basis data: a vkFormat of RGBA8 in the header.
         let err = load(&variant("ktx2-vkformat", gltf, |b| b[12..16].copy_from_slice(&37u32.to_le_bytes())))
             .expect_err("must fail");
         assert!(err.to_string().contains("vkFormat 37, not Basis Universal"), "{err}");
     }
+}
+
+/// An OBJ material may name a KTX2 texture too: it is kept compressed like a glTF one.
+#[test]
+fn obj_materials_take_ktx2_textures() {
+    let dir = scratch_dir("ktx2-obj");
+    std::fs::copy(asset("BoxTexturedKtx2/CesiumLogoFlat-uastc.ktx2"), dir.join("logo.ktx2")).unwrap();
+    std::fs::write(dir.join("quad.mtl"), "newmtl logo\nKd 1 1 1\nmap_Kd logo.ktx2\n").unwrap();
+    std::fs::write(
+        dir.join("quad.obj"),
+        "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl logo\nf 1/1 2/2 3/3 4/4\n",
+    )
+    .unwrap();
+    let scene = penumbra::engine::import::ObjScene::load(&dir.join("quad.obj"), &ImportOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mut app = common::scene_app();
+    scene.spawn(&mut app.world);
+    let images = app.world.resource::<penumbra::engine::Assets<penumbra::engine::image::Image>>();
+    let image = images.iter().map(|(_, i)| i).next().expect("the texture");
+    assert!(image.compressed.is_some() && image.rgba8.is_empty(), "kept compressed");
 }

@@ -522,7 +522,10 @@ fn convert_material(
                 let mut image = decode(&bytes, n, &t.file, label, options).map_err(|k| ImportError::new(&path, k))?;
                 // The chain for the slot that first reads the image (another slot's colour
                 // space has it made on the GPU).
-                image.mips = Some(image.build_mips(StandardMaterial::SRGB_SLOTS[slot]));
+                // A compressed (KTX2) texture brings its own chain or has one made on the GPU.
+                if image.compressed.is_none() {
+                    image.mips = Some(image.build_mips(StandardMaterial::SRGB_SLOTS[slot]));
+                }
                 textures.images.push(Arc::new(image));
                 textures.index.insert(path, n);
                 n

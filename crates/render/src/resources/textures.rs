@@ -321,25 +321,28 @@ impl TextureCache {
         c: &CompressedImage,
         srgb: bool,
     ) -> Upload {
-        let rgba8_bytes = Some(c.rgba8_bytes());
         let max = device.limits().max_texture_dimension_2d;
-        // The first level the device can hold (every chain ends at 1×1).
-        let first = (0..c.levels).find(|&l| c.level_size(l).0 <= max && c.level_size(l).1 <= max);
-        let Some(first) = first else {
-            let image = self.decoded(c, 0, owner).unwrap_or_else(|e| white(owner, &e));
-            let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
-            up.rgba8_bytes = rgba8_bytes;
-            return up;
-        };
+        // The first level the device can hold; past the file's chain, its last level (it then
+        // goes the RGBA8 path, whose fitting halves it further).
+        let first =
+            (0..c.levels).find(|&l| c.level_size(l).0 <= max && c.level_size(l).1 <= max).unwrap_or(c.levels - 1);
         let (width, height) = c.level_size(first);
+        // What the same texels would take as RGBA8 with a full chain, from the level uploaded.
+        let rgba8_bytes = (0..mip_level_count(width, height))
+            .map(|l| Target::Rgba8.level_bytes((width >> l).max(1), (height >> l).max(1)))
+            .sum();
         let target = block_target(device.features()).filter(|_| {
-            // Block formats cannot be rendered to (no GPU chain) and need whole blocks.
-            c.levels > 1 && width.is_multiple_of(4) && height.is_multiple_of(4)
+            // Block formats cannot be rendered to, so the file must bring the whole chain below
+            // the level uploaded; and they need whole blocks.
+            c.levels - first == mip_level_count(width, height) && width.is_multiple_of(4) && height.is_multiple_of(4)
         });
         let Some(target) = target else {
             // RGBA8: the file's chain where it has one, else the GPU makes it.
-            let mut image = self.decoded(c, first, owner).unwrap_or_else(|e| white(owner, &e));
-            if c.levels > first + 1 {
+            let (mut image, transcoded) = match self.decoded(c, first, owner) {
+                Ok(image) => (image, true),
+                Err(e) => (white(owner, &e), false),
+            };
+            if transcoded && c.levels > first + 1 {
                 let levels: Result<Vec<_>, String> = (first + 1..c.levels)
                     .map(|l| {
                         let (width, height) = c.level_size(l);
@@ -353,7 +356,8 @@ impl TextureCache {
                 }
             }
             let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
-            up.rgba8_bytes = rgba8_bytes;
+            // As RGBA8 it saves nothing: what it takes is what it would take.
+            up.rgba8_bytes = None;
             return up;
         };
         let format = block_format(target, srgb);
@@ -374,9 +378,7 @@ impl TextureCache {
                 Ok(blocks) => blocks,
                 Err(e) => {
                     let image = white(owner, &e);
-                    let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
-                    up.rgba8_bytes = rgba8_bytes;
-                    return up;
+                    return self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
                 }
             };
             let (bw, bh) = (w.div_ceil(4), h.div_ceil(4));
@@ -394,6 +396,7 @@ impl TextureCache {
             );
             bytes += blocks.len() as u64;
         }
+        let rgba8_bytes = Some(rgba8_bytes);
         Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged: bytes, rgba8_bytes }
     }
 

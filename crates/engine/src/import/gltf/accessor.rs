@@ -64,8 +64,15 @@ pub(crate) struct Buffers {
 }
 
 impl Buffers {
+    /// The decoded views count against the decoded-data budget from the start.
     pub(crate) fn new(data: Vec<Vec<u8>>, decoded_views: HashMap<usize, Vec<u8>>, limits: ImportLimits) -> Self {
-        Self { data, decoded_views, limits, decoded: Cell::new(0) }
+        let decoded = decoded_views.values().map(|v| v.len() as u64).sum();
+        Self { data, decoded_views, limits, decoded: Cell::new(decoded) }
+    }
+
+    /// Bytes decoded so far (compressed views, accessors), of the `DecodedBytes` budget.
+    pub(crate) fn decoded(&self) -> u64 {
+        self.decoded.get()
     }
 
     /// The bytes of a bufferView: its decoded data when it was stored compressed

@@ -1,9 +1,11 @@
 //! `KHR_draco_mesh_compression`: a primitive whose geometry is one Draco stream, decoded at
 //! import by draco-core (a pure-Rust Draco decoder that reads what Google's C++ Draco writes).
 //!
-//! [`decode`] reads the primitive's extension and decodes its stream under the import's limits
-//! (points, faces and decoded bytes are ceilings inside the decoder, so a few bytes cannot ask
-//! for gigabytes); the primitive builder then takes each attribute the extension names from the
+//! [`decode`] reads the primitive's extension and decodes its stream with ceilings inside the
+//! decoder (the points one also checked after it): no more points than its POSITION accessor declares (the extension requires the two
+//! equal, and the declared counts are what the import's vertex total was checked on), no more
+//! triangles than its indices accessor declares, and no more bytes than the import's decoded-data
+//! budget has left, so a few bytes cannot ask for gigabytes; the primitive builder then takes each attribute the extension names from the
 //! result ([`DracoPrimitive::read`]) instead of from the accessor (which carries only the count,
 //! type and bounds), and the triangles in place of the indices accessor. Attributes the
 //! extension does not name, and morph targets, are read from their accessors as usual.
@@ -64,16 +66,30 @@ fn decode_extension(
         .ok_or_else(|| String::from("\"attributes\" is missing or not an object"))?;
 
     let limits = buffers.limits();
+    let points = prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
+    let faces = prim.indices().map_or(limits.accessor_elements, |a| a.count() as u64) / 3;
     let decode_limits = DecodeLimits::default()
-        .with_max_points(limits.vertices)
-        .with_max_faces(limits.indices / 3)
-        .with_max_decoded_bytes(limits.decoded_bytes);
+        .with_max_points(points.min(limits.accessor_elements))
+        .with_max_faces(faces.min(limits.accessor_elements / 3))
+        .with_max_decoded_bytes(limits.decoded_bytes.saturating_sub(buffers.decoded()));
     let mut reader = DecoderBuffer::new(stream).with_limits(decode_limits);
     let mut mesh = Mesh::new();
-    MeshDecoder::new()
-        .decode(&mut reader, &mut mesh)
-        .map_err(|e| format!("the compressed data (bufferView {view_index}) does not decode: {e}"))?;
+    MeshDecoder::new().decode(&mut reader, &mut mesh).map_err(|e| {
+        format!(
+            "the compressed data (bufferView {view_index}) does not decode: {e} (its accessors declare {points} \
+                 points and {faces} triangles, which the stream may not exceed)"
+        )
+    })?;
 
+    // The decoder's own ceiling is not enforced on every path; the declared count bounds it here.
+    if mesh.num_points() as u64 > points {
+        return Err(format!(
+            "the compressed data decodes to {} points, more than the {points} its POSITION accessor declares \
+             (the extension requires them equal)",
+            mesh.num_points()
+        )
+        .into());
+    }
     let mut ids = HashMap::new();
     for (name, id) in names {
         let id = id

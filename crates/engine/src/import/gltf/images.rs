@@ -70,7 +70,8 @@ pub(crate) fn decode(
     let err = |reason: String| ImportErrorKind::Image { index, uri: uri.to_owned(), reason };
     if crate::compressed_image::is_ktx2(bytes) {
         let image = CompressedImage::parse(bytes.to_vec(), options.limits.image_dimension).map_err(err)?;
-        options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", image.rgba8_bytes())?;
+        let rgba = crate::compressed_image::Target::Rgba8.level_bytes(image.width, image.height);
+        options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", rgba)?;
         return Ok(Image::compressed(image, label));
     }
     // JPEG straight to RGBA with zune-jpeg: the image crate decodes to RGB and then converts,

@@ -57,10 +57,12 @@ pub(crate) fn decode_views(
         };
         let index = view.index();
         let err = |reason: String| ImportErrorKind::BufferView { index, reason: format!("{name}: {reason}") };
-        let bytes = decode_view(name, ext, view.length(), buffers, limits, &mut total).map_err(|e| match e {
-            ViewError::Bad(reason) => err(reason),
-            ViewError::Limit(kind) => kind,
-        })?;
+        let bytes = decode_view(name, ext, (view.length(), view.stride()), buffers, limits, &mut total).map_err(
+            |e| match e {
+                ViewError::Bad(reason) => err(reason),
+                ViewError::Limit(kind) => kind,
+            },
+        )?;
         decoded.insert(index, bytes);
     }
     Ok(decoded)
@@ -80,7 +82,7 @@ impl From<String> for ViewError {
 fn decode_view(
     name: &str,
     ext: &Value,
-    view_length: usize,
+    (view_length, view_stride): (usize, Option<usize>),
     buffers: &[Vec<u8>],
     limits: &ImportLimits,
     total: &mut u64,
@@ -126,6 +128,12 @@ fn decode_view(
     };
     if !stride_ok {
         return Err(format!("byteStride {stride} is not allowed for mode {mode:?} with filter {filter:?}").into());
+    }
+    if let Some(own) = view_stride.filter(|&own| mode == Mode::Attributes && own as u64 != stride) {
+        return Err(format!(
+            "the bufferView's byteStride {own} differs from the extension's {stride} (the extension requires them equal)"
+        )
+        .into());
     }
     if mode == Mode::Triangles && !count.is_multiple_of(3) {
         return Err(format!("TRIANGLES needs a count that is a multiple of 3, found {count}").into());
@@ -212,7 +220,7 @@ mod tests {
 
     fn decode(ext: Value, buffers: &[Vec<u8>], view_length: usize) -> Result<Vec<u8>, String> {
         let mut total = 0;
-        decode_view("EXT_meshopt_compression", &ext, view_length, buffers, &ImportLimits::default(), &mut total)
+        decode_view("EXT_meshopt_compression", &ext, (view_length, None), buffers, &ImportLimits::default(), &mut total)
             .map_err(|e| match e {
                 ViewError::Bad(r) => r,
                 ViewError::Limit(k) => k.to_string(),
