@@ -72,7 +72,6 @@ pub struct CompressedImage {
     /// Mip levels in the file (1 when it has no chain).
     pub levels: u32,
     pub codec: Codec,
-    pub has_alpha: bool,
 }
 
 impl std::fmt::Debug for CompressedImage {
@@ -83,7 +82,6 @@ impl std::fmt::Debug for CompressedImage {
             .field("height", &self.height)
             .field("levels", &self.levels)
             .field("codec", &self.codec)
-            .field("has_alpha", &self.has_alpha)
             .finish()
     }
 }
@@ -172,25 +170,13 @@ impl CompressedImage {
         }
         // A chain may stop early (KTX2 allows it); past 1×1 was refused above.
         let levels = t.level_count().max(1);
-        let has_alpha = t.has_alpha();
         drop(t);
-        Ok(Self { bytes, width, height, levels, codec, has_alpha })
+        Ok(Self { bytes, width, height, levels, codec })
     }
 
     /// Size of mip level `level` in texels.
     pub fn level_size(&self, level: u32) -> (u32, u32) {
         ((self.width >> level).max(1), (self.height >> level).max(1))
-    }
-
-    /// The file's size.
-    pub fn file_bytes(&self) -> usize {
-        self.bytes.len()
-    }
-
-    /// What the texture takes as RGBA8 with a full mip chain: what it would cost uncompressed.
-    pub fn rgba8_bytes(&self) -> u64 {
-        let levels = crate::mip_chain::mip_level_count(self.width, self.height);
-        (0..levels).map(|l| Target::Rgba8.level_bytes((self.width >> l).max(1), (self.height >> l).max(1))).sum()
     }
 
     /// Mip level `level` in `target`'s layout: blocks row by row (block formats), or texels row

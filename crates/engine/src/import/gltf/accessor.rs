@@ -130,7 +130,7 @@ fn dimensions_len(d: Dimensions) -> usize {
     }
 }
 
-fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
+pub(crate) fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
     match t {
         DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
         DataType::I8 => {

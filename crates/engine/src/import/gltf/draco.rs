@@ -18,7 +18,9 @@ use draco_core::geometry_indices::PointIndex;
 use draco_core::{DecodeLimits, DecoderBuffer, Mesh, MeshDecoder};
 use gltf::json::Value;
 
-use super::accessor::{AccessorError, AccessorResult, Buffers};
+use gltf::accessor::DataType as GltfType;
+
+use super::accessor::{AccessorError, AccessorResult, Buffers, read_component};
 
 pub(crate) const EXTENSION: &str = "KHR_draco_mesh_compression";
 
@@ -139,23 +141,15 @@ impl DracoPrimitive {
         if components != N {
             return Err(format!("has {components} components, the accessor {N}").into());
         }
-        let read: fn(&[u8], bool) -> f32 = match a.data_type() {
-            DataType::Float32 => |b, _| f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
-            DataType::Uint8 => |b, n| if n { b[0] as f32 / 255.0 } else { b[0] as f32 },
-            DataType::Int8 => |b, n| if n { (b[0] as i8 as f32 / 127.0).max(-1.0) } else { b[0] as i8 as f32 },
-            DataType::Uint16 => |b, n| {
-                let v = u16::from_le_bytes([b[0], b[1]]) as f32;
-                if n { v / 65535.0 } else { v }
-            },
-            DataType::Int16 => |b, n| {
-                let v = i16::from_le_bytes([b[0], b[1]]) as f32;
-                if n { (v / 32767.0).max(-1.0) } else { v }
-            },
-            DataType::Uint32 => |b, n| {
-                let v = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-                if n { v as f32 / u32::MAX as f32 } else { v as f32 }
-            },
-            DataType::Int32 => |b, _| i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+        // The glTF component type the values are in: converted (normalised per the accessor)
+        // by the accessor reader's own conversion.
+        let ty = match a.data_type() {
+            DataType::Float32 => GltfType::F32,
+            DataType::Uint8 => GltfType::U8,
+            DataType::Int8 => GltfType::I8,
+            DataType::Uint16 => GltfType::U16,
+            DataType::Int16 => GltfType::I16,
+            DataType::Uint32 => GltfType::U32,
             other => return Err(format!("has component type {other:?}, which no glTF accessor has").into()),
         };
         let points = self.mesh.num_points();
@@ -170,7 +164,7 @@ impl DracoPrimitive {
                     .then(|| data.get(v.checked_mul(stride)?..)?.get(..width * N))
                     .flatten()
                     .ok_or_else(|| AccessorError::from(format!("point {p} names value {v} of {}", a.size())))?;
-                Ok(std::array::from_fn(|c| read(&value[c * width..], normalized)))
+                Ok(std::array::from_fn(|c| read_component(&value[c * width..], ty, normalized)))
             })
             .collect()
     }
