@@ -1,28 +1,44 @@
-//! KHR_texture_basisu: KTX2 textures with Basis Universal data (ETC1S and UASTC) draw as their
-//! PNG original, transcoded to the adapter's block format with their mip chains (or to RGBA8);
-//! a texture without a chain gets one made on the GPU; broken files are errors naming the image.
+//! KTX2 textures draw as their PNG original: Basis Universal data (KHR_texture_basisu: ETC1S and
+//! UASTC) transcoded to the adapter's block format with their mip chains (or to RGBA8), and
+//! plain KTX2 files of ordinary formats (8-bit texels, BC, ETC2, ASTC; zstd, zlib or none)
+//! uploaded as they are where the device samples them, decoded to RGBA8 where not. A texture
+//! without a chain gets one made on the GPU; broken files are errors naming the image.
 //!
 //! tests/assets/BoxTexturedKtx2 is BoxTextured with its PNG texture encoded by Basis Universal's
-//! `basisu` tool (see its README.md for the commands): ETC1S with mips, UASTC with mips and zstd
-//! supercompression, and UASTC without mips.
+//! `basisu` tool and by KTX-Software's `ktx` tool (see its README.md for the commands).
 
 mod common;
 
 use common::golden_scenes::THREE_QUARTER;
 use common::{Shot, Tolerance, asset, check_golden, flip_mean, render_asset, scratch_dir};
-use penumbra::engine::compressed_image::Codec;
+use penumbra::engine::compressed_image::{Codec, Source};
 use penumbra::engine::import::{GltfScene, ImportErrorKind, ImportOptions};
-use penumbra::render::RenderSettings;
-use penumbra::render::headless::ShotSettings;
+use penumbra::render::headless::{ShotSettings, render_frames, stage_scene};
+use penumbra::render::{MemoryStats, RenderSettings, Renderer};
 
 fn shot() -> ShotSettings {
     ShotSettings { size: Some((128, 128)), camera: THREE_QUARTER, exposure_ev100: Some(0.0), ..Default::default() }
 }
 
+fn settings() -> RenderSettings {
+    RenderSettings { max_anisotropy: Some(1), ..Default::default() }
+}
+
 fn render(rel: &str) -> Shot {
     let scene = GltfScene::load(&asset(rel), &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert!(scene.warnings.is_empty(), "{rel}: {:?}", scene.warnings);
-    render_asset(rel, &shot(), RenderSettings { max_anisotropy: Some(1), ..Default::default() })
+    render_asset(rel, &shot(), settings())
+}
+
+/// Renders the scene at `path` and says what its textures took on the GPU.
+fn render_path(path: &std::path::Path) -> (Shot, MemoryStats) {
+    let scene = GltfScene::load(path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{}: {:?}", path.display(), scene.warnings);
+    let (mut app, size) = stage_scene(&scene, &shot()).unwrap();
+    let renderer = Renderer::new(common::gpu(), settings()).unwrap();
+    let rgba8 = render_frames(&mut app, renderer, size, 1).unwrap();
+    let memory = app.world.resource::<Renderer>().memory();
+    (Shot { width: size.0, height: size.1, rgba8 }, memory)
 }
 
 #[test]
@@ -40,7 +56,7 @@ fn basis_textures_draw_as_their_png_original() {
         let scene = GltfScene::load(&asset(rel), &ImportOptions::default()).unwrap();
         let image = scene.images().next().expect("an image");
         let compressed = image.compressed.as_ref().expect("kept compressed");
-        assert_eq!(compressed.codec, codec, "{rel}");
+        assert_eq!(compressed.source(), Source::Basis(codec), "{rel}");
         assert!(image.rgba8.is_empty(), "{rel}: no texels on the host");
         let shot = render(rel);
         let error = flip_mean(&shot.rgba8, &png.rgba8, 128, 128);
@@ -52,16 +68,18 @@ fn basis_textures_draw_as_their_png_original() {
     }
 }
 
-/// The KTX2 scene with its texture's bytes changed by `edit`, in a scratch folder.
-fn variant(name: &str, gltf: &str, edit: impl FnOnce(&mut Vec<u8>)) -> std::path::PathBuf {
+/// BoxTextured drawing `image` (a KTX2 file of tests/assets/BoxTexturedKtx2, through
+/// KHR_texture_basisu as the Basis files are) with its bytes changed by `edit`, in a scratch
+/// folder.
+fn scene_with(name: &str, image: &str, edit: impl FnOnce(&mut Vec<u8>)) -> std::path::PathBuf {
     let dir = scratch_dir(name);
-    let from = asset("BoxTexturedKtx2").join(gltf);
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&from).unwrap()).unwrap();
-    let uri = json["images"][0]["uri"].as_str().unwrap().to_owned();
+    let from = asset("BoxTexturedKtx2/BoxTextured-uastc.gltf");
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&from).unwrap()).unwrap();
+    json["images"][0]["uri"] = image.into();
     std::fs::copy(from.with_file_name("BoxTextured.bin"), dir.join("BoxTextured.bin")).unwrap();
-    let mut bytes = std::fs::read(from.with_file_name(&uri)).unwrap();
+    let mut bytes = std::fs::read(from.with_file_name(image)).unwrap();
     edit(&mut bytes);
-    std::fs::write(dir.join(&uri), bytes).unwrap();
+    std::fs::write(dir.join(image), bytes).unwrap();
     std::fs::write(dir.join("scene.gltf"), serde_json::to_string(&json).unwrap()).unwrap();
     dir.join("scene.gltf")
 }
@@ -69,25 +87,117 @@ fn variant(name: &str, gltf: &str, edit: impl FnOnce(&mut Vec<u8>)) -> std::path
 #[test]
 fn broken_ktx2_files_are_errors_naming_the_image() {
     let load = |path: &std::path::Path| GltfScene::load(path, &ImportOptions::default());
-    for (gltf, image) in [
-        ("BoxTextured-etc1s.gltf", "CesiumLogoFlat-etc1s.ktx2"),
-        ("BoxTextured-uastc.gltf", "CesiumLogoFlat-uastc.ktx2"),
-    ] {
-        assert!(load(&variant("ktx2-fine", gltf, |_| {})).is_ok());
+    for image in ["CesiumLogoFlat-etc1s.ktx2", "CesiumLogoFlat-uastc.ktx2", "CesiumLogoFlat-bc7-zstd.ktx2"] {
+        let variant = |name: &str, edit: &dyn Fn(&mut Vec<u8>)| scene_with(name, image, edit);
+        assert!(load(&variant("ktx2-fine", &|_| {})).is_ok());
         // Cut short: the level index points past the end.
-        let err = load(&variant("ktx2-header", gltf, |b| b.truncate(60))).expect_err("must fail");
+        let err = load(&variant("ktx2-header", &|b| b.truncate(60))).expect_err("must fail");
         assert!(err.to_string().contains("truncated"), "{err}");
-        let err = load(&variant("ktx2-truncated", gltf, |b| b.truncate(b.len() / 2))).expect_err("must fail");
+        let err = load(&variant("ktx2-truncated", &|b| b.truncate(b.len() / 2))).expect_err("must fail");
         assert!(matches!(err.kind, ImportErrorKind::Image { .. }), "{err}");
         assert!(err.to_string().contains(image) && err.to_string().contains("scene.gltf"), "{err}");
         // A chain past 1×1: more levels than a 256×256 image has.
-        let err = load(&variant("ktx2-levels", gltf, |b| b[40..44].copy_from_slice(&10u32.to_le_bytes())))
-            .expect_err("must fail");
+        let err =
+            load(&variant("ktx2-levels", &|b| b[40..44].copy_from_slice(&10u32.to_le_bytes()))).expect_err("must fail");
         assert!(err.to_string().contains("has 10 mip levels, more than the 9 a 256×256 image has"), "{err}");
-        // Not Basis data: a vkFormat of RGBA8 in the header.
-        let err = load(&variant("ktx2-vkformat", gltf, |b| b[12..16].copy_from_slice(&37u32.to_le_bytes())))
-            .expect_err("must fail");
-        assert!(err.to_string().contains("vkFormat 37, not Basis Universal"), "{err}");
+        // A format Penumbra does not read (R16G16B16A16_SFLOAT), and BC6H (HDR).
+        for (vk, says) in [(97, "vkFormat 97, which Penumbra does not read"), (143, "BC6H, high dynamic range")] {
+            let err = load(&variant("ktx2-vkformat", &|b| b[12..16].copy_from_slice(&(vk as u32).to_le_bytes())))
+                .expect_err("must fail");
+            assert!(err.to_string().contains(says), "{err}");
+        }
+        // Levels that do not hold what the format says: the Basis files' data read as RGBA8,
+        // the BC7 file's as BC1 (half the bytes per block).
+        let vk = if image.contains("bc7") { 131u32 } else { 37 };
+        let err =
+            load(&variant("ktx2-layout", &|b| b[12..16].copy_from_slice(&vk.to_le_bytes()))).expect_err("must fail");
+        assert!(err.to_string().contains("is corrupt") || err.to_string().contains("BasisLZ"), "{err}");
+    }
+}
+
+/// The level index entries (offset, length, uncompressed length) of a KTX2 file.
+fn level_index(bytes: &[u8], level: usize) -> [u64; 3] {
+    let at = 80 + level * 24;
+    std::array::from_fn(|i| u64::from_le_bytes(bytes[at + i * 8..at + i * 8 + 8].try_into().unwrap()))
+}
+
+#[test]
+fn plain_ktx2_files_with_corrupt_levels_are_errors_naming_the_level() {
+    let load = |path: &std::path::Path| GltfScene::load(path, &ImportOptions::default()).expect_err("must fail");
+    for image in ["CesiumLogoFlat-bc7-zstd.ktx2", "CesiumLogoFlat-astc6x6-zlib.ktx2"] {
+        // Level 0's stream with a damaged frame header.
+        let err = load(&scene_with("ktx2-stream", image, |b| {
+            let [offset, _, _] = level_index(b, 0);
+            b[offset as usize..offset as usize + 4].fill(0xa5);
+        }));
+        let text = err.to_string();
+        assert!(text.contains(image) && text.contains("mip level 0"), "{text}");
+        // A level that claims the wrong size before supercompression.
+        let err = load(&scene_with("ktx2-claim", image, |b| {
+            let at = 80 + 2 * 24 + 16;
+            b[at..at + 8].copy_from_slice(&12345u64.to_le_bytes());
+        }));
+        assert!(err.to_string().contains("its mip level 2 holds 12345 bytes"), "{err}");
+    }
+    // Not supercompressed: a level cut short by a wrong length.
+    let err = load(&scene_with("ktx2-length", "CesiumLogoFlat-rgb8-zlib.ktx2", |b| {
+        b[44..48].copy_from_slice(&0u32.to_le_bytes());
+    }));
+    assert!(err.to_string().contains("its mip level 0 holds"), "{err}");
+}
+
+/// Plain KTX2 files, written by KTX-Software's `ktx create` and `ktx transcode`, draw as the PNG
+/// does: as they are where the device samples their format (taking less memory than RGBA8),
+/// decoded to RGBA8 where it does not, where their size is not whole blocks, or where they have
+/// no chain (the GPU makes it from RGBA8).
+#[test]
+fn plain_ktx2_textures_draw_as_their_png_original() {
+    use wgpu::Features as F;
+    let png = render("BoxTextured/BoxTextured.glb");
+    let original = GltfScene::load(&asset("BoxTextured/BoxTextured.glb"), &ImportOptions::default()).unwrap();
+    let texels = original.images().next().unwrap().rgba8.clone();
+    let features = common::gpu().device.features();
+    for (image, name, max, needs) in [
+        // Texels: the same image, the file's chain made by `ktx` (box filter).
+        ("CesiumLogoFlat-rgba8-zstd.ktx2", "R8G8B8A8", 0.005, None),
+        ("CesiumLogoFlat-rgb8-zlib.ktx2", "R8G8B8", 0.001, None),
+        // Blocks transcoded from the UASTC file (its own levels), as the UASTC file draws.
+        ("CesiumLogoFlat-bc7-zstd.ktx2", "BC7", 0.02, Some(F::TEXTURE_COMPRESSION_BC)),
+        ("CesiumLogoFlat-bc1-zstd.ktx2", "BC1_RGB", 0.04, Some(F::TEXTURE_COMPRESSION_BC)),
+        ("CesiumLogoFlat-etc2-zstd.ktx2", "ETC2_R8G8B8A8", 0.045, Some(F::TEXTURE_COMPRESSION_ETC2)),
+        // No chain: decoded, and the chain made on the GPU.
+        ("CesiumLogoFlat-bc7-nomips-zstd.ktx2", "BC7", 0.005, None),
+        // Encoded by astcenc through `ktx create` (box-filtered chain).
+        ("CesiumLogoFlat-astc4x4-zstd.ktx2", "ASTC_4x4", 0.015, Some(F::TEXTURE_COMPRESSION_ASTC)),
+        // 256 is not a whole number of 6×6 blocks: decoded on every device.
+        ("CesiumLogoFlat-astc6x6-zlib.ktx2", "ASTC_6x6", 0.03, None),
+    ] {
+        let path = scene_with("ktx2-plain", image, |_| {});
+        let scene = GltfScene::load(&path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let compressed = scene.images().next().and_then(|i| i.compressed.clone()).expect("kept as KTX2");
+        assert!(matches!(compressed.source(), Source::Plain { name: n, .. } if n == name), "{image}: {compressed:?}");
+        // Level 0 decoded on the CPU against the PNG's texels (mean difference per channel, of 255).
+        let decoded = compressed.decode_rgba8().unwrap();
+        let diff = decoded.iter().zip(&texels).map(|(&a, &b)| a.abs_diff(b) as f64).sum::<f64>() / texels.len() as f64;
+        eprintln!("{image}: level 0 differs from the PNG's texels by {diff:.3} of 255 on average");
+        if needs.is_none() && !name.starts_with("BC") && !name.starts_with("ASTC") {
+            assert_eq!(diff, 0.0, "{image}: texels as they were");
+        }
+        assert!(diff < 3.0, "{image}: level 0 decodes to other texels");
+        let (shot, memory) = render_path(&path);
+        let error = flip_mean(&shot.rgba8, &png.rgba8, 128, 128);
+        eprintln!(
+            "{image} against the PNG: FLIP mean {error:.5}, {} of {} bytes",
+            memory.textures, memory.textures_rgba8
+        );
+        assert!(error < max, "{image} against the PNG: FLIP mean {error}");
+        let native = needs.is_some_and(|f| features.contains(f)) && !compressed.block_formats().is_empty();
+        if native {
+            // A quarter (an eighth for BC1), and whole blocks at the chain's small end.
+            assert!(memory.textures * 3 < memory.textures_rgba8, "{image}: {memory:?}");
+        } else {
+            assert_eq!(memory.textures, memory.textures_rgba8, "{image}: RGBA8, {memory:?}");
+        }
     }
 }
 

@@ -1,11 +1,12 @@
 //! Image bytes through Penumbra's decoders: textures (PNG, JPEG via zune-jpeg or the image
-//! crate, WebP lossless and lossy, KTX2 + Basis Universal checked and then every level
-//! transcoded as the renderer would: BC7 and RGBA8) under the import limits, and environment maps
+//! crate, WebP lossless and lossy, KTX2 (Basis Universal or plain) checked and then every level
+//! delivered as the renderer would ask: in each of its block formats and as RGBA8) under the
+//! import limits, and environment maps
 //! (Radiance .hdr, OpenEXR). The first byte picks the path.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use penumbra_engine::compressed_image::Target;
+use penumbra_engine::compressed_image::Format;
 use penumbra_engine::environment::EnvironmentImage;
 use penumbra_engine::import::{ImportOptions, decode_texture};
 
@@ -17,9 +18,8 @@ fuzz_target!(|data: &[u8]| {
         if let Ok(image) = decode_texture(bytes, "fuzz.png", &options)
             && let Some(c) = &image.compressed
         {
-            for level in 0..c.levels {
-                let _ = c.transcode(level, Target::Bc7);
-                let _ = c.transcode(level, Target::Rgba8);
+            for format in c.block_formats().into_iter().chain([Format::Rgba8]) {
+                let _ = c.levels_as(0..c.levels, format);
             }
         }
     } else {

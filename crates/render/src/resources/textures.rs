@@ -20,20 +20,20 @@
 //! submission shortens a headless screenshot, docs/performance.md, "A headless screenshot").
 //! With imports lavapipe stages only the small levels, so its uploads stay one submission.
 //!
-//! A compressed image (KTX2 + Basis Universal, `penumbra_engine::compressed_image`) is
-//! transcoded level by level, here, to the first block format the device samples (BC7, ASTC
-//! 4×4, ETC2 RGBA: a quarter of RGBA8's memory) with the file's own mip chain; to RGBA8 where the
-//! device has none of them, or where the file has no chain (block formats cannot be rendered to,
-//! so the chain is made on the GPU from RGBA8), or where its size is not a whole number of
-//! blocks. [`TextureCache::rgba8_bytes`] beside [`TextureCache::gpu_bytes`] says what
-//! compression saved.
+//! A KTX2 image (`penumbra_engine::compressed_image`) goes up level by level in the first of its
+//! block formats the device samples: BC7, ASTC 4×4 or ETC2 RGBA for Basis Universal (a quarter
+//! of RGBA8's memory), a plain file's own BC, ETC2/EAC or ASTC format. It goes up as RGBA8 where
+//! the device samples none of them, where the file has no chain (block formats cannot be
+//! rendered to, so the chain is made on the GPU from RGBA8), where its size is not whole blocks,
+//! or for plain 8-bit texels. [`TextureCache::rgba8_bytes`] beside [`TextureCache::gpu_bytes`]
+//! says what compression saved.
 
 use std::collections::HashMap;
 use std::sync::Arc;
 
 use penumbra_engine::Handle;
 use penumbra_engine::color::srgb_to_linear;
-use penumbra_engine::compressed_image::{CompressedImage, Target};
+use penumbra_engine::compressed_image::{CompressedImage, Family, Format};
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
 use penumbra_engine::mip_chain::{MipChain, MipLevel, mip_level_count};
@@ -306,9 +306,9 @@ impl TextureCache {
         Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged, rgba8_bytes: None }
     }
 
-    /// A KTX2 + Basis Universal image: its levels transcoded to the device's block format, or
-    /// RGBA8 (see the module doc). A level that does not transcode (corrupt data the import's
-    /// checks did not reach) is logged, naming the image, and the texture is left white.
+    /// A KTX2 image: its levels in the first of its block formats the device samples, or RGBA8
+    /// (see the module doc). A level that does not transcode (corrupt data the import's checks
+    /// did not reach) is logged, naming the image, and the texture is left white.
     #[allow(clippy::too_many_arguments)]
     fn create_compressed(
         &self,
@@ -329,38 +329,19 @@ impl TextureCache {
         let (width, height) = c.level_size(first);
         // What the same texels would take as RGBA8 with a full chain, from the level uploaded.
         let rgba8_bytes = (0..mip_level_count(width, height))
-            .map(|l| Target::Rgba8.level_bytes((width >> l).max(1), (height >> l).max(1)))
+            .map(|l| Format::Rgba8.level_bytes((width >> l).max(1), (height >> l).max(1)))
             .sum();
-        let target = block_target(device.features()).filter(|_| {
-            // Block formats cannot be rendered to, so the file must bring the whole chain below
-            // the level uploaded; and they need whole blocks.
-            c.levels - first == mip_level_count(width, height) && width.is_multiple_of(4) && height.is_multiple_of(4)
+        // Block formats cannot be rendered to, so the file must bring the whole chain below the
+        // level uploaded; and the level must be whole blocks.
+        let full_chain = c.levels - first == mip_level_count(width, height);
+        let chosen = c.block_formats().into_iter().find_map(|f| {
+            let (bw, bh) = f.block();
+            let fits = full_chain && width.is_multiple_of(bw) && height.is_multiple_of(bh);
+            fits.then(|| device_format(f, srgb, device.features())).flatten().map(|format| (f, format))
         });
-        let Some(target) = target else {
-            // RGBA8: the file's chain where it has one, else the GPU makes it.
-            let (mut image, transcoded) = match self.decoded(c, first, owner) {
-                Ok(image) => (image, true),
-                Err(e) => (white(owner, &e), false),
-            };
-            if transcoded && c.levels > first + 1 {
-                let levels: Result<Vec<_>, String> = (first + 1..c.levels)
-                    .map(|l| {
-                        let (width, height) = c.level_size(l);
-                        c.transcode(l, Target::Rgba8).map(|rgba8| MipLevel { width, height, rgba8 })
-                    })
-                    .collect();
-                match levels.map(|levels| MipChain { srgb, levels }) {
-                    Ok(chain) if image.fits(&chain) => image.mips = Some(chain),
-                    Ok(_) => {}
-                    Err(e) => tracing::error!("{}: {e}; its mip chain is made on the GPU", owner.label),
-                }
-            }
-            let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
-            // As RGBA8 it saves nothing: what it takes is what it would take.
-            up.rgba8_bytes = None;
-            return up;
+        let Some((block, format)) = chosen else {
+            return self.create_rgba8(device, queue, encoder, copies, pipelines, owner, c, first, srgb);
         };
-        let format = block_format(target, srgb);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some(&owner.label),
             size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
@@ -371,28 +352,33 @@ impl TextureCache {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
+        let levels = match c.levels_as(first..c.levels, block) {
+            Ok(levels) => levels,
+            Err(e) => {
+                let image = white(owner, &e);
+                return self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
+            }
+        };
+        let (bw, bh) = block.block();
         let mut bytes = 0;
-        for level in first..c.levels {
-            let (w, h) = c.level_size(level);
-            let blocks = match c.transcode(level, target) {
-                Ok(blocks) => blocks,
-                Err(e) => {
-                    let image = white(owner, &e);
-                    return self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
-                }
-            };
-            let (bw, bh) = (w.div_ceil(4), h.div_ceil(4));
+        for (level, blocks) in (0..).zip(&levels) {
+            let (w, h) = c.level_size(first + level);
+            let (across, down) = (w.div_ceil(bw), h.div_ceil(bh));
             queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
                     texture: &texture,
-                    mip_level: level - first,
+                    mip_level: level,
                     origin: wgpu::Origin3d::ZERO,
                     aspect: wgpu::TextureAspect::All,
                 },
-                &blocks,
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(bw * 16), rows_per_image: Some(bh) },
+                blocks,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(across * block.block_bytes()),
+                    rows_per_image: Some(down),
+                },
                 // Copies of block formats cover whole blocks: the level's physical size.
-                wgpu::Extent3d { width: bw * 4, height: bh * 4, depth_or_array_layers: 1 },
+                wgpu::Extent3d { width: across * bw, height: down * bh, depth_or_array_layers: 1 },
             );
             bytes += blocks.len() as u64;
         }
@@ -400,10 +386,39 @@ impl TextureCache {
         Upload { view: texture.create_view(&wgpu::TextureViewDescriptor::default()), bytes, staged: bytes, rgba8_bytes }
     }
 
-    /// Level `level` of a compressed image as an RGBA8 image (no chain).
-    fn decoded(&self, c: &CompressedImage, level: u32, owner: &Image) -> Result<Image, String> {
-        let (w, h) = c.level_size(level);
-        c.transcode(level, Target::Rgba8).map(|rgba8| Image::rgba8(w, h, rgba8, owner.label.clone()))
+    /// A KTX2 image from level `first` as RGBA8: with the file's chain where it has one, else
+    /// the GPU makes it.
+    #[allow(clippy::too_many_arguments)]
+    fn create_rgba8(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        copies: &mut Option<wgpu::CommandEncoder>,
+        pipelines: &mut PipelineCache,
+        owner: &Arc<Image>,
+        c: &CompressedImage,
+        first: u32,
+        srgb: bool,
+    ) -> Upload {
+        let image = c.levels_as(first..c.levels, Format::Rgba8).map(|levels| {
+            let mut levels = (first..).zip(levels).map(|(l, rgba8)| {
+                let (width, height) = c.level_size(l);
+                MipLevel { width, height, rgba8 }
+            });
+            let top = levels.next().expect("a level");
+            let mut image = Image::rgba8(top.width, top.height, top.rgba8, owner.label.clone());
+            let chain = MipChain { srgb, levels: levels.collect() };
+            if !chain.levels.is_empty() && image.fits(&chain) {
+                image.mips = Some(chain);
+            }
+            image
+        });
+        let image = image.unwrap_or_else(|e| white(owner, &e));
+        let mut up = self.create_texture(device, queue, encoder, copies, pipelines, &Arc::new(image), srgb);
+        // As RGBA8 it saves nothing: what it takes is what it would take.
+        up.rgba8_bytes = None;
+        up
     }
 
     /// Levels 1.. of `texture` from level 0, on the GPU (`shaders/mipmap.wgsl`), through views of
@@ -460,31 +475,54 @@ struct Upload {
     rgba8_bytes: Option<u64>,
 }
 
-/// The first block format the device samples, best first: BC7 and ASTC 4×4 keep UASTC's quality,
-/// ETC2 loses some.
-fn block_target(features: wgpu::Features) -> Option<Target> {
-    if features.contains(wgpu::Features::TEXTURE_COMPRESSION_BC) {
-        Some(Target::Bc7)
-    } else if features.contains(wgpu::Features::TEXTURE_COMPRESSION_ASTC) {
-        Some(Target::Astc4x4)
-    } else if features.contains(wgpu::Features::TEXTURE_COMPRESSION_ETC2) {
-        Some(Target::Etc2Rgba)
-    } else {
-        None
-    }
-}
-
-fn block_format(target: Target, srgb: bool) -> wgpu::TextureFormat {
+/// The texture format a level in `format` is uploaded as, where the device samples it (and, for
+/// an sRGB slot, has an sRGB variant of it: one- and two-channel formats have none).
+fn device_format(format: Format, srgb: bool, features: wgpu::Features) -> Option<wgpu::TextureFormat> {
     use wgpu::TextureFormat as F;
-    match (target, srgb) {
-        (Target::Bc7, true) => F::Bc7RgbaUnormSrgb,
-        (Target::Bc7, false) => F::Bc7RgbaUnorm,
-        (Target::Astc4x4, true) => F::Astc { block: wgpu::AstcBlock::B4x4, channel: wgpu::AstcChannel::UnormSrgb },
-        (Target::Astc4x4, false) => F::Astc { block: wgpu::AstcBlock::B4x4, channel: wgpu::AstcChannel::Unorm },
-        (Target::Etc2Rgba, true) => F::Etc2Rgba8UnormSrgb,
-        (Target::Etc2Rgba, false) => F::Etc2Rgba8Unorm,
-        (Target::Rgba8, true) => F::Rgba8UnormSrgb,
-        (Target::Rgba8, false) => F::Rgba8Unorm,
+    let needs = match format.family()? {
+        Family::Bc => wgpu::Features::TEXTURE_COMPRESSION_BC,
+        Family::Etc2 => wgpu::Features::TEXTURE_COMPRESSION_ETC2,
+        Family::Astc => wgpu::Features::TEXTURE_COMPRESSION_ASTC,
+    };
+    if !features.contains(needs) {
+        return None;
+    }
+    let pick = |unorm, srgb_variant: Option<F>| if srgb { srgb_variant } else { Some(unorm) };
+    match format {
+        Format::Rgba8 => None,
+        Format::Bc1 => pick(F::Bc1RgbaUnorm, Some(F::Bc1RgbaUnormSrgb)),
+        Format::Bc2 => pick(F::Bc2RgbaUnorm, Some(F::Bc2RgbaUnormSrgb)),
+        Format::Bc3 => pick(F::Bc3RgbaUnorm, Some(F::Bc3RgbaUnormSrgb)),
+        Format::Bc4 => pick(F::Bc4RUnorm, None),
+        Format::Bc5 => pick(F::Bc5RgUnorm, None),
+        Format::Bc7 => pick(F::Bc7RgbaUnorm, Some(F::Bc7RgbaUnormSrgb)),
+        Format::Etc2Rgb => pick(F::Etc2Rgb8Unorm, Some(F::Etc2Rgb8UnormSrgb)),
+        Format::Etc2RgbA1 => pick(F::Etc2Rgb8A1Unorm, Some(F::Etc2Rgb8A1UnormSrgb)),
+        Format::Etc2Rgba => pick(F::Etc2Rgba8Unorm, Some(F::Etc2Rgba8UnormSrgb)),
+        Format::EacR11 => pick(F::EacR11Unorm, None),
+        Format::EacRg11 => pick(F::EacRg11Unorm, None),
+        Format::Astc { w, h } => {
+            use wgpu::AstcBlock as B;
+            let block = match (w, h) {
+                (4, 4) => B::B4x4,
+                (5, 4) => B::B5x4,
+                (5, 5) => B::B5x5,
+                (6, 5) => B::B6x5,
+                (6, 6) => B::B6x6,
+                (8, 5) => B::B8x5,
+                (8, 6) => B::B8x6,
+                (8, 8) => B::B8x8,
+                (10, 5) => B::B10x5,
+                (10, 6) => B::B10x6,
+                (10, 8) => B::B10x8,
+                (10, 10) => B::B10x10,
+                (12, 10) => B::B12x10,
+                (12, 12) => B::B12x12,
+                _ => return None,
+            };
+            let channel = if srgb { wgpu::AstcChannel::UnormSrgb } else { wgpu::AstcChannel::Unorm };
+            Some(F::Astc { block, channel })
+        }
     }
 }
 
@@ -614,14 +652,19 @@ mod tests {
     }
 
     #[test]
-    fn compressed_textures_take_the_best_block_format_the_device_samples() {
-        use wgpu::Features as F;
-        assert_eq!(block_target(F::empty()), None, "RGBA8 without any");
-        assert_eq!(block_target(F::TEXTURE_COMPRESSION_ETC2), Some(Target::Etc2Rgba));
-        assert_eq!(block_target(F::TEXTURE_COMPRESSION_ETC2 | F::TEXTURE_COMPRESSION_ASTC), Some(Target::Astc4x4));
-        assert_eq!(block_target(F::all()), Some(Target::Bc7));
-        assert_eq!(block_format(Target::Bc7, true), wgpu::TextureFormat::Bc7RgbaUnormSrgb);
-        assert_eq!(block_format(Target::Etc2Rgba, false), wgpu::TextureFormat::Etc2Rgba8Unorm);
+    fn block_formats_go_to_the_gpu_only_where_the_device_samples_them() {
+        use wgpu::Features as Fe;
+        use wgpu::TextureFormat as T;
+        assert_eq!(device_format(Format::Bc7, true, Fe::empty()), None, "RGBA8 without the feature");
+        assert_eq!(device_format(Format::Bc7, true, Fe::all()), Some(T::Bc7RgbaUnormSrgb));
+        assert_eq!(device_format(Format::Etc2Rgba, false, Fe::TEXTURE_COMPRESSION_ETC2), Some(T::Etc2Rgba8Unorm));
+        assert_eq!(device_format(Format::Etc2Rgba, false, Fe::TEXTURE_COMPRESSION_BC), None);
+        let astc = device_format(Format::Astc { w: 6, h: 6 }, true, Fe::TEXTURE_COMPRESSION_ASTC);
+        assert_eq!(astc, Some(T::Astc { block: wgpu::AstcBlock::B6x6, channel: wgpu::AstcChannel::UnormSrgb }));
+        // One channel has no sRGB variant: an sRGB slot decodes it to RGBA8.
+        assert_eq!(device_format(Format::Bc4, true, Fe::all()), None);
+        assert_eq!(device_format(Format::Bc4, false, Fe::all()), Some(T::Bc4RUnorm));
+        assert_eq!(device_format(Format::Rgba8, false, Fe::all()), None);
     }
 
     #[test]

@@ -49,8 +49,9 @@ pub(crate) fn decoded_size(bytes: &[u8]) -> Option<u64> {
 /// (`TotalImageBytes` counts this), from the header alone.
 pub(crate) fn held_size(bytes: &[u8]) -> Option<u64> {
     if crate::compressed_image::is_ktx2(bytes) {
-        // Held as the file; the RGBA8 size bounds what decoding it for the CPU can take.
-        return Some(bytes.len() as u64);
+        // Held as the file or its inflated levels; the RGBA8 size bounds what decoding it for the
+        // CPU can take.
+        return crate::compressed_image::held_size(bytes);
     }
     let (w, h) = dimensions(bytes)?;
     Some(w as u64 * h as u64 * 4 + crate::mip_chain::chain_bytes(w, h))
@@ -70,7 +71,7 @@ pub(crate) fn decode(
     let err = |reason: String| ImportErrorKind::Image { index, uri: uri.to_owned(), reason };
     if crate::compressed_image::is_ktx2(bytes) {
         let image = CompressedImage::parse(bytes.to_vec(), options.limits.image_dimension).map_err(err)?;
-        let rgba = crate::compressed_image::Target::Rgba8.level_bytes(image.width, image.height);
+        let rgba = crate::compressed_image::Format::Rgba8.level_bytes(image.width, image.height);
         options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", rgba)?;
         return Ok(Image::compressed(image, label));
     }
@@ -85,9 +86,7 @@ pub(crate) fn decode(
         .with_guessed_format()
         .map_err(|e| err(format!("cannot read: {e}")))?;
     if reader.format().is_none() {
-        return Err(
-            err("unknown image format (Penumbra decodes PNG, JPEG, WebP and KTX2 with Basis Universal)".into()),
-        );
+        return Err(err("unknown image format (Penumbra decodes PNG, JPEG, WebP and KTX2)".into()));
     }
     // The RGBA8 copy made after decoding is outside the decoder's own allocation limit: check
     // its size from the header first.
