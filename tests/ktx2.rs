@@ -32,10 +32,14 @@ fn render(rel: &str) -> Shot {
 
 /// Renders the scene at `path` and says what its textures took on the GPU.
 fn render_path(path: &std::path::Path) -> (Shot, MemoryStats) {
+    render_path_on(common::gpu(), path)
+}
+
+fn render_path_on(gpu: penumbra::render::GpuContext, path: &std::path::Path) -> (Shot, MemoryStats) {
     let scene = GltfScene::load(path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert!(scene.warnings.is_empty(), "{}: {:?}", path.display(), scene.warnings);
     let (mut app, size) = stage_scene(&scene, &shot()).unwrap();
-    let renderer = Renderer::new(common::gpu(), settings()).unwrap();
+    let renderer = Renderer::new(gpu, settings()).unwrap();
     let rgba8 = render_frames(&mut app, renderer, size, 1).unwrap();
     let memory = app.world.resource::<Renderer>().memory();
     (Shot { width: size.0, height: size.1, rgba8 }, memory)
@@ -220,4 +224,34 @@ fn obj_materials_take_ktx2_textures() {
     let images = app.world.resource::<penumbra::engine::Assets<penumbra::engine::image::Image>>();
     let image = images.iter().map(|(_, i)| i).next().expect("the texture");
     assert!(image.compressed.is_some() && image.rgba8.is_empty(), "kept compressed");
+}
+
+/// ETC2 and ASTC blocks sampled by a GPU draw what decoding them on the CPU draws: wgpu's GL
+/// backend on Mesa's llvmpipe samples both (GLES 3 requires ETC2), lavapipe's Vulkan neither, so
+/// the one device takes the native path and the other the decoder's.
+#[test]
+fn etc2_and_astc_sampled_by_the_gpu_draw_as_decoded_on_the_cpu() {
+    use wgpu::Features as F;
+    let gl = penumbra::render::GpuContext::new_headless(&penumbra::render::AdapterRequest {
+        backends: Some(wgpu::Backends::GL),
+        name: None,
+    })
+    .unwrap_or_else(|e| panic!("this test needs wgpu's GL backend (libegl1 libegl-mesa0 libgl1-mesa-dri): {e}"));
+    assert!(gl.device.features().contains(F::TEXTURE_COMPRESSION_ETC2), "GLES 3 samples ETC2");
+    for (image, family) in [
+        ("CesiumLogoFlat-etc2-zstd.ktx2", F::TEXTURE_COMPRESSION_ETC2),
+        ("CesiumLogoFlat-astc4x4-zstd.ktx2", F::TEXTURE_COMPRESSION_ASTC),
+    ] {
+        assert!(
+            gl.device.features().contains(family),
+            "{image}: this GL adapter does not sample {family:?} (llvmpipe does)"
+        );
+        let path = scene_with("ktx2-native", image, |_| {});
+        let (native, memory) = render_path_on(gl.clone(), &path);
+        assert!(memory.textures * 3 < memory.textures_rgba8, "{image} sampled as blocks on GL: {memory:?}");
+        let (decoded, _) = render_path(&path);
+        let error = flip_mean(&native.rgba8, &decoded.rgba8, 128, 128);
+        eprintln!("{image}: sampled on GL against decoded on Vulkan: FLIP mean {error:.5}");
+        assert!(error < 0.005, "{image}: FLIP mean {error} between the GPU's and the CPU's decoding");
+    }
 }

@@ -187,6 +187,11 @@ impl GltfScene {
         &self.animations
     }
 
+    /// Every primitive's mesh, mesh by mesh in file order (skipped primitives left out).
+    pub fn primitives(&self) -> impl Iterator<Item = &Mesh> {
+        self.meshes.iter().flat_map(|(_, prims)| prims.iter().map(|p| &*p.mesh))
+    }
+
     /// The decoded images materials use (one per distinct source), in file order.
     pub fn images(&self) -> impl Iterator<Item = &Image> {
         let mut seen = std::collections::HashSet::new();
