@@ -167,21 +167,108 @@ pub fn stage_scene(scene: &impl SpawnScene, settings: &ShotSettings) -> Result<(
     settings.validate()?;
     let mut app = App::new();
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+    let size = stage_into(&mut app, scene, settings)?;
+    Ok((app, size))
+}
+
+/// What staging spawned into an app, for [`SceneBatch`] to take away before the next scene.
+#[derive(Resource)]
+struct Staged {
+    root: Entity,
+}
+
+/// The camera [`stage_camera`] spawned to frame the scene (not one of the file's).
+#[derive(Component)]
+struct FramingCamera;
+
+/// Spawns `scene` into `app` as `settings` ask and stages its camera (see [`stage_scene`]).
+fn stage_into(app: &mut App, scene: &impl SpawnScene, settings: &ShotSettings) -> Result<(u32, u32), ShotError> {
     app.insert_resource(Time::fixed_hz(60.0));
     let root = scene.spawn(&mut app.world);
+    app.insert_resource(Staged { root });
     if let Some(shot) = &settings.animation {
         pose_animation(&mut app.world, root, shot)?;
     }
     if let Some(name) = &settings.variant {
         penumbra_engine::variants::select_variant(&mut app.world, root, name)?;
     }
-    if let Some(env) = &settings.environment {
-        app.insert_resource(env.clone());
+    // Left alone where it is the same: the renderer keeps the maps it made from it.
+    if app.world.get_resource::<Environment>() != settings.environment.as_ref() {
+        match &settings.environment {
+            Some(env) => app.world.insert_resource(env.clone()),
+            None => drop(app.world.remove_resource::<Environment>()),
+        }
     }
     // One update without a renderer: transforms propagate, nothing is drawn.
+    let renderer = app.world.remove_resource::<Renderer>();
     app.update();
-    let size = stage_camera(&mut app, settings)?;
-    Ok((app, size))
+    if let Some(renderer) = renderer {
+        app.insert_resource(renderer);
+    }
+    stage_camera(app, settings)
+}
+
+/// Screenshots of many scenes on one device and one renderer: the way screenshot-test suites and
+/// asset pipelines render thousands of files. The first scene is staged as [`stage_scene`]
+/// stages it; each later one replaces it in the same app (the previous scene unloaded with its
+/// assets, `import::unload_scene`), so the renderer keeps its device, its compiled pipelines and,
+/// where the environment is the same, the maps made from it, and frees and uploads only what the
+/// scenes do not share. Each image is what a fresh [`stage_scene`] and [`render_frames`] of the
+/// scene gives.
+pub struct SceneBatch {
+    app: Option<App>,
+    renderer: Option<Renderer>,
+}
+
+impl SceneBatch {
+    pub fn new(renderer: Renderer) -> Self {
+        Self { app: None, renderer: Some(renderer) }
+    }
+
+    /// Stages `scene` as `shot` asks, renders `frames` fixed-step frames and returns the last
+    /// one's RGBA8 pixels and size. A scene that fails to stage (a missing camera, clip or
+    /// variant) leaves the batch ready for the next.
+    pub fn render(
+        &mut self,
+        scene: &impl SpawnScene,
+        shot: &ShotSettings,
+        frames: u32,
+    ) -> Result<(Vec<u8>, (u32, u32)), ShotError> {
+        shot.validate()?;
+        let app = self.app.get_or_insert_with(|| {
+            let mut app = App::new();
+            app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
+            app
+        });
+        let renderer = match self.renderer.take() {
+            Some(renderer) => renderer,
+            None => app.world.remove_resource::<Renderer>().expect("the batch holds its renderer"),
+        };
+        if let Some(staged) = app.world.remove_resource::<Staged>() {
+            penumbra_engine::import::unload_scene(&mut app.world, staged.root);
+            // A root without scene assets (a scene type that records none) still goes.
+            let _ = app.world.try_despawn(staged.root);
+        }
+        let framing: Vec<Entity> = app.world.query_filtered::<Entity, With<FramingCamera>>().iter(&app.world).collect();
+        for entity in framing {
+            app.world.despawn(entity);
+        }
+        app.world.remove_resource::<StagedView>();
+        let size = match stage_into(app, scene, shot) {
+            Ok(size) => size,
+            Err(e) => {
+                self.renderer = Some(renderer);
+                return Err(e);
+            }
+        };
+        let pixels = render_frames(app, renderer, size, frames)?;
+        Ok((pixels, size))
+    }
+
+    /// The app the last scene was staged in (its [`StagedView`] and renderer, for `--explain`).
+    pub fn app(&self) -> Option<&App> {
+        self.app.as_ref()
+    }
 }
 
 /// Pauses the scene's player at `shot`'s clip and time.
@@ -242,7 +329,7 @@ pub fn stage_camera(app: &mut App, settings: &ShotSettings) -> Result<(u32, u32)
             let direction = glam::Vec3::new(y.sin() * p.cos(), p.sin(), y.cos() * p.cos());
             let (camera, transform) =
                 framing_camera_from(&bounds, direction, 45f32.to_radians(), size.0 as f32 / size.1 as f32);
-            let entity = world.spawn((camera, transform)).id();
+            let entity = world.spawn((camera, transform, FramingCamera)).id();
             let mut all = vec![entity];
             all.extend(cameras.iter().map(|c| c.1));
             (size, ViewSource::Framed { yaw, pitch, why }, all)
@@ -438,6 +525,13 @@ impl HeadlessRunner {
     pub fn screenshot(out: impl Into<std::path::PathBuf>, size: (u32, u32), frames: u32) -> Self {
         let frames = frames.max(1);
         Self { size, frames, screenshots: vec![(frames, out.into())], ..Default::default() }
+    }
+
+    /// A [`SceneBatch`] on a new headless device with this runner's render settings, for
+    /// screenshots of many scene files in one process ([`SceneBatch::render`] each).
+    pub fn scene_batch(&self) -> Result<SceneBatch, HeadlessError> {
+        let ctx = crate::GpuContext::new_headless(&crate::AdapterRequest::default())?;
+        Ok(SceneBatch::new(Renderer::new(ctx, self.settings.clone()).map_err(ShotError::from)?))
     }
 
     /// Runs the frames on `app` and returns the RGBA8 pixels of each listed screenshot frame, in

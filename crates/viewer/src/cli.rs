@@ -431,12 +431,16 @@ fn parse_clusters(s: &str) -> Result<ClusterConfig, String> {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// A .gltf, .glb or .obj file.
-    #[arg(value_name = "SCENE")]
-    pub path: PathBuf,
-    /// Output PNG.
-    #[arg(long, short)]
-    pub out: PathBuf,
+    /// A .gltf, .glb or .obj file; several with --out-dir.
+    #[arg(value_name = "SCENE", required = true, num_args = 1..)]
+    pub paths: Vec<PathBuf>,
+    /// The image to write (.png or .jpg), for one scene.
+    #[arg(long, short, required_unless_present = "out_dir", conflicts_with = "out_dir")]
+    pub out: Option<PathBuf>,
+    /// A folder for the images of many scenes, each named after its scene (SCENE.png); made if
+    /// missing. The scenes render one after another on one device and renderer.
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
     /// WIDTHxHEIGHT (default 512 high, camera's aspect).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,

@@ -614,3 +614,53 @@ fn explain_says_what_texture_compression_saved() {
     assert!(textures.contains("85.4 KiB"), "{textures}");
     assert!(text.contains("(textures as RGBA8 would take 341.3 KiB: block compression saves 256.0 KiB)"), "{text}");
 }
+
+/// `render A B C --out-dir DIR`: each scene's image in DIR, named after it, the same pixels as
+/// rendering it alone; a scene that fails is named and the rest are still written; the exit
+/// status says some failed; two scenes of one name are refused before anything renders.
+#[test]
+fn render_writes_many_scenes_into_a_folder() {
+    let dir = out_dir("batch");
+    let broken = dir.join("broken.gltf");
+    std::fs::write(&broken, "{ not json").unwrap();
+    let scenes = [
+        asset("BoxTextured/BoxTextured.glb"),
+        broken.display().to_string(),
+        asset("SimpleInstancing/SimpleInstancing.glb"),
+        asset("BoxTexturedKtx2/BoxTextured-uastc.gltf"),
+    ];
+    let images = dir.join("images");
+    let mut args = vec!["render"];
+    args.extend(scenes.iter().map(String::as_str));
+    args.extend(["--out-dir", images.to_str().unwrap(), "--size", "64x48", "--camera", "orbit:30:20"]);
+    let o = penumbra(&args);
+    let (out, err) = (String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert!(!o.status.success(), "one scene failed: {out}");
+    assert!(err.contains("broken.gltf") && err.contains("1 of 4 scenes failed"), "{err}");
+    assert!(out.contains("3 of 4 scenes rendered") && out.contains("ms per scene"), "{out}");
+    for (scene, name) in
+        [(&scenes[0], "BoxTextured"), (&scenes[2], "SimpleInstancing"), (&scenes[3], "BoxTextured-uastc")]
+    {
+        let batched = image::open(images.join(format!("{name}.png"))).unwrap().to_rgba8();
+        let alone = dir.join(format!("{name}-alone.png"));
+        let o = penumbra(&[
+            "render",
+            scene,
+            "--out",
+            alone.to_str().unwrap(),
+            "--size",
+            "64x48",
+            "--camera",
+            "orbit:30:20",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(batched == image::open(&alone).unwrap().to_rgba8(), "{name}: the batch drew other pixels");
+    }
+    assert!(!images.join("broken.png").exists());
+    // Two scenes that would write one image.
+    let o = penumbra(&["render", &scenes[0], &scenes[0], "--out-dir", images.to_str().unwrap()]);
+    assert!(!o.status.success() && stderr(&o).contains("would both be written to"), "{}", stderr(&o));
+    // --out is for one scene.
+    let o = penumbra(&["render", &scenes[0], &scenes[2], "--out", "x.png"]);
+    assert!(!o.status.success() && stderr(&o).contains("--out-dir"), "{}", stderr(&o));
+}

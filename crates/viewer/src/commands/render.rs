@@ -1,25 +1,27 @@
-//! `penumbra render`: one scene, one PNG. The GPU context and pipelines are created on a second
-//! thread while the scene file is read and decoded, since on a 2-core machine neither needs the
-//! other until the first frame (an error on either side waits for the other, so the process never
-//! exits while the driver is still setting up); at the end the scene and the device are freed on
-//! two threads.
+//! `penumbra render`: scenes to images. One scene (`--out FILE`): the GPU context and pipelines
+//! are created on a second thread while the scene file is read and decoded, since on a 2-core
+//! machine neither needs the other until the first frame (an error on either side waits for the
+//! other, so the process never exits while the driver is still setting up); at the end the scene
+//! and the device are freed on two threads. Many scenes (`--out-dir DIR`): one device and one
+//! renderer for all of them ([`SceneBatch`]), the next scene read and decoded on a second thread
+//! while the current one renders; a scene that fails is reported and the rest go on.
 //! `-v` logs the time at each step.
 
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
 use std::time::Instant;
 
-use anyhow::{Result, anyhow};
+use anyhow::{Result, anyhow, bail};
 use penumbra_engine::output;
-use penumbra_render::headless::{ShotSettings, render_frames, stage_scene};
+use penumbra_render::headless::{SceneBatch, ShotError, ShotSettings, render_frames, stage_scene};
 use penumbra_render::{AdapterRequest, GpuContext, Renderer};
 
 use crate::cli::RenderArgs;
 use crate::scene;
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let start = Instant::now();
-    let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
     let settings = args.look.render_settings(false, None)?;
-    let mut shot = ShotSettings {
+    let shot = ShotSettings {
         size: args.size,
         camera: args.camera,
         exposure_ev100: args.look.exposure_ev100(),
@@ -28,9 +30,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
         environment: None,
     };
     shot.validate()?;
+    match (&args.out, &args.out_dir, args.paths.as_slice()) {
+        (Some(out), _, [path]) => render_one(&args, path, out, settings, shot),
+        (Some(_), _, paths) => {
+            bail!("--out names one image, for one scene; give --out-dir DIR to render {} scenes", paths.len())
+        }
+        (None, Some(dir), _) => render_many(&args, dir, settings, shot),
+        (None, None, _) => bail!("give --out FILE (one scene) or --out-dir DIR"),
+    }
+}
+
+fn render_one(
+    args: &RenderArgs,
+    path: &Path,
+    out: &Path,
+    settings: penumbra_render::RenderSettings,
+    mut shot: ShotSettings,
+) -> Result<()> {
+    let start = Instant::now();
+    let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
     // Where the image goes is checked before anything is rendered: a bad name costs no render.
-    output::image_format(&args.out)?;
-    output::check_destination(&args.out)?;
+    output::image_format(out)?;
+    output::check_destination(out)?;
     let gpu = std::thread::spawn(move || -> Result<Renderer> {
         let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
         step("GPU context");
@@ -39,7 +60,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Ok(renderer)
     });
     let staged = (|| -> Result<_> {
-        let scene = scene::load(Some(&args.path), &args.scene_args)?;
+        let scene = scene::load(Some(path), &args.scene_args)?;
         step("scene decoded");
         shot.environment = args.look.environment()?;
         step("environment read");
@@ -55,13 +76,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let renderer = renderer?;
     let pixels = render_frames(&mut app, renderer, size, args.frames)?;
     step("rendered and read back");
-    output::save_image(&args.out, &pixels, size, image::ExtendedColorType::Rgba8)?;
+    output::save_image(out, &pixels, size, image::ExtendedColorType::Rgba8)?;
     step("image written");
     if args.explain {
-        if let Some(view) = app.world.get_resource::<penumbra_render::headless::StagedView>() {
-            println!("View: {}\nExposure: {}", view.camera, view.exposure);
-        }
-        print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
+        explain(&app);
     }
     // Freeing is part of the command's time: the decoded images (over 100 MB for DamagedHelmet)
     // go on a second thread while the device and its textures go on this one (`-v` times it;
@@ -72,5 +90,120 @@ pub fn run(args: RenderArgs) -> Result<()> {
     drop(renderer);
     freer.join().map_err(|_| anyhow!("freeing the scene panicked"))?;
     step("freed");
+    Ok(())
+}
+
+fn explain(app: &penumbra_engine::App) {
+    if let Some(view) = app.world.get_resource::<penumbra_render::headless::StagedView>() {
+        println!("View: {}\nExposure: {}", view.camera, view.exposure);
+    }
+    print!("{}", penumbra_render::explain::explain(app.world.resource::<Renderer>()));
+}
+
+/// Each scene's image in `dir`: its file name with `.png` (two scenes of one name are an error
+/// before anything renders).
+fn outputs(paths: &[PathBuf], dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut seen = std::collections::HashMap::new();
+    paths
+        .iter()
+        .map(|p| {
+            let stem = p.file_stem().ok_or_else(|| anyhow!("{}: not a file name", p.display()))?;
+            let out = dir.join(stem).with_extension("png");
+            if let Some(other) = seen.insert(out.clone(), p) {
+                bail!("{} and {} would both be written to {}", other.display(), p.display(), out.display());
+            }
+            Ok(out)
+        })
+        .collect()
+}
+
+fn render_many(
+    args: &RenderArgs,
+    dir: &Path,
+    settings: penumbra_render::RenderSettings,
+    mut shot: ShotSettings,
+) -> Result<()> {
+    let start = Instant::now();
+    let outs = outputs(&args.paths, dir)?;
+    std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot make {}: {e}", dir.display()))?;
+    for out in &outs {
+        output::check_destination(out)?;
+    }
+    shot.environment = args.look.environment()?;
+    // The device comes up while the first scene is read; each next scene is read while the one
+    // before renders (one ahead: a batch of large files never holds more than two decoded).
+    let gpu = std::thread::spawn(move || -> Result<Renderer> {
+        Ok(Renderer::new(GpuContext::new_headless(&AdapterRequest::default())?, settings)?)
+    });
+    let (send, scenes) = mpsc::sync_channel(1);
+    let (paths, scene_args) = (args.paths.clone(), args.scene_args.clone());
+    let loader = std::thread::spawn(move || {
+        for path in paths {
+            let loaded = scene::load(Some(&path), &scene_args);
+            if send.send(loaded).is_err() {
+                break;
+            }
+        }
+    });
+    let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))?;
+    let mut batch = SceneBatch::new(renderer?);
+    let (mut done, mut failed, mut first_ms, mut rest_ms) = (0, 0, None, Vec::new());
+    let mut last = Instant::now();
+    let outcome = (|| -> Result<()> {
+        for ((path, out), loaded) in args.paths.iter().zip(&outs).zip(scenes.iter()) {
+            let written = match loaded {
+                Err(e) => Err(anyhow::Error::from(e)),
+                Ok(scene) => match batch.render(&scene, &shot, args.frames) {
+                    // The device is gone or broken: nothing after this would render.
+                    Err(e @ ShotError::Render(_)) => {
+                        return Err(anyhow!(e).context(format!("{}: the renderer failed", path.display())));
+                    }
+                    Err(e) => Err(e.into()),
+                    Ok((pixels, size)) => {
+                        output::save_image(out, &pixels, size, image::ExtendedColorType::Rgba8).map_err(Into::into)
+                    }
+                },
+            };
+            let ms = last.elapsed().as_secs_f64() * 1e3;
+            last = Instant::now();
+            match written {
+                Ok(()) => {
+                    println!("{} -> {} ({ms:.0} ms)", path.display(), out.display());
+                    if args.explain
+                        && let Some(app) = batch.app()
+                    {
+                        explain(app);
+                    }
+                    match first_ms {
+                        None => first_ms = Some(ms),
+                        Some(_) => rest_ms.push(ms),
+                    }
+                    done += 1;
+                }
+                Err(e) => {
+                    eprintln!("penumbra: {}: {e:#}", path.display());
+                    failed += 1;
+                }
+            }
+        }
+        Ok(())
+    })();
+    drop(scenes);
+    loader.join().map_err(|_| anyhow!("the scene loading thread panicked"))?;
+    outcome?;
+    let total = start.elapsed().as_secs_f64();
+    let mut summary = format!("{done} of {} scenes rendered in {total:.2} s", args.paths.len());
+    if let Some(first) = first_ms {
+        summary += &format!(" (the first {first:.0} ms");
+        if !rest_ms.is_empty() {
+            let mean = rest_ms.iter().sum::<f64>() / rest_ms.len() as f64;
+            summary += &format!(", then {mean:.0} ms per scene");
+        }
+        summary += ")";
+    }
+    println!("{summary}");
+    if failed > 0 {
+        bail!("{failed} of {} scenes failed (above)", args.paths.len());
+    }
     Ok(())
 }
