@@ -8,5 +8,6 @@ pub mod bench_reload;
 pub mod bench_shadows;
 pub mod bench_soak;
 pub mod gif;
+pub mod prefetch;
 pub mod render;
 pub mod report;
