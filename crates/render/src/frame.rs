@@ -147,6 +147,8 @@ pub struct SceneNeeds {
     pub occlusion: bool,
     /// Opaque draws are rasterised and shaded in compute (`Raster::Compute`).
     pub visibility: bool,
+    /// Why they are, or are not (`RasterGate::decide`).
+    pub raster_why: &'static str,
     /// The environment's maps must be (re)made this frame.
     pub environment_changed: bool,
     /// The split-sum table lit surfaces read must be made this frame (once per renderer).
@@ -175,6 +177,7 @@ impl FramePlan {
             culled,
             occlusion,
             visibility,
+            raster_why,
             environment_changed,
             split_sum_table,
             deform_jobs,
@@ -206,10 +209,7 @@ impl FramePlan {
             passes.push((Pass::SHADOWS, "a shadowed light's casters reach what the camera sees"));
         }
         if visibility {
-            passes.push((
-                Pass::VISIBILITY_RASTER,
-                "opaque draws, rasterised in compute (--raster compute, or auto on a GPU with few graphics units)",
-            ));
+            passes.push((Pass::VISIBILITY_RASTER, raster_why));
             passes.push((Pass::VISIBILITY_SHADE, "the visibility buffer's samples to shade"));
         } else {
             passes.push((
@@ -286,14 +286,9 @@ impl FramePlan {
                     Pass::CLUSTER_BIN if n.binned_lights == 0 => "no local lights reach the fragment shader's lists",
                     Pass::CLUSTER_BIN => "nothing to light",
                     Pass::SHADOWS => "no shadowed light's casters reach what the camera sees",
-                    Pass::OPAQUE => "opaque draws are rasterised and shaded in compute (--raster compute or auto)",
-                    Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE => {
-                        "opaque draws rasterise in hardware (--raster hardware, or auto on a GPU with \
-                         many graphics units; with compute: no opaque draws, no GPU culling, blended \
-                         or masked draws, gizmos, lines or points, occlusion culling asked for, no \
-                         64-bit atomics on the adapter, or a visibility buffer larger than one \
-                         storage binding)"
-                    }
+                    Pass::OPAQUE => "opaque draws are rasterised and shaded in compute (see visibility-raster)",
+                    Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE if n.has_opaque => n.raster_why,
+                    Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE => "no opaque draws",
                     Pass::BACKGROUND if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"
                     }

@@ -84,7 +84,7 @@ pub struct RenderSettings {
     /// (the goldens) set it, since the automatic choice differs between them.
     pub max_anisotropy: Option<u16>,
     /// Where opaque surfaces are rasterised: by the GPU's fixed-function rasteriser, or in
-    /// compute into a visibility buffer (see [`Raster`]).
+    /// compute into a visibility buffer; by default where it is faster (see [`Raster`]).
     pub raster: Raster,
 }
 
@@ -121,7 +121,7 @@ impl Default for RenderSettings {
             keep_hdr: false,
             msaa_resolve: MsaaResolve::Radiance,
             max_anisotropy: None,
-            raster: Raster::Hardware,
+            raster: Raster::Auto,
         }
     }
 }

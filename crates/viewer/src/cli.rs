@@ -219,12 +219,11 @@ pub struct LookArgs {
     /// can cover a sample. `auto`: on a GPU, not on CPU rasterisers such as lavapipe.
     #[arg(long, value_enum, default_value_t = OcclusionArg::Auto)]
     pub triangle_culling: OcclusionArg,
-    /// Where opaque surfaces are rasterised: `hardware` (the GPU's rasteriser; the default),
-    /// `compute` (a visibility buffer written and shaded by compute shaders), or `auto`:
-    /// compute on GPUs whose graphics units are a small part of the chip (NVIDIA H100, H200),
-    /// else hardware (the default of the many-lights and many-cubes benchmarks). Frames
-    /// compute cannot draw yet (blended or masked materials, gizmos, lines, GL) rasterise in
-    /// hardware; `render --explain` says which ran.
+    /// Where opaque surfaces are rasterised: `auto` (the default): compute on GPUs whose
+    /// graphics units are a small part of the chip (NVIDIA H100, H200), else the GPU's
+    /// rasteriser; `hardware`; or `compute` (a visibility buffer written and shaded by compute
+    /// shaders). Frames compute cannot draw yet (blended or masked materials, gizmos, lines, GL)
+    /// rasterise in hardware; `render --explain` says which ran and why.
     #[arg(long, value_enum)]
     pub raster: Option<RasterArg>,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a
@@ -773,8 +772,8 @@ impl LookArgs {
                 OcclusionArg::Off => TriangleCulling::Off,
             },
             raster: match self.raster {
-                Some(RasterArg::Auto) => Raster::Auto,
-                Some(RasterArg::Hardware) | None => Raster::Hardware,
+                Some(RasterArg::Auto) | None => Raster::Auto,
+                Some(RasterArg::Hardware) => Raster::Hardware,
                 Some(RasterArg::Compute) => Raster::Compute,
             },
             environment: EnvironmentSettings { cube_size: self.env_size.0, ..Default::default() },

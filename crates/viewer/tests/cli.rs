@@ -664,3 +664,28 @@ fn render_writes_many_scenes_into_a_folder() {
     let o = penumbra(&["render", &scenes[0], &scenes[2], "--out", "x.png"]);
     assert!(!o.status.success() && stderr(&o).contains("--out-dir"), "{}", stderr(&o));
 }
+
+/// `--raster auto` is the default, and `--explain` says where opaque draws went and the first
+/// reason that decided it.
+#[test]
+fn explain_names_where_opaque_draws_were_rasterised_and_why() {
+    let dir = out_dir("raster-why");
+    let explain = |scene: &str, extra: &[&str]| {
+        let out = dir.join("x.png");
+        let mut args = vec!["render", scene, "--out", out.to_str().unwrap(), "--size", "64x64", "--explain"];
+        args.extend(extra);
+        let o = penumbra(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let boxed = asset("BoxTextured/BoxTextured.glb");
+    // lavapipe is no GPU with few graphics units: auto stays on the forward pass.
+    let default = explain(&boxed, &[]);
+    assert!(default.contains("--raster auto: this GPU's rasteriser keeps up with its shaders"), "{default}");
+    assert!(explain(&boxed, &["--raster", "hardware"]).contains("--raster hardware"));
+    let compute = explain(&boxed, &["--raster", "compute"]);
+    assert!(compute.contains("visibility-raster") && compute.contains("--raster compute"), "{compute}");
+    // A blended draw keeps a compute frame on the forward pass, and says so.
+    let blended = explain(&asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"), &["--raster", "compute"]);
+    assert!(blended.contains("blended draws: the forward pass draws them over its own depth"), "{blended}");
+}

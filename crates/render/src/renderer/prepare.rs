@@ -138,13 +138,19 @@ impl Renderer {
             && scene.view.is_some();
         // The visibility buffer, if asked for and this frame's draws allow it (see `Raster`);
         // gizmos, known only below, can still send the frame to the forward pass.
-        let visibility_wanted = culling
-            && self.raster_in_compute()
-            && crate::features::visibility::fits(&device.limits(), size, self.settings.msaa)
-            && self.settings.occlusion_culling != OcclusionCulling::On
-            && blend_batches.is_empty()
-            && !self.draws.opaque_batches().is_empty()
-            && self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported);
+        let mut raster_gate = crate::features::visibility::RasterGate {
+            setting: self.settings.raster,
+            atomics: self.ctx.caps.visibility_raster,
+            few_graphics_units: self.ctx.caps.few_graphics_units,
+            culling,
+            fits: crate::features::visibility::fits(&device.limits(), size, self.settings.msaa),
+            occlusion_on: self.settings.occlusion_culling == OcclusionCulling::On,
+            blended: !blend_batches.is_empty(),
+            opaque: !self.draws.opaque_batches().is_empty(),
+            supported: self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported),
+            gizmos: false,
+        };
+        let visibility_wanted = raster_gate.decide().is_ok();
         let mut occlusion = culling
             && !visibility_wanted
             && match self.settings.occlusion_culling {
@@ -225,7 +231,10 @@ impl Renderer {
             None => 0,
         };
         let background = env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some();
-        let visibility = visibility_wanted && self.culling_active && gizmo_vertices == 0;
+        raster_gate.culling = self.culling_active;
+        raster_gate.gizmos = gizmo_vertices > 0;
+        let raster_why = raster_gate.decide();
+        let visibility = visibility_wanted && raster_why.is_ok();
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
         let needs = TargetNeeds {
@@ -326,6 +335,9 @@ impl Renderer {
             deferred,
             culled: self.culling_active,
             visibility,
+            raster_why: match raster_why {
+                Ok(why) | Err(why) => why,
+            },
             occlusion,
             environment_changed: env_frame.prefilter,
             split_sum_table: self.environment.table_pending(),

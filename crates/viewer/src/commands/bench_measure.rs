@@ -135,15 +135,11 @@ pub fn time_frames(app: &mut penumbra_engine::App, warmup: u32, frames: u32) -> 
 
 /// Settings for the benchmark scenes (`many-cubes`, `many-lights`; crates/engine/src/scenes.rs):
 /// GPU timing; display colours resolved unless `--msaa-resolve` says otherwise, since the recipe
-/// draws without an HDR target; and opaque draws rasterised where they run fastest unless
-/// `--raster` says otherwise (`Raster::Auto`: in compute on the H100 and H200).
+/// draws without an HDR target. Everything else is what users get by default.
 pub fn recipe_settings(args: &BenchArgs) -> Result<RenderSettings> {
     let mut settings = RenderSettings { gpu_timing: true, ..args.look.render_settings(false, None)? };
     if args.look.msaa_resolve.is_none() {
         settings.msaa_resolve = penumbra_render::MsaaResolve::Display;
-    }
-    if args.look.raster.is_none() {
-        settings.raster = penumbra_render::Raster::Auto;
     }
     Ok(settings)
 }

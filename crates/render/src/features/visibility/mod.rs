@@ -48,22 +48,74 @@ pub use pipelines::{RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput
 /// Where opaque draws are rasterised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Raster {
-    /// `Compute` on GPUs whose graphics units are a small part of the chip
-    /// (`Capabilities::few_graphics_units`: NVIDIA's Hopper compute GPUs), `Hardware` elsewhere.
-    /// The many-lights and many-cubes benchmarks use it; not yet the default, since the
-    /// compute path is new and leaves out what it cannot draw yet (see `Compute`).
+    /// The default: `Compute` on GPUs whose graphics units are a small part of the chip
+    /// (`Capabilities::few_graphics_units`: NVIDIA's Hopper compute GPUs, where it is several
+    /// times faster), `Hardware` elsewhere (CPU rasterisers such as lavapipe, and GPUs whose
+    /// rasterisers keep up with their shaders).
+    #[default]
     Auto,
     /// The GPU's rasteriser, drawing each batch (the forward pass).
-    #[default]
     Hardware,
     /// Compute shaders (`features::visibility`): each sample's nearest triangle goes into a
     /// visibility buffer with 64-bit atomics, then a compute pass shades each pixel's
     /// triangles. For GPUs whose graphics units are few next to their compute units (the
     /// H100 rasterises on 2 of its 66 TPCs). Frames it cannot draw yet rasterise in hardware,
-    /// and `--explain` says why: blended or masked draws, gizmos, line or point meshes,
-    /// occlusion culling asked for, no GPU culling, an adapter without 64-bit atomics (GL), or
-    /// a visibility buffer (8 bytes a sample) larger than the adapter's largest storage binding.
+    /// and `--explain` says why ([`RasterGate`]).
     Compute,
+}
+
+/// What decides where one frame's opaque draws are rasterised, checked in this order: the first
+/// that fails sends them to the forward pass, and `--explain` names it.
+#[derive(Debug, Clone, Copy)]
+pub struct RasterGate {
+    pub setting: Raster,
+    /// The adapter has 64-bit atomic min/max (`Capabilities::visibility_raster`; not GL).
+    pub atomics: bool,
+    /// `Capabilities::few_graphics_units`.
+    pub few_graphics_units: bool,
+    /// GPU culling runs this frame (the visibility buffer rasterises its visible lists).
+    pub culling: bool,
+    /// The buffer (8 bytes a sample) fits the adapter's largest storage binding ([`fits`]).
+    pub fits: bool,
+    /// `--occlusion on` (its depth pyramid comes from the forward pass).
+    pub occlusion_on: bool,
+    pub blended: bool,
+    pub opaque: bool,
+    /// Every opaque batch is an opaque triangle list ([`batch_supported`]).
+    pub supported: bool,
+    pub gizmos: bool,
+}
+
+impl RasterGate {
+    /// `Ok(why)` where the visibility buffer rasterises this frame's opaque draws, `Err(why)`
+    /// where the forward pass does.
+    pub fn decide(&self) -> Result<&'static str, &'static str> {
+        match self.setting {
+            Raster::Hardware => return Err("--raster hardware"),
+            Raster::Auto if !self.few_graphics_units => {
+                return Err("--raster auto: this GPU's rasteriser keeps up with its shaders (compute raster is \
+                            chosen on GPUs with few graphics units, NVIDIA's Hopper compute GPUs)");
+            }
+            _ => {}
+        }
+        let checks = [
+            (self.atomics, "the adapter has no 64-bit atomic min/max (GL, or a Vulkan device without them)"),
+            (self.culling, "GPU culling is off or unsupported"),
+            (self.fits, "the visibility buffer would exceed the adapter's largest storage binding"),
+            (!self.occlusion_on, "occlusion culling was asked for (--occlusion on)"),
+            (!self.blended, "blended draws: the forward pass draws them over its own depth"),
+            (self.opaque, "no opaque draws"),
+            (self.supported, "alpha-masked, line or point draws"),
+            (!self.gizmos, "gizmo lines"),
+        ];
+        if let Some((_, why)) = checks.iter().find(|(ok, _)| !ok) {
+            return Err(why);
+        }
+        Ok(match self.setting {
+            Raster::Compute => "--raster compute",
+            _ => "--raster auto on a GPU with few graphics units (NVIDIA Hopper), where compute rasterises faster",
+        })
+    }
 }
 
 /// Bytes of one visibility sample (depth and triangle number).
@@ -580,8 +632,34 @@ impl VisibilityBuffer {
 
 #[cfg(test)]
 mod tests {
-    use super::{GpuRasterBatch, GpuRasterParams, GpuShadeParams, fits};
+    use super::{GpuRasterBatch, GpuRasterParams, GpuShadeParams, Raster, RasterGate, fits};
     use crate::pipelines::shader_library::assert_mirrors_wgsl;
+
+    #[test]
+    fn the_first_reason_that_applies_decides_where_opaque_draws_go() {
+        let open = RasterGate {
+            setting: Raster::Compute,
+            atomics: true,
+            few_graphics_units: false,
+            culling: true,
+            fits: true,
+            occlusion_on: false,
+            blended: false,
+            opaque: true,
+            supported: true,
+            gizmos: false,
+        };
+        assert_eq!(open.decide(), Ok("--raster compute"));
+        assert!(RasterGate { setting: Raster::Auto, ..open }.decide().unwrap_err().contains("keeps up"));
+        let hopper = RasterGate { setting: Raster::Auto, few_graphics_units: true, ..open };
+        assert!(hopper.decide().unwrap().contains("few graphics units"));
+        assert_eq!(RasterGate { setting: Raster::Hardware, ..hopper }.decide(), Err("--raster hardware"));
+        // Several reasons: the first in order is named.
+        let both = RasterGate { blended: true, gizmos: true, ..hopper };
+        assert!(both.decide().unwrap_err().starts_with("blended draws"));
+        assert!(RasterGate { atomics: false, ..both }.decide().unwrap_err().contains("64-bit atomic"));
+        assert_eq!(RasterGate { gizmos: true, ..hopper }.decide(), Err("gizmo lines"));
+    }
 
     #[test]
     fn the_rust_structs_mirror_the_shaders() {
