@@ -383,6 +383,11 @@ fn spot_and_point_lights_shadow_exactly_their_silhouette() {
         assert_eq!(frame.local.first_layers.len(), 1, "{what}: one shadowed light");
         assert_eq!(frame.local.render.len(), if spot { 1 } else { 6 }, "{what}: its layers render");
         assert!(app.world.resource::<Renderer>().stats().plan.runs(Pass::SHADOWS));
+        // The local atlas holds one cube's layers (whole cubes), not the settings' 24.
+        let local_map = ShadowSettings::default().local_map_size as u64;
+        let layer = local_map * local_map * 4;
+        let held = app.world.resource::<Renderer>().memory().shadows;
+        assert!((6 * layer..7 * layer).contains(&held), "{what}: {held} bytes of shadow maps");
         // The same frame without the light's shadows.
         if spot {
             app.world.get_mut::<SpotLight>(light).unwrap().shadows = false;

@@ -82,6 +82,11 @@ pub struct LocalShadows {
 /// Outer cone above which a spot light is shadowed like a point light.
 const WIDEST_SPOT: f32 = std::f32::consts::FRAC_PI_3;
 
+/// Layers the shadowed lights among `candidates` would take, all of them placed.
+pub(super) fn layers_wanted(candidates: &[LocalCandidate]) -> u32 {
+    candidates.iter().filter(|c| c.light.shadows && c.reach > 0.0).filter_map(|c| faces_for(&c.light)).sum()
+}
+
 fn faces_for(light: &ExtractedLight) -> Option<u32> {
     match light.kind {
         LightKind::Spot { outer_cone_angle, .. } if outer_cone_angle <= WIDEST_SPOT => Some(1),
