@@ -8,7 +8,7 @@ use penumbra::prelude::*;
 
 fn build(app: &mut App, count: usize) {
     app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
-    spawn_many_cubes(&mut app.world, count, CubeLayout::Grid, 0.01);
+    spawn_many_cubes(&mut app.world, count, CubeLayout::Grid, 0.01, false);
     app.add_systems(Update, spin_cubes);
 }
 

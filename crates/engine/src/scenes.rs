@@ -175,14 +175,16 @@ pub enum CubeLayout {
 pub struct Spinning;
 
 /// **many-cubes**: `count` unit cubes sharing one mesh and one material (sRGB (0.8, 0.55, 0.3),
-/// roughness 0.5), a 10 000 lux sun from (0.3, 1, 0.6) without shadows, ambient 200 cd/m², and
-/// the camera the layout prescribes. The first `ceil(moving·count)` cubes get [`Spinning`].
-/// Returns the cube entities in index order.
+/// roughness 0.5), a 10 000 lux sun from (0.3, 1, 0.6), casting shadows when `shadows` (the
+/// `--shadows` recipe; the renderer's shadow settings apply), ambient 200 cd/m², and the camera
+/// the layout prescribes. The first `ceil(moving·count)` cubes get [`Spinning`]. Returns the cube
+/// entities in index order.
 pub fn spawn_many_cubes(
     world: &mut World,
     count: usize,
     layout: CubeLayout,
     moving: f64,
+    shadows: bool,
 ) -> Vec<bevy_ecs::entity::Entity> {
     let cube = world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
     let paint =
@@ -220,7 +222,7 @@ pub fn spawn_many_cubes(
         cubes.push(e.id());
     }
     world.spawn((
-        DirectionalLight { illuminance: 10_000.0, shadows: false, ..Default::default() },
+        DirectionalLight { illuminance: 10_000.0, shadows, ..Default::default() },
         Transform::from_xyz(0.3, 1.0, 0.6).looking_at(Vec3::ZERO, Vec3::Y),
     ));
     world.spawn(AmbientLight { color: Vec3::ONE, intensity: 200.0 });

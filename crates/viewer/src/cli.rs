@@ -615,6 +615,11 @@ pub struct BenchArgs {
     /// For `many-cubes`: where the cubes stand.
     #[arg(long, value_enum, default_value = "grid")]
     pub layout: LayoutArg,
+    /// For `many-cubes`: the sun casts shadows (the renderer's shadow settings: four 4096²
+    /// cascades at the default preset), and the camera steps 25 cm sideways every frame, so
+    /// every cascade redraws.
+    #[arg(long)]
+    pub shadows: bool,
     /// For `many-lights`: each light's range in metres, or `auto` (from its intensity).
     #[arg(long, default_value = "3", value_parser = parse_range, value_name = "METRES|auto")]
     pub light_range: LightRange,

@@ -9,13 +9,13 @@ use anyhow::{Result, anyhow};
 use penumbra_engine::scenes::{BENCH_EV100, CubeLayout, spawn_many_cubes, spin_cubes};
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, Renderer};
 
-use super::bench_measure::{percentile, recipe_settings, time_frames};
+use super::bench_measure::{percentile, recipe_settings, step_camera, time_frames};
 use crate::cli::{BenchArgs, LayoutArg};
 
 struct Row {
     count: usize,
     moving: f64,
-    median: [f64; 18],
+    median: [f64; 19],
     draw_calls: u32,
     instances: u32,
     /// After GPU culling, in the last frame (`None`: not culled).
@@ -44,7 +44,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let mut app = penumbra_engine::App::new();
             app.add_plugins(penumbra_engine::CorePlugin).add_plugins(RenderPlugin);
             app.add_systems(penumbra_engine::Update, spin_cubes);
-            spawn_many_cubes(&mut app.world, count, layout, moving);
+            spawn_many_cubes(&mut app.world, count, layout, moving, args.shadows);
+            if args.shadows {
+                app.add_systems(penumbra_engine::Update, step_camera);
+            }
             app.insert_resource(Renderer::new(ctx.clone(), settings.clone())?);
             app.insert_resource(RenderOutput::Headless { width: args.size.0, height: args.size.1 });
             let t = time_frames(&mut app, args.warmup, args.frames);
@@ -76,6 +79,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     pass("forward late"),
                     pass("visibility raster"),
                     pass("visibility shade"),
+                    // One timed pass per cascade (and one label for local maps): their sum.
+                    t.passes
+                        .iter()
+                        .filter(|(label, v)| label.starts_with("shadow ") && !v.is_empty())
+                        .map(|(_, v)| med(v))
+                        .reduce(|a, b| a + b)
+                        .unwrap_or(f64::NAN),
                 ],
                 draw_calls: stats.draw_calls,
                 instances: stats.instances,
@@ -87,8 +97,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     println!("adapter   {}", ctx.describe());
     println!(
-        "scene     many-cubes (notes/bench-scenes.md), {:?} layout: one shared 1 m cube mesh and material, a 10 000 lux sun without shadows, ambient 200 cd/m²",
-        layout
+        "scene     many-cubes (notes/bench-scenes.md), {:?} layout: one shared 1 m cube mesh and material, a 10 000 lux sun {}, ambient 200 cd/m²",
+        layout,
+        if args.shadows {
+            "casting shadows, the camera stepping 25 cm sideways each frame (every cascade redraws)"
+        } else {
+            "without shadows"
+        }
     );
     println!(
         "settings  {}x{}, MSAA {} ({:?} resolve), GPU culling {}, occlusion culling {:?}, triangle culling {:?}, raster {:?}, tonemap {:?} (for Bevy's TonyMcMapface), EV100 {BENCH_EV100}, {} warm-up + {} timed frames, at most 2 in flight",
@@ -106,7 +121,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | triangles after triangle culling | GPU MiB instances and draw lists |"
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / shadows / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | triangles after triangle culling | GPU MiB instances and draw lists |"
     );
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
@@ -129,11 +144,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             forward_late,
             raster,
             shade,
+            shadows,
         ] = r.median;
         let ms = |v: f64| if v.is_nan() { "-".to_owned() } else { format!("{v:.3}") };
         let passes = format!(
-            "{} / {} / {} / {} / {} / {}",
+            "{} / {} / {} / {} / {} / {} / {}",
             ms(cull),
+            ms(shadows),
             // The forward pass, or the visibility buffer's raster + shade (`--raster compute`).
             if forward.is_nan() && !raster.is_nan() { format!("{} + {}", ms(raster), ms(shade)) } else { ms(forward) },
             ms(hzb),

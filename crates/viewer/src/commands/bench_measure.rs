@@ -162,3 +162,19 @@ pub fn flip_mean(a: &[u8], b: &[u8], (w, h): (u32, u32)) -> f32 {
     let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
     nv_flip::FlipPool::from_image(&error).mean()
 }
+
+/// Steps the camera 25 cm sideways, left and right on alternate frames: every shadow cascade
+/// follows it and redraws (a still camera keeps its cascades).
+pub fn step_camera(
+    mut cameras: bevy_ecs::system::Query<
+        &mut penumbra_engine::components::Transform,
+        bevy_ecs::query::With<penumbra_engine::components::Camera>,
+    >,
+    mut frame: bevy_ecs::system::Local<u64>,
+) {
+    *frame += 1;
+    let step = if frame.is_multiple_of(2) { 0.25 } else { -0.25 };
+    for mut t in &mut cameras {
+        t.translation.x += step;
+    }
+}

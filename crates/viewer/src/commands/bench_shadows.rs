@@ -13,14 +13,14 @@ use anyhow::{Result, anyhow};
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 use penumbra_engine::Update;
-use penumbra_engine::components::{Camera, PointLight, SpotLight, Transform};
+use penumbra_engine::components::{PointLight, SpotLight, Transform};
 use penumbra_engine::scenes::spawn_shadows_scene;
 use penumbra_render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra_render::frame::Pass;
 use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderPlugin, RenderSettings, Renderer};
 
 use super::bench_measure::flip_mean;
-use super::bench_measure::{percentile, time_frames};
+use super::bench_measure::{percentile, step_camera, time_frames};
 use crate::cli::BenchArgs;
 
 /// Atlas sizes measured, in texels per layer.
@@ -48,15 +48,6 @@ fn nudge_local_lights(
     let step = if frame.is_multiple_of(2) { 0.001 } else { -0.001 };
     for mut t in &mut lights {
         t.translation.y += step;
-    }
-}
-
-/// Steps the camera 25 cm sideways, left and right on alternate frames.
-fn step_camera(mut cameras: Query<&mut Transform, With<Camera>>, mut frame: Local<u64>) {
-    *frame += 1;
-    let step = if frame.is_multiple_of(2) { 0.25 } else { -0.25 };
-    for mut t in &mut cameras {
-        t.translation.x += step;
     }
 }
 
