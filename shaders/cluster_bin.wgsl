@@ -193,7 +193,8 @@ fn touches(b: Bounds, c: vec3<u32>) -> bool {
 }
 
 // Walks the candidate clusters of lights BIN_LIGHTS·w to BIN_LIGHTS·(w + 1) − 1 with the 64
-// threads of workgroup w:
+// threads of workgroup w (or, split into `slices` workgroups, the cells of slice `slice`: cell n
+// belongs to slice (n / 64) mod slices):
 // their boxes' cells are numbered one after another (a scan of the cell counts in workgroup
 // memory) and thread `t` takes every 64th cell, finding its light by binary search. A light is
 // counted into each cluster it touches, or (`fill`) writes its slot at each one's cursor; both
@@ -213,7 +214,7 @@ var<workgroup> bin_size: array<vec3<u32>, BIN_LIGHTS>;
 // Inclusive scan of the lights' cell counts.
 var<workgroup> bin_end: array<u32, BIN_LIGHTS>;
 
-fn bin_lights(group: u32, t: u32, fill: bool) {
+fn bin_lights(group: u32, t: u32, fill: bool, slice: u32, slices: u32) {
     let id = group * BIN_LIGHTS + t;
     var cells = 0u;
     if t < BIN_LIGHTS && id < grid.light_count {
@@ -243,7 +244,7 @@ fn bin_lights(group: u32, t: u32, fill: bool) {
         workgroupBarrier();
     }
     let total = workgroupUniformLoad(&bin_end[BIN_LIGHTS - 1u]);
-    for (var n = t; n < total; n += BIN_THREADS) {
+    for (var n = slice * BIN_THREADS + t; n < total; n += BIN_THREADS * slices) {
         // The light whose cells hold cell n: the first with bin_end > n.
         var lo = 0u;
         var hi = BIN_LIGHTS - 1u;
@@ -270,14 +271,15 @@ fn bin_lights(group: u32, t: u32, fill: bool) {
 }
 
 // BIN_LIGHTS lights per workgroup; large dispatches spill into y (a dimension holds at most 65 535
-// workgroups).
+// workgroups). With few lights, z splits each group's cells into slices, a workgroup each (see
+// `bin_slices` in features/clusters/mod.rs): the same (light, cluster) pairs, in more hands.
 @compute @workgroup_size(64)
 fn count_lights(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) t: u32,
 ) {
-    bin_lights(wg.x + wg.y * groups.x, t, false);
+    bin_lights(wg.x + wg.y * groups.x, t, false, wg.z, groups.z);
 }
 
 // The exclusive scan of the run counts, in two passes over blocks of SCAN_THREADS · SCAN_ITEMS
@@ -398,7 +400,7 @@ fn fill_lists(
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) t: u32,
 ) {
-    bin_lights(wg.x + wg.y * groups.x, t, true);
+    bin_lights(wg.x + wg.y * groups.x, t, true, wg.z, groups.z);
 }
 
 // Where run r begins in the index buffer, once filled (each run's cursor then stands at its

@@ -303,15 +303,16 @@ impl ClusterBinner {
         // BIN_LIGHTS lights to a workgroup of 64 threads (they share the lights' candidate
         // clusters).
         let light_groups = self.light_count.div_ceil(BIN_LIGHTS);
+        let slices = bin_slices(light_groups);
         let blocks = runs.div_ceil(SCAN_BLOCK as u32);
         let dispatches = [
-            (ClusterEntry::Count, light_groups),
+            (ClusterEntry::Count, light_groups, slices),
             // Blocks of SCAN_BLOCK runs, a workgroup each, then each block's base added.
-            (ClusterEntry::ScanBlocks, blocks),
-            (ClusterEntry::ScanApply, blocks),
-            (ClusterEntry::Fill, light_groups),
+            (ClusterEntry::ScanBlocks, blocks, 1),
+            (ClusterEntry::ScanApply, blocks, 1),
+            (ClusterEntry::Fill, light_groups, slices),
             // One invocation per run, 64 to a workgroup.
-            (ClusterEntry::SortShort, runs.div_ceil(64)),
+            (ClusterEntry::SortShort, runs.div_ceil(64), 1),
         ];
         // One compute pass: the dispatches need the same barriers between them as between
         // passes, and a pass of its own for each would add timestamps and a pass boundary per
@@ -321,9 +322,9 @@ impl ClusterBinner {
             timestamp_writes: timer.and_then(|t| t.compute_pass(BINNING_PASS)),
         });
         pass.set_bind_group(0, bind_group, &[]);
-        for (entry, groups) in dispatches {
+        for (entry, groups, slices) in dispatches {
             pass.set_pipeline(pipelines.cached::<ClusterFamily>(&entry).expect("created above"));
-            dispatch_1d(&mut pass, groups, device.limits().max_compute_workgroups_per_dimension);
+            dispatch_1d(&mut pass, groups, slices, device.limits().max_compute_workgroups_per_dimension);
         }
         // One workgroup per run sort_short queued (it is long), sized on the GPU.
         pass.set_bind_group(0, sort_long_bind_group, &[]);
@@ -350,14 +351,38 @@ const SHORT_LIST: u64 = 16;
 
 /// Dispatches at least `groups` workgroups of 64, spilling into y past the per-dimension limit
 /// (the shaders flatten the id and skip the surplus).
-fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, limit: u32) {
+fn dispatch_1d(pass: &mut wgpu::ComputePass, groups: u32, slices: u32, limit: u32) {
     let x = groups.clamp(1, limit.max(1));
-    pass.dispatch_workgroups(x, groups.div_ceil(x).max(1), 1);
+    pass.dispatch_workgroups(x, groups.div_ceil(x).max(1), slices.max(1));
 }
+
+/// Workgroups the count and fill walks give each group of BIN_LIGHTS lights (z of their
+/// dispatch): enough for about [`BIN_WORKGROUPS`] in all. A few large lights (three area lights
+/// reaching across the view: up to 8192 clusters each) otherwise leave one workgroup of 64
+/// threads walking all their cells while the rest of the GPU idles; a thousand lights and more
+/// fill the GPU with one workgroup per group, as before.
+fn bin_slices(light_groups: u32) -> u32 {
+    (BIN_WORKGROUPS / light_groups.max(1)).clamp(1, MAX_BIN_SLICES)
+}
+
+/// The count and fill walks' target workgroup count: four per multiprocessor of a large GPU
+/// (132 on an H100 SXM).
+const BIN_WORKGROUPS: u32 = 512;
+/// At most this many slices per light group: 64 × 64 threads cover a light touching 4096 cells
+/// in one step each.
+const MAX_BIN_SLICES: u32 = 64;
 
 #[cfg(test)]
 mod tests {
-    use super::{BIN_LIGHTS, LightBlocks, SCAN_BLOCK, SHORT_LIST, grid};
+    use super::{BIN_LIGHTS, LightBlocks, SCAN_BLOCK, SHORT_LIST, bin_slices, grid};
+
+    #[test]
+    fn few_light_groups_are_split_into_slices_and_many_are_not() {
+        assert_eq!(bin_slices(1), 64, "three area lights: 64 workgroups walk their cells");
+        assert_eq!(bin_slices(63), 8, "a thousand lights");
+        assert_eq!(bin_slices(625), 1, "ten thousand: one workgroup per group, as before");
+        assert_eq!(bin_slices(0), 64);
+    }
     use crate::pipelines::shader_library::EMBEDDED;
 
     /// The long-run buffer is sized for one block total per SCAN_BLOCK runs and a queue bounded
