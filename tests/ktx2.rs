@@ -255,3 +255,14 @@ fn etc2_and_astc_sampled_by_the_gpu_draw_as_decoded_on_the_cpu() {
         assert!(error < 0.005, "{image}: FLIP mean {error} between the GPU's and the CPU's decoding");
     }
 }
+
+/// The RGBA size limit applies to KTX2 files too (checked from the header, before any level is
+/// inflated).
+#[test]
+fn a_ktx2_over_the_image_size_limit_is_refused() {
+    let path = scene_with("ktx2-limit", "CesiumLogoFlat-rgba8-zstd.ktx2", |_| {});
+    let mut options = ImportOptions::default();
+    options.limits.image_bytes = 100_000; // the file is 14 KB, its RGBA level 0 256 KiB
+    let err = GltfScene::load(&path, &options).expect_err("over the limit");
+    assert!(err.to_string().contains("decoded RGBA size"), "{err}");
+}

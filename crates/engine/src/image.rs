@@ -1,5 +1,5 @@
-//! `Image`: texel data, 8-bit RGBA, or a GPU-transcodable texture (`compressed`: KTX2 + Basis
-//! Universal) that the renderer transcodes to what the adapter samples. Whether the bytes are
+//! `Image`: texel data, 8-bit RGBA, or a GPU-ready texture (`compressed`: KTX2, Basis Universal
+//! or an ordinary GPU format) that the renderer uploads in what the adapter samples. Whether the bytes are
 //! sRGB-encoded or linear is not a property of the image but of the material slot that samples it
 //! (base colour and emissive are sRGB, the others linear), so the render side picks the view
 //! format per use.
@@ -21,8 +21,8 @@ pub struct Image {
     /// Levels 1.. made where the image was decoded, for the colour space its material slots
     /// read it in (`mip_chain`); `None`: the renderer makes the chain on the GPU.
     pub mips: Option<MipChain>,
-    /// A texture stored compressed (KTX2 + Basis Universal): `rgba8` is then empty and the
-    /// renderer transcodes each mip level from here; [`Image::texels`] decodes for the CPU.
+    /// A texture kept as KTX2 (Basis Universal or a GPU format): `rgba8` is then empty and the
+    /// renderer takes each mip level from here; [`Image::texels`] decodes for the CPU.
     pub compressed: Option<Arc<CompressedImage>>,
 }
 

@@ -145,7 +145,7 @@ pub struct SceneNeeds {
     pub culled: bool,
     /// So does occlusion culling.
     pub occlusion: bool,
-    /// Opaque draws are rasterised and shaded in compute (`Raster::Compute`).
+    /// Opaque draws are rasterised and shaded in compute (`features::visibility`).
     pub visibility: bool,
     /// Why they are, or are not (`RasterGate::decide`).
     pub raster_why: &'static str,

@@ -199,12 +199,9 @@ fn stage_into(app: &mut App, scene: &impl SpawnScene, settings: &ShotSettings) -
             None => drop(app.world.remove_resource::<Environment>()),
         }
     }
-    // One update without a renderer: transforms propagate, nothing is drawn.
-    let renderer = app.world.remove_resource::<Renderer>();
+    // One update without a renderer (callers stage before inserting it): transforms propagate,
+    // nothing is drawn.
     app.update();
-    if let Some(renderer) = renderer {
-        app.insert_resource(renderer);
-    }
     stage_camera(app, settings)
 }
 
@@ -214,7 +211,8 @@ fn stage_into(app: &mut App, scene: &impl SpawnScene, settings: &ShotSettings) -
 /// assets, `import::unload_scene`), so the renderer keeps its device, its compiled pipelines and,
 /// where the environment is the same, the maps made from it, and frees and uploads only what the
 /// scenes do not share. Each image is what a fresh [`stage_scene`] and [`render_frames`] of the
-/// scene gives.
+/// scene gives, except with automatic exposure (`RenderSettings::post`), whose adaptation
+/// carries over: a scene's first frame then starts from the exposure the scene before ended on.
 pub struct SceneBatch {
     app: Option<App>,
     renderer: Option<Renderer>,

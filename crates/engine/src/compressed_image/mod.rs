@@ -30,11 +30,17 @@ pub fn is_ktx2(bytes: &[u8]) -> bool {
 pub fn held_size(bytes: &[u8]) -> Option<u64> {
     let header = header::read(bytes).ok()?;
     match plain::layout(header.vk_format) {
-        Ok((layout, _)) if header.vk_format != 0 => {
-            Some((0..header.levels.len()).map(|l| layout.level_bytes(header.level_size(l))).sum())
-        }
+        Ok((layout, _)) => Some(
+            (0..header.levels.len()).fold(0u64, |sum, l| sum.saturating_add(layout.level_bytes(header.level_size(l)))),
+        ),
         _ => Some(bytes.len() as u64),
     }
+}
+
+/// The base level's size a KTX2 file's header declares (`None` when the header does not read),
+/// for checking it against the import limits before anything is inflated or decoded.
+pub fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
+    header::read(bytes).ok().map(|h| (h.width, h.height))
 }
 
 /// The Basis Universal codec a file was encoded with.
@@ -109,7 +115,7 @@ impl Format {
     /// Bytes of one mip level of `width` × `height` in this format (partial blocks whole).
     pub fn level_bytes(self, width: u32, height: u32) -> u64 {
         let (bw, bh) = self.block();
-        width.div_ceil(bw) as u64 * height.div_ceil(bh) as u64 * self.block_bytes() as u64
+        (width.div_ceil(bw) as u64).saturating_mul(height.div_ceil(bh) as u64).saturating_mul(self.block_bytes() as u64)
     }
 
     /// The device feature it needs; none for RGBA8.
@@ -245,6 +251,21 @@ mod tests {
         assert_eq!(Format::Astc { w: 4, h: 4 }.level_bytes(2, 1), 16);
         assert_eq!(Format::Bc1.level_bytes(8, 8), 32);
         assert_eq!(Format::Astc { w: 12, h: 10 }.level_bytes(25, 21), 3 * 3 * 16);
+    }
+
+    #[test]
+    fn sizes_from_hostile_headers_saturate() {
+        // An RGBA8 file claiming 2³²−1 texels a side, one empty level inside the file.
+        let mut bytes = KTX2_MAGIC.to_vec();
+        for field in [37u32, 1, u32::MAX, u32::MAX, 0, 0, 1, 1, 0, 0, 0, 0, 0] {
+            bytes.extend_from_slice(&field.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[0; 16]);
+        bytes.extend_from_slice(&[104, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+        assert_eq!(bytes.len(), 104);
+        assert_eq!(dimensions(&bytes), Some((u32::MAX, u32::MAX)));
+        assert_eq!(held_size(&bytes), Some(u64::MAX));
+        assert!(CompressedImage::parse(bytes, 16384).unwrap_err().contains("over the limit"));
     }
 
     #[test]

@@ -31,7 +31,9 @@ pub(super) enum Layout {
 impl Layout {
     pub fn level_bytes(self, (width, height): (u32, u32)) -> u64 {
         match self {
-            Layout::Texels { channels, .. } => width as u64 * height as u64 * channels as u64,
+            Layout::Texels { channels, .. } => {
+                (width as u64).saturating_mul(height as u64).saturating_mul(channels as u64)
+            }
             Layout::Blocks { format, .. } => format.level_bytes(width, height),
         }
     }

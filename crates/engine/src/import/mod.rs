@@ -23,7 +23,7 @@ pub use limits::{ImportLimits, Limit};
 pub use obj::ObjScene;
 pub use progress::{ImportProgress, ImportStage, ProgressSnapshot};
 
-/// Decodes one texture image (PNG, JPEG, WebP; a KTX2 / Basis Universal file is checked and kept
+/// Decodes one texture image (PNG, JPEG, WebP; a KTX2 file, Basis Universal or plain, is checked and kept
 /// compressed, see [`crate::compressed_image`]) as the importers do, under `options.limits`: the
 /// entry point of the image fuzz target, and for tools that load textures outside a scene.
 pub fn decode_texture(

@@ -282,8 +282,8 @@ impl GpuContext {
         if indirect_first_instance {
             features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
         }
-        // Block-compressed texture formats the adapter samples: KTX2 / Basis Universal textures
-        // are transcoded to one of them (resources::textures), else to RGBA8.
+        // Block-compressed texture formats the adapter samples: KTX2 textures go up in one of
+        // them where they can (resources::textures), else as RGBA8.
         features |= available
             & (wgpu::Features::TEXTURE_COMPRESSION_BC
                 | wgpu::Features::TEXTURE_COMPRESSION_ASTC

@@ -234,7 +234,8 @@ impl Renderer {
         raster_gate.culling = self.culling_active;
         raster_gate.gizmos = gizmo_vertices > 0;
         let raster_why = raster_gate.decide();
-        let visibility = visibility_wanted && raster_why.is_ok();
+        // Gizmos and the cull pass's readiness, known only now, can still say no.
+        let visibility = raster_why.is_ok();
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
         let needs = TargetNeeds {

@@ -23,9 +23,10 @@
 //! A KTX2 image (`penumbra_engine::compressed_image`) goes up level by level in the first of its
 //! block formats the device samples: BC7, ASTC 4×4 or ETC2 RGBA for Basis Universal (a quarter
 //! of RGBA8's memory), a plain file's own BC, ETC2/EAC or ASTC format. It goes up as RGBA8 where
-//! the device samples none of them, where the file has no chain (block formats cannot be
-//! rendered to, so the chain is made on the GPU from RGBA8), where its size is not whole blocks,
-//! or for plain 8-bit texels. [`TextureCache::rgba8_bytes`] beside [`TextureCache::gpu_bytes`]
+//! the device samples none of them, where the file's chain is missing or stops before 1×1 (block
+//! formats cannot be rendered to, so the chain is made on the GPU from RGBA8), where its size is
+//! not whole blocks, for plain 8-bit texels, for one- and two-channel formats in an sRGB slot
+//! (they have no sRGB variant), and for BC1 RGB files whose blocks use the transparent index. [`TextureCache::rgba8_bytes`] beside [`TextureCache::gpu_bytes`]
 //! says what compression saved.
 
 use std::collections::HashMap;
@@ -36,7 +37,7 @@ use penumbra_engine::color::srgb_to_linear;
 use penumbra_engine::compressed_image::{CompressedImage, Family, Format};
 use penumbra_engine::image::Image;
 use penumbra_engine::material::{FilterMode, Sampler, WrapMode};
-use penumbra_engine::mip_chain::{MipChain, MipLevel, mip_level_count};
+use penumbra_engine::mip_chain::{MipChain, MipLevel, chain_bytes, mip_level_count};
 
 use super::mipmap::MipmapFamily;
 use crate::pipelines::{PipelineCache, parts};
@@ -328,9 +329,7 @@ impl TextureCache {
             (0..c.levels).find(|&l| c.level_size(l).0 <= max && c.level_size(l).1 <= max).unwrap_or(c.levels - 1);
         let (width, height) = c.level_size(first);
         // What the same texels would take as RGBA8 with a full chain, from the level uploaded.
-        let rgba8_bytes = (0..mip_level_count(width, height))
-            .map(|l| Format::Rgba8.level_bytes((width >> l).max(1), (height >> l).max(1)))
-            .sum();
+        let rgba8_bytes = Format::Rgba8.level_bytes(width, height) + chain_bytes(width, height);
         // Block formats cannot be rendered to, so the file must bring the whole chain below the
         // level uploaded; and the level must be whole blocks.
         let full_chain = c.levels - first == mip_level_count(width, height);

@@ -62,13 +62,7 @@ fn render_one(
     // Where the image goes is checked before anything is rendered: a bad name costs no render.
     output::image_format(out)?;
     output::check_destination(out)?;
-    let gpu = std::thread::spawn(move || -> Result<Renderer> {
-        let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
-        step("GPU context");
-        let renderer = Renderer::new(ctx, settings)?;
-        step("renderer ready");
-        Ok(renderer)
-    });
+    let gpu = spawn_renderer(settings, step);
     let staged = (|| -> Result<_> {
         let scene = scene::load(Some(path), &args.scene_args)?;
         step("scene decoded");
@@ -103,6 +97,21 @@ fn render_one(
     Ok(())
 }
 
+/// The GPU context and the renderer, made on a thread of their own: neither needs the scene
+/// until the first frame. `step` logs each stage's time (`-v`).
+fn spawn_renderer(
+    settings: penumbra_render::RenderSettings,
+    step: impl Fn(&str) + Send + 'static,
+) -> std::thread::JoinHandle<Result<Renderer>> {
+    std::thread::spawn(move || {
+        let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
+        step("GPU context");
+        let renderer = Renderer::new(ctx, settings)?;
+        step("renderer ready");
+        Ok(renderer)
+    })
+}
+
 fn explain(app: &penumbra_engine::App) {
     if let Some(view) = app.world.get_resource::<penumbra_render::headless::StagedView>() {
         println!("View: {}\nExposure: {}", view.camera, view.exposure);
@@ -118,7 +127,10 @@ fn outputs(paths: &[PathBuf], dir: &Path) -> Result<Vec<PathBuf>> {
         .iter()
         .map(|p| {
             let stem = p.file_stem().ok_or_else(|| anyhow!("{}: not a file name", p.display()))?;
-            let out = dir.join(stem).with_extension("png");
+            // The whole stem, dots and all: `model.draco.glb` is `model.draco.png`.
+            let mut name = stem.to_os_string();
+            name.push(".png");
+            let out = dir.join(name);
             if let Some(other) = seen.insert(out.clone(), p) {
                 bail!("{} and {} would both be written to {}", other.display(), p.display(), out.display());
             }
@@ -142,9 +154,8 @@ fn render_many(
     shot.environment = args.look.environment()?;
     // The device comes up while the first scene is read; the next ones are read while the one
     // before renders.
-    let gpu = std::thread::spawn(move || -> Result<Renderer> {
-        Ok(Renderer::new(GpuContext::new_headless(&AdapterRequest::default())?, settings)?)
-    });
+    let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
+    let gpu = spawn_renderer(settings, step);
     let (paths, scene_args) = (args.paths.clone(), args.scene_args.clone());
     let scenes = Prefetch::new(paths.len(), read_ahead(), move |i| scene::load(Some(&paths[i]), &scene_args));
     let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))?;
@@ -207,4 +218,18 @@ fn render_many(
         bail!("{failed} of {} scenes failed (above)", args.paths.len());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_scene_is_written_under_its_whole_stem() {
+        let dir = Path::new("shots");
+        let outs = outputs(&["a/model.draco.glb".into(), "b/model.glb".into()], dir).unwrap();
+        assert_eq!(outs, [dir.join("model.draco.png"), dir.join("model.png")]);
+        let e = outputs(&["a/x.glb".into(), "b/x.gltf".into()], dir).unwrap_err();
+        assert!(e.to_string().contains("would both be written to"), "{e}");
+    }
 }

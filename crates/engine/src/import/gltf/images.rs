@@ -70,9 +70,12 @@ pub(crate) fn decode(
 ) -> Result<Image, ImportErrorKind> {
     let err = |reason: String| ImportErrorKind::Image { index, uri: uri.to_owned(), reason };
     if crate::compressed_image::is_ktx2(bytes) {
+        // Checked from the header, before any level is inflated or decoded.
+        if let Some((w, h)) = crate::compressed_image::dimensions(bytes) {
+            let rgba = crate::compressed_image::Format::Rgba8.level_bytes(w, h);
+            options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", rgba)?;
+        }
         let image = CompressedImage::parse(bytes.to_vec(), options.limits.image_dimension).map_err(err)?;
-        let rgba = crate::compressed_image::Format::Rgba8.level_bytes(image.width, image.height);
-        options.limits.check(Limit::ImageBytes, "an image's decoded RGBA size", rgba)?;
         return Ok(Image::compressed(image, label));
     }
     // JPEG straight to RGBA with zune-jpeg: the image crate decodes to RGB and then converts,

@@ -345,21 +345,35 @@ impl ShadowOrchestrator {
         let camera_position = view.map_or(Vec3::ZERO, |(v, _)| Vec3::from(v.world_from_view.translation));
         // The local atlas holds as many layers as the shadowed local lights take (whole cubes),
         // up to `local_layers`: one point light takes 6, not the high preset's 24 (72 MiB less
-        // at 1024²). It grows with the lights and does not shrink, so lights that come and go
-        // do not reallocate it.
-        let local_layers = {
+        // at 1024²). While local maps are in use it grows with the lights and does not shrink,
+        // so lights that come and go do not reallocate it; where lights keep their layers and
+        // the free ones end up split, a light that finds no room gets the whole `local_layers`.
+        let cap = settings.local_layers;
+        let mut local_settings = {
             let has = self.local_atlas.as_ref().map_or(0, |a| a.layers());
-            settings.local_layers.min(local::layers_wanted(local_candidates).next_multiple_of(6).max(has)).max(1)
+            let wanted = local::layers_wanted(local_candidates).next_multiple_of(6).max(has);
+            ShadowSettings { local_layers: cap.min(wanted).max(1), ..*settings }
         };
-        let local_settings = ShadowSettings { local_layers, ..*settings };
-        let settings = &local_settings;
         if view.is_some() && seen {
             self.frame.local =
-                self.local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+                self.local.plan(&local_settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+            if self.frame.local.unshadowed > 0 && local_settings.local_layers < cap {
+                // A larger atlas holds nothing yet: every map is placed and drawn afresh.
+                local_settings.local_layers = cap;
+                self.local = LocalShadows::default();
+                self.frame.local = self.local.plan(
+                    &local_settings,
+                    camera_position,
+                    local_candidates,
+                    &bounds.casters,
+                    caster_generation,
+                );
+            }
         } else {
             // Nothing to shadow: forget the maps, so they render afresh when casters return.
             self.local = LocalShadows::default();
         }
+        let settings = &local_settings;
         let layers = self.frame.cascades.len() as u32;
         let needs = self.active().then_some((settings.atlas_size, layers));
         let has = self.atlas.as_ref().map(|a| (a.size, a.layers()));
