@@ -61,7 +61,7 @@ fn render(ctx: GpuContext) -> (Vec<u8>, u32) {
 }
 
 fn gl() -> GpuContext {
-    GpuContext::new_headless(&AdapterRequest { backends: Some(wgpu::Backends::GL), name: None }).unwrap_or_else(|e| {
+    GpuContext::new_headless(&AdapterRequest { backends: Some(wgpu::Backends::GL), ..Default::default() }).unwrap_or_else(|e| {
         panic!("this test needs wgpu's GL backend (on Debian: apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri): {e}")
     })
 }

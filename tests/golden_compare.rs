@@ -102,7 +102,8 @@ fn a_turned_frame_moves_by_the_pixels_asked() {
 fn the_turn_sensitivities_are_what_llvmpipe_measures() {
     use common::golden_scenes::{TURN_SENSITIVITY, golden_suite, turn_sensitivity};
     // Whatever adapter the other tests run on: these numbers belong to the goldens' driver.
-    let request = AdapterRequest { backends: Some(wgpu::Backends::VULKAN), name: Some("llvmpipe".into()) };
+    let request =
+        AdapterRequest { backends: Some(wgpu::Backends::VULKAN), name: Some("llvmpipe".into()), ..Default::default() };
     let ctx = GpuContext::new_headless(&request).unwrap_or_else(|e| {
         panic!("this test measures on lavapipe, the goldens' driver (on Debian: apt-get install -y mesa-vulkan-drivers): {e}")
     });

@@ -234,7 +234,7 @@ fn etc2_and_astc_sampled_by_the_gpu_draw_as_decoded_on_the_cpu() {
     use wgpu::Features as F;
     let gl = penumbra::render::GpuContext::new_headless(&penumbra::render::AdapterRequest {
         backends: Some(wgpu::Backends::GL),
-        name: None,
+        ..Default::default()
     })
     .unwrap_or_else(|e| panic!("this test needs wgpu's GL backend (libegl1 libegl-mesa0 libgl1-mesa-dri): {e}"));
     assert!(gl.device.features().contains(F::TEXTURE_COMPRESSION_ETC2), "GLES 3 samples ETC2");

@@ -99,7 +99,7 @@ fn a_lost_device_is_replaced_and_the_scene_drawn_again() {
     use penumbra::prelude::*;
     use penumbra::render::{AdapterRequest, GpuContext};
     // A context of its own: the test destroys its device.
-    let request = AdapterRequest { backends: Some(wgpu::Backends::VULKAN), name: None };
+    let request = AdapterRequest { backends: Some(wgpu::Backends::VULKAN), ..Default::default() };
     let ctx = GpuContext::new_headless(&request).expect("a Vulkan adapter (apt-get install mesa-vulkan-drivers)");
     let mut app = common::scene_app();
     app.insert_resource(Renderer::new(ctx, Default::default()).unwrap());

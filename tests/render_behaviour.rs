@@ -747,3 +747,86 @@ fn a_frame_larger_than_the_gpus_textures_is_an_error_not_a_panic() {
     assert!(err.to_string().contains(&format!("is larger than this GPU's textures can be ({max} a side)")), "{err}");
     render_app(&mut app, (8, 8), RenderSettings::default());
 }
+
+/// Renders a lit cube with a renderer whose context keeps pipelines in `cache`; returns the
+/// pixels and the bytes of cache data the renderer's store read when it opened.
+fn render_with_cache(cache: penumbra::render::PipelineCacheDir) -> (Vec<u8>, Option<usize>) {
+    let request = penumbra::render::AdapterRequest {
+        backends: Some(wgpu::Backends::VULKAN),
+        pipeline_cache: cache,
+        ..Default::default()
+    };
+    let ctx = penumbra::render::GpuContext::new_headless(&request).unwrap_or_else(|e| panic!("{e}"));
+    let mut app = scene_app();
+    lit_camera(&mut app, 4.0);
+    let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(white());
+    let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+    app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::from_rotation(Quat::from_rotation_y(0.5))));
+    app.insert_resource(Renderer::new(ctx, settings()).unwrap());
+    let pixels = render_app(&mut app, SIZE, settings());
+    let loaded = app.world.resource::<Renderer>().pipeline_store().map(|s| s.loaded_bytes());
+    // Dropping the renderer writes the cache.
+    drop(app.world.remove_resource::<Renderer>());
+    (pixels, loaded)
+}
+
+/// The one cache file in `dir`.
+fn cache_file(dir: &std::path::Path) -> std::path::PathBuf {
+    let files: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(files.len(), 1, "one cache file per adapter, no stray temporary files: {files:?}");
+    files.into_iter().next().unwrap()
+}
+
+#[test]
+fn the_pipeline_cache_survives_runs_and_bad_files() {
+    use penumbra::render::PipelineCacheDir;
+    let dir = common::scratch_dir("pipeline-cache");
+    let at = || PipelineCacheDir::At(dir.clone());
+
+    // First run: nothing to read; the file is written when the renderer goes.
+    let (first, loaded) = render_with_cache(at());
+    assert_eq!(loaded, Some(0), "lavapipe's Vulkan has a pipeline cache; the folder was empty");
+    let file = cache_file(&dir);
+    let written = std::fs::read(&file).unwrap();
+    assert!(file.file_name().unwrap().to_str().unwrap().starts_with("wgpu_pipeline_cache_vulkan_"));
+
+    // Second run reads it back whole and draws the same.
+    let (second, loaded) = render_with_cache(at());
+    assert_eq!(loaded, Some(written.len() - 48), "the data inside the file's 48-byte envelope");
+    assert_eq!(second, first);
+
+    // Damaged, cut short, not ours at all: each is refused before the driver sees it, the frame
+    // is the same, and the file is replaced by a good one.
+    let mut flipped = written.clone();
+    let last = flipped.len() - 1;
+    flipped[last] ^= 0x40;
+    for bad in [flipped, written[..written.len() / 2].to_vec(), b"not a pipeline cache".to_vec()] {
+        std::fs::write(&file, &bad).unwrap();
+        let (pixels, loaded) = render_with_cache(at());
+        assert_eq!(loaded, Some(0));
+        assert_eq!(pixels, first);
+        assert_eq!(std::fs::read(cache_file(&dir)).unwrap().len(), written.len(), "rewritten whole");
+    }
+
+    // A whole envelope around data wgpu's own header check refuses (another adapter's or a
+    // stale driver's): wgpu starts an empty cache, the frame is the same.
+    let mut foreign = b"PNBRPLC1".to_vec();
+    let junk = vec![7u8; 300];
+    foreign.extend_from_slice(&(junk.len() as u64).to_le_bytes());
+    foreign.extend_from_slice(blake3::hash(&junk).as_bytes());
+    foreign.extend_from_slice(&junk);
+    std::fs::write(&file, &foreign).unwrap();
+    let (pixels, loaded) = render_with_cache(at());
+    assert_eq!(loaded, Some(300));
+    assert_eq!(pixels, first);
+
+    // A folder that cannot be made (a file is in the way): the frame is drawn all the same.
+    let blocked = dir.join("blocked");
+    std::fs::write(&blocked, b"a file, not a folder").unwrap();
+    let (pixels, _) = render_with_cache(PipelineCacheDir::At(blocked.join("pipelines")));
+    assert_eq!(pixels, first);
+
+    // Off: no store at all.
+    let (pixels, loaded) = render_with_cache(PipelineCacheDir::Off);
+    assert_eq!((pixels, loaded), (first, None));
+}

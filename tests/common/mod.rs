@@ -31,7 +31,7 @@ pub fn gpu() -> GpuContext {
     static CTX: OnceLock<GpuContext> = OnceLock::new();
     CTX.get_or_init(|| {
         let backends = if std::env::var_os("WGPU_BACKEND").is_some() { None } else { Some(wgpu::Backends::VULKAN) };
-        GpuContext::new_headless(&AdapterRequest { backends, name: None })
+        GpuContext::new_headless(&AdapterRequest { backends, ..Default::default() })
             .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter: {e}"))
     })
     .clone()

@@ -41,6 +41,20 @@ pub fn explain(renderer: &Renderer) -> String {
     for v in variants {
         let _ = writeln!(out, "     - {v}");
     }
+    let compiled = stats.pipelines_compiled;
+    match renderer.pipeline_store() {
+        Some(store) => {
+            let _ = writeln!(
+                out,
+                "Pipelines: {compiled} created; driver cache {} ({:.1} KiB read at start)",
+                store.path().display(),
+                store.loaded_bytes() as f64 / 1024.0
+            );
+        }
+        None => {
+            let _ = writeln!(out, "Pipelines: {compiled} created; no driver cache kept between runs");
+        }
+    }
     let m = renderer.memory();
     let _ = writeln!(out, "GPU memory by pool (0: not allocated, the scene does not need it):");
     for (name, bytes) in [

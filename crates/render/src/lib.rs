@@ -47,7 +47,7 @@ pub use features::exposure::AutoExposure;
 pub use features::shadows::{ShadowFilter, ShadowSettings};
 pub use features::visibility::Raster;
 pub use gpu::context::{AdapterRequest, ContextError, GpuContext, INSTALL_HINT, RetryBackoff};
-pub use pipelines::{ReloadReport, ShaderError};
+pub use pipelines::{PipelineCacheDir, PipelineStore, ReloadReport, ShaderError};
 pub use quality::QualityPreset;
 pub use renderer::{FrameError, Renderer, RendererError};
 pub use resources::draws::{AlphaTest, DebugView, LocalLights, Tonemapper};

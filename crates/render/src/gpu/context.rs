@@ -9,6 +9,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::gpu::array_layers::ArrayLayers;
+use crate::pipelines::PipelineCacheDir;
 
 /// How a CPU rasteriser compiles shaders: Mesa's llvmpipe (lavapipe) reads the choice once, when
 /// the process's first device is made. Other drivers ignore it.
@@ -188,9 +189,16 @@ pub struct AdapterRequest {
     pub backends: Option<wgpu::Backends>,
     /// Substring of the adapter name (default: `WGPU_ADAPTER_NAME`).
     pub name: Option<String>,
+    /// Where the renderer keeps compiled pipelines between runs (`pipelines::store`).
+    pub pipeline_cache: PipelineCacheDir,
 }
 
 impl GpuContext {
+    /// Where the renderer keeps compiled pipelines between runs, as requested.
+    pub fn pipeline_cache_dir(&self) -> &PipelineCacheDir {
+        &self.request.pipeline_cache
+    }
+
     /// A context for headless rendering.
     pub fn new_headless(request: &AdapterRequest) -> Result<Self, ContextError> {
         let explicit = request.backends.is_some() || std::env::var_os("WGPU_BACKEND").is_some();
@@ -282,6 +290,8 @@ impl GpuContext {
         if indirect_first_instance {
             features |= wgpu::Features::INDIRECT_FIRST_INSTANCE;
         }
+        // Compiled pipelines kept between runs (pipelines::store), where the backend can.
+        features |= available & wgpu::Features::PIPELINE_CACHE;
         // Block-compressed texture formats the adapter samples: KTX2 textures go up in one of
         // them where they can (resources::textures), else as RGBA8.
         features |= available

@@ -24,6 +24,35 @@ use std::collections::HashMap;
 use std::hash::Hash;
 
 use super::shader_library::{ShaderDefs, ShaderError, ShaderLibrary};
+use super::store::PipelineStore;
+
+/// What a family creates its pipelines with: the device, and the driver's pipeline cache where
+/// the run keeps one ([`PipelineStore`]), which every pipeline descriptor names so that a later
+/// run finds what this one compiled. Dereferences to the device.
+#[derive(Clone, Copy)]
+pub struct Compiler<'a> {
+    device: &'a wgpu::Device,
+    cache: Option<&'a wgpu::PipelineCache>,
+}
+
+impl<'a> Compiler<'a> {
+    pub fn new(device: &'a wgpu::Device, cache: Option<&'a wgpu::PipelineCache>) -> Self {
+        Self { device, cache }
+    }
+
+    /// The value of a pipeline descriptor's `cache`.
+    pub fn cache(&self) -> Option<&'a wgpu::PipelineCache> {
+        self.cache
+    }
+}
+
+impl std::ops::Deref for Compiler<'_> {
+    type Target = wgpu::Device;
+
+    fn deref(&self) -> &wgpu::Device {
+        self.device
+    }
+}
 
 /// One kind of pipeline, compiled per key: a feature's pass (or one step of it).
 pub trait PipelineFamily: Send + Sync + 'static {
@@ -43,7 +72,7 @@ pub trait PipelineFamily: Send + Sync + 'static {
 
     /// The pipeline of `key` from its composed module. Runs inside a validation error scope: a
     /// shader that composes but does not fit the pipeline is an error, not a crash.
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &Self::Key) -> Self::Pipeline;
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &Self::Key) -> Self::Pipeline;
 }
 
 /// What a hot reload did.
@@ -83,7 +112,7 @@ trait AnySlot: Any + Send + Sync {
     /// pipelines, for [`AnySlot::commit`].
     fn rebuild(
         &self,
-        device: &wgpu::Device,
+        device: &Compiler,
         library: &mut ShaderLibrary,
         stale: Box<dyn Any + Send>,
     ) -> Result<(usize, Box<dyn Any + Send>), ShaderError>;
@@ -114,7 +143,7 @@ impl<F: PipelineFamily> AnySlot for Slot<F> {
 
     fn rebuild(
         &self,
-        device: &wgpu::Device,
+        device: &Compiler,
         library: &mut ShaderLibrary,
         stale: Box<dyn Any + Send>,
     ) -> Result<(usize, Box<dyn Any + Send>), ShaderError> {
@@ -136,7 +165,7 @@ impl<F: PipelineFamily> AnySlot for Slot<F> {
 /// Builds the pipelines of `keys`, each with its own outcome, in `keys`' order.
 fn build<F: PipelineFamily>(
     family: &F,
-    device: &wgpu::Device,
+    device: &Compiler,
     library: &mut ShaderLibrary,
     keys: &[F::Key],
 ) -> Vec<(F::Key, Result<F::Pipeline, ShaderError>)> {
@@ -228,6 +257,8 @@ impl<'a> Reach<'a> {
 /// Every registered family's pipelines, and the shader library they were compiled from.
 pub struct PipelineCache {
     shaders: ShaderLibrary,
+    /// The driver's cache kept between runs, where there is one; every pipeline names it.
+    store: Option<PipelineStore>,
     /// In registration order (the order of reload reports).
     slots: Vec<Box<dyn AnySlot>>,
     index: HashMap<TypeId, usize>,
@@ -239,7 +270,22 @@ pub struct PipelineCache {
 
 impl PipelineCache {
     pub fn new(shaders: ShaderLibrary) -> Self {
-        Self { shaders, slots: Vec::new(), index: HashMap::new(), compiled: 0, generation: 0 }
+        Self { shaders, store: None, slots: Vec::new(), index: HashMap::new(), compiled: 0, generation: 0 }
+    }
+
+    /// Creates every pipeline from now on with `store`'s driver cache.
+    pub fn set_store(&mut self, store: Option<PipelineStore>) {
+        self.store = store;
+    }
+
+    pub fn store(&self) -> Option<&PipelineStore> {
+        self.store.as_ref()
+    }
+
+    /// Writes the driver cache's data to its file now if pipelines were compiled since it was
+    /// read (dropping the cache does too). `false` with nothing to write or no store.
+    pub fn save_store(&mut self) -> std::io::Result<bool> {
+        self.store.as_mut().map_or(Ok(false), PipelineStore::save)
     }
 
     pub fn shaders(&self) -> &ShaderLibrary {
@@ -287,7 +333,8 @@ impl PipelineCache {
         let slot: &mut dyn Any = self.slots[i].as_mut();
         let slot: &mut Slot<F> = slot.downcast_mut().expect("indexed by its type");
         let mut first_error = None;
-        for (key, pipeline) in build(&slot.family, device, &mut self.shaders, &missing) {
+        let compiler = Compiler::new(device, self.store.as_ref().map(PipelineStore::cache));
+        for (key, pipeline) in build(&slot.family, &compiler, &mut self.shaders, &missing) {
             match pipeline {
                 Ok(p) => {
                     slot.pipelines.insert(key, p);
@@ -350,8 +397,9 @@ impl PipelineCache {
         let reach = Reach::new(&candidate, &self.shaders, &changed);
         let stale: Vec<_> = self.slots.iter().map(|slot| slot.stale(&reach)).collect();
         let mut staged = Vec::with_capacity(self.slots.len());
+        let compiler = Compiler::new(device, self.store.as_ref().map(PipelineStore::cache));
         for (slot, keys) in self.slots.iter().zip(stale) {
-            staged.push(slot.rebuild(device, &mut candidate, keys)?);
+            staged.push(slot.rebuild(&compiler, &mut candidate, keys)?);
         }
         // A changed file that no rebuilt pipeline composed (a pass this scene does not run, a
         // module only other variants import) is composed and validated in its plain variant all
@@ -399,12 +447,7 @@ mod tests {
             ("mipmap.wgsl", ShaderDefs::default().with("SRGB", srgb))
         }
 
-        fn create(
-            &self,
-            device: &wgpu::Device,
-            module: &wgpu::ShaderModule,
-            &(format, _): &Self::Key,
-        ) -> Self::Pipeline {
+        fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, &(format, _): &Self::Key) -> Self::Pipeline {
             parts::fullscreen_pipeline(device, &self.layout, module, format, "stand-in")
         }
     }

@@ -1,6 +1,8 @@
 //! Shorthands for the bind group layout entries and pipeline descriptors the families repeat:
 //! a family's `new` builds its layouts from these, its `create` its pipeline.
 
+use super::cache::Compiler;
+
 /// A read-only storage buffer.
 pub fn storage(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
     buffer_entry(binding, visibility, wgpu::BufferBindingType::Storage { read_only: true })
@@ -107,9 +109,9 @@ pub fn pipeline_layout(device: &wgpu::Device, label: &str, groups: &[&wgpu::Bind
     })
 }
 
-/// A compute pipeline of `module`'s `entry` (no overrides, no pipeline cache).
+/// A compute pipeline of `module`'s `entry` (no overrides).
 pub fn compute_pipeline(
-    device: &wgpu::Device,
+    device: &Compiler,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     entry: &str,
@@ -121,7 +123,7 @@ pub fn compute_pipeline(
         module,
         entry_point: Some(entry),
         compilation_options: Default::default(),
-        cache: None,
+        cache: device.cache(),
     })
 }
 
@@ -149,7 +151,7 @@ pub struct Fullscreen<'a> {
 }
 
 pub fn fullscreen(
-    device: &wgpu::Device,
+    device: &Compiler,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     f: Fullscreen,
@@ -173,14 +175,14 @@ pub fn fullscreen(
             targets: f.targets,
         }),
         multiview_mask: None,
-        cache: None,
+        cache: device.cache(),
     })
 }
 
 /// A full-screen triangle (`vs_main`) writing `fs_main`'s colour into one single-sampled target
 /// of `format`, with no blending and no depth.
 pub fn fullscreen_pipeline(
-    device: &wgpu::Device,
+    device: &Compiler,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     format: wgpu::TextureFormat,

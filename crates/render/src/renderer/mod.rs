@@ -26,7 +26,7 @@ use crate::gpu::context::GpuContext;
 use crate::gpu::readback::ReadbackError;
 use crate::gpu::timing::GpuTimer;
 use crate::pipelines::shader_watcher::ShaderWatcher;
-use crate::pipelines::{PipelineCache, ShaderError, ShaderLibrary};
+use crate::pipelines::{PipelineCache, PipelineStore, ShaderError, ShaderLibrary};
 use crate::resources::draw_list::{DrawList, FrameVariant};
 use crate::resources::draws::PipelineKey;
 use crate::resources::instances::InstanceBuffer;
@@ -178,6 +178,8 @@ impl Renderer {
             }
         };
         let mut pipelines = PipelineCache::new(shaders);
+        let store_dir = ctx.pipeline_cache_dir().folder();
+        pipelines.set_store(PipelineStore::open(device, &ctx.info, store_dir.as_deref()));
         let view = ViewGroup::new(device);
         let materials = MaterialTable::new(device, view.fragment_textures());
         // Each owner registers its pipeline families; registration order is the order reload
@@ -381,6 +383,19 @@ impl Renderer {
     /// Keys (with their shader variants) of the forward pipelines compiled so far.
     pub fn forward_pipeline_keys(&self) -> Vec<PipelineKey> {
         self.pipelines.keys::<ForwardFamily>()
+    }
+
+    /// The driver's pipeline cache kept between runs, `None` where there is none (off, no cache
+    /// folder, or a backend without one).
+    pub fn pipeline_store(&self) -> Option<&PipelineStore> {
+        self.pipelines.store()
+    }
+
+    /// Writes the pipelines compiled so far to the pipeline cache's file now (the renderer also
+    /// does when dropped): for a program that may not drop it, such as one that exits from its
+    /// event loop. `Ok(false)`: nothing new to write, or no cache.
+    pub fn save_pipeline_cache(&mut self) -> std::io::Result<bool> {
+        self.pipelines.save_store()
     }
 
     /// The submission of the last frame, to wait on (bounding frames in flight).

@@ -3,7 +3,7 @@
 //! with it.
 
 use crate::pipelines::parts::{self, texture, uniform};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 /// A level's source, loaded texel by texel, and the sRGB decoding table.
 pub struct MipmapFamily {
@@ -31,12 +31,7 @@ impl PipelineFamily for MipmapFamily {
         ("mipmap.wgsl", ShaderDefs::default().with("SRGB", shader_srgb))
     }
 
-    fn create(
-        &self,
-        device: &wgpu::Device,
-        module: &wgpu::ShaderModule,
-        &(format, _): &Self::Key,
-    ) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, &(format, _): &Self::Key) -> wgpu::RenderPipeline {
         parts::fullscreen_pipeline(device, &self.pipeline_layout, module, format, "mipmap")
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::gpu::formats::HDR_FORMAT;
 use crate::pipelines::parts;
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 /// A bloom pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -35,7 +35,7 @@ impl PipelineFamily for BloomFamily {
         ("bloom.wgsl", ShaderDefs::default().with("FIRST", *step == BloomStep::DownFirst))
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &BloomStep) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, step: &BloomStep) -> wgpu::RenderPipeline {
         let up = *step == BloomStep::Up;
         let blend = up.then_some(wgpu::BlendState { color: parts::ADD, alpha: parts::ADD });
         let targets = [Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend, write_mask: wgpu::ColorWrites::ALL })];

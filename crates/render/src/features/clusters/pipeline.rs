@@ -2,7 +2,7 @@
 //! bind group layout they share (grid, lights, counts, ranges, indices, scan blocks, dispatch).
 
 use crate::pipelines::parts::{self, storage, storage_rw, uniform};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 /// The entry points of `cluster_bin.wgsl`, in the order they run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -72,12 +72,7 @@ impl PipelineFamily for ClusterFamily {
         ("cluster_bin.wgsl", ShaderDefs::default())
     }
 
-    fn create(
-        &self,
-        device: &wgpu::Device,
-        module: &wgpu::ShaderModule,
-        entry: &ClusterEntry,
-    ) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, entry: &ClusterEntry) -> wgpu::ComputePipeline {
         parts::compute_pipeline(device, &self.pipeline_layout, module, entry.name(), entry.name())
     }
 }

@@ -2,7 +2,7 @@
 //! and the hierarchical depth buffer's reductions (`shaders/hzb.wgsl`), with their layouts.
 
 use crate::pipelines::parts::{self, buffer_entry, storage};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 /// Which cull pass: without occlusion culling, or its early or late half; each also with
 /// triangle culling for the batches marked for it.
@@ -218,7 +218,7 @@ impl PipelineFamily for CullFamily {
         ("cull.wgsl", defs)
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, phase: &CullPhase) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, phase: &CullPhase) -> wgpu::ComputePipeline {
         parts::compute_pipeline(device, &self.pipelines[phase.index()], module, "cull_instances", "cull")
     }
 }
@@ -235,7 +235,7 @@ impl PipelineFamily for HzbFamily {
         ("hzb.wgsl", defs)
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &HzbStep) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, step: &HzbStep) -> wgpu::ComputePipeline {
         parts::compute_pipeline(device, &self.pipelines[step.index()], module, "reduce", "hzb")
     }
 }

@@ -14,7 +14,7 @@ use glam::Mat4;
 use crate::frame_context::FrameContext;
 use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT, LOCAL_LIGHT_FORMAT};
 use crate::pipelines::parts::{self, uniform};
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
+use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
 use crate::resources::light_store::LightShapes;
 use crate::targets::FrameTargets;
 
@@ -196,7 +196,7 @@ impl PipelineFamily for DeferredFamily {
         ("deferred_lights.wgsl", defs)
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &DeferredKey) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &DeferredKey) -> wgpu::ComputePipeline {
         let layout = &self.pipelines[key.multisampled as usize];
         parts::compute_pipeline(device, layout, module, "shade_local_lights", "deferred lights")
     }
@@ -227,7 +227,7 @@ impl PipelineFamily for CompositeFamily {
         ("deferred_composite.wgsl", ShaderDefs::default())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, samples: &u32) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, samples: &u32) -> wgpu::RenderPipeline {
         // Adds radiance; leaves alpha as it is.
         let blend = Some(wgpu::BlendState { color: parts::ADD, alpha: parts::KEEP });
         let targets = [Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend, write_mask: wgpu::ColorWrites::ALL })];

@@ -4,7 +4,7 @@
 //! weights, parameters.
 
 use crate::pipelines::parts::{self, storage, storage_rw, uniform};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 pub struct DeformFamily {
     pub layout: wgpu::BindGroupLayout,
@@ -40,7 +40,7 @@ impl PipelineFamily for DeformFamily {
         ("deform.wgsl", ShaderDefs::default())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, _: &()) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, _: &()) -> wgpu::ComputePipeline {
         parts::compute_pipeline(device, &self.pipeline_layout, module, "deform", "deform")
     }
 }

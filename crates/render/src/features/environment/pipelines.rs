@@ -4,7 +4,7 @@
 
 use crate::gpu::formats::{DEPTH_FORMAT, ENVIRONMENT_FORMAT, HDR_FORMAT, SURFACE_SHAPE_FORMAT};
 use crate::pipelines::parts::{self, buffer_entry};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 /// One compute step of making the environment's maps, in the order they run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -182,7 +182,7 @@ impl PipelineFamily for EnvStepFamily {
         (step.file(), step.defs())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &EnvStep) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, step: &EnvStep) -> wgpu::ComputePipeline {
         parts::compute_pipeline(device, &self.pipelines[step.index()], module, step.entry(), step.entry())
     }
 }
@@ -196,12 +196,7 @@ impl PipelineFamily for BackgroundFamily {
         ("background.wgsl", ShaderDefs::default())
     }
 
-    fn create(
-        &self,
-        device: &wgpu::Device,
-        module: &wgpu::ShaderModule,
-        mode: &BackgroundMode,
-    ) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, mode: &BackgroundMode) -> wgpu::RenderPipeline {
         let color =
             |blend| Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend, write_mask: wgpu::ColorWrites::COLOR });
         let (samples, depth_stencil, targets) = match *mode {

@@ -2,7 +2,7 @@
 //! (`exposure.wgsl`).
 
 use crate::pipelines::parts::{self, storage_rw};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ExposureStep {
@@ -52,7 +52,7 @@ impl PipelineFamily for ExposureFamily {
         ("exposure.wgsl", ShaderDefs::default())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &ExposureStep) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, step: &ExposureStep) -> wgpu::ComputePipeline {
         let entry = match step {
             ExposureStep::Histogram => "build_histogram",
             ExposureStep::Average => "average",

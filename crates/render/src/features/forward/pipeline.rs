@@ -2,7 +2,7 @@
 //! shader variant of `forward.wgsl` and its raster state), with the view and material groups.
 
 use crate::gpu::formats::SURFACE_SHAPE_FORMAT;
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 use crate::resources::draws::{LocalLights, PipelineKey, TopologyKey};
 use crate::resources::materials::extension::PipelineLayouts;
 use crate::resources::materials::{AlphaKey, MaterialTable};
@@ -37,14 +37,14 @@ impl PipelineFamily for ForwardFamily {
         ("forward.wgsl", key.shader_defs())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &PipelineKey) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &PipelineKey) -> wgpu::RenderPipeline {
         forward_pipeline(device, &self.layouts.get(device, key.features), module, *key)
     }
 }
 
 /// The forward pipeline of `key` from its composed `module`.
 fn forward_pipeline(
-    device: &wgpu::Device,
+    device: &Compiler,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     key: PipelineKey,
@@ -100,6 +100,6 @@ fn forward_pipeline(
             targets: &targets,
         }),
         multiview_mask: None,
-        cache: None,
+        cache: device.cache(),
     })
 }

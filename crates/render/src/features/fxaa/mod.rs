@@ -11,7 +11,7 @@ use crate::features::post::{Decision, PostPrepare, PostShared, PostStage, Target
 use crate::frame_context::FrameContext;
 use crate::gpu::formats::LDR_FORMAT;
 use crate::pass::Pass;
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError, parts};
+use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs, ShaderError, parts};
 
 pub const PASS: Pass = Pass::new("Fxaa", "tonemapped intermediate -> output");
 
@@ -115,7 +115,7 @@ impl PipelineFamily for FxaaFamily {
 
     fn create(
         &self,
-        device: &wgpu::Device,
+        device: &Compiler,
         module: &wgpu::ShaderModule,
         format: &wgpu::TextureFormat,
     ) -> wgpu::RenderPipeline {

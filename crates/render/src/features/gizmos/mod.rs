@@ -10,7 +10,7 @@ use penumbra_engine::gizmos::GizmoLine;
 
 use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, parts};
+use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs, parts};
 
 /// Mirrors `VertexIn` in `gizmo.wgsl`: camera-relative position, the other end's, colour, corner.
 pub const GIZMO_VERTEX_BYTES: u64 = 40;
@@ -36,7 +36,7 @@ impl PipelineFamily for GizmoFamily {
         ("gizmo.wgsl", ShaderDefs::default())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, samples: &u32) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, samples: &u32) -> wgpu::RenderPipeline {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("gizmos"),
             layout: Some(&self.pipeline_layout),
@@ -71,7 +71,7 @@ impl PipelineFamily for GizmoFamily {
                 })],
             }),
             multiview_mask: None,
-            cache: None,
+            cache: device.cache(),
         })
     }
 }

@@ -7,7 +7,7 @@
 
 use crate::gpu::timing::GpuTimer;
 use crate::pipelines::parts;
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
+use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
 use crate::targets::ColorAttachment;
 
 /// Registers the resolve pass's pipeline family.
@@ -52,7 +52,7 @@ impl PipelineFamily for ResolveFamily {
 
     fn create(
         &self,
-        device: &wgpu::Device,
+        device: &Compiler,
         module: &wgpu::ShaderModule,
         format: &wgpu::TextureFormat,
     ) -> wgpu::RenderPipeline {

@@ -4,7 +4,7 @@
 
 use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
 use crate::pipelines::parts::{self, storage};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 use crate::resources::mesh_pool::GpuVertex;
 
 /// Everything that selects a caster pipeline. Casters draw both faces (a single-sided wall must
@@ -67,7 +67,7 @@ impl PipelineFamily for CasterFamily {
         ("shadow_caster.wgsl", defs)
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &CasterKey) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &CasterKey) -> wgpu::RenderPipeline {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shadow caster"),
             layout: Some(&self.pipeline_layouts[key.alpha_mask as usize]),
@@ -105,7 +105,7 @@ impl PipelineFamily for CasterFamily {
                 targets: &[],
             }),
             multiview_mask: None,
-            cache: None,
+            cache: device.cache(),
         })
     }
 }

@@ -15,7 +15,7 @@ use crate::frame_context::FrameContext;
 use crate::gpu::formats::HDR_FORMAT;
 use crate::pass::Pass;
 use crate::pipelines::parts::{self, sampler, storage, texture};
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
+use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs, ShaderError};
 use crate::resources::draws::Tonemapper;
 
 pub const PASS: Pass = Pass::new("Tonemap", "HDR colour [, bloom chain] [, exposure] -> output (sRGB)");
@@ -142,7 +142,7 @@ impl PipelineFamily for TonemapFamily {
         ("tonemap.wgsl", defs)
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &TonemapKey) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &TonemapKey) -> wgpu::RenderPipeline {
         parts::fullscreen_pipeline(device, &self.pipeline_layout, module, key.format, "tonemap")
     }
 }

@@ -21,7 +21,7 @@
 
 use crate::frame_context::FrameContext;
 use crate::gpu::formats::HDR_FORMAT;
-use crate::pipelines::{PipelineCache, PipelineFamily, ShaderDefs, ShaderError, parts};
+use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs, ShaderError, parts};
 
 /// The two steps of the copy.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -61,7 +61,7 @@ impl PipelineFamily for CopyFamily {
         ("transmission.wgsl", defs)
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &CopyStep) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &CopyStep) -> wgpu::RenderPipeline {
         let layout = &self.layouts[(*key == CopyStep::Down) as usize];
         parts::fullscreen_pipeline(device, layout, module, HDR_FORMAT, "transmission copy")
     }

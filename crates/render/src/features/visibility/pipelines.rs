@@ -4,7 +4,7 @@
 
 use crate::gpu::formats::{DISPLAY_FORMAT, FormatKey, HDR_FORMAT};
 use crate::pipelines::parts::{self, storage, storage_rw, uniform};
-use crate::pipelines::{PipelineFamily, ShaderDefs};
+use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 use crate::resources::draws::{AlphaTest, LocalLights, PipelineKey, Tonemapper};
 use crate::resources::materials::MaterialTable;
 use crate::resources::materials::extension::PipelineLayouts;
@@ -129,7 +129,7 @@ impl PipelineFamily for RasterFamily {
         ("visibility_raster.wgsl", ShaderDefs::default())
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, step: &RasterStep) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, step: &RasterStep) -> wgpu::ComputePipeline {
         let layout = match step {
             RasterStep::Prepare => &self.prepare_pipeline,
             _ => &self.raster_pipeline,
@@ -187,7 +187,7 @@ impl PipelineFamily for ShadeFamily {
         ("forward.wgsl", shade_defs(*key))
     }
 
-    fn create(&self, device: &wgpu::Device, module: &wgpu::ShaderModule, key: &ShadeKey) -> wgpu::ComputePipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &ShadeKey) -> wgpu::ComputePipeline {
         let layout = self.pipeline[key.output.display() as usize].get(device, key.forward.features);
         parts::compute_pipeline(device, &layout, module, "cs_shade", "visibility shade")
     }
