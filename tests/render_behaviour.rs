@@ -830,3 +830,38 @@ fn the_pipeline_cache_survives_runs_and_bad_files() {
     let (pixels, loaded) = render_with_cache(PipelineCacheDir::Off);
     assert_eq!((pixels, loaded), (first, None));
 }
+
+#[test]
+fn warming_up_compiles_ahead_only_what_the_first_frame_compiles() {
+    let frame = |warm: bool| {
+        let mut app = scene_app();
+        lit_camera(&mut app, 4.0);
+        app.insert_resource(Environment::default());
+        let material = app.world.resource_mut::<Assets<StandardMaterial>>().add(white());
+        let mesh = app.world.resource_mut::<Assets<Mesh>>().add(Mesh::cuboid(Vec3::ONE));
+        app.world.spawn((Mesh3d(mesh), MeshMaterial3d(material), Transform::default()));
+        let mut renderer = Renderer::new(common::gpu(), settings()).unwrap();
+        if warm {
+            renderer.warm_up(true);
+        }
+        let ahead = renderer.pipelines_created();
+        app.insert_resource(renderer);
+        let pixels = render_app(&mut app, SIZE, settings());
+        (pixels, ahead, app.world.resource::<Renderer>().pipelines_created())
+    };
+    let (cold, none_ahead, cold_total) = frame(false);
+    let (warm, ahead, warm_total) = frame(true);
+    assert_eq!(none_ahead, 0);
+    assert!(ahead >= 5, "the environment's prefilter steps and split-sum table: {ahead}");
+    assert_eq!(warm_total, cold_total, "nothing compiled that the frame would not have");
+    assert_eq!(warm, cold);
+}
+
+#[test]
+fn a_preloaded_shader_library_is_the_embedded_one() {
+    use penumbra::render::pipelines::ShaderLibrary;
+    ShaderLibrary::preload_embedded();
+    let preloaded = ShaderLibrary::embedded().unwrap();
+    let fresh = ShaderLibrary::embedded().unwrap();
+    assert!(preloaded.changed_files(&fresh).is_empty());
+}

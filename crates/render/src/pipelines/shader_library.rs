@@ -101,6 +101,11 @@ fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -
 }
 
 /// Sources and their composer. Cheap to rebuild: a handful of files.
+/// The embedded library being built by [`ShaderLibrary::preload_embedded`], taken by the next
+/// [`ShaderLibrary::embedded`].
+type Preload = std::thread::JoinHandle<Result<ShaderLibrary, ShaderError>>;
+static PRELOADED: Mutex<Option<Preload>> = Mutex::new(None);
+
 pub struct ShaderLibrary {
     dir: Option<PathBuf>,
     sources: BTreeMap<String, String>,
@@ -118,8 +123,27 @@ pub struct ShaderLibrary {
 }
 
 impl ShaderLibrary {
-    /// The embedded shaders.
+    /// The embedded shaders: the library [`ShaderLibrary::preload_embedded`] started, if one is
+    /// under way, else a new one.
     pub fn embedded() -> Result<Self, ShaderError> {
+        let preloaded = PRELOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+        if let Some(Ok(library)) = preloaded.map(std::thread::JoinHandle::join) {
+            return library;
+        }
+        Self::build_embedded()
+    }
+
+    /// Starts building the embedded library on a thread of its own, for the next
+    /// [`ShaderLibrary::embedded`] (a renderer's): parsing every module takes tens of
+    /// milliseconds, which a program can overlap with the GPU's start-up and its scene's loading.
+    pub fn preload_embedded() {
+        let mut slot = PRELOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if slot.is_none() {
+            *slot = Some(std::thread::spawn(Self::build_embedded));
+        }
+    }
+
+    fn build_embedded() -> Result<Self, ShaderError> {
         let sources = EMBEDDED.iter().map(|(f, s)| (f.to_string(), s.to_string())).collect();
         Self::from_sources(None, sources)
     }

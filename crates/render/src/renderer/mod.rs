@@ -86,6 +86,7 @@ macro_rules! draw_cx {
 }
 
 mod encode;
+mod laps;
 mod prepare;
 mod readback;
 mod reload;
@@ -160,6 +161,7 @@ impl Renderer {
             );
         }
         let device = &ctx.device;
+        let mut laps = laps::Laps::start();
         let (shaders, shader_error, shader_watcher) = match &settings.shaders {
             ShaderSource::Embedded => (ShaderLibrary::embedded()?, None, None),
             ShaderSource::Folder { dir, watch } => {
@@ -177,13 +179,16 @@ impl Renderer {
                 (lib, error, watcher)
             }
         };
+        laps.lap("shader library");
         let mut pipelines = PipelineCache::new(shaders);
         let store_dir = ctx.pipeline_cache_dir().folder();
         pipelines.set_store(PipelineStore::open(device, &ctx.info, store_dir.as_deref()));
+        laps.lap("pipeline cache file");
         let view = ViewGroup::new(device);
         let materials = MaterialTable::new(device, view.fragment_textures());
         // Each owner registers its pipeline families; registration order is the order reload
         // reports list families in.
+        laps.lap("view and materials");
         let transmission = Transmission::new(device, &mut pipelines);
         forward::register(&mut pipelines, view.layout(), &materials, transmission.layout());
         let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), &materials);
@@ -194,11 +199,13 @@ impl Renderer {
             &mut pipelines,
             materials.layout(),
         );
+        laps.lap("forward, visibility, shadows");
         let culling = GpuCulling::new(device, &mut pipelines);
         let deformer = MeshDeformer::new(device, &mut pipelines);
         let clusters = ClusterBinner::new(device, &mut pipelines);
         let deferred = DeferredLights::new(device, &mut pipelines, view.layout());
         resolve::register(device, &mut pipelines);
+        laps.lap("culling, deform, clusters, deferred, resolve");
         let textures = TextureCache::new(
             device,
             &ctx.queue,
@@ -211,6 +218,7 @@ impl Renderer {
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
         let post = frame::post_chain(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
+        laps.log(format_args!("renderer made"));
         Ok(Self {
             mesh_pool: MeshPool::new(device),
             deformer,
@@ -340,6 +348,34 @@ impl Renderer {
                 Raster::Compute => true,
                 Raster::Auto => self.ctx.caps.few_graphics_units,
             }
+    }
+
+    /// Pipelines created since the renderer was made (each key once; a hot reload adds those it
+    /// rebuilt).
+    pub fn pipelines_created(&self) -> usize {
+        self.pipelines.compiled
+    }
+
+    /// Compiles the pipelines a frame with these settings runs whatever its scene holds: the
+    /// environment's prefilter steps (when `environment` says the scene will have one), and,
+    /// where opaque draws are rasterised in compute, the frustum cull and the rasteriser's steps.
+    /// For a program with time to spare before its first frame (`penumbra render` calls it
+    /// while the scene decodes); the first frame compiles whatever is still missing. An error is
+    /// left for the frame that needs the pipeline to report.
+    pub fn warm_up(&mut self, environment: bool) {
+        let device = self.ctx.device.clone();
+        let mut laps = laps::Laps::start();
+        if environment && let Err(e) = EnvironmentLighting::warm_up(&device, &mut self.pipelines) {
+            tracing::debug!("warm-up: {e}");
+        }
+        laps.lap("environment");
+        if self.raster_in_compute() && self.settings.gpu_culling && self.ctx.caps.indirect_first_instance {
+            let culled = GpuCulling::compile(&device, &mut self.pipelines, false, false, self.settings.msaa);
+            if let Err(e) = culled.and_then(|()| VisibilityBuffer::warm_up(&device, &mut self.pipelines)) {
+                tracing::debug!("warm-up: {e}");
+            }
+        }
+        laps.log(format_args!("warmed up"));
     }
 
     /// How many records of large triangles the visibility buffer's list holds (see
@@ -473,7 +509,9 @@ impl Renderer {
         if let Some(t) = self.timer.as_mut() {
             t.begin_frame(&device, self.frame);
         }
+        let encode_start = Instant::now();
         let counts = self.encode_frame(&frame, &mut encoder, output, output_format, size);
+        tracing::debug!("frame {} encoded in {:.1} ms", self.frame, encode_start.elapsed().as_secs_f64() * 1e3);
         self.submit(encoder, frame, counts, cpu_start, prepare_ms);
         self.frame_error = self.ctx.take_out_of_memory().map(FrameError::OutOfMemory);
     }

@@ -69,6 +69,7 @@ impl Renderer {
         let device = self.ctx.device.clone();
         let queue = self.ctx.queue.clone();
 
+        let mut laps = super::laps::Laps::start();
         // What occlusion culling hid a frame or two ago decides whether `Auto` runs it now.
         self.culling.collect_feedback(&device);
         let in_step = self.last_scene_frame.is_some_and(|f| f + 1 == scene.frame);
@@ -84,14 +85,14 @@ impl Renderer {
             self.ctx.info.device_type == wgpu::DeviceType::Cpu,
         );
         rebind |= env_frame.rebind;
+        laps.lap("lights and environment");
         self.draws.set_variant(FrameVariant { ibl: env_frame.active, ..*self.draws.variant() });
         self.draws.apply_changes(&mut draw_cx!(self), scene, in_step);
-        let t = Instant::now();
+        laps.lap("draw changes");
         self.draws.prepare_materials(&mut draw_cx!(self), scene, encoder);
-        tracing::debug!("materials and textures prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
-        let t = Instant::now();
+        laps.lap("materials and textures");
         let meshes_changed = self.draws.prepare_meshes(&mut draw_cx!(self), scene);
-        tracing::debug!("meshes prepared in {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
+        laps.lap("meshes");
         let deform_frame = {
             let draws = &self.draws;
             let draw_mesh = |e: Entity| draws.draw_mesh(e);
@@ -116,14 +117,18 @@ impl Renderer {
         // Batches first, so that caster changes count in this frame's shadow decisions; again if
         // shadows switched on or off (new pipeline keys, the same casters).
         self.draws.rebuild_if_dirty(&draw_cx!(self));
+        laps.lap("deformation and batches");
         rebind |= self.prepare_shadows(scene, size);
         self.draws.rebuild_if_dirty(&draw_cx!(self));
+        laps.lap("shadows");
         let blend_batches = self.draws.sort_blended(&draw_cx!(self), scene);
         let transmission = blend_batches.iter().any(|(b, _)| b.key.features.has(MaterialFeatures::TRANSMISSION));
         // Every lit surface reads its specular albedo from the split-sum table (brdf.wgsl).
         let opaque = self.draws.opaque_batches();
         let lit_draws = || opaque.iter().chain(blend_batches.iter().map(|(b, _)| b)).any(|b| !b.key.unlit);
+        laps.lap("blended order");
         rebind |= self.environment.require_table(&device, lit_draws);
+        laps.lap("split-sum table");
 
         // Uploads: draw slots (opaque part only when rebuilt, blended part every frame).
         let opaque_len = self.draws.opaque_slots().len();
@@ -172,6 +177,7 @@ impl Renderer {
                 TriangleCulling::On => true,
                 TriangleCulling::Auto => self.ctx.info.device_type != wgpu::DeviceType::Cpu,
             };
+        laps.lap("slots");
         let mut cull_error = None;
         let culling = culling && {
             let ready = GpuCulling::compile(&device, &mut self.pipelines, occlusion, triangles, self.settings.msaa);
@@ -201,6 +207,7 @@ impl Renderer {
             let target = RasterTarget { size, samples: self.settings.msaa, subpixel_bits: self.ctx.caps.subpixel_bits };
             rebind |= self.culling.prepare_frame(&device, &queue, total, occlusion.then_some(size), target, self.frame);
         }
+        laps.lap("culling");
         // The view bind group binds the culled list or the full one.
         rebind |= culling != self.culling_active;
         self.culling_active = culling;
@@ -224,6 +231,7 @@ impl Renderer {
             mesh_pool: &self.mesh_pool,
         };
         self.view.bind(&device, rebind, &sources);
+        laps.lap("uploads and bindings");
 
         // Without a camera there is nothing to draw lines for.
         let gizmo_vertices = match scene.view {
@@ -296,6 +304,7 @@ impl Renderer {
                 },
             )?);
         }
+        laps.lap("targets");
         self.deferred.prepare(&device, &self.pipelines, self.targets.as_ref().expect("made above"));
         let transmission_error = self.transmission.prepare(&device, &mut self.pipelines, size, transmission).err();
 
@@ -349,6 +358,7 @@ impl Renderer {
             transmission,
         });
         plan.add_post(self.post.decisions());
+        laps.log(format_args!("frame {} prepared", self.frame));
         Ok(PreparedFrame {
             plan,
             batches,

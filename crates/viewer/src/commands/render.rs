@@ -62,7 +62,7 @@ fn render_one(
     // Where the image goes is checked before anything is rendered: a bad name costs no render.
     output::image_format(out)?;
     output::check_destination(out)?;
-    let gpu = spawn_renderer(settings, step);
+    let gpu = spawn_renderer(settings, args.look.env_name() != "none", step);
     let staged = (|| -> Result<_> {
         let scene = scene::load(Some(path), &args.scene_args)?;
         step("scene decoded");
@@ -98,16 +98,25 @@ fn render_one(
 }
 
 /// The GPU context and the renderer, made on a thread of their own: neither needs the scene
-/// until the first frame. `step` logs each stage's time (`-v`).
+/// until the first frame. The shader library is parsed on a third thread meanwhile, and the
+/// pipelines every frame with these settings runs are compiled before the thread ends
+/// (`Renderer::warm_up`; `environment`: whether scenes will have one), while the scene is
+/// still being read. `step` logs each stage's time (`-v`).
 fn spawn_renderer(
     settings: penumbra_render::RenderSettings,
+    environment: bool,
     step: impl Fn(&str) + Send + 'static,
 ) -> std::thread::JoinHandle<Result<Renderer>> {
+    if settings.shaders == penumbra_render::ShaderSource::Embedded {
+        penumbra_render::pipelines::ShaderLibrary::preload_embedded();
+    }
     std::thread::spawn(move || {
         let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
         step("GPU context");
-        let renderer = Renderer::new(ctx, settings)?;
+        let mut renderer = Renderer::new(ctx, settings)?;
         step("renderer ready");
+        renderer.warm_up(environment);
+        step("pipelines warmed up");
         Ok(renderer)
     })
 }
@@ -155,7 +164,7 @@ fn render_many(
     // The device comes up while the first scene is read; the next ones are read while the one
     // before renders.
     let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
-    let gpu = spawn_renderer(settings, step);
+    let gpu = spawn_renderer(settings, shot.environment.is_some(), step);
     let (paths, scene_args) = (args.paths.clone(), args.scene_args.clone());
     let scenes = Prefetch::new(paths.len(), read_ahead(), move |i| scene::load(Some(&paths[i]), &scene_args));
     let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))?;

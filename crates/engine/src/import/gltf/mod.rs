@@ -500,43 +500,28 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
         })
         .collect();
     let variant_names = variants::names(&document, &mut warnings);
-    let mut meshes = Vec::new();
-    progress(super::ImportStage::Meshes, document.meshes().len());
-    for mesh in document.meshes() {
-        let mut prims = Vec::new();
-        for prim in mesh.primitives() {
-            if prim.get(&gltf::mesh::Semantic::Joints(1)).is_some() {
-                warnings.push(format!(
-                    "mesh {} primitive {}: more than four joint influences (JOINTS_1); only JOINTS_0/WEIGHTS_0 are used",
-                    mesh.index(),
-                    prim.index()
-                ));
-            }
-            let material = prim.material().index();
-            let needs = primitive::GeometryNeeds {
-                // The base's normal map, else the coat's: either needs tangents; so does an
-                // anisotropic lobe (its direction is in tangent space), in its texture's set.
-                normal_map_uv_set: material.and_then(|m| materials.get(m)).and_then(|m| {
-                    materials::NORMAL_SLOTS.iter().find_map(|&slot| m.textures[slot].as_ref()).map(|t| t.uv_set).or(m
-                        .material
-                        .has_anisotropy()
-                        .then(|| m.textures[materials::ANISOTROPY_SLOT].as_ref().map_or(0, |t| t.uv_set)))
-                }),
-            };
-            let mesh_index = mesh.index();
-            match primitive::build(&document, &prim, &buffers, &needs, mesh_index)? {
-                primitive::Built::Mesh(mesh, notes) => {
-                    warnings.extend(notes);
-                    let variants =
-                        variants::mappings(&prim, mesh_index, variant_names.len(), materials.len(), &mut warnings);
-                    prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material, variants })
-                }
-                primitive::Built::Skipped(why) => warnings.push(why),
-            }
-        }
-        meshes.push((mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned), prims));
-        step();
-    }
+    // Images are read (and checked against the limits) here, and decoded on other threads while
+    // the meshes are built on this one: neither needs the other, and on a many-core host the
+    // meshes' tangents would otherwise sit in front of the longest image. Errors come in the
+    // order they did one after the other: a mesh's before an image's.
+    let image_jobs = image_jobs(&document, &materials, &buffers, base_dir, path, options, &reads);
+    let images_progress = ImagesProgress::new(options.progress.clone());
+    let (meshes, decoded) = std::thread::scope(|scope| {
+        let decoding = image_jobs.as_ref().ok().map(|jobs| {
+            let images_progress = &images_progress;
+            scope.spawn(move || decode_image_jobs(jobs, options, images_progress))
+        });
+        progress(super::ImportStage::Meshes, document.meshes().len());
+        let meshes = build_meshes(&document, &materials, &buffers, variant_names.len(), &mut warnings, &step);
+        images_progress.meshes_done(image_jobs.as_ref().map_or(0, |j| j.jobs.len()));
+        let decoded = decoding.map(|d| d.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+        (meshes, decoded)
+    });
+    let meshes = meshes?;
+    let image_jobs = image_jobs?;
+    let decoded = decoded.expect("decoded when the jobs were made")?;
+    let mut images: Vec<Option<Arc<Image>>> =
+        image_jobs.job_of.into_iter().map(|j| j.map(|j| decoded[j].clone())).collect();
 
     for texture in document.textures().filter(|t| materials::texture_image(t).is_none()) {
         warnings.push(format!(
@@ -545,7 +530,6 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
             materials::WEBP
         ));
     }
-    let mut images = decode_images(&document, &materials, &buffers, base_dir, path, options, &reads)?;
     spec_gloss::derive_roughness(&mut materials, &mut images).map_err(|(index, reason)| ImportErrorKind::Image {
         index,
         uri: "its glossiness, read for roughness".into(),
@@ -899,15 +883,72 @@ fn check_totals(document: &gltf::Document, limits: &ImportLimits) -> Result<(), 
     limits.check(Limit::AnimationKeys, "keyframes over all animation samplers", keys)
 }
 
-fn decode_images(
+/// Every mesh's primitives, built in the document's order; warnings in that order too.
+fn build_meshes(
     document: &gltf::Document,
     materials: &[MaterialDesc],
     buffers: &Buffers,
+    variant_count: usize,
+    warnings: &mut Vec<String>,
+    step: &dyn Fn(),
+) -> Result<Vec<(String, Vec<PrimitiveDesc>)>, ImportErrorKind> {
+    let start = std::time::Instant::now();
+    let mut meshes = Vec::new();
+    for mesh in document.meshes() {
+        let mut prims = Vec::new();
+        for prim in mesh.primitives() {
+            if prim.get(&gltf::mesh::Semantic::Joints(1)).is_some() {
+                warnings.push(format!(
+                    "mesh {} primitive {}: more than four joint influences (JOINTS_1); only JOINTS_0/WEIGHTS_0 are used",
+                    mesh.index(),
+                    prim.index()
+                ));
+            }
+            let material = prim.material().index();
+            let needs = primitive::GeometryNeeds {
+                // The base's normal map, else the coat's: either needs tangents; so does an
+                // anisotropic lobe (its direction is in tangent space), in its texture's set.
+                normal_map_uv_set: material.and_then(|m| materials.get(m)).and_then(|m| {
+                    materials::NORMAL_SLOTS.iter().find_map(|&slot| m.textures[slot].as_ref()).map(|t| t.uv_set).or(m
+                        .material
+                        .has_anisotropy()
+                        .then(|| m.textures[materials::ANISOTROPY_SLOT].as_ref().map_or(0, |t| t.uv_set)))
+                }),
+            };
+            let mesh_index = mesh.index();
+            match primitive::build(document, &prim, buffers, &needs, mesh_index)? {
+                primitive::Built::Mesh(mesh, notes) => {
+                    warnings.extend(notes);
+                    let variants = variants::mappings(&prim, mesh_index, variant_count, materials.len(), warnings);
+                    prims.push(PrimitiveDesc { mesh: Arc::new(*mesh), material, variants })
+                }
+                primitive::Built::Skipped(why) => warnings.push(why),
+            }
+        }
+        meshes.push((mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned), prims));
+        step();
+    }
+    tracing::debug!("{} meshes built in {:.1} ms", meshes.len(), start.elapsed().as_secs_f64() * 1e3);
+    Ok(meshes)
+}
+
+/// The images materials use, read and checked against the limits, each source once.
+struct ImageJobs<'b> {
+    /// (image index, where it came from, label, encoded bytes, read as sRGB by some slot)
+    jobs: Vec<(usize, String, String, images::ImageBytes<'b>, bool)>,
+    /// Each document image's job, `None` for images no material uses.
+    job_of: Vec<Option<usize>>,
+}
+
+fn image_jobs<'b>(
+    document: &gltf::Document,
+    materials: &[MaterialDesc],
+    buffers: &'b Buffers,
     base_dir: &Path,
     path: &Path,
     options: &ImportOptions,
     reads: &source::ReadBudget,
-) -> Result<Vec<Option<Arc<Image>>>, ImportErrorKind> {
+) -> Result<ImageJobs<'b>, ImportErrorKind> {
     let mut used = vec![false; document.images().len()];
     // Read as sRGB by some slot: its mip chain averages in linear light.
     let mut srgb = vec![false; used.len()];
@@ -955,27 +996,103 @@ fn decode_images(
         job_of[image.index()] = Some(jobs.len());
         jobs.push((image.index(), uri, label, bytes, srgb[image.index()]));
     }
-    if let Some(p) = &options.progress {
-        p.enter(super::ImportStage::Images, jobs.len());
-    }
-    let decoded = crate::parallel::parallel_map(&jobs, |(index, uri, label, bytes, srgb)| {
+    Ok(ImageJobs { jobs, job_of })
+}
+
+/// The jobs' images, decoded in parallel, each with its mip chain; the first error in the jobs'
+/// order.
+fn decode_image_jobs(
+    jobs: &ImageJobs,
+    options: &ImportOptions,
+    progress: &ImagesProgress,
+) -> Result<Vec<Arc<Image>>, ImportErrorKind> {
+    let decoded = crate::parallel::parallel_map(&jobs.jobs, |(index, uri, label, bytes, srgb)| {
         let bytes = match bytes {
             images::ImageBytes::Slice(s) => s,
             images::ImageBytes::Owned(v) => v.as_slice(),
         };
         // The chain is made here, on the thread that decoded the image, while it is fresh.
+        let start = std::time::Instant::now();
         let image = images::decode(bytes, *index, uri, label.clone(), options).map(|mut image| {
+            let decoded = start.elapsed();
             // A compressed texture brings its own chain (or the renderer makes one).
             if image.compressed.is_none() {
                 image.mips = Some(image.build_mips(*srgb));
             }
+            tracing::debug!(
+                "{label}: {}x{} decoded in {:.1} ms, mip chain in {:.1} ms",
+                image.width,
+                image.height,
+                decoded.as_secs_f64() * 1e3,
+                (start.elapsed() - decoded).as_secs_f64() * 1e3
+            );
             image
         });
-        if let Some(p) = &options.progress {
-            p.step();
-        }
+        progress.image_done();
         image
     });
-    let decoded: Vec<Arc<Image>> = decoded.into_iter().map(|d| d.map(Arc::new)).collect::<Result<_, _>>()?;
-    Ok(job_of.into_iter().map(|j| j.map(|j| decoded[j].clone())).collect())
+    decoded.into_iter().map(|d| d.map(Arc::new)).collect()
+}
+
+/// The import's progress while images decode beside the meshes: images finished before the
+/// meshes are counted, and the images stage is entered with them once the meshes are done.
+struct ImagesProgress {
+    progress: Option<super::ImportProgress>,
+    /// Whether the images stage was entered; images finished so far.
+    state: std::sync::Mutex<(bool, usize)>,
+}
+
+impl ImagesProgress {
+    fn new(progress: Option<super::ImportProgress>) -> Self {
+        Self { progress, state: std::sync::Mutex::new((false, 0)) }
+    }
+
+    fn image_done(&self) {
+        let mut state = self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        state.1 += 1;
+        if state.0
+            && let Some(p) = &self.progress
+        {
+            p.step();
+        }
+    }
+
+    fn meshes_done(&self, images: usize) {
+        let mut state = self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        state.0 = true;
+        if let Some(p) = &self.progress {
+            p.enter(super::ImportStage::Images, images);
+            for _ in 0..state.1 {
+                p.step();
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::import::{ImportProgress, ImportStage};
+
+    #[test]
+    fn images_decoded_beside_the_meshes_count_once_the_meshes_are_done() {
+        let p = ImportProgress::default();
+        let images = ImagesProgress::new(Some(p.clone()));
+        p.enter(ImportStage::Meshes, 2);
+        p.step();
+        images.image_done();
+        images.image_done();
+        let s = p.snapshot();
+        assert_eq!((s.stage, s.done, s.total), (ImportStage::Meshes, 1, 2), "images do not count as meshes");
+        images.meshes_done(3);
+        let s = p.snapshot();
+        assert_eq!((s.stage, s.done, s.total), (ImportStage::Images, 2, 3));
+        images.image_done();
+        let s = p.snapshot();
+        assert_eq!((s.stage, s.done, s.total), (ImportStage::Images, 3, 3));
+        // Without a watcher nothing is reported, nothing fails.
+        let quiet = ImagesProgress::new(None);
+        quiet.image_done();
+        quiet.meshes_done(1);
+    }
 }

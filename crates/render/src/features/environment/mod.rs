@@ -513,6 +513,12 @@ impl EnvironmentLighting {
         queue.write_buffer(&maps.filter_params, 0, &bytes);
     }
 
+    /// Compiles the prefilter steps and the split-sum table's pipeline ahead of the first frame
+    /// that has an environment (`Renderer::warm_up`).
+    pub fn warm_up(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Result<(), ShaderError> {
+        pipelines.prepare::<EnvStepFamily>(device, EnvStep::ALL)
+    }
+
     /// Runs the prefilter chain if the source changed, and the split-sum table once. On a
     /// shader error nothing runs and the work stays pending (a reload may fix it).
     pub fn encode(&mut self, cx: &mut FrameContext) -> Result<(), ShaderError> {

@@ -408,6 +408,12 @@ impl VisibilityBuffer {
         ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background }
     }
 
+    /// Compiles the rasteriser's steps, which no material changes, ahead of the first frame
+    /// rasterised in compute (`Renderer::warm_up`).
+    pub fn warm_up(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Result<(), ShaderError> {
+        pipelines.prepare::<RasterFamily>(device, RasterStep::ALL)
+    }
+
     /// Compiles what the frame needs, sizes the buffers for it and writes its parameters.
     /// Returns the first pipeline error: groups whose pipeline (or material) is missing are
     /// not shaded, and the others add up as if they were the only ones.
