@@ -87,7 +87,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let first_frame_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let t = time_frames(&mut app, args.warmup, args.frames);
-    let (wall, cpu, gpu_total, passes) = (t.wall, t.cpu, t.gpu_total, t.passes);
+    let (wall, cpu, gpu_total, gpu_span, passes) = (t.wall, t.cpu, t.gpu_total, t.gpu_span, t.passes);
     let renderer = app.world.resource::<Renderer>();
     let stats = renderer.stats();
     let mem = renderer.memory();
@@ -113,6 +113,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     println!("| CPU per frame (ms) | {:.3} | {:.3} |", percentile(&cpu, 0.5), percentile(&cpu, 0.9));
     if timestamps && !gpu_total.is_empty() {
         println!("| GPU per frame (ms) | {:.3} | {:.3} |", percentile(&gpu_total, 0.5), percentile(&gpu_total, 0.9));
+        // What `report` times: the passes and whatever lies between them.
+        println!(
+            "| GPU frame span, first pass start to last pass end (ms) | {:.3} | {:.3} |",
+            percentile(&gpu_span, 0.5),
+            percentile(&gpu_span, 0.9)
+        );
         for (label, v) in &passes {
             println!("| GPU {label} pass (ms) | {:.3} | {:.3} |", percentile(v, 0.5), percentile(v, 0.9));
         }

@@ -9,6 +9,9 @@
 //! camera at the exposure that keeps radiance unscaled, exactly as the reference was set up) → a few frames at the reference's size are read
 //! back (HDR and display) and compared by `metrics` → the same app is timed at `--timing-size`
 //! → a table on stdout, `OUT/LABEL.csv` and the plot `OUT/LABEL.png` (`plot`).
+//! The timed frames use the preset's own settings (no HDR colour kept for the comparison), so
+//! the GPU ms is the frame a user gets: `penumbra bench`'s "GPU frame span" row for the same
+//! scene, size and preset.
 
 mod metrics;
 mod plot;
@@ -91,7 +94,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
                 },
                 ..preset.settings()
             };
-            let renderer = Renderer::new(ctx.clone(), settings)?;
+            let renderer = Renderer::new(ctx.clone(), settings.clone())?;
             // Exposure scale exactly 1: the HDR target holds radiance, as the references do.
             let unit = Some(Exposure::unit().ev100);
             let shot = ShotSettings {
@@ -121,6 +124,11 @@ pub fn run(args: ReportArgs) -> Result<()> {
                 }
             }
 
+            // Timed as users get the preset: without the HDR colour kept for the error above (on
+            // the compute path a frame writes the displayed colour directly, with no tonemap
+            // pass), the clear colour the preset has.
+            let timed = RenderSettings { gpu_timing: true, shaders: settings.shaders.clone(), ..preset.settings() };
+            app.world.resource_mut::<Renderer>().set_settings(timed)?;
             let (w, h) = args.timing_size;
             app.insert_resource(RenderOutput::Headless { width: w, height: h });
             let times = time_frames(&mut app, args.warmup, args.frames);
