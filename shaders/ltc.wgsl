@@ -73,66 +73,37 @@ fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return c.z * select(theta / sin_theta, 1.0, sin_theta < 1e-7);
 }
 
-// Cuts the convex polygon `src[0..count]` to the upper hemisphere z ≥ 0 (Sutherland–Hodgman
-// against one plane through the origin) into `dst`; returns its vertex count (≤ count + 1).
-fn clip_to_horizon(src: ptr<function, array<vec3<f32>, 17>>, count: u32, dst: ptr<function, array<vec3<f32>, 17>>) -> u32 {
-    var n = 0u;
-    var a = (*src)[count - 1u];
-    for (var i = 0u; i < count; i++) {
-        let b = (*src)[i];
-        if (a.z > 0.0) != (b.z > 0.0) {
-            var c = a + (b - a) * (a.z / (a.z - b.z));
-            c.z = 0.0;
-            (*dst)[n] = c;
-            n += 1u;
-        }
-        if b.z > 0.0 {
-            (*dst)[n] = b;
-            n += 1u;
-        }
-        a = b;
-    }
-    return n;
+// What is left of one edge of a convex polygon cut to the upper hemisphere z ≥ 0, and where
+// its outline crossed the horizon: summing `edge_integral` over the kept parts, plus the edge
+// along the horizon from where the polygon left to where it came back, gives the cut polygon's
+// integral (a convex polygon crosses the horizon at most twice).
+struct HorizonCut {
+    exit_point: vec3<f32>,
+    entry_point: vec3<f32>,
+    crossings: u32,
 }
 
-// ∫ cos θ dω over the polygon `v[0..count]` (seen from the origin, clipped to z ≥ 0), which is
-// π times its form factor. Vertices need not be normalised.
-fn clipped_cos_integral(v: ptr<function, array<vec3<f32>, 17>>, count: u32) -> f32 {
-    if count < 3u {
-        return 0.0;
+struct Segment {
+    head: vec3<f32>,
+    tail: vec3<f32>,
+    kept: bool,
+}
+
+fn cut_edge(cut: ptr<function, HorizonCut>, a: vec3<f32>, b: vec3<f32>) -> Segment {
+    let a_up = a.z > 0.0;
+    let b_up = b.z > 0.0;
+    if a_up == b_up {
+        return Segment(a, b, a_up);
     }
-    var sum = 0.0;
-    var exit_point = vec3<f32>(0.0);
-    var entry_point = vec3<f32>(0.0);
-    var crossings = 0u;
-    var a = (*v)[count - 1u];
-    for (var i = 0u; i < count; i++) {
-        let b = (*v)[i];
-        let a_up = a.z > 0.0;
-        let b_up = b.z > 0.0;
-        if a_up && b_up {
-            sum += edge_integral(a, b);
-        } else if a_up != b_up {
-            var c = a + (b - a) * (a.z / (a.z - b.z));
-            c.z = 0.0;
-            if a_up {
-                sum += edge_integral(a, c);
-                exit_point = c;
-            } else {
-                sum += edge_integral(c, b);
-                entry_point = c;
-            }
-            crossings += 1u;
-        }
-        a = b;
+    var c = a + (b - a) * (a.z / (a.z - b.z));
+    c.z = 0.0;
+    (*cut).crossings += 1u;
+    if a_up {
+        (*cut).exit_point = c;
+        return Segment(a, c, true);
     }
-    // The clipped polygon closes along the horizon from where it left to where it came back.
-    if crossings == 2u {
-        sum += edge_integral(exit_point, entry_point);
-    }
-    // Winding depends on which side the polygon is seen from; the caller has already kept only
-    // the lit side.
-    return 0.5 * abs(sum);
+    (*cut).entry_point = c;
+    return Segment(c, b, true);
 }
 
 // A rectangle's or disk's unit width axis (in its plane) and, for a rectangle, half height:
@@ -146,27 +117,28 @@ fn plane_axes(light: Light) -> vec4<f32> {
     return vec4<f32>(light.shape.xyz / max(half_height, 1e-30), half_height);
 }
 
-// The light's outline, relative to the surface, as `count` corners.
-fn outline(light: Light, to_light: vec3<f32>, v: ptr<function, array<vec3<f32>, 17>>) -> u32 {
+// How many corners the light's outline has.
+fn outline_sides(light: Light) -> u32 {
+    return select(4u, DISK_SIDES, light.kind == LIGHT_DISK);
+}
+
+// Corner `i` of the light's outline, relative to the surface. Made one at a time as the edges
+// are walked, rather than into an array: an array indexed at run time lives in slow per-thread
+// memory on GPUs, and three of them per light made the shading pass memory-bound.
+fn outline_corner(light: Light, to_light: vec3<f32>, i: u32) -> vec3<f32> {
     let axes = plane_axes(light);
     let across = axes.xyz;
     let up = cross(light.direction, across);
     if light.kind == LIGHT_DISK {
         // The regular 16-gon of the disk's area: circumradius r·√(2π / (n·sin(2π/n))).
         let r = light.size * 1.0130016;
-        for (var i = 0u; i < DISK_SIDES; i++) {
-            let angle = f32(i) * (2.0 * PI / f32(DISK_SIDES));
-            (*v)[i] = to_light + r * (cos(angle) * across + sin(angle) * up);
-        }
-        return DISK_SIDES;
+        let angle = f32(i) * (2.0 * PI / f32(DISK_SIDES));
+        return to_light + r * (cos(angle) * across + sin(angle) * up);
     }
-    let x = across * light.size;
-    let y = up * axes.w;
-    (*v)[0] = to_light + x + y;
-    (*v)[1] = to_light - x + y;
-    (*v)[2] = to_light - x - y;
-    (*v)[3] = to_light + x - y;
-    return 4u;
+    // Corners (+x +y), (−x +y), (−x −y), (+x −y).
+    let x = across * light.size * select(1.0, -1.0, i == 1u || i == 2u);
+    let y = up * axes.w * select(1.0, -1.0, i >= 2u);
+    return to_light + x + y;
 }
 
 // Squared distance from the surface to the nearest point of the light (`to_light` points from
@@ -246,28 +218,47 @@ fn ltc_lobe(light: Light, to_light: vec3<f32>, n: vec3<f32>, v: vec3<f32>, n_dot
     let tan_y = cross(n, tan_x);
     let to_frame = transpose(mat3x3<f32>(tan_x, tan_y, n));
 
-    var corners: array<vec3<f32>, 17>;
-    let outline_count = outline(light, to_light, &corners);
-    for (var i = 0u; i < outline_count; i++) {
-        corners[i] = to_frame * corners[i];
-    }
-    // Cut at the surface's horizon first: the transformed cosine of a grazing view reaches
-    // below it, and what lies below must not be reflected.
-    var in_frame: array<vec3<f32>, 17>;
-    let count = clip_to_horizon(&corners, outline_count, &in_frame);
-    if count < 3u {
-        return vec4<f32>(0.0);
-    }
-    let diffuse_integral = clipped_cos_integral(&in_frame, count);
-
     let cell = ltc_lookup(vec2<f32>(perceptual_roughness, sqrt(1.0 - clamp(n_dot_v, 0.0, 1.0))));
     let m = cell.inverse_m;
     let inverse_m = mat3x3<f32>(vec3<f32>(m.x, 0.0, m.y), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(m.z, 0.0, m.w));
-    for (var i = 0u; i < count; i++) {
-        in_frame[i] = inverse_m * in_frame[i];
+
+    // One walk over the outline's edges: each is cut at the surface's horizon first (the
+    // transformed cosine of a grazing view reaches below it, and what lies below must not be
+    // reflected), its kept part adds to the diffuse (clipped cosine) integral, and that part
+    // transformed by M⁻¹, cut again, to the specular one.
+    var horizon = HorizonCut();
+    var lobe_cut = HorizonCut();
+    var diffuse = 0.0;
+    var specular = 0.0;
+    let sides = outline_sides(light);
+    var a = to_frame * outline_corner(light, to_light, sides - 1u);
+    for (var i = 0u; i < sides; i++) {
+        let b = to_frame * outline_corner(light, to_light, i);
+        let kept = cut_edge(&horizon, a, b);
+        if kept.kept {
+            diffuse += edge_integral(kept.head, kept.tail);
+            let t = cut_edge(&lobe_cut, inverse_m * kept.head, inverse_m * kept.tail);
+            if t.kept {
+                specular += edge_integral(t.head, t.tail);
+            }
+        }
+        a = b;
     }
-    // The transformed cosine is normalised (it integrates to π over the hemisphere); the fit's
-    // magnitude restores the lobe's albedo, split into F0 and 1 − F0 shares (Schlick).
-    let specular_integral = clipped_cos_integral(&in_frame, count) / PI;
-    return vec4<f32>(diffuse_integral, specular_integral, cell.magnitude.x, cell.magnitude.y);
+    // The cut polygon closes along the horizon from where it left to where it came back; so
+    // does its transformed copy, along the transformed horizon.
+    if horizon.crossings == 2u {
+        diffuse += edge_integral(horizon.exit_point, horizon.entry_point);
+        let t = cut_edge(&lobe_cut, inverse_m * horizon.exit_point, inverse_m * horizon.entry_point);
+        if t.kept {
+            specular += edge_integral(t.head, t.tail);
+        }
+    }
+    if lobe_cut.crossings == 2u {
+        specular += edge_integral(lobe_cut.exit_point, lobe_cut.entry_point);
+    }
+    // Winding depends on which side the polygon is seen from; the caller has already kept only
+    // the lit side. The transformed cosine is normalised (it integrates to π over the
+    // hemisphere); the fit's magnitude restores the lobe's albedo, split into F0 and 1 − F0
+    // shares (Schlick).
+    return vec4<f32>(0.5 * abs(diffuse), 0.5 * abs(specular) / PI, cell.magnitude.x, cell.magnitude.y);
 }
