@@ -13,7 +13,7 @@ use glam::{Quat, Vec3};
 use penumbra_engine::components::{DirectionalLight, Transform};
 use penumbra_engine::environment::{EnvironmentSource, Sky};
 use penumbra_render::headless::{ShotSettings, stage_scene};
-use penumbra_render::{AdapterRequest, GpuContext, RenderOutput, RenderSettings, Renderer};
+use penumbra_render::{RenderOutput, RenderSettings, Renderer};
 
 use super::bench_measure::{percentile, time_frames};
 use crate::cli::BenchArgs;
@@ -52,14 +52,22 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Err(anyhow!("--frames must be at least 1"));
     }
 
+    // Loaded as `render` loads: the device, renderer and pipelines on one thread while the scene
+    // is read on this one, so the load time is what a user waits for.
     let start = Instant::now();
-    let ctx = GpuContext::new_headless(&AdapterRequest::default())?;
+    let step = move |what: &str| tracing::info!("{:>7.1} ms  {what}", start.elapsed().as_secs_f64() * 1e3);
+    let gpu = super::render::spawn_renderer(settings.clone(), environment.is_some(), step);
+    let staged = scene::load(args.path.as_deref(), &args.scene_args)
+        .map_err(anyhow::Error::from)
+        .and_then(|scene| Ok(stage_scene(&scene, &shot)?));
+    // Joined before any error returns (see `render`).
+    let renderer = gpu.join().map_err(|_| anyhow!("the GPU setup thread panicked"))?;
+    let (mut app, size) = staged?;
+    let renderer = renderer?;
+    let ctx = renderer.context();
     let adapter = ctx.describe();
     let timestamps = ctx.caps.timestamps;
     let cpu_adapter = ctx.info.device_type == wgpu::DeviceType::Cpu;
-    let renderer = Renderer::new(ctx, settings.clone())?;
-    let scene = scene::load(args.path.as_deref(), &args.scene_args)?;
-    let (mut app, size) = stage_scene(&scene, &shot)?;
     let env_label = match &environment {
         None => "none".to_owned(),
         Some(_) if args.env_churn => "sky, sun turning 1° a frame (prefiltered every frame)".to_owned(),

@@ -87,7 +87,8 @@ fn render_one(
     }
     // Freeing is part of the command's time: the decoded images (over 100 MB for DamagedHelmet)
     // go on a second thread while the device and its textures go on this one (`-v` times it;
-    // docs/performance.md, "A headless screenshot").
+    // docs/performance.md, "A headless screenshot"). Leaving them to the process's exit instead
+    // was slower on lavapipe and on an NVIDIA H200.
     let renderer = app.world.remove_resource::<Renderer>();
     let world = std::mem::take(&mut app.world);
     let freer = std::thread::spawn(move || drop((world, scene)));
@@ -102,7 +103,7 @@ fn render_one(
 /// pipelines every frame with these settings runs are compiled before the thread ends
 /// (`Renderer::warm_up`; `environment`: whether scenes will have one), while the scene is
 /// still being read. `step` logs each stage's time (`-v`).
-fn spawn_renderer(
+pub(super) fn spawn_renderer(
     settings: penumbra_render::RenderSettings,
     environment: bool,
     step: impl Fn(&str) + Send + 'static,
