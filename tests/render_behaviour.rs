@@ -820,6 +820,21 @@ fn the_pipeline_cache_survives_runs_and_bad_files() {
     assert_eq!(loaded, Some(300));
     assert_eq!(pixels, first);
 
+    // A file made for another adapter (wgpu's header names the vendor and device, bytes 17..32;
+    // a copied or renamed file): wgpu refuses it, an empty cache is made, the frame is the same.
+    let data = written[48..].to_vec();
+    assert!(data.len() >= 32 && &data[..8] == b"WGPUPLCH", "wgpu's header inside the envelope");
+    let mut other = data.clone();
+    other[20] ^= 0x5a;
+    let mut moved = b"PNBRPLC1".to_vec();
+    moved.extend_from_slice(&(other.len() as u64).to_le_bytes());
+    moved.extend_from_slice(blake3::hash(&other).as_bytes());
+    moved.extend_from_slice(&other);
+    std::fs::write(&file, &moved).unwrap();
+    let (pixels, loaded) = render_with_cache(at());
+    assert_eq!(loaded, Some(other.len()));
+    assert_eq!(pixels, first);
+
     // A folder that cannot be made (a file is in the way): the frame is drawn all the same.
     let blocked = dir.join("blocked");
     std::fs::write(&blocked, b"a file, not a folder").unwrap();

@@ -31,7 +31,10 @@ pub fn gpu() -> GpuContext {
     static CTX: OnceLock<GpuContext> = OnceLock::new();
     CTX.get_or_init(|| {
         let backends = if std::env::var_os("WGPU_BACKEND").is_some() { None } else { Some(wgpu::Backends::VULKAN) };
-        GpuContext::new_headless(&AdapterRequest { backends, ..Default::default() })
+        // No pipeline cache: a test's outcome must not depend on what earlier runs compiled,
+        // nor write to the user's cache folder (tests/render_behaviour.rs tests the cache).
+        let pipeline_cache = penumbra::render::PipelineCacheDir::Off;
+        GpuContext::new_headless(&AdapterRequest { backends, pipeline_cache, ..Default::default() })
             .unwrap_or_else(|e| panic!("GPU tests need a Vulkan adapter: {e}"))
     })
     .clone()

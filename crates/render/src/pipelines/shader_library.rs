@@ -100,12 +100,12 @@ fn composer_error(e: &ComposerError, composer: &Composer, fallback_file: &str) -
     }
 }
 
-/// Sources and their composer. Cheap to rebuild: a handful of files.
 /// The embedded library being built by [`ShaderLibrary::preload_embedded`], taken by the next
 /// [`ShaderLibrary::embedded`].
 type Preload = std::thread::JoinHandle<Result<ShaderLibrary, ShaderError>>;
 static PRELOADED: Mutex<Option<Preload>> = Mutex::new(None);
 
+/// Sources and their composer. Cheap to rebuild: a handful of files.
 pub struct ShaderLibrary {
     dir: Option<PathBuf>,
     sources: BTreeMap<String, String>,

@@ -13,8 +13,10 @@
 //!   anything reaches the driver (wgpu checks only its own header; a driver's behaviour on
 //!   corrupt cache contents is undefined). A bad file is logged and replaced; the run starts with
 //!   an empty cache.
-//! - Stale (another driver version, another wgpu): wgpu's header names the adapter, the driver's
-//!   cache UUID and wgpu's cache format; with `fallback` set a mismatch gives an empty cache.
+//! - Stale or foreign (another driver version, another wgpu, a file copied from another
+//!   adapter): wgpu's header names the adapter, the driver's cache UUID and wgpu's cache format.
+//!   With `fallback` set wgpu starts an empty cache for a stale file, but reports a file made for
+//!   another adapter as a validation error: that is caught, logged, and an empty cache made.
 //! - Written by two processes at once: each writes a file of its own in the folder and renames
 //!   it over the old one, so a reader sees one whole file or the other.
 //! - Not writable, or no cache folder: logged; pipelines compile as they would without a store.
@@ -91,16 +93,24 @@ impl PipelineStore {
                 None
             }
         };
-        // SAFETY: the data is what `PipelineCache::get_data` returned on an adapter with this
-        // key, checked whole against its hash above; wgpu checks its header against this adapter
-        // and driver, and `fallback` makes a mismatch an empty cache rather than an error.
-        let cache = unsafe {
-            device.create_pipeline_cache(&wgpu::PipelineCacheDescriptor {
-                label: Some("penumbra pipelines"),
-                data: data.as_deref(),
-                fallback: true,
-            })
+        let create = |data: Option<&[u8]>| {
+            // SAFETY: the data is what `PipelineCache::get_data` returned, checked whole against
+            // its hash above; wgpu checks its header against this adapter and driver (`fallback`
+            // makes a stale one an empty cache; another adapter's is an error, caught below).
+            unsafe {
+                device.create_pipeline_cache(&wgpu::PipelineCacheDescriptor {
+                    label: Some("penumbra pipelines"),
+                    data,
+                    fallback: true,
+                })
+            }
         };
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut cache = create(data.as_deref());
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            tracing::warn!("pipeline cache {}: {e}; starting an empty one", path.display());
+            cache = create(None);
+        }
         let loaded = data.as_ref().map_or(0, Vec::len);
         tracing::debug!("pipeline cache {}: {loaded} bytes read", path.display());
         Some(Self { cache, path, hash: data.as_deref().map(blake3::hash), loaded })
@@ -130,8 +140,10 @@ impl PipelineStore {
         }
         let dir = self.path.parent().unwrap_or(Path::new("."));
         std::fs::create_dir_all(dir)?;
-        // A name no other writer uses, renamed over the file only once whole.
-        let nonce = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+        // A name no other writer uses (this process's id and a count of its saves), renamed over
+        // the file only once whole. Two processes saving at once: the last rename wins.
+        static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let nonce = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let tmp = dir.join(format!(".{}.{}.{nonce}.tmp", file_name(&self.path), std::process::id()));
         let written = (|| {
             let mut file = std::fs::File::create(&tmp)?;

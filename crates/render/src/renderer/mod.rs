@@ -369,7 +369,13 @@ impl Renderer {
             tracing::debug!("warm-up: {e}");
         }
         laps.lap("environment");
-        if self.raster_in_compute() && self.settings.gpu_culling && self.ctx.caps.indirect_first_instance {
+        // As `RasterGate` decides before it sees the scene: `--occlusion on` keeps frames on the
+        // hardware path.
+        if self.raster_in_compute()
+            && self.settings.gpu_culling
+            && self.ctx.caps.indirect_first_instance
+            && self.settings.occlusion_culling != crate::features::culling::OcclusionCulling::On
+        {
             let culled = GpuCulling::compile(&device, &mut self.pipelines, false, false, self.settings.msaa);
             if let Err(e) = culled.and_then(|()| VisibilityBuffer::warm_up(&device, &mut self.pipelines)) {
                 tracing::debug!("warm-up: {e}");

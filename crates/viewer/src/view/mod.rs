@@ -61,6 +61,10 @@ pub fn run(args: ViewArgs) -> Result<()> {
     let settings = args.look.render_settings(true, crate::cli::repository_shaders())?;
     // Flags are checked before the window opens, so a bad one is an error line, not a window.
     args.look.environment()?;
+    // The embedded shaders are parsed while the window and the device come up.
+    if settings.shaders == penumbra_render::ShaderSource::Embedded {
+        penumbra_render::pipelines::ShaderLibrary::preload_embedded();
+    }
     let event_loop = EventLoop::new().map_err(|e| {
         anyhow!("cannot open a window ({e}). For a headless screenshot use `penumbra render SCENE --out shot.png`")
     })?;

@@ -506,14 +506,20 @@ fn load_inner(bytes: &[u8], path: &Path, options: &ImportOptions) -> Result<Gltf
     // order they did one after the other: a mesh's before an image's.
     let image_jobs = image_jobs(&document, &materials, &buffers, base_dir, path, options, &reads);
     let images_progress = ImagesProgress::new(options.progress.clone());
+    // Set when a mesh fails: the images not started yet are not decoded for nothing.
+    let cancel = std::sync::atomic::AtomicBool::new(false);
     let (meshes, decoded) = std::thread::scope(|scope| {
         let decoding = image_jobs.as_ref().ok().map(|jobs| {
-            let images_progress = &images_progress;
-            scope.spawn(move || decode_image_jobs(jobs, options, images_progress))
+            let (images_progress, cancel) = (&images_progress, &cancel);
+            scope.spawn(move || decode_image_jobs(jobs, options, images_progress, cancel))
         });
         progress(super::ImportStage::Meshes, document.meshes().len());
         let meshes = build_meshes(&document, &materials, &buffers, variant_names.len(), &mut warnings, &step);
-        images_progress.meshes_done(image_jobs.as_ref().map_or(0, |j| j.jobs.len()));
+        if meshes.is_ok() {
+            images_progress.meshes_done(image_jobs.as_ref().map_or(0, |j| j.jobs.len()));
+        } else {
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
         let decoded = decoding.map(|d| d.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
         (meshes, decoded)
     });
@@ -1005,8 +1011,13 @@ fn decode_image_jobs(
     jobs: &ImageJobs,
     options: &ImportOptions,
     progress: &ImagesProgress,
+    cancel: &std::sync::atomic::AtomicBool,
 ) -> Result<Vec<Arc<Image>>, ImportErrorKind> {
     let decoded = crate::parallel::parallel_map(&jobs.jobs, |(index, uri, label, bytes, srgb)| {
+        if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+            // Never reported: the mesh's error that set it is.
+            return Err(ImportErrorKind::Malformed("the import stopped at an earlier error".into()));
+        }
         let bytes = match bytes {
             images::ImageBytes::Slice(s) => s,
             images::ImageBytes::Owned(v) => v.as_slice(),

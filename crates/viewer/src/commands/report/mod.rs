@@ -10,8 +10,9 @@
 //! back (HDR and display) and compared by `metrics` → the same app is timed at `--timing-size`
 //! → a table on stdout, `OUT/LABEL.csv` and the plot `OUT/LABEL.png` (`plot`).
 //! The timed frames use the preset's own settings (no HDR colour kept for the comparison), so
-//! the GPU ms is the frame a user gets: `penumbra bench`'s "GPU frame span" row for the same
-//! scene, size and preset.
+//! the GPU ms is the frame a user gets, the quantity of `penumbra bench`'s "GPU frame span" row
+//! (bench frames the scene from its default view with the studio environment; report from the
+//! file's camera without one, as the references were made).
 
 mod metrics;
 mod plot;
