@@ -49,3 +49,27 @@ fn a_batch_draws_each_scene_as_a_fresh_renderer_does() {
     assert!(matches!(batch.render(&boxed, &missing, 1), Err(ShotError::NoSuchCamera { .. })));
     assert!(batch.render(&truck, &shot(None), 1).unwrap().0 == fresh(&truck, &shot(None)));
 }
+
+#[test]
+fn automatic_exposure_starts_afresh_with_each_scene() {
+    use penumbra::render::{AutoExposure, PostSettings};
+    let settings = || RenderSettings {
+        post: PostSettings { auto_exposure: Some(AutoExposure::default()), ..Default::default() },
+        ..Default::default()
+    };
+    let load = |rel: &str| GltfScene::load(&asset(rel), &ImportOptions::default()).unwrap();
+    // A bright scene, then a dark one: without a restart the dark one's first frame would start
+    // from the bright one's adapted exposure.
+    let (lit, dark) = (load("BoxTextured/BoxTextured.glb"), load("CesiumMilkTruckDraco/CesiumMilkTruck.gltf"));
+    let bright = Environment { background: Background::Color([4.0, 4.0, 4.0]), ..Default::default() };
+    let dim = Environment { background: Background::Color([0.01, 0.01, 0.01]), ..Default::default() };
+    let fresh_auto = |scene: &GltfScene, shot: &ShotSettings| {
+        let (mut app, size) = stage_scene(scene, shot).unwrap();
+        render_frames(&mut app, Renderer::new(gpu(), settings()).unwrap(), size, 3).unwrap()
+    };
+    let mut batch = SceneBatch::new(Renderer::new(gpu(), settings()).unwrap());
+    let first = shot(Some(bright));
+    assert!(batch.render(&lit, &first, 3).unwrap().0 == fresh_auto(&lit, &first));
+    let second = shot(Some(dim));
+    assert!(batch.render(&dark, &second, 3).unwrap().0 == fresh_auto(&dark, &second), "the second scene's exposure");
+}

@@ -211,8 +211,8 @@ fn stage_into(app: &mut App, scene: &impl SpawnScene, settings: &ShotSettings) -
 /// assets, `import::unload_scene`), so the renderer keeps its device, its compiled pipelines and,
 /// where the environment is the same, the maps made from it, and frees and uploads only what the
 /// scenes do not share. Each image is what a fresh [`stage_scene`] and [`render_frames`] of the
-/// scene gives, except with automatic exposure (`RenderSettings::post`), whose adaptation
-/// carries over: a scene's first frame then starts from the exposure the scene before ended on.
+/// scene gives: what frames carry into the next (automatic exposure's adaptation) is forgotten
+/// between scenes.
 pub struct SceneBatch {
     app: Option<App>,
     renderer: Option<Renderer>,
@@ -238,10 +238,11 @@ impl SceneBatch {
             app.add_plugins(CorePlugin).add_plugins(RenderPlugin);
             app
         });
-        let renderer = match self.renderer.take() {
+        let mut renderer = match self.renderer.take() {
             Some(renderer) => renderer,
             None => app.world.remove_resource::<Renderer>().expect("the batch holds its renderer"),
         };
+        renderer.restart_history();
         if let Some(staged) = app.world.remove_resource::<Staged>() {
             penumbra_engine::import::unload_scene(&mut app.world, staged.root);
             // A root without scene assets (a scene type that records none) still goes.

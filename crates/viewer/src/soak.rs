@@ -221,8 +221,23 @@ impl Soak {
 
 /// The process's resident set size, from /proc/self/status (`VmRSS`).
 pub fn resident_bytes() -> Option<u64> {
+    status_kib("VmRSS:").map(|kib| kib * 1024)
+}
+
+/// Starts a new peak of resident memory ([`peak_resident_bytes`]); `false` where the system
+/// cannot (not Linux, or /proc/self/clear_refs not writable): the peak is then the process's.
+pub fn reset_peak_resident() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// The most memory the process has held resident since [`reset_peak_resident`] (or its start),
+/// from /proc/self/status (`VmHWM`).
+pub fn peak_resident_bytes() -> Option<u64> {
+    status_kib("VmHWM:").map(|kib| kib * 1024)
+}
+
+fn status_kib(field: &str) -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
+    let line = status.lines().find(|l| l.starts_with(field))?;
+    line.split_whitespace().nth(1)?.parse().ok()
 }

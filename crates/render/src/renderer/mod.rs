@@ -350,6 +350,13 @@ impl Renderer {
             }
     }
 
+    /// Forgets what earlier frames carry into the next (automatic exposure's adaptation): the
+    /// next frame is drawn as a fresh renderer's first would be. For a renderer that moves on to
+    /// another scene ([`crate::headless::SceneBatch`]).
+    pub fn restart_history(&mut self) {
+        self.post.restart();
+    }
+
     /// Pipelines created since the renderer was made (each key once; a hot reload adds those it
     /// rebuilt).
     pub fn pipelines_created(&self) -> usize {

@@ -141,6 +141,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         mib(mem.targets),
         mib(mem.environment)
     );
+    println!("| GPU memory, all pools (MiB) | {:.1} | |", mib(mem.total()));
+    // The process's peak: loading included (the decoded images with their chains).
+    match penumbra_viewer::soak::peak_resident_bytes() {
+        Some(peak) => println!("| host memory, peak resident (MiB) | {:.0} | |", mib(peak)),
+        None => println!("| host memory, peak resident (MiB) | n/a (no /proc/self/status) | |"),
+    }
     Ok(())
 }
 

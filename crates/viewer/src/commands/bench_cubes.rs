@@ -23,6 +23,10 @@ struct Row {
     /// Triangles the triangle-culled batches drew (triangle culling ran in the last frame).
     triangles: Option<u32>,
     instances_mib: f64,
+    /// GPU memory of every pool, MiB.
+    gpu_mib: f64,
+    /// Peak resident host memory while the row was built and timed, MiB (`None`: unknown).
+    host_peak_mib: Option<f64>,
 }
 
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -41,6 +45,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let mut rows = Vec::new();
     for &count in &args.count {
         for &moving in &args.moving {
+            let peak_is_row = penumbra_viewer::soak::reset_peak_resident();
             let mut app = penumbra_engine::App::new();
             app.add_plugins(penumbra_engine::CorePlugin).add_plugins(RenderPlugin);
             app.add_systems(penumbra_engine::Update, spin_cubes);
@@ -92,6 +97,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 visible: renderer.visible_instance_counts()?.map(|c| c.iter().sum()),
                 triangles: renderer.triangle_culled_counts()?.map(|c| c.iter().flatten().sum()),
                 instances_mib: renderer.memory().instances as f64 / 1048576.0,
+                gpu_mib: renderer.memory().total() as f64 / 1048576.0,
+                host_peak_mib: penumbra_viewer::soak::peak_resident_bytes().filter(|_| peak_is_row).map(|b| b as f64 / 1048576.0),
             });
         }
     }
@@ -121,9 +128,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / shadows / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | triangles after triangle culling | GPU MiB instances and draw lists |"
+        "| cubes | moving | CPU main world (ms) | CPU extract (ms) | CPU prepare (ms) (of which instance upload) | CPU encode (ms) | CPU submit (ms) | CPU frame (ms) | GPU cull / shadows / forward / depth pyramid / cull late / forward late / tonemap (ms) | GPU frame (ms) | frame, wall (ms) | instance bytes uploaded | draw calls | instances submitted | after GPU culling | triangles after triangle culling | GPU MiB instances and draw lists | GPU MiB, all pools | host MiB, peak |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let [
             main,
@@ -160,14 +167,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         );
         let gpu = ms(gpu);
         println!(
-            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} ({upload:.3}) | {encode:.3} | {submit:.3} | {cpu:.3} | {passes} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {} | {:.1} |",
+            "| {} | {} | {main:.3} | {extract:.3} | {prepare:.3} ({upload:.3}) | {encode:.3} | {submit:.3} | {cpu:.3} | {passes} | {gpu} | {wall:.3} | {bytes:.0} | {} | {} | {} | {} | {:.1} | {:.1} | {} |",
             r.count,
             r.moving,
             r.draw_calls,
             r.instances,
             r.visible.map_or("not culled".to_owned(), |v| v.to_string()),
             r.triangles.map_or("-".to_owned(), |v| v.to_string()),
-            r.instances_mib
+            r.instances_mib,
+            r.gpu_mib,
+            r.host_peak_mib.map_or("-".to_owned(), |v| format!("{v:.0}"))
         );
     }
     Ok(())

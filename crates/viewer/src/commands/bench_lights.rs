@@ -35,6 +35,10 @@ struct Row {
     max_per_cluster: usize,
     lights_mib: f64,
     clusters_mib: f64,
+    /// GPU memory of every pool, MiB.
+    gpu_mib: f64,
+    /// Peak resident host memory while the timed scene was built and drawn, MiB.
+    host_peak_mib: Option<f64>,
     window_flip: f32,
 }
 
@@ -77,8 +81,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let range = args.light_range.0;
     let mut rows = Vec::new();
     for &n in &args.lights {
+        let peak_is_row = penumbra_viewer::soak::reset_peak_resident();
         let mut app = app_with(&ctx, base.clone(), n, range, args.size)?;
         let t = time_frames(&mut app, args.warmup, args.frames);
+        let host_peak_mib = penumbra_viewer::soak::peak_resident_bytes().filter(|_| peak_is_row).map(|b| b as f64 / 1048576.0);
         let renderer = app.world.resource::<Renderer>();
         let lists = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).map_err(|e| anyhow!("{e}"))?;
         let total: usize = lists.iter().map(Vec::len).sum();
@@ -114,6 +120,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             max_per_cluster: lists.iter().map(Vec::len).max().unwrap_or(0),
             lights_mib: mem.lights as f64 / 1048576.0,
             clusters_mib: mem.clusters as f64 / 1048576.0,
+            gpu_mib: mem.total() as f64 / 1048576.0,
+            host_peak_mib,
             window_flip: flip_mean(&unbounded, &windowed, args.error_size),
         });
     }
@@ -142,12 +150,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| lights | lights shaded in | GPU binning (ms) | GPU forward, or raster + shade in compute (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | window FLIP mean |"
+        "| lights | lights shaded in | GPU binning (ms) | GPU forward, or raster + shade in compute (ms) | GPU deferred lights + composite (ms) | GPU frame (ms) | frame, wall (ms) | CPU update (ms) | CPU render (ms) | CPU list bound (ms, when recomputed) | bound per cluster | lights/cluster mean (occupied) | max | GPU MiB lights / clusters | GPU MiB, all pools | host MiB, peak | window FLIP mean |"
     );
-    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.4} |",
+            "| {} | {} | {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {:.2} ({:.1}) | {} | {:.2} / {:.2} | {:.1} | {} | {:.4} |",
             r.lights,
             match (r.raster_ms, r.compute) {
                 (Some(_), _) => "visibility buffer",
@@ -171,6 +179,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             r.max_per_cluster,
             r.lights_mib,
             r.clusters_mib,
+            r.gpu_mib,
+            r.host_peak_mib.map_or("-".to_owned(), |v| format!("{v:.0}")),
             r.window_flip
         );
     }

@@ -111,6 +111,10 @@ impl PostStage for Exposure {
         Decision::Runs("automatic exposure is on")
     }
 
+    fn restart(&mut self) {
+        self.fresh = true;
+    }
+
     fn encode(&mut self, cx: &mut FrameContext, _: &PostShared, _: &Target) -> Result<(), ShaderError> {
         let Some((group, _)) = &self.group else { return Ok(()) };
         let (encoder, device, pipelines, timer) =

@@ -67,6 +67,10 @@ pub trait PostStage: Send + Sync + 'static {
     fn gpu_bytes(&self) -> u64 {
         0
     }
+
+    /// Forgets what earlier frames left (an adapted exposure): the next frame starts as a fresh
+    /// renderer's first would.
+    fn restart(&mut self) {}
 }
 
 /// Mirrors `PostParams` in `shaders/post_params.wgsl`.
@@ -129,6 +133,7 @@ trait BoundStage<S>: Send + Sync {
     fn input(&self) -> Option<Target>;
     fn encode(&mut self, cx: &mut FrameContext, shared: &PostShared, output: &Target) -> Result<(), ShaderError>;
     fn gpu_bytes(&self) -> u64;
+    fn restart(&mut self);
 }
 
 struct Bound<St: PostStage, S> {
@@ -154,6 +159,9 @@ impl<St: PostStage, S: 'static> BoundStage<S> for Bound<St, S> {
     }
     fn gpu_bytes(&self) -> u64 {
         self.stage.gpu_bytes()
+    }
+    fn restart(&mut self) {
+        self.stage.restart()
     }
 }
 
@@ -227,6 +235,13 @@ impl<S: 'static> PostChain<S> {
             }
         }
         error
+    }
+
+    /// Every stage forgets what earlier frames left ([`PostStage::restart`]).
+    pub fn restart(&mut self) {
+        for stage in &mut self.stages {
+            stage.restart();
+        }
     }
 
     pub fn gpu_bytes(&self) -> u64 {

@@ -374,7 +374,14 @@ impl ShadowOrchestrator {
             self.local = LocalShadows::default();
         }
         let settings = &local_settings;
-        let layers = self.frame.cascades.len() as u32;
+        // The cascade atlas holds layers up to the farthest cascade that renders: the shader reads
+        // no layer of a cascade that does not (it is lit there), and a small scene in front of the
+        // camera often reaches only the first one or two (64 MiB each at 4096²). It grows with
+        // the cascades that render and does not shrink, so a camera moving back and forth does
+        // not reallocate it.
+        let has_layers = self.atlas.as_ref().map_or(0, |a| a.layers());
+        let rendered_to = self.frame.rendered.iter().rposition(|r| *r).map_or(0, |i| i as u32 + 1);
+        let layers = rendered_to.max(has_layers).min(self.frame.cascades.len() as u32);
         let needs = self.active().then_some((settings.atlas_size, layers));
         let has = self.atlas.as_ref().map(|a| (a.size, a.layers()));
         let mut changed = needs != has;
