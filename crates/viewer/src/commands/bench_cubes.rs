@@ -98,7 +98,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 triangles: renderer.triangle_culled_counts()?.map(|c| c.iter().flatten().sum()),
                 instances_mib: renderer.memory().instances as f64 / 1048576.0,
                 gpu_mib: renderer.memory().total() as f64 / 1048576.0,
-                host_peak_mib: penumbra_viewer::soak::peak_resident_bytes().filter(|_| peak_is_row).map(|b| b as f64 / 1048576.0),
+                host_peak_mib: penumbra_viewer::soak::peak_resident_bytes()
+                    .filter(|_| peak_is_row)
+                    .map(|b| b as f64 / 1048576.0),
             });
         }
     }

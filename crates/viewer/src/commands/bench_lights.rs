@@ -84,7 +84,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let peak_is_row = penumbra_viewer::soak::reset_peak_resident();
         let mut app = app_with(&ctx, base.clone(), n, range, args.size)?;
         let t = time_frames(&mut app, args.warmup, args.frames);
-        let host_peak_mib = penumbra_viewer::soak::peak_resident_bytes().filter(|_| peak_is_row).map(|b| b as f64 / 1048576.0);
+        let host_peak_mib =
+            penumbra_viewer::soak::peak_resident_bytes().filter(|_| peak_is_row).map(|b| b as f64 / 1048576.0);
         let renderer = app.world.resource::<Renderer>();
         let lists = renderer.cluster_binner().read_lists(&ctx.device, &ctx.queue).map_err(|e| anyhow!("{e}"))?;
         let total: usize = lists.iter().map(Vec::len).sum();
