@@ -282,12 +282,6 @@ impl PipelineCache {
         self.store.as_ref()
     }
 
-    /// Writes the driver cache's data to its file now if pipelines were compiled since it was
-    /// read (dropping the cache does too). `false` with nothing to write or no store.
-    pub fn save_store(&mut self) -> std::io::Result<bool> {
-        self.store.as_mut().map_or(Ok(false), PipelineStore::save)
-    }
-
     pub fn shaders(&self) -> &ShaderLibrary {
         &self.shaders
     }

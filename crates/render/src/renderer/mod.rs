@@ -376,13 +376,21 @@ impl Renderer {
             tracing::debug!("warm-up: {e}");
         }
         laps.lap("environment");
-        // As `RasterGate` decides before it sees the scene: `--occlusion on` keeps frames on the
-        // hardware path.
-        if self.raster_in_compute()
-            && self.settings.gpu_culling
-            && self.ctx.caps.indirect_first_instance
-            && self.settings.occlusion_culling != crate::features::culling::OcclusionCulling::On
-        {
+        // The gate a frame passes, asked with what the scene alone can still change assumed
+        // favourable (opaque triangle lists, nothing blended, no gizmos, a buffer that fits).
+        let gate = crate::features::visibility::RasterGate {
+            setting: self.settings.raster,
+            atomics: self.ctx.caps.visibility_raster,
+            few_graphics_units: self.ctx.caps.few_graphics_units,
+            culling: self.settings.gpu_culling && self.ctx.caps.indirect_first_instance,
+            fits: true,
+            occlusion_on: self.settings.occlusion_culling == crate::features::culling::OcclusionCulling::On,
+            blended: false,
+            opaque: true,
+            supported: true,
+            gizmos: false,
+        };
+        if gate.decide().is_ok() {
             let culled = GpuCulling::compile(&device, &mut self.pipelines, false, false, self.settings.msaa);
             if let Err(e) = culled.and_then(|()| VisibilityBuffer::warm_up(&device, &mut self.pipelines)) {
                 tracing::debug!("warm-up: {e}");
@@ -438,13 +446,6 @@ impl Renderer {
     /// folder, or a backend without one).
     pub fn pipeline_store(&self) -> Option<&PipelineStore> {
         self.pipelines.store()
-    }
-
-    /// Writes the pipelines compiled so far to the pipeline cache's file now (the renderer also
-    /// does when dropped): for a program that may not drop it, such as one that exits from its
-    /// event loop. `Ok(false)`: nothing new to write, or no cache.
-    pub fn save_pipeline_cache(&mut self) -> std::io::Result<bool> {
-        self.pipelines.save_store()
     }
 
     /// The submission of the last frame, to wait on (bounding frames in flight).
