@@ -815,7 +815,7 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 // with VISIBILITY_DISPLAY, the displayed colour itself, sRGB-encoded, which the renderer copies
 // into the output: each triangle's colour tonemapped before the samples are averaged (the
 // display resolve, TONEMAP_IN_FORWARD) or the averaged radiance tonemapped (VISIBILITY_TONEMAP).
-#import penumbra::visibility::{RasterBatch, FRONT_CW, NON_INDEXED, sample_empty}
+#import penumbra::visibility::{RasterBatch, FRONT_CW, NON_INDEXED, pixel_weights, sample_empty}
 #ifdef VISIBILITY_BACKGROUND
 #import penumbra::ibl::{environment, prefiltered_radiance}
 #endif
@@ -862,16 +862,6 @@ fn number_batch(number: u32) -> u32 {
     return lo;
 }
 
-// Barycentric weights of the point at normalised device coordinates `ndc` on the triangle with
-// clip positions whose (x, y, w) are the rows' cross products `r` (perspective-correct: the
-// weights of the 3D point the pixel's ray meets).
-fn weights(r: array<vec3<f32>, 3>, ndc: vec2<f32>) -> vec3<f32> {
-    let s = vec3<f32>(ndc, 1.0);
-    let k = vec3<f32>(dot(r[0], s), dot(r[1], s), dot(r[2], s));
-    let sum = k.x + k.y + k.z;
-    return select(vec3<f32>(1.0 / 3.0), k / sum, abs(sum) > 0.0);
-}
-
 fn mix3_2(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, w: vec3<f32>) -> vec2<f32> {
     return a * w.x + b * w.y + c * w.z;
 }
@@ -897,17 +887,12 @@ fn shade_triangle(number: u32, b: u32, frag_xy: vec2<f32>) -> vec3<f32> {
     let cb = bv.clip_position.xyw;
     let cc = c.clip_position.xyw;
     let r = array<vec3<f32>, 3>(cross(cb, cc), cross(cc, ca), cross(ca, cb));
-    let size = shade_params.target_size;
-    let to_ndc = vec2<f32>(2.0, -2.0) / vec2<f32>(size);
-    let at_ndc = vec2<f32>(-1.0, 1.0);
-    let w = weights(r, at_ndc + frag_xy * to_ndc);
-    // Gradients as a fragment's fine derivatives are: across its 2×2 quad, the right pixel's
-    // value less the left's (in its row) and the bottom's less the top's (in its column).
-    let quad = floor(frag_xy * 0.5) * 2.0 + 0.5;
-    let left = weights(r, at_ndc + vec2<f32>(quad.x, frag_xy.y) * to_ndc);
-    let right = weights(r, at_ndc + vec2<f32>(quad.x + 1.0, frag_xy.y) * to_ndc);
-    let top = weights(r, at_ndc + vec2<f32>(frag_xy.x, quad.y) * to_ndc);
-    let bottom = weights(r, at_ndc + vec2<f32>(frag_xy.x, quad.y + 1.0) * to_ndc);
+    let pw = pixel_weights(r, frag_xy, shade_params.target_size);
+    let w = pw.centre;
+    let left = pw.left;
+    let right = pw.right;
+    let top = pw.top;
+    let bottom = pw.bottom;
     // The winding as the rasteriser sees it: the determinant's sign is the projected
     // triangle's orientation in normalised device coordinates (y up) when all w are positive.
     let det = dot(ca, r[0]);

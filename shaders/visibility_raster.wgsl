@@ -2,12 +2,18 @@
 //
 // Every opaque batch's visible instances (the cull pass's `visible_slots` and instance counts)
 // are numbered triangle by triangle, batch after batch: `raster_prepare` turns this frame's
-// instance counts into each batch's first number (`counters`) and the raster dispatch's size. One thread per number (`raster_triangles`) places the triangle's vertices as the vertex
-// shader does (draw_data::place_vertex), clips it against the depth range, and writes
+// instance counts into each batch's first number (`counters`). The batches are rasterised in
+// bins (`bin`: a range of the batch table, whose numbers are contiguous): the unmasked ones,
+// then the alpha-masked ones by variant and texture. Each bin's start (`raster_prepare` for the
+// first, `raster_begin` for each later one) sizes its raster dispatch and empties the job list.
+// One thread per number of the bin (`raster_triangles`) places the triangle's vertices as the
+// vertex shader does (draw_data::place_vertex), clips it against the depth range, and writes
 // `depth << 32 | number` with a 64-bit atomicMax into each sample it covers. Reverse-Z: the
 // nearest surface has the largest depth, and a tie goes to the larger number, so the result
 // does not depend on the order the threads run in. An empty sample stays 0 (depth 0 is the
-// infinitely far plane, which no triangle reaches).
+// infinitely far plane, which no triangle reaches). Masked variants (ALPHA_MASK, with
+// BASE_COLOR_TEXTURE, TRANSFORMED_UVS and VERTEX_COLORS as the forward variant has them) cover
+// a sample only where glTF's alpha test passes there (`alpha_passes`).
 //
 // A triangle whose box spans at most SMALL_BOX pixels each way is rasterised by its thread. A
 // larger one leaves a record (`big`); `raster_scan` gives each record its first job, and
@@ -27,9 +33,9 @@
 // number the same way and recomputes the triangle from it.
 
 #import penumbra::view::View
-#import penumbra::draw_data::{Instance, place_vertex}
+#import penumbra::draw_data::{Instance, Material, TexCoord, UvSets, place_vertex, slot_coord}
 #import penumbra::common::STANDARD_SAMPLES_4
-#import penumbra::visibility::{RasterBatch, CULL_BACK, FRONT_CW, NON_INDEXED}
+#import penumbra::visibility::{RasterBatch, CULL_BACK, FRONT_CW, NON_INDEXED, pixel_weights}
 
 struct RasterParams {
     target_size: vec2<u32>,
@@ -39,6 +45,15 @@ struct RasterParams {
     job_capacity: u32,
     // Thread groups `raster_tiles` runs (each loops over jobs).
     tile_groups: u32,
+    _pad_a: u32,
+    _pad_b: u32,
+};
+
+// The batches one raster bin draws: first_batch..end_batch of the table, whose numbers are
+// contiguous (end_batch may be the batch count: its word holds the total).
+struct RasterBin {
+    first_batch: u32,
+    end_batch: u32,
     _pad_a: u32,
     _pad_b: u32,
 };
@@ -64,9 +79,23 @@ const MAX_GROUPS_X: u32 = 32768u;
 @group(0) @binding(9) var<storage, read_write> vis: array<atomic<u64>>;
 // Large triangles: (number, first tile y << 16 | x, tiles high << 16 | wide, first job).
 @group(0) @binding(10) var<storage, read_write> big: array<vec4<u32>>;
-// The raster dispatch's arguments, written by raster_prepare (its own group: the dispatch
-// they drive cannot also bind them for writing).
+// This dispatch's bin (a dynamic offset into the bins' uniforms).
+@group(0) @binding(11) var<uniform> bin: RasterBin;
+// The raster dispatch's arguments, written by raster_prepare and raster_begin (their own group:
+// the dispatch they drive cannot also bind them for writing).
+// Masked variants (ALPHA_MASK) compile only raster_triangles and raster_tiles, whose group 1
+// is the bin's material.
+#ifndef ALPHA_MASK
 @group(1) @binding(0) var<storage, read_write> dispatch: array<u32>;
+#endif
+#ifdef ALPHA_MASK
+@group(0) @binding(12) var<storage, read> materials: array<Material>;
+#ifdef BASE_COLOR_TEXTURE
+// The bin's material group (forward.wgsl's group 1): only the base colour is read.
+@group(1) @binding(0) var base_color_texture: texture_2d<f32>;
+@group(1) @binding(1) var base_color_sampler: sampler;
+#endif
+#endif
 
 // The number of large triangles recorded in `big`.
 fn big_count_word() -> u32 {
@@ -78,8 +107,9 @@ fn job_total_word() -> u32 {
     return params.batch_count + 2u;
 }
 
-// This frame's numbering: each batch's first triangle number, the raster dispatch's size, and
-// an empty job list. One thread: batches are few next to their triangles, and this runs once.
+// This frame's numbering: each batch's first triangle number and the total; then the first
+// bin's start (raster_begin). One thread: batches are few next to their triangles, and this
+// runs once.
 @compute @workgroup_size(1)
 fn raster_prepare() {
     var total = 0u;
@@ -93,7 +123,19 @@ fn raster_prepare() {
         total = u32(min(u64(total) + n, u64(0xffffffffu)));
     }
     atomicStore(&counters[params.batch_count], total);
-    let groups = (total + WORKGROUP - 1u) / WORKGROUP;
+    begin_bin();
+}
+
+// A later bin's start: its raster dispatch's size and an empty job list.
+@compute @workgroup_size(1)
+fn raster_begin() {
+    begin_bin();
+}
+
+fn begin_bin() {
+#ifndef ALPHA_MASK
+    let count = bin_end() - bin_start();
+    let groups = (count + WORKGROUP - 1u) / WORKGROUP;
     let x = min(groups, MAX_GROUPS_X);
     let y = select(1u, (groups + x - 1u) / x, x > 0u);
     dispatch[0] = x;
@@ -101,6 +143,16 @@ fn raster_prepare() {
     dispatch[2] = 1u;
     atomicStore(&counters[big_count_word()], 0u);
     atomicStore(&counters[job_total_word()], 0u);
+#endif
+}
+
+// The bin's first triangle number, and the number after its last.
+fn bin_start() -> u32 {
+    return atomicLoad(&counters[min(bin.first_batch, params.batch_count)]);
+}
+
+fn bin_end() -> u32 {
+    return max(atomicLoad(&counters[min(bin.end_batch, params.batch_count)]), bin_start());
 }
 
 // The triangle a number names: its batch, instance slot and vertices.
@@ -230,6 +282,9 @@ fn setup_triangle(number: u32) -> Setup {
         zero, zero, zero, zero, zero, zero,
     );
     var n = 3u;
+#ifdef ALPHA_MASK
+    load_alpha_source(t, poly[0], poly[1], poly[2]);
+#endif
     // NaN anywhere: nothing to draw (the hardware's result is undefined; ours is nothing).
     for (var i = 0u; i < 3u; i++) {
         if any(poly[i] != poly[i]) {
@@ -347,6 +402,115 @@ fn top_left(a: vec2<i32>, b: vec2<i32>, sign: i32) -> bool {
     return gx > 0 || (gx == 0 && gy > 0);
 }
 
+// Sample `k` of pixel `pixel` (its index `at` in the buffer) lies inside triangle `number` at
+// `depth`: the nearest triangle keeps it. A masked triangle (ALPHA_MASK) covers it only where
+// its alpha passes there, and tests only samples it would win.
+fn cover(at: u32, depth: f32, number: u32, pixel: vec2<i32>, k: u32) {
+    if depth > 0.0 {
+        let value = (u64(bitcast<u32>(depth)) << 32u) | u64(number);
+#ifdef ALPHA_MASK
+        if atomicLoad(&vis[at]) >= value || !alpha_passes(pixel, k) {
+            return;
+        }
+#endif
+        atomicMax(&vis[at], value);
+    }
+}
+
+#ifdef ALPHA_MASK
+// What the alpha test reads of the triangle being rasterised: its clip positions' cross products
+// (for perspective_weights), its vertices' UV sets and colour alpha, and its material.
+struct AlphaSource {
+    r_a: vec3<f32>,
+    r_b: vec3<f32>,
+    r_c: vec3<f32>,
+    first_a: vec2<f32>,
+    first_b: vec2<f32>,
+    first_c: vec2<f32>,
+    second_a: vec2<f32>,
+    second_b: vec2<f32>,
+    second_c: vec2<f32>,
+    vertex_alpha: vec3<f32>,
+    material: u32,
+};
+
+// The triangle this invocation rasterises (set by setup_triangle and raster_unclipped_small; a
+// tile job's group shares its first lane's through `tile_alpha`).
+var<private> alpha_source: AlphaSource;
+var<workgroup> tile_alpha: AlphaSource;
+
+fn pool_uv(vertex: u32, word: u32) -> vec2<f32> {
+    let at = vertex * 16u + word;
+    return vec2<f32>(pool_vertices[at], pool_vertices[at + 1u]);
+}
+
+fn load_alpha_source(t: TriangleRef, ca: vec4<f32>, cb: vec4<f32>, cc: vec4<f32>) {
+    var a: AlphaSource;
+    a.r_a = cross(cb.xyw, cc.xyw);
+    a.r_b = cross(cc.xyw, ca.xyw);
+    a.r_c = cross(ca.xyw, cb.xyw);
+    let v = t.vertices;
+    a.first_a = pool_uv(v.x, 10u);
+    a.first_b = pool_uv(v.y, 10u);
+    a.first_c = pool_uv(v.z, 10u);
+    a.second_a = pool_uv(v.x, 12u);
+    a.second_b = pool_uv(v.y, 12u);
+    a.second_c = pool_uv(v.z, 12u);
+    // Colours are two words of unorm16 pairs (r, g) and (b, a).
+    a.vertex_alpha = vec3<f32>(
+        unpack2x16unorm(bitcast<u32>(pool_vertices[v.x * 16u + 15u])).y,
+        unpack2x16unorm(bitcast<u32>(pool_vertices[v.y * 16u + 15u])).y,
+        unpack2x16unorm(bitcast<u32>(pool_vertices[v.z * 16u + 15u])).y,
+    );
+    a.material = instances[t.slot].material;
+    alpha_source = a;
+}
+
+fn mix_uv(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, w: vec3<f32>) -> vec2<f32> {
+    return a * w.x + b * w.y + c * w.z;
+}
+
+// glTF's alpha test of the triangle at sample `k` of `pixel`, as the forward pass makes it
+// (forward.wgsl: the per-pixel test at one sample, alpha_coverage at four): the alpha (factor ×
+// vertex colour × base colour texel) at the sample, the texel fetched with the pixel's fine
+// gradients, the colour extrapolated from the pixel's centre along its gradient. NaN alpha
+// covers nothing.
+fn alpha_passes(pixel: vec2<i32>, k: u32) -> bool {
+    let a = alpha_source;
+    let r = array<vec3<f32>, 3>(a.r_a, a.r_b, a.r_c);
+    let pw = pixel_weights(r, vec2<f32>(pixel) + 0.5, params.target_size);
+    var o = vec2<f32>(0.0);
+    if params.samples == 4u {
+        o = STANDARD_SAMPLES_4[k] - vec2<f32>(0.5);
+    }
+    let mat = materials[a.material];
+    var alpha = mat.base_color.a;
+#ifdef VERTEX_COLORS
+    let va = a.vertex_alpha;
+    let gradient = vec2<f32>(dot(va, pw.right) - dot(va, pw.left), dot(va, pw.bottom) - dot(va, pw.top));
+    alpha *= dot(va, pw.centre) + dot(gradient, o);
+#endif
+#ifdef BASE_COLOR_TEXTURE
+    let sets = UvSets(
+        mix_uv(a.first_a, a.first_b, a.first_c, pw.centre),
+        mix_uv(a.second_a, a.second_b, a.second_c, pw.centre),
+        mix_uv(a.first_a, a.first_b, a.first_c, pw.right) - mix_uv(a.first_a, a.first_b, a.first_c, pw.left),
+        mix_uv(a.first_a, a.first_b, a.first_c, pw.bottom) - mix_uv(a.first_a, a.first_b, a.first_c, pw.top),
+        mix_uv(a.second_a, a.second_b, a.second_c, pw.right) - mix_uv(a.second_a, a.second_b, a.second_c, pw.left),
+        mix_uv(a.second_a, a.second_b, a.second_c, pw.bottom) - mix_uv(a.second_a, a.second_b, a.second_c, pw.top),
+    );
+#ifdef TRANSFORMED_UVS
+    let c = slot_coord(mat, 0u, sets);
+#else
+    let c = TexCoord(sets.first, sets.first_ddx, sets.first_ddy);
+#endif
+    let uv = c.uv + c.ddx * o.x + c.ddy * o.y;
+    alpha *= textureSampleGrad(base_color_texture, base_color_sampler, uv, c.ddx, c.ddy).a;
+#endif
+    return alpha >= mat.alpha_cutoff;
+}
+#endif
+
 // Writes fan triangle (0, i, i + 1) of `s` into the samples of pixels lo..=hi it covers.
 fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u32) {
     let a = s.xy[0];
@@ -383,9 +547,7 @@ fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u
                 if (wa > i64(0) || (wa == i64(0) && ta)) && (wb > i64(0) || (wb == i64(0) && tb))
                     && (wc > i64(0) || (wc == i64(0) && tc)) {
                     let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * abs(inv_area), 0.0, 1.0);
-                    if depth > 0.0 {
-                        atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
-                    }
+                    cover(pixel + k, depth, number, vec2<i32>(x, y), k);
                 }
             }
         }
@@ -425,9 +587,7 @@ fn raster_small_triangle(pa: vec2<i32>, pb: vec2<i32>, pc: vec2<i32>, z: vec3<f3
                 let wc = edge32(a, b, p) * sign;
                 if (wa > 0 || (wa == 0 && ta)) && (wb > 0 || (wb == 0 && tb)) && (wc > 0 || (wc == 0 && tc)) {
                     let depth = clamp((f32(wa) * z.x + f32(wb) * z.y + f32(wc) * z.z) * inv_area, 0.0, 1.0);
-                    if depth > 0.0 {
-                        atomicMax(&vis[pixel + k], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
-                    }
+                    cover(pixel + k, depth, number, vec2<i32>(x, y), k);
                 }
             }
         }
@@ -482,6 +642,9 @@ fn raster_unclipped_small(number: u32) -> bool {
     if hi_f.x < 0.0 || hi_f.y < 0.0 || lo_f.x > size.x || lo_f.y > size.y || any(hi < lo) {
         return true;
     }
+#ifdef ALPHA_MASK
+    load_alpha_source(t, ca, cb, cc);
+#endif
     raster_small_triangle(a, b, c, vec3<f32>(fa.z, fb.z, fc.z), lo, hi, number);
     return true;
 }
@@ -498,7 +661,11 @@ fn raster_triangles(
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) lane: u32,
 ) {
-    let number = (group.y * groups.x + group.x) * WORKGROUP + lane;
+    let index = (group.y * groups.x + group.x) * WORKGROUP + lane;
+    if index >= bin_end() - bin_start() {
+        return;
+    }
+    let number = bin_start() + index;
     if raster_unclipped_small(number) {
         return;
     }
@@ -629,10 +796,7 @@ fn raster_tile_column(s: Setup, i: u32, column: i32, row0: i32, number: u32) {
                 && (wc > i64(0) || (wc == i64(0) && tc));
             if row >= lo.y && row <= hi.y && inside {
                 let depth = clamp((f32(wa) * s.z[0] + f32(wb) * s.z[i] + f32(wc) * s.z[i + 1u]) * inv_area, 0.0, 1.0);
-                if depth > 0.0 {
-                    let at = (u32(row) * width + u32(column)) * samples + k;
-                    atomicMax(&vis[at], (u64(bitcast<u32>(depth)) << 32u) | u64(number));
-                }
+                cover((u32(row) * width + u32(column)) * samples + k, depth, number, vec2<i32>(column, row), k);
             }
             wa += da;
             wb += db;
@@ -652,9 +816,15 @@ fn raster_tiles(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocati
         if lane == 0u {
             tile_job = find_job(j);
             tile_setup = setup_triangle(tile_job.x);
+#ifdef ALPHA_MASK
+            tile_alpha = alpha_source;
+#endif
         }
         workgroupBarrier();
         let s = tile_setup;
+#ifdef ALPHA_MASK
+        alpha_source = tile_alpha;
+#endif
         let job = tile_job;
         // This lane's pixels: column lane % 16, rows lane / 16 + 4k.
         let tile = vec2<i32>(vec2<u32>(job.y & 0xffffu, job.y >> 16u) * TILE);

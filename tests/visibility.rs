@@ -2,10 +2,13 @@
 //! draws. A scene built to stress a rasteriser (a ground plane reaching behind the eye, so the
 //! near plane clips it; a box the near plane cuts; mirrored and double-sided surfaces seen from
 //! behind; triangles from sub-pixel to view-filling; a textured, normal-mapped model; shadows,
-//! local lights and an environment) is rendered both ways at MSAA 1 and 4 and compared. Frames
-//! the path cannot draw (blended materials) fall back to the forward pass, and so does every
-//! frame on adapters without 64-bit atomics (GL); the plan says which ran.
+//! local lights and an environment) is rendered both ways at MSAA 1 and 4 and compared, and so are
+//! alpha-masked surfaces (cut out by the raster steps) and skinned and morphed meshes (rasterised
+//! from their GPU-deformed vertices). Frames the path cannot draw (blended materials) fall back
+//! to the forward pass, and so does every frame on adapters without 64-bit atomics (GL); the
+//! plan says which ran.
 
+use penumbra::engine::material::UvTransform;
 use penumbra::prelude::*;
 use penumbra::render::Raster;
 use penumbra::render::features::tonemap;
@@ -356,4 +359,171 @@ fn a_shading_variant_that_fails_leaves_the_others_drawn() {
     assert!(pixels_apart(&left(&broken), &left(&cube_only), 0) == 0, "the cube's half changed");
     let (whole, _) = cube_and_helmet(None, true);
     assert!(pixels_apart(&broken, &whole, 24) > 100, "the helmet was shaded after all");
+}
+
+/// A 32×32 texture whose alpha ramps up from its centre outwards and is striped, so that the
+/// cutoff crosses texels at many angles; colour varies with the texel.
+fn alpha_pattern(app: &mut App) -> Handle<Image> {
+    let side = 32u32;
+    let mut rgba = Vec::with_capacity((side * side * 4) as usize);
+    for y in 0..side {
+        for x in 0..side {
+            let (u, v) = ((x as f32 + 0.5) / side as f32 - 0.5, (y as f32 + 0.5) / side as f32 - 0.5);
+            let ring = (u * u + v * v).sqrt() * 2.0;
+            let stripe = 0.5 + 0.5 * ((u + 0.6 * v) * 19.0).sin();
+            let alpha = (0.35 * ring + 0.65 * stripe).clamp(0.0, 1.0);
+            rgba.extend_from_slice(&[40 + 6 * x as u8, 220 - 6 * y as u8, 120, (alpha * 255.0).round() as u8]);
+        }
+    }
+    app.world.resource_mut::<Assets<Image>>().add(Image::rgba8(side, side, rgba, "alpha pattern"))
+}
+
+/// Masked surfaces in front of an opaque wall: textured (as it is, and with a texture transform
+/// on a double-sided card seen from behind), vertex-coloured, wholly cut out, wholly kept, one
+/// filling much of the view (its triangles become tile jobs) and one behind an opaque box.
+fn masked_scene() -> App {
+    let mut app = scene_app();
+    let pattern = alpha_pattern(&mut app);
+    let masked = |base: Vec4, cutoff: f32| StandardMaterial {
+        alpha_mode: AlphaMode::Mask(cutoff),
+        double_sided: true,
+        ..StandardMaterial::from_color(base, 0.6)
+    };
+    let facing = |x: f32, y: f32, z: f32, size: f32| {
+        Transform::from_xyz(x, y, z)
+            .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+            .with_scale(Vec3::splat(size))
+    };
+    spawn_mesh(
+        &mut app,
+        Mesh::plane(12.0),
+        StandardMaterial::from_color(Vec4::new(0.35, 0.3, 0.6, 1.0), 0.8),
+        facing(0.0, 0.0, -7.0, 1.0),
+    );
+    let textured = StandardMaterial { base_color_texture: Some(TextureRef::new(pattern)), ..masked(Vec4::ONE, 0.5) };
+    spawn_mesh(&mut app, Mesh::plane(1.0), textured.clone(), facing(-1.3, 0.6, -4.0, 1.1));
+    let transformed = StandardMaterial {
+        base_color_texture: Some(TextureRef {
+            transform: UvTransform { offset: Vec2::new(0.2, -0.1), rotation: 0.4, scale: Vec2::new(2.0, 1.5) },
+            ..TextureRef::new(pattern)
+        }),
+        ..masked(Vec4::new(1.0, 0.8, 0.6, 0.9), 0.4)
+    };
+    let behind = Transform::from_xyz(0.0, 0.6, -4.0)
+        .with_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2) * Quat::from_rotation_z(0.3));
+    spawn_mesh(&mut app, Mesh::plane(1.1), transformed, behind);
+    let mut coloured = Mesh::uv_sphere(0.5, 24, 16);
+    coloured.colors = coloured.positions.iter().map(|p| Vec4::new(1.0, 0.6 + p.y, 0.4, 0.5 + 1.2 * p.x)).collect();
+    spawn_mesh(&mut app, coloured, masked(Vec4::new(0.9, 0.9, 0.9, 1.0), 0.5), Transform::from_xyz(1.3, 0.6, -4.0));
+    spawn_mesh(
+        &mut app,
+        Mesh::cuboid(Vec3::splat(0.7)),
+        masked(Vec4::new(0.9, 0.2, 0.2, 0.3), 0.5),
+        Transform::from_xyz(-1.3, -0.7, -4.0),
+    );
+    spawn_mesh(
+        &mut app,
+        Mesh::cuboid(Vec3::splat(0.7)),
+        masked(Vec4::new(0.2, 0.9, 0.3, 0.8), 0.5),
+        Transform::from_xyz(0.0, -0.7, -4.0),
+    );
+    // Near the eye, over the bottom right of the view.
+    spawn_mesh(&mut app, Mesh::plane(1.0), textured.clone(), facing(0.55, -0.35, -1.2, 0.9));
+    // Behind an opaque box: its samples are won before its alpha is tested.
+    spawn_mesh(
+        &mut app,
+        Mesh::cuboid(Vec3::splat(0.5)),
+        StandardMaterial::from_color(Vec4::new(0.8, 0.8, 0.3, 1.0), 0.5),
+        Transform::from_xyz(1.3, -0.7, -3.6),
+    );
+    spawn_mesh(&mut app, Mesh::plane(1.0), textured, facing(1.3, -0.7, -4.5, 1.0));
+    app.world.spawn((
+        DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
+        Transform::from_xyz(0.3, 0.6, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    app.world.spawn((Camera { exposure: Exposure::unit(), ..Default::default() }, Transform::IDENTITY));
+    app
+}
+
+#[test]
+fn masked_materials_are_cut_out_in_compute_as_in_the_forward_pass() {
+    for msaa in [1, 4] {
+        let hardware = render_app(&mut masked_scene(), SIZE, settings(msaa, Raster::Hardware));
+        let mut app = masked_scene();
+        let compute = render_app(&mut app, SIZE, settings(msaa, Raster::Compute));
+        if !visibility_supported(&app) {
+            assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
+            continue;
+        }
+        assert!(plan_runs(&app, Pass::VISIBILITY_RASTER) && !plan_runs(&app, Pass::OPAQUE), "MSAA {msaa}");
+        // The same scene with every surface opaque: what the alpha test must have cut away.
+        let mut solid = masked_scene();
+        let mut materials = solid.world.resource_mut::<Assets<StandardMaterial>>();
+        let handles: Vec<_> = materials.iter().map(|(h, _)| h).collect();
+        for h in handles {
+            materials.get_mut(h).unwrap().alpha_mode = AlphaMode::Opaque;
+        }
+        let unmasked = render_app(&mut solid, SIZE, settings(msaa, Raster::Compute));
+        let cut = pixels_apart(&compute, &unmasked, 24);
+        let flip = flip_mean(&hardware, &compute, SIZE.0, SIZE.1);
+        let apart = pixels_apart(&hardware, &compute, 24);
+        let total = (SIZE.0 * SIZE.1) as usize;
+        eprintln!("MSAA {msaa}: FLIP mean {flip:.5}, {apart} of {total} pixels more than 24/255 apart, {cut} cut out");
+        assert!(cut * 10 > total, "MSAA {msaa}: only {cut} pixels were cut out");
+        assert!(flip < 0.003, "MSAA {msaa}: FLIP mean {flip} between the compute and hardware rasters");
+        assert!(apart * 500 < total, "MSAA {msaa}: {apart} of {total} pixels differ by more than 24/255");
+    }
+}
+
+/// CesiumMan (skinned) beside AnimatedMorphCube (morph targets), both posed at `time` seconds,
+/// drawn with `raster`.
+fn deformed_frame(time: f32, raster: Raster) -> (Vec<u8>, App) {
+    use penumbra::engine::import::GltfScene;
+    use penumbra::render::headless::{CameraChoice, ShotSettings, stage_camera};
+    let mut app = scene_app();
+    app.insert_resource(Time::fixed_hz(60.0));
+    for (file, at, scale) in [
+        ("CesiumMan/CesiumMan.glb", Vec3::new(-0.45, 0.0, 0.0), 1.0),
+        ("AnimatedMorphCube/AnimatedMorphCube.glb", Vec3::new(0.5, 0.6, 0.0), 0.25),
+    ] {
+        let scene = GltfScene::load(&asset(file), &ImportOptions::default()).unwrap();
+        let root = scene.spawn(&mut app.world);
+        let mut transform = app.world.get_mut::<Transform>(root).unwrap();
+        transform.translation = at;
+        transform.scale = Vec3::splat(scale);
+        let mut player = app.world.get_mut::<AnimationPlayer>(root).unwrap();
+        player.seek(time).unwrap();
+        player.pause();
+    }
+    app.update();
+    let shot =
+        ShotSettings { size: Some(SIZE), camera: CameraChoice::Orbit { yaw: 30.0, pitch: 8.0 }, ..Default::default() };
+    stage_camera(&mut app, &shot).unwrap();
+    let rgba = render_app(&mut app, SIZE, settings(4, raster));
+    (rgba, app)
+}
+
+#[test]
+fn skinned_and_morphed_meshes_are_rasterised_in_compute_from_their_pose() {
+    let mut frames = Vec::new();
+    for time in [0.3, 1.1] {
+        let (hardware, _) = deformed_frame(time, Raster::Hardware);
+        let (compute, app) = deformed_frame(time, Raster::Compute);
+        if !visibility_supported(&app) {
+            assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
+            return;
+        }
+        assert!(plan_runs(&app, Pass::VISIBILITY_RASTER) && !plan_runs(&app, Pass::OPAQUE), "at {time} s");
+        assert!(plan_runs(&app, Pass::DEFORM), "the poses were computed on the GPU");
+        let flip = flip_mean(&hardware, &compute, SIZE.0, SIZE.1);
+        let apart = pixels_apart(&hardware, &compute, 24);
+        let total = (SIZE.0 * SIZE.1) as usize;
+        eprintln!("at {time} s: FLIP mean {flip:.5}, {apart} of {total} pixels more than 24/255 apart");
+        assert!(flip < 0.003, "at {time} s: FLIP mean {flip} between the compute and hardware rasters");
+        assert!(apart * 500 < total, "at {time} s: {apart} of {total} pixels differ by more than 24/255");
+        frames.push(compute);
+    }
+    // Each pose drawn, not the bind pose twice.
+    let moved = pixels_apart(&frames[0], &frames[1], 24);
+    assert!(moved * 50 > (SIZE.0 * SIZE.1) as usize, "only {moved} pixels changed between the poses");
 }

@@ -10,12 +10,17 @@
 //! Data flow, each frame, after the cull pass (`features::culling`) has written each opaque
 //! batch's visible instances (`visible_slots`) and their counts (its indirect arguments):
 //! 1. `raster_prepare` numbers the visible triangles batch after batch (each batch's first number
-//!    in `counters`) and sizes the raster dispatch (`shaders/visibility_raster.wgsl`).
-//! 2. `raster_triangles`, one thread per triangle, writes `depth << 32 | number` into each
-//!    covered sample with a 64-bit atomicMax (nearest wins; ties go to the larger number, so
-//!    the result is the same whatever order threads run in). Triangles larger than 8×8 pixels
-//!    leave a record instead; `raster_scan` numbers their 16×16-pixel tiles, and
-//!    `raster_tiles` spreads those jobs over the GPU.
+//!    in `counters`; the batch table holds each raster bin's batches together, unmasked ones
+//!    first) and sizes the first bin's raster dispatch (`shaders/visibility_raster.wgsl`).
+//! 2. Per bin (`RasterBin`: the unmasked batches, then the masked ones by alpha-test variant and
+//!    base colour texture), `raster_triangles`, one thread per triangle of the bin, writes
+//!    `depth << 32 | number` into each covered sample with a 64-bit atomicMax (nearest wins;
+//!    ties go to the larger number, so the result is the same whatever order threads run in);
+//!    a masked bin's variant covers only samples where the alpha test passes. Triangles larger
+//!    than 8×8 pixels leave a record instead; `raster_scan` numbers their 16×16-pixel tiles, and
+//!    `raster_tiles` spreads those jobs over the GPU. A later bin starts with `raster_begin`
+//!    (its dispatch's size, an empty job list); each bin's range is a dynamic offset into
+//!    `bin_params`.
 //! 3. The shading pass (`forward.wgsl`'s `cs_shade`, one pipeline per forward variant and one
 //!    dispatch per group of batches sharing variant and material textures) shades each
 //!    pixel's triangles once at the pixel's centre, weighs each by the samples it covers, adds
@@ -26,8 +31,9 @@
 //!    such GPUs (the background composite, the tonemap pass); these frames have neither.
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
-//! GPU culling (the visible lists), no occlusion culling, no blended or masked draws, no
-//! gizmos, triangle meshes only, and 64-bit atomics. The frame has no depth or multisampled
+//! GPU culling (the visible lists), no occlusion culling, no blended draws, no gizmos, triangle
+//! meshes only (opaque or masked; skinned and morphed ones are drawn from the deformation
+//! pass's vertices like any other), and 64-bit atomics. The frame has no depth or multisampled
 //! targets.
 
 use bytemuck::{Pod, Zeroable};
@@ -39,11 +45,12 @@ use crate::gpu::formats::DISPLAY_FORMAT;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey};
 use crate::resources::materials::extension::EXTENSION_GROUP;
-use crate::resources::materials::{MaterialKey, MaterialTable};
+use crate::resources::materials::{AlphaKey, MaterialKey, MaterialTable};
 use crate::resources::mesh_pool::MeshPool;
 
 mod pipelines;
-pub use pipelines::{RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
+use pipelines::BIN_BYTES;
+pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
 
 /// Where opaque draws are rasterised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -81,7 +88,7 @@ pub struct RasterGate {
     pub occlusion_on: bool,
     pub blended: bool,
     pub opaque: bool,
-    /// Every opaque batch is an opaque triangle list ([`batch_supported`]).
+    /// Every opaque batch is a triangle list, opaque or masked ([`batch_supported`]).
     pub supported: bool,
     pub gizmos: bool,
 }
@@ -105,7 +112,7 @@ impl RasterGate {
             (!self.occlusion_on, "occlusion culling was asked for (--occlusion on)"),
             (!self.blended, "blended draws: the forward pass draws them over its own depth"),
             (self.opaque, "no opaque draws"),
-            (self.supported, "alpha-masked, line or point draws"),
+            (self.supported, "line or point draws"),
             (!self.gizmos, "gizmo lines"),
         ];
         if let Some((_, why)) = checks.iter().find(|(ok, _)| !ok) {
@@ -177,6 +184,25 @@ struct GpuShadeParams {
     clear: [f32; 4],
 }
 
+/// Batches rasterised by one run of the raster steps (`raster_triangles`, `raster_scan`,
+/// `raster_tiles`): every batch that is not masked, or the masked batches sharing an alpha test
+/// and, where it reads a texture, material textures. The batch table holds each bin's batches
+/// together (unmasked first), so its triangle numbers are contiguous.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RasterBin {
+    mask: Option<MaskKey>,
+    /// The material group the alpha test reads (a masked bin's base colour texture).
+    material: Option<MaterialKey>,
+    first_batch: u32,
+    end_batch: u32,
+}
+
+impl RasterBin {
+    fn steps(&self) -> [RasterStep; 2] {
+        [RasterStep::Triangles(self.mask), RasterStep::Tiles(self.mask)]
+    }
+}
+
 /// Batches shaded by one dispatch: one pipeline variant, one set of material textures.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct ShadeGroup {
@@ -207,8 +233,16 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 /// Whether a batch can be rasterised here (see the module doc).
 pub fn batch_supported(b: &Batch) -> bool {
     use crate::resources::draws::TopologyKey;
-    use crate::resources::materials::AlphaKey;
-    b.key.topology == TopologyKey::Triangles && b.key.alpha == AlphaKey::Opaque
+    b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend
+}
+
+/// The alpha test a batch's raster bin runs, and the material group it reads.
+fn bin_of(b: &Batch) -> (Option<MaskKey>, Option<MaterialKey>) {
+    if b.key.alpha != AlphaKey::Mask {
+        return (None, None);
+    }
+    let mask = MaskKey::of(&b.key);
+    (Some(mask), mask.texture.then_some(b.material))
 }
 
 pub struct FrameInputs<'a> {
@@ -250,6 +284,10 @@ pub struct VisibilityBuffer {
     /// The displayed colour (`ShadeOutput::Display*`), copied into the output.
     display: Option<(wgpu::Texture, wgpu::TextureView)>,
     groups: Vec<ShadeGroup>,
+    bins: Vec<RasterBin>,
+    /// One `struct RasterBin` uniform per bin, `bin_stride` bytes apart (dynamic offsets).
+    bin_params: GrowableBuffer,
+    bin_stride: u64,
     batch_count: u32,
     /// The bind groups, and the buffers they were made with (made again when one changes).
     bound: Option<Bound>,
@@ -273,7 +311,7 @@ impl VisibilityBuffer {
         materials: &MaterialTable,
     ) -> Self {
         pipelines.register(ShadeFamily::new(device, view, materials));
-        pipelines.register(RasterFamily::new(device));
+        pipelines.register(RasterFamily::new(device, materials));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
@@ -300,6 +338,9 @@ impl VisibilityBuffer {
             shaded: Vec::new(),
             display: None,
             groups: Vec::new(),
+            bins: Vec::new(),
+            bin_params: GrowableBuffer::new(device, "visibility raster bins", U::UNIFORM | U::COPY_DST, 256),
+            bin_stride: (device.limits().min_uniform_buffer_offset_alignment as u64).max(BIN_BYTES),
             batch_count: 0,
             bound: None,
         }
@@ -341,8 +382,37 @@ impl VisibilityBuffer {
         mesh_pool: &MeshPool,
     ) {
         self.groups.clear();
-        let mut table = Vec::with_capacity(batches.len());
+        // Unmasked batches first, then each masked bin's together, in the order first seen.
+        self.bins.clear();
+        let mut keys: Vec<(Option<MaskKey>, Option<MaterialKey>)> = vec![(None, None)];
+        let mut order: Vec<(usize, usize)> = Vec::with_capacity(batches.len());
         for (i, b) in batches.iter().enumerate() {
+            let key = bin_of(b);
+            let bin = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
+                keys.len() - 1
+            });
+            order.push((bin, i));
+        }
+        order.sort_by_key(|&(bin, _)| bin);
+        for (k, &(bin, _)) in order.iter().enumerate() {
+            match self.bins.last_mut() {
+                Some(last) if last.mask == keys[bin].0 && last.material == keys[bin].1 => last.end_batch = k as u32 + 1,
+                _ => self.bins.push(RasterBin {
+                    mask: keys[bin].0,
+                    material: keys[bin].1,
+                    first_batch: k as u32,
+                    end_batch: k as u32 + 1,
+                }),
+            }
+        }
+        if self.bins.is_empty() {
+            // Nothing to draw; the first step still runs.
+            self.bins.push(RasterBin { mask: None, material: None, first_batch: 0, end_batch: 0 });
+        }
+        let mut table = Vec::with_capacity(batches.len());
+        for &(_, i) in &order {
+            let b = &batches[i];
             let group = ShadeGroup { key: shade_key(b.key), material: b.material };
             let shade_group = match self.groups.iter().position(|g| *g == group) {
                 Some(g) => g,
@@ -386,6 +456,11 @@ impl VisibilityBuffer {
             table.push(gpu);
         }
         self.batch_count = table.len() as u32;
+        self.bin_params.reserve(device, self.bins.len() as u64 * self.bin_stride);
+        for (k, bin) in self.bins.iter().enumerate() {
+            let words = [bin.first_batch, bin.end_batch, 0, 0];
+            queue.write_buffer(self.bin_params.buffer(), k as u64 * self.bin_stride, bytemuck::cast_slice(&words));
+        }
         let bytes: &[u8] = bytemuck::cast_slice(&table);
         self.batches.reserve(device, bytes.len().max(32) as u64);
         if !bytes.is_empty() {
@@ -411,7 +486,13 @@ impl VisibilityBuffer {
     /// Compiles the rasteriser's steps, which no material changes, ahead of the first frame
     /// rasterised in compute (`Renderer::warm_up`).
     pub fn warm_up(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Result<(), ShaderError> {
-        pipelines.prepare::<RasterFamily>(device, RasterStep::ALL)
+        pipelines.prepare::<RasterFamily>(device, RasterStep::OPAQUE)
+    }
+
+    /// The raster steps this frame's bins run.
+    fn raster_steps(&self) -> impl Iterator<Item = RasterStep> + '_ {
+        let begin = (self.bins.len() > 1).then_some(RasterStep::Begin);
+        RasterStep::OPAQUE.into_iter().chain(begin).chain(self.bins.iter().flat_map(RasterBin::steps))
     }
 
     /// Compiles what the frame needs, sizes the buffers for it and writes its parameters.
@@ -425,7 +506,8 @@ impl VisibilityBuffer {
         inputs: &FrameInputs,
     ) -> Result<(), ShaderError> {
         // Each is tried (a variant that fails leaves the others usable); the first error counts.
-        let raster = pipelines.prepare::<RasterFamily>(device, RasterStep::ALL);
+        let steps: Vec<RasterStep> = self.raster_steps().collect();
+        let raster = pipelines.prepare::<RasterFamily>(device, steps);
         let shade = pipelines.prepare::<ShadeFamily>(device, self.groups.iter().map(|g| self.shade_key(g, inputs)));
         let compiled = raster.and(shade);
         self.shaded = (0..self.groups.len())
@@ -503,6 +585,8 @@ impl VisibilityBuffer {
             self.counters.buffer().clone(),
             self.samples.buffer().clone(),
             self.partial.buffer().clone(),
+            self.bin_params.buffer().clone(),
+            inputs.materials.buffer().clone(),
         ];
         let target = match (&self.display, inputs.hdr) {
             (Some((_, view)), _) => view.clone(),
@@ -527,6 +611,15 @@ impl VisibilityBuffer {
                 entry(8, self.counters.buffer()),
                 entry(9, self.samples.buffer()),
                 entry(10, &self.jobs),
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: self.bin_params.buffer(),
+                        offset: 0,
+                        size: wgpu::BufferSize::new(BIN_BYTES),
+                    }),
+                },
+                entry(12, inputs.materials.buffer()),
             ],
         });
         let dispatch = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -567,18 +660,41 @@ impl VisibilityBuffer {
                 label: Some("visibility raster"),
                 timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("visibility raster")),
             });
-            let steps = RasterStep::ALL.map(|s| pipelines.cached::<RasterFamily>(&s));
-            if let [Some(prepare), Some(triangles), Some(scan), Some(tiles)] = steps {
-                pass.set_bind_group(0, &bound.raster, &[]);
-                pass.set_pipeline(prepare);
+            let step = |s: RasterStep| pipelines.cached::<RasterFamily>(&s);
+            if let (Some(prepare), Some(scan)) = (step(RasterStep::Prepare), step(RasterStep::Scan)) {
+                // The first bin starts with the numbering; each later one with raster_begin.
+                pass.set_bind_group(0, &bound.raster, &[0]);
                 pass.set_bind_group(1, &bound.dispatch, &[]);
+                pass.set_pipeline(prepare);
                 pass.dispatch_workgroups(1, 1, 1);
-                pass.set_pipeline(triangles);
-                pass.dispatch_workgroups_indirect(&self.dispatch, 0);
-                pass.set_pipeline(scan);
-                pass.dispatch_workgroups(1, 1, 1);
-                pass.set_pipeline(tiles);
-                pass.dispatch_workgroups(TILE_GROUPS, 1, 1);
+                for (k, bin) in self.bins.iter().enumerate() {
+                    let [triangles, tiles] = bin.steps().map(step);
+                    let material = match bin.material {
+                        Some(key) => inputs.materials.get(&key).map(|m| Some(&m.bind_group)),
+                        None => Some(None),
+                    };
+                    // A step that did not compile (reported) or a material not there yet: the
+                    // bin's triangles are not drawn.
+                    let (Some(triangles), Some(tiles), Some(material)) = (triangles, tiles, material) else {
+                        continue;
+                    };
+                    if k > 0 {
+                        let Some(begin) = step(RasterStep::Begin) else { continue };
+                        pass.set_bind_group(0, &bound.raster, &[(k as u64 * self.bin_stride) as u32]);
+                        pass.set_bind_group(1, &bound.dispatch, &[]);
+                        pass.set_pipeline(begin);
+                        pass.dispatch_workgroups(1, 1, 1);
+                    }
+                    if let Some(material) = material {
+                        pass.set_bind_group(1, material, &[]);
+                    }
+                    pass.set_pipeline(triangles);
+                    pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+                    pass.set_pipeline(scan);
+                    pass.dispatch_workgroups(1, 1, 1);
+                    pass.set_pipeline(tiles);
+                    pass.dispatch_workgroups(TILE_GROUPS, 1, 1);
+                }
             }
         }
         let (w, h) = inputs.size;

@@ -8,25 +8,59 @@ use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 use crate::resources::draws::{AlphaTest, LocalLights, PipelineKey, Tonemapper};
 use crate::resources::materials::MaterialTable;
 use crate::resources::materials::extension::PipelineLayouts;
+use crate::resources::materials::{AlphaKey, TextureSet};
 
-/// The rasteriser's entry points, in `visibility_raster.wgsl`.
+/// What a masked bin's raster steps compile in to test alpha (`visibility_raster.wgsl`'s
+/// `alpha_passes`): the forward variant's switches that its alpha reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct MaskKey {
+    /// A base colour texture (the bin binds its material group).
+    pub texture: bool,
+    pub transformed_uvs: bool,
+    pub vertex_colors: bool,
+}
+
+impl MaskKey {
+    /// The alpha test of a masked batch drawn with `key`.
+    pub fn of(key: &PipelineKey) -> Self {
+        Self {
+            texture: key.textures.has(TextureSet::BASE_COLOR),
+            transformed_uvs: key.textures.has(TextureSet::TRANSFORMED_UVS),
+            vertex_colors: key.vertex_colors,
+        }
+    }
+}
+
+/// The rasteriser's entry points, in `visibility_raster.wgsl`: the steps of every bin, and those
+/// a masked bin compiles with its alpha test.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum RasterStep {
     Prepare,
-    Triangles,
+    Begin,
+    Triangles(Option<MaskKey>),
     Scan,
-    Tiles,
+    Tiles(Option<MaskKey>),
 }
 
 impl RasterStep {
-    pub const ALL: [RasterStep; 4] = [RasterStep::Prepare, RasterStep::Triangles, RasterStep::Scan, RasterStep::Tiles];
+    /// What a frame of opaque bins runs, in order.
+    pub const OPAQUE: [RasterStep; 4] =
+        [RasterStep::Prepare, RasterStep::Triangles(None), RasterStep::Scan, RasterStep::Tiles(None)];
 
     fn entry(self) -> &'static str {
         match self {
             RasterStep::Prepare => "raster_prepare",
-            RasterStep::Triangles => "raster_triangles",
+            RasterStep::Begin => "raster_begin",
+            RasterStep::Triangles(_) => "raster_triangles",
             RasterStep::Scan => "raster_scan",
-            RasterStep::Tiles => "raster_tiles",
+            RasterStep::Tiles(_) => "raster_tiles",
+        }
+    }
+
+    fn mask(self) -> Option<MaskKey> {
+        match self {
+            RasterStep::Triangles(m) | RasterStep::Tiles(m) => m,
+            _ => None,
         }
     }
 }
@@ -61,8 +95,8 @@ pub struct ShadeKey {
 
 /// The forward key a shading pipeline compiles: what a visibility-buffer frame cannot have
 /// (deferred local lights: the pass walks the clusters itself; tonemapping: it writes HDR
-/// colour) taken out, raster state (culling, winding, formats) that compute does not have
-/// reduced to one value.
+/// colour) taken out, raster state (culling, winding, formats, the alpha test: the raster
+/// steps tested it) that compute does not have reduced to one value.
 pub fn shade_key(key: PipelineKey) -> PipelineKey {
     // An sRGB format: a display variant's tonemap leaves the encoding to the shading pass,
     // which averages first.
@@ -75,6 +109,7 @@ pub fn shade_key(key: PipelineKey) -> PipelineKey {
         color_format: FormatKey(wgpu::TextureFormat::Rgba8UnormSrgb),
         depth_format: None,
         sample_count: 1,
+        alpha: if key.alpha == AlphaKey::Mask { AlphaKey::Opaque } else { key.alpha },
         alpha_test: AlphaTest::PerPixel,
         ..key
     }
@@ -84,15 +119,27 @@ pub fn shade_key(key: PipelineKey) -> PipelineKey {
 pub struct RasterFamily {
     /// Group 0 (see `visibility_raster.wgsl`'s bindings).
     pub raster: wgpu::BindGroupLayout,
-    /// `raster_prepare`'s group 1: the raster dispatch's arguments.
+    /// `raster_prepare`'s and `raster_begin`'s group 1: the raster dispatch's arguments.
     pub dispatch: wgpu::BindGroupLayout,
     raster_pipeline: wgpu::PipelineLayout,
     prepare_pipeline: wgpu::PipelineLayout,
+    /// Masked steps with a base colour texture: group 1 is the bin's material group.
+    textured_pipeline: wgpu::PipelineLayout,
 }
 
 impl RasterFamily {
-    pub fn new(device: &wgpu::Device) -> Self {
+    pub fn new(device: &wgpu::Device, materials: &MaterialTable) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
+        let bin = wgpu::BindGroupLayoutEntry {
+            binding: 11,
+            visibility: compute,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(BIN_BYTES),
+            },
+            count: None,
+        };
         let raster = parts::bind_group_layout(
             device,
             "visibility raster",
@@ -108,30 +155,49 @@ impl RasterFamily {
                 storage_rw(8, compute),
                 storage_rw(9, compute),
                 storage_rw(10, compute),
+                bin,
+                storage(12, compute),
             ],
         );
         let dispatch = parts::bind_group_layout(device, "visibility raster dispatch", &[storage_rw(0, compute)]);
         Self {
             raster_pipeline: parts::pipeline_layout(device, "visibility raster", &[&raster]),
             prepare_pipeline: parts::pipeline_layout(device, "visibility raster prepare", &[&raster, &dispatch]),
+            textured_pipeline: parts::pipeline_layout(
+                device,
+                "visibility raster masked",
+                &[&raster, materials.layout()],
+            ),
             raster,
             dispatch,
         }
     }
 }
 
+/// Bytes of one bin's uniform (`struct RasterBin`).
+pub const BIN_BYTES: u64 = 16;
+
 impl PipelineFamily for RasterFamily {
     type Key = RasterStep;
     type Pipeline = wgpu::ComputePipeline;
     const NAME: &'static str = "visibility raster";
 
-    fn shader(&self, _: &RasterStep) -> (&'static str, ShaderDefs) {
-        ("visibility_raster.wgsl", ShaderDefs::default())
+    fn shader(&self, step: &RasterStep) -> (&'static str, ShaderDefs) {
+        let defs = match step.mask() {
+            None => ShaderDefs::default(),
+            Some(m) => ShaderDefs::default()
+                .with("ALPHA_MASK", true)
+                .with("BASE_COLOR_TEXTURE", m.texture)
+                .with("TRANSFORMED_UVS", m.texture && m.transformed_uvs)
+                .with("VERTEX_COLORS", m.vertex_colors),
+        };
+        ("visibility_raster.wgsl", defs)
     }
 
     fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, step: &RasterStep) -> wgpu::ComputePipeline {
         let layout = match step {
-            RasterStep::Prepare => &self.prepare_pipeline,
+            RasterStep::Prepare | RasterStep::Begin => &self.prepare_pipeline,
+            _ if step.mask().is_some_and(|m| m.texture) => &self.textured_pipeline,
             _ => &self.raster_pipeline,
         };
         parts::compute_pipeline(device, layout, module, step.entry(), step.entry())
