@@ -73,6 +73,11 @@ impl Pass {
          [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the displayed colour \
          copied into the output",
     );
+    /// A hybrid frame's hand-over: each sample's depth from the visibility buffer (and,
+    /// multisampled, the shaded colour in each sample), for the forward pass's blended draws
+    /// and gizmo lines to draw over.
+    pub const VISIBILITY_HAND_OVER: Pass =
+        Pass::new("VisibilityHandOver", "visibility buffer, shaded HDR colour -> depth [, multisampled HDR colour]");
     /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
     /// opaque draws (depth test: only where the depth is still the far plane).
     pub const BACKGROUND: Pass =
@@ -102,7 +107,7 @@ impl Pass {
 }
 
 /// The plan's own passes in the order they can run; the post-processing chain's follow.
-const CORE: [Pass; 14] = [
+const CORE: [Pass; 15] = [
     Pass::ENVIRONMENT_PREFILTER,
     Pass::DEFORM,
     Pass::CULL,
@@ -111,6 +116,7 @@ const CORE: [Pass; 14] = [
     Pass::OPAQUE,
     Pass::VISIBILITY_RASTER,
     Pass::VISIBILITY_SHADE,
+    Pass::VISIBILITY_HAND_OVER,
     Pass::BACKGROUND,
     Pass::OCCLUSION_LATE,
     Pass::DEFERRED_LIGHTS,
@@ -163,6 +169,8 @@ pub struct SceneNeeds {
     pub depth: bool,
     /// Transmissive draws exist (drawn with the blended ones, after the transmission copy).
     pub transmission: bool,
+    /// The forward pass draws over the visibility buffer's samples (blended draws, gizmo lines).
+    pub hand_over: bool,
 }
 
 impl FramePlan {
@@ -185,6 +193,7 @@ impl FramePlan {
             gizmo_vertices,
             depth,
             transmission,
+            hand_over,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -211,6 +220,13 @@ impl FramePlan {
         if visibility {
             passes.push((Pass::VISIBILITY_RASTER, raster_why));
             passes.push((Pass::VISIBILITY_SHADE, "the visibility buffer's samples to shade"));
+            if hand_over {
+                passes.push((
+                    Pass::VISIBILITY_HAND_OVER,
+                    "blended draws or gizmo lines: the forward pass draws them over the shaded samples, \
+                     depth-tested against each sample's depth",
+                ));
+            }
         } else {
             passes.push((
                 Pass::OPAQUE,
@@ -289,6 +305,8 @@ impl FramePlan {
                     Pass::OPAQUE => "opaque draws are rasterised and shaded in compute (see visibility-raster)",
                     Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE if n.has_opaque => n.raster_why,
                     Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE => "no opaque draws",
+                    Pass::VISIBILITY_HAND_OVER if n.visibility => "no blended draws or gizmo lines",
+                    Pass::VISIBILITY_HAND_OVER => "opaque draws are not rasterised in compute",
                     Pass::BACKGROUND if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"
                     }
@@ -330,6 +348,22 @@ mod tests {
     fn transparent_phase_only_with_blended_draws() {
         assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::TRANSPARENT));
         assert!(plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::TRANSPARENT));
+    }
+
+    #[test]
+    fn a_hybrid_frame_hands_the_visibility_buffer_over_before_the_blended_draws() {
+        let compute =
+            SceneNeeds { has_opaque: true, visibility: true, raster_why: "--raster compute", ..Default::default() };
+        let alone = plan(compute);
+        assert!(alone.runs(Pass::VISIBILITY_SHADE) && !alone.runs(Pass::VISIBILITY_HAND_OVER));
+        let why = alone.left_out().into_iter().find(|(p, _)| *p == Pass::VISIBILITY_HAND_OVER).unwrap().1;
+        assert_eq!(why, "no blended draws or gizmo lines");
+        let hybrid = plan(SceneNeeds { has_blend: true, hand_over: true, ..compute });
+        let order: Vec<Pass> = hybrid.passes.iter().map(|(p, _)| *p).collect();
+        let at = |pass| order.iter().position(|p| *p == pass).unwrap();
+        assert!(at(Pass::VISIBILITY_SHADE) < at(Pass::VISIBILITY_HAND_OVER));
+        assert!(at(Pass::VISIBILITY_HAND_OVER) < at(Pass::TRANSPARENT));
+        assert!(!hybrid.runs(Pass::OPAQUE));
     }
 
     #[test]

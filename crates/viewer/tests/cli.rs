@@ -685,7 +685,12 @@ fn explain_names_where_opaque_draws_were_rasterised_and_why() {
     assert!(explain(&boxed, &["--raster", "hardware"]).contains("--raster hardware"));
     let compute = explain(&boxed, &["--raster", "compute"]);
     assert!(compute.contains("visibility-raster") && compute.contains("--raster compute"), "{compute}");
-    // A blended draw keeps a compute frame on the forward pass, and says so.
+    // Masked and blended draws: a hybrid frame, the blended ones drawn by the forward pass over
+    // the visibility buffer's samples.
     let blended = explain(&asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"), &["--raster", "compute"]);
-    assert!(blended.contains("blended draws: the forward pass draws them over its own depth"), "{blended}");
+    assert!(blended.contains("VisibilityRaster:") && blended.contains("VisibilityHandOver:"), "{blended}");
+    assert!(blended.contains("blended draws or gizmo lines: the forward pass draws them"), "{blended}");
+    // A transmissive draw keeps a compute frame on the forward pass, and says so.
+    let transmissive = explain(&asset("TransmissionTest/TransmissionTest.glb"), &["--raster", "compute"]);
+    assert!(transmissive.contains("transmissive draws (they see the forward pass's opaque colour)"), "{transmissive}");
 }

@@ -154,7 +154,7 @@ impl Renderer {
                 }
                 (true, _) => ShadeOutput::DisplayResolved(tonemapper),
             };
-            let inputs = crate::features::visibility::FrameInputs {
+            let vis_inputs = crate::features::visibility::FrameInputs {
                 view: self.view.uniform(),
                 view_bind_group,
                 instances: self.instances.buffer(),
@@ -170,9 +170,17 @@ impl Renderer {
                 background,
                 clear: clear_radiance,
             };
-            let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &inputs).err();
-            self.visibility.encode(&mut cx, &inputs);
-            (DrawCounts::default(), error)
+            let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &vis_inputs).err();
+            self.visibility.encode(&mut cx, &vis_inputs);
+            if plan.runs(Pass::VISIBILITY_HAND_OVER) {
+                // The forward pass draws the blended draws and gizmo lines over the shaded samples.
+                let hand_over_error = self.visibility.encode_hand_over(&mut cx, targets).err();
+                let rest = Rest { deferred: None, draws: true };
+                let (counts, rest_error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
+                (counts, error.or(hand_over_error).or(rest_error))
+            } else {
+                (DrawCounts::default(), error)
+            }
         } else if plan.runs(Pass::OPAQUE) {
             forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::All)
         } else {

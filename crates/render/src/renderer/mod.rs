@@ -377,7 +377,7 @@ impl Renderer {
         }
         laps.lap("environment");
         // The gate a frame passes, asked with what the scene alone can still change assumed
-        // favourable (opaque triangle lists, nothing blended, no gizmos, a buffer that fits).
+        // favourable (opaque triangle lists, nothing transmissive, a buffer that fits).
         let gate = crate::features::visibility::RasterGate {
             setting: self.settings.raster,
             atomics: self.ctx.caps.visibility_raster,
@@ -385,10 +385,9 @@ impl Renderer {
             culling: self.settings.gpu_culling && self.ctx.caps.indirect_first_instance,
             fits: true,
             occlusion_on: self.settings.occlusion_culling == crate::features::culling::OcclusionCulling::On,
-            blended: false,
+            transmission: false,
             opaque: true,
             supported: true,
-            gizmos: false,
         };
         if gate.decide().is_ok() {
             let culled = GpuCulling::compile(&device, &mut self.pipelines, false, false, self.settings.msaa);

@@ -142,7 +142,8 @@ impl Renderer {
             && (opaque_len > 1 || (opaque_len == 1 && self.raster_in_compute()))
             && scene.view.is_some();
         // The visibility buffer, if asked for and this frame's draws allow it (see `Raster`);
-        // gizmos, known only below, can still send the frame to the forward pass.
+        // the cull pass's readiness, known only below, can still send the frame to the forward
+        // pass.
         let mut raster_gate = crate::features::visibility::RasterGate {
             setting: self.settings.raster,
             atomics: self.ctx.caps.visibility_raster,
@@ -150,10 +151,9 @@ impl Renderer {
             culling,
             fits: crate::features::visibility::fits(&device.limits(), size, self.settings.msaa),
             occlusion_on: self.settings.occlusion_culling == OcclusionCulling::On,
-            blended: !blend_batches.is_empty(),
+            transmission,
             opaque: !self.draws.opaque_batches().is_empty(),
             supported: self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported),
-            gizmos: false,
         };
         let visibility_wanted = raster_gate.decide().is_ok();
         let mut occlusion = culling
@@ -240,10 +240,13 @@ impl Renderer {
         };
         let background = env_frame.active && env_frame.solid_background.is_none() && scene.view.is_some();
         raster_gate.culling = self.culling_active;
-        raster_gate.gizmos = gizmo_vertices > 0;
         let raster_why = raster_gate.decide();
-        // Gizmos and the cull pass's readiness, known only now, can still say no.
+        // The cull pass's readiness, known only now, can still say no.
         let visibility = raster_why.is_ok();
+        // A hybrid frame: the forward pass draws blended draws and gizmo lines over the
+        // visibility buffer's shaded samples, with the depth (and colour) of each sample handed
+        // over (features/visibility/hand_over.rs).
+        let hand_over = visibility && (!blend_batches.is_empty() || gizmo_vertices > 0);
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
         let needs = TargetNeeds {
@@ -274,9 +277,15 @@ impl Renderer {
             && !needs.post_processing
             && matches!(output_format, wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb)
             && output.texture().usage().contains(wgpu::TextureUsages::COPY_DST);
-        let (direct, depth_free) = if visibility { (visibility_direct, true) } else { (!needs.hdr(), !needs.depth()) };
+        let (direct, depth_free) = if hand_over {
+            (false, false)
+        } else if visibility {
+            (visibility_direct, true)
+        } else {
+            (!needs.hdr(), !needs.depth())
+        };
         let hdr_storage = visibility && !direct;
-        let target_samples = if visibility { 1 } else { self.settings.msaa };
+        let target_samples = if visibility && !hand_over { 1 } else { self.settings.msaa };
         if self.targets.as_ref().is_none_or(|t| {
             t.size != size
                 || t.samples != target_samples
@@ -356,6 +365,7 @@ impl Renderer {
             gizmo_vertices,
             depth: !depth_free,
             transmission,
+            hand_over,
         });
         plan.add_post(self.post.decisions());
         laps.log(format_args!("frame {} prepared", self.frame));

@@ -30,11 +30,15 @@
 //!    sRGB-encoded), which is copied into the output. Full-screen fragment passes are dear on
 //!    such GPUs (the background composite, the tonemap pass); these frames have neither.
 //!
+//! 4. In a hybrid frame (blended draws or gizmo lines), `encode_hand_over` writes each sample's
+//!    depth (and, multisampled, the shaded colour in each sample) into the frame's depth and
+//!    HDR targets (`hand_over`), and the forward pass draws those over them and resolves.
+//!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
-//! GPU culling (the visible lists), no occlusion culling, no blended draws, no gizmos, triangle
-//! meshes only (opaque or masked; skinned and morphed ones are drawn from the deformation
-//! pass's vertices like any other), and 64-bit atomics. The frame has no depth or multisampled
-//! targets.
+//! GPU culling (the visible lists), no occlusion culling, no transmissive draws, triangle meshes
+//! only (opaque or masked; skinned and morphed ones are drawn from the deformation pass's
+//! vertices like any other), and 64-bit atomics. Without blended draws or gizmos the frame has
+//! no depth or multisampled targets.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -47,8 +51,11 @@ use crate::resources::draws::{Batch, PipelineKey};
 use crate::resources::materials::extension::EXTENSION_GROUP;
 use crate::resources::materials::{AlphaKey, MaterialKey, MaterialTable};
 use crate::resources::mesh_pool::MeshPool;
+use crate::targets::FrameTargets;
 
+mod hand_over;
 mod pipelines;
+pub use hand_over::HandOverFamily;
 use pipelines::BIN_BYTES;
 pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
 
@@ -66,8 +73,9 @@ pub enum Raster {
     /// Compute shaders (`features::visibility`): each sample's nearest triangle goes into a
     /// visibility buffer with 64-bit atomics, then a compute pass shades each pixel's
     /// triangles. For GPUs whose graphics units are few next to their compute units (the
-    /// H100 rasterises on 2 of its 66 TPCs). Frames it cannot draw yet rasterise in hardware,
-    /// and `--explain` says why ([`RasterGate`]).
+    /// H100 rasterises on 2 of its 66 TPCs). Blended draws and gizmo lines are drawn over the
+    /// result by the forward pass (a hybrid frame). Frames it cannot draw yet rasterise in
+    /// hardware, and `--explain` says why ([`RasterGate`]).
     Compute,
 }
 
@@ -86,11 +94,11 @@ pub struct RasterGate {
     pub fits: bool,
     /// `--occlusion on` (its depth pyramid comes from the forward pass).
     pub occlusion_on: bool,
-    pub blended: bool,
+    /// Transmissive draws (they read a copy of the forward pass's opaque colour).
+    pub transmission: bool,
     pub opaque: bool,
     /// Every opaque batch is a triangle list, opaque or masked ([`batch_supported`]).
     pub supported: bool,
-    pub gizmos: bool,
 }
 
 impl RasterGate {
@@ -110,10 +118,9 @@ impl RasterGate {
             (self.culling, "GPU culling is off or unsupported"),
             (self.fits, "the visibility buffer would exceed the adapter's largest storage binding"),
             (!self.occlusion_on, "occlusion culling was asked for (--occlusion on)"),
-            (!self.blended, "blended draws: the forward pass draws them over its own depth"),
+            (!self.transmission, "transmissive draws (they see the forward pass's opaque colour)"),
             (self.opaque, "no opaque draws"),
             (self.supported, "line or point draws"),
-            (!self.gizmos, "gizmo lines"),
         ];
         if let Some((_, why)) = checks.iter().find(|(ok, _)| !ok) {
             return Err(why);
@@ -291,6 +298,8 @@ pub struct VisibilityBuffer {
     batch_count: u32,
     /// The bind groups, and the buffers they were made with (made again when one changes).
     bound: Option<Bound>,
+    /// The hand-over's bind group, and the samples and shaded colour it was made with.
+    hand_over: Option<(wgpu::Buffer, wgpu::TextureView, wgpu::BindGroup)>,
 }
 
 struct Bound {
@@ -312,6 +321,7 @@ impl VisibilityBuffer {
     ) -> Self {
         pipelines.register(ShadeFamily::new(device, view, materials));
         pipelines.register(RasterFamily::new(device, materials));
+        pipelines.register(HandOverFamily::new(device));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
@@ -343,6 +353,7 @@ impl VisibilityBuffer {
             bin_stride: (device.limits().min_uniform_buffer_offset_alignment as u64).max(BIN_BYTES),
             batch_count: 0,
             bound: None,
+            hand_over: None,
         }
     }
 
@@ -752,6 +763,59 @@ impl VisibilityBuffer {
     }
 }
 
+impl VisibilityBuffer {
+    /// A hybrid frame's hand-over (after `encode`, which shaded HDR colour into the targets'
+    /// single-sampled HDR target): each sample's depth into the depth target and, multisampled,
+    /// the shaded colour into each sample of the multisampled HDR target, for the forward pass
+    /// to load and draw over (see `hand_over`).
+    pub fn encode_hand_over(&mut self, cx: &mut FrameContext, targets: &FrameTargets) -> Result<(), ShaderError> {
+        let (encoder, device, pipelines, timer) =
+            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
+        let (Some(hdr), Some(depth)) = (targets.hdr.as_ref(), targets.depth_view.as_ref()) else {
+            unreachable!("a hybrid frame has HDR and depth targets");
+        };
+        pipelines.get::<HandOverFamily>(device, targets.samples)?;
+        let pipeline = pipelines.cached::<HandOverFamily>(&targets.samples).expect("compiled above");
+        let samples = self.samples.buffer();
+        if self.hand_over.as_ref().is_none_or(|(b, v, _)| b != samples || *v != hdr.view) {
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("visibility hand-over"),
+                layout: &pipelines.family::<HandOverFamily>().layout,
+                entries: &[
+                    entry(0, samples),
+                    entry(1, &self.raster_params),
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&hdr.view) },
+                ],
+            });
+            self.hand_over = Some((samples.clone(), hdr.view.clone(), group));
+        }
+        let colour = hdr.msaa_view.as_ref().map(|view| wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            // Every sample is written.
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+        });
+        let colour = [colour];
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("visibility hand-over"),
+            color_attachments: if colour[0].is_some() { &colour } else { &[] },
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timer.and_then(|t| t.pass("visibility hand-over")),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &self.hand_over.as_ref().expect("made above").2, &[]);
+        pass.draw(0..3, 0..1);
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{GpuRasterBatch, GpuRasterParams, GpuShadeParams, Raster, RasterGate, fits};
@@ -766,10 +830,9 @@ mod tests {
             culling: true,
             fits: true,
             occlusion_on: false,
-            blended: false,
+            transmission: false,
             opaque: true,
             supported: true,
-            gizmos: false,
         };
         assert_eq!(open.decide(), Ok("--raster compute"));
         assert!(RasterGate { setting: Raster::Auto, ..open }.decide().unwrap_err().contains("keeps up"));
@@ -777,10 +840,10 @@ mod tests {
         assert!(hopper.decide().unwrap().contains("few graphics units"));
         assert_eq!(RasterGate { setting: Raster::Hardware, ..hopper }.decide(), Err("--raster hardware"));
         // Several reasons: the first in order is named.
-        let both = RasterGate { blended: true, gizmos: true, ..hopper };
-        assert!(both.decide().unwrap_err().starts_with("blended draws"));
+        let both = RasterGate { transmission: true, supported: false, ..hopper };
+        assert!(both.decide().unwrap_err().starts_with("transmissive draws"));
         assert!(RasterGate { atomics: false, ..both }.decide().unwrap_err().contains("64-bit atomic"));
-        assert_eq!(RasterGate { gizmos: true, ..hopper }.decide(), Err("gizmo lines"));
+        assert_eq!(RasterGate { supported: false, ..hopper }.decide(), Err("line or point draws"));
     }
 
     #[test]
