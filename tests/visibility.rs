@@ -2,12 +2,12 @@
 //! draws. A scene built to stress a rasteriser (a ground plane reaching behind the eye, so the
 //! near plane clips it; a box the near plane cuts; mirrored and double-sided surfaces seen from
 //! behind; triangles from sub-pixel to view-filling; a textured, normal-mapped model; shadows,
-//! local lights and an environment) is rendered both ways at MSAA 1 and 4 and compared, and so are
-//! alpha-masked surfaces (cut out by the raster steps) and skinned and morphed meshes (rasterised
-//! from their GPU-deformed vertices), and hybrid frames (blended draws and gizmo lines drawn by the
-//! forward pass over the shaded samples). Frames the path cannot draw (point meshes) fall back to
-//! the forward pass, and so does every frame on adapters without 64-bit atomics (GL); the plan
-//! says which ran.
+//! local lights and an environment) is rendered both ways at MSAA 1 and 4 and compared, and so
+//! are alpha-masked surfaces (cut out by the raster steps), skinned and morphed meshes
+//! (rasterised from their GPU-deformed vertices) and hybrid frames (line and point meshes,
+//! blended draws and gizmo lines drawn by the forward pass over the shaded samples). Frames the
+//! path cannot draw (transmissive materials) fall back to the forward pass, and so does every
+//! frame on adapters without 64-bit atomics (GL); the plan says which ran.
 
 use penumbra::engine::material::UvTransform;
 use penumbra::prelude::*;
@@ -255,9 +255,27 @@ fn large_triangles_without_room_are_still_drawn() {
     assert!(apart == 0, "{apart} pixels changed when large triangles' records did not fit");
 }
 
-/// Blended boxes (one half inside an opaque box, one in front of the helmet) and gizmo lines
-/// (through the ground and the boxes) added to the stress scene.
-fn add_blended_and_gizmos(app: &mut App) {
+/// Blended boxes (one half inside an opaque box, one in front of the helmet), gizmo lines
+/// (through the ground and the boxes), and a line mesh and a point mesh crossing opaque
+/// surfaces, added to the stress scene.
+fn add_hybrid_draws(app: &mut App) {
+    let unlit = |c: Vec4| StandardMaterial { unlit: true, ..StandardMaterial::from_color(c, 1.0) };
+    let zigzag: Vec<Vec3> =
+        (0..12).map(|k| Vec3::new(-2.2 + 0.4 * k as f32, 0.4 + 0.5 * (k % 2) as f32, -3.4)).collect();
+    let lines = Mesh {
+        topology: Topology::LineList,
+        positions: zigzag.windows(2).flat_map(|w| [w[0], w[1]]).collect(),
+        ..Default::default()
+    };
+    spawn_mesh(app, lines, unlit(Vec4::new(1.0, 0.95, 0.2, 1.0)), Transform::IDENTITY);
+    let points = Mesh {
+        topology: Topology::PointList,
+        positions: (0..60)
+            .map(|k| Vec3::new(-2.5 + 0.09 * k as f32, 0.2 + 0.02 * k as f32, -3.0 - 0.03 * k as f32))
+            .collect(),
+        ..Default::default()
+    };
+    spawn_mesh(app, points, unlit(Vec4::new(0.1, 1.0, 1.0, 1.0)), Transform::IDENTITY);
     for (k, (at, colour)) in [
         (Vec3::new(-1.9, 1.0, -3.0), Vec4::new(0.2, 0.5, 0.9, 0.5)),
         (Vec3::new(0.9, 1.3, -2.4), Vec4::new(0.9, 0.3, 0.6, 0.35)),
@@ -281,11 +299,12 @@ fn add_blended_and_gizmos(app: &mut App) {
 #[test]
 fn blended_draws_and_gizmos_are_drawn_over_the_visibility_buffer() {
     // A hybrid frame: opaque draws rasterised and shaded in compute, the forward pass drawing
-    // the blended boxes and gizmo lines over them against each sample's handed-over depth.
+    // the line and point meshes, blended boxes and gizmo lines over them against each sample's
+    // handed-over depth.
     for msaa in [1, 4] {
-        let (hardware, hw_app) = render(msaa, Raster::Hardware, add_blended_and_gizmos);
+        let (hardware, hw_app) = render(msaa, Raster::Hardware, add_hybrid_draws);
         assert!(plan_runs(&hw_app, Pass::TRANSPARENT) && plan_runs(&hw_app, Pass::GIZMOS));
-        let (compute, app) = render(msaa, Raster::Compute, add_blended_and_gizmos);
+        let (compute, app) = render(msaa, Raster::Compute, add_hybrid_draws);
         assert!(plan_runs(&app, Pass::TRANSPARENT) && plan_runs(&app, Pass::GIZMOS), "MSAA {msaa}");
         if !visibility_supported(&app) {
             assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
@@ -304,7 +323,7 @@ fn blended_draws_and_gizmos_are_drawn_over_the_visibility_buffer() {
         eprintln!(
             "MSAA {msaa}: FLIP mean {flip:.5}, {apart} of {total} pixels more than 24/255 apart, {drawn} drawn over"
         );
-        assert!(drawn * 50 > total, "MSAA {msaa}: only {drawn} pixels changed with the blended draws and gizmos");
+        assert!(drawn * 50 > total, "MSAA {msaa}: only {drawn} pixels changed with the hybrid draws");
         assert!(flip < 0.003, "MSAA {msaa}: FLIP mean {flip} between the compute and hardware rasters");
         assert!(apart * 500 < total, "MSAA {msaa}: {apart} of {total} pixels differ by more than 24/255");
     }
@@ -313,21 +332,18 @@ fn blended_draws_and_gizmos_are_drawn_over_the_visibility_buffer() {
 #[test]
 fn frames_the_compute_raster_cannot_draw_fall_back_to_the_forward_pass() {
     let (_, app) = render(4, Raster::Compute, |app| {
-        let mut points = Mesh::uv_sphere(0.5, 8, 6);
-        points.topology = Topology::PointList;
-        points.indices = None;
         spawn_mesh(
             app,
-            points,
-            StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::ONE, 0.5) },
+            Mesh::cuboid(Vec3::ONE),
+            StandardMaterial { transmission: 0.8, ..StandardMaterial::from_color(Vec4::new(0.8, 0.9, 1.0, 1.0), 0.1) },
             Transform::from_xyz(0.0, 0.8, -3.0),
         );
     });
-    assert!(plan_runs(&app, Pass::OPAQUE));
+    assert!(plan_runs(&app, Pass::OPAQUE) && plan_runs(&app, Pass::TRANSMISSION));
     assert!(!plan_runs(&app, Pass::VISIBILITY_RASTER));
     let why = app.world.resource::<Renderer>().stats().plan.left_out();
     let (_, reason) = why.iter().find(|(p, _)| *p == Pass::VISIBILITY_RASTER).expect("left out");
-    assert!(reason.contains("line or point"), "{reason}");
+    assert!(reason.contains("transmissive"), "{reason}");
 }
 
 #[test]

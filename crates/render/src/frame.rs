@@ -74,8 +74,8 @@ impl Pass {
          copied into the output",
     );
     /// A hybrid frame's hand-over: each sample's depth from the visibility buffer (and,
-    /// multisampled, the shaded colour in each sample), for the forward pass's blended draws
-    /// and gizmo lines to draw over.
+    /// multisampled, the shaded colour in each sample), for the forward pass's line and point
+    /// meshes, blended draws and gizmo lines to draw over.
     pub const VISIBILITY_HAND_OVER: Pass =
         Pass::new("VisibilityHandOver", "visibility buffer, shaded HDR colour -> depth [, multisampled HDR colour]");
     /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
@@ -169,7 +169,8 @@ pub struct SceneNeeds {
     pub depth: bool,
     /// Transmissive draws exist (drawn with the blended ones, after the transmission copy).
     pub transmission: bool,
-    /// The forward pass draws over the visibility buffer's samples (blended draws, gizmo lines).
+    /// The forward pass draws over the visibility buffer's samples (line and point meshes,
+    /// blended draws, gizmo lines).
     pub hand_over: bool,
 }
 
@@ -223,8 +224,8 @@ impl FramePlan {
             if hand_over {
                 passes.push((
                     Pass::VISIBILITY_HAND_OVER,
-                    "blended draws or gizmo lines: the forward pass draws them over the shaded samples, \
-                     depth-tested against each sample's depth",
+                    "line or point meshes, blended draws or gizmo lines: the forward pass draws them over \
+                     the shaded samples, depth-tested against each sample's depth",
                 ));
             }
         } else {
@@ -305,7 +306,9 @@ impl FramePlan {
                     Pass::OPAQUE => "opaque draws are rasterised and shaded in compute (see visibility-raster)",
                     Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE if n.has_opaque => n.raster_why,
                     Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE => "no opaque draws",
-                    Pass::VISIBILITY_HAND_OVER if n.visibility => "no blended draws or gizmo lines",
+                    Pass::VISIBILITY_HAND_OVER if n.visibility => {
+                        "no line or point meshes, blended draws or gizmo lines"
+                    }
                     Pass::VISIBILITY_HAND_OVER => "opaque draws are not rasterised in compute",
                     Pass::BACKGROUND if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"
@@ -357,7 +360,7 @@ mod tests {
         let alone = plan(compute);
         assert!(alone.runs(Pass::VISIBILITY_SHADE) && !alone.runs(Pass::VISIBILITY_HAND_OVER));
         let why = alone.left_out().into_iter().find(|(p, _)| *p == Pass::VISIBILITY_HAND_OVER).unwrap().1;
-        assert_eq!(why, "no blended draws or gizmo lines");
+        assert_eq!(why, "no line or point meshes, blended draws or gizmo lines");
         let hybrid = plan(SceneNeeds { has_blend: true, hand_over: true, ..compute });
         let order: Vec<Pass> = hybrid.passes.iter().map(|(p, _)| *p).collect();
         let at = |pass| order.iter().position(|p| *p == pass).unwrap();

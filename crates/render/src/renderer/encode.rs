@@ -173,9 +173,12 @@ impl Renderer {
             let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &vis_inputs).err();
             self.visibility.encode(&mut cx, &vis_inputs);
             if plan.runs(Pass::VISIBILITY_HAND_OVER) {
-                // The forward pass draws the blended draws and gizmo lines over the shaded samples.
+                // The forward pass draws the line and point meshes, the blended draws and the
+                // gizmo lines over the shaded samples.
                 let hand_over_error = self.visibility.encode_hand_over(&mut cx, targets).err();
-                let rest = Rest { deferred: None, draws: true };
+                let unrasterised: Vec<usize> =
+                    (0..opaque_count).filter(|&i| !crate::features::visibility::batch_supported(&batches[i])).collect();
+                let rest = Rest { deferred: None, draws: true, opaque: &unrasterised };
                 let (counts, rest_error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
                 (counts, error.or(hand_over_error).or(rest_error))
             } else {
@@ -199,7 +202,7 @@ impl Renderer {
                 forward_error = Some(e);
                 computed = false;
             }
-            let rest = Rest { deferred: Some((&self.deferred, computed)), draws: !transmission };
+            let rest = Rest { deferred: Some((&self.deferred, computed)), draws: !transmission, opaque: &[] };
             let (after, error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
             counts += after;
             forward_error = forward_error.or(error);
@@ -210,7 +213,7 @@ impl Renderer {
             if let Some(hdr) = targets.hdr_view() {
                 self.transmission.encode_copy(&mut cx, hdr);
             }
-            let rest = Rest { deferred: None, draws: true };
+            let rest = Rest { deferred: None, draws: true, opaque: &[] };
             let (after, error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
             counts += after;
             forward_error = forward_error.or(error);

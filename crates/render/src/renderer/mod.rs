@@ -377,7 +377,7 @@ impl Renderer {
         }
         laps.lap("environment");
         // The gate a frame passes, asked with what the scene alone can still change assumed
-        // favourable (opaque triangle lists, nothing transmissive, a buffer that fits).
+        // favourable (opaque draws, nothing transmissive, a buffer that fits).
         let gate = crate::features::visibility::RasterGate {
             setting: self.settings.raster,
             atomics: self.ctx.caps.visibility_raster,
@@ -387,7 +387,6 @@ impl Renderer {
             occlusion_on: self.settings.occlusion_culling == crate::features::culling::OcclusionCulling::On,
             transmission: false,
             opaque: true,
-            supported: true,
         };
         if gate.decide().is_ok() {
             let culled = GpuCulling::compile(&device, &mut self.pipelines, false, false, self.settings.msaa);

@@ -153,7 +153,6 @@ impl Renderer {
             occlusion_on: self.settings.occlusion_culling == OcclusionCulling::On,
             transmission,
             opaque: !self.draws.opaque_batches().is_empty(),
-            supported: self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported),
         };
         let visibility_wanted = raster_gate.decide().is_ok();
         let mut occlusion = culling
@@ -243,10 +242,11 @@ impl Renderer {
         let raster_why = raster_gate.decide();
         // The cull pass's readiness, known only now, can still say no.
         let visibility = raster_why.is_ok();
-        // A hybrid frame: the forward pass draws blended draws and gizmo lines over the
-        // visibility buffer's shaded samples, with the depth (and colour) of each sample handed
-        // over (features/visibility/hand_over.rs).
-        let hand_over = visibility && (!blend_batches.is_empty() || gizmo_vertices > 0);
+        // A hybrid frame: the forward pass draws line and point meshes, blended draws and gizmo
+        // lines over the visibility buffer's shaded samples, with the depth (and colour) of each
+        // sample handed over (features/visibility/hand_over.rs).
+        let unrasterised = !self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported);
+        let hand_over = visibility && (unrasterised || !blend_batches.is_empty() || gizmo_vertices > 0);
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
         let needs = TargetNeeds {

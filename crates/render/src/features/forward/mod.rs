@@ -224,6 +224,9 @@ pub struct Rest<'a> {
     /// back to front) and the gizmos, and resolves. Without, the pass ends keeping its targets
     /// (the transmission copy reads them before the rest is drawn).
     pub draws: bool,
+    /// Opaque batches (indices into `batches`) drawn first: in a hybrid frame, those the
+    /// visibility buffer does not rasterise (line and point meshes).
+    pub opaque: &'a [usize],
 }
 
 /// Goes on from the opaque pass that kept its targets: adds the deferred-lights pass's light
@@ -249,6 +252,9 @@ pub fn encode_rest(
     let start = opaque_count.min(batches.len());
     let blended = if rest.draws { &batches[start..] } else { &[] };
     let mut error = compile(device, pipelines, blended, start, inputs.indirect);
+    for &i in rest.opaque {
+        error = compile(device, pipelines, &batches[i..=i], i, inputs.indirect).or(error);
+    }
     if composite_group.is_some()
         && let Err(e) = pipelines.get::<CompositeFamily>(device, targets.samples)
     {
@@ -294,7 +300,11 @@ pub fn encode_rest(
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
-    let counts = draw(&mut pass, pipelines, inputs, blended, start);
+    let mut counts = DrawCounts::default();
+    for &i in rest.opaque {
+        counts += draw(&mut pass, pipelines, inputs, &batches[i..=i], i);
+    }
+    counts += draw(&mut pass, pipelines, inputs, blended, start);
     if rest.draws {
         draw_gizmos(&mut pass, pipelines, inputs);
     }

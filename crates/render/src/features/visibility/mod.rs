@@ -30,15 +30,16 @@
 //!    sRGB-encoded), which is copied into the output. Full-screen fragment passes are dear on
 //!    such GPUs (the background composite, the tonemap pass); these frames have neither.
 //!
-//! 4. In a hybrid frame (blended draws or gizmo lines), `encode_hand_over` writes each sample's
+//! 4. In a hybrid frame (line or point meshes, blended draws, gizmo lines: what only the forward
+//!    pass rasterises), `encode_hand_over` writes each sample's
 //!    depth (and, multisampled, the shaded colour in each sample) into the frame's depth and
 //!    HDR targets (`hand_over`), and the forward pass draws those over them and resolves.
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
-//! GPU culling (the visible lists), no occlusion culling, no transmissive draws, triangle meshes
-//! only (opaque or masked; skinned and morphed ones are drawn from the deformation pass's
-//! vertices like any other), and 64-bit atomics. Without blended draws or gizmos the frame has
-//! no depth or multisampled targets.
+//! GPU culling (the visible lists), no occlusion culling, no transmissive draws, and 64-bit
+//! atomics. The buffer rasterises opaque and masked triangle meshes (skinned and morphed ones
+//! from the deformation pass's vertices, like any other). A frame without a hybrid part has no
+//! depth or multisampled targets.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -97,8 +98,6 @@ pub struct RasterGate {
     /// Transmissive draws (they read a copy of the forward pass's opaque colour).
     pub transmission: bool,
     pub opaque: bool,
-    /// Every opaque batch is a triangle list, opaque or masked ([`batch_supported`]).
-    pub supported: bool,
 }
 
 impl RasterGate {
@@ -120,7 +119,6 @@ impl RasterGate {
             (!self.occlusion_on, "occlusion culling was asked for (--occlusion on)"),
             (!self.transmission, "transmissive draws (they see the forward pass's opaque colour)"),
             (self.opaque, "no opaque draws"),
-            (self.supported, "line or point draws"),
         ];
         if let Some((_, why)) = checks.iter().find(|(ok, _)| !ok) {
             return Err(why);
@@ -237,7 +235,8 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
 }
 
-/// Whether a batch can be rasterised here (see the module doc).
+/// Whether a batch can be rasterised here (see the module doc): opaque and masked triangle
+/// lists. Line and point meshes are drawn by the forward pass over the result (a hybrid frame).
 pub fn batch_supported(b: &Batch) -> bool {
     use crate::resources::draws::TopologyKey;
     b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend
@@ -397,7 +396,7 @@ impl VisibilityBuffer {
         self.bins.clear();
         let mut keys: Vec<(Option<MaskKey>, Option<MaterialKey>)> = vec![(None, None)];
         let mut order: Vec<(usize, usize)> = Vec::with_capacity(batches.len());
-        for (i, b) in batches.iter().enumerate() {
+        for (i, b) in batches.iter().enumerate().filter(|(_, b)| batch_supported(b)) {
             let key = bin_of(b);
             let bin = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
                 keys.push(key);
@@ -832,7 +831,6 @@ mod tests {
             occlusion_on: false,
             transmission: false,
             opaque: true,
-            supported: true,
         };
         assert_eq!(open.decide(), Ok("--raster compute"));
         assert!(RasterGate { setting: Raster::Auto, ..open }.decide().unwrap_err().contains("keeps up"));
@@ -840,10 +838,10 @@ mod tests {
         assert!(hopper.decide().unwrap().contains("few graphics units"));
         assert_eq!(RasterGate { setting: Raster::Hardware, ..hopper }.decide(), Err("--raster hardware"));
         // Several reasons: the first in order is named.
-        let both = RasterGate { transmission: true, supported: false, ..hopper };
+        let both = RasterGate { transmission: true, opaque: false, ..hopper };
         assert!(both.decide().unwrap_err().starts_with("transmissive draws"));
         assert!(RasterGate { atomics: false, ..both }.decide().unwrap_err().contains("64-bit atomic"));
-        assert_eq!(RasterGate { supported: false, ..hopper }.decide(), Err("line or point draws"));
+        assert_eq!(RasterGate { opaque: false, ..hopper }.decide(), Err("no opaque draws"));
     }
 
     #[test]
