@@ -34,7 +34,9 @@
 // (resources/line_quads.rs), widened to one pixel here (line_quads.wgsl). VERTEX_COLORS: the mesh
 // has vertex colours other than white, so the colour is interpolated and multiplied in.
 // ALPHA_COVERAGE or ALPHA_SAMPLE_RATE (with ALPHA_MASK at MSAA 4): the alpha test runs at each
-// sample, see alpha_coverage.
+// sample, see alpha_coverage. VISIBILITY_OCCLUSION: a hybrid frame's draw over the visibility
+// buffer, whose samples it is tested against (visibility_occlusion.wgsl). SAMPLE_MASK_OUT (set with
+// either ALPHA_COVERAGE or VISIBILITY_OCCLUSION): the fragment writes its sample mask.
 
 #import penumbra::common::{F16_MAX, STANDARD_SAMPLES_4, safe_normalize}
 #import penumbra::view::{View, eye_direction}
@@ -82,6 +84,9 @@
 #endif
 #ifdef IBL
 #import penumbra::ibl::environment_light
+#endif
+#ifdef VISIBILITY_OCCLUSION
+#import penumbra::visibility_occlusion::unoccluded_samples
 #endif
 #ifdef LINE_QUADS
 #import penumbra::line_quads::{behind_eye_fraction, line_corner}
@@ -456,7 +461,7 @@ fn alpha_coverage(mat: Material, sets: UvSets, vertex_alpha: f32, vertex_alpha_g
 
 struct FragmentOut {
     @location(0) color: vec4<f32>,
-#ifdef ALPHA_COVERAGE
+#ifdef SAMPLE_MASK_OUT
     @builtin(sample_mask) coverage: u32,
 #endif
 #ifdef DEFERRED_LOCAL_LIGHTS
@@ -468,7 +473,19 @@ struct FragmentOut {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> FragmentOut {
-    return shade(in, front_facing, UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1)));
+#ifdef VISIBILITY_OCCLUSION
+    // A hybrid frame's draw: the visibility buffer holds the opaque depth (see
+    // visibility_occlusion.wgsl).
+    let dz = vec2<f32>(dpdxFine(in.clip_position.z), dpdyFine(in.clip_position.z));
+#endif
+    var frag = shade(in, front_facing, UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1)));
+#ifdef VISIBILITY_OCCLUSION
+    frag.coverage &= unoccluded_samples(in.clip_position, dz, false);
+    if frag.coverage == 0u {
+        discard;
+    }
+#endif
+    return frag;
 }
 
 // The fragment's colour (and with it, what masked and deferred variants add): shared by the
@@ -476,7 +493,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
 // itself.
 fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
     var frag: FragmentOut;
-#ifdef ALPHA_COVERAGE
+#ifdef SAMPLE_MASK_OUT
     frag.coverage = 0xffffffffu;
 #endif
     // What the colour's alpha carries for deferred local lights (see gbuffer.wgsl): stays 0
@@ -815,6 +832,8 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 // with VISIBILITY_DISPLAY, the displayed colour itself, sRGB-encoded, which the renderer copies
 // into the output: each triangle's colour tonemapped before the samples are averaged (the
 // display resolve, TONEMAP_IN_FORWARD) or the averaged radiance tonemapped (VISIBILITY_TONEMAP).
+// VISIBILITY_OVERLAY (with OVERLAY_MULTISAMPLED): a hybrid frame's overlay is composited over the
+// resolved radiance before it is tonemapped (never with TONEMAP_IN_FORWARD).
 #import penumbra::visibility::{RasterBatch, FRONT_CW, NON_INDEXED, pixel_weights, sample_empty}
 #ifdef VISIBILITY_BACKGROUND
 #import penumbra::ibl::{environment, prefiltered_radiance}
@@ -846,6 +865,15 @@ struct ShadeParams {
 @group(2) @binding(6) var shaded: texture_storage_2d<rgba8unorm, write>;
 #else
 @group(2) @binding(6) var shaded: texture_storage_2d<rgba16float, write>;
+#endif
+#ifdef VISIBILITY_OVERLAY
+// A hybrid frame's overlay (features/visibility/overlay.rs): what the forward pass drew over the
+// visibility buffer, premultiplied, with its coverage in alpha.
+#ifdef OVERLAY_MULTISAMPLED
+@group(2) @binding(7) var overlay: texture_multisampled_2d<f32>;
+#else
+@group(2) @binding(7) var overlay: texture_2d<f32>;
+#endif
 #endif
 
 fn number_batch(number: u32) -> u32 {
@@ -982,6 +1010,20 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     behind = display_rgb(behind);
 #endif
     var rgb = sum.rgb + behind * (1.0 - sum.a);
+#ifdef VISIBILITY_OVERLAY
+    // The overlay's samples over this colour: blending is linear, so their mean blended over it
+    // is the mean of each blended over it.
+#ifdef OVERLAY_MULTISAMPLED
+    var over = vec4<f32>(0.0);
+    for (var s = 0u; s < samples; s++) {
+        over += textureLoad(overlay, id.xy, i32(s));
+    }
+    over *= weight;
+#else
+    let over = textureLoad(overlay, id.xy, 0);
+#endif
+    rgb = over.rgb + rgb * (1.0 - over.a);
+#endif
 #ifdef VISIBILITY_TONEMAP
     rgb = display_rgb(rgb);
 #endif

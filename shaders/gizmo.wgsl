@@ -3,10 +3,14 @@
 // a quad a pixel wide (line_quads.wgsl), six vertices that each carry both ends. The colour
 // is display-referred: it is written as is, not multiplied by the exposure, so red stays red
 // however bright the scene is. Alpha 1 marks the pixel covered (the background composite leaves
-// it alone).
+// it alone). VISIBILITY_OCCLUSION: drawn over the visibility buffer in a hybrid frame, tested
+// against its depth (visibility_occlusion.wgsl).
 
 #import penumbra::view::View
 #import penumbra::line_quads::{behind_eye_fraction, line_corner}
+#ifdef VISIBILITY_OCCLUSION
+#import penumbra::visibility_occlusion::unoccluded_samples
+#endif
 
 @group(0) @binding(0) var<uniform> view: View;
 
@@ -36,7 +40,23 @@ fn vs_main(in: VertexIn) -> VertexOut {
     return out;
 }
 
+struct FragmentOut {
+    @location(0) color: vec4<f32>,
+#ifdef VISIBILITY_OCCLUSION
+    @builtin(sample_mask) coverage: u32,
+#endif
+};
+
 @fragment
-fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(max(in.color, vec3<f32>(0.0)), 1.0);
+fn fs_main(in: VertexOut) -> FragmentOut {
+    var out: FragmentOut;
+    out.color = vec4<f32>(max(in.color, vec3<f32>(0.0)), 1.0);
+#ifdef VISIBILITY_OCCLUSION
+    let dz = vec2<f32>(dpdxFine(in.position.z), dpdyFine(in.position.z));
+    out.coverage = unoccluded_samples(in.position, dz, true);
+    if out.coverage == 0u {
+        discard;
+    }
+#endif
+    return out;
 }

@@ -134,7 +134,8 @@ fn raster_begin() {
 
 fn begin_bin() {
 #ifndef ALPHA_MASK
-    let count = bin_end() - bin_start();
+    let range = bin_range();
+    let count = range.y - range.x;
     let groups = (count + WORKGROUP - 1u) / WORKGROUP;
     let x = min(groups, MAX_GROUPS_X);
     let y = select(1u, (groups + x - 1u) / x, x > 0u);
@@ -147,12 +148,9 @@ fn begin_bin() {
 }
 
 // The bin's first triangle number, and the number after its last.
-fn bin_start() -> u32 {
-    return atomicLoad(&counters[min(bin.first_batch, params.batch_count)]);
-}
-
-fn bin_end() -> u32 {
-    return max(atomicLoad(&counters[min(bin.end_batch, params.batch_count)]), bin_start());
+fn bin_range() -> vec2<u32> {
+    let start = atomicLoad(&counters[min(bin.first_batch, params.batch_count)]);
+    return vec2<u32>(start, max(atomicLoad(&counters[min(bin.end_batch, params.batch_count)]), start));
 }
 
 // The triangle a number names: its batch, instance slot and vertices.
@@ -662,10 +660,11 @@ fn raster_triangles(
     @builtin(local_invocation_index) lane: u32,
 ) {
     let index = (group.y * groups.x + group.x) * WORKGROUP + lane;
-    if index >= bin_end() - bin_start() {
+    let range = bin_range();
+    if index >= range.y - range.x {
         return;
     }
-    let number = bin_start() + index;
+    let number = range.x + index;
     if raster_unclipped_small(number) {
         return;
     }

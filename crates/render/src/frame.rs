@@ -73,11 +73,14 @@ impl Pass {
          [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the displayed colour \
          copied into the output",
     );
-    /// A hybrid frame's hand-over: each sample's depth from the visibility buffer (and,
-    /// multisampled, the shaded colour in each sample), for the forward pass's line and point
-    /// meshes, blended draws and gizmo lines to draw over.
-    pub const VISIBILITY_HAND_OVER: Pass =
-        Pass::new("VisibilityHandOver", "visibility buffer, shaded HDR colour -> depth [, multisampled HDR colour]");
+    /// A hybrid frame's overlay: the forward pass draws line and point meshes, blended draws and
+    /// gizmo lines over the visibility buffer, each sample tested against its depth; the shading
+    /// pass composites the result.
+    pub const VISIBILITY_OVERLAY: Pass = Pass::new(
+        "VisibilityOverlay",
+        "visibility buffer (depth), the forward pass's inputs -> overlay colour (premultiplied, \
+         multisampled)",
+    );
     /// The environment (or its blur) where no surface was drawn, in the opaque pass after the
     /// opaque draws (depth test: only where the depth is still the far plane).
     pub const BACKGROUND: Pass =
@@ -92,11 +95,11 @@ impl Pass {
     pub const DEFERRED_LIGHTS: Pass =
         Pass::new("DeferredLights", "surface buffer, depth, cluster lists, light store -> HDR colour");
     /// Alpha-blended draws, back to front, in the same render pass as `OPAQUE` (or, with
-    /// deferred lights, as their composite).
+    /// deferred lights, as their composite; in a hybrid frame, as `VISIBILITY_OVERLAY`).
     pub const TRANSPARENT: Pass =
         Pass::new("Transparent", "view, blended draws sorted back to front, lights -> HDR colour");
     /// Gizmo lines (axes, selection boxes, debug lines), last in the render pass that ends the
-    /// frame's drawing, depth-tested against the scene.
+    /// frame's drawing (or the hybrid frame's overlay), depth-tested against the scene.
     pub const GIZMOS: Pass = Pass::new("Gizmos", "gizmo line vertices, depth -> HDR colour");
 
     pub const TRANSMISSION: Pass = Pass::new(
@@ -115,8 +118,8 @@ const CORE: [Pass; 15] = [
     Pass::SHADOWS,
     Pass::OPAQUE,
     Pass::VISIBILITY_RASTER,
+    Pass::VISIBILITY_OVERLAY,
     Pass::VISIBILITY_SHADE,
-    Pass::VISIBILITY_HAND_OVER,
     Pass::BACKGROUND,
     Pass::OCCLUSION_LATE,
     Pass::DEFERRED_LIGHTS,
@@ -169,9 +172,9 @@ pub struct SceneNeeds {
     pub depth: bool,
     /// Transmissive draws exist (drawn with the blended ones, after the transmission copy).
     pub transmission: bool,
-    /// The forward pass draws over the visibility buffer's samples (line and point meshes,
-    /// blended draws, gizmo lines).
-    pub hand_over: bool,
+    /// The forward pass draws over the visibility buffer (line and point meshes, blended draws,
+    /// gizmo lines).
+    pub overlay: bool,
 }
 
 impl FramePlan {
@@ -194,7 +197,7 @@ impl FramePlan {
             gizmo_vertices,
             depth,
             transmission,
-            hand_over,
+            overlay,
         } = needs;
         let mut passes = Vec::new();
         if environment_changed {
@@ -220,14 +223,14 @@ impl FramePlan {
         }
         if visibility {
             passes.push((Pass::VISIBILITY_RASTER, raster_why));
-            passes.push((Pass::VISIBILITY_SHADE, "the visibility buffer's samples to shade"));
-            if hand_over {
+            if overlay {
                 passes.push((
-                    Pass::VISIBILITY_HAND_OVER,
+                    Pass::VISIBILITY_OVERLAY,
                     "line or point meshes, blended draws or gizmo lines: the forward pass draws them over \
-                     the shaded samples, depth-tested against each sample's depth",
+                     the visibility buffer, each sample tested against its depth",
                 ));
             }
+            passes.push((Pass::VISIBILITY_SHADE, "the visibility buffer's samples to shade"));
         } else {
             passes.push((
                 Pass::OPAQUE,
@@ -306,10 +309,8 @@ impl FramePlan {
                     Pass::OPAQUE => "opaque draws are rasterised and shaded in compute (see visibility-raster)",
                     Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE if n.has_opaque => n.raster_why,
                     Pass::VISIBILITY_RASTER | Pass::VISIBILITY_SHADE => "no opaque draws",
-                    Pass::VISIBILITY_HAND_OVER if n.visibility => {
-                        "no line or point meshes, blended draws or gizmo lines"
-                    }
-                    Pass::VISIBILITY_HAND_OVER => "opaque draws are not rasterised in compute",
+                    Pass::VISIBILITY_OVERLAY if n.visibility => "no line or point meshes, blended draws or gizmo lines",
+                    Pass::VISIBILITY_OVERLAY => "opaque draws are not rasterised in compute",
                     Pass::BACKGROUND if n.background => {
                         "the visibility buffer's shading shows the environment where no surface is"
                     }
@@ -354,18 +355,19 @@ mod tests {
     }
 
     #[test]
-    fn a_hybrid_frame_hands_the_visibility_buffer_over_before_the_blended_draws() {
+    fn a_hybrid_frame_draws_its_overlay_between_raster_and_shade() {
         let compute =
             SceneNeeds { has_opaque: true, visibility: true, raster_why: "--raster compute", ..Default::default() };
         let alone = plan(compute);
-        assert!(alone.runs(Pass::VISIBILITY_SHADE) && !alone.runs(Pass::VISIBILITY_HAND_OVER));
-        let why = alone.left_out().into_iter().find(|(p, _)| *p == Pass::VISIBILITY_HAND_OVER).unwrap().1;
+        assert!(alone.runs(Pass::VISIBILITY_SHADE) && !alone.runs(Pass::VISIBILITY_OVERLAY));
+        let why = alone.left_out().into_iter().find(|(p, _)| *p == Pass::VISIBILITY_OVERLAY).unwrap().1;
         assert_eq!(why, "no line or point meshes, blended draws or gizmo lines");
-        let hybrid = plan(SceneNeeds { has_blend: true, hand_over: true, ..compute });
+        let hybrid = plan(SceneNeeds { has_blend: true, overlay: true, ..compute });
         let order: Vec<Pass> = hybrid.passes.iter().map(|(p, _)| *p).collect();
         let at = |pass| order.iter().position(|p| *p == pass).unwrap();
-        assert!(at(Pass::VISIBILITY_SHADE) < at(Pass::VISIBILITY_HAND_OVER));
-        assert!(at(Pass::VISIBILITY_HAND_OVER) < at(Pass::TRANSPARENT));
+        assert!(at(Pass::VISIBILITY_RASTER) < at(Pass::VISIBILITY_OVERLAY));
+        assert!(at(Pass::VISIBILITY_OVERLAY) < at(Pass::VISIBILITY_SHADE));
+        assert!(hybrid.runs(Pass::TRANSPARENT));
         assert!(!hybrid.runs(Pass::OPAQUE));
     }
 

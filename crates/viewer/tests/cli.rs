@@ -688,8 +688,8 @@ fn explain_names_where_opaque_draws_were_rasterised_and_why() {
     // Masked and blended draws: a hybrid frame, the blended ones drawn by the forward pass over
     // the visibility buffer's samples.
     let blended = explain(&asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"), &["--raster", "compute"]);
-    assert!(blended.contains("VisibilityRaster:") && blended.contains("VisibilityHandOver:"), "{blended}");
-    assert!(blended.contains("blended draws or gizmo lines: the forward pass draws them"), "{blended}");
+    assert!(blended.contains("VisibilityRaster:") && blended.contains("VisibilityOverlay:"), "{blended}");
+    assert!(blended.contains("blended draws or gizmo lines: the forward pass draws them over"), "{blended}");
     // A transmissive draw keeps a compute frame on the forward pass, and says so.
     let transmissive = explain(&asset("TransmissionTest/TransmissionTest.glb"), &["--raster", "compute"]);
     assert!(transmissive.contains("transmissive draws (they see the forward pass's opaque colour)"), "{transmissive}");

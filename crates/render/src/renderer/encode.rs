@@ -147,9 +147,12 @@ impl Renderer {
             }
             let tonemapper = self.settings.tonemapper;
             // Display colours are averaged only into an sRGB output, as the forward pass does.
+            // A hybrid frame's overlay is composited over resolved radiance, as the forward pass
+            // resolves radiance when it draws blended surfaces.
+            let overlay = plan.runs(Pass::VISIBILITY_OVERLAY);
             let shade_output = match (direct, self.settings.msaa_resolve) {
                 (false, _) => ShadeOutput::Hdr,
-                (true, MsaaResolve::Display) if self.settings.msaa > 1 && output_format.is_srgb() => {
+                (true, MsaaResolve::Display) if self.settings.msaa > 1 && output_format.is_srgb() && !overlay => {
                     ShadeOutput::DisplayPerSample(tonemapper)
                 }
                 (true, _) => ShadeOutput::DisplayResolved(tonemapper),
@@ -169,21 +172,28 @@ impl Renderer {
                 samples: self.settings.msaa,
                 background,
                 clear: clear_radiance,
+                overlay,
             };
             let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &vis_inputs).err();
-            self.visibility.encode(&mut cx, &vis_inputs);
-            if plan.runs(Pass::VISIBILITY_HAND_OVER) {
+            self.visibility.encode_raster(&mut cx, &vis_inputs);
+            let mut drawn = (DrawCounts::default(), error);
+            if let Some(o) = self.visibility.overlay().filter(|_| overlay) {
                 // The forward pass draws the line and point meshes, the blended draws and the
-                // gizmo lines over the shaded samples.
-                let hand_over_error = self.visibility.encode_hand_over(&mut cx, targets).err();
+                // gizmo lines over the visibility buffer; the shading pass composites them.
                 let unrasterised: Vec<usize> =
                     (0..opaque_count).filter(|&i| !crate::features::visibility::batch_supported(&batches[i])).collect();
-                let rest = Rest { deferred: None, draws: true, opaque: &unrasterised };
-                let (counts, rest_error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
-                (counts, error.or(hand_over_error).or(rest_error))
-            } else {
-                (DrawCounts::default(), error)
+                let target = forward::Overlay {
+                    colour: &o.colour,
+                    depth: &o.depth,
+                    occlusion: &o.occlusion.as_ref().expect("made by prepare_frame").1,
+                    samples: o.samples,
+                };
+                let (counts, overlay_error) =
+                    forward::encode_overlay(&mut cx, &inputs, batches, opaque_count, &unrasterised, target);
+                drawn = (counts, drawn.1.or(overlay_error));
             }
+            self.visibility.encode_shade(&mut cx, &vis_inputs);
+            drawn
         } else if plan.runs(Pass::OPAQUE) {
             forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::All)
         } else {
@@ -202,7 +212,7 @@ impl Renderer {
                 forward_error = Some(e);
                 computed = false;
             }
-            let rest = Rest { deferred: Some((&self.deferred, computed)), draws: !transmission, opaque: &[] };
+            let rest = Rest { deferred: Some((&self.deferred, computed)), draws: !transmission };
             let (after, error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
             counts += after;
             forward_error = forward_error.or(error);
@@ -213,7 +223,7 @@ impl Renderer {
             if let Some(hdr) = targets.hdr_view() {
                 self.transmission.encode_copy(&mut cx, hdr);
             }
-            let rest = Rest { deferred: None, draws: true, opaque: &[] };
+            let rest = Rest { deferred: None, draws: true };
             let (after, error) = forward::encode_rest(&mut cx, &inputs, batches, opaque_count, rest);
             counts += after;
             forward_error = forward_error.or(error);

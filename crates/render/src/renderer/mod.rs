@@ -190,8 +190,10 @@ impl Renderer {
         // reports list families in.
         laps.lap("view and materials");
         let transmission = Transmission::new(device, &mut pipelines);
-        forward::register(&mut pipelines, view.layout(), &materials, transmission.layout());
-        let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), &materials);
+        // The visibility buffer's group that a hybrid frame's forward and gizmo draws read.
+        let occlusion = crate::features::visibility::occlusion_layout(device);
+        forward::register(&mut pipelines, view.layout(), &materials, transmission.layout(), &occlusion);
+        let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), &materials, &occlusion);
         let shadows = ShadowOrchestrator::new(
             device,
             ctx.caps.array_layers,
@@ -214,7 +216,7 @@ impl Renderer {
             ctx.caps.host_import_alignment,
             &mut pipelines,
         );
-        let gizmos = GizmoLines::new(device, &mut pipelines, view.layout());
+        let gizmos = GizmoLines::new(device, &mut pipelines, view.layout(), &occlusion);
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
         let post = frame::post_chain(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));

@@ -243,10 +243,9 @@ impl Renderer {
         // The cull pass's readiness, known only now, can still say no.
         let visibility = raster_why.is_ok();
         // A hybrid frame: the forward pass draws line and point meshes, blended draws and gizmo
-        // lines over the visibility buffer's shaded samples, with the depth (and colour) of each
-        // sample handed over (features/visibility/hand_over.rs).
+        // lines over the visibility buffer (features/visibility/overlay.rs).
         let unrasterised = !self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported);
-        let hand_over = visibility && (unrasterised || !blend_batches.is_empty() || gizmo_vertices > 0);
+        let overlay = visibility && (unrasterised || !blend_batches.is_empty() || gizmo_vertices > 0);
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
         let needs = TargetNeeds {
@@ -277,15 +276,9 @@ impl Renderer {
             && !needs.post_processing
             && matches!(output_format, wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb)
             && output.texture().usage().contains(wgpu::TextureUsages::COPY_DST);
-        let (direct, depth_free) = if hand_over {
-            (false, false)
-        } else if visibility {
-            (visibility_direct, true)
-        } else {
-            (!needs.hdr(), !needs.depth())
-        };
+        let (direct, depth_free) = if visibility { (visibility_direct, true) } else { (!needs.hdr(), !needs.depth()) };
         let hdr_storage = visibility && !direct;
-        let target_samples = if visibility && !hand_over { 1 } else { self.settings.msaa };
+        let target_samples = if visibility { 1 } else { self.settings.msaa };
         if self.targets.as_ref().is_none_or(|t| {
             t.size != size
                 || t.samples != target_samples
@@ -331,6 +324,15 @@ impl Renderer {
                 b.key.depth_format = None;
             }
         }
+        if overlay {
+            // The overlay's draws: HDR colour and depth of their own, tested against the
+            // visibility buffer.
+            for (i, b) in batches.iter_mut().enumerate() {
+                if i >= opaque_len || !crate::features::visibility::batch_supported(b) {
+                    b.key = crate::features::visibility::overlay_key(b.key);
+                }
+            }
+        }
         let camera_exposure = scene.view.map_or(1.0, |v| v.exposure);
         let targets = self.targets.as_ref().expect("made above");
         let post_cx = PostPrepare {
@@ -365,7 +367,7 @@ impl Renderer {
             gizmo_vertices,
             depth: !depth_free,
             transmission,
-            hand_over,
+            overlay,
         });
         plan.add_post(self.post.decisions());
         laps.log(format_args!("frame {} prepared", self.frame));

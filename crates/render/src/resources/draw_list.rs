@@ -518,6 +518,7 @@ impl DrawList {
             color_format: FormatKey(HDR_FORMAT),
             depth_format: Some(FormatKey(DEPTH_FORMAT)),
             tonemap: None,
+            visibility_occlusion: false,
             pulled_vertices: false,
         })
     }

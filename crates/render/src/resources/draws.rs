@@ -71,6 +71,9 @@ pub struct PipelineKey {
     /// A triangle-culled draw: the vertex shader reads its vertices from the mesh pool, named
     /// by the culled index list (`features::culling`), instead of from a vertex buffer.
     pub pulled_vertices: bool,
+    /// Drawn over the visibility buffer in a hybrid frame (`features::visibility::overlay`):
+    /// each sample is tested against the buffer's depth, which binds as group 2.
+    pub visibility_occlusion: bool,
 }
 
 impl PipelineKey {
@@ -90,6 +93,8 @@ impl PipelineKey {
             .with("UNLIT", self.unlit)
             .with("ALPHA_MASK", self.alpha == AlphaKey::Mask)
             .with("ALPHA_COVERAGE", self.alpha_test == AlphaTest::SampleMask)
+            .with("VISIBILITY_OCCLUSION", self.visibility_occlusion)
+            .with("SAMPLE_MASK_OUT", self.alpha_test == AlphaTest::SampleMask || self.visibility_occlusion)
             .with("ALPHA_SAMPLE_RATE", self.alpha_test == AlphaTest::SampleRate)
             .with("ALPHA_BLEND", self.alpha == AlphaKey::Blend)
             .with("BASE_COLOR_TEXTURE", t.has(TextureSet::BASE_COLOR))

@@ -10,7 +10,7 @@
 use crate::features::culling::TriangleDraws;
 use crate::features::deferred_lights::{CompositeFamily, DeferredLights};
 use crate::features::environment::{BackgroundFamily, BackgroundMode};
-use crate::features::gizmos::{GizmoDraw, GizmoFamily};
+use crate::features::gizmos::{GizmoDraw, GizmoFamily, GizmoKey};
 use crate::frame_context::FrameContext;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draws::{Batch, PipelineKey, TopologyKey};
@@ -24,13 +24,16 @@ pub use pipeline::ForwardFamily;
 
 /// Registers the forward pass's pipeline family (the pass itself holds no resources: it draws
 /// the shared owners' buffers into the frame's targets).
+/// `occlusion`: the visibility buffer's group that a hybrid frame's draws read
+/// (`features::visibility::occlusion_layout`).
 pub fn register(
     pipelines: &mut PipelineCache,
     view: &wgpu::BindGroupLayout,
     materials: &MaterialTable,
     transmission: &wgpu::BindGroupLayout,
+    occlusion: &wgpu::BindGroupLayout,
 ) {
-    pipelines.register(ForwardFamily::new(view, materials, transmission));
+    pipelines.register(ForwardFamily::new(view, materials, transmission, occlusion));
 }
 
 #[derive(Debug, Default, Clone, Copy)]
@@ -141,7 +144,7 @@ pub fn encode(
     let split = inputs.targets.deferred.as_ref();
     if split.is_none()
         && phase != OpaquePhase::Early
-        && let Some(e) = compile_gizmos(device, pipelines, inputs)
+        && let Some(e) = compile_gizmos(device, pipelines, inputs, GizmoKey { samples, occluded: false })
     {
         error = Some(e);
     }
@@ -206,7 +209,7 @@ pub fn encode(
     }
     if ends {
         counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
-        draw_gizmos(&mut pass, pipelines, inputs);
+        draw_gizmos(&mut pass, pipelines, inputs, GizmoKey { samples, occluded: false });
     }
     drop(pass);
     if resolves {
@@ -224,9 +227,6 @@ pub struct Rest<'a> {
     /// back to front) and the gizmos, and resolves. Without, the pass ends keeping its targets
     /// (the transmission copy reads them before the rest is drawn).
     pub draws: bool,
-    /// Opaque batches (indices into `batches`) drawn first: in a hybrid frame, those the
-    /// visibility buffer does not rasterise (line and point meshes).
-    pub opaque: &'a [usize],
 }
 
 /// Goes on from the opaque pass that kept its targets: adds the deferred-lights pass's light
@@ -252,16 +252,14 @@ pub fn encode_rest(
     let start = opaque_count.min(batches.len());
     let blended = if rest.draws { &batches[start..] } else { &[] };
     let mut error = compile(device, pipelines, blended, start, inputs.indirect);
-    for &i in rest.opaque {
-        error = compile(device, pipelines, &batches[i..=i], i, inputs.indirect).or(error);
-    }
     if composite_group.is_some()
         && let Err(e) = pipelines.get::<CompositeFamily>(device, targets.samples)
     {
         error = Some(e);
     }
     if rest.draws
-        && let Some(e) = compile_gizmos(device, pipelines, inputs)
+        && let Some(e) =
+            compile_gizmos(device, pipelines, inputs, GizmoKey { samples: targets.samples, occluded: false })
     {
         error = Some(e);
     }
@@ -300,27 +298,98 @@ pub fn encode_rest(
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
-    let mut counts = DrawCounts::default();
-    for &i in rest.opaque {
-        counts += draw(&mut pass, pipelines, inputs, &batches[i..=i], i);
-    }
-    counts += draw(&mut pass, pipelines, inputs, blended, start);
+    let counts = draw(&mut pass, pipelines, inputs, blended, start);
     if rest.draws {
-        draw_gizmos(&mut pass, pipelines, inputs);
+        draw_gizmos(&mut pass, pipelines, inputs, GizmoKey { samples: targets.samples, occluded: false });
     }
     drop(pass);
     super::resolve::encode(encoder, device, pipelines, &attachment, timer);
     (counts, error)
 }
 
-fn compile_gizmos(device: &wgpu::Device, pipelines: &mut PipelineCache, inputs: &ForwardInputs) -> Option<ShaderError> {
-    inputs.gizmos.and_then(|_| pipelines.get::<GizmoFamily>(device, inputs.targets.samples).err())
+/// Where a hybrid frame's forward draws go (`features::visibility::overlay`).
+pub struct Overlay<'a> {
+    /// Cleared to transparent; premultiplied colour and coverage, which the visibility buffer's
+    /// shading composites over the opaque colour.
+    pub colour: &'a wgpu::TextureView,
+    /// Cleared to the far plane: the overlay's own draws test each other.
+    pub depth: &'a wgpu::TextureView,
+    /// Group 2 of the draws' pipelines: the visibility buffer, against which each sample is
+    /// tested.
+    pub occlusion: &'a wgpu::BindGroup,
+    pub samples: u32,
+}
+
+/// A hybrid frame's forward draws: the opaque batches `opaque` (indices into `batches`: those
+/// the visibility buffer does not rasterise, line and point meshes), then the blended batches
+/// (`batches[opaque_count..]`, back to front) and the gizmo lines, into `overlay`. Their keys
+/// have `visibility_occlusion` set.
+pub fn encode_overlay(
+    cx: &mut FrameContext,
+    inputs: &ForwardInputs,
+    batches: &[Batch],
+    opaque_count: usize,
+    opaque: &[usize],
+    overlay: Overlay,
+) -> (DrawCounts, Option<ShaderError>) {
+    let (encoder, device, pipelines, timer) =
+        (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
+    let start = opaque_count.min(batches.len());
+    let blended = &batches[start..];
+    let mut error = compile(device, pipelines, blended, start, inputs.indirect);
+    for &i in opaque {
+        error = compile(device, pipelines, &batches[i..=i], i, inputs.indirect).or(error);
+    }
+    let gizmo_key = GizmoKey { samples: overlay.samples, occluded: true };
+    error = compile_gizmos(device, pipelines, inputs, gizmo_key).or(error);
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("visibility overlay"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: overlay.colour,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: overlay.depth,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: timer.and_then(|t| t.pass("visibility overlay")),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_bind_group(TRANSMISSION_GROUP, overlay.occlusion, &[]);
+    let mut counts = DrawCounts::default();
+    for &i in opaque {
+        counts += draw(&mut pass, pipelines, inputs, &batches[i..=i], i);
+    }
+    counts += draw(&mut pass, pipelines, inputs, blended, start);
+    if let Some(g) = inputs.gizmos
+        && let Some(pipeline) = pipelines.cached::<GizmoFamily>(&gizmo_key)
+    {
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, inputs.view_bind_group, &[]);
+        pass.set_bind_group(TRANSMISSION_GROUP, overlay.occlusion, &[]);
+        pass.set_vertex_buffer(0, g.vertices.slice(..));
+        pass.draw(0..g.count, 0..1);
+    }
+    (counts, error)
+}
+
+fn compile_gizmos(
+    device: &wgpu::Device,
+    pipelines: &mut PipelineCache,
+    inputs: &ForwardInputs,
+    key: GizmoKey,
+) -> Option<ShaderError> {
+    inputs.gizmos.and_then(|_| pipelines.get::<GizmoFamily>(device, key).err())
 }
 
 /// The frame's gizmo lines, after everything else the pass draws.
-fn draw_gizmos(pass: &mut wgpu::RenderPass<'_>, pipelines: &PipelineCache, inputs: &ForwardInputs) {
+fn draw_gizmos(pass: &mut wgpu::RenderPass<'_>, pipelines: &PipelineCache, inputs: &ForwardInputs, key: GizmoKey) {
     let Some(g) = inputs.gizmos else { return };
-    let Some(pipeline) = pipelines.cached::<GizmoFamily>(&inputs.targets.samples) else { return };
+    let Some(pipeline) = pipelines.cached::<GizmoFamily>(&key) else { return };
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, inputs.view_bind_group, &[]);
     pass.set_vertex_buffer(0, g.vertices.slice(..));

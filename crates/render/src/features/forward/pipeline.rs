@@ -13,17 +13,30 @@ use crate::resources::mesh_pool::GpuVertex;
 pub struct ForwardFamily {
     /// The view and material groups, and the extension group of the key's material extensions.
     layouts: PipelineLayouts,
+    /// The same with the visibility buffer's occlusion group as group 2, for the draws of a
+    /// hybrid frame (`PipelineKey::visibility_occlusion`).
+    occluded: PipelineLayouts,
 }
 
 impl ForwardFamily {
-    pub fn new(view: &wgpu::BindGroupLayout, materials: &MaterialTable, transmission: &wgpu::BindGroupLayout) -> Self {
+    pub fn new(
+        view: &wgpu::BindGroupLayout,
+        materials: &MaterialTable,
+        transmission: &wgpu::BindGroupLayout,
+        occlusion: &wgpu::BindGroupLayout,
+    ) -> Self {
         let layouts = PipelineLayouts::new(
             "forward",
             &[Some(view), Some(materials.layout())],
             materials.extension_layouts().clone(),
         )
         .with_transmission(transmission);
-        Self { layouts }
+        let occluded = PipelineLayouts::new(
+            "forward over the visibility buffer",
+            &[Some(view), Some(materials.layout()), Some(occlusion)],
+            materials.extension_layouts().clone(),
+        );
+        Self { layouts, occluded }
     }
 }
 
@@ -38,7 +51,8 @@ impl PipelineFamily for ForwardFamily {
     }
 
     fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &PipelineKey) -> wgpu::RenderPipeline {
-        forward_pipeline(device, &self.layouts.get(device, key.features), module, *key)
+        let layouts = if key.visibility_occlusion { &self.occluded } else { &self.layouts };
+        forward_pipeline(device, &layouts.get(device, key.features), module, *key)
     }
 }
 

@@ -19,27 +19,47 @@ pub const GIZMO_VERTEX_BYTES: u64 = 40;
 /// pixel wide (six vertices a line), depth-tested (reverse-Z) without writing depth.
 pub struct GizmoFamily {
     pipeline_layout: wgpu::PipelineLayout,
+    /// With the visibility buffer's occlusion group as group 2 (a hybrid frame's gizmos).
+    occluded_layout: wgpu::PipelineLayout,
 }
 
 impl GizmoFamily {
-    pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout) -> Self {
-        Self { pipeline_layout: parts::pipeline_layout(device, "gizmos", &[view]) }
+    /// `occlusion`: `features::visibility::occlusion_layout`.
+    pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, occlusion: &wgpu::BindGroupLayout) -> Self {
+        Self {
+            pipeline_layout: parts::pipeline_layout(device, "gizmos", &[view]),
+            occluded_layout: device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("gizmos over the visibility buffer"),
+                bind_group_layouts: &[Some(view), None, Some(occlusion)],
+                immediate_size: 0,
+            }),
+        }
     }
 }
 
+/// One gizmo pipeline: the frame's sample count, and whether the lines are drawn over the
+/// visibility buffer in a hybrid frame (each sample tested against its depth).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct GizmoKey {
+    pub samples: u32,
+    pub occluded: bool,
+}
+
 impl PipelineFamily for GizmoFamily {
-    type Key = u32;
+    type Key = GizmoKey;
     type Pipeline = wgpu::RenderPipeline;
     const NAME: &'static str = "gizmo";
+    const PER_VARIANT: bool = true;
 
-    fn shader(&self, _: &u32) -> (&'static str, ShaderDefs) {
-        ("gizmo.wgsl", ShaderDefs::default())
+    fn shader(&self, key: &GizmoKey) -> (&'static str, ShaderDefs) {
+        ("gizmo.wgsl", ShaderDefs::default().with("VISIBILITY_OCCLUSION", key.occluded))
     }
 
-    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, samples: &u32) -> wgpu::RenderPipeline {
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &GizmoKey) -> wgpu::RenderPipeline {
+        let samples = &key.samples;
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("gizmos"),
-            layout: Some(&self.pipeline_layout),
+            layout: Some(if key.occluded { &self.occluded_layout } else { &self.pipeline_layout }),
             vertex: wgpu::VertexState {
                 module,
                 entry_point: Some("vs_main"),
@@ -101,8 +121,13 @@ pub struct GizmoLines {
 
 impl GizmoLines {
     /// Registers the gizmo pipeline family.
-    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache, view: &wgpu::BindGroupLayout) -> Self {
-        pipelines.register(GizmoFamily::new(device, view));
+    pub fn new(
+        device: &wgpu::Device,
+        pipelines: &mut PipelineCache,
+        view: &wgpu::BindGroupLayout,
+        occlusion: &wgpu::BindGroupLayout,
+    ) -> Self {
+        pipelines.register(GizmoFamily::new(device, view, occlusion));
         Self { buffer: None, count: 0, scratch: Vec::new() }
     }
 

@@ -30,10 +30,10 @@
 //!    sRGB-encoded), which is copied into the output. Full-screen fragment passes are dear on
 //!    such GPUs (the background composite, the tonemap pass); these frames have neither.
 //!
-//! 4. In a hybrid frame (line or point meshes, blended draws, gizmo lines: what only the forward
-//!    pass rasterises), `encode_hand_over` writes each sample's
-//!    depth (and, multisampled, the shaded colour in each sample) into the frame's depth and
-//!    HDR targets (`hand_over`), and the forward pass draws those over them and resolves.
+//! A hybrid frame (line or point meshes, blended draws, gizmo lines: what only the forward pass
+//! rasterises) splits the work: `encode_raster`, then the forward pass draws those into the
+//! overlay (`overlay`), each sample tested against the visibility buffer's depth, then
+//! `encode_shade`, which composites the overlay over each pixel's resolved colour.
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
 //! GPU culling (the visible lists), no occlusion culling, no transmissive draws, and 64-bit
@@ -52,11 +52,10 @@ use crate::resources::draws::{Batch, PipelineKey};
 use crate::resources::materials::extension::EXTENSION_GROUP;
 use crate::resources::materials::{AlphaKey, MaterialKey, MaterialTable};
 use crate::resources::mesh_pool::MeshPool;
-use crate::targets::FrameTargets;
 
-mod hand_over;
+mod overlay;
 mod pipelines;
-pub use hand_over::HandOverFamily;
+pub use overlay::{OverlayTargets, occlusion_layout};
 use pipelines::BIN_BYTES;
 pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
 
@@ -242,6 +241,23 @@ pub fn batch_supported(b: &Batch) -> bool {
     b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend
 }
 
+/// The forward key a hybrid frame's overlay draws `key` with: into the overlay's HDR colour and
+/// depth (not the frame's output, even when the visibility buffer writes it directly), tested
+/// against the visibility buffer; local lights walked by the fragment shader (a visibility frame
+/// has no deferred-lights pass).
+pub fn overlay_key(key: PipelineKey) -> PipelineKey {
+    use crate::gpu::formats::{DEPTH_FORMAT, FormatKey, HDR_FORMAT};
+    use crate::resources::draws::LocalLights;
+    PipelineKey {
+        color_format: FormatKey(HDR_FORMAT),
+        depth_format: Some(FormatKey(DEPTH_FORMAT)),
+        tonemap: None,
+        local_lights: if key.local_lights == LocalLights::Deferred { LocalLights::Clustered } else { key.local_lights },
+        visibility_occlusion: true,
+        ..key
+    }
+}
+
 /// The alpha test a batch's raster bin runs, and the material group it reads.
 fn bin_of(b: &Batch) -> (Option<MaskKey>, Option<MaterialKey>) {
     if b.key.alpha != AlphaKey::Mask {
@@ -270,6 +286,9 @@ pub struct FrameInputs<'a> {
     pub background: bool,
     /// Exposed linear radiance where nothing is covered.
     pub clear: [f32; 3],
+    /// A hybrid frame: the forward pass draws into the overlay (`overlay`) between the raster
+    /// steps and the shading pass, which composites it.
+    pub overlay: bool,
 }
 
 pub struct VisibilityBuffer {
@@ -297,13 +316,15 @@ pub struct VisibilityBuffer {
     batch_count: u32,
     /// The bind groups, and the buffers they were made with (made again when one changes).
     bound: Option<Bound>,
-    /// The hand-over's bind group, and the samples and shaded colour it was made with.
-    hand_over: Option<(wgpu::Buffer, wgpu::TextureView, wgpu::BindGroup)>,
+    /// A hybrid frame's overlay (`overlay`); dropped with the first frame without one.
+    overlay: Option<OverlayTargets>,
+    occlusion_layout: wgpu::BindGroupLayout,
 }
 
 struct Bound {
     made_with: Vec<wgpu::Buffer>,
     target: wgpu::TextureView,
+    overlay: Option<wgpu::TextureView>,
     raster: wgpu::BindGroup,
     dispatch: wgpu::BindGroup,
     shade: Vec<wgpu::BindGroup>,
@@ -311,16 +332,17 @@ struct Bound {
 
 impl VisibilityBuffer {
     /// Registers the rasteriser's and the shading pass's pipeline families (shading binds the
-    /// `view` and `material` groups).
+    /// `view` and `material` groups). `occlusion`: [`occlusion_layout`], which the renderer
+    /// also gives the forward and gizmo pipelines.
     pub fn new(
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
         view: &wgpu::BindGroupLayout,
         materials: &MaterialTable,
+        occlusion: &wgpu::BindGroupLayout,
     ) -> Self {
         pipelines.register(ShadeFamily::new(device, view, materials));
         pipelines.register(RasterFamily::new(device, materials));
-        pipelines.register(HandOverFamily::new(device));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
@@ -352,7 +374,8 @@ impl VisibilityBuffer {
             bin_stride: (device.limits().min_uniform_buffer_offset_alignment as u64).max(BIN_BYTES),
             batch_count: 0,
             bound: None,
-            hand_over: None,
+            overlay: None,
+            occlusion_layout: occlusion.clone(),
         }
     }
 
@@ -379,6 +402,7 @@ impl VisibilityBuffer {
             + self.jobs.size()
             + self.partial.capacity()
             + self.display.as_ref().map_or(0, |(t, _)| t.width() as u64 * t.height() as u64 * 4)
+            + self.overlay.as_ref().map_or(0, OverlayTargets::bytes)
             + 16
     }
 
@@ -490,7 +514,35 @@ impl VisibilityBuffer {
     }
 
     fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs) -> ShadeKey {
-        ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background }
+        let overlay = if inputs.overlay { inputs.samples } else { 0 };
+        ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background, overlay }
+    }
+
+    /// A hybrid frame's overlay targets and occlusion group (made when the size, the sample
+    /// count or the samples buffer changes); none without.
+    fn prepare_overlay(&mut self, device: &wgpu::Device, inputs: &FrameInputs) {
+        if !inputs.overlay {
+            self.overlay = None;
+            return;
+        }
+        if self.overlay.as_ref().is_none_or(|o| o.size != inputs.size || o.samples != inputs.samples) {
+            self.overlay = Some(OverlayTargets::new(device, inputs.size, inputs.samples));
+        }
+        let overlay = self.overlay.as_mut().expect("made above");
+        let samples = self.samples.buffer();
+        if overlay.occlusion.as_ref().is_none_or(|(b, _)| b != samples) {
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("visibility occlusion"),
+                layout: &self.occlusion_layout,
+                entries: &[entry(0, samples), entry(1, &self.raster_params)],
+            });
+            overlay.occlusion = Some((samples.clone(), group));
+        }
+    }
+
+    /// The overlay a hybrid frame's forward draws go into, after `prepare_frame`.
+    pub fn overlay(&self) -> Option<&OverlayTargets> {
+        self.overlay.as_ref()
     }
 
     /// Compiles the rasteriser's steps, which no material changes, ahead of the first frame
@@ -530,6 +582,7 @@ impl VisibilityBuffer {
         let (w, h) = inputs.size;
         let pixels = w as u64 * h as u64;
         self.samples.reserve(device, pixels * inputs.samples as u64 * SAMPLE_BYTES);
+        self.prepare_overlay(device, inputs);
         if self.groups.len() > 1 {
             self.partial.reserve(device, pixels * 16);
         }
@@ -603,7 +656,8 @@ impl VisibilityBuffer {
             (None, Some(hdr)) => hdr.clone(),
             (None, None) => unreachable!("an HDR frame passes its HDR target"),
         };
-        if self.bound.as_ref().is_some_and(|b| b.made_with == made_with && b.target == target) {
+        let overlay = self.overlay.as_ref().map(|o| o.colour.clone());
+        if self.bound.as_ref().is_some_and(|b| b.made_with == made_with && b.target == target && b.overlay == overlay) {
             return;
         }
         let raster = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -637,30 +691,37 @@ impl VisibilityBuffer {
             layout: &pipelines.family::<RasterFamily>().dispatch,
             entries: &[entry(0, &self.dispatch)],
         });
+        let overlay_samples = self.overlay.as_ref().map_or(0, |o| o.samples);
         let shade = self.shade_params[..self.groups.len()]
             .iter()
             .map(|params| {
+                let mut entries = vec![
+                    entry(0, params),
+                    entry(1, self.samples.buffer()),
+                    entry(2, self.batches.buffer()),
+                    entry(3, self.counters.buffer()),
+                    entry(4, inputs.mesh_pool.index_buffer()),
+                    entry(5, self.partial.buffer()),
+                    wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&target) },
+                ];
+                if let Some(view) = &overlay {
+                    entries
+                        .push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(view) });
+                }
                 device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("visibility shade"),
-                    layout: pipelines.family::<ShadeFamily>().layout(inputs.shade_output),
-                    entries: &[
-                        entry(0, params),
-                        entry(1, self.samples.buffer()),
-                        entry(2, self.batches.buffer()),
-                        entry(3, self.counters.buffer()),
-                        entry(4, inputs.mesh_pool.index_buffer()),
-                        entry(5, self.partial.buffer()),
-                        wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&target) },
-                    ],
+                    layout: pipelines.family::<ShadeFamily>().layout(inputs.shade_output, overlay_samples),
+                    entries: &entries,
                 })
             })
             .collect();
-        self.bound = Some(Bound { made_with, target, raster, dispatch, shade });
+        self.bound = Some(Bound { made_with, target, overlay, raster, dispatch, shade });
     }
 
-    /// Encodes the raster and shading passes (after `prepare_frame`).
-    pub fn encode(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
-        let (encoder, device, pipelines, mut timer) =
+    /// Encodes the raster steps (after `prepare_frame`); then, in a hybrid frame, the forward
+    /// pass draws into the overlay, and `encode_shade` shades.
+    pub fn encode_raster(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        let (encoder, device, pipelines, timer) =
             (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
         self.bind(device, pipelines, inputs);
         let bound = self.bound.as_ref().expect("bound above");
@@ -668,7 +729,7 @@ impl VisibilityBuffer {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("visibility raster"),
-                timestamp_writes: timer.as_deref_mut().and_then(|t| t.compute_pass("visibility raster")),
+                timestamp_writes: timer.and_then(|t| t.compute_pass("visibility raster")),
             });
             let step = |s: RasterStep| pipelines.cached::<RasterFamily>(&s);
             if let (Some(prepare), Some(scan)) = (step(RasterStep::Prepare), step(RasterStep::Scan)) {
@@ -707,6 +768,12 @@ impl VisibilityBuffer {
                 }
             }
         }
+    }
+
+    /// Encodes the shading pass (after `encode_raster` and a hybrid frame's overlay draws).
+    pub fn encode_shade(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        let (encoder, pipelines, timer) = (&mut *cx.encoder, &mut *cx.pipelines, cx.timer.as_deref_mut());
+        let bound = self.bound.as_ref().expect("bound by encode_raster");
         let (w, h) = inputs.size;
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -759,59 +826,6 @@ impl VisibilityBuffer {
                 wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
             );
         }
-    }
-}
-
-impl VisibilityBuffer {
-    /// A hybrid frame's hand-over (after `encode`, which shaded HDR colour into the targets'
-    /// single-sampled HDR target): each sample's depth into the depth target and, multisampled,
-    /// the shaded colour into each sample of the multisampled HDR target, for the forward pass
-    /// to load and draw over (see `hand_over`).
-    pub fn encode_hand_over(&mut self, cx: &mut FrameContext, targets: &FrameTargets) -> Result<(), ShaderError> {
-        let (encoder, device, pipelines, timer) =
-            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
-        let (Some(hdr), Some(depth)) = (targets.hdr.as_ref(), targets.depth_view.as_ref()) else {
-            unreachable!("a hybrid frame has HDR and depth targets");
-        };
-        pipelines.get::<HandOverFamily>(device, targets.samples)?;
-        let pipeline = pipelines.cached::<HandOverFamily>(&targets.samples).expect("compiled above");
-        let samples = self.samples.buffer();
-        if self.hand_over.as_ref().is_none_or(|(b, v, _)| b != samples || *v != hdr.view) {
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("visibility hand-over"),
-                layout: &pipelines.family::<HandOverFamily>().layout,
-                entries: &[
-                    entry(0, samples),
-                    entry(1, &self.raster_params),
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&hdr.view) },
-                ],
-            });
-            self.hand_over = Some((samples.clone(), hdr.view.clone(), group));
-        }
-        let colour = hdr.msaa_view.as_ref().map(|view| wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            // Every sample is written.
-            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
-        });
-        let colour = [colour];
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("visibility hand-over"),
-            color_attachments: if colour[0].is_some() { &colour } else { &[] },
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timer.and_then(|t| t.pass("visibility hand-over")),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &self.hand_over.as_ref().expect("made above").2, &[]);
-        pass.draw(0..3, 0..1);
-        Ok(())
     }
 }
 

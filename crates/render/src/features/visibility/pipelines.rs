@@ -91,6 +91,17 @@ pub struct ShadeKey {
     pub forward: PipelineKey,
     pub output: ShadeOutput,
     pub background: bool,
+    /// A hybrid frame's overlay to composite (`overlay`): its sample count, 0 for none.
+    pub overlay: u32,
+}
+
+/// Which overlay binding a shading pipeline has: none, single-sampled, multisampled.
+fn overlay_kind(samples: u32) -> usize {
+    match samples {
+        0 => 0,
+        1 => 1,
+        _ => 2,
+    }
 }
 
 /// The forward key a shading pipeline compiles: what a visibility-buffer frame cannot have
@@ -205,22 +216,21 @@ impl PipelineFamily for RasterFamily {
 }
 
 /// The shading pass's pipelines: group 2 (after the forward pass's view and material groups),
-/// writing HDR colour or writing display colour.
+/// writing HDR colour or writing display colour, without an overlay or with a single-sampled or
+/// multisampled one.
 pub struct ShadeFamily {
-    pub shade: [wgpu::BindGroupLayout; 2],
-    /// Per output kind: the view, material and shade groups, and the extension group of the
-    /// key's material extensions.
-    pipeline: [PipelineLayouts; 2],
+    shade: [[wgpu::BindGroupLayout; 3]; 2],
+    /// Per output kind and overlay kind: the view, material and shade groups, and the extension
+    /// group of the key's material extensions.
+    pipeline: [[PipelineLayouts; 3]; 2],
 }
 
 impl ShadeFamily {
     pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, materials: &MaterialTable) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
         let shade = [HDR_FORMAT, DISPLAY_FORMAT].map(|format| {
-            parts::bind_group_layout(
-                device,
-                "visibility shade",
-                &[
+            [None, Some(false), Some(true)].map(|overlay| {
+                let mut entries = vec![
                     uniform(0, compute),
                     storage(1, compute),
                     storage(2, compute),
@@ -228,18 +238,34 @@ impl ShadeFamily {
                     storage(4, compute),
                     storage_rw(5, compute),
                     parts::storage_texture(6, format, wgpu::TextureViewDimension::D2),
-                ],
-            )
+                ];
+                if let Some(multisampled) = overlay {
+                    entries.push(wgpu::BindGroupLayoutEntry {
+                        binding: 7,
+                        visibility: compute,
+                        ty: wgpu::BindingType::Texture {
+                            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                            multisampled,
+                        },
+                        count: None,
+                    });
+                }
+                parts::bind_group_layout(device, "visibility shade", &entries)
+            })
         });
         let pipeline = [0, 1].map(|i| {
-            let groups = [Some(view), Some(materials.layout()), Some(&shade[i])];
-            PipelineLayouts::new("visibility shade", &groups, materials.extension_layouts().clone())
+            [0, 1, 2].map(|k| {
+                let groups = [Some(view), Some(materials.layout()), Some(&shade[i][k])];
+                PipelineLayouts::new("visibility shade", &groups, materials.extension_layouts().clone())
+            })
         });
         Self { shade, pipeline }
     }
 
-    pub fn layout(&self, output: ShadeOutput) -> &wgpu::BindGroupLayout {
-        &self.shade[output.display() as usize]
+    /// The shade group's layout for `output` with an overlay of `overlay` samples (0: none).
+    pub fn layout(&self, output: ShadeOutput, overlay: u32) -> &wgpu::BindGroupLayout {
+        &self.shade[output.display() as usize][overlay_kind(overlay)]
     }
 }
 
@@ -254,7 +280,8 @@ impl PipelineFamily for ShadeFamily {
     }
 
     fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &ShadeKey) -> wgpu::ComputePipeline {
-        let layout = self.pipeline[key.output.display() as usize].get(device, key.forward.features);
+        let layout =
+            self.pipeline[key.output.display() as usize][overlay_kind(key.overlay)].get(device, key.forward.features);
         parts::compute_pipeline(device, &layout, module, "cs_shade", "visibility shade")
     }
 }
@@ -274,4 +301,6 @@ fn shade_defs(key: ShadeKey) -> ShaderDefs {
         .with("TONEMAP_NEUTRAL", forward.tonemap.or(tonemapper) == Some(Tonemapper::Neutral))
         .with("TONEMAP_ACES", forward.tonemap.or(tonemapper) == Some(Tonemapper::Aces))
         .with("VISIBILITY_BACKGROUND", key.background)
+        .with("VISIBILITY_OVERLAY", key.overlay > 0)
+        .with("OVERLAY_MULTISAMPLED", key.overlay > 1)
 }

@@ -110,9 +110,10 @@ fn every_entry_composes_in_every_variant_family() {
     lib.compose("forward.wgsl", &defs(&all)).unwrap();
     lib.compose("forward.wgsl", &defs(&[&all[..], &["TRANSFORMED_UVS"]].concat())).unwrap();
     lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "NORMAL_MAP", "LOCAL_LIGHTS"])).unwrap();
-    lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_COVERAGE", "DEFERRED_LOCAL_LIGHTS"])).unwrap();
+    lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_COVERAGE", "SAMPLE_MASK_OUT", "DEFERRED_LOCAL_LIGHTS"]))
+        .unwrap();
     lib.compose("forward.wgsl", &defs(&["ALPHA_MASK", "ALPHA_SAMPLE_RATE", "VERTEX_COLORS"])).unwrap();
-    let coverage = ["ALPHA_MASK", "ALPHA_COVERAGE", "BASE_COLOR_TEXTURE", "VERTEX_COLORS"];
+    let coverage = ["ALPHA_MASK", "ALPHA_COVERAGE", "SAMPLE_MASK_OUT", "BASE_COLOR_TEXTURE", "VERTEX_COLORS"];
     lib.compose("forward.wgsl", &defs(&coverage)).unwrap();
     lib.compose("forward.wgsl", &defs(&[&coverage[..], &["TRANSFORMED_UVS"]].concat())).unwrap();
     let shadowed = ["LOCAL_LIGHTS", "CLUSTERED_LIGHTS", "SHADOWS", "LOCAL_SHADOWS", "DEBUG_CASCADES"];
@@ -131,6 +132,21 @@ fn every_entry_composes_in_every_variant_family() {
     lib.compose("cull.wgsl", &defs(&[])).unwrap();
     lib.compose("deform.wgsl", &defs(&[])).unwrap();
     lib.compose("gizmo.wgsl", &defs(&[])).unwrap();
+    // A hybrid frame: the overlay's draws tested against the visibility buffer, masked ones
+    // too, and the shading pass compositing the overlay; masked raster bins.
+    lib.compose("gizmo.wgsl", &defs(&["VISIBILITY_OCCLUSION"])).unwrap();
+    lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "VISIBILITY_OCCLUSION", "SAMPLE_MASK_OUT"])).unwrap();
+    lib.compose("forward.wgsl", &defs(&[&coverage[..], &["VISIBILITY_OCCLUSION", "LINE_QUADS", "POOL_VERTICES"]].concat())).unwrap();
+    for overlay in [&["VISIBILITY_OVERLAY"][..], &["VISIBILITY_OVERLAY", "OVERLAY_MULTISAMPLED"]] {
+        let shade = [
+            &["VISIBILITY_SHADE", "PULLED_VERTICES", "POOL_VERTICES", "VISIBILITY_TONEMAP", "VISIBILITY_DISPLAY"][..],
+            overlay,
+        ];
+        lib.compose("forward.wgsl", &defs(&shade.concat())).unwrap();
+    }
+    for mask in [&["ALPHA_MASK"][..], &["ALPHA_MASK", "BASE_COLOR_TEXTURE", "TRANSFORMED_UVS", "VERTEX_COLORS"]] {
+        lib.compose("visibility_raster.wgsl", &defs(mask)).unwrap();
+    }
     lib.compose("cull.wgsl", &defs(&["OCCLUSION_EARLY"])).unwrap();
     lib.compose("cull.wgsl", &defs(&["OCCLUSION_LATE"])).unwrap();
     for d in [&[][..], &["FROM_DEPTH"], &["FROM_DEPTH", "MULTISAMPLED"]] {
