@@ -86,7 +86,7 @@
 #import penumbra::ibl::environment_light
 #endif
 #ifdef VISIBILITY_OCCLUSION
-#import penumbra::visibility_occlusion::unoccluded_samples
+#import penumbra::visibility_occlusion::{OcclusionParams, first_sample, overlay_clip, unoccluded_mask}
 #endif
 #ifdef LINE_QUADS
 #import penumbra::line_quads::{behind_eye_fraction, line_corner}
@@ -162,6 +162,24 @@
 // The opaque colour's copy with its mip chain (features/transmission), as exposed radiance.
 @group(2) @binding(0) var transmission_scene: texture_2d<f32>;
 @group(2) @binding(1) var transmission_sampler: sampler;
+#endif
+#ifdef VISIBILITY_OCCLUSION
+// A hybrid frame's visibility buffer (visibility_occlusion.wgsl).
+@group(2) @binding(0) var<storage, read> occluders: array<vec2<u32>>;
+@group(2) @binding(1) var<uniform> occlusion: OcclusionParams;
+
+// The samples of the fragment at `position` nearer than the visibility buffer's.
+fn unoccluded_samples(position: vec4<f32>, dz: vec2<f32>) -> u32 {
+    let first = first_sample(position, occlusion);
+    if first == 0xffffffffu {
+        return 0u;
+    }
+    var held = vec4<f32>(0.0);
+    for (var k = 0u; k < min(occlusion.samples, 4u); k++) {
+        held[k] = bitcast<f32>(occluders[first + k].y);
+    }
+    return unoccluded_mask(position, dz, false, held, occlusion.samples);
+}
 #endif
 
 #ifdef PULLED_VERTICES
@@ -307,6 +325,10 @@ fn vs_main(in: VertexIn) -> VertexOut {
         // Beyond what the device binds for reading (the mesh pool warns): not drawn.
         out.clip_position = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
+#endif
+#ifdef VISIBILITY_OCCLUSION
+    // Into the hybrid frame's overlay, which covers a rectangle of the frame.
+    out.clip_position = overlay_clip(out.clip_position, occlusion);
 #endif
     return out;
 }
@@ -473,14 +495,19 @@ struct FragmentOut {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> FragmentOut {
+    let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
 #ifdef VISIBILITY_OCCLUSION
     // A hybrid frame's draw: the visibility buffer holds the opaque depth (see
-    // visibility_occlusion.wgsl).
+    // visibility_occlusion.wgsl). Tested before shading, as an early depth test would.
     let dz = vec2<f32>(dpdxFine(in.clip_position.z), dpdyFine(in.clip_position.z));
+    let unoccluded = unoccluded_samples(in.clip_position, dz);
+    if unoccluded == 0u {
+        discard;
+    }
 #endif
-    var frag = shade(in, front_facing, UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1)));
+    var frag = shade(in, front_facing, sets);
 #ifdef VISIBILITY_OCCLUSION
-    frag.coverage &= unoccluded_samples(in.clip_position, dz, false);
+    frag.coverage &= unoccluded;
     if frag.coverage == 0u {
         discard;
     }
@@ -852,6 +879,10 @@ struct ShadeParams {
     background: u32,
     // Exposed radiance shown where nothing is covered, without an environment.
     clear: vec4<f32>,
+    // The overlay's rectangle (VISIBILITY_OVERLAY): its target's pixel (0, 0) is the frame's
+    // pixel overlay_origin.
+    overlay_origin: vec2<u32>,
+    overlay_size: vec2<u32>,
 };
 
 @group(2) @binding(0) var<uniform> shade_params: ShadeParams;
@@ -1012,17 +1043,20 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     var rgb = sum.rgb + behind * (1.0 - sum.a);
 #ifdef VISIBILITY_OVERLAY
     // The overlay's samples over this colour: blending is linear, so their mean blended over it
-    // is the mean of each blended over it.
+    // is the mean of each blended over it. Outside its rectangle it drew nothing.
+    let at = id.xy - shade_params.overlay_origin;
+    if all(id.xy >= shade_params.overlay_origin) && all(at < shade_params.overlay_size) {
 #ifdef OVERLAY_MULTISAMPLED
-    var over = vec4<f32>(0.0);
-    for (var s = 0u; s < samples; s++) {
-        over += textureLoad(overlay, id.xy, i32(s));
-    }
-    over *= weight;
+        var over = vec4<f32>(0.0);
+        for (var s = 0u; s < samples; s++) {
+            over += textureLoad(overlay, at, i32(s));
+        }
+        over *= weight;
 #else
-    let over = textureLoad(overlay, id.xy, 0);
+        let over = textureLoad(overlay, at, 0);
 #endif
-    rgb = over.rgb + rgb * (1.0 - over.a);
+        rgb = over.rgb + rgb * (1.0 - over.a);
+    }
 #endif
 #ifdef VISIBILITY_TONEMAP
     rgb = display_rgb(rgb);

@@ -9,10 +9,15 @@
 #import penumbra::view::View
 #import penumbra::line_quads::{behind_eye_fraction, line_corner}
 #ifdef VISIBILITY_OCCLUSION
-#import penumbra::visibility_occlusion::unoccluded_samples
+#import penumbra::visibility_occlusion::{OcclusionParams, first_sample, overlay_clip, unoccluded_mask}
 #endif
 
 @group(0) @binding(0) var<uniform> view: View;
+#ifdef VISIBILITY_OCCLUSION
+// A hybrid frame's visibility buffer (visibility_occlusion.wgsl).
+@group(1) @binding(0) var<storage, read> occluders: array<vec2<u32>>;
+@group(1) @binding(1) var<uniform> occlusion: OcclusionParams;
+#endif
 
 struct VertexIn {
     @location(0) rel_position: vec3<f32>,
@@ -36,6 +41,10 @@ fn vs_main(in: VertexIn) -> VertexOut {
     clip = mix(clip, other_clip, behind_eye_fraction(clip, other_clip));
     let side = select(-1.0, 1.0, (in.corner & 1u) != 0u);
     out.position = line_corner(clip, other_clip, side, (in.corner & 2u) != 0u, view.target_size);
+#ifdef VISIBILITY_OCCLUSION
+    // Into the hybrid frame's overlay, which covers a rectangle of the frame.
+    out.position = overlay_clip(out.position, occlusion);
+#endif
     out.color = in.color;
     return out;
 }
@@ -53,7 +62,12 @@ fn fs_main(in: VertexOut) -> FragmentOut {
     out.color = vec4<f32>(max(in.color, vec3<f32>(0.0)), 1.0);
 #ifdef VISIBILITY_OCCLUSION
     let dz = vec2<f32>(dpdxFine(in.position.z), dpdyFine(in.position.z));
-    out.coverage = unoccluded_samples(in.position, dz, true);
+    let first = first_sample(in.position, occlusion);
+    var held = vec4<f32>(0.0);
+    for (var k = 0u; k < min(occlusion.samples, 4u) && first != 0xffffffffu; k++) {
+        held[k] = bitcast<f32>(occluders[first + k].y);
+    }
+    out.coverage = select(0u, unoccluded_mask(in.position, dz, true, held, occlusion.samples), first != 0xffffffffu);
     if out.coverage == 0u {
         discard;
     }

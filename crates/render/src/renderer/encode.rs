@@ -37,6 +37,7 @@ impl Renderer {
             variant,
             solid_background,
             camera_exposure,
+            overlay: overlay_rect,
             ..
         } = frame;
         let (opaque_len, total, direct, visibility, deferred, background, transmission) =
@@ -149,7 +150,7 @@ impl Renderer {
             // Display colours are averaged only into an sRGB output, as the forward pass does.
             // A hybrid frame's overlay is composited over resolved radiance, as the forward pass
             // resolves radiance when it draws blended surfaces.
-            let overlay = plan.runs(Pass::VISIBILITY_OVERLAY);
+            let overlay = overlay_rect.is_some();
             let shade_output = match (direct, self.settings.msaa_resolve) {
                 (false, _) => ShadeOutput::Hdr,
                 (true, MsaaResolve::Display) if self.settings.msaa > 1 && output_format.is_srgb() && !overlay => {
@@ -172,7 +173,7 @@ impl Renderer {
                 samples: self.settings.msaa,
                 background,
                 clear: clear_radiance,
-                overlay,
+                overlay: *overlay_rect,
             };
             let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &vis_inputs).err();
             self.visibility.encode_raster(&mut cx, &vis_inputs);

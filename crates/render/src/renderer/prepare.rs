@@ -17,6 +17,7 @@ use crate::features::deform::Visit;
 use crate::features::post::PostPrepare;
 use crate::features::shadows::local::LocalCandidate;
 use crate::features::shadows::orchestrator::DirectionalCandidate;
+use crate::features::visibility::OverlayRect;
 use crate::frame::{FramePlan, SceneNeeds};
 use crate::gpu::formats::FormatKey;
 use crate::pipelines::ShaderError;
@@ -54,6 +55,8 @@ pub(super) struct PreparedFrame {
     /// The culling shaders did not compile: the frame draws without culling.
     pub cull_error: Option<ShaderError>,
     pub instance_upload_ms: f64,
+    /// A hybrid frame's overlay rectangle (`features::visibility::overlay`).
+    pub overlay: Option<OverlayRect>,
 }
 
 impl Renderer {
@@ -246,6 +249,18 @@ impl Renderer {
         // lines over the visibility buffer (features/visibility/overlay.rs).
         let unrasterised = !self.draws.opaque_batches().iter().all(crate::features::visibility::batch_supported);
         let overlay = visibility && (unrasterised || !blend_batches.is_empty() || gizmo_vertices > 0);
+        // What its draws can cover: line and point meshes (instanced, culled on the GPU) count as
+        // the whole frame.
+        let overlay_rect = overlay.then(|| match (clip_from_rel, scene.view.as_ref()) {
+            (Some(clip_from_rel), Some(v)) if !unrasterised => OverlayRect::covering(
+                &self.draws.blended_bounds(&draw_cx!(self), scene),
+                scene.gizmos.iter().flat_map(|l| [l.start, l.end]),
+                clip_from_rel,
+                v.world_from_view.translation.into(),
+                size,
+            ),
+            _ => OverlayRect::full(size),
+        });
         // The visibility buffer's shading walks the cluster lists itself, in compute.
         let deferred = self.draws.variant().deferred_lights && !visibility;
         let needs = TargetNeeds {
@@ -386,6 +401,7 @@ impl Renderer {
             camera_exposure,
             cull_error: cull_error.or(transmission_error),
             instance_upload_ms,
+            overlay: overlay_rect,
         })
     }
 

@@ -589,6 +589,18 @@ impl DrawList {
     }
 
     /// Blended draws, farthest first (by the centre of their world bounds along the view axis).
+    /// The world-space boxes of the blended draws (for the part of the screen they can cover).
+    pub fn blended_bounds(&self, cx: &DrawContext, scene: &RenderScene) -> Vec<Aabb> {
+        self.blend_entities
+            .iter()
+            .filter_map(|entity| {
+                let d = self.draws.get(*entity)?;
+                let entry = cx.mesh_pool.entry(self.draw_mesh_id(cx, *entity, d)?)?;
+                Some(entry.aabb.transformed(&scene.draws.get(*entity)?.world_from_local))
+            })
+            .collect()
+    }
+
     pub fn sort_blended(&self, cx: &DrawContext, scene: &RenderScene) -> Vec<(Batch, u32)> {
         let Some(view) = scene.view else {
             return Vec::new();

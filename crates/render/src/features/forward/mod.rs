@@ -314,8 +314,8 @@ pub struct Overlay<'a> {
     pub colour: &'a wgpu::TextureView,
     /// Cleared to the far plane: the overlay's own draws test each other.
     pub depth: &'a wgpu::TextureView,
-    /// Group 2 of the draws' pipelines: the visibility buffer, against which each sample is
-    /// tested.
+    /// Group 2 of the draws' pipelines (group 1 of the gizmos'): the visibility buffer, against
+    /// which each sample is tested.
     pub occlusion: &'a wgpu::BindGroup,
     pub samples: u32,
 }
@@ -370,7 +370,8 @@ pub fn encode_overlay(
     {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, inputs.view_bind_group, &[]);
-        pass.set_bind_group(TRANSMISSION_GROUP, overlay.occlusion, &[]);
+        // Group 1 of the gizmo pipeline's layout (it has no material).
+        pass.set_bind_group(1, overlay.occlusion, &[]);
         pass.set_vertex_buffer(0, g.vertices.slice(..));
         pass.draw(0..g.count, 0..1);
     }

@@ -19,7 +19,7 @@ pub const GIZMO_VERTEX_BYTES: u64 = 40;
 /// pixel wide (six vertices a line), depth-tested (reverse-Z) without writing depth.
 pub struct GizmoFamily {
     pipeline_layout: wgpu::PipelineLayout,
-    /// With the visibility buffer's occlusion group as group 2 (a hybrid frame's gizmos).
+    /// With the visibility buffer's occlusion group as group 1 (a hybrid frame's gizmos).
     occluded_layout: wgpu::PipelineLayout,
 }
 
@@ -30,7 +30,7 @@ impl GizmoFamily {
             pipeline_layout: parts::pipeline_layout(device, "gizmos", &[view]),
             occluded_layout: device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("gizmos over the visibility buffer"),
-                bind_group_layouts: &[Some(view), None, Some(occlusion)],
+                bind_group_layouts: &[Some(view), Some(occlusion)],
                 immediate_size: 0,
             }),
         }

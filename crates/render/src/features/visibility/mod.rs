@@ -55,7 +55,8 @@ use crate::resources::mesh_pool::MeshPool;
 
 mod overlay;
 mod pipelines;
-pub use overlay::{OverlayTargets, occlusion_layout};
+use overlay::GpuOcclusionParams;
+pub use overlay::{OverlayRect, OverlayTargets, occlusion_layout};
 use pipelines::BIN_BYTES;
 pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
 
@@ -186,6 +187,8 @@ struct GpuShadeParams {
     last: u32,
     background: u32,
     clear: [f32; 4],
+    overlay_origin: [u32; 2],
+    overlay_size: [u32; 2],
 }
 
 /// Batches rasterised by one run of the raster steps (`raster_triangles`, `raster_scan`,
@@ -287,8 +290,8 @@ pub struct FrameInputs<'a> {
     /// Exposed linear radiance where nothing is covered.
     pub clear: [f32; 3],
     /// A hybrid frame: the forward pass draws into the overlay (`overlay`) between the raster
-    /// steps and the shading pass, which composites it.
-    pub overlay: bool,
+    /// steps and the shading pass, which composites it; the rectangle its draws can cover.
+    pub overlay: Option<OverlayRect>,
 }
 
 pub struct VisibilityBuffer {
@@ -514,27 +517,31 @@ impl VisibilityBuffer {
     }
 
     fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs) -> ShadeKey {
-        let overlay = if inputs.overlay { inputs.samples } else { 0 };
+        let overlay = if inputs.overlay.is_some() { inputs.samples } else { 0 };
         ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background, overlay }
     }
 
     /// A hybrid frame's overlay targets and occlusion group (made when the size, the sample
     /// count or the samples buffer changes); none without.
-    fn prepare_overlay(&mut self, device: &wgpu::Device, inputs: &FrameInputs) {
-        if !inputs.overlay {
+    fn prepare_overlay(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, inputs: &FrameInputs) {
+        let Some(rect) = inputs.overlay else {
             self.overlay = None;
             return;
-        }
-        if self.overlay.as_ref().is_none_or(|o| o.size != inputs.size || o.samples != inputs.samples) {
-            self.overlay = Some(OverlayTargets::new(device, inputs.size, inputs.samples));
+        };
+        let extent = OverlayTargets::extent_for(rect, inputs.size);
+        if self.overlay.as_ref().is_none_or(|o| o.extent != extent || o.samples != inputs.samples) {
+            self.overlay = Some(OverlayTargets::new(device, extent, inputs.samples));
         }
         let overlay = self.overlay.as_mut().expect("made above");
+        overlay.rect = rect;
+        let params = GpuOcclusionParams::new(inputs.size, inputs.samples, rect, extent);
+        queue.write_buffer(&overlay.params, 0, bytemuck::bytes_of(&params));
         let samples = self.samples.buffer();
         if overlay.occlusion.as_ref().is_none_or(|(b, _)| b != samples) {
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("visibility occlusion"),
                 layout: &self.occlusion_layout,
-                entries: &[entry(0, samples), entry(1, &self.raster_params)],
+                entries: &[entry(0, samples), entry(1, &overlay.params)],
             });
             overlay.occlusion = Some((samples.clone(), group));
         }
@@ -582,7 +589,7 @@ impl VisibilityBuffer {
         let (w, h) = inputs.size;
         let pixels = w as u64 * h as u64;
         self.samples.reserve(device, pixels * inputs.samples as u64 * SAMPLE_BYTES);
-        self.prepare_overlay(device, inputs);
+        self.prepare_overlay(device, queue, inputs);
         if self.groups.len() > 1 {
             self.partial.reserve(device, pixels * 16);
         }
@@ -630,6 +637,8 @@ impl VisibilityBuffer {
                 last: (k + 1 == self.shaded.len()) as u32,
                 background: inputs.background as u32,
                 clear: [inputs.clear[0], inputs.clear[1], inputs.clear[2], 1.0],
+                overlay_origin: inputs.overlay.map_or([0; 2], |r| [r.origin.0, r.origin.1]),
+                overlay_size: inputs.overlay.map_or([0; 2], |r| [r.size.0, r.size.1]),
             };
             queue.write_buffer(&self.shade_params[g], 0, bytemuck::bytes_of(&p));
         }
@@ -879,7 +888,18 @@ mod tests {
             "forward.wgsl",
             ["VISIBILITY_SHADE", "PULLED_VERTICES", "POOL_VERTICES"],
             "ShadeParams",
-            [target_size, samples, batch_count, group, accumulate, last, background, clear]
+            [
+                target_size,
+                samples,
+                batch_count,
+                group,
+                accumulate,
+                last,
+                background,
+                clear,
+                overlay_origin,
+                overlay_size
+            ]
         );
     }
 

@@ -136,7 +136,11 @@ fn every_entry_composes_in_every_variant_family() {
     // too, and the shading pass compositing the overlay; masked raster bins.
     lib.compose("gizmo.wgsl", &defs(&["VISIBILITY_OCCLUSION"])).unwrap();
     lib.compose("forward.wgsl", &defs(&["ALPHA_BLEND", "VISIBILITY_OCCLUSION", "SAMPLE_MASK_OUT"])).unwrap();
-    lib.compose("forward.wgsl", &defs(&[&coverage[..], &["VISIBILITY_OCCLUSION", "LINE_QUADS", "POOL_VERTICES"]].concat())).unwrap();
+    lib.compose(
+        "forward.wgsl",
+        &defs(&[&coverage[..], &["VISIBILITY_OCCLUSION", "LINE_QUADS", "POOL_VERTICES"]].concat()),
+    )
+    .unwrap();
     for overlay in [&["VISIBILITY_OVERLAY"][..], &["VISIBILITY_OVERLAY", "OVERLAY_MULTISAMPLED"]] {
         let shade = [
             &["VISIBILITY_SHADE", "PULLED_VERTICES", "POOL_VERTICES", "VISIBILITY_TONEMAP", "VISIBILITY_DISPLAY"][..],
