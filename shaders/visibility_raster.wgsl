@@ -17,9 +17,10 @@
 //
 // A triangle whose box spans at most SMALL_BOX pixels each way is rasterised by its thread. A
 // larger one leaves a record (`big`); `raster_scan` gives each record its first job, and
-// `raster_tiles` runs one job per TILE×TILE-pixel tile of each record's box (a thread group
-// per job sets the triangle up again from its number and covers the tile), so a triangle
-// filling the view is spread over the GPU instead of one thread. A triangle whose record does
+// `raster_tiles` runs one job per TILE×TILE-pixel tile of each record's box (each thread group
+// takes a run of consecutive jobs, sets each record's triangle up again from its number once,
+// and covers the tiles), so a triangle filling the view is spread over the GPU instead of one
+// thread. A triangle whose record does
 // not fit is not lost: its own thread rasterises the whole box (slower, same samples).
 //
 // Coverage, as fixed-function rasterisers decide it: the triangle is clipped to the depth
@@ -177,6 +178,10 @@ fn find_triangle(number: u32) -> TriangleRef {
         } else {
             hi = mid;
         }
+    }
+    // Past this bin's batches: the next bin's (the dispatch is rounded up to whole groups).
+    if lo >= bin.end_batch {
+        return r;
     }
     let batch = batches[lo];
     if batch.triangle_count == 0u {
@@ -659,12 +664,12 @@ fn raster_triangles(
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(local_invocation_index) lane: u32,
 ) {
-    let index = (group.y * groups.x + group.x) * WORKGROUP + lane;
-    let range = bin_range();
-    if index >= range.y - range.x {
-        return;
+    // The bin's numbers start at its first batch's (0 for the first bin, which holds most
+    // triangles: no load); a number past the bin's last batch is refused by find_triangle.
+    var number = (group.y * groups.x + group.x) * WORKGROUP + lane;
+    if bin.first_batch != 0u {
+        number += atomicLoad(&counters[min(bin.first_batch, params.batch_count)]);
     }
-    let number = range.x + index;
     if raster_unclipped_small(number) {
         return;
     }
@@ -731,13 +736,14 @@ fn raster_scan(@builtin(local_invocation_index) lane: u32) {
     }
 }
 
-// A job's triangle, set up once by the group's first lane, and the job.
+// A job's triangle, set up by the group's first lane once per record, the record and the job.
 var<workgroup> tile_setup: Setup;
+var<workgroup> tile_record: u32;
 var<workgroup> tile_job: vec2<u32>;
 var<workgroup> tile_jobs: u32;
 
-// Job `j`: its triangle's number and tile (y << 16 | x), from the record whose jobs hold it.
-fn find_job(j: u32) -> vec2<u32> {
+// The record whose jobs hold job `j`.
+fn find_record(j: u32) -> u32 {
     var lo = 0u;
     var hi = min(atomicLoad(&counters[big_count_word()]), params.job_capacity);
     while hi - lo > 1u {
@@ -748,11 +754,16 @@ fn find_job(j: u32) -> vec2<u32> {
             hi = mid;
         }
     }
-    let r = big[lo];
-    let local = j - r.w;
-    let wide = r.z & 0xffffu;
-    let t = vec2<u32>(r.y & 0xffffu, r.y >> 16u) + vec2<u32>(local % wide, local / wide);
-    return vec2<u32>(r.x, (t.y << 16u) | t.x);
+    return lo;
+}
+
+// Job `j` of record `r`: its triangle's number and tile (y << 16 | x).
+fn record_job(r: u32, j: u32) -> vec2<u32> {
+    let record = big[r];
+    let local = j - record.w;
+    let wide = record.z & 0xffffu;
+    let t = vec2<u32>(record.y & 0xffffu, record.y >> 16u) + vec2<u32>(local % wide, local / wide);
+    return vec2<u32>(record.x, (t.y << 16u) | t.x);
 }
 
 // Writes fan triangle (0, i, i + 1) of `s` into the samples of this lane's pixels of a tile:
@@ -810,14 +821,33 @@ fn raster_tiles(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocati
         tile_jobs = atomicLoad(&counters[job_total_word()]);
     }
     let count = workgroupUniformLoad(&tile_jobs);
-    for (var j = group.x; j < count; j += params.tile_groups) {
-        // One lane finds the job and sets its triangle up for all 64.
+    // Each group takes a run of consecutive jobs: a record's jobs are consecutive, so its
+    // triangle is found and set up once per group rather than once per job.
+    let per = (count + params.tile_groups - 1u) / params.tile_groups;
+    let begin = min(group.x * per, count);
+    let end = min(begin + per, count);
+    for (var j = begin; j < end; j++) {
+        // One lane finds the job and, for a new record, sets its triangle up for all 64.
         if lane == 0u {
-            tile_job = find_job(j);
-            tile_setup = setup_triangle(tile_job.x);
+            var r = tile_record;
+            var fresh = j == begin;
+            if fresh {
+                r = find_record(j);
+            } else {
+                let records = min(atomicLoad(&counters[big_count_word()]), params.job_capacity);
+                while r + 1u < records && big[r + 1u].w <= j {
+                    r++;
+                    fresh = true;
+                }
+            }
+            if fresh {
+                tile_setup = setup_triangle(big[r].x);
 #ifdef ALPHA_MASK
-            tile_alpha = alpha_source;
+                tile_alpha = alpha_source;
 #endif
+            }
+            tile_record = r;
+            tile_job = record_job(r, j);
         }
         workgroupBarrier();
         let s = tile_setup;
@@ -832,7 +862,7 @@ fn raster_tiles(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocati
         for (var i = 1u; i + 1u < s.count; i++) {
             raster_tile_column(s, i, column, row0, job.x);
         }
-        // The next job's setup overwrites this one.
+        // The next job's record and setup overwrite these.
         workgroupBarrier();
     }
 }
