@@ -498,14 +498,17 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> Fragment
     let sets = UvSets(in.uv0, in.uv1, dpdx(in.uv0), dpdy(in.uv0), dpdx(in.uv1), dpdy(in.uv1));
 #ifdef VISIBILITY_OCCLUSION
     // A hybrid frame's draw: the visibility buffer holds the opaque depth (see
-    // visibility_occlusion.wgsl). Tested before shading, as an early depth test would.
+    // visibility_occlusion.wgsl). Not discarded before shading: its textures take implicit
+    // derivatives, which need the whole quad.
     let dz = vec2<f32>(dpdxFine(in.clip_position.z), dpdyFine(in.clip_position.z));
     let unoccluded = unoccluded_samples(in.clip_position, dz);
-    if unoccluded == 0u {
-        discard;
-    }
-#endif
+    // Shading reads the frame's pixel position (cluster lists, shadow noise), not the overlay's.
+    var at_frame = in;
+    at_frame.clip_position = vec4<f32>(in.clip_position.xy + vec2<f32>(occlusion.origin), in.clip_position.zw);
+    var frag = shade(at_frame, front_facing, sets);
+#else
     var frag = shade(in, front_facing, sets);
+#endif
 #ifdef VISIBILITY_OCCLUSION
     frag.coverage &= unoccluded;
     if frag.coverage == 0u {

@@ -84,8 +84,8 @@ const MAX_GROUPS_X: u32 = 32768u;
 @group(0) @binding(11) var<uniform> bin: RasterBin;
 // The raster dispatch's arguments, written by raster_prepare and raster_begin (their own group:
 // the dispatch they drive cannot also bind them for writing).
-// Masked variants (ALPHA_MASK) compile only raster_triangles and raster_tiles, whose group 1
-// is the bin's material.
+// Masked variants (ALPHA_MASK) make pipelines only of raster_triangles and raster_tiles, whose
+// group 1 is the bin's material.
 #ifndef ALPHA_MASK
 @group(1) @binding(0) var<storage, read_write> dispatch: array<u32>;
 #endif

@@ -155,7 +155,7 @@ impl Renderer {
             fits: crate::features::visibility::fits(&device.limits(), size, self.settings.msaa),
             occlusion_on: self.settings.occlusion_culling == OcclusionCulling::On,
             transmission,
-            opaque: !self.draws.opaque_batches().is_empty(),
+            opaque: self.draws.opaque_batches().iter().any(crate::features::visibility::batch_supported),
         };
         let visibility_wanted = raster_gate.decide().is_ok();
         let mut occlusion = culling
@@ -342,8 +342,9 @@ impl Renderer {
         if overlay {
             // The overlay's draws: HDR colour and depth of their own, tested against the
             // visibility buffer.
+            let opaque_batches = self.draws.opaque_batches().len();
             for (i, b) in batches.iter_mut().enumerate() {
-                if i >= opaque_len || !crate::features::visibility::batch_supported(b) {
+                if i >= opaque_batches || !crate::features::visibility::batch_supported(b) {
                     b.key = crate::features::visibility::overlay_key(b.key);
                 }
             }

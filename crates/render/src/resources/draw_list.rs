@@ -588,7 +588,6 @@ impl DrawList {
         (batches, self.opaque_slots.clone())
     }
 
-    /// Blended draws, farthest first (by the centre of their world bounds along the view axis).
     /// The world-space boxes of the blended draws (for the part of the screen they can cover).
     pub fn blended_bounds(&self, cx: &DrawContext, scene: &RenderScene) -> Vec<Aabb> {
         self.blend_entities
@@ -601,6 +600,7 @@ impl DrawList {
             .collect()
     }
 
+    /// Blended draws, farthest first (by the centre of their world bounds along the view axis).
     pub fn sort_blended(&self, cx: &DrawContext, scene: &RenderScene) -> Vec<(Batch, u32)> {
         let Some(view) = scene.view else {
             return Vec::new();

@@ -36,8 +36,8 @@
 //! `encode_shade`, which composites the overlay over each pixel's resolved colour.
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
-//! GPU culling (the visible lists), no occlusion culling, no transmissive draws, and 64-bit
-//! atomics. The buffer rasterises opaque and masked triangle meshes (skinned and morphed ones
+//! GPU culling (the visible lists), no occlusion culling, no transmissive draws, at least one
+//! opaque or masked triangle mesh, and 64-bit atomics. The buffer rasterises opaque and masked triangle meshes (skinned and morphed ones
 //! from the deformation pass's vertices, like any other). A frame without a hybrid part has no
 //! depth or multisampled targets.
 
@@ -97,6 +97,8 @@ pub struct RasterGate {
     pub occlusion_on: bool,
     /// Transmissive draws (they read a copy of the forward pass's opaque colour).
     pub transmission: bool,
+    /// Some opaque batch is an opaque or masked triangle list ([`batch_supported`]): a frame of
+    /// line and point meshes alone has nothing for the buffer.
     pub opaque: bool,
 }
 
@@ -118,7 +120,7 @@ impl RasterGate {
             (self.fits, "the visibility buffer would exceed the adapter's largest storage binding"),
             (!self.occlusion_on, "occlusion culling was asked for (--occlusion on)"),
             (!self.transmission, "transmissive draws (they see the forward pass's opaque colour)"),
-            (self.opaque, "no opaque draws"),
+            (self.opaque, "no opaque or masked triangle meshes to rasterise"),
         ];
         if let Some((_, why)) = checks.iter().find(|(ok, _)| !ok) {
             return Err(why);
@@ -406,6 +408,7 @@ impl VisibilityBuffer {
             + self.partial.capacity()
             + self.display.as_ref().map_or(0, |(t, _)| t.width() as u64 * t.height() as u64 * 4)
             + self.overlay.as_ref().map_or(0, OverlayTargets::bytes)
+            + self.bin_params.capacity()
             + 16
     }
 
@@ -864,7 +867,9 @@ mod tests {
         let both = RasterGate { transmission: true, opaque: false, ..hopper };
         assert!(both.decide().unwrap_err().starts_with("transmissive draws"));
         assert!(RasterGate { atomics: false, ..both }.decide().unwrap_err().contains("64-bit atomic"));
-        assert_eq!(RasterGate { opaque: false, ..hopper }.decide(), Err("no opaque draws"));
+        assert!(
+            RasterGate { opaque: false, ..hopper }.decide().unwrap_err().starts_with("no opaque or masked triangle")
+        );
     }
 
     #[test]

@@ -181,9 +181,10 @@ impl OverlayTargets {
         }
     }
 
-    /// GPU memory the targets hold, in bytes (8 bytes of colour and 4 of depth a sample).
+    /// GPU memory the targets and parameters hold, in bytes (8 bytes of colour and 4 of depth a
+    /// sample).
     pub fn bytes(&self) -> u64 {
-        self.extent.0 as u64 * self.extent.1 as u64 * self.samples as u64 * 12
+        self.extent.0 as u64 * self.extent.1 as u64 * self.samples as u64 * 12 + self.params.size()
     }
 }
 
