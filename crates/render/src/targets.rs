@@ -13,6 +13,27 @@ use penumbra_engine::mesh::SelfOverlap;
 
 use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT, LOCAL_LIGHT_FORMAT, SURFACE_SHAPE_FORMAT};
 
+/// A 2D target of `size` (at least 1×1) with one mip level: the shape of every frame target.
+pub fn render_target(
+    device: &wgpu::Device,
+    label: &str,
+    size: (u32, u32),
+    samples: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: samples,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
 /// Where multisampled frames average their samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum MsaaResolve {
@@ -161,19 +182,7 @@ impl FrameTargets {
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let id = NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let TargetsMade { hdr, depth, depth_sampled, output_format, shader_resolve, hdr_storage } = made;
-        let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
-        let tex = |label, format, samples, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: extent,
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
+        let tex = |label, format, samples, usage| render_target(device, label, size, samples, format, usage);
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let sampled = wgpu::TextureUsages::TEXTURE_BINDING;
         let hdr = (hdr || deferred).then(|| {

@@ -26,6 +26,7 @@ use penumbra_engine::bounds::Aabb;
 
 use crate::gpu::formats::{DEPTH_FORMAT, HDR_FORMAT};
 use crate::pipelines::parts::{buffer_entry, storage};
+use crate::targets::render_target;
 
 /// The overlay's pipelines' occlusion group (2 of the forward pipelines, 1 of the gizmos'): the
 /// visibility buffer's samples and the overlay's parameters (`visibility_occlusion.wgsl`).
@@ -151,18 +152,7 @@ impl OverlayTargets {
 
     pub fn new(device: &wgpu::Device, extent: (u32, u32), samples: u32) -> Self {
         let target = |label, format, usage| {
-            device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d { width: extent.0, height: extent.1, depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: samples,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default())
+            render_target(device, label, extent, samples, format, usage).create_view(&Default::default())
         };
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
         Self {
