@@ -536,7 +536,6 @@ impl VisibilityBuffer {
             self.overlay = Some(OverlayTargets::new(device, extent, inputs.samples));
         }
         let overlay = self.overlay.as_mut().expect("made above");
-        overlay.rect = rect;
         let params = GpuOcclusionParams::new(inputs.size, inputs.samples, rect, extent);
         queue.write_buffer(&overlay.params, 0, bytemuck::bytes_of(&params));
         let samples = self.samples.buffer();

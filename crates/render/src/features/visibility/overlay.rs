@@ -136,8 +136,6 @@ pub struct OverlayTargets {
     pub params: wgpu::Buffer,
     /// The occlusion group, and the samples buffer it binds (made again when that changes).
     pub occlusion: Option<(wgpu::Buffer, wgpu::BindGroup)>,
-    /// This frame's rectangle.
-    pub rect: OverlayRect,
 }
 
 /// Target sizes are multiples of this many pixels.
@@ -167,7 +165,6 @@ impl OverlayTargets {
                 mapped_at_creation: false,
             }),
             occlusion: None,
-            rect: OverlayRect { origin: (0, 0), size: extent },
         }
     }
 
