@@ -227,12 +227,18 @@ fn cards() -> App {
             .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2 + 0.02 * k as f32));
         spawn_mesh(&mut app, Mesh::plane(0.5), StandardMaterial::from_color(colour, 0.6), t);
     }
+    sun_and_camera(&mut app, Vec3::new(0.3, 0.5, 1.0));
+    app
+}
+
+/// An unshadowed sun shining from `from` towards the origin, and a camera at the origin
+/// looking down -Z.
+fn sun_and_camera(app: &mut App, from: Vec3) {
     app.world.spawn((
         DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
-        Transform::from_xyz(0.3, 0.5, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+        Transform::from_translation(from).looking_at(Vec3::ZERO, Vec3::Y),
     ));
     app.world.spawn((Camera { exposure: Exposure::unit(), ..Default::default() }, Transform::IDENTITY));
-    app
 }
 
 #[test]
@@ -557,11 +563,7 @@ fn masked_scene() -> App {
         Transform::from_xyz(1.3, -0.7, -3.6),
     );
     spawn_mesh(&mut app, Mesh::plane(1.0), textured, facing(1.3, -0.7, -4.5, 1.0));
-    app.world.spawn((
-        DirectionalLight { illuminance: 3.0, shadows: false, ..Default::default() },
-        Transform::from_xyz(0.3, 0.6, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
-    app.world.spawn((Camera { exposure: Exposure::unit(), ..Default::default() }, Transform::IDENTITY));
+    sun_and_camera(&mut app, Vec3::new(0.3, 0.6, 1.0));
     app
 }
 
