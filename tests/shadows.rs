@@ -306,6 +306,37 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     assert_eq!(renderer.memory().shadows, 0);
 }
 
+/// A cascade shadows only receivers inside its slice of the view: when everything visible lies
+/// beyond the shadow distance, casters in the cascades' boxes (which reach toward the light, far
+/// outside the view) are not drawn, and the frame is the one without shadows.
+#[test]
+fn casters_are_not_drawn_for_receivers_beyond_the_shadow_distance() {
+    let size = (96, 64);
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(3.0), grey(0.8), Transform::default());
+    spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_xyz(0.0, 0.25, 0.0));
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
+    // The receivers' box (floor and box: 3 m by 0.5 m by 3 m) is nearest, 2.08 m along the
+    // view, at its corners in front of the camera.
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    let near = ShadowSettings { max_distance: 2.0, ..Default::default() };
+    let px = render(&mut app, size, near);
+    let renderer = app.world.resource::<Renderer>();
+    assert!(renderer.shadow_frame().rendered.iter().all(|r| !r), "{:?}", renderer.shadow_frame().rendered);
+    assert!(!renderer.stats().plan.runs(Pass::SHADOWS), "{}", renderer.stats().plan);
+    assert_eq!(renderer.memory().shadows, 0);
+    set_shadows(&mut app, false);
+    assert_eq!(px, render(&mut app, size, near), "the same frame as without shadows");
+
+    // A little farther and the last cascade reaches the box of receivers: it renders.
+    set_shadows(&mut app, true);
+    let far = ShadowSettings { max_distance: 2.6, ..Default::default() };
+    render(&mut app, size, far);
+    let renderer = app.world.resource::<Renderer>();
+    assert!(renderer.shadow_frame().rendered[3], "{:?}", renderer.shadow_frame().rendered);
+    assert!(renderer.stats().plan.runs(Pass::SHADOWS), "{}", renderer.stats().plan);
+}
+
 /// Where a point light at `light` throws the shadow of the box `min..max` onto the floor (y = 0):
 /// whether the floor point `p` lies inside the projected box (the hull of its corners' shadows),
 /// and how far from the hull's edge (positive inside), in metres.

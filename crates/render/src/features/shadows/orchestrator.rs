@@ -465,7 +465,12 @@ impl ShadowOrchestrator {
         };
         let forward = rotation * DVec3::NEG_Z;
         let caster_extent = corners(&bounds.casters).map(|p| (p - eye).length()).fold(0.0, f64::max);
-        let deepest_receiver = corners(&bounds.receivers).map(|p| (p - eye).dot(forward)).fold(f64::MIN, f64::max);
+        let receiver_depths = || corners(&bounds.receivers).map(|p| (p - eye).dot(forward));
+        // The receivers' box spans these depths along the view (a linear function on a box is
+        // extreme at its corners): a cascade whose slice lies wholly before or beyond them
+        // shadows nothing that can be seen, however many casters its box holds.
+        let deepest_receiver = receiver_depths().fold(f64::MIN, f64::max);
+        let nearest_receiver = receiver_depths().fold(f64::MAX, f64::min);
         let mut frame = ShadowFrame { caster_extent, ..Default::default() };
         for candidate in lit {
             let direction = candidate.light.direction;
@@ -480,7 +485,7 @@ impl ShadowOrchestrator {
             // A cascade is read from where the previous one starts blending into it.
             let mut read_from = f64::MIN;
             for cascade in fitted {
-                let seen = read_from < deepest_receiver;
+                let seen = read_from < deepest_receiver && nearest_receiver <= cascade.far as f64;
                 read_from = cascade.far as f64 - settings.cascade_blend as f64 * (cascade.far - cascade.near) as f64;
                 frame.rendered.push(seen && reaches(&cascade.clip_from_world, &bounds.casters));
                 frame.cascades.push(cascade);
