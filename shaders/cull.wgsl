@@ -35,26 +35,11 @@
 
 #import penumbra::view::View
 #import penumbra::draw_data::Instance
+#import penumbra::cull_bounds::{CullBatch, box_in_clip, world_box}
 #ifdef TRIANGLE_CULLING
 #import penumbra::draw_data::place_vertex
 #import penumbra::common::STANDARD_SAMPLES_4
 #endif
-
-struct CullBatch {
-    // The mesh's local bounding box: centre (xyz) and half extent (xyz). `first` is where the
-    // batch's region starts in the draw list and in `visible_slots`.
-    center: vec3<f32>,
-    first: u32,
-    half_extent: vec3<f32>,
-    // Triangle culling: where the batch's region starts in `triangle_indices` (NO_TRIANGLES:
-    // the batch draws instances), its mesh's first index and triangle count in the mesh pool,
-    // its first vertex there, and CULL_BACK / FRONT_CW.
-    triangles_first: u32,
-    index_start: u32,
-    triangle_count: u32,
-    vertex_start: u32,
-    flags: u32,
-};
 
 struct CullParams {
     item_count: u32,
@@ -97,35 +82,6 @@ struct CullParams {
 @group(0) @binding(11) var<storage, read> pool_vertices: array<f32>;
 @group(0) @binding(12) var<storage, read_write> triangle_indices: array<u32>;
 #endif
-
-// Relative size of the margin a box must clear a plane by to be culled: some hundred f32 ulps.
-const MARGIN: f32 = 1e-5;
-
-fn clip_row(r: u32) -> vec4<f32> {
-    let m = view.clip_from_rel;
-    return vec4<f32>(m[0][r], m[1][r], m[2][r], m[3][r]);
-}
-
-// Whether a box (camera-relative centre, half extent along the world axes) may be in view.
-fn box_in_view(center: vec3<f32>, half_extent: vec3<f32>) -> bool {
-    // Gribb-Hartmann: the clip-space half-spaces -w <= x <= w, -w <= y <= w and z <= w (near;
-    // reverse-Z), z >= 0 (far; never binding for the infinite perspective), as planes.
-    let w = clip_row(3u);
-    let x = clip_row(0u);
-    let y = clip_row(1u);
-    let z = clip_row(2u);
-    var planes = array<vec4<f32>, 6>(w + x, w - x, w + y, w - y, w - z, z);
-    for (var p = 0u; p < 6u; p++) {
-        let plane = planes[p];
-        let distance = dot(plane.xyz, center) + plane.w;
-        let reach = dot(abs(plane.xyz), half_extent);
-        let scale = abs(plane.w) + dot(abs(plane.xyz), abs(center) + half_extent);
-        if distance + reach < -MARGIN * scale {
-            return false;
-        }
-    }
-    return true;
-}
 
 #ifdef OCCLUSION_LATE
 // Entries of this workgroup in view that the depth pyramid hid. Counted here and added once per
@@ -204,24 +160,6 @@ fn cull_instances(
 #endif
 }
 
-// An instance's bounding box along the world axes, camera-relative.
-struct WorldBox {
-    center: vec3<f32>,
-    half_extent: vec3<f32>,
-};
-
-fn world_box(inst: Instance, batch: CullBatch) -> WorldBox {
-    let m0 = inst.row_x.xyz;
-    let m1 = inst.row_y.xyz;
-    let m2 = inst.row_z.xyz;
-    let c = batch.center;
-    let h = batch.half_extent;
-    // Camera-relative as place_vertex computes it, so the box is where the vertices will be.
-    let t_rel = vec3<f32>(inst.row_x.w, inst.row_y.w, inst.row_z.w) - view.camera_position;
-    let center = vec3<f32>(dot(m0, c), dot(m1, c), dot(m2, c)) + t_rel;
-    return WorldBox(center, vec3<f32>(dot(abs(m0), h), dot(abs(m1), h), dot(abs(m2), h)));
-}
-
 // Culls draw-list entry `i`; returns whether it was in view but hidden by the depth pyramid
 // (late phase only).
 fn cull_entry(i: u32) -> bool {
@@ -250,10 +188,10 @@ struct EntryTest {
 fn test_entry(i: u32) -> EntryTest {
     let slot = draw_slots[i];
     let b = item_batch[i];
-    let bounds = world_box(instances[slot], batches[b]);
+    let bounds = world_box(instances[slot], batches[b], view.camera_position);
     let rel_center = bounds.center;
     let world_half = bounds.half_extent;
-    var visible = box_in_view(rel_center, world_half);
+    var visible = box_in_clip(view.clip_from_rel, rel_center, world_half);
     var hidden = false;
 #ifdef OCCLUSION_EARLY
     visible = visible && was_visible[i] != 0u;

@@ -12,7 +12,9 @@
 struct CasterView {
     clip_from_rel: mat4x4<f32>,
     camera_position: vec3<f32>,
-    _pad: f32,
+    // Where this map's draw list starts in `draw_slots`: 0 for the full draw list; a culled
+    // map's own list lies at its place among the lists shadow_cull.wgsl wrote.
+    slot_base: u32,
 };
 
 @group(0) @binding(0) var<uniform> caster: CasterView;
@@ -44,7 +46,7 @@ struct VertexOut {
 
 @vertex
 fn vs_main(in: VertexIn) -> VertexOut {
-    let inst = instances[draw_slots[in.instance_index]];
+    let inst = instances[draw_slots[caster.slot_base + in.instance_index]];
     let placed = place_vertex(inst, in.position, caster.camera_position);
     var out: VertexOut;
     out.clip_position = caster.clip_from_rel * vec4<f32>(placed.rel, 1.0);

@@ -337,6 +337,71 @@ fn casters_are_not_drawn_for_receivers_beyond_the_shadow_distance() {
     assert!(renderer.stats().plan.runs(Pass::SHADOWS), "{}", renderer.stats().plan);
 }
 
+/// Each cascade draws only the casters its box can hold, culled on the GPU: a row of cubes
+/// running 80 m away from the camera, under a sun, with four cascades. Each cascade's count of
+/// cubes lies between those its box certainly holds and those it may touch (the box's corners in
+/// light clip space, with a margin either way), the near cascade draws far fewer than all, and
+/// the frame is the one the full list draws (GPU culling off).
+#[test]
+fn each_cascade_draws_only_the_casters_its_box_holds() {
+    let size = (96, 64);
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(200.0), grey(0.8), Transform::default());
+    let cubes: Vec<Vec3> = (0..40).map(|k| Vec3::new(0.0, 0.25, 1.0 - 2.0 * k as f32)).collect();
+    for &c in &cubes {
+        spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_translation(c));
+    }
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::new(0.0, 0.0, -10.0), Vec3::Y)));
+    let culled = render(&mut app, size, ShadowSettings::default());
+    let renderer = app.world.resource::<Renderer>();
+    let frame = renderer.shadow_frame().clone();
+    let counts = renderer.shadow_caster_counts().unwrap().expect("the maps were culled");
+    let drawn: Vec<usize> = (0..frame.redraw.len()).filter(|&l| frame.redraw[l]).collect();
+    assert_eq!(counts.len(), drawn.len(), "one list per map drawn: {counts:?}");
+    assert!(drawn.len() >= 3, "cascades drawn: {:?}", frame.redraw);
+    for (map, &layer) in counts.iter().zip(&drawn) {
+        let m = frame.cascades[layer].clip_from_world;
+        let (mut certain, mut possible) = (0, 0);
+        for c in &cubes {
+            let (mut lo, mut hi) = (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN));
+            for i in 0..8 {
+                let corner = c.as_dvec3()
+                    + 0.25 * glam::DVec3::new([-1.0, 1.0][i & 1], [-1.0, 1.0][(i >> 1) & 1], [-1.0, 1.0][i >> 2]);
+                let p = m.project_point3(corner);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+            let overlaps = |e: f64| {
+                lo.x <= 1.0 + e
+                    && hi.x >= -1.0 - e
+                    && lo.y <= 1.0 + e
+                    && hi.y >= -1.0 - e
+                    && lo.z <= 1.0 + e
+                    && hi.z >= -e
+            };
+            certain += overlaps(-1e-3) as u32;
+            possible += overlaps(1e-3) as u32;
+        }
+        // The floor is one instance, in every map.
+        let total: u32 = map.iter().sum();
+        assert!(map.contains(&1), "the floor in layer {layer}: {map:?}");
+        let cubes_drawn = total - 1;
+        assert!(
+            (certain..=possible).contains(&cubes_drawn),
+            "layer {layer}: {cubes_drawn} cubes drawn, {certain} certainly and {possible} possibly in its box"
+        );
+    }
+    let near: u32 = counts[0].iter().sum::<u32>() - 1;
+    assert!(near < cubes.len() as u32 / 2, "the first cascade drew {near} of {} cubes", cubes.len());
+
+    app.world.remove_resource::<Renderer>();
+    let full = render_app(&mut app, size, RenderSettings { gpu_culling: false, ..settings(ShadowSettings::default()) });
+    assert!(app.world.resource::<Renderer>().shadow_caster_counts().unwrap().is_none());
+    assert_eq!(culled, full, "the frame the full list draws");
+}
+
 /// Where a point light at `light` throws the shadow of the box `min..max` onto the floor (y = 0):
 /// whether the floor point `p` lies inside the projected box (the hull of its corners' shadows),
 /// and how far from the hull's edge (positive inside), in metres.

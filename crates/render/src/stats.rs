@@ -55,6 +55,8 @@ pub struct MemoryStats {
     /// What the textures would take as RGBA8 with full mip chains (`textures` less this is what
     /// block-compressed KTX2 textures saved).
     pub textures_rgba8: u64,
+    /// Instances and draw lists: the draw list, the view's and the shadow maps' culled lists and
+    /// indirect arguments, the visibility buffer's batch tables.
     pub instances: u64,
     pub targets: u64,
     pub lights: u64,

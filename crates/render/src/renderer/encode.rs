@@ -85,6 +85,7 @@ impl Renderer {
                 &self.materials,
                 [self.instances.buffer(), self.draws.slots().buffer(), self.materials.buffer()],
                 self.draws.opaque_batches(),
+                self.culling_active.then(|| self.culling.batch_buffers()),
             );
         }
         // Handles (reference-counted), so the culling owner stays free to encode between passes.

@@ -482,6 +482,7 @@ impl Renderer {
             instances: self.instances.buffer().size()
                 + self.draws.slots().capacity()
                 + self.culling.gpu_bytes()
+                + self.shadows.caster_list_bytes()
                 + self.visibility.gpu_bytes(),
             targets: self.targets.as_ref().map_or(0, |t| t.bytes()),
             lights: self.lights.gpu_bytes(),

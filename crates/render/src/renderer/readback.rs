@@ -28,6 +28,13 @@ impl Renderer {
         self.culling.read_triangle_counts(&self.ctx.device, &self.ctx.queue)
     }
 
+    /// Instances each opaque batch drew into each shadow map of the last frame's last shadow
+    /// cull pass (map by map, in drawing order: cascade layers, then local maps); `None` when the
+    /// maps were not culled on the GPU. Reads back (waits for the GPU): for tests and tools.
+    pub fn shadow_caster_counts(&self) -> Result<Option<Vec<Vec<u32>>>, ReadbackError> {
+        self.shadows.read_culled_counts(&self.ctx.device, &self.ctx.queue)
+    }
+
     /// Automatic exposure's state after the last frame: (the correction the tonemap pass
     /// applied on top of the camera's exposure, the adapted EV100). Reads back (waits for the
     /// GPU): for tests and tools.

@@ -23,8 +23,9 @@
 //! entries, a few frames late and without waiting, for `OcclusionCulling::Auto`
 //! (`occlusion_feedback.rs`). Within a batch, visible instances are
 //! drawn in the order the GPU appended them, which varies: only coplanar, overlapping instances
-//! of one batch could tell (depth ties). Shadow passes keep drawing the full list: a caster
-//! outside the view still casts into it.
+//! of one batch could tell (depth ties). Shadow maps are culled by their own clip volumes (a
+//! caster outside the view still casts into it), from the per-batch data uploaded here
+//! (`features/shadows/caster_cull.rs`).
 //!
 //! Needs indirect draws with a first instance (`Features::INDIRECT_FIRST_INSTANCE`); without it
 //! (GL, some mobile GPUs) the renderer draws the full list directly, as with culling off.
@@ -158,6 +159,20 @@ pub struct TriangleDraws {
     pub culled: Arc<[bool]>,
 }
 
+/// Per-batch data of the opaque and masked draw list (`draw_slots[0..item_count]`), as
+/// `shaders/cull_bounds.wgsl` reads it.
+#[derive(Clone, Copy)]
+pub struct BatchBuffers<'a> {
+    /// Which batch each entry belongs to.
+    pub item_batch: &'a wgpu::Buffer,
+    /// `CullBatch` per batch: mesh bounds and where its region starts.
+    pub batches: &'a wgpu::Buffer,
+    /// `ARGS_WORDS` per batch, instance count 0.
+    pub args_template: &'a wgpu::Buffer,
+    pub item_count: u32,
+    pub batch_count: u32,
+}
+
 /// The buffers the cull pass reads that other owners hold.
 pub struct CullInputs<'a> {
     pub view: &'a wgpu::Buffer,
@@ -244,6 +259,18 @@ impl GpuCulling {
             feedback: Feedback::new(device),
             advisor: Advisor::default(),
             groups: HashMap::new(),
+        }
+    }
+
+    /// What the last `prepare_batches` uploaded about the batches, for other culls of the same
+    /// draw list (the shadow maps', `features/shadows/caster_cull.rs`).
+    pub fn batch_buffers(&self) -> BatchBuffers<'_> {
+        BatchBuffers {
+            item_batch: self.item_batch.buffer(),
+            batches: self.batches.buffer(),
+            args_template: self.args_template.buffer(),
+            item_count: self.item_count,
+            batch_count: self.batch_count,
         }
     }
 
@@ -664,7 +691,7 @@ impl GpuCulling {
 }
 
 /// A 2D grid of at least `groups` workgroups within the per-dimension limit.
-fn dispatch_grid(groups: u32, limit: u32) -> (u32, u32) {
+pub fn dispatch_grid(groups: u32, limit: u32) -> (u32, u32) {
     if groups <= limit {
         (groups.max(1), 1)
     } else {

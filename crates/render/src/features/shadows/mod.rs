@@ -7,13 +7,16 @@
 //! directional lights from the light store (with their slots) and the bounds of casters and
 //! receivers; the orchestrator fits cascades, decides which layers need rendering (a cascade
 //! no caster reaches, or that lies beyond everything visible, is skipped), writes the shadow
-//! uniform, and encodes one depth pass per rendered layer before the forward pass samples them.
+//! uniform, and encodes one depth pass per rendered layer before the forward pass samples them;
+//! [`caster_cull`] first culls each layer's casters to its clip volume on the GPU, and the
+//! passes draw what it kept indirectly.
 //!
 //! Local lights ([`local`]): spot lights get a perspective map, point lights (and spot lights
 //! wider than 60°) six cube faces, each a layer of a second atlas, allocated to the lights that
 //! matter most on screen and re-rendered within a per-frame budget.
 
 pub mod cascades;
+pub mod caster_cull;
 pub mod casters;
 pub mod local;
 pub mod orchestrator;

@@ -11,16 +11,19 @@
 //! [`super::local`]) which local lights hold maps and which maps re-render within the budget. A
 //! scene with no shadowed light, no caster or no camera gets no pass, and the atlases are
 //! released (a 1×1 stand-in fills the bindings). [`ShadowOrchestrator::encode`] then draws the
-//! caster batches into each layer to render.
+//! caster batches into each layer to render: where the view's culling prepared the batches,
+//! only the casters [`super::caster_cull`] kept for that layer, indirectly.
 
 use glam::{DAffine3, DMat4, DVec3, Vec3};
 use penumbra_engine::bounds::Aabb;
 
 use super::cascades::{self, Cascade, CascadeCamera};
+use super::caster_cull::{CasterCulling, CasterSources, CullLayout};
 use super::casters::{CasterFamily, CasterKey};
 use super::local::{self, LocalCandidate, LocalFrame, LocalShadows};
 use super::{ShadowFilter, ShadowSettings};
 use crate::bindings::{GroupBuilder, GroupResources};
+use crate::features::culling::BatchBuffers;
 use crate::frame_context::FrameContext;
 use crate::gpu::array_layers::ArrayLayers;
 use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
@@ -187,9 +190,16 @@ pub struct ShadowOrchestrator {
     /// [`INEXACT_DEPTH_TOLERANCE`] where the backend rounds it (`Capabilities::exact_depth`).
     depth_tolerance: f32,
     frame: ShadowFrame,
-    /// The caster bind group and the buffers it was made with (instances, draw slots,
-    /// materials), compared by identity to notice growth.
-    caster_bind_group: Option<(wgpu::BindGroup, [wgpu::Buffer; 3])>,
+    /// Caster bind groups and the buffers each was made with (instances, draw list, materials),
+    /// compared by identity to notice growth: one binding the full draw list, one the culled
+    /// maps' lists.
+    caster_bind_groups: Vec<([wgpu::Buffer; 3], wgpu::BindGroup)>,
+    /// Each map's casters culled on the GPU.
+    cull: CasterCulling,
+    /// The camera's position this frame: caster vertices are placed relative to it.
+    camera_position: Vec3,
+    /// Whether the last frame's maps were culled on the GPU.
+    culled: bool,
     /// Lights already warned about for lack of a cascade slot.
     warned_excess: bool,
     /// What each cascade layer holds: the projection it was drawn with, the caster generation,
@@ -235,7 +245,10 @@ impl ShadowOrchestrator {
                 ..Default::default()
             }),
             frame: ShadowFrame::default(),
-            caster_bind_group: None,
+            caster_bind_groups: Vec::new(),
+            cull: CasterCulling::new(device, pipelines),
+            camera_position: Vec3::ZERO,
+            culled: false,
             warned_excess: false,
             held: Vec::new(),
             held_settings: None,
@@ -311,8 +324,28 @@ impl ShadowOrchestrator {
             .add("shadow_depths", wgpu::BindingResource::TextureView(self.atlas_view()));
     }
 
+    /// The GPU cull's counts of the last frame's last cull pass: per map (in the order the
+    /// layers were drawn: cascades, then local maps), the instances each opaque batch drew.
+    /// `None` when no map was culled. Reads back (waits for the GPU): for tests and tools.
+    pub fn read_culled_counts(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Option<Vec<Vec<u32>>>, crate::gpu::readback::ReadbackError> {
+        if !self.culled {
+            return Ok(None);
+        }
+        self.cull.read_counts(device, queue)
+    }
+
+    /// The atlases' bytes.
     pub fn gpu_bytes(&self) -> u64 {
         self.atlas.as_ref().map_or(0, Atlas::bytes) + self.local_atlas.as_ref().map_or(0, Atlas::bytes)
+    }
+
+    /// The culled maps' draw lists and arguments (counted with the other draw lists).
+    pub fn caster_list_bytes(&self) -> u64 {
+        self.cull.gpu_bytes()
     }
 
     /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
@@ -422,9 +455,10 @@ impl ShadowOrchestrator {
         }
         if self.caster_views.size() < CASTER_VIEW_STRIDE * (MAX_CASCADES as u64 + local_layers) {
             self.caster_views = caster_views_buffer(device, local_layers);
-            self.caster_bind_group = None;
+            self.caster_bind_groups.clear();
         }
-        self.write(queue, settings, candidates, camera_position);
+        self.camera_position = camera_position;
+        self.write(queue, settings, candidates);
         changed
     }
 
@@ -494,13 +528,7 @@ impl ShadowOrchestrator {
         frame
     }
 
-    fn write(
-        &self,
-        queue: &wgpu::Queue,
-        settings: &ShadowSettings,
-        candidates: &[DirectionalCandidate],
-        camera_position: Vec3,
-    ) {
+    fn write(&self, queue: &wgpu::Queue, settings: &ShadowSettings, candidates: &[DirectionalCandidate]) {
         let mut gpu: GpuShadows = bytemuck::Zeroable::zeroed();
         let frame = &self.frame;
         for (i, c) in frame.cascades.iter().enumerate().take(MAX_CASCADES) {
@@ -546,15 +574,6 @@ impl ShadowOrchestrator {
         gpu.max_kernel = settings.max_penumbra_texels;
         gpu.depth_tolerance = self.depth_tolerance;
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&gpu));
-        let caster_view = |clip_from_rel: &glam::Mat4| GpuCasterView {
-            clip_from_rel: clip_from_rel.to_cols_array_2d(),
-            camera_position: camera_position.to_array(),
-            _pad: 0.0,
-        };
-        for (i, c) in frame.cascades.iter().enumerate() {
-            let v = caster_view(&c.clip_from_rel);
-            queue.write_buffer(&self.caster_views, i as u64 * CASTER_VIEW_STRIDE, bytemuck::bytes_of(&v));
-        }
         if self.local_active() {
             let layers: Vec<GpuLocalShadow> = frame
                 .local
@@ -572,18 +591,15 @@ impl ShadowOrchestrator {
                 })
                 .collect();
             queue.write_buffer(&self.local_buffer, 0, bytemuck::cast_slice(&layers));
-            for &layer in &frame.local.render {
-                if let Some(l) = &frame.local.layers[layer as usize] {
-                    let offset = (MAX_CASCADES as u64 + layer as u64) * CASTER_VIEW_STRIDE;
-                    queue.write_buffer(&self.caster_views, offset, bytemuck::bytes_of(&caster_view(&l.clip_from_rel)));
-                }
-            }
         }
     }
 
     /// Encodes one depth pass per rendered layer, drawing every caster batch (opaque and masked
-    /// triangles) into it. A caster pipeline that fails to compile skips its batches and is
-    /// returned as the error.
+    /// triangles) into it. With `culled` (the view's cull prepared this frame's batches), each
+    /// map's casters are culled to its clip volume on the GPU first and drawn indirectly
+    /// ([`CasterCulling`]); otherwise every caster is drawn into every map. A caster pipeline
+    /// that fails to compile skips its batches and is returned as the error; a cull that fails to
+    /// compile leaves the maps to direct draws.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &mut self,
@@ -593,94 +609,155 @@ impl ShadowOrchestrator {
         materials: &MaterialTable,
         buffers: [&wgpu::Buffer; 3],
         batches: &[Batch],
+        culled: Option<BatchBuffers>,
     ) -> Option<ShaderError> {
-        let (encoder, device, pipelines, mut timer) =
-            (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
+        let (encoder, device, queue, pipelines, mut timer) =
+            (&mut *cx.encoder, cx.device, cx.queue, &mut *cx.pipelines, cx.timer.as_deref_mut());
         if self.atlas.is_none() && self.local_atlas.is_none() {
             return None;
         }
-        let casters: Vec<(&Batch, CasterKey)> = batches
+        // (index in `batches`, batch, pipeline key) of every caster batch.
+        let casters: Vec<(usize, &Batch, CasterKey)> = batches
             .iter()
-            .filter(|b| b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend)
-            .map(|b| (b, caster_key(b, settings)))
+            .enumerate()
+            .filter(|(_, b)| b.key.topology == TopologyKey::Triangles && b.key.alpha != AlphaKey::Blend)
+            .map(|(i, b)| (i, b, caster_key(b, settings)))
             .collect();
         let mut error = None;
-        for (_, key) in &casters {
+        for (_, _, key) in &casters {
             if let Err(e) = pipelines.get::<CasterFamily>(device, *key) {
                 error = Some(e);
             }
         }
-        let stale =
-            self.caster_bind_group.as_ref().is_none_or(|(_, held)| held.iter().zip(buffers).any(|(a, b)| a != b));
-        if stale {
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("shadow casters"),
-                layout: &pipelines.family::<CasterFamily>().layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &self.caster_views,
-                            offset: 0,
-                            size: wgpu::BufferSize::new(std::mem::size_of::<GpuCasterView>() as u64),
-                        }),
-                    },
-                    wgpu::BindGroupEntry { binding: 1, resource: buffers[0].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: buffers[1].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: buffers[2].as_entire_binding() },
-                ],
-            });
-            self.caster_bind_group = Some((group, buffers.map(Clone::clone)));
-        }
-        let group = &self.caster_bind_group.as_ref().expect("made above").0;
-        // (atlas layer view, caster view index, timing label) of every pass this frame.
-        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str)> = Vec::new();
+        // (atlas layer view, caster view index, timing label, clip from camera-relative) of every
+        // pass this frame.
+        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str, glam::Mat4)> = Vec::new();
         if let Some(atlas) = &self.atlas {
             for (layer, view) in atlas.layer_views.iter().enumerate() {
                 if self.frame.redraw[layer] {
-                    passes.push((view, layer as u64, LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)]));
+                    let label = LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)];
+                    passes.push((view, layer as u64, label, self.frame.cascades[layer].clip_from_rel));
                 }
             }
         }
         if let Some(atlas) = &self.local_atlas {
             for &layer in &self.frame.local.render {
-                passes.push((&atlas.layer_views[layer as usize], MAX_CASCADES as u64 + layer as u64, "shadow local"));
+                if let Some(l) = &self.frame.local.layers[layer as usize] {
+                    let view = &atlas.layer_views[layer as usize];
+                    passes.push((view, MAX_CASCADES as u64 + layer as u64, "shadow local", l.clip_from_rel));
+                }
             }
         }
-        for (view, index, label) in passes {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(label),
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view,
-                    // Reverse-Z: 0 is the far side, where nothing casts.
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: timer.as_deref_mut().and_then(|t| t.pass(label)),
-                occlusion_query_set: None,
-                multiview_mask: None,
+        let sources =
+            culled.filter(|b| b.item_count > 0 && !passes.is_empty()).and_then(|batches| match CasterCulling::compile(
+                device, pipelines,
+            ) {
+                Ok(()) => Some(CasterSources { instances: buffers[0], draw_slots: buffers[1], batches }),
+                Err(e) => {
+                    error = Some(e);
+                    None
+                }
             });
-            pass.set_bind_group(0, group, &[(index * CASTER_VIEW_STRIDE) as u32]);
-            pass.set_vertex_buffer(0, mesh_pool.vertex_buffer().slice(..));
-            pass.set_index_buffer(mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
-            let mut bound = None;
-            let compiled = pipelines.compiled::<CasterFamily>();
-            for (b, key) in &casters {
-                let Some(entry) = mesh_pool.entry(b.mesh_id) else { continue };
-                let Some(pipeline) = compiled.get(key) else { continue };
-                if bound != Some(*key) {
-                    pass.set_pipeline(pipeline);
-                    bound = Some(*key);
+        self.culled = sources.is_some();
+        let layout = sources.map(|s| CullLayout::new(s.batches.item_count));
+        let per_pass = layout.map_or(passes.len(), |l| l.maps_per_pass).max(1);
+        if let (Some(sources), Some(layout)) = (&sources, layout) {
+            let maps: Vec<glam::Mat4> = passes.iter().map(|p| p.3).collect();
+            self.cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
+        }
+        for (k, (_, index, _, clip_from_rel)) in passes.iter().enumerate() {
+            let view = GpuCasterView {
+                clip_from_rel: clip_from_rel.to_cols_array_2d(),
+                camera_position: self.camera_position.to_array(),
+                slot_base: layout.map_or(0, |l| l.slot_base(k % per_pass)),
+            };
+            queue.write_buffer(&self.caster_views, index * CASTER_VIEW_STRIDE, bytemuck::bytes_of(&view));
+        }
+        let draw_list = if sources.is_some() { self.cull.slots() } else { buffers[1] };
+        let bound = [buffers[0], draw_list, buffers[2]];
+        let group =
+            match self.caster_bind_groups.iter().position(|(held, _)| held.iter().zip(bound).all(|(a, b)| a == b)) {
+                Some(i) => i,
+                None => {
+                    // Growth replaced a buffer: groups made with the old ones go.
+                    self.caster_bind_groups
+                        .retain(|(held, _)| held.iter().zip(bound).filter(|(a, b)| a == b).count() == 3);
+                    if self.caster_bind_groups.len() >= 2 {
+                        self.caster_bind_groups.clear();
+                    }
+                    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("shadow casters"),
+                        layout: &pipelines.family::<CasterFamily>().layout,
+                        entries: &[
+                            wgpu::BindGroupEntry {
+                                binding: 0,
+                                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                    buffer: &self.caster_views,
+                                    offset: 0,
+                                    size: wgpu::BufferSize::new(std::mem::size_of::<GpuCasterView>() as u64),
+                                }),
+                            },
+                            wgpu::BindGroupEntry { binding: 1, resource: bound[0].as_entire_binding() },
+                            wgpu::BindGroupEntry { binding: 2, resource: bound[1].as_entire_binding() },
+                            wgpu::BindGroupEntry { binding: 3, resource: bound[2].as_entire_binding() },
+                        ],
+                    });
+                    self.caster_bind_groups.push((bound.map(Clone::clone), group));
+                    self.caster_bind_groups.len() - 1
                 }
-                if key.alpha_mask {
-                    let Some(material) = materials.get(&b.material) else { continue };
-                    pass.set_bind_group(1, &material.bind_group, &[]);
-                }
-                let instances = b.first..b.first + b.count;
-                match &entry.indices {
-                    Some(r) => pass.draw_indexed(r.clone(), entry.vertices.start as i32, instances),
-                    None => pass.draw(entry.vertices.clone(), instances),
+            };
+        let group = &self.caster_bind_groups[group].1;
+        for (pass_index, chunk) in passes.chunks(per_pass).enumerate() {
+            if let Some(sources) = &sources {
+                self.cull.encode(encoder, device, pipelines, timer.as_deref_mut(), sources, pass_index, chunk.len());
+            }
+            for (j, (view, index, label, _)) in chunk.iter().enumerate() {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some(label),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view,
+                        // Reverse-Z: 0 is the far side, where nothing casts.
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(0.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.pass(label)),
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_bind_group(0, group, &[(index * CASTER_VIEW_STRIDE) as u32]);
+                pass.set_vertex_buffer(0, mesh_pool.vertex_buffer().slice(..));
+                pass.set_index_buffer(mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
+                let mut bound = None;
+                let compiled = pipelines.compiled::<CasterFamily>();
+                for (batch_index, b, key) in &casters {
+                    let Some(entry) = mesh_pool.entry(b.mesh_id) else { continue };
+                    let Some(pipeline) = compiled.get(key) else { continue };
+                    if bound != Some(*key) {
+                        pass.set_pipeline(pipeline);
+                        bound = Some(*key);
+                    }
+                    if key.alpha_mask {
+                        let Some(material) = materials.get(&b.material) else { continue };
+                        pass.set_bind_group(1, &material.bind_group, &[]);
+                    }
+                    match (&sources, layout, &entry.indices) {
+                        (Some(s), Some(layout), indices) => {
+                            let offset = layout.args_offset(j, s.batches.batch_count, *batch_index);
+                            if indices.is_some() {
+                                pass.draw_indexed_indirect(self.cull.args(), offset);
+                            } else {
+                                pass.draw_indirect(self.cull.args(), offset);
+                            }
+                        }
+                        (_, _, Some(r)) => {
+                            pass.draw_indexed(r.clone(), entry.vertices.start as i32, b.first..b.first + b.count)
+                        }
+                        (_, _, None) => pass.draw(entry.vertices.clone(), b.first..b.first + b.count),
+                    }
                 }
             }
         }

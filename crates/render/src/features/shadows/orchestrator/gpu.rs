@@ -57,7 +57,8 @@ pub(super) struct GpuLocalShadow {
 pub(super) struct GpuCasterView {
     pub(super) clip_from_rel: [[f32; 4]; 4],
     pub(super) camera_position: [f32; 3],
-    pub(super) _pad: f32,
+    /// Where the pass's draw list starts in the bound list (a culled map's own list).
+    pub(super) slot_base: u32,
 }
 
 #[cfg(test)]
@@ -74,7 +75,7 @@ mod tests {
             "shadow_caster.wgsl",
             [],
             "CasterView",
-            [clip_from_rel, camera_position]
+            [clip_from_rel, camera_position, slot_base]
         );
     }
 
