@@ -6,7 +6,7 @@
 use penumbra::prelude::*;
 use penumbra::render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::frame::Pass;
-use penumbra::render::{RenderSettings, Renderer};
+use penumbra::render::{Raster, RenderSettings, Renderer};
 
 mod common;
 use common::golden_scenes::{grey, sun};
@@ -263,7 +263,10 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     let light = app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0))).id();
     app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
 
-    render(&mut app, size, ShadowSettings::default());
+    // The forward pass's pipeline keys say which shader variants ran: the hardware rasteriser
+    // (the default on lavapipe; on GPUs with few graphics units compute shading would run).
+    let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
+    render_app(&mut app, size, hardware);
     let renderer = app.world.resource::<Renderer>();
     let frame = renderer.shadow_frame();
     assert!(renderer.stats().plan.runs(Pass::SHADOWS));
@@ -354,7 +357,10 @@ fn each_cascade_draws_only_the_casters_its_box_holds() {
     app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
     app.world
         .spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::new(0.0, 0.0, -10.0), Vec3::Y)));
-    let culled = render(&mut app, size, ShadowSettings::default());
+    // The hardware rasteriser for the view in both frames: without GPU culling the view could
+    // not be rasterised in compute, and only the shadow maps' lists are compared here.
+    let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
+    let culled = render_app(&mut app, size, hardware.clone());
     let renderer = app.world.resource::<Renderer>();
     let frame = renderer.shadow_frame().clone();
     let counts = renderer.shadow_caster_counts().unwrap().expect("the maps were culled");
@@ -397,7 +403,7 @@ fn each_cascade_draws_only_the_casters_its_box_holds() {
     assert!(near < cubes.len() as u32 / 2, "the first cascade drew {near} of {} cubes", cubes.len());
 
     app.world.remove_resource::<Renderer>();
-    let full = render_app(&mut app, size, RenderSettings { gpu_culling: false, ..settings(ShadowSettings::default()) });
+    let full = render_app(&mut app, size, RenderSettings { gpu_culling: false, ..hardware });
     assert!(app.world.resource::<Renderer>().shadow_caster_counts().unwrap().is_none());
     assert_eq!(culled, full, "the frame the full list draws");
 }
