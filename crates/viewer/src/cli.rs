@@ -203,8 +203,8 @@ pub struct LookArgs {
     /// Shadow receivers' offset along their normal, in texels of the cascade they read, 0 to 16.
     #[arg(long, default_value_t = ShadowSettings::default().normal_bias, value_name = "TEXELS")]
     pub shadow_normal_bias: f32,
-    /// Draw every opaque object instead of culling against the view on the GPU (for
-    /// comparison; culling never changes the image).
+    /// Draw every opaque object instead of culling against the view on the GPU, and every
+    /// caster into every shadow map (for comparison; culling never changes the image).
     #[arg(long)]
     pub no_culling: bool,
     /// Anisotropic filtering of material textures, 1 (off) to 16. Default: 8 on a GPU, 1 on a
