@@ -28,6 +28,9 @@ pub struct Overlay {
     viewport_texture: Option<egui::TextureId>,
     /// When egui wants to be drawn again without input (an animation, a tooltip's delay).
     repaint_delay: Option<std::time::Duration>,
+    /// Where the pointer is now, in points, from the window's latest event: egui's own position
+    /// is the one its last frame saw, and a move and a click can both arrive before the next.
+    pointer: Option<egui::Pos2>,
 }
 
 impl Overlay {
@@ -42,7 +45,7 @@ impl Overlay {
             Some(device.limits().max_texture_dimension_2d as usize),
         );
         let renderer = egui_wgpu::Renderer::new(device, format, egui_wgpu::RendererOptions::default());
-        Self { ctx, state, renderer, pending: None, viewport_texture: None, repaint_delay: None }
+        Self { ctx, state, renderer, pending: None, viewport_texture: None, repaint_delay: None, pointer: None }
     }
 
     /// Feeds a window event to egui; true when the UI used it (the camera should ignore it).
@@ -51,6 +54,14 @@ impl Overlay {
     /// holds the viewport's image, as its own.
     pub fn on_window_event(&mut self, window: &Window, event: &WindowEvent, viewport: Option<egui::Rect>) -> bool {
         let consumed = self.state.on_window_event(window, event).consumed;
+        match event {
+            WindowEvent::CursorMoved { position, .. } => {
+                let ppp = self.ctx.pixels_per_point();
+                self.pointer = Some(egui::pos2(position.x as f32 / ppp, position.y as f32 / ppp));
+            }
+            WindowEvent::CursorLeft { .. } => self.pointer = None,
+            _ => {}
+        }
         // Pointer motion always reaches the viewer too: a drag that began over the scene goes on
         // over a panel.
         let pointer_event = matches!(event, WindowEvent::MouseInput { .. } | WindowEvent::MouseWheel { .. });
@@ -60,7 +71,9 @@ impl Overlay {
         if self.ctx.egui_is_using_pointer() {
             return true;
         }
-        let Some(pos) = self.ctx.input(|i| i.pointer.latest_pos()) else { return false };
+        // A click on the menu bar right after a move onto it (no frame between them) is the
+        // menu's, though egui's last frame saw the pointer over the scene.
+        let Some(pos) = self.pointer.or_else(|| self.ctx.input(|i| i.pointer.latest_pos())) else { return false };
         let over_scene = viewport.is_some_and(|r| r.contains(pos))
             && self.ctx.layer_id_at(pos).is_none_or(|layer| layer.order == egui::Order::Background);
         !over_scene
