@@ -159,17 +159,20 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let renderer = app.world.resource::<Renderer>();
         let layers = renderer.shadow_frame().rendered_layers();
         let median = |v: Option<&[f64]>| v.filter(|v| !v.is_empty()).map(|v| percentile(v, 0.5));
+        // The cascades' passes, and the GPU culls of the maps' casters that precede them.
         let shadow_passes: Vec<f64> = t
             .passes
             .iter()
-            .filter(|(l, _)| l.starts_with("shadow ") && *l != "shadow local")
+            .filter(|(l, _)| l.starts_with("shadow ") && *l != "shadow local" && *l != "shadow cull")
             .filter_map(|(_, v)| median(Some(v)))
             .collect();
+        let cull_ms = median(t.pass("shadow cull")).unwrap_or(0.0);
         // Local passes share one label: the timer keeps each frame's sum of them.
         let local_layers = renderer.shadow_frame().local.render.len();
         let per_local_ms =
             median(t.pass("shadow local")).filter(|_| local_layers > 0).map(|ms| ms / local_layers as f64);
-        let shadows_ms = (!shadow_passes.is_empty()).then(|| shadow_passes.iter().sum::<f64>());
+        let cascades_ms = shadow_passes.iter().sum::<f64>();
+        let shadows_ms = (!shadow_passes.is_empty()).then_some(cascades_ms + cull_ms);
         let atlas_mib = renderer.memory().shadows as f64 / 1048576.0;
         assert_eq!(renderer.stats().plan.runs(Pass::SHADOWS), layers > 0);
         let settings = RenderSettings { gpu_timing: false, shadows, ..base.clone() };
@@ -179,7 +182,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             setting,
             layers,
             per_local_ms,
-            per_cascade_ms: shadows_ms.map(|s| s / shadow_passes.len() as f64),
+            per_cascade_ms: (!shadow_passes.is_empty()).then(|| cascades_ms / shadow_passes.len() as f64),
             shadows_ms,
             forward_ms: median(t.pass("forward")),
             gpu_ms: median(Some(&t.gpu_total)),
@@ -207,7 +210,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!();
     println!(
-        "| setting | layers rendered | GPU per cascade (ms) | GPU per local layer (ms) | GPU cascade passes (ms) | GPU forward (ms) | GPU frame (ms) | CPU render (ms) | atlases (MiB) | FLIP mean vs reference |"
+        "| setting | layers rendered | GPU per cascade (ms) | GPU per local layer (ms) | GPU shadow passes and culls (ms) | GPU forward (ms) | GPU frame (ms) | CPU render (ms) | atlases (MiB) | FLIP mean vs reference |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {

@@ -10,7 +10,7 @@
 //! already uploads, when batches are rebuilt, which batch each draw-list entry belongs to, each
 //! batch's mesh bounds and a template of its indirect arguments with no instance; this module
 //! reads those ([`BatchBuffers`]). Per frame, for the maps the orchestrator draws, in passes of
-//! up to [`MAX_MAPS`] (fewer where the lists would pass [`SLOT_BUDGET`]): the template is copied
+//! up to [`MAX_MAPS`] (fewer where the lists and arguments would pass [`SLOT_BUDGET`]): the template is copied
 //! to each map's arguments, one dispatch tests every entry against each map's clip volume and
 //! appends the kept ones to the map's list, and the caster passes that follow draw each batch
 //! indirectly from it (the caster view's `slot_base` says where the map's list starts). The
@@ -24,8 +24,8 @@ use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs};
 
 /// Shadow maps one dispatch culls for at most (`MAX_MAPS` in `shaders/shadow_cull.wgsl`).
 pub const MAX_MAPS: usize = 16;
-/// Bytes the maps' culled lists may take at once: maps beyond it are culled in a later pass,
-/// after the earlier maps were drawn (a million entries: 8 maps a pass).
+/// Bytes the maps' culled lists and arguments may take at once: maps beyond it are culled in a
+/// later pass, after the earlier maps were drawn (a million entries: 8 maps a pass).
 pub const SLOT_BUDGET: u64 = 32 << 20;
 const WORKGROUP: u32 = 64;
 /// Per-pass parameters sit this far apart (a multiple of the uniform offset alignment).
@@ -62,10 +62,12 @@ pub struct CullLayout {
 }
 
 impl CullLayout {
-    pub fn new(item_count: u32) -> Self {
+    /// For a draw list of `item_count` opaque entries in `batch_count` batches.
+    pub fn new(item_count: u32, batch_count: u32) -> Self {
         // Lists start on 256-byte boundaries.
         let slot_stride = item_count.max(1).next_multiple_of(64);
-        let fit = (SLOT_BUDGET / (slot_stride as u64 * 4)).max(1);
+        let per_map = slot_stride as u64 * 4 + batch_count as u64 * ARGS_WORDS * 4;
+        let fit = (SLOT_BUDGET / per_map).max(1);
         Self { maps_per_pass: (fit as usize).min(MAX_MAPS), slot_stride }
     }
 
@@ -144,9 +146,12 @@ pub struct CasterCulling {
 }
 
 impl CasterCulling {
-    /// Registers the cull's pipeline family.
-    pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
+    /// Registers the cull's pipeline family (once, before any [`CasterCulling`] is made).
+    pub fn register(device: &wgpu::Device, pipelines: &mut PipelineCache) {
         pipelines.register(ShadowCullFamily::new(device));
+    }
+
+    pub fn new(device: &wgpu::Device) -> Self {
         use wgpu::BufferUsages as U;
         Self {
             slots: GrowableBuffer::new(device, "shadow caster lists", U::STORAGE, 256),
@@ -321,16 +326,17 @@ mod tests {
     #[test]
     fn lists_stay_within_the_budget_and_on_aligned_starts() {
         for items in [0, 1, 63, 65, 10_000, 1_000_000, 4_000_000, 20_000_000] {
-            let l = CullLayout::new(items);
-            assert!((1..=MAX_MAPS).contains(&l.maps_per_pass), "{items}: {l:?}");
-            assert!(l.slot_stride >= items && l.slot_stride % 64 == 0, "{items}: {l:?}");
-            // One map always fits; more only within the budget.
-            assert!(
-                l.maps_per_pass == 1 || l.maps_per_pass as u64 * l.slot_stride as u64 * 4 <= SLOT_BUDGET,
-                "{items}: {l:?}"
-            );
+            for batches in [1, 100, 100_000] {
+                let l = CullLayout::new(items, batches);
+                assert!((1..=MAX_MAPS).contains(&l.maps_per_pass), "{items}: {l:?}");
+                assert!(l.slot_stride >= items && l.slot_stride % 64 == 0, "{items}: {l:?}");
+                // One map always fits; more only within the budget.
+                let per_map = l.slot_stride as u64 * 4 + batches as u64 * ARGS_WORDS * 4;
+                assert!(l.maps_per_pass == 1 || l.maps_per_pass as u64 * per_map <= SLOT_BUDGET, "{items}: {l:?}");
+            }
         }
-        assert_eq!(CullLayout::new(10_000).maps_per_pass, MAX_MAPS);
-        assert_eq!(CullLayout::new(1_000_000).maps_per_pass, 8);
+        assert_eq!(CullLayout::new(10_000, 1).maps_per_pass, MAX_MAPS);
+        assert_eq!(CullLayout::new(1_000_000, 1).maps_per_pass, 8);
+        assert_eq!(CullLayout::new(100_000, 100_000).maps_per_pass, 13);
     }
 }

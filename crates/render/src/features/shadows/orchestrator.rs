@@ -191,11 +191,12 @@ pub struct ShadowOrchestrator {
     depth_tolerance: f32,
     frame: ShadowFrame,
     /// Caster bind groups and the buffers each was made with (instances, draw list, materials),
-    /// compared by identity to notice growth: one binding the full draw list, one the culled
-    /// maps' lists.
+    /// compared by identity to notice growth: at most one binding the full draw list and one the
+    /// culled maps' lists.
     caster_bind_groups: Vec<([wgpu::Buffer; 3], wgpu::BindGroup)>,
-    /// Each map's casters culled on the GPU.
-    cull: CasterCulling,
+    /// Each map's casters culled on the GPU: made by the first culled frame, released with the
+    /// atlases.
+    cull: Option<CasterCulling>,
     /// The camera's position this frame: caster vertices are placed relative to it.
     camera_position: Vec3,
     /// Whether the last frame's maps were culled on the GPU.
@@ -219,6 +220,7 @@ impl ShadowOrchestrator {
         material: &wgpu::BindGroupLayout,
     ) -> Self {
         pipelines.register(CasterFamily::new(device, material));
+        CasterCulling::register(device, pipelines);
         Self {
             uniform: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("shadows"),
@@ -246,7 +248,7 @@ impl ShadowOrchestrator {
             }),
             frame: ShadowFrame::default(),
             caster_bind_groups: Vec::new(),
-            cull: CasterCulling::new(device, pipelines),
+            cull: None,
             camera_position: Vec3::ZERO,
             culled: false,
             warned_excess: false,
@@ -332,10 +334,10 @@ impl ShadowOrchestrator {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Result<Option<Vec<Vec<u32>>>, crate::gpu::readback::ReadbackError> {
-        if !self.culled {
-            return Ok(None);
+        match &self.cull {
+            Some(cull) if self.culled => cull.read_counts(device, queue),
+            _ => Ok(None),
         }
-        self.cull.read_counts(device, queue)
     }
 
     /// The atlases' bytes.
@@ -345,7 +347,7 @@ impl ShadowOrchestrator {
 
     /// The culled maps' draw lists and arguments (counted with the other draw lists).
     pub fn caster_list_bytes(&self) -> u64 {
-        self.cull.gpu_bytes()
+        self.cull.as_ref().map_or(0, CasterCulling::gpu_bytes)
     }
 
     /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
@@ -370,6 +372,8 @@ impl ShadowOrchestrator {
             self.invalidate();
             self.held_settings = Some(*settings);
         }
+        // Until this frame's encode says otherwise, no map was culled (the read-back counts).
+        self.culled = false;
         let seen = !bounds.casters.is_empty() && !bounds.receivers.is_empty();
         self.frame = match view {
             Some((view, aspect)) if seen => self.plan(settings, view, aspect, candidates, bounds),
@@ -420,6 +424,11 @@ impl ShadowOrchestrator {
         let mut changed = needs != has;
         if changed {
             self.atlas = needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
+        }
+        if !self.active() && !self.local_active() {
+            // No map to draw: the culled lists go with the atlases.
+            self.cull = None;
+            self.caster_bind_groups.clear();
         }
         // A fresh atlas holds nothing.
         if changed {
@@ -516,11 +525,16 @@ impl ShadowOrchestrator {
                 slot: candidate.slot,
                 first_layer: frame.cascades.len() as u32,
             });
-            // A cascade is read from where the previous one starts blending into it.
+            // A cascade is read from where the previous one starts blending into it: over the
+            // last `cascade_blend` of the depths from the previous cascade's far end (0 for the
+            // first, as shadows.wgsl counts it) to its own.
             let mut read_from = f64::MIN;
+            let mut previous_far = 0.0;
             for cascade in fitted {
                 let seen = read_from < deepest_receiver && nearest_receiver <= cascade.far as f64;
-                read_from = cascade.far as f64 - settings.cascade_blend as f64 * (cascade.far - cascade.near) as f64;
+                let far = cascade.far as f64;
+                read_from = far - settings.cascade_blend as f64 * (far - previous_far);
+                previous_far = far;
                 frame.rendered.push(seen && reaches(&cascade.clip_from_world, &bounds.casters));
                 frame.cascades.push(cascade);
             }
@@ -648,22 +662,26 @@ impl ShadowOrchestrator {
                 }
             }
         }
+        // A cull that does not compile leaves the maps to the full list: nothing is missing from
+        // them, so what they hold stays valid (unlike after a caster pipeline's failure, below).
+        let mut cull_error = None;
         let sources =
             culled.filter(|b| b.item_count > 0 && !passes.is_empty()).and_then(|batches| match CasterCulling::compile(
                 device, pipelines,
             ) {
                 Ok(()) => Some(CasterSources { instances: buffers[0], draw_slots: buffers[1], batches }),
                 Err(e) => {
-                    error = Some(e);
+                    cull_error = Some(e);
                     None
                 }
             });
         self.culled = sources.is_some();
-        let layout = sources.map(|s| CullLayout::new(s.batches.item_count));
+        let layout = sources.map(|s| CullLayout::new(s.batches.item_count, s.batches.batch_count));
         let per_pass = layout.map_or(passes.len(), |l| l.maps_per_pass).max(1);
         if let (Some(sources), Some(layout)) = (&sources, layout) {
             let maps: Vec<glam::Mat4> = passes.iter().map(|p| p.3).collect();
-            self.cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
+            let cull = self.cull.get_or_insert_with(|| CasterCulling::new(device));
+            cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
         }
         for (k, (_, index, _, clip_from_rel)) in passes.iter().enumerate() {
             let view = GpuCasterView {
@@ -673,18 +691,23 @@ impl ShadowOrchestrator {
             };
             queue.write_buffer(&self.caster_views, index * CASTER_VIEW_STRIDE, bytemuck::bytes_of(&view));
         }
-        let draw_list = if sources.is_some() { self.cull.slots() } else { buffers[1] };
+        let cull_lists = self.cull.as_ref().map(CasterCulling::slots);
+        let draw_list = match (&sources, cull_lists) {
+            (Some(_), Some(lists)) => lists,
+            _ => buffers[1],
+        };
         let bound = [buffers[0], draw_list, buffers[2]];
         let group =
             match self.caster_bind_groups.iter().position(|(held, _)| held.iter().zip(bound).all(|(a, b)| a == b)) {
                 Some(i) => i,
                 None => {
-                    // Growth replaced a buffer: groups made with the old ones go.
-                    self.caster_bind_groups
-                        .retain(|(held, _)| held.iter().zip(bound).filter(|(a, b)| a == b).count() == 3);
-                    if self.caster_bind_groups.len() >= 2 {
-                        self.caster_bind_groups.clear();
-                    }
+                    // The other draw list's group stays while the instances and materials it
+                    // binds do; growth that replaced one of them drops it.
+                    self.caster_bind_groups.retain(|(held, _)| {
+                        held[0] == *bound[0]
+                            && held[2] == *bound[2]
+                            && (held[1] == *buffers[1] || cull_lists.is_some_and(|l| held[1] == *l))
+                    });
                     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                         label: Some("shadow casters"),
                         layout: &pipelines.family::<CasterFamily>().layout,
@@ -708,8 +731,8 @@ impl ShadowOrchestrator {
             };
         let group = &self.caster_bind_groups[group].1;
         for (pass_index, chunk) in passes.chunks(per_pass).enumerate() {
-            if let Some(sources) = &sources {
-                self.cull.encode(encoder, device, pipelines, timer.as_deref_mut(), sources, pass_index, chunk.len());
+            if let (Some(sources), Some(cull)) = (&sources, self.cull.as_mut()) {
+                cull.encode(encoder, device, pipelines, timer.as_deref_mut(), sources, pass_index, chunk.len());
             }
             for (j, (view, index, label, _)) in chunk.iter().enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -744,19 +767,19 @@ impl ShadowOrchestrator {
                         let Some(material) = materials.get(&b.material) else { continue };
                         pass.set_bind_group(1, &material.bind_group, &[]);
                     }
-                    match (&sources, layout, &entry.indices) {
-                        (Some(s), Some(layout), indices) => {
+                    match (&sources, layout, self.cull.as_ref(), &entry.indices) {
+                        (Some(s), Some(layout), Some(cull), indices) => {
                             let offset = layout.args_offset(j, s.batches.batch_count, *batch_index);
                             if indices.is_some() {
-                                pass.draw_indexed_indirect(self.cull.args(), offset);
+                                pass.draw_indexed_indirect(cull.args(), offset);
                             } else {
-                                pass.draw_indirect(self.cull.args(), offset);
+                                pass.draw_indirect(cull.args(), offset);
                             }
                         }
-                        (_, _, Some(r)) => {
+                        (_, _, _, Some(r)) => {
                             pass.draw_indexed(r.clone(), entry.vertices.start as i32, b.first..b.first + b.count)
                         }
-                        (_, _, None) => pass.draw(entry.vertices.clone(), b.first..b.first + b.count),
+                        (_, _, _, None) => pass.draw(entry.vertices.clone(), b.first..b.first + b.count),
                     }
                 }
             }
@@ -765,7 +788,7 @@ impl ShadowOrchestrator {
             // Batches whose pipeline failed were left out: draw everything again once fixed.
             self.invalidate();
         }
-        error
+        error.or(cull_error)
     }
 }
 
