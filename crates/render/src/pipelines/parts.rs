@@ -18,6 +18,25 @@ pub fn uniform(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupL
     buffer_entry(binding, visibility, wgpu::BufferBindingType::Uniform)
 }
 
+/// A uniform buffer bound at a dynamic offset (one binding, many records), at least
+/// `min_size` bytes where given.
+pub fn dynamic_uniform(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    min_size: Option<u64>,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: true,
+            min_binding_size: min_size.and_then(wgpu::BufferSize::new),
+        },
+        count: None,
+    }
+}
+
 pub fn buffer_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,

@@ -19,7 +19,7 @@
 use crate::features::culling::{ARGS_WORDS, BatchBuffers, dispatch_grid};
 use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::timing::GpuTimer;
-use crate::pipelines::parts::{self, storage, storage_rw};
+use crate::pipelines::parts::{self, dynamic_uniform, storage, storage_rw};
 use crate::pipelines::{Compiler, PipelineCache, PipelineFamily, ShaderDefs};
 
 /// Shadow maps one dispatch culls for at most (`MAX_MAPS` in `shaders/shadow_cull.wgsl`).
@@ -90,16 +90,7 @@ pub struct ShadowCullFamily {
 impl ShadowCullFamily {
     fn new(device: &wgpu::Device) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
-        let params = wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: compute,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: true,
-                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<GpuShadowCullParams>() as u64),
-            },
-            count: None,
-        };
+        let params = dynamic_uniform(0, compute, Some(std::mem::size_of::<GpuShadowCullParams>() as u64));
         let layout = parts::bind_group_layout(
             device,
             "shadow cull",

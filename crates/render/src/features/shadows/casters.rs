@@ -3,7 +3,7 @@
 //! slots and materials.
 
 use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
-use crate::pipelines::parts::{self, storage};
+use crate::pipelines::parts::{self, dynamic_uniform, storage};
 use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 use crate::resources::mesh_pool::GpuVertex;
 
@@ -32,16 +32,7 @@ impl CasterFamily {
             device,
             "shadow casters",
             &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: vertex,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
+                dynamic_uniform(0, vertex, None),
                 storage(1, vertex),
                 storage(2, vertex),
                 storage(3, wgpu::ShaderStages::FRAGMENT),

@@ -3,7 +3,7 @@
 //! forward variant (`forward.wgsl` with VISIBILITY_SHADE), each with the layouts it binds.
 
 use crate::gpu::formats::{DISPLAY_FORMAT, FormatKey, HDR_FORMAT};
-use crate::pipelines::parts::{self, storage, storage_rw, uniform};
+use crate::pipelines::parts::{self, dynamic_uniform, storage, storage_rw, uniform};
 use crate::pipelines::{Compiler, PipelineFamily, ShaderDefs};
 use crate::resources::draws::{AlphaTest, LocalLights, PipelineKey, Tonemapper};
 use crate::resources::materials::MaterialTable;
@@ -141,16 +141,7 @@ pub struct RasterFamily {
 impl RasterFamily {
     pub fn new(device: &wgpu::Device, materials: &MaterialTable) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
-        let bin = wgpu::BindGroupLayoutEntry {
-            binding: 11,
-            visibility: compute,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: true,
-                min_binding_size: wgpu::BufferSize::new(BIN_BYTES),
-            },
-            count: None,
-        };
+        let bin = dynamic_uniform(11, compute, Some(BIN_BYTES));
         let raster = parts::bind_group_layout(
             device,
             "visibility raster",
