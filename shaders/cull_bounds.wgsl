@@ -56,14 +56,18 @@ fn box_in_clip(clip_from_rel: mat4x4<f32>, center: vec3<f32>, half_extent: vec3<
     // same six bound an orthographic shadow cascade (w = 1) and a local light's perspective map.
     var planes = array<vec4<f32>, 6>(w + x, w - x, w + y, w - y, w - z, z);
     for (var p = 0u; p < 6u; p++) {
-        let plane = planes[p];
-        let distance = dot(plane.xyz, center) + plane.w;
-        let reach = dot(abs(plane.xyz), half_extent);
-        let scale = abs(plane.w) + dot(abs(plane.xyz), abs(center) + half_extent);
-        // Written so that NaN anywhere keeps the box.
-        if distance + reach < -MARGIN * scale {
+        if box_outside(planes[p], center, half_extent) {
             return false;
         }
     }
     return true;
+}
+
+// Whether a box lies wholly on the outer side of a plane (xyz · p + w >= 0 inside), by more
+// than the rounding margin. Written so that NaN anywhere keeps the box.
+fn box_outside(plane: vec4<f32>, center: vec3<f32>, half_extent: vec3<f32>) -> bool {
+    let distance = dot(plane.xyz, center) + plane.w;
+    let reach = dot(abs(plane.xyz), half_extent);
+    let scale = abs(plane.w) + dot(abs(plane.xyz), abs(center) + half_extent);
+    return distance + reach < -MARGIN * scale;
 }

@@ -340,13 +340,16 @@ fn casters_are_not_drawn_for_receivers_beyond_the_shadow_distance() {
     assert!(renderer.stats().plan.runs(Pass::SHADOWS), "{}", renderer.stats().plan);
 }
 
-/// Each cascade draws only the casters its box can hold, culled on the GPU: a row of cubes
-/// running 80 m away from the camera, under a sun, with four cascades. Each cascade's count of
-/// cubes lies between those its box certainly holds and those it may touch (the box's corners in
-/// light clip space, with a margin either way), the near cascade draws far fewer than all, and
-/// the frame is the one the full list draws (GPU culling off).
+/// Each cascade draws only the casters that can shadow what reads it, culled on the GPU: a row
+/// of cubes running 80 m away from the camera under a sun behind it, four cascades. Each
+/// cascade's count of cubes is at most those its box may touch (the box's corners in light clip
+/// space, with a margin), and all together fewer than the boxes certainly hold: a cube beyond a
+/// cascade's slice of the view, away from the light, casts nothing that the slice shows. The
+/// frames, with PCF and with PCSS (whose lookups reach farthest), are the ones the full list
+/// draws (GPU culling off), also after the camera moved a millimetre and the cascades drawn
+/// with the earlier pose's culling were kept.
 #[test]
-fn each_cascade_draws_only_the_casters_its_box_holds() {
+fn each_cascade_draws_only_the_casters_that_can_shadow_what_it_covers() {
     let size = (96, 64);
     let mut app = scene_app();
     spawn_mesh(&mut app, Mesh::plane(200.0), grey(0.8), Transform::default());
@@ -354,59 +357,80 @@ fn each_cascade_draws_only_the_casters_its_box_holds() {
     for &c in &cubes {
         spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_translation(c));
     }
-    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
     app.world
-        .spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::new(0.0, 0.0, -10.0), Vec3::Y)));
-    // The hardware rasteriser for the view in both frames: without GPU culling the view could
-    // not be rasterised in compute, and only the shadow maps' lists are compared here.
-    let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
-    let culled = render_app(&mut app, size, hardware.clone());
-    let renderer = app.world.resource::<Renderer>();
-    let frame = renderer.shadow_frame().clone();
-    let counts = renderer.shadow_caster_counts().unwrap().expect("the maps were culled");
-    let drawn: Vec<usize> = (0..frame.redraw.len()).filter(|&l| frame.redraw[l]).collect();
-    assert_eq!(counts.len(), drawn.len(), "one list per map drawn: {counts:?}");
-    assert!(drawn.len() >= 3, "cascades drawn: {:?}", frame.redraw);
-    for (map, &layer) in counts.iter().zip(&drawn) {
-        let m = frame.cascades[layer].clip_from_world;
-        let (mut certain, mut possible) = (0, 0);
-        for c in &cubes {
-            let (mut lo, mut hi) = (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN));
-            for i in 0..8 {
-                let corner = c.as_dvec3()
-                    + 0.25 * glam::DVec3::new([-1.0, 1.0][i & 1], [-1.0, 1.0][(i >> 1) & 1], [-1.0, 1.0][i >> 2]);
-                let p = m.project_point3(corner);
-                lo = lo.min(p);
-                hi = hi.max(p);
+        .spawn((DirectionalLight { illuminance: 2.0, angular_radius: 0.02, ..Default::default() }, sun(50.0, 30.0)));
+    let pose = |x: f32| Transform::from_xyz(x, 2.0, 3.0).looking_at(Vec3::new(x, 0.0, -10.0), Vec3::Y);
+    let camera = app.world.spawn((Camera::default(), pose(0.0))).id();
+    for filter in [ShadowFilter::Pcf, ShadowFilter::Pcss] {
+        // The hardware rasteriser for the view in both frames: without GPU culling the view
+        // could not be rasterised in compute, and only the shadow maps' lists are compared here.
+        let hardware =
+            RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings { filter, ..Default::default() }) };
+        *app.world.get_mut::<Transform>(camera).unwrap() = pose(0.0);
+        app.world.remove_resource::<Renderer>();
+        let culled = render_app(&mut app, size, hardware.clone());
+        let renderer = app.world.resource::<Renderer>();
+        let frame = renderer.shadow_frame().clone();
+        let counts = renderer.shadow_caster_counts().unwrap().expect("the maps were culled");
+        let drawn: Vec<usize> = (0..frame.redraw.len()).filter(|&l| frame.redraw[l]).collect();
+        assert_eq!(counts.len(), drawn.len(), "one list per map drawn: {counts:?}");
+        assert!(drawn.len() >= 3, "cascades drawn: {:?}", frame.redraw);
+        let (mut all_drawn, mut all_certain) = (0, 0);
+        for (map, &layer) in counts.iter().zip(&drawn) {
+            let m = frame.cascades[layer].clip_from_world;
+            let (mut certain, mut possible) = (0, 0);
+            for c in &cubes {
+                let (mut lo, mut hi) = (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN));
+                for i in 0..8 {
+                    let corner = c.as_dvec3()
+                        + 0.25 * glam::DVec3::new([-1.0, 1.0][i & 1], [-1.0, 1.0][(i >> 1) & 1], [-1.0, 1.0][i >> 2]);
+                    let p = m.project_point3(corner);
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                }
+                let overlaps = |e: f64| {
+                    lo.x <= 1.0 + e
+                        && hi.x >= -1.0 - e
+                        && lo.y <= 1.0 + e
+                        && hi.y >= -1.0 - e
+                        && lo.z <= 1.0 + e
+                        && hi.z >= -e
+                };
+                certain += overlaps(-1e-3) as u32;
+                possible += overlaps(1e-3) as u32;
             }
-            let overlaps = |e: f64| {
-                lo.x <= 1.0 + e
-                    && hi.x >= -1.0 - e
-                    && lo.y <= 1.0 + e
-                    && hi.y >= -1.0 - e
-                    && lo.z <= 1.0 + e
-                    && hi.z >= -e
-            };
-            certain += overlaps(-1e-3) as u32;
-            possible += overlaps(1e-3) as u32;
+            // Each mesh is its own batch of one instance; the floor, under every cascade, is
+            // one of them in every map.
+            let total: u32 = map.iter().sum();
+            assert!(total >= 1 && map.iter().all(|&n| n <= 1), "layer {layer}: {map:?}");
+            let cubes_drawn = total - 1;
+            assert!(
+                cubes_drawn <= possible,
+                "layer {layer}: {cubes_drawn} cubes drawn, {possible} possibly in its box"
+            );
+            all_drawn += cubes_drawn;
+            all_certain += certain;
         }
-        // Each mesh is its own batch of one instance; the floor, under every cascade, is one
-        // of them in every map.
-        let total: u32 = map.iter().sum();
-        assert!(total >= 1 && map.iter().all(|&n| n <= 1), "layer {layer}: {map:?}");
-        let cubes_drawn = total - 1;
-        assert!(
-            (certain..=possible).contains(&cubes_drawn),
-            "layer {layer}: {cubes_drawn} cubes drawn, {certain} certainly and {possible} possibly in its box"
-        );
-    }
-    let near = counts[0].iter().sum::<u32>() - 1;
-    assert!(near < cubes.len() as u32 / 2, "the first cascade drew {near} of {} cubes", cubes.len());
+        assert!(all_drawn < all_certain, "{filter:?}: {all_drawn} cubes drawn, {all_certain} certainly in the boxes");
 
-    app.world.remove_resource::<Renderer>();
-    let full = render_app(&mut app, size, RenderSettings { gpu_culling: false, ..hardware });
-    assert!(app.world.resource::<Renderer>().shadow_caster_counts().unwrap().is_none());
-    assert_eq!(culled, full, "the frame the full list draws");
+        // A millimetre sideways: the cascades keep what they hold (their planes reach past
+        // the move), and the frame is still the full list's.
+        *app.world.get_mut::<Transform>(camera).unwrap() = pose(0.001);
+        app.update();
+        let renderer = app.world.resource::<Renderer>();
+        let kept = renderer.shadow_frame().rendered_layers();
+        let moved = renderer.read_frame().unwrap();
+
+        let unculled = RenderSettings { gpu_culling: false, ..hardware };
+        app.world.remove_resource::<Renderer>();
+        let full_moved = render_app(&mut app, size, unculled.clone());
+        *app.world.get_mut::<Transform>(camera).unwrap() = pose(0.0);
+        app.world.remove_resource::<Renderer>();
+        let full = render_app(&mut app, size, unculled);
+        assert!(app.world.resource::<Renderer>().shadow_caster_counts().unwrap().is_none());
+        assert_eq!(culled, full, "{filter:?}: the frame the full list draws");
+        assert_eq!(moved, full_moved, "{filter:?}: after the move ({kept} layers drawn again)");
+    }
 }
 
 /// Where a point light at `light` throws the shadow of the box `min..max` onto the floor (y = 0):

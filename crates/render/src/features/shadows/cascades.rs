@@ -143,6 +143,65 @@ pub fn fit_cascade(
     Cascade { clip_from_world, clip_from_rel, near, far, texel_size: texel, radius }
 }
 
+/// The eight corners (world space) of the slice of the view between view depths `start` and
+/// `far` (`start` below 0 counts as 0: the camera's position).
+pub fn slice_corners(camera: &CascadeCamera, start: f64, far: f64) -> [DVec3; 8] {
+    let (tx, ty, ortho) = match camera.projection {
+        Projection::Perspective { yfov, aspect_ratio, .. } => {
+            let ty = (yfov as f64 * 0.5).tan();
+            (ty * aspect_ratio.unwrap_or(camera.aspect) as f64, ty, false)
+        }
+        Projection::Orthographic { xmag, ymag, .. } => (xmag.unwrap_or(ymag * camera.aspect) as f64, ymag as f64, true),
+    };
+    let mut corners = [DVec3::ZERO; 8];
+    for (i, c) in corners.iter_mut().enumerate() {
+        let depth = if i & 4 == 0 { start.max(0.0) } else { far };
+        let scale = if ortho { 1.0 } else { depth };
+        let x = if i & 1 == 0 { -tx } else { tx } * scale;
+        let y = if i & 2 == 0 { -ty } else { ty } * scale;
+        *c = camera.world_from_view.transform_point3(DVec3::new(x, y, -depth));
+    }
+    corners
+}
+
+/// Planes (world space, `xyz · p + w >= 0` inside, unit normals) bounding every caster that can
+/// shadow a point the camera sees at view depths `start..far`, the receivers that read one
+/// cascade: of the planes bounding that slice of the view (its four sides, for a perspective
+/// camera, and its two depth planes; none in front where `start <= 0`), those whose inward
+/// normal faces the light, each moved out by `margin` metres. A caster's shadow falls away from
+/// the light, so a caster that can shadow a point of the slice lies on that point's ray toward
+/// the light, inside every plane the slice's sweep toward the light does not cross; planes
+/// nearly along the light are left out (which only keeps more).
+pub fn receiver_planes(camera: &CascadeCamera, start: f64, far: f64, towards_light: DVec3, margin: f64) -> Vec<DVec4> {
+    let mut view_planes: Vec<DVec4> = Vec::with_capacity(6);
+    if let Projection::Perspective { yfov, aspect_ratio, .. } = camera.projection {
+        let ty = (yfov as f64 * 0.5).tan();
+        let tx = ty * aspect_ratio.unwrap_or(camera.aspect) as f64;
+        // Looking down −z: x >= z·tx on the left, and so on.
+        view_planes.extend([
+            DVec4::new(1.0, 0.0, -tx, 0.0),
+            DVec4::new(-1.0, 0.0, -tx, 0.0),
+            DVec4::new(0.0, 1.0, -ty, 0.0),
+            DVec4::new(0.0, -1.0, -ty, 0.0),
+        ]);
+    }
+    if start > 0.0 {
+        view_planes.push(DVec4::new(0.0, 0.0, -1.0, -start));
+    }
+    view_planes.push(DVec4::new(0.0, 0.0, 1.0, far));
+    let light = towards_light.normalize();
+    let eye = camera.world_from_view.translation;
+    view_planes
+        .into_iter()
+        .filter_map(|p| {
+            let length = p.truncate().length();
+            let normal = camera.world_from_view.matrix3.mul_vec3(p.truncate() / length);
+            // Through the eye in view space: n · (x − eye) + w >= 0.
+            (normal.dot(light) > 1e-3).then(|| normal.extend(p.w / length - normal.dot(eye) + margin))
+        })
+        .collect()
+}
+
 /// The view depths bounding the camera's cascades, from its near plane to `max_distance`.
 pub fn cascade_splits(camera: &CascadeCamera, settings: &super::ShadowSettings) -> Vec<f32> {
     let near = camera.projection.znear();
@@ -214,6 +273,64 @@ mod tests {
     use super::*;
     use crate::features::shadows::ShadowSettings;
     use glam::DQuat;
+
+    /// Every caster that can shadow a point of the slice (the point moved toward the light, also
+    /// from points up to `margin` beside the slice) lies inside the receiver planes, for several
+    /// light directions, including lights from behind the camera and grazing ones; points beyond
+    /// the slice's far end away from the light, and far beside the view, lie outside one. The
+    /// slice's corners lie inside the planes by the margin, and a camera moved by less than the
+    /// margin still has its corners inside (what keeps a drawn layer), by more not.
+    #[test]
+    fn receiver_planes_hold_every_caster_that_can_shadow_the_slice() {
+        let camera = camera_at(DVec3::new(1e6, 30.0, -2e5), DQuat::from_rotation_y(0.7) * DQuat::from_rotation_x(-0.4));
+        let (start, far, margin) = (12.0, 40.0, 0.05);
+        let inside = |planes: &[DVec4], p: DVec3, by: f64| planes.iter().all(|q| q.truncate().dot(p) + q.w >= by);
+        let lights = [
+            DVec3::new(0.3, 1.0, 0.6),
+            DVec3::new(-0.2, 0.3, -1.0),
+            DVec3::new(0.0, 0.05, 1.0),
+            DVec3::new(1.0, 0.001, 0.0),
+            DVec3::new(0.0, -1.0, 0.0),
+        ];
+        let corners = slice_corners(&camera, start, far);
+        for light in lights {
+            let l = light.normalize();
+            let planes = receiver_planes(&camera, start, far, l, margin);
+            // Points of the slice (blends of its corners), and casters up to 1 km toward the light.
+            let mut state = 0x9E37_79B9_7F4A_7C15u64;
+            let mut next = || {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            for _ in 0..2000 {
+                let w: Vec<f64> = (0..8).map(|_| next()).collect();
+                let sum: f64 = w.iter().sum();
+                let r = corners.iter().zip(&w).fold(DVec3::ZERO, |acc, (c, w)| acc + *c * (*w / sum));
+                let t = next() * 1000.0;
+                let beside = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or_zero() * margin * 0.99;
+                assert!(inside(&planes, r + beside + l * t, -1e-6), "light {light}: a caster of the slice is culled");
+            }
+            for c in corners {
+                assert!(inside(&planes, c, margin - 1e-6), "light {light}: a corner within the margin");
+            }
+            // The far end's plane culls what lies beyond it, away from a light above the view.
+            if light == lights[0] {
+                let beyond = camera.world_from_view.transform_point3(DVec3::new(0.0, 0.0, -(far + 5.0)));
+                assert!(!inside(&planes, beyond - l * 20.0, 0.0), "beyond the slice, away from the light");
+            }
+        }
+        // A moved camera's slice stays inside the planes made for the old pose while the move is
+        // under the slack (the planes' margin beyond the reach).
+        let (reach, slack) = (0.02, 0.03);
+        let planes = receiver_planes(&camera, start, far, lights[0].normalize(), reach + slack);
+        let moved = |d: f64| {
+            let mut c = camera;
+            c.world_from_view.translation += DVec3::new(d, 0.0, 0.0);
+            slice_corners(&c, start, far)
+        };
+        assert!(moved(0.02).iter().all(|c| inside(&planes, *c, reach)));
+        assert!(!moved(0.2).iter().all(|c| inside(&planes, *c, reach)));
+    }
 
     fn camera_at(eye: DVec3, rotation: DQuat) -> CascadeCamera {
         CascadeCamera {

@@ -28,8 +28,27 @@ pub const MAX_MAPS: usize = 16;
 /// later pass, after the earlier maps were drawn (a million entries: 8 maps a pass).
 pub const SLOT_BUDGET: u64 = 32 << 20;
 const WORKGROUP: u32 = 64;
+/// Planes a map may add to its clip volume (`MAX_PLANES` in `shaders/shadow_cull.wgsl`).
+pub const MAX_PLANES: usize = 6;
 /// Per-pass parameters sit this far apart (a multiple of the uniform offset alignment).
-const PARAMS_STRIDE: u64 = 1280;
+const PARAMS_STRIDE: u64 = 2816;
+
+/// What one map holds: its clip volume and, for a cascade, the planes bounding the casters that
+/// can shadow its receivers (`ShadowFrame::receiver_planes`), camera-relative, `xyz · p + w >= 0`
+/// inside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapVolume {
+    pub clip_from_rel: glam::Mat4,
+    pub planes: [glam::Vec4; MAX_PLANES],
+    pub plane_count: usize,
+}
+
+impl MapVolume {
+    /// A map bounded by its clip volume alone (a local light's).
+    pub fn clip(clip_from_rel: glam::Mat4) -> Self {
+        Self { clip_from_rel, planes: [glam::Vec4::ZERO; MAX_PLANES], plane_count: 0 }
+    }
+}
 
 /// Mirrors `ShadowCullParams` in `shaders/shadow_cull.wgsl`.
 #[repr(C)]
@@ -42,6 +61,8 @@ struct GpuShadowCullParams {
     camera_position: [f32; 3],
     _pad: u32,
     clip_from_rel: [[[f32; 4]; 4]; MAX_MAPS],
+    planes: [[f32; 4]; MAX_MAPS * MAX_PLANES],
+    plane_counts: [[u32; 4]; MAX_MAPS / 4],
 }
 
 /// What the cull reads that other owners hold: the instances, the full draw list, and the view
@@ -190,15 +211,15 @@ impl CasterCulling {
         pipelines.get::<ShadowCullFamily>(device, ()).map(|_| ())
     }
 
-    /// Writes every cull pass's parameters for this frame's maps (`maps`: each map's clip from
-    /// camera-relative position, in the order they are drawn) and makes room for the lists.
+    /// Writes every cull pass's parameters for this frame's maps (in the order they are drawn)
+    /// and makes room for the lists.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         sources: &CasterSources,
         layout: CullLayout,
-        maps: &[glam::Mat4],
+        maps: &[MapVolume],
         camera_position: glam::Vec3,
     ) {
         let per_pass = layout.maps_per_pass.min(maps.len()).max(1);
@@ -215,8 +236,13 @@ impl CasterCulling {
                     camera_position: camera_position.to_array(),
                     ..bytemuck::Zeroable::zeroed()
                 };
-                for (m, clip) in p.clip_from_rel.iter_mut().zip(chunk) {
-                    *m = clip.to_cols_array_2d();
+                for (m, map) in chunk.iter().enumerate() {
+                    p.clip_from_rel[m] = map.clip_from_rel.to_cols_array_2d();
+                    let count = map.plane_count.min(MAX_PLANES);
+                    for (i, plane) in map.planes[..count].iter().enumerate() {
+                        p.planes[m * MAX_PLANES + i] = plane.to_array();
+                    }
+                    p.plane_counts[m / 4][m % 4] = count as u32;
                 }
                 let mut bytes = bytemuck::bytes_of(&p).to_vec();
                 bytes.resize(PARAMS_STRIDE as usize, 0);
@@ -310,8 +336,14 @@ mod tests {
             "shadow_cull.wgsl",
             [],
             "ShadowCullParams",
-            [item_count, batch_count, map_count, slot_stride, camera_position, clip_from_rel]
+            [item_count, batch_count, map_count, slot_stride, camera_position, clip_from_rel, planes, plane_counts]
         );
+    }
+
+    #[test]
+    fn params_fit_their_stride() {
+        let size = std::mem::size_of::<GpuShadowCullParams>() as u64;
+        assert!(size <= PARAMS_STRIDE && PARAMS_STRIDE % 256 == 0, "{size} in {PARAMS_STRIDE}");
     }
 
     #[test]

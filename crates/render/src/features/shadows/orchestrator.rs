@@ -14,11 +14,11 @@
 //! caster batches into each layer to render: where the view's culling prepared the batches,
 //! only the casters [`super::caster_cull`] kept for that layer, indirectly.
 
-use glam::{DAffine3, DMat4, DVec3, Vec3};
+use glam::{DAffine3, DMat4, DVec3, DVec4, Vec3};
 use penumbra_engine::bounds::Aabb;
 
 use super::cascades::{self, Cascade, CascadeCamera};
-use super::caster_cull::{CasterCulling, CasterSources, CullLayout};
+use super::caster_cull::{CasterCulling, CasterSources, CullLayout, MapVolume};
 use super::casters::{CasterFamily, CasterKey};
 use super::local::{self, LocalCandidate, LocalFrame, LocalShadows};
 use super::{ShadowFilter, ShadowSettings};
@@ -41,6 +41,19 @@ pub const MAX_SHADOWED_DIRECTIONAL: usize = 4;
 pub const MAX_CASCADES: usize = 16;
 /// Caster views sit at this stride in their buffer (the minimum uniform offset alignment).
 const CASTER_VIEW_STRIDE: u64 = 256;
+
+/// Texels by which a cascade's caster planes reach beyond its receivers' lookups: a layer drawn
+/// with them stays valid while the camera moves by less (see `HeldLayer`).
+pub const HOLD_SLACK_TEXELS: f64 = 4.0;
+
+/// What a cascade layer holds.
+#[derive(Debug, Clone, PartialEq)]
+struct HeldLayer {
+    clip_from_world: DMat4,
+    caster_generation: u64,
+    /// The planes its casters were culled to (world space).
+    planes: Vec<DVec4>,
+}
 
 /// Timestamp labels of the caster passes, by layer.
 const LAYER_LABELS: [&str; MAX_CASCADES] = [
@@ -88,6 +101,15 @@ pub struct ShadowFrame {
     pub cascades: Vec<Cascade>,
     /// Per layer: in use this frame (else no caster reaches it, or nothing visible lies in it).
     pub rendered: Vec<bool>,
+    /// Per layer: the planes (world space) bounding the casters that can shadow what reads it
+    /// ([`cascades::receiver_planes`]), moved out by the lookups' reach and
+    /// [`HOLD_SLACK_TEXELS`]; the corners of the slice of the view that reads it; and how far
+    /// (metres) a receiver's lookups reach.
+    pub receiver_planes: Vec<Vec<DVec4>>,
+    pub slice_corners: Vec<[DVec3; 8]>,
+    pub receiver_reach: Vec<f64>,
+    /// The camera's position (f64), to make the planes camera-relative.
+    pub eye: DVec3,
     /// Per layer: drawn this frame. A layer in use whose projection and casters are what it
     /// already holds is not drawn again (a still camera over a still scene costs nothing).
     pub redraw: Vec<bool>,
@@ -204,8 +226,8 @@ pub struct ShadowOrchestrator {
     /// Lights already warned about for lack of a cascade slot.
     warned_excess: bool,
     /// What each cascade layer holds: the projection it was drawn with, the caster generation,
-    /// and the settings (bias is raster state).
-    held: Vec<Option<(DMat4, u64)>>,
+    /// and the planes its casters were culled to; and the settings (bias is raster state).
+    held: Vec<Option<HeldLayer>>,
     held_settings: Option<ShadowSettings>,
 }
 
@@ -437,10 +459,25 @@ impl ShadowOrchestrator {
         self.held.resize(layers as usize, None);
         self.frame.redraw = (0..layers as usize)
             .map(|i| {
-                let now = (self.frame.cascades[i].clip_from_world, caster_generation);
-                let redraw = self.frame.rendered[i] && self.held[i] != Some(now);
+                let frame = &self.frame;
+                let clip_from_world = frame.cascades[i].clip_from_world;
+                // Kept while its projection and casters are the same and the receivers that read
+                // it now lie inside the planes its casters were culled to (the camera moved by
+                // less than their slack).
+                let kept = self.held[i].as_ref().is_some_and(|h| {
+                    h.clip_from_world == clip_from_world
+                        && h.caster_generation == caster_generation
+                        && frame.slice_corners[i]
+                            .iter()
+                            .all(|c| h.planes.iter().all(|p| p.truncate().dot(*c) + p.w >= frame.receiver_reach[i]))
+                });
+                let redraw = frame.rendered[i] && !kept;
                 if redraw {
-                    self.held[i] = Some(now);
+                    self.held[i] = Some(HeldLayer {
+                        clip_from_world,
+                        caster_generation,
+                        planes: frame.receiver_planes[i].clone(),
+                    });
                 }
                 redraw
             })
@@ -514,7 +551,7 @@ impl ShadowOrchestrator {
         // shadows nothing that can be seen, however many casters its box holds.
         let deepest_receiver = receiver_depths().fold(f64::MIN, f64::max);
         let nearest_receiver = receiver_depths().fold(f64::MAX, f64::min);
-        let mut frame = ShadowFrame { caster_extent, ..Default::default() };
+        let mut frame = ShadowFrame { caster_extent, eye, ..Default::default() };
         for candidate in lit {
             let direction = candidate.light.direction;
             let towards_light = -direction.as_dvec3().normalize();
@@ -530,9 +567,27 @@ impl ShadowOrchestrator {
             // first, as shadows.wgsl counts it) to its own.
             let mut read_from = f64::MIN;
             let mut previous_far = 0.0;
+            // How far from a receiver's texel its lookups reach: the filter's kernel, the normal
+            // offset, and two texels for rounding and the texel grid.
+            let reach_texels = match settings.filter {
+                ShadowFilter::Pcf => 2.0,
+                ShadowFilter::Pcss => settings.max_penumbra_texels as f64,
+            } + settings.normal_bias as f64
+                + 2.0;
             for cascade in fitted {
                 let seen = read_from < deepest_receiver && nearest_receiver <= cascade.far as f64;
                 let far = cascade.far as f64;
+                let reach = reach_texels * cascade.texel_size;
+                let slack = HOLD_SLACK_TEXELS * cascade.texel_size;
+                frame.receiver_planes.push(cascades::receiver_planes(
+                    &camera,
+                    read_from,
+                    far,
+                    towards_light,
+                    reach + slack,
+                ));
+                frame.slice_corners.push(cascades::slice_corners(&camera, read_from, far));
+                frame.receiver_reach.push(reach);
                 read_from = far - settings.cascade_blend as f64 * (far - previous_far);
                 previous_far = far;
                 frame.rendered.push(seen && reaches(&cascade.clip_from_world, &bounds.casters));
@@ -645,12 +700,19 @@ impl ShadowOrchestrator {
         }
         // (atlas layer view, caster view index, timing label, clip from camera-relative) of every
         // pass this frame.
-        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str, glam::Mat4)> = Vec::new();
+        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str, MapVolume)> = Vec::new();
         if let Some(atlas) = &self.atlas {
             for (layer, view) in atlas.layer_views.iter().enumerate() {
                 if self.frame.redraw[layer] {
                     let label = LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)];
-                    passes.push((view, layer as u64, label, self.frame.cascades[layer].clip_from_rel));
+                    let mut volume = MapVolume::clip(self.frame.cascades[layer].clip_from_rel);
+                    // The planes the layer is held with, made camera-relative in f64.
+                    let planes = self.held.get(layer).and_then(Option::as_ref).map_or(&[][..], |h| &h.planes[..]);
+                    for (slot, p) in volume.planes.iter_mut().zip(planes) {
+                        *slot = p.truncate().extend(p.w + p.truncate().dot(self.frame.eye)).as_vec4();
+                        volume.plane_count += 1;
+                    }
+                    passes.push((view, layer as u64, label, volume));
                 }
             }
         }
@@ -658,7 +720,8 @@ impl ShadowOrchestrator {
             for &layer in &self.frame.local.render {
                 if let Some(l) = &self.frame.local.layers[layer as usize] {
                     let view = &atlas.layer_views[layer as usize];
-                    passes.push((view, MAX_CASCADES as u64 + layer as u64, "shadow local", l.clip_from_rel));
+                    let volume = MapVolume::clip(l.clip_from_rel);
+                    passes.push((view, MAX_CASCADES as u64 + layer as u64, "shadow local", volume));
                 }
             }
         }
@@ -679,13 +742,13 @@ impl ShadowOrchestrator {
         let layout = sources.map(|s| CullLayout::new(s.batches.item_count, s.batches.batch_count));
         let per_pass = layout.map_or(passes.len(), |l| l.maps_per_pass).max(1);
         if let (Some(sources), Some(layout)) = (&sources, layout) {
-            let maps: Vec<glam::Mat4> = passes.iter().map(|p| p.3).collect();
+            let maps: Vec<MapVolume> = passes.iter().map(|p| p.3).collect();
             let cull = self.cull.get_or_insert_with(|| CasterCulling::new(device));
             cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
         }
-        for (k, (_, index, _, clip_from_rel)) in passes.iter().enumerate() {
+        for (k, (_, index, _, volume)) in passes.iter().enumerate() {
             let view = GpuCasterView {
-                clip_from_rel: clip_from_rel.to_cols_array_2d(),
+                clip_from_rel: volume.clip_from_rel.to_cols_array_2d(),
                 camera_position: self.camera_position.to_array(),
                 slot_base: layout.map_or(0, |l| l.slot_base(k % per_pass)),
             };
