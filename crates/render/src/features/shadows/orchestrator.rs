@@ -219,7 +219,8 @@ pub struct ShadowOrchestrator {
     /// Each map's casters culled on the GPU: made by the first culled frame, released with the
     /// atlases.
     cull: Option<CasterCulling>,
-    /// The camera's position this frame: caster vertices are placed relative to it.
+    /// The camera's position this frame as the shaders take it (f32): caster vertices are
+    /// placed relative to it. `ShadowFrame::eye` is the same point in f64, for the planes.
     camera_position: Vec3,
     /// Whether the last frame's maps were culled on the GPU.
     culled: bool,
@@ -665,7 +666,8 @@ impl ShadowOrchestrator {
 
     /// Encodes one depth pass per rendered layer, drawing every caster batch (opaque and masked
     /// triangles) into it. With `culled` (the view's cull prepared this frame's batches), each
-    /// map's casters are culled to its clip volume on the GPU first and drawn indirectly
+    /// map's casters are culled on the GPU first, to its clip volume and, for a cascade, to the
+    /// receiver planes it is held with, and drawn indirectly
     /// ([`CasterCulling`]); otherwise every caster is drawn into every map. A caster pipeline
     /// that fails to compile skips its batches and is returned as the error; a cull that fails to
     /// compile leaves the maps to direct draws.
@@ -698,8 +700,8 @@ impl ShadowOrchestrator {
                 error = Some(e);
             }
         }
-        // (atlas layer view, caster view index, timing label, clip from camera-relative) of every
-        // pass this frame.
+        // (atlas layer view, caster view index, timing label, what the map holds) of every pass
+        // this frame.
         let mut passes: Vec<(&wgpu::TextureView, u64, &'static str, MapVolume)> = Vec::new();
         if let Some(atlas) = &self.atlas {
             for (layer, view) in atlas.layer_views.iter().enumerate() {
