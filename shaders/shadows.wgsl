@@ -1,6 +1,8 @@
 // Directional-light shadows, read from the cascaded shadow maps the shadow orchestrator renders
 // (crates/render/src/features/shadows/): each cascade is one layer of a Depth32Float array atlas,
-// reverse-Z (1 nearest the light), holding the depth of the nearest caster.
+// reverse-Z (1 nearest the light), holding the depth of the nearest caster over the window of the
+// cascade's map that receivers read (features/shadows/window.rs), at the layer's top-left; the
+// cascade's matrix maps straight into the layer, and filters step by the layer's texels.
 //
 // A fragment picks its cascade by view depth and blends into the next one over the last
 // `blend` of the cascade's depth range, so no seam shows where cascades meet; past the last
@@ -22,8 +24,8 @@
 #import penumbra::light_data::Light
 
 struct ShadowCascade {
-    // Light clip space (x, y in −1..1; depth 1 at the light's side) from camera-relative positions,
-    // for receivers: their depth is raised by the casters' f32 precision (see orchestrator.rs,
+    // The layer's clip space (x, y in −1..1 across the layer; depth 1 at the light's side) from
+    // camera-relative positions, for receivers: their depth is raised by the casters' f32 precision (see orchestrator.rs,
     // DEPTH_PRECISION_ULPS).
     clip_from_rel: mat4x4<f32>,
     // View depth where the cascade ends.
@@ -57,14 +59,13 @@ struct Shadows {
     cascade_count: u32,
     normal_bias: f32,
     blend: f32,
-    // Texels across a layer.
-    atlas_size: f32,
     filter_mode: u32,
     // PCSS: the widest kernel, in texels.
     max_kernel: f32,
     // Added to a receiver's depth before comparing: 0, or a few steps where the backend rounds
     // depth coarsely (GL; `Capabilities::exact_depth`).
     depth_tolerance: f32,
+    _pad: u32,
 };
 
 struct LocalShadow {
@@ -98,7 +99,7 @@ fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {
 // Fraction of the layer's texels around `uv` nearer the light than `depth`, sampled over a disk
 // of `radius` texels (at least the 4×4 texels of 3×3 bilinear comparisons).
 fn pcf(layer: u32, uv: vec2<f32>, depth: f32, radius: f32, angle: f32) -> f32 {
-    let texel = 1.0 / shadows.atlas_size;
+    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_atlas));
     var sum = 0.0;
     if radius <= 1.5 {
         for (var y = -1; y <= 1; y++) {
@@ -127,7 +128,7 @@ fn pcss_radius(layer: u32, uv: vec2<f32>, depth: f32, cascade: ShadowCascade, an
     var blocker_depth = 0.0;
     let taps = 16u;
     for (var i = 0u; i < taps; i++) {
-        let at = uv + vogel_tap(i, taps, angle) * (search / shadows.atlas_size);
+        let at = uv + vogel_tap(i, taps, angle) * search / size;
         let texel = vec2<i32>(clamp(at * size, vec2<f32>(0.0), size - 1.0));
         let d = textureLoad(shadow_depths, texel, layer, 0).x;
         if d > depth {

@@ -273,10 +273,13 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     assert_eq!(frame.cascades.len(), 4);
     // Everything lies within 5 m of the camera; the default cascades reach 100 m.
     assert!(frame.rendered[0] && !frame.rendered[3], "rendered layers {:?}", frame.rendered);
-    // The atlas holds layers up to the farthest cascade that renders, not all four.
+    // The atlas holds layers up to the farthest cascade that renders, not all four, each as
+    // large as the largest window of its cascade's map that receivers read.
     let rendered_to = frame.rendered.iter().rposition(|r| *r).unwrap() + 1;
-    let layer = 4 * (ShadowSettings::default().atlas_size as u64).pow(2);
+    let (w, h) = frame.layer_extent;
+    let layer = 4 * w as u64 * h as u64;
     assert_eq!(renderer.memory().shadows, rendered_to as u64 * layer, "rendered layers {:?}", frame.rendered);
+    assert!(layer < 4 * (ShadowSettings::default().atlas_size as u64).pow(2), "{w}×{h} layers");
     assert!(renderer.forward_pipeline_keys().iter().all(|k| k.shadows));
 
     // The light stops casting: no pass, no atlas, shaders without shadow code.
@@ -307,6 +310,56 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     let renderer = app.world.resource::<Renderer>();
     assert!(!renderer.stats().plan.runs(Pass::SHADOWS), "{}", renderer.stats().plan);
     assert_eq!(renderer.memory().shadows, 0);
+}
+
+/// A cascade layer stores only the window of its map that the receivers reading it look up: a
+/// small floor seen from above takes a fraction of each layer, and the frame is the one whole
+/// maps give. (A transparent wall behind the camera, which no pixel shows and nothing casts,
+/// stretches the receivers' box over every slice of the view, so every window becomes its
+/// slice's whole extent on the map.)
+#[test]
+fn cascade_layers_store_only_the_texels_receivers_read() {
+    let size = (96, 64);
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(3.0), grey(0.8), Transform::default());
+    spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_xyz(0.3, 0.25, -0.2));
+    spawn_mesh(&mut app, Mesh::uv_sphere(0.3, 24, 12), grey(0.6), Transform::from_xyz(-0.6, 0.3, 0.5));
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
+    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    let full_map = ShadowSettings::default().atlas_size;
+    let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
+    let layer_bytes = |frame: &penumbra::render::features::shadows::orchestrator::ShadowFrame| {
+        4 * frame.layer_extent.0 as u64 * frame.layer_extent.1 as u64
+    };
+
+    let windowed = render_app(&mut app, size, hardware.clone());
+    let renderer = app.world.resource::<Renderer>();
+    let small = renderer.shadow_frame().clone();
+    let layers = small.stored.len() as u64;
+    assert!(small.rendered.iter().filter(|r| **r).count() >= 2, "{:?}", small.rendered);
+    assert_eq!(renderer.memory().shadows, layers * layer_bytes(&small));
+    for (i, stored) in small.stored.iter().enumerate() {
+        if let Some(stored) = stored {
+            assert!(stored.contains(&small.receiver_windows[i].unwrap()), "layer {i}");
+            assert!(stored.width <= small.layer_extent.0 && stored.height <= small.layer_extent.1);
+        }
+    }
+    eprintln!("layers {:?} of {full_map}²: {:?}", small.layer_extent, small.stored);
+
+    let glass = StandardMaterial { alpha_mode: AlphaMode::Blend, ..grey(0.8) };
+    let upright = Quat::from_rotation_x(std::f32::consts::FRAC_PI_2);
+    spawn_mesh(&mut app, Mesh::plane(1000.0), glass, Transform::from_xyz(0.0, 0.0, 13.0).with_rotation(upright));
+    app.world.remove_resource::<Renderer>();
+    let whole = render_app(&mut app, size, hardware);
+    let renderer = app.world.resource::<Renderer>();
+    let large = renderer.shadow_frame().clone();
+    eprintln!("with the wall: layers {:?}: {:?}", large.layer_extent, large.stored);
+    assert_eq!(large.rendered, small.rendered);
+    assert!(layer_bytes(&large) > 2 * layer_bytes(&small), "{:?} against {:?}", large.layer_extent, small.layer_extent);
+    // The same texel grid: the same shadows, to the rounding of the matrices.
+    let differing = windowed.iter().zip(&whole).filter(|(a, b)| a.abs_diff(**b) > 1).count();
+    assert!(differing <= windowed.len() / 1000, "{differing} channels differ by more than 1");
+    assert!(windowed != vec![0; windowed.len()]);
 }
 
 /// A cascade shadows only receivers inside its slice of the view: when everything visible lies

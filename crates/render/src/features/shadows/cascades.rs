@@ -164,41 +164,62 @@ pub fn slice_corners(camera: &CascadeCamera, start: f64, far: f64) -> [DVec3; 8]
     corners
 }
 
-/// Planes (world space, `xyz · p + w >= 0` inside, unit normals) bounding every caster that can
-/// shadow a point the camera sees at view depths `start..far`, the receivers that read one
-/// cascade: of the planes bounding that slice of the view (its four sides, for a perspective
-/// camera, and its two depth planes; none in front where `start <= 0`), those whose inward
-/// normal faces the light, each moved out by `margin` metres. A caster's shadow falls away from
-/// the light, so a caster that can shadow a point of the slice lies on that point's ray toward
-/// the light, inside every plane the slice's sweep toward the light does not cross; planes
-/// nearly along the light are left out (which only keeps more).
-pub fn receiver_planes(camera: &CascadeCamera, start: f64, far: f64, towards_light: DVec3, margin: f64) -> Vec<DVec4> {
+/// The planes (world space, `xyz · p + w >= 0` inside, unit normals) bounding the slice of the
+/// view between view depths `start` and `far`: its four sides and its two depth planes (none in
+/// front where `start <= 0`: the slice starts at the camera).
+pub fn slice_planes(camera: &CascadeCamera, start: f64, far: f64) -> Vec<DVec4> {
     let mut view_planes: Vec<DVec4> = Vec::with_capacity(6);
-    if let Projection::Perspective { yfov, aspect_ratio, .. } = camera.projection {
-        let ty = (yfov as f64 * 0.5).tan();
-        let tx = ty * aspect_ratio.unwrap_or(camera.aspect) as f64;
-        // Looking down −z: x >= z·tx on the left, and so on.
-        view_planes.extend([
-            DVec4::new(1.0, 0.0, -tx, 0.0),
-            DVec4::new(-1.0, 0.0, -tx, 0.0),
-            DVec4::new(0.0, 1.0, -ty, 0.0),
-            DVec4::new(0.0, -1.0, -ty, 0.0),
-        ]);
+    match camera.projection {
+        Projection::Perspective { yfov, aspect_ratio, .. } => {
+            let ty = (yfov as f64 * 0.5).tan();
+            let tx = ty * aspect_ratio.unwrap_or(camera.aspect) as f64;
+            // Looking down −z: x >= z·tx on the left, and so on.
+            view_planes.extend([
+                DVec4::new(1.0, 0.0, -tx, 0.0),
+                DVec4::new(-1.0, 0.0, -tx, 0.0),
+                DVec4::new(0.0, 1.0, -ty, 0.0),
+                DVec4::new(0.0, -1.0, -ty, 0.0),
+            ]);
+        }
+        Projection::Orthographic { xmag, ymag, .. } => {
+            let (ty, tx) = (ymag as f64, xmag.unwrap_or(ymag * camera.aspect) as f64);
+            view_planes.extend([
+                DVec4::new(1.0, 0.0, 0.0, tx),
+                DVec4::new(-1.0, 0.0, 0.0, tx),
+                DVec4::new(0.0, 1.0, 0.0, ty),
+                DVec4::new(0.0, -1.0, 0.0, ty),
+            ]);
+        }
     }
     if start > 0.0 {
         view_planes.push(DVec4::new(0.0, 0.0, -1.0, -start));
     }
     view_planes.push(DVec4::new(0.0, 0.0, 1.0, far));
-    let light = towards_light.normalize();
     let eye = camera.world_from_view.translation;
     view_planes
         .into_iter()
-        .filter_map(|p| {
+        .map(|p| {
             let length = p.truncate().length();
             let normal = camera.world_from_view.matrix3.mul_vec3(p.truncate() / length);
             // Through the eye in view space: n · (x − eye) + w >= 0.
-            (normal.dot(light) > 1e-3).then(|| normal.extend(p.w / length - normal.dot(eye) + margin))
+            normal.extend(p.w / length - normal.dot(eye))
         })
+        .collect()
+}
+
+/// Planes (world space, `xyz · p + w >= 0` inside, unit normals) bounding every caster that can
+/// shadow a point the camera sees at view depths `start..far`, the receivers that read one
+/// cascade: of the planes bounding that slice of the view ([`slice_planes`]), those whose
+/// inward normal faces the light, each moved out by `margin` metres. A caster's shadow falls
+/// away from the light, so a caster that can shadow a point of the slice lies on that point's
+/// ray toward the light, inside every plane the slice's sweep toward the light does not cross;
+/// planes nearly along the light are left out (which only keeps more).
+pub fn receiver_planes(camera: &CascadeCamera, start: f64, far: f64, towards_light: DVec3, margin: f64) -> Vec<DVec4> {
+    let light = towards_light.normalize();
+    slice_planes(camera, start, far)
+        .into_iter()
+        .filter(|p| p.truncate().dot(light) > 1e-3)
+        .map(|p| p + DVec4::W * margin)
         .collect()
 }
 

@@ -1,6 +1,7 @@
 //! Shadows. The shadow orchestrator ([`orchestrator`]) is the one module that emits shadow
 //! passes: it owns the cascade state, the atlas and the caster passes. [`cascades`] fits the
-//! cascades of directional lights (CPU, f64, texel-snapped); `shaders/shadow_caster.wgsl`
+//! cascades of directional lights (CPU, f64, texel-snapped), [`window`] the part of each
+//! cascade's map that receivers read (all a layer stores); `shaders/shadow_caster.wgsl`
 //! renders casters into the atlas and `shaders/shadows.wgsl` reads it while shading.
 //!
 //! Data flow per frame: the renderer hands the orchestrator the camera, the shadowed
@@ -20,6 +21,7 @@ pub mod caster_cull;
 pub mod casters;
 pub mod local;
 pub mod orchestrator;
+pub mod window;
 
 /// How shadow maps are filtered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

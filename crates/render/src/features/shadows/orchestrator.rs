@@ -14,13 +14,14 @@
 //! caster batches into each layer to render: where the view's culling prepared the batches,
 //! only the casters [`super::caster_cull`] kept for that layer, indirectly.
 
-use glam::{DAffine3, DMat4, DVec3, DVec4, Vec3};
+use glam::{DAffine3, DMat4, DVec3, DVec4, Mat4, Vec3};
 use penumbra_engine::bounds::Aabb;
 
 use super::cascades::{self, Cascade, CascadeCamera};
 use super::caster_cull::{CasterCulling, CasterSources, CullLayout, MapVolume};
 use super::casters::{CasterFamily, CasterKey};
 use super::local::{self, LocalCandidate, LocalFrame, LocalShadows};
+use super::window::{self, TexelWindow};
 use super::{ShadowFilter, ShadowSettings};
 use crate::bindings::{GroupBuilder, GroupResources};
 use crate::features::culling::BatchBuffers;
@@ -46,6 +47,10 @@ const CASTER_VIEW_STRIDE: u64 = 256;
 /// with them stays valid while the camera moves by less (see `HeldLayer`).
 pub const HOLD_SLACK_TEXELS: f64 = 4.0;
 
+/// Cascade layers are sized in steps of this many texels (up to the preset's size), so that a
+/// moving camera whose receivers' windows change by a few texels does not reallocate the atlas.
+const LAYER_STEP: u32 = 64;
+
 /// What a cascade layer holds.
 #[derive(Debug, Clone, PartialEq)]
 struct HeldLayer {
@@ -53,6 +58,8 @@ struct HeldLayer {
     caster_generation: u64,
     /// The planes its casters were culled to (world space).
     planes: Vec<DVec4>,
+    /// The texels of the cascade's map it stores.
+    window: TexelWindow,
 }
 
 /// Timestamp labels of the caster passes, by layer.
@@ -108,6 +115,16 @@ pub struct ShadowFrame {
     pub receiver_planes: Vec<Vec<DVec4>>,
     pub slice_corners: Vec<[DVec3; 8]>,
     pub receiver_reach: Vec<f64>,
+    /// Per layer: the texels of the cascade's map that receivers reading it look up
+    /// ([`TexelWindow::around_receivers`]); `None` where none does.
+    pub receiver_windows: Vec<Option<TexelWindow>>,
+    /// Per atlas layer in use: the window it stores (the receivers' window widened by
+    /// [`HOLD_SLACK_TEXELS`] when drawn), at its top-left corner.
+    pub stored: Vec<Option<TexelWindow>>,
+    /// Texels across a cascade's whole map (`ShadowSettings::atlas_size`) and the atlas layers'
+    /// size (width, height), which holds every stored window.
+    pub resolution: u32,
+    pub layer_extent: (u32, u32),
     /// The camera's position (f64), to make the planes camera-relative.
     pub eye: DVec3,
     /// Per layer: drawn this frame. A layer in use whose projection and casters are what it
@@ -125,23 +142,42 @@ impl ShadowFrame {
     pub fn rendered_layers(&self) -> usize {
         self.redraw.iter().filter(|r| **r).count() + self.local.render.len()
     }
+
+    /// Atlas layer `layer`'s clip space from world space: its cascade's projection, moved so
+    /// that the window it stores lands at the layer's top-left corner, on the same texel grid.
+    pub fn layer_clip_from_world(&self, layer: usize) -> DMat4 {
+        let cascade = &self.cascades[layer];
+        match self.stored.get(layer).copied().flatten() {
+            Some(w) => w.clip_to_layer(self.resolution, self.layer_extent) * cascade.clip_from_world,
+            None => cascade.clip_from_world,
+        }
+    }
+
+    /// The same from camera-relative positions (what the shaders take).
+    pub fn layer_clip_from_rel(&self, layer: usize) -> Mat4 {
+        match self.stored.get(layer).copied().flatten() {
+            Some(_) => (self.layer_clip_from_world(layer) * DMat4::from_translation(self.eye)).as_mat4(),
+            None => self.cascades[layer].clip_from_rel,
+        }
+    }
 }
 
 struct Atlas {
     texture: wgpu::Texture,
     array_view: wgpu::TextureView,
     layer_views: Vec<wgpu::TextureView>,
-    size: u32,
+    /// Texels across and down a layer.
+    extent: (u32, u32),
     /// Layers in use (the texture may have a spare one: `ArrayLayers`).
     layers: u32,
 }
 
 impl Atlas {
-    fn new(device: &wgpu::Device, rule: ArrayLayers, size: u32, layers: u32) -> Self {
-        let allocated = rule.allocate(layers, size, size);
+    fn new(device: &wgpu::Device, rule: ArrayLayers, (width, height): (u32, u32), layers: u32) -> Self {
+        let allocated = rule.allocate(layers, width, height);
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("shadow atlas"),
-            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: allocated },
+            size: wgpu::Extent3d { width, height, depth_or_array_layers: allocated },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -164,7 +200,7 @@ impl Atlas {
                 })
             })
             .collect();
-        Self { texture, array_view, layer_views, size, layers }
+        Self { texture, array_view, layer_views, extent: (width, height), layers }
     }
 
     fn layers(&self) -> u32 {
@@ -172,7 +208,7 @@ impl Atlas {
     }
 
     fn bytes(&self) -> u64 {
-        self.size as u64 * self.size as u64 * 4 * self.texture.depth_or_array_layers() as u64
+        self.extent.0 as u64 * self.extent.1 as u64 * 4 * self.texture.depth_or_array_layers() as u64
     }
 }
 
@@ -199,6 +235,8 @@ pub struct ShadowOrchestrator {
     /// Cascades' views first (`MAX_CASCADES`), then the local layers'.
     caster_views: wgpu::Buffer,
     atlas: Option<Atlas>,
+    /// The cascades' full map size the atlas's layers were made for (their windows' grid).
+    atlas_resolution: u32,
     local: LocalShadows,
     /// The local lights' layers (allocated while any local light has a map).
     local_atlas: Option<Atlas>,
@@ -253,10 +291,11 @@ impl ShadowOrchestrator {
             }),
             caster_views: caster_views_buffer(device, 0),
             atlas: None,
+            atlas_resolution: 0,
             local: LocalShadows::default(),
             local_atlas: None,
             local_buffer: local_buffer(device, 1),
-            placeholder: Atlas::new(device, array_layers, 1, 1),
+            placeholder: Atlas::new(device, array_layers, (1, 1), 1),
             array_layers,
             depth_tolerance: if exact_depth { 0.0 } else { INEXACT_DEPTH_TOLERANCE },
             // Reverse-Z: a receiver is lit where its depth is at least the nearest caster's.
@@ -436,58 +475,80 @@ impl ShadowOrchestrator {
         let settings = &local_settings;
         // The cascade atlas holds layers up to the farthest cascade that renders: the shader reads
         // no layer of a cascade that does not (it is lit there), and a small scene in front of the
-        // camera often reaches only the first one or two (64 MiB each at 4096²). It grows with
-        // the cascades that render and does not shrink, so a camera moving back and forth does
-        // not reallocate it.
+        // camera often reaches only the first one or two. It grows with the cascades that render
+        // and does not shrink, so a camera moving back and forth does not reallocate it.
         let has_layers = self.atlas.as_ref().map_or(0, |a| a.layers());
         let rendered_to = self.frame.rendered.iter().rposition(|r| *r).map_or(0, |i| i as u32 + 1);
-        let layers = rendered_to.max(has_layers).min(self.frame.cascades.len() as u32);
-        let needs = self.active().then_some((settings.atlas_size, layers));
-        let has = self.atlas.as_ref().map(|a| (a.size, a.layers()));
+        let layers = rendered_to.max(has_layers).min(self.frame.cascades.len() as u32) as usize;
+        let resolution = settings.atlas_size;
+        // Each layer in use stores its receivers' window. A layer is kept while its projection
+        // and casters are the same, the receivers that read it now lie inside the planes its
+        // casters were culled to (the camera moved by less than their slack), and inside the
+        // window it stores; one drawn anew stores its receivers' window widened by that slack.
+        self.held.resize(layers, None);
+        let mut kept = vec![false; layers];
+        let mut stored: Vec<Option<TexelWindow>> = vec![None; layers];
+        for i in 0..layers {
+            let frame = &self.frame;
+            let Some(needed) = frame.receiver_windows[i].filter(|_| frame.rendered[i]) else { continue };
+            let held = self.held[i].as_ref().filter(|h| {
+                h.clip_from_world == frame.cascades[i].clip_from_world
+                    && h.caster_generation == caster_generation
+                    && h.window.contains(&needed)
+                    && frame.slice_corners[i]
+                        .iter()
+                        .all(|c| h.planes.iter().all(|p| p.truncate().dot(*c) + p.w >= frame.receiver_reach[i]))
+            });
+            kept[i] = held.is_some();
+            stored[i] = Some(held.map_or_else(|| needed.widened(HOLD_SLACK_TEXELS as u32, resolution), |h| h.window));
+        }
+        // Layers as large as the largest stored window, in steps, growing and never shrinking
+        // while the cascades' map size stays (a camera moving back and forth does not
+        // reallocate the atlas).
+        let has = self.atlas.as_ref().map(|a| (self.atlas_resolution, a.extent, a.layers()));
+        let needs = self.active().then(|| {
+            let grown = has.filter(|h| h.0 == resolution).map_or((0, 0), |h| h.1);
+            let step = |texels: u32| texels.next_multiple_of(LAYER_STEP).min(resolution);
+            let (w, h) = stored.iter().flatten().fold((1, 1), |(w, h), s| (w.max(s.width), h.max(s.height)));
+            (resolution, (step(w).max(grown.0), step(h).max(grown.1)), layers as u32)
+        });
         let mut changed = needs != has;
         if changed {
-            self.atlas = needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
+            self.atlas = needs.map(|(_, extent, layers)| Atlas::new(device, self.array_layers, extent, layers));
+            self.atlas_resolution = resolution;
+            // A fresh atlas holds nothing.
+            self.held = vec![None; layers];
+            kept.fill(false);
         }
         if !self.active() && !self.local_active() {
             // No map to draw: the culled lists go with the atlases.
             self.cull = None;
             self.caster_bind_groups.clear();
         }
-        // A fresh atlas holds nothing.
-        if changed {
-            self.held.clear();
-        }
-        self.held.resize(layers as usize, None);
-        self.frame.redraw = (0..layers as usize)
+        self.frame.resolution = resolution;
+        self.frame.layer_extent = needs.map_or((1, 1), |n| n.1);
+        self.frame.redraw = (0..layers)
             .map(|i| {
                 let frame = &self.frame;
-                let clip_from_world = frame.cascades[i].clip_from_world;
-                // Kept while its projection and casters are the same and the receivers that read
-                // it now lie inside the planes its casters were culled to (the camera moved by
-                // less than their slack).
-                let kept = self.held[i].as_ref().is_some_and(|h| {
-                    h.clip_from_world == clip_from_world
-                        && h.caster_generation == caster_generation
-                        && frame.slice_corners[i]
-                            .iter()
-                            .all(|c| h.planes.iter().all(|p| p.truncate().dot(*c) + p.w >= frame.receiver_reach[i]))
-                });
-                let redraw = frame.rendered[i] && !kept;
-                if redraw {
+                let redraw = frame.rendered[i] && !kept[i];
+                if let (true, Some(window)) = (redraw, stored[i]) {
                     self.held[i] = Some(HeldLayer {
-                        clip_from_world,
+                        clip_from_world: frame.cascades[i].clip_from_world,
                         caster_generation,
                         planes: frame.receiver_planes[i].clone(),
+                        window,
                     });
                 }
                 redraw
             })
             .collect();
+        self.frame.stored = stored;
         let local_needs = self.local_active().then_some((settings.local_map_size, settings.local_layers));
-        let local_has = self.local_atlas.as_ref().map(|a| (a.size, a.layers()));
+        let local_has = self.local_atlas.as_ref().map(|a| (a.extent.0, a.layers()));
         if local_needs != local_has {
             changed = true;
-            self.local_atlas = local_needs.map(|(size, layers)| Atlas::new(device, self.array_layers, size, layers));
+            self.local_atlas =
+                local_needs.map(|(size, layers)| Atlas::new(device, self.array_layers, (size, size), layers));
             if local_has.is_some() {
                 // The layers' contents are gone: every map renders again.
                 self.local = LocalShadows::default();
@@ -587,11 +648,28 @@ impl ShadowOrchestrator {
                     towards_light,
                     reach + slack,
                 ));
-                frame.slice_corners.push(cascades::slice_corners(&camera, read_from, far));
+                let slice = cascades::slice_corners(&camera, read_from, far);
+                // The texels the receivers reading this cascade look up: where its slice meets
+                // their box (within a texel), and as far again as the lookups reach.
+                let receivers = window::slice_box_vertices(
+                    &slice,
+                    &cascades::slice_planes(&camera, read_from, far),
+                    bounds.receivers.min.as_dvec3(),
+                    bounds.receivers.max.as_dvec3(),
+                    cascade.texel_size,
+                );
+                let window =
+                    TexelWindow::around(&cascade.clip_from_world, settings.atlas_size, receivers, reach_texels);
+                // Casters must reach the texels receivers read, not merely the map.
+                let reached = window.is_some_and(|w| {
+                    reaches(&(w.clip_to_window(settings.atlas_size) * cascade.clip_from_world), &bounds.casters)
+                });
+                frame.slice_corners.push(slice);
                 frame.receiver_reach.push(reach);
+                frame.receiver_windows.push(window);
                 read_from = far - settings.cascade_blend as f64 * (far - previous_far);
                 previous_far = far;
-                frame.rendered.push(seen && reaches(&cascade.clip_from_world, &bounds.casters));
+                frame.rendered.push(seen && reached);
                 frame.cascades.push(cascade);
             }
         }
@@ -609,7 +687,7 @@ impl ShadowOrchestrator {
             let depth_range = 1.0 / depth_row.length().max(f64::MIN_POSITIVE);
             // Receivers' depth raised by the casters' precision: folded into the matrix's depth
             // translation, so the shader pays nothing for it.
-            let mut clip_from_rel = c.clip_from_rel;
+            let mut clip_from_rel = frame.layer_clip_from_rel(i);
             clip_from_rel.w_axis.z +=
                 (DEPTH_PRECISION_ULPS * f32::EPSILON as f64 * frame.caster_extent / depth_range) as f32;
             gpu.cascades[i] = GpuCascade {
@@ -636,7 +714,6 @@ impl ShadowOrchestrator {
         gpu.cascade_count = settings.cascades;
         gpu.normal_bias = settings.normal_bias;
         gpu.blend = settings.cascade_blend;
-        gpu.atlas_size = settings.atlas_size as f32;
         gpu.filter = match settings.filter {
             ShadowFilter::Pcf => 0,
             ShadowFilter::Pcss => 1,
@@ -707,7 +784,7 @@ impl ShadowOrchestrator {
             for (layer, view) in atlas.layer_views.iter().enumerate() {
                 if self.frame.redraw[layer] {
                     let label = LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)];
-                    let mut volume = MapVolume::clip(self.frame.cascades[layer].clip_from_rel);
+                    let mut volume = MapVolume::clip(self.frame.layer_clip_from_rel(layer));
                     // The planes the layer is held with, made camera-relative in f64.
                     let planes = self.held.get(layer).and_then(Option::as_ref).map_or(&[][..], |h| &h.planes[..]);
                     for (slot, p) in volume.planes.iter_mut().zip(planes) {

@@ -34,10 +34,10 @@ pub(super) struct GpuShadows {
     pub(super) cascade_count: u32,
     pub(super) normal_bias: f32,
     pub(super) blend: f32,
-    pub(super) atlas_size: f32,
     pub(super) filter: u32,
     pub(super) max_kernel: f32,
     pub(super) depth_tolerance: f32,
+    pub(super) _pad: u32,
 }
 
 /// Mirrors `LocalShadow` in `shaders/shadows.wgsl`.
@@ -107,7 +107,6 @@ mod tests {
                 cascade_count,
                 normal_bias,
                 blend,
-                atlas_size,
                 filter => "filter_mode",
                 max_kernel,
                 depth_tolerance
