@@ -62,15 +62,22 @@ fn ltc_lookup(uv: vec2<f32>) -> LtcCell {
 }
 
 // θ · (n · unit normal of the plane through a and b), n = +z: one edge's share of the cosine
-// integral. The cross product of a with the edge b − a (rather than of the two unit vectors)
-// keeps small or distant lights precise, and atan2 keeps θ accurate for nearly parallel
-// vertices, where acos loses it.
+// integral, as sin θ · (n · that normal) times θ / sin θ. The cross product of a with the edge
+// b − a (rather than of the two unit vectors) keeps small or distant lights precise. θ / sin θ
+// comes from cos θ by Hill and Heitz's rational fit over cos θ in [0, 1] ("Real-Time Area
+// Lighting: a Journey from Research to Production", SIGGRAPH 2016 course; relative error
+// below 2e-6 there), and for obtuse angles from the supplement's, π / sin θ − θ' / sin θ'
+// with θ' = π − θ: no inverse trigonometric function, and smooth where the vertices are nearly
+// parallel, where acos loses θ.
 fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let norms = length(a) * length(b);
     let c = cross(a, b - a) / norms;
-    let sin_theta = length(c);
-    let theta = atan2(sin_theta, dot(a, b) / norms);
-    return c.z * select(theta / sin_theta, 1.0, sin_theta < 1e-7);
+    let x = dot(a, b) / norms;
+    let y = abs(x);
+    // θ / (2π sin θ) for cos θ = y.
+    let fit = (0.8543985 + (0.4965155 + 0.0145206 * y) * y) / (3.417594 + (4.1616724 + y) * y);
+    let theta_over_sin = select(0.5 * inverseSqrt(max(1.0 - x * x, 1e-7)) - fit, fit, x > 0.0);
+    return c.z * (2.0 * PI) * theta_over_sin;
 }
 
 // What is left of one edge of a convex polygon cut to the upper hemisphere z ≥ 0, and where
@@ -117,28 +124,41 @@ fn plane_axes(light: Light) -> vec4<f32> {
     return vec4<f32>(light.shape.xyz / max(half_height, 1e-30), half_height);
 }
 
-// How many corners the light's outline has.
-fn outline_sides(light: Light) -> u32 {
-    return select(4u, DISK_SIDES, light.kind == LIGHT_DISK);
+// The light's outline in the shading frame: corner i is centre + d.x·across + d.y·up, where d
+// starts at `first` and turns by `turn` (cos, sin) from corner to corner. A rectangle's d runs
+// (1, 1), (−1, 1), (−1, −1), (1, −1) (quarter turns); a disk is the regular 16-gon of its area
+// (circumradius r·√(2π / (n·sin(2π/n)))). Corners are made one at a time as the edges are
+// walked, by a rotation rather than a sine and cosine each: an array indexed at run time lives
+// in slow per-thread memory on GPUs.
+struct Outline {
+    centre: vec3<f32>,
+    across: vec3<f32>,
+    up: vec3<f32>,
+    first: vec2<f32>,
+    turn: vec2<f32>,
+    sides: u32,
 }
 
-// Corner `i` of the light's outline, relative to the surface. Made one at a time as the edges
-// are walked, rather than into an array: an array indexed at run time lives in slow per-thread
-// memory on GPUs, and three of them per light made the shading pass memory-bound.
-fn outline_corner(light: Light, to_light: vec3<f32>, i: u32) -> vec3<f32> {
+const DISK_TURN: vec2<f32> = vec2<f32>(0.9238795, 0.38268343);
+
+fn outline(light: Light, to_light: vec3<f32>, to_frame: mat3x3<f32>) -> Outline {
     let axes = plane_axes(light);
-    let across = axes.xyz;
-    let up = cross(light.direction, across);
+    let up = cross(light.direction, axes.xyz);
     if light.kind == LIGHT_DISK {
-        // The regular 16-gon of the disk's area: circumradius r·√(2π / (n·sin(2π/n))).
         let r = light.size * 1.0130016;
-        let angle = f32(i) * (2.0 * PI / f32(DISK_SIDES));
-        return to_light + r * (cos(angle) * across + sin(angle) * up);
+        return Outline(to_frame * to_light, to_frame * (axes.xyz * r), to_frame * (up * r), vec2<f32>(1.0, 0.0), DISK_TURN, DISK_SIDES);
     }
-    // Corners (+x +y), (−x +y), (−x −y), (+x −y).
-    let x = across * light.size * select(1.0, -1.0, i == 1u || i == 2u);
-    let y = up * axes.w * select(1.0, -1.0, i >= 2u);
-    return to_light + x + y;
+    return Outline(to_frame * to_light, to_frame * (axes.xyz * light.size), to_frame * (up * axes.w), vec2<f32>(1.0, 1.0), vec2<f32>(0.0, 1.0), 4u);
+}
+
+fn outline_corner(o: Outline, d: vec2<f32>) -> vec3<f32> {
+    return o.centre + d.x * o.across + d.y * o.up;
+}
+
+// `d` turned by `turn` (forward = false: back).
+fn turned(d: vec2<f32>, turn: vec2<f32>, forward: bool) -> vec2<f32> {
+    let t = select(vec2<f32>(turn.x, -turn.y), turn, forward);
+    return vec2<f32>(d.x * t.x - d.y * t.y, d.x * t.y + d.y * t.x);
 }
 
 // Squared distance from the surface to the nearest point of the light (`to_light` points from
@@ -230,10 +250,12 @@ fn ltc_lobe(light: Light, to_light: vec3<f32>, n: vec3<f32>, v: vec3<f32>, n_dot
     var lobe_cut = HorizonCut();
     var diffuse = 0.0;
     var specular = 0.0;
-    let sides = outline_sides(light);
-    var a = to_frame * outline_corner(light, to_light, sides - 1u);
-    for (var i = 0u; i < sides; i++) {
-        let b = to_frame * outline_corner(light, to_light, i);
+    let o = outline(light, to_light, to_frame);
+    var d = o.first;
+    var a = outline_corner(o, turned(d, o.turn, false));
+    for (var i = 0u; i < o.sides; i++) {
+        let b = outline_corner(o, d);
+        d = turned(d, o.turn, true);
         let kept = cut_edge(&horizon, a, b);
         if kept.kept {
             diffuse += edge_integral(kept.head, kept.tail);
