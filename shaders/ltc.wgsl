@@ -63,12 +63,13 @@ fn ltc_lookup(uv: vec2<f32>) -> LtcCell {
 
 // θ · (n · unit normal of the plane through a and b), n = +z: one edge's share of the cosine
 // integral, as sin θ · (n · that normal) times θ / sin θ. The cross product of a with the edge
-// b − a (rather than of the two unit vectors) keeps small or distant lights precise. θ / sin θ
-// comes from cos θ by Hill and Heitz's rational fit over cos θ in [0, 1] ("Real-Time Area
-// Lighting: a Journey from Research to Production", SIGGRAPH 2016 course; relative error
-// below 2e-6 there), and for obtuse angles from the supplement's, π / sin θ − θ' / sin θ'
-// with θ' = π − θ: no inverse trigonometric function, and smooth where the vertices are nearly
-// parallel, where acos loses θ.
+// b − a (rather than of the two unit vectors) keeps small or distant lights precise, and its
+// length is sin θ. θ / sin θ comes from cos θ by Hill and Heitz's rational fit over cos θ in
+// [0, 1] ("Real-Time Area Lighting: a Journey from Research to Production", SIGGRAPH 2016
+// course; relative error below 2e-6 there), and for obtuse angles as π / sin θ − θ' / sin θ'
+// with θ' = π − θ, sin θ from the cross product (from cos θ it would cancel near θ = π, as for
+// a horizon edge seen from beside the light): no inverse trigonometric function, and smooth
+// where the vertices are nearly parallel, where acos loses θ.
 fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let norms = length(a) * length(b);
     let c = cross(a, b - a) / norms;
@@ -76,8 +77,11 @@ fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let y = abs(x);
     // θ / (2π sin θ) for cos θ = y.
     let fit = (0.8543985 + (0.4965155 + 0.0145206 * y) * y) / (3.417594 + (4.1616724 + y) * y);
-    let theta_over_sin = select(0.5 * inverseSqrt(max(1.0 - x * x, 1e-7)) - fit, fit, x > 0.0);
-    return c.z * (2.0 * PI) * theta_over_sin;
+    var scaled = fit;
+    if x <= 0.0 {
+        scaled = 0.5 / max(length(c), 1e-30) - fit;
+    }
+    return c.z * (2.0 * PI) * scaled;
 }
 
 // What is left of one edge of a convex polygon cut to the upper hemisphere z ≥ 0, and where

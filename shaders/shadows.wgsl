@@ -36,6 +36,9 @@ struct ShadowCascade {
     depth_range: f32,
     // 1 when the layer was rendered this frame; 0 when no caster reaches the cascade (lit).
     rendered: u32,
+    // The part of the layer holding the stored window (uv from the top-left).
+    window: vec2<f32>,
+    _pad: vec2<u32>,
 };
 
 struct DirectionalShadow {
@@ -153,11 +156,16 @@ fn cascade_visibility(c: u32, rel: vec3<f32>, normal: vec3<f32>, n_dot_l: f32, a
     let sin_l = sqrt(max(1.0 - n_dot_l * n_dot_l, 0.0));
     let offset = normal * (cascade.texel_size * shadows.normal_bias * sin_l);
     let clip = cascade.clip_from_rel * vec4<f32>(rel + offset, 1.0);
-    let uv = clip.xy * vec2<f32>(0.5, -0.5) + 0.5;
-    // Above the map's top (casters clamped there never shadow what lies above them) or off it.
-    if clip.z > 1.0 || any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
+    // Above the map's top: casters clamped there never shadow what lies above them.
+    if clip.z > 1.0 {
         return 1.0;
     }
+    // The layer stores the window of the cascade's map that receivers read, widened by more than
+    // the filters reach, so a receiver's own lookups stay inside it. Only a position
+    // extrapolated past a surface's edge (a pixel's centre outside the triangle its MSAA samples
+    // cover) can land outside: it reads the window's nearest texels, not texels never drawn.
+    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_atlas));
+    let uv = clamp(clip.xy * vec2<f32>(0.5, -0.5) + 0.5, 2.0 * texel, max(cascade.window - 2.0 * texel, 2.0 * texel));
     let depth = clip.z + shadows.depth_tolerance;
     var radius = 1.0;
     if shadows.filter_mode == FILTER_PCSS {

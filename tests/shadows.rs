@@ -314,9 +314,10 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
 
 /// A cascade layer stores only the window of its map that the receivers reading it look up: a
 /// small floor seen from above takes a fraction of each layer, and the frame is the one whole
-/// maps give. (A transparent wall behind the camera, which no pixel shows and nothing casts,
-/// stretches the receivers' box over every slice of the view, so every window becomes its
-/// slice's whole extent on the map.)
+/// slices give. (Three tiny transparent boxes outside the view, which no pixel shows and which
+/// cast nothing, stretch the receivers' box over every slice of the view, so every window
+/// becomes its slice's whole extent on the map.) A camera move that takes the receivers out of
+/// the stored windows redraws them (and grows the layers) into the frame a fresh renderer draws.
 #[test]
 fn cascade_layers_store_only_the_texels_receivers_read() {
     let size = (96, 64);
@@ -325,11 +326,17 @@ fn cascade_layers_store_only_the_texels_receivers_read() {
     spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_xyz(0.3, 0.25, -0.2));
     spawn_mesh(&mut app, Mesh::uv_sphere(0.3, 24, 12), grey(0.6), Transform::from_xyz(-0.6, 0.3, 0.5));
     app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
-    app.world.spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
+    let near = Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y);
+    let camera = app.world.spawn((Camera::default(), near)).id();
     let full_map = ShadowSettings::default().atlas_size;
     let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
     let layer_bytes = |frame: &penumbra::render::features::shadows::orchestrator::ShadowFrame| {
         4 * frame.layer_extent.0 as u64 * frame.layer_extent.1 as u64
+    };
+    // The same shadows, to the rounding of the layers' matrices.
+    let same = |a: &[u8], b: &[u8], what: &str| {
+        let differing = a.iter().zip(b).filter(|(a, b)| a.abs_diff(**b) > 1).count();
+        assert!(differing <= a.len() / 1000, "{what}: {differing} channels differ by more than 1");
     };
 
     let windowed = render_app(&mut app, size, hardware.clone());
@@ -338,6 +345,7 @@ fn cascade_layers_store_only_the_texels_receivers_read() {
     let layers = small.stored.len() as u64;
     assert!(small.rendered.iter().filter(|r| **r).count() >= 2, "{:?}", small.rendered);
     assert_eq!(renderer.memory().shadows, layers * layer_bytes(&small));
+    assert!(layer_bytes(&small) < 4 * (full_map as u64).pow(2) / 2, "{:?}", small.layer_extent);
     for (i, stored) in small.stored.iter().enumerate() {
         if let Some(stored) = stored {
             assert!(stored.contains(&small.receiver_windows[i].unwrap()), "layer {i}");
@@ -346,20 +354,37 @@ fn cascade_layers_store_only_the_texels_receivers_read() {
     }
     eprintln!("layers {:?} of {full_map}²: {:?}", small.layer_extent, small.stored);
 
+    // Farther back and to the side: the floor projects elsewhere on every cascade's map.
+    let far = Transform::from_xyz(2.5, 3.0, 5.0).looking_at(Vec3::ZERO, Vec3::Y);
+    *app.world.get_mut::<Transform>(camera).unwrap() = far;
+    app.update();
+    let renderer = app.world.resource::<Renderer>();
+    let moved = renderer.read_frame().unwrap();
+    let after = renderer.shadow_frame().clone();
+    assert!(after.redraw.iter().any(|r| *r), "the receivers left the stored windows: {:?}", after.stored);
+    app.world.remove_resource::<Renderer>();
+    let fresh = render_app(&mut app, size, hardware.clone());
+    same(&moved, &fresh, "after the move against a fresh renderer");
+
+    *app.world.get_mut::<Transform>(camera).unwrap() = near;
     let glass = StandardMaterial { alpha_mode: AlphaMode::Blend, ..grey(0.8) };
-    let upright = Quat::from_rotation_x(std::f32::consts::FRAC_PI_2);
-    spawn_mesh(&mut app, Mesh::plane(1000.0), glass, Transform::from_xyz(0.0, 0.0, 13.0).with_rotation(upright));
+    for at in [Vec3::new(-600.0, -400.0, -400.0), Vec3::new(600.0, -400.0, -400.0), Vec3::new(0.0, 400.0, 13.0)] {
+        spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.01)), glass.clone(), Transform::from_translation(at));
+    }
     app.world.remove_resource::<Renderer>();
     let whole = render_app(&mut app, size, hardware);
     let renderer = app.world.resource::<Renderer>();
     let large = renderer.shadow_frame().clone();
-    eprintln!("with the wall: layers {:?}: {:?}", large.layer_extent, large.stored);
-    assert_eq!(large.rendered, small.rendered);
-    assert!(layer_bytes(&large) > 2 * layer_bytes(&small), "{:?} against {:?}", large.layer_extent, small.layer_extent);
-    // The same texel grid: the same shadows, to the rounding of the matrices.
-    let differing = windowed.iter().zip(&whole).filter(|(a, b)| a.abs_diff(**b) > 1).count();
-    assert!(differing <= windowed.len() / 1000, "{differing} channels differ by more than 1");
-    assert!(windowed != vec![0; windowed.len()]);
+    eprintln!("with the boxes: layers {:?}: {:?}", large.layer_extent, large.stored);
+    // (The boxes lie deeper than the floor: the far cascades render too, for pixels that show none.)
+    assert!(small.rendered.iter().zip(&large.rendered).all(|(s, l)| !s || *l), "{:?}", large.rendered);
+    for (i, (l, s)) in large.stored.iter().zip(&small.stored).enumerate() {
+        if let (Some(l), Some(s)) = (l, s) {
+            assert!(l.contains(s) && l.width * l.height > 2 * s.width * s.height, "layer {i}: {l:?} against {s:?}");
+        }
+    }
+    same(&windowed, &whole, "windows against whole slices");
+    assert!(windowed.chunks_exact(4).any(|p| p[0] > 100), "lit");
 }
 
 /// A cascade shadows only receivers inside its slice of the view: when everything visible lies

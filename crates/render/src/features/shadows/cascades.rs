@@ -165,8 +165,9 @@ pub fn slice_corners(camera: &CascadeCamera, start: f64, far: f64) -> [DVec3; 8]
 }
 
 /// The planes (world space, `xyz · p + w >= 0` inside, unit normals) bounding the slice of the
-/// view between view depths `start` and `far`: its four sides and its two depth planes (none in
-/// front where `start <= 0`: the slice starts at the camera).
+/// view between view depths `start` and `far` (`start` below 0 counts as 0): its four sides and
+/// its two depth planes (for a perspective camera none in front where `start <= 0`: the slice
+/// narrows to the camera).
 pub fn slice_planes(camera: &CascadeCamera, start: f64, far: f64) -> Vec<DVec4> {
     let mut view_planes: Vec<DVec4> = Vec::with_capacity(6);
     match camera.projection {
@@ -191,8 +192,10 @@ pub fn slice_planes(camera: &CascadeCamera, start: f64, far: f64) -> Vec<DVec4> 
             ]);
         }
     }
-    if start > 0.0 {
-        view_planes.push(DVec4::new(0.0, 0.0, -1.0, -start));
+    // A perspective slice starting at the camera narrows to it; an orthographic one starts at
+    // the camera's plane.
+    if start > 0.0 || matches!(camera.projection, Projection::Orthographic { .. }) {
+        view_planes.push(DVec4::new(0.0, 0.0, -1.0, -start.max(0.0)));
     }
     view_planes.push(DVec4::new(0.0, 0.0, 1.0, far));
     let eye = camera.world_from_view.translation;
@@ -351,6 +354,32 @@ mod tests {
         };
         assert!(moved(0.02).iter().all(|c| inside(&planes, *c, reach)));
         assert!(!moved(0.2).iter().all(|c| inside(&planes, *c, reach)));
+    }
+
+    /// An orthographic slice is the box between its depth planes and its sides: its corners lie
+    /// on its planes, its centre inside, and points behind the camera, beyond the far end or
+    /// beside it outside.
+    #[test]
+    fn an_orthographic_slice_is_bounded_on_every_side() {
+        let camera = CascadeCamera {
+            world_from_view: DAffine3::from_rotation_translation(
+                DQuat::from_rotation_y(0.4),
+                DVec3::new(5e5, 2.0, 1.0),
+            ),
+            projection: Projection::Orthographic { xmag: Some(3.0), ymag: 2.0, znear: 0.0, zfar: 50.0 },
+            aspect: 1.5,
+        };
+        let planes = slice_planes(&camera, -1.0, 20.0);
+        assert_eq!(planes.len(), 6);
+        let inside = |p: DVec3| planes.iter().map(|q| q.truncate().dot(p) + q.w).fold(f64::MAX, f64::min);
+        for c in slice_corners(&camera, -1.0, 20.0) {
+            assert!(inside(c).abs() < 1e-6, "corner {c}: {}", inside(c));
+        }
+        let at = |x: f64, y: f64, depth: f64| camera.world_from_view.transform_point3(DVec3::new(x, y, -depth));
+        assert!(inside(at(0.0, 0.0, 10.0)) > 1.0);
+        for outside in [at(0.0, 0.0, -0.5), at(0.0, 0.0, 20.5), at(3.5, 0.0, 5.0), at(0.0, -2.5, 5.0)] {
+            assert!(inside(outside) < -0.4, "{outside}: {}", inside(outside));
+        }
     }
 
     fn camera_at(eye: DVec3, rotation: DQuat) -> CascadeCamera {

@@ -116,7 +116,7 @@ pub struct ShadowFrame {
     pub slice_corners: Vec<[DVec3; 8]>,
     pub receiver_reach: Vec<f64>,
     /// Per layer: the texels of the cascade's map that receivers reading it look up
-    /// ([`TexelWindow::around_receivers`]); `None` where none does.
+    /// ([`TexelWindow::around`]); `None` where none does.
     pub receiver_windows: Vec<Option<TexelWindow>>,
     /// Per atlas layer in use: the window it stores (the receivers' window widened by
     /// [`HOLD_SLACK_TEXELS`] when drawn), at its top-left corner.
@@ -150,6 +150,19 @@ impl ShadowFrame {
         match self.stored.get(layer).copied().flatten() {
             Some(w) => w.clip_to_layer(self.resolution, self.layer_extent) * cascade.clip_from_world,
             None => cascade.clip_from_world,
+        }
+    }
+
+    /// The clip space of the window alone that layer `layer` stores (the window filling it), from
+    /// camera-relative positions: what its casters are culled to.
+    pub fn window_clip_from_rel(&self, layer: usize) -> Mat4 {
+        let cascade = &self.cascades[layer];
+        match self.stored.get(layer).copied().flatten() {
+            Some(w) => {
+                (w.clip_to_window(self.resolution) * cascade.clip_from_world * DMat4::from_translation(self.eye))
+                    .as_mat4()
+            }
+            None => cascade.clip_from_rel,
         }
     }
 
@@ -696,6 +709,10 @@ impl ShadowOrchestrator {
                 texel_size: c.texel_size as f32,
                 depth_range: depth_range as f32,
                 rendered: frame.rendered[i] as u32,
+                window: frame.stored.get(i).copied().flatten().map_or([1.0, 1.0], |w| {
+                    [w.width as f32 / frame.layer_extent.0 as f32, w.height as f32 / frame.layer_extent.1 as f32]
+                }),
+                _pad: [0; 2],
             };
         }
         for (i, l) in frame.lights.iter().enumerate() {
@@ -777,21 +794,24 @@ impl ShadowOrchestrator {
                 error = Some(e);
             }
         }
-        // (atlas layer view, caster view index, timing label, what the map holds) of every pass
-        // this frame.
-        let mut passes: Vec<(&wgpu::TextureView, u64, &'static str, MapVolume)> = Vec::new();
+        // Every pass this frame: the atlas layer's view, the caster view's index, the timing label,
+        // what the map holds (the casters are culled to), and the texels drawn (a cascade's
+        // stored window: nothing reads the rest of its layer).
+        let mut passes: Vec<Pass> = Vec::new();
         if let Some(atlas) = &self.atlas {
             for (layer, view) in atlas.layer_views.iter().enumerate() {
                 if self.frame.redraw[layer] {
                     let label = LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)];
-                    let mut volume = MapVolume::clip(self.frame.layer_clip_from_rel(layer));
+                    let mut volume = MapVolume::clip(self.frame.window_clip_from_rel(layer));
                     // The planes the layer is held with, made camera-relative in f64.
                     let planes = self.held.get(layer).and_then(Option::as_ref).map_or(&[][..], |h| &h.planes[..]);
                     for (slot, p) in volume.planes.iter_mut().zip(planes) {
                         *slot = p.truncate().extend(p.w + p.truncate().dot(self.frame.eye)).as_vec4();
                         volume.plane_count += 1;
                     }
-                    passes.push((view, layer as u64, label, volume));
+                    let scissor = self.frame.stored[layer].map(|w| (w.width, w.height));
+                    let clip_from_rel = self.frame.layer_clip_from_rel(layer);
+                    passes.push(Pass { view, index: layer as u64, label, volume, clip_from_rel, scissor });
                 }
             }
         }
@@ -800,7 +820,14 @@ impl ShadowOrchestrator {
                 if let Some(l) = &self.frame.local.layers[layer as usize] {
                     let view = &atlas.layer_views[layer as usize];
                     let volume = MapVolume::clip(l.clip_from_rel);
-                    passes.push((view, MAX_CASCADES as u64 + layer as u64, "shadow local", volume));
+                    passes.push(Pass {
+                        view,
+                        index: MAX_CASCADES as u64 + layer as u64,
+                        label: "shadow local",
+                        volume,
+                        clip_from_rel: l.clip_from_rel,
+                        scissor: None,
+                    });
                 }
             }
         }
@@ -821,13 +848,14 @@ impl ShadowOrchestrator {
         let layout = sources.map(|s| CullLayout::new(s.batches.item_count, s.batches.batch_count));
         let per_pass = layout.map_or(passes.len(), |l| l.maps_per_pass).max(1);
         if let (Some(sources), Some(layout)) = (&sources, layout) {
-            let maps: Vec<MapVolume> = passes.iter().map(|p| p.3).collect();
+            let maps: Vec<MapVolume> = passes.iter().map(|p| p.volume).collect();
             let cull = self.cull.get_or_insert_with(|| CasterCulling::new(device));
             cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
         }
-        for (k, (_, index, _, volume)) in passes.iter().enumerate() {
+        for (k, pass) in passes.iter().enumerate() {
+            let index = pass.index;
             let view = GpuCasterView {
-                clip_from_rel: volume.clip_from_rel.to_cols_array_2d(),
+                clip_from_rel: pass.clip_from_rel.to_cols_array_2d(),
                 camera_position: self.camera_position.to_array(),
                 slot_base: layout.map_or(0, |l| l.slot_base(k % per_pass)),
             };
@@ -876,12 +904,13 @@ impl ShadowOrchestrator {
             if let (Some(sources), Some(cull)) = (&sources, self.cull.as_mut()) {
                 cull.encode(encoder, device, pipelines, timer.as_deref_mut(), sources, pass_index, chunk.len());
             }
-            for (j, (view, index, label, _)) in chunk.iter().enumerate() {
+            for (j, p) in chunk.iter().enumerate() {
+                let (index, label) = (p.index, p.label);
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some(label),
                     color_attachments: &[],
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view,
+                        view: p.view,
                         // Reverse-Z: 0 is the far side, where nothing casts.
                         depth_ops: Some(wgpu::Operations {
                             load: wgpu::LoadOp::Clear(0.0),
@@ -893,6 +922,9 @@ impl ShadowOrchestrator {
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
+                if let Some((width, height)) = p.scissor {
+                    pass.set_scissor_rect(0, 0, width, height);
+                }
                 pass.set_bind_group(0, group, &[(index * CASTER_VIEW_STRIDE) as u32]);
                 pass.set_vertex_buffer(0, mesh_pool.vertex_buffer().slice(..));
                 pass.set_index_buffer(mesh_pool.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
@@ -932,6 +964,19 @@ impl ShadowOrchestrator {
         }
         error.or(cull_error)
     }
+}
+
+/// One caster pass: see [`ShadowOrchestrator::encode`].
+struct Pass<'a> {
+    view: &'a wgpu::TextureView,
+    /// The caster view's slot.
+    index: u64,
+    label: &'static str,
+    volume: MapVolume,
+    /// The layer's clip space from camera-relative positions.
+    clip_from_rel: Mat4,
+    /// The texels drawn (width, height from the top-left), where not the whole layer.
+    scissor: Option<(u32, u32)>,
 }
 
 fn caster_views_buffer(device: &wgpu::Device, local_layers: u64) -> wgpu::Buffer {

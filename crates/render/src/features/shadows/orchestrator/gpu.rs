@@ -12,6 +12,9 @@ pub(super) struct GpuCascade {
     pub(super) texel_size: f32,
     pub(super) depth_range: f32,
     pub(super) rendered: u32,
+    /// The stored window's size over the layer's (it sits at the top-left).
+    pub(super) window: [f32; 2],
+    pub(super) _pad: [u32; 2],
 }
 
 /// Mirrors `DirectionalShadow` in `shaders/shadows.wgsl`.
@@ -86,7 +89,7 @@ mod tests {
             "forward.wgsl",
             SHADOW_DEFS,
             "ShadowCascade",
-            [clip_from_rel, far, texel_size, depth_range, rendered]
+            [clip_from_rel, far, texel_size, depth_range, rendered, window]
         );
         crate::pipelines::shader_library::assert_mirrors_wgsl!(
             GpuDirectionalShadow,
