@@ -77,10 +77,7 @@ fn edge_integral(a: vec3<f32>, b: vec3<f32>) -> f32 {
     let y = abs(x);
     // θ / (2π sin θ) for cos θ = y.
     let fit = (0.8543985 + (0.4965155 + 0.0145206 * y) * y) / (3.417594 + (4.1616724 + y) * y);
-    var scaled = fit;
-    if x <= 0.0 {
-        scaled = 0.5 / max(length(c), 1e-30) - fit;
-    }
+    let scaled = select(0.5 * inverseSqrt(max(dot(c, c), 1e-30)) - fit, fit, x > 0.0);
     return c.z * (2.0 * PI) * scaled;
 }
 
