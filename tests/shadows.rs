@@ -685,6 +685,49 @@ fn shadow_maps_are_drawn_again_only_when_something_moves() {
     assert!(frame.local.render.is_empty(), "a point light's map does not depend on the camera");
 }
 
+/// A cascade keeps its layer while nothing that moved, where it was or where it is, reaches the
+/// window it stores: a box moving beside the camera redraws the near cascade only, one moving
+/// far ahead the far cascades, and each frame equals a fresh renderer's.
+#[test]
+fn a_cascade_keeps_its_layer_while_what_moved_cannot_reach_it() {
+    let size = (96, 64);
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(200.0), grey(0.8), Transform::default());
+    let near = spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_xyz(0.5, 0.25, 0.5));
+    let far = spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(2.0)), grey(0.5), Transform::from_xyz(0.0, 1.0, -60.0));
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::new(0.0, 0.0, -10.0), Vec3::Y)));
+    let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
+    render_app(&mut app, size, hardware.clone());
+    let first = app.world.resource::<Renderer>().shadow_frame().clone();
+    assert!(first.rendered.iter().filter(|r| **r).count() >= 3, "{:?}", first.rendered);
+
+    let step = |app: &mut App, moved: Entity, by: Vec3| {
+        app.world.get_mut::<Transform>(moved).unwrap().translation += by;
+        app.update();
+        let renderer = app.world.resource::<Renderer>();
+        let (frame, px) = (renderer.shadow_frame().clone(), renderer.read_frame().unwrap());
+        app.world.remove_resource::<Renderer>();
+        let fresh = render_app(app, size, hardware.clone());
+        let differing = px.iter().zip(&fresh).filter(|(a, b)| a.abs_diff(**b) > 1).count();
+        assert!(differing == 0, "{differing} channels differ from a fresh renderer's frame");
+        // The fresh renderer draws every layer; the next step starts from its maps.
+        frame
+    };
+    let frame = step(&mut app, near, Vec3::new(0.2, 0.0, 0.0));
+    let (rendered, redraw) = (&frame.rendered, &frame.redraw);
+    assert!(redraw[0], "the near cascade holds the box: {redraw:?}");
+    let kept = (1..redraw.len()).filter(|&i| rendered[i] && !redraw[i]).count();
+    assert!(kept >= 1, "the far cascades do not reach the box: rendered {rendered:?}, redrawn {redraw:?}");
+    eprintln!("near box moved: rendered {rendered:?}, redrawn {redraw:?}");
+
+    let frame = step(&mut app, far, Vec3::new(0.5, 0.0, 0.0));
+    let last = frame.rendered.iter().rposition(|r| *r).unwrap();
+    assert!(frame.redraw[last] && !frame.redraw[0], "the far box moved: redrawn {:?}", frame.redraw);
+    eprintln!("far box moved: rendered {:?}, redrawn {:?}", frame.rendered, frame.redraw);
+}
+
 /// The cascade debug view colours each fragment by its cascade: along the screen's centre
 /// column, every floor pixel (more than two rows from a boundary) shows the tint of the cascade
 /// its view depth falls in, and at least three cascades show.

@@ -509,6 +509,7 @@ impl Renderer {
             &local_candidates,
             &bounds,
             self.draws.caster_generation(),
+            self.draws.take_caster_changes(),
         );
         // Local lights carry their first shadow layer; the store uploads what that changed.
         if self.lights.set_shadow_layers(self.shadows.frame().local.first_layers.clone()) {

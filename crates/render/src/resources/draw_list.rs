@@ -70,6 +70,33 @@ fn pack_move(
 /// Change lists at least this long are packed on all cores.
 const PARALLEL_PACK_MIN: usize = 20_000;
 
+/// Change lists up to this long are bounded for the shadow maps ([`CasterChanges`]); longer
+/// ones count as changes anywhere (bounding a whole animated crowd would cost more than the maps
+/// it could keep).
+const BOUNDED_CHANGES_MAX: usize = 256;
+
+/// Where casters changed since the shadow orchestrator last looked: a world box holding every
+/// changed caster where it was and where it is, or anywhere (draws added, removed or re-keyed,
+/// poses, materials, long change lists).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CasterChanges {
+    Nothing,
+    Within(Aabb),
+    Anywhere,
+}
+
+impl CasterChanges {
+    fn add(&mut self, changed: &Aabb) {
+        *self = match *self {
+            // A non-finite box bounds nothing reliably.
+            _ if !(changed.min.is_finite() && changed.max.is_finite()) => CasterChanges::Anywhere,
+            CasterChanges::Nothing => CasterChanges::Within(*changed),
+            CasterChanges::Within(b) => CasterChanges::Within(b.union(changed)),
+            CasterChanges::Anywhere => CasterChanges::Anywhere,
+        };
+    }
+}
+
 /// What every draw's pipeline key shares in a frame: how local lights are found and which kinds
 /// exist, whether shadows and the environment are compiled in, and the settings every variant
 /// reads. A change re-keys every batch.
@@ -126,6 +153,8 @@ pub struct DrawList {
     /// Incremented whenever a caster may have changed (draws, batches, materials): local
     /// shadow maps re-render only then or when their light changes.
     caster_generation: u64,
+    /// Where casters changed since the shadow orchestrator last took them.
+    caster_changes: CasterChanges,
     /// `scene_bounds()` as of a caster generation: every draw change moves the generation.
     bounds_cache: Option<(u64, SceneBounds)>,
     warned_missing: HashSet<Handle<Mesh>>,
@@ -150,6 +179,7 @@ impl DrawList {
             batches_dirty: true,
             batch_generation: 0,
             caster_generation: 0,
+            caster_changes: CasterChanges::Nothing,
             bounds_cache: None,
             warned_missing: HashSet::new(),
             variant,
@@ -182,6 +212,13 @@ impl DrawList {
     /// Something a caster draws changed outside the draw list (a pose, a material's cutoff).
     pub fn casters_changed(&mut self) {
         self.caster_generation += 1;
+        self.caster_changes = CasterChanges::Anywhere;
+    }
+
+    /// Where casters changed since the last call: shadow maps whose volume holds none of it keep
+    /// what they hold.
+    pub fn take_caster_changes(&mut self) -> CasterChanges {
+        std::mem::replace(&mut self.caster_changes, CasterChanges::Nothing)
     }
 
     pub fn caster_generation(&self) -> u64 {
@@ -290,6 +327,12 @@ impl DrawList {
         if !removed.is_empty() || !changed.is_empty() {
             self.caster_generation += 1;
         }
+        // A few draws that only moved are bounded where they were and where they are (the
+        // common case of an animated object in a still scene); anything else may be anywhere.
+        let bounded = removed.is_empty() && changed.len() <= BOUNDED_CHANGES_MAX;
+        if !bounded {
+            self.caster_changes = CasterChanges::Anywhere;
+        }
         for entity in removed {
             if let Some(old) = self.draws.remove(*entity) {
                 self.forget_draw(cx, &old);
@@ -302,7 +345,20 @@ impl DrawList {
         if changed.len() < PARALLEL_PACK_MIN {
             for &entity in changed {
                 match pack_move(&self.draws, cx.materials, scene, entity) {
-                    Some((slot, instance)) => cx.instances.write(slot, instance),
+                    Some((slot, instance)) => {
+                        if bounded {
+                            let local = self.draws.get(entity).and_then(|d| self.draw_mesh_id(cx, entity, d));
+                            match local.and_then(|id| cx.mesh_pool.entry(id)).map(|e| e.aabb) {
+                                Some(aabb) => {
+                                    let was = aabb.transformed(&cx.instances.get(slot).world_from_local());
+                                    let is = aabb.transformed(&instance.world_from_local());
+                                    self.caster_changes.add(&was.union(&is));
+                                }
+                                None => self.caster_changes = CasterChanges::Anywhere,
+                            }
+                        }
+                        cx.instances.write(slot, instance);
+                    }
                     None => rekeyed.push(entity),
                 }
             }
@@ -340,6 +396,9 @@ impl DrawList {
             rekeyed = parts.into_iter().flatten().collect();
         }
         rekeyed.sort_unstable();
+        if !rekeyed.is_empty() {
+            self.caster_changes = CasterChanges::Anywhere;
+        }
         for entity in rekeyed {
             let Some(item) = scene.draws.get(entity) else {
                 continue;
@@ -577,6 +636,7 @@ impl DrawList {
         // New pipeline keys alone (shadows switched on, a debug view) change no caster.
         if self.caster_signature() != casters_before {
             self.caster_generation += 1;
+            self.caster_changes = CasterChanges::Anywhere;
         }
     }
 

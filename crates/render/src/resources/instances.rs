@@ -37,6 +37,14 @@ impl GpuInstance {
             _pad: [0; 2],
         }
     }
+
+    /// The placement this record holds.
+    pub fn world_from_local(&self) -> Affine3A {
+        let r = &self.rows;
+        Affine3A::from_cols_array(&[
+            r[0][0], r[1][0], r[2][0], r[0][1], r[1][1], r[2][1], r[0][2], r[1][2], r[2][2], r[0][3], r[1][3], r[2][3],
+        ])
+    }
 }
 
 pub struct InstanceBuffer {
@@ -76,6 +84,11 @@ impl InstanceBuffer {
         });
         self.write(slot, instance);
         slot
+    }
+
+    /// The record a slot holds.
+    pub fn get(&self, slot: u32) -> GpuInstance {
+        self.cpu[slot as usize]
     }
 
     /// Rewrites a slot's record; uploaded with the next `upload`.

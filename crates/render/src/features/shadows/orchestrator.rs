@@ -29,7 +29,7 @@ use crate::frame_context::FrameContext;
 use crate::gpu::array_layers::ArrayLayers;
 use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
 use crate::pipelines::{PipelineCache, ShaderError};
-use crate::resources::draw_list::SceneBounds;
+use crate::resources::draw_list::{CasterChanges, SceneBounds};
 use crate::resources::draws::{Batch, TopologyKey};
 use crate::resources::materials::{AlphaKey, MaterialTable, TextureSet};
 use crate::resources::mesh_pool::MeshPool;
@@ -281,6 +281,8 @@ pub struct ShadowOrchestrator {
     /// and the planes its casters were culled to; and the settings (bias is raster state).
     held: Vec<Option<HeldLayer>>,
     held_settings: Option<ShadowSettings>,
+    /// The caster generation of the last frame planned.
+    seen_generation: u64,
 }
 
 impl ShadowOrchestrator {
@@ -329,6 +331,7 @@ impl ShadowOrchestrator {
             warned_excess: false,
             held: Vec::new(),
             held_settings: None,
+            seen_generation: 0,
         }
     }
 
@@ -427,7 +430,8 @@ impl ShadowOrchestrator {
 
     /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
     /// whenever any caster may have (local maps are re-rendered only then, or when their light
-    /// changes). Returns whether an atlas or buffer was (re)allocated or released, so that bind
+    /// changes), and `changes` says where since the last call (cascade layers whose window it
+    /// does not reach keep what they hold). Returns whether an atlas or buffer was (re)allocated or released, so that bind
     /// groups holding it must be rebuilt.
     #[allow(clippy::too_many_arguments)]
     pub fn prepare(
@@ -440,6 +444,7 @@ impl ShadowOrchestrator {
         local_candidates: &[LocalCandidate],
         bounds: &SceneBounds,
         caster_generation: u64,
+        changes: CasterChanges,
     ) -> bool {
         // Other settings (bias is raster state, sizes and filters change the maps): nothing held
         // is valid.
@@ -499,6 +504,25 @@ impl ShadowOrchestrator {
         // casters were culled to (the camera moved by less than their slack), and inside the
         // window it stores; one drawn anew stores its receivers' window widened by that slack.
         self.held.resize(layers, None);
+        if caster_generation != self.seen_generation {
+            // A layer valid at the last generation stays valid while no caster that changed,
+            // where it was or where it is, reaches the window it stores: a static cascade under
+            // a moving object nearer the camera is kept.
+            let resolution = self.atlas_resolution;
+            for h in self.held.iter_mut().flatten() {
+                let untouched = h.caster_generation == self.seen_generation
+                    && match changes {
+                        CasterChanges::Within(b) => {
+                            !reaches(&(h.window.clip_to_window(resolution) * h.clip_from_world), &b)
+                        }
+                        CasterChanges::Nothing | CasterChanges::Anywhere => false,
+                    };
+                if untouched {
+                    h.caster_generation = caster_generation;
+                }
+            }
+            self.seen_generation = caster_generation;
+        }
         let mut kept = vec![false; layers];
         let mut stored: Vec<Option<TexelWindow>> = vec![None; layers];
         for i in 0..layers {
