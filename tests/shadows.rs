@@ -686,8 +686,9 @@ fn shadow_maps_are_drawn_again_only_when_something_moves() {
 }
 
 /// A cascade keeps its layer while nothing that moved, where it was or where it is, reaches the
-/// window it stores: a box moving beside the camera redraws the near cascade only, one moving
-/// far ahead the far cascades, and each frame equals a fresh renderer's.
+/// window it stores, and a point light its cube while nothing that moved lies within its reach:
+/// a box moving beside the camera redraws the near cascades only, one moving far ahead (under
+/// the point light) the farthest cascade and the cube, and each frame equals a fresh renderer's.
 #[test]
 fn a_cascade_keeps_its_layer_while_what_moved_cannot_reach_it() {
     let size = (96, 64);
@@ -696,12 +697,18 @@ fn a_cascade_keeps_its_layer_while_what_moved_cannot_reach_it() {
     let near = spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.5)), grey(0.5), Transform::from_xyz(0.5, 0.25, 0.5));
     let far = spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(2.0)), grey(0.5), Transform::from_xyz(0.0, 1.0, -60.0));
     app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(50.0, 30.0)));
+    // A point light over the far box, reaching 5 m.
+    app.world.spawn((
+        PointLight { intensity: 50.0, range: Some(5.0), ..Default::default() },
+        Transform::from_xyz(1.5, 3.0, -58.0),
+    ));
     app.world
         .spawn((Camera::default(), Transform::from_xyz(0.0, 2.0, 3.0).looking_at(Vec3::new(0.0, 0.0, -10.0), Vec3::Y)));
     let hardware = RenderSettings { raster: Raster::Hardware, ..settings(ShadowSettings::default()) };
     render_app(&mut app, size, hardware.clone());
     let first = app.world.resource::<Renderer>().shadow_frame().clone();
     assert!(first.rendered.iter().filter(|r| **r).count() >= 3, "{:?}", first.rendered);
+    assert_eq!(first.local.render.len(), 6, "the point light's cube");
 
     let step = |app: &mut App, moved: Entity, by: Vec3| {
         app.world.get_mut::<Transform>(moved).unwrap().translation += by;
@@ -720,11 +727,13 @@ fn a_cascade_keeps_its_layer_while_what_moved_cannot_reach_it() {
     assert!(redraw[0], "the near cascade holds the box: {redraw:?}");
     let kept = (1..redraw.len()).filter(|&i| rendered[i] && !redraw[i]).count();
     assert!(kept >= 1, "the far cascades do not reach the box: rendered {rendered:?}, redrawn {redraw:?}");
+    assert!(frame.local.render.is_empty(), "the point light's reach does not hold the box");
     eprintln!("near box moved: rendered {rendered:?}, redrawn {redraw:?}");
 
     let frame = step(&mut app, far, Vec3::new(0.5, 0.0, 0.0));
     let last = frame.rendered.iter().rposition(|r| *r).unwrap();
     assert!(frame.redraw[last] && !frame.redraw[0], "the far box moved: redrawn {:?}", frame.redraw);
+    assert_eq!(frame.local.render.len(), 6, "the far box lies in the point light's reach");
     eprintln!("far box moved: rendered {:?}, redrawn {:?}", frame.rendered, frame.redraw);
 }
 

@@ -9,7 +9,8 @@
 //! lights cast than the atlas holds, the ones that matter least on screen (by the solid angle of
 //! their sphere of influence seen from the camera) go unshadowed.
 //!
-//! A map is stale when its light changed or any caster did (`caster_generation`). Stale maps are
+//! A map is stale when its light changed or a caster changed within its light's reach (the
+//! draw list's `CasterChanges`; changes it cannot bound count everywhere). Stale maps are
 //! re-rendered within `local_updates` layers per frame: half the budget in order of screen
 //! contribution, the rest round-robin (the longest waiting first). Until its first render a map
 //! reads as unshadowed (its layers are marked invalid).
@@ -20,6 +21,7 @@ use glam::{Mat4, Vec3};
 use penumbra_engine::bounds::Aabb;
 
 use super::ShadowSettings;
+use crate::resources::draw_list::CasterChanges;
 use crate::scene::world::{ExtractedLight, LightKey, LightKind};
 
 /// A shadow-casting spot or point light the store holds.
@@ -77,6 +79,8 @@ pub struct LocalFrame {
 pub struct LocalShadows {
     maps: Vec<Map>,
     frame: u64,
+    /// The caster generation of the last plan.
+    seen_generation: u64,
 }
 
 /// Outer cone above which a spot light is shadowed like a point light.
@@ -176,8 +180,22 @@ impl LocalShadows {
         candidates: &[LocalCandidate],
         casters: &Aabb,
         caster_generation: u64,
+        changes: CasterChanges,
     ) -> LocalFrame {
         self.frame += 1;
+        if caster_generation != self.seen_generation {
+            // A map up to date at the last generation stays so while nothing that changed, where
+            // it was or where it is, lies within its light's reach.
+            for m in &mut self.maps {
+                if let (Some((generation, light, reach)), CasterChanges::Within(b)) = (m.current, changes)
+                    && generation == self.seen_generation
+                    && !sphere_meets_box(light.position, reach, &b)
+                {
+                    m.current = Some((caster_generation, light, reach));
+                }
+            }
+            self.seen_generation = caster_generation;
+        }
         let mut lit: Vec<(f32, &LocalCandidate, u32)> = candidates
             .iter()
             .filter(|c| c.light.shadows && c.reach > 0.0)
@@ -321,36 +339,40 @@ mod tests {
         let near = point(1, Vec3::new(0.0, 2.0, 1.0));
         let far = point(2, Vec3::new(0.0, 2.0, 60.0));
         let lights = [far, near, spot(3, Vec3::new(3.0, 2.0, 0.0)), spot(4, Vec3::new(-3.0, 2.0, 0.0))];
-        let frame = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        let frame = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0, CasterChanges::Anywhere);
         assert_eq!(frame.unshadowed, 1);
         assert!(frame.first_layers.contains_key(&near.key) && !frame.first_layers.contains_key(&far.key));
         assert_eq!(frame.render.len(), 8, "every allocated layer renders on the first frame");
         // Nothing changed: nothing renders, the layers stay where they were and valid.
-        let again = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        let again = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0, CasterChanges::Anywhere);
         assert!(again.render.is_empty());
         assert_eq!(again.first_layers, frame.first_layers);
         assert!(again.layers.iter().flatten().all(|l| l.valid));
         // A caster moved: everything is stale again.
-        assert_eq!(shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 1).render.len(), 8);
+        assert_eq!(
+            shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 1, CasterChanges::Anywhere).render.len(),
+            8
+        );
     }
 
     #[test]
     fn a_cube_does_not_fit_in_fewer_than_six_layers_and_a_late_map_keeps_its_old_light() {
         let settings = ShadowSettings { local_layers: 5, ..Default::default() };
         let mut shadows = LocalShadows::default();
-        let frame = shadows.plan(&settings, Vec3::ZERO, &[point(1, Vec3::Y)], &everything(), 0);
+        let frame =
+            shadows.plan(&settings, Vec3::ZERO, &[point(1, Vec3::Y)], &everything(), 0, CasterChanges::Anywhere);
         assert_eq!((frame.unshadowed, frame.first_layers.len()), (1, 0));
         // Budget for one spot map per frame: a moved light waits, read with the light it was
         // drawn with.
         let settings = ShadowSettings { local_layers: 4, local_updates: 1, ..Default::default() };
         let mut shadows = LocalShadows::default();
         let mut lights = [spot(1, Vec3::new(0.0, 2.0, 0.0)), spot(2, Vec3::new(1.0, 2.0, 0.0))];
-        shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
-        shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
-        let before = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0, CasterChanges::Anywhere);
+        shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0, CasterChanges::Anywhere);
+        let before = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0, CasterChanges::Anywhere);
         lights[0].light.position.x += 0.5;
         lights[1].light.position.x += 0.5;
-        let after = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0);
+        let after = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 0, CasterChanges::Anywhere);
         assert_eq!(after.render.len(), 1);
         let waiting = (0..2u32).find(|l| !after.render.contains(l)).unwrap() as usize;
         let (b, a) = (before.layers[waiting].unwrap(), after.layers[waiting].unwrap());
@@ -364,7 +386,7 @@ mod tests {
         let lights: Vec<LocalCandidate> = (0..16).map(|i| spot(i, Vec3::new(i as f32 * 3.0, 2.0, 0.0))).collect();
         let mut rendered_at: HashMap<u32, Vec<u64>> = HashMap::new();
         for frame in 0..8 {
-            let f = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), frame / 4);
+            let f = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), frame / 4, CasterChanges::Anywhere);
             assert_eq!(f.render.len(), 4, "frame {frame}: the budget, no more");
             for l in f.render {
                 rendered_at.entry(l).or_default().push(frame);
@@ -373,7 +395,7 @@ mod tests {
         // Casters changed at frame 4: by then (frames 0-3) all 16 maps had rendered once.
         assert_eq!(rendered_at.len(), 16, "{rendered_at:?}");
         // The nearest light (layer of spot 0) is refreshed first after the change.
-        let nearest = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 9);
+        let nearest = shadows.plan(&settings, Vec3::ZERO, &lights, &everything(), 9, CasterChanges::Anywhere);
         assert!(nearest.render.contains(&0), "{:?}", nearest.render);
     }
 

@@ -472,8 +472,14 @@ impl ShadowOrchestrator {
             ShadowSettings { local_layers: cap.min(wanted).max(1), ..*settings }
         };
         if view.is_some() && seen {
-            self.frame.local =
-                self.local.plan(&local_settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+            self.frame.local = self.local.plan(
+                &local_settings,
+                camera_position,
+                local_candidates,
+                &bounds.casters,
+                caster_generation,
+                changes,
+            );
             if self.frame.local.unshadowed > 0 && local_settings.local_layers < cap {
                 // A larger atlas holds nothing yet: every map is placed and drawn afresh.
                 local_settings.local_layers = cap;
@@ -484,6 +490,7 @@ impl ShadowOrchestrator {
                     local_candidates,
                     &bounds.casters,
                     caster_generation,
+                    changes,
                 );
             }
         } else {
@@ -589,8 +596,14 @@ impl ShadowOrchestrator {
             if local_has.is_some() {
                 // The layers' contents are gone: every map renders again.
                 self.local = LocalShadows::default();
-                self.frame.local =
-                    self.local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation);
+                self.frame.local = self.local.plan(
+                    settings,
+                    camera_position,
+                    local_candidates,
+                    &bounds.casters,
+                    caster_generation,
+                    changes,
+                );
             }
         }
         let local_layers = settings.local_layers as u64;
