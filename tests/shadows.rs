@@ -677,7 +677,10 @@ fn shadow_maps_are_drawn_again_only_when_something_moves() {
     app.world.get_mut::<Transform>(cube).unwrap().translation.x += 0.3;
     app.update();
     let frame = app.world.resource::<Renderer>().shadow_frame().clone();
-    assert!(frame.redraw.iter().any(|r| *r) && frame.local.render.len() == 6, "a caster moved: every map redrawn");
+    assert!(
+        frame.redraw.iter().any(|r| *r) && frame.local.render.len() == 6,
+        "a caster moved: the maps it reaches redrawn"
+    );
     app.world.get_mut::<Transform>(camera).unwrap().translation.x += 1.0;
     app.update();
     let frame = app.world.resource::<Renderer>().shadow_frame().clone();
@@ -717,7 +720,7 @@ fn a_cascade_keeps_its_layer_while_what_moved_cannot_reach_it() {
         let (frame, px) = (renderer.shadow_frame().clone(), renderer.read_frame().unwrap());
         app.world.remove_resource::<Renderer>();
         let fresh = render_app(app, size, hardware.clone());
-        let differing = px.iter().zip(&fresh).filter(|(a, b)| a.abs_diff(**b) > 1).count();
+        let differing = px.iter().zip(&fresh).filter(|(a, b)| a != b).count();
         assert!(differing == 0, "{differing} channels differ from a fresh renderer's frame");
         // The fresh renderer draws every layer; the next step starts from its maps.
         frame

@@ -306,7 +306,7 @@ impl Renderer {
         }) {
             // The old targets go first: their memory may be what the new ones need.
             self.targets = None;
-            self.targets = Some(FrameTargets::try_new(
+            let made = FrameTargets::try_new(
                 &device,
                 size,
                 target_samples,
@@ -319,7 +319,10 @@ impl Renderer {
                     shader_resolve: self.ctx.caps.shader_msaa_resolve,
                     hdr_storage,
                 },
-            )?);
+            );
+            // The shadow maps this frame planned are not drawn when it stops here: what they
+            // were to hold is not held.
+            self.targets = Some(made.inspect_err(|_| self.shadows.invalidate())?);
         }
         laps.lap("targets");
         self.deferred.prepare(&device, &self.pipelines, self.targets.as_ref().expect("made above"));

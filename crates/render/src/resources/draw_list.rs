@@ -74,6 +74,8 @@ const PARALLEL_PACK_MIN: usize = 20_000;
 /// ones count as changes anywhere (bounding a whole animated crowd would cost more than the maps
 /// it could keep).
 const BOUNDED_CHANGES_MAX: usize = 256;
+// The parallel packing path bounds nothing: its lists must count as changes anywhere.
+const _: () = assert!(BOUNDED_CHANGES_MAX < PARALLEL_PACK_MIN);
 
 /// Where casters changed since the shadow orchestrator last looked: a world box holding every
 /// changed caster where it was and where it is, or anywhere (draws added, removed or re-keyed,
@@ -346,15 +348,17 @@ impl DrawList {
             for &entity in changed {
                 match pack_move(&self.draws, cx.materials, scene, entity) {
                     Some((slot, instance)) => {
-                        if bounded {
-                            let local = self.draws.get(entity).and_then(|d| self.draw_mesh_id(cx, entity, d));
-                            match local.and_then(|id| cx.mesh_pool.entry(id)).map(|e| e.aabb) {
-                                Some(aabb) => {
-                                    let was = aabb.transformed(&cx.instances.get(slot).world_from_local());
-                                    let is = aabb.transformed(&instance.world_from_local());
-                                    self.caster_changes.add(&was.union(&is));
-                                }
-                                None => self.caster_changes = CasterChanges::Anywhere,
+                        // Hidden draws cast nothing, nor do draws without a mesh yet (its arrival
+                        // rebuilds the batches, a change anywhere); a record rewritten as it was
+                        // changes nothing.
+                        let was = cx.instances.get(slot);
+                        let draw = self.draws.get(entity).filter(|d| d.visible);
+                        if bounded && bytemuck::bytes_of(&was) != bytemuck::bytes_of(&instance) {
+                            let local = draw.and_then(|d| self.draw_mesh_id(cx, entity, d));
+                            if let Some(aabb) = local.and_then(|id| cx.mesh_pool.entry(id)).map(|e| e.aabb) {
+                                let before = aabb.transformed(&was.world_from_local());
+                                let after = aabb.transformed(&instance.world_from_local());
+                                self.caster_changes.add(&before.union(&after));
                             }
                         }
                         cx.instances.write(slot, instance);

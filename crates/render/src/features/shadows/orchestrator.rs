@@ -429,9 +429,10 @@ impl ShadowOrchestrator {
     }
 
     /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
-    /// whenever any caster may have (local maps are re-rendered only then, or when their light
-    /// changes), and `changes` says where since the last call (cascade layers whose window it
-    /// does not reach keep what they hold). Returns whether an atlas or buffer was (re)allocated or released, so that bind
+    /// whenever any caster may have, and `changes` says where since the last call: a cascade
+    /// layer whose stored window it does not reach, or a local map whose light's reach it does
+    /// not meet, keeps what it holds (maps are otherwise drawn again only when their projection
+    /// or light changes). Returns whether an atlas or buffer was (re)allocated or released, so that bind
     /// groups holding it must be rebuilt.
     #[allow(clippy::too_many_arguments)]
     pub fn prepare(
