@@ -44,7 +44,8 @@ pub struct ShadowSettings {
     pub split_lambda: f32,
     /// Distance from the camera (along its view direction) beyond which nothing is shadowed.
     pub max_distance: f32,
-    /// Width and height of each cascade's layer of the atlas, in texels.
+    /// Width and height of each cascade's map, in texels (its atlas layer stores only the part
+    /// receivers read: [`window`]).
     pub atlas_size: u32,
     pub filter: ShadowFilter,
     /// Casters' depth bias, in multiples of their depth slope across one texel (raster state).
