@@ -3,8 +3,9 @@
 //! of the forward pass (timestamp queries), CPU time, the atlas's memory, and the image error
 //! (FLIP mean) against the 4096²/PCSS frame of the same scene; a row without shadows gives the
 //! baseline cost. The camera steps sideways by 25 cm every frame (back and forth), so that every
-//! cascade is redrawn each frame; a last row holds it still, where the cascades are drawn once
-//! and kept. Then the same scene with four shadowed point lights and four shadowed spot
+//! cascade is redrawn each frame; a row holds it still, where the cascades are drawn once and
+//! kept, and one holds it still while one caster 13 m ahead steps 10 cm sideways every frame
+//! (only the maps it can reach are redrawn). Then the same scene with four shadowed point lights and four shadowed spot
 //! lights (28 local layers), nudged by a millimetre every frame so that every map re-renders
 //! each frame (a static light's map is rendered once and kept), at each local map size: GPU
 //! time per local shadow layer, against the frame with 2048² local maps.
@@ -37,6 +38,28 @@ struct Row {
     cpu_ms: f64,
     atlas_mib: f64,
     flip: f32,
+}
+
+/// What moves every frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Motion {
+    Still,
+    /// The camera steps 25 cm sideways (`step_camera`): every cascade redraws.
+    Camera,
+    /// The caster nearest the lower middle of the view steps 10 cm sideways.
+    NearestBox,
+}
+
+/// Marks the box `Motion::NearestBox` moves.
+#[derive(Component)]
+struct Mover;
+
+fn step_mover(mut movers: Query<&mut Transform, With<Mover>>, mut frame: Local<u64>) {
+    *frame += 1;
+    let step = if frame.is_multiple_of(2) { 0.1 } else { -0.1 };
+    for mut t in &mut movers {
+        t.translation.x += step;
+    }
 }
 
 /// Nudges every local light by a millimetre, up and down on alternate frames.
@@ -72,20 +95,38 @@ fn spawn_local_lights(world: &mut World) {
 }
 
 /// The shadows scene; `local` adds the eight shadowed local lights (nudged every frame),
-/// `moving` steps the camera every frame.
+/// `motion` says what else moves every frame.
 fn app_with(
     ctx: &GpuContext,
     settings: RenderSettings,
     shadows: bool,
     local: bool,
-    moving: bool,
+    motion: Motion,
     size: (u32, u32),
 ) -> Result<penumbra_engine::App> {
     let mut app = penumbra_engine::App::new();
     app.add_plugins(penumbra_engine::CorePlugin).add_plugins(RenderPlugin);
     spawn_shadows_scene(&mut app.world);
-    if moving {
-        app.add_systems(Update, step_camera);
+    match motion {
+        Motion::Still => {}
+        Motion::Camera => {
+            app.add_systems(Update, step_camera);
+        }
+        Motion::NearestBox => {
+            // The camera looks down −z from z = 28 at 5 m: (0, 0, 16) is on the ground in the
+            // lower middle of the view, 13 m away. The ground is the mesh at the origin.
+            let mut meshes = app.world.query::<(Entity, &Transform, &penumbra_engine::components::Mesh3d)>();
+            let seen = Vec3::new(0.0, 0.0, 16.0);
+            let nearest = meshes
+                .iter(&app.world)
+                .filter(|(_, t, _)| t.translation != Vec3::ZERO)
+                .min_by(|a, b| a.1.translation.distance(seen).total_cmp(&b.1.translation.distance(seen)))
+                .map(|(e, _, _)| e);
+            if let Some(e) = nearest {
+                app.world.entity_mut(e).insert(Mover);
+            }
+            app.add_systems(Update, step_mover);
+        }
     }
     if local {
         spawn_local_lights(&mut app.world);
@@ -121,7 +162,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         RenderSettings { gpu_timing: false, shadows: reference_settings, ..base.clone() },
         true,
         false,
-        false,
+        Motion::Still,
         args.size,
     )?)?;
     let local_base =
@@ -135,26 +176,28 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         },
         true,
         true,
-        false,
+        Motion::Still,
         args.size,
     )?)?;
-    let mut cases: Vec<(String, bool, bool, bool, ShadowSettings)> =
-        vec![("no shadows".to_owned(), false, false, true, base.shadows)];
+    let mut cases: Vec<(String, bool, bool, Motion, ShadowSettings)> =
+        vec![("no shadows".to_owned(), false, false, Motion::Camera, base.shadows)];
     for filter in [ShadowFilter::Pcf, ShadowFilter::Pcss] {
         for atlas_size in ATLAS_SIZES.into_iter().filter(|s| *s <= limit) {
             let name = format!("{atlas_size}², {filter:?}");
-            cases.push((name, true, false, true, ShadowSettings { atlas_size, filter, ..base.shadows }));
+            cases.push((name, true, false, Motion::Camera, ShadowSettings { atlas_size, filter, ..base.shadows }));
         }
     }
     for local_map_size in [512, 1024, 2048].into_iter().filter(|s| *s <= limit) {
         let name = format!("2048² Pcf + 8 local lights at {local_map_size}²");
-        cases.push((name, true, true, true, ShadowSettings { local_map_size, ..local_base }));
+        cases.push((name, true, true, Motion::Camera, ShadowSettings { local_map_size, ..local_base }));
     }
     let still = ShadowSettings { atlas_size: 4096.min(limit), ..base.shadows };
-    cases.push((format!("{}², Pcf, still camera", still.atlas_size), true, false, false, still));
+    cases.push((format!("{}², Pcf, still camera", still.atlas_size), true, false, Motion::Still, still));
+    let name = format!("{}², Pcf, still camera, one caster moving", still.atlas_size);
+    cases.push((name, true, false, Motion::NearestBox, still));
     let mut rows = Vec::new();
-    for (setting, on, local, moving, shadows) in cases {
-        let mut app = app_with(&ctx, RenderSettings { shadows, ..base.clone() }, on, local, moving, args.size)?;
+    for (setting, on, local, motion, shadows) in cases {
+        let mut app = app_with(&ctx, RenderSettings { shadows, ..base.clone() }, on, local, motion, args.size)?;
         let t = time_frames(&mut app, args.warmup, args.frames);
         let renderer = app.world.resource::<Renderer>();
         let layers = renderer.shadow_frame().rendered_layers();
@@ -176,7 +219,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let atlas_mib = renderer.memory().shadows as f64 / 1048576.0;
         assert_eq!(renderer.stats().plan.runs(Pass::SHADOWS), layers > 0);
         let settings = RenderSettings { gpu_timing: false, shadows, ..base.clone() };
-        let image = frame(&mut app_with(&ctx, settings, on, local, false, args.size)?)?;
+        let image = frame(&mut app_with(&ctx, settings, on, local, Motion::Still, args.size)?)?;
         let reference = if local { &local_reference } else { &reference };
         rows.push(Row {
             setting,
