@@ -472,27 +472,16 @@ impl ShadowOrchestrator {
             let wanted = local::layers_wanted(local_candidates).next_multiple_of(6).max(has);
             ShadowSettings { local_layers: cap.min(wanted).max(1), ..*settings }
         };
+        let plan_local = |local: &mut LocalShadows, settings: &ShadowSettings| {
+            local.plan(settings, camera_position, local_candidates, &bounds.casters, caster_generation, changes)
+        };
         if view.is_some() && seen {
-            self.frame.local = self.local.plan(
-                &local_settings,
-                camera_position,
-                local_candidates,
-                &bounds.casters,
-                caster_generation,
-                changes,
-            );
+            self.frame.local = plan_local(&mut self.local, &local_settings);
             if self.frame.local.unshadowed > 0 && local_settings.local_layers < cap {
                 // A larger atlas holds nothing yet: every map is placed and drawn afresh.
                 local_settings.local_layers = cap;
                 self.local = LocalShadows::default();
-                self.frame.local = self.local.plan(
-                    &local_settings,
-                    camera_position,
-                    local_candidates,
-                    &bounds.casters,
-                    caster_generation,
-                    changes,
-                );
+                self.frame.local = plan_local(&mut self.local, &local_settings);
             }
         } else {
             // Nothing to shadow: forget the maps, so they render afresh when casters return.
@@ -597,14 +586,7 @@ impl ShadowOrchestrator {
             if local_has.is_some() {
                 // The layers' contents are gone: every map renders again.
                 self.local = LocalShadows::default();
-                self.frame.local = self.local.plan(
-                    settings,
-                    camera_position,
-                    local_candidates,
-                    &bounds.casters,
-                    caster_generation,
-                    changes,
-                );
+                self.frame.local = plan_local(&mut self.local, settings);
             }
         }
         let local_layers = settings.local_layers as u64;
