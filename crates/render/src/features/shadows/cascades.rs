@@ -211,19 +211,15 @@ pub fn slice_planes(camera: &CascadeCamera, start: f64, far: f64) -> Vec<DVec4> 
 }
 
 /// Planes (world space, `xyz · p + w >= 0` inside, unit normals) bounding every caster that can
-/// shadow a point the camera sees at view depths `start..far`, the receivers that read one
-/// cascade: of the planes bounding that slice of the view ([`slice_planes`]), those whose
-/// inward normal faces the light, each moved out by `margin` metres. A caster's shadow falls
+/// shadow a point of a slice of the view, the receivers that read one cascade: of the planes
+/// bounding that slice (`slice`, from [`slice_planes`]), those whose inward normal faces the
+/// light, each moved out by `margin` metres. A caster's shadow falls
 /// away from the light, so a caster that can shadow a point of the slice lies on that point's
 /// ray toward the light, inside every plane the slice's sweep toward the light does not cross;
 /// planes nearly along the light are left out (which only keeps more).
-pub fn receiver_planes(camera: &CascadeCamera, start: f64, far: f64, towards_light: DVec3, margin: f64) -> Vec<DVec4> {
+pub fn receiver_planes(slice: &[DVec4], towards_light: DVec3, margin: f64) -> Vec<DVec4> {
     let light = towards_light.normalize();
-    slice_planes(camera, start, far)
-        .into_iter()
-        .filter(|p| p.truncate().dot(light) > 1e-3)
-        .map(|p| p + DVec4::W * margin)
-        .collect()
+    slice.iter().filter(|p| p.truncate().dot(light) > 1e-3).map(|p| *p + DVec4::W * margin).collect()
 }
 
 /// The view depths bounding the camera's cascades, from its near plane to `max_distance`.
@@ -319,7 +315,7 @@ mod tests {
         let corners = slice_corners(&camera, start, far);
         for light in lights {
             let l = light.normalize();
-            let planes = receiver_planes(&camera, start, far, l, margin);
+            let planes = receiver_planes(&slice_planes(&camera, start, far), l, margin);
             // Points of the slice (blends of its corners), and casters up to 1 km toward the light.
             let mut state = 0x9E37_79B9_7F4A_7C15u64;
             let mut next = || {
@@ -346,7 +342,7 @@ mod tests {
         // A moved camera's slice stays inside the planes made for the old pose while the move is
         // under the slack (the planes' margin beyond the reach).
         let (reach, slack) = (0.02, 0.03);
-        let planes = receiver_planes(&camera, start, far, lights[0].normalize(), reach + slack);
+        let planes = receiver_planes(&slice_planes(&camera, start, far), lights[0].normalize(), reach + slack);
         let moved = |d: f64| {
             let mut c = camera;
             c.world_from_view.translation += DVec3::new(d, 0.0, 0.0);

@@ -145,31 +145,33 @@ impl ShadowFrame {
 
     /// Atlas layer `layer`'s clip space from world space: its cascade's projection, moved so
     /// that the window it stores lands at the layer's top-left corner, on the same texel grid.
-    pub fn layer_clip_from_world(&self, layer: usize) -> DMat4 {
-        let cascade = &self.cascades[layer];
-        match self.stored.get(layer).copied().flatten() {
-            Some(w) => w.clip_to_layer(self.resolution, self.layer_extent) * cascade.clip_from_world,
-            None => cascade.clip_from_world,
-        }
+    fn layer_clip_from_world(&self, layer: usize) -> DMat4 {
+        self.stored_clip(layer, |w| w.clip_to_layer(self.resolution, self.layer_extent))
+    }
+
+    /// The same from camera-relative positions (what the shaders take).
+    pub fn layer_clip_from_rel(&self, layer: usize) -> Mat4 {
+        self.relative(layer, self.layer_clip_from_world(layer))
     }
 
     /// The clip space of the window alone that layer `layer` stores (the window filling it), from
     /// camera-relative positions: what its casters are culled to.
     pub fn window_clip_from_rel(&self, layer: usize) -> Mat4 {
-        let cascade = &self.cascades[layer];
-        match self.stored.get(layer).copied().flatten() {
-            Some(w) => {
-                (w.clip_to_window(self.resolution) * cascade.clip_from_world * DMat4::from_translation(self.eye))
-                    .as_mat4()
-            }
-            None => cascade.clip_from_rel,
-        }
+        self.relative(layer, self.stored_clip(layer, |w| w.clip_to_window(self.resolution)))
     }
 
-    /// The same from camera-relative positions (what the shaders take).
-    pub fn layer_clip_from_rel(&self, layer: usize) -> Mat4 {
+    /// The cascade's projection followed by `to` of the window the layer stores (unchanged
+    /// where it stores none).
+    fn stored_clip(&self, layer: usize, to: impl Fn(TexelWindow) -> DMat4) -> DMat4 {
+        let cascade = self.cascades[layer].clip_from_world;
+        self.stored.get(layer).copied().flatten().map_or(cascade, |w| to(w) * cascade)
+    }
+
+    /// `clip_from_world` from camera-relative positions, rounded once; a layer storing no window
+    /// keeps its cascade's own matrix.
+    fn relative(&self, layer: usize, clip_from_world: DMat4) -> Mat4 {
         match self.stored.get(layer).copied().flatten() {
-            Some(_) => (self.layer_clip_from_world(layer) * DMat4::from_translation(self.eye)).as_mat4(),
+            Some(_) => (clip_from_world * DMat4::from_translation(self.eye)).as_mat4(),
             None => self.cascades[layer].clip_from_rel,
         }
     }
@@ -505,7 +507,7 @@ impl ShadowOrchestrator {
             // A layer valid at the last generation stays valid while no caster that changed,
             // where it was or where it is, reaches the window it stores: a static cascade under
             // a moving object nearer the camera is kept.
-            let resolution = self.atlas_resolution;
+            // (Held layers never outlive a change of the map size: new settings forget them.)
             for h in self.held.iter_mut().flatten() {
                 let untouched = h.caster_generation == self.seen_generation
                     && match changes {
@@ -674,19 +676,14 @@ impl ShadowOrchestrator {
                 let far = cascade.far as f64;
                 let reach = reach_texels * cascade.texel_size;
                 let slack = HOLD_SLACK_TEXELS * cascade.texel_size;
-                frame.receiver_planes.push(cascades::receiver_planes(
-                    &camera,
-                    read_from,
-                    far,
-                    towards_light,
-                    reach + slack,
-                ));
+                let slice_planes = cascades::slice_planes(&camera, read_from, far);
+                frame.receiver_planes.push(cascades::receiver_planes(&slice_planes, towards_light, reach + slack));
                 let slice = cascades::slice_corners(&camera, read_from, far);
                 // The texels the receivers reading this cascade look up: where its slice meets
                 // their box (within a texel), and as far again as the lookups reach.
                 let receivers = window::slice_box_vertices(
                     &slice,
-                    &cascades::slice_planes(&camera, read_from, far),
+                    &slice_planes,
                     bounds.receivers.min.as_dvec3(),
                     bounds.receivers.max.as_dvec3(),
                     cascade.texel_size,
