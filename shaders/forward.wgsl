@@ -159,9 +159,15 @@
 @group(3) @binding(23) var iridescence_thickness_texture: texture_2d<f32>;
 @group(3) @binding(24) var iridescence_thickness_sampler: sampler;
 #ifdef MATERIAL_TRANSMISSION
-// The opaque colour's copy with its mip chain (features/transmission), as exposed radiance.
+// The opaque colour's copy with its mip chain (features/transmission), as exposed radiance; in a
+// hybrid frame after the visibility buffer's occlusion bindings, in the same group.
+#ifdef VISIBILITY_OCCLUSION
+@group(2) @binding(2) var transmission_scene: texture_2d<f32>;
+@group(2) @binding(3) var transmission_sampler: sampler;
+#else
 @group(2) @binding(0) var transmission_scene: texture_2d<f32>;
 @group(2) @binding(1) var transmission_sampler: sampler;
+#endif
 #endif
 #ifdef VISIBILITY_OCCLUSION
 // A hybrid frame's visibility buffer (visibility_occlusion.wgsl).

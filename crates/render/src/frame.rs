@@ -73,9 +73,10 @@ impl Pass {
          [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the displayed colour \
          copied into the output",
     );
-    /// A hybrid frame's overlay: the forward pass draws line and point meshes, blended draws and
-    /// gizmo lines over the visibility buffer, each sample tested against its depth; the shading
-    /// pass composites the result.
+    /// A hybrid frame's overlay: the forward pass draws line and point meshes, blended and
+    /// transmissive draws and gizmo lines over the visibility buffer, each sample tested against
+    /// its depth; the shading pass composites the result (with transmissive draws, which read
+    /// what the shading pass wrote, a compute pass after the overlay does).
     pub const VISIBILITY_OVERLAY: Pass = Pass::new(
         "VisibilityOverlay",
         "visibility buffer (depth), the forward pass's inputs -> overlay colour (premultiplied, \
@@ -221,7 +222,21 @@ impl FramePlan {
         if shadow_layers > 0 {
             passes.push((Pass::SHADOWS, "a shadowed light's casters reach what the camera sees"));
         }
-        if visibility {
+        if visibility && overlay && transmission {
+            // Transmissive draws see the opaque colour: it is shaded first, into the copy.
+            passes.push((Pass::VISIBILITY_RASTER, raster_why));
+            passes.push((
+                Pass::VISIBILITY_SHADE,
+                "the visibility buffer's samples to shade, into the transmission copy's level 0",
+            ));
+            passes.push((Pass::TRANSMISSION, "transmissive draws see the scene behind them: the copy's mip chain"));
+            passes.push((
+                Pass::VISIBILITY_OVERLAY,
+                "transmissive draws (and any line or point meshes, blended draws or gizmo lines): the forward \
+                 pass draws them over the visibility buffer, then a compute pass composites them over the \
+                 opaque colour",
+            ));
+        } else if visibility {
             passes.push((Pass::VISIBILITY_RASTER, raster_why));
             if overlay {
                 passes.push((
@@ -256,7 +271,7 @@ impl FramePlan {
                 "local lights shaded in compute (long cluster lists, or --light-walk compute)",
             ));
         }
-        if transmission {
+        if transmission && !visibility {
             passes.push((
                 Pass::TRANSMISSION,
                 "transmissive draws see the scene behind them: the opaque colour is copied before they draw",

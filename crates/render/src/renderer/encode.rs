@@ -175,9 +175,16 @@ impl Renderer {
                 background,
                 clear: clear_radiance,
                 overlay: *overlay_rect,
+                transmission: if transmission { self.transmission.views() } else { None },
             };
             let error = self.visibility.prepare_frame(&device, &queue, cx.pipelines, &vis_inputs).err();
             self.visibility.encode_raster(&mut cx, &vis_inputs);
+            let copied = vis_inputs.transmission.is_some();
+            if copied {
+                // Transmissive draws see the opaque colour: shaded into the copy's level 0 first.
+                self.visibility.encode_shade(&mut cx, &vis_inputs);
+                self.transmission.encode_downsample(&mut cx);
+            }
             let mut drawn = (DrawCounts::default(), error);
             if let Some(o) = self.visibility.overlay().filter(|_| overlay) {
                 // The forward pass draws the line and point meshes, the blended draws and the
@@ -190,11 +197,16 @@ impl Renderer {
                     occlusion: &o.occlusion.as_ref().expect("made by prepare_frame").1,
                     samples: o.samples,
                 };
+                let inputs = ForwardInputs { transmission: o.transmissive.as_ref().map(|(_, _, g)| g), ..inputs };
                 let (counts, overlay_error) =
                     forward::encode_overlay(&mut cx, &inputs, batches, opaque_count, &unrasterised, target);
                 drawn = (counts, drawn.1.or(overlay_error));
             }
-            self.visibility.encode_shade(&mut cx, &vis_inputs);
+            if copied {
+                self.visibility.encode_composite(&mut cx, &vis_inputs);
+            } else {
+                self.visibility.encode_shade(&mut cx, &vis_inputs);
+            }
             drawn
         } else if plan.runs(Pass::OPAQUE) {
             forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::All)
@@ -219,7 +231,7 @@ impl Renderer {
             counts += after;
             forward_error = forward_error.or(error);
         }
-        if transmission {
+        if transmission && !visibility {
             // The opaque pass (or the deferred composite) resolved the colour and kept its
             // targets: copy it, then draw the transmissive and blended surfaces over it.
             if let Some(hdr) = targets.hdr_view() {

@@ -190,8 +190,8 @@ impl Renderer {
         // reports list families in.
         laps.lap("view and materials");
         let transmission = Transmission::new(device, &mut pipelines);
-        // The visibility buffer's group that a hybrid frame's forward and gizmo draws read.
-        let occlusion = crate::features::visibility::occlusion_layout(device);
+        // The visibility buffer's groups that a hybrid frame's forward and gizmo draws read.
+        let occlusion = crate::features::visibility::occlusion_layouts(device);
         forward::register(&mut pipelines, view.layout(), &materials, transmission.layout(), &occlusion);
         let visibility = VisibilityBuffer::new(device, &mut pipelines, view.layout(), &materials, &occlusion);
         let shadows = ShadowOrchestrator::new(
@@ -216,7 +216,7 @@ impl Renderer {
             ctx.caps.host_import_alignment,
             &mut pipelines,
         );
-        let gizmos = GizmoLines::new(device, &mut pipelines, view.layout(), &occlusion);
+        let gizmos = GizmoLines::new(device, &mut pipelines, view.layout(), &occlusion[0]);
         let environment = EnvironmentLighting::new(device, ctx.caps.array_layers, &mut pipelines, view.layout());
         let post = frame::post_chain(device, &mut pipelines);
         let timer = (settings.gpu_timing && ctx.caps.timestamps).then(|| GpuTimer::new(device, &ctx.queue));
@@ -379,7 +379,7 @@ impl Renderer {
         }
         laps.lap("environment");
         // The gate a frame passes, asked with what the scene alone can still change assumed
-        // favourable (opaque draws, nothing transmissive, a buffer that fits).
+        // favourable (opaque draws, a buffer that fits).
         let gate = crate::features::visibility::RasterGate {
             setting: self.settings.raster,
             atomics: self.ctx.caps.visibility_raster,
@@ -387,7 +387,6 @@ impl Renderer {
             culling: self.settings.gpu_culling && self.ctx.caps.indirect_first_instance,
             fits: true,
             occlusion_on: self.settings.occlusion_culling == crate::features::culling::OcclusionCulling::On,
-            transmission: false,
             opaque: true,
         };
         if gate.decide().is_ok() {

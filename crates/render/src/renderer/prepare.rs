@@ -154,7 +154,6 @@ impl Renderer {
             culling,
             fits: crate::features::visibility::fits(&device.limits(), size, self.settings.msaa),
             occlusion_on: self.settings.occlusion_culling == OcclusionCulling::On,
-            transmission,
             opaque: self.draws.opaque_batches().iter().any(crate::features::visibility::batch_supported),
         };
         let visibility_wanted = raster_gate.decide().is_ok();
@@ -285,8 +284,10 @@ impl Renderer {
         // Direct output (no HDR target, no tonemap pass) and no depth target: see TargetNeeds.
         // The visibility buffer needs no depth, resolves its samples itself and shows the
         // background itself: it writes the displayed colour (copied into the output) unless
-        // post-processing or a readback wants HDR colour, or the output cannot take the copy.
+        // post-processing or a readback wants HDR colour, or the output cannot take the copy, or
+        // transmissive draws need the opaque colour as radiance (the composite writes HDR).
         let visibility_direct = visibility
+            && !transmission
             && !needs.keep_hdr
             && !needs.post_processing
             && matches!(output_format, wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb)
@@ -326,7 +327,8 @@ impl Renderer {
         }
         laps.lap("targets");
         self.deferred.prepare(&device, &self.pipelines, self.targets.as_ref().expect("made above"));
-        let transmission_error = self.transmission.prepare(&device, &mut self.pipelines, size, transmission).err();
+        let transmission_error =
+            self.transmission.prepare(&device, &mut self.pipelines, size, transmission, visibility).err();
 
         let mut batches = self.draws.opaque_batches().to_vec();
         let blend_first = opaque_len as u32;

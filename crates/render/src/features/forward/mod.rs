@@ -24,14 +24,14 @@ pub use pipeline::ForwardFamily;
 
 /// Registers the forward pass's pipeline family (the pass itself holds no resources: it draws
 /// the shared owners' buffers into the frame's targets).
-/// `occlusion`: the visibility buffer's group that a hybrid frame's draws read
-/// (`features::visibility::occlusion_layout`).
+/// `occlusion`: the visibility buffer's groups that a hybrid frame's draws read
+/// (`features::visibility::occlusion_layouts`).
 pub fn register(
     pipelines: &mut PipelineCache,
     view: &wgpu::BindGroupLayout,
     materials: &MaterialTable,
     transmission: &wgpu::BindGroupLayout,
-    occlusion: &wgpu::BindGroupLayout,
+    occlusion: &[wgpu::BindGroupLayout; 2],
 ) {
     pipelines.register(ForwardFamily::new(view, materials, transmission, occlusion));
 }
@@ -194,7 +194,7 @@ pub fn encode(
         multiview_mask: None,
     });
     let opaque = opaque_count.min(batches.len());
-    let mut counts = draw(&mut pass, pipelines, inputs, &batches[..opaque], 0);
+    let mut counts = draw(&mut pass, pipelines, inputs, &batches[..opaque], 0, None);
     // The background fills what the opaque draws left uncovered: after them (early depth
     // rejects it under every surface), before blended draws (which show it through). The early
     // half of occlusion culling leaves it to the late half.
@@ -208,7 +208,7 @@ pub fn encode(
         pass.draw(0..3, 0..1);
     }
     if ends {
-        counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque);
+        counts += draw(&mut pass, pipelines, inputs, &batches[opaque..], opaque, None);
         draw_gizmos(&mut pass, pipelines, inputs, GizmoKey { samples, occluded: false });
     }
     drop(pass);
@@ -298,7 +298,7 @@ pub fn encode_rest(
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
-    let counts = draw(&mut pass, pipelines, inputs, blended, start);
+    let counts = draw(&mut pass, pipelines, inputs, blended, start, None);
     if rest.draws {
         draw_gizmos(&mut pass, pipelines, inputs, GizmoKey { samples: targets.samples, occluded: false });
     }
@@ -315,7 +315,8 @@ pub struct Overlay<'a> {
     /// Cleared to the far plane: the overlay's own draws test each other.
     pub depth: &'a wgpu::TextureView,
     /// Group 2 of the draws' pipelines (group 1 of the gizmos'): the visibility buffer, against
-    /// which each sample is tested.
+    /// which each sample is tested. Transmissive draws bind `ForwardInputs::transmission` in
+    /// its place: the same with the opaque colour's copy.
     pub occlusion: &'a wgpu::BindGroup,
     pub samples: u32,
 }
@@ -361,10 +362,11 @@ pub fn encode_overlay(
     });
     pass.set_bind_group(TRANSMISSION_GROUP, overlay.occlusion, &[]);
     let mut counts = DrawCounts::default();
+    let group2 = Some(overlay.occlusion);
     for &i in opaque {
-        counts += draw(&mut pass, pipelines, inputs, &batches[i..=i], i);
+        counts += draw(&mut pass, pipelines, inputs, &batches[i..=i], i, group2);
     }
-    counts += draw(&mut pass, pipelines, inputs, blended, start);
+    counts += draw(&mut pass, pipelines, inputs, blended, start, group2);
     if let Some(g) = inputs.gizmos
         && let Some(pipeline) = pipelines.cached::<GizmoFamily>(&gizmo_key)
     {
@@ -412,12 +414,15 @@ fn compile(
 }
 
 /// Draws `batches`, the part of the frame's batch list that starts at index `start`.
+/// `group2`: what the pipelines of materials that are not transmissive bind as group 2, if
+/// anything (transmissive ones bind `inputs.transmission` there).
 fn draw(
     pass: &mut wgpu::RenderPass<'_>,
     pipelines: &PipelineCache,
     inputs: &ForwardInputs,
     batches: &[Batch],
     start: usize,
+    group2: Option<&wgpu::BindGroup>,
 ) -> DrawCounts {
     let mut counts = DrawCounts::default();
     if batches.is_empty() {
@@ -453,10 +458,9 @@ fn draw(
             if let Some((extension, _)) = &material.extension {
                 pass.set_bind_group(EXTENSION_GROUP, extension, &[]);
             }
-            if material.features.has(MaterialFeatures::TRANSMISSION)
-                && let Some(transmission) = inputs.transmission
-            {
-                pass.set_bind_group(TRANSMISSION_GROUP, transmission, &[]);
+            let transmissive = material.features.has(MaterialFeatures::TRANSMISSION);
+            if let Some(group) = if transmissive { inputs.transmission } else { group2 } {
+                pass.set_bind_group(TRANSMISSION_GROUP, group, &[]);
             }
             bound_material = Some(b.material);
         }

@@ -14,7 +14,8 @@ pub struct ForwardFamily {
     /// The view and material groups, and the extension group of the key's material extensions.
     layouts: PipelineLayouts,
     /// The same with the visibility buffer's occlusion group as group 2, for the draws of a
-    /// hybrid frame (`PipelineKey::visibility_occlusion`).
+    /// hybrid frame (`PipelineKey::visibility_occlusion`); transmissive ones read the copy in
+    /// that group too.
     occluded: PipelineLayouts,
 }
 
@@ -23,7 +24,7 @@ impl ForwardFamily {
         view: &wgpu::BindGroupLayout,
         materials: &MaterialTable,
         transmission: &wgpu::BindGroupLayout,
-        occlusion: &wgpu::BindGroupLayout,
+        occlusion: &[wgpu::BindGroupLayout; 2],
     ) -> Self {
         let layouts = PipelineLayouts::new(
             "forward",
@@ -33,9 +34,10 @@ impl ForwardFamily {
         .with_transmission(transmission);
         let occluded = PipelineLayouts::new(
             "forward over the visibility buffer",
-            &[Some(view), Some(materials.layout()), Some(occlusion)],
+            &[Some(view), Some(materials.layout()), Some(&occlusion[0])],
             materials.extension_layouts().clone(),
-        );
+        )
+        .with_transmission(&occlusion[1]);
         Self { layouts, occluded }
     }
 }

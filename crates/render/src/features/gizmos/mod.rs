@@ -24,7 +24,7 @@ pub struct GizmoFamily {
 }
 
 impl GizmoFamily {
-    /// `occlusion`: `features::visibility::occlusion_layout`.
+    /// `occlusion`: the first of `features::visibility::occlusion_layouts`.
     pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, occlusion: &wgpu::BindGroupLayout) -> Self {
         Self {
             pipeline_layout: parts::pipeline_layout(device, "gizmos", &[view]),

@@ -16,6 +16,11 @@
 //! transmission step does the same). A blended surface behind a transmissive one is not seen
 //! through it either; one in front blends over it as usual.
 //!
+//! A frame whose opaque draws the visibility buffer rasterises (`features::visibility`) has no
+//! colour target to copy: its shading pass writes the opaque colour straight into level 0 (a
+//! storage binding, [`CopyViews`]), [`Transmission::encode_downsample`] fills the mip chain,
+//! and the overlay's transmissive draws read it through the visibility buffer's occlusion group.
+//!
 //! The texture and its pipelines exist only in frames that draw a transmissive surface: a frame
 //! without one drops the texture and runs no pass of this feature.
 
@@ -71,10 +76,22 @@ impl PipelineFamily for CopyFamily {
 /// bind and the groups each downsampling step reads.
 struct Copy {
     size: (u32, u32),
+    /// Level 0 is a storage binding (the visibility buffer's shading pass writes it).
+    storage: bool,
     texture: wgpu::Texture,
     levels: Vec<wgpu::TextureView>,
+    whole: wgpu::TextureView,
     bind_group: wgpu::BindGroup,
     down_groups: Vec<wgpu::BindGroup>,
+}
+
+/// What a visibility-buffer frame's passes bind of the copy.
+pub struct CopyViews<'a> {
+    /// Level 0, which the shading pass writes the opaque colour into.
+    pub level0: &'a wgpu::TextureView,
+    /// The whole copy and its sampler, which transmissive draws read.
+    pub whole: &'a wgpu::TextureView,
+    pub sampler: &'a wgpu::Sampler,
 }
 
 pub struct Transmission {
@@ -113,27 +130,35 @@ impl Transmission {
     }
 
     /// Makes the copy's texture for a frame of `size` that draws transmissive surfaces
-    /// (`needed`), and compiles its pipelines; drops it otherwise. A pipeline that does not
-    /// compile is returned as the error (the frame then draws transmissive surfaces over the
-    /// last copy, or black).
+    /// (`needed`), with level 0 a storage binding where the visibility buffer's shading pass
+    /// writes it (`storage`), and compiles its pipelines; drops it otherwise. A pipeline that
+    /// does not compile is returned as the error (the frame then draws transmissive surfaces
+    /// over the last copy, or black).
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
         size: (u32, u32),
         needed: bool,
+        storage: bool,
     ) -> Result<(), ShaderError> {
         if !needed {
             self.copy = None;
             return Ok(());
         }
-        if self.copy.as_ref().is_none_or(|c| c.size != size) {
-            self.copy = Some(self.make(device, &pipelines.family::<CopyFamily>().down, size));
+        if self.copy.as_ref().is_none_or(|c| c.size != size || c.storage != storage) {
+            self.copy = Some(self.make(device, &pipelines.family::<CopyFamily>().down, size, storage));
         }
         pipelines.prepare::<CopyFamily>(device, [CopyStep::Level0, CopyStep::Down])
     }
 
-    fn make(&self, device: &wgpu::Device, down_layout: &wgpu::BindGroupLayout, size: (u32, u32)) -> Copy {
+    fn make(
+        &self,
+        device: &wgpu::Device,
+        down_layout: &wgpu::BindGroupLayout,
+        size: (u32, u32),
+        storage: bool,
+    ) -> Copy {
         let (w, h) = (size.0.max(1), size.1.max(1));
         let mip_level_count = 32 - w.max(h).leading_zeros();
         let texture = device.create_texture(&wgpu::TextureDescriptor {
@@ -143,7 +168,9 @@ impl Transmission {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: HDR_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | if storage { wgpu::TextureUsages::STORAGE_BINDING } else { wgpu::TextureUsages::empty() },
             view_formats: &[],
         });
         let levels: Vec<wgpu::TextureView> = (0..mip_level_count)
@@ -177,12 +204,21 @@ impl Transmission {
                 })
             })
             .collect();
-        Copy { size, texture, levels, bind_group, down_groups }
+        Copy { size, storage, texture, levels, whole, bind_group, down_groups }
     }
 
     /// The group transmissive draws bind, in a frame that draws them.
     pub fn bind_group(&self) -> Option<&wgpu::BindGroup> {
         self.copy.as_ref().map(|c| &c.bind_group)
+    }
+
+    /// The copy's views for a visibility-buffer frame (prepared with `storage`).
+    pub fn views(&self) -> Option<CopyViews<'_>> {
+        self.copy.as_ref().filter(|c| c.storage).map(|c| CopyViews {
+            level0: &c.levels[0],
+            whole: &c.whole,
+            sampler: &self.sampler,
+        })
     }
 
     /// GPU memory of the copy.
@@ -198,11 +234,7 @@ impl Transmission {
     pub fn encode_copy(&self, cx: &mut FrameContext, source: &wgpu::TextureView) {
         let Some(copy) = &self.copy else { return };
         let family = cx.pipelines.family::<CopyFamily>();
-        let (Some(level0), Some(down)) =
-            (cx.pipelines.cached::<CopyFamily>(&CopyStep::Level0), cx.pipelines.cached::<CopyFamily>(&CopyStep::Down))
-        else {
-            return;
-        };
+        let Some(level0) = cx.pipelines.cached::<CopyFamily>(&CopyStep::Level0) else { return };
         let source_group = cx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("transmission copy source"),
             layout: &family.source,
@@ -210,6 +242,15 @@ impl Transmission {
         });
         let timestamps = cx.timer.as_deref_mut().and_then(|t| t.pass("transmission copy"));
         parts::draw_fullscreen(cx.encoder, "transmission copy", &copy.levels[0], level0, &source_group, timestamps);
+        self.encode_downsample(cx);
+    }
+
+    /// Fills the mip chain from level 0 (written by `encode_copy` or by the visibility buffer's
+    /// shading pass).
+    pub fn encode_downsample(&self, cx: &mut FrameContext) {
+        let (Some(copy), Some(down)) = (&self.copy, cx.pipelines.cached::<CopyFamily>(&CopyStep::Down)) else {
+            return;
+        };
         for (group, target) in copy.down_groups.iter().zip(&copy.levels[1..]) {
             parts::draw_fullscreen(cx.encoder, "transmission downsample", target, down, group, None);
         }

@@ -44,6 +44,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::features::culling::ARGS_WORDS;
+use crate::features::transmission::CopyViews;
 use crate::frame_context::FrameContext;
 use crate::gpu::buffer::GrowableBuffer;
 use crate::gpu::formats::DISPLAY_FORMAT;
@@ -56,9 +57,11 @@ use crate::resources::mesh_pool::MeshPool;
 mod overlay;
 mod pipelines;
 use overlay::GpuOcclusionParams;
-pub use overlay::{OverlayRect, OverlayTargets, occlusion_layout};
+pub use overlay::{OverlayRect, OverlayTargets, occlusion_layouts};
 use pipelines::BIN_BYTES;
-pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
+pub use pipelines::{
+    CompositeFamily, MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key,
+};
 
 /// Where opaque draws are rasterised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -95,8 +98,6 @@ pub struct RasterGate {
     pub fits: bool,
     /// `--occlusion on` (its depth pyramid comes from the forward pass).
     pub occlusion_on: bool,
-    /// Transmissive draws (they read a copy of the forward pass's opaque colour).
-    pub transmission: bool,
     /// Some opaque batch is an opaque or masked triangle list ([`batch_supported`]): a frame of
     /// line and point meshes alone has nothing for the buffer.
     pub opaque: bool,
@@ -119,7 +120,6 @@ impl RasterGate {
             (self.culling, "GPU culling is off or unsupported"),
             (self.fits, "the visibility buffer would exceed the adapter's largest storage binding"),
             (!self.occlusion_on, "occlusion culling was asked for (--occlusion on)"),
-            (!self.transmission, "transmissive draws (they see the forward pass's opaque colour)"),
             (self.opaque, "no opaque or masked triangle meshes to rasterise"),
         ];
         if let Some((_, why)) = checks.iter().find(|(ok, _)| !ok) {
@@ -294,6 +294,11 @@ pub struct FrameInputs<'a> {
     /// A hybrid frame: the forward pass draws into the overlay (`overlay`) between the raster
     /// steps and the shading pass, which composites it; the rectangle its draws can cover.
     pub overlay: Option<OverlayRect>,
+    /// A hybrid frame with transmissive draws (`shade_output` is `Hdr`): the shading pass
+    /// writes the opaque colour into the copy's level 0 instead, the copy's mip chain is made,
+    /// the overlay's transmissive draws read it, and `encode_composite` writes the overlay over
+    /// it into `hdr`.
+    pub transmission: Option<CopyViews<'a>>,
 }
 
 pub struct VisibilityBuffer {
@@ -323,31 +328,38 @@ pub struct VisibilityBuffer {
     bound: Option<Bound>,
     /// A hybrid frame's overlay (`overlay`); dropped with the first frame without one.
     overlay: Option<OverlayTargets>,
-    occlusion_layout: wgpu::BindGroupLayout,
+    /// `occlusion_layouts`: without and with the transmission copy.
+    occlusion_layouts: [wgpu::BindGroupLayout; 2],
+    /// `struct CompositeParams` of `visibility_composite.wgsl` (the overlay's rectangle).
+    composite_params: wgpu::Buffer,
 }
 
 struct Bound {
     made_with: Vec<wgpu::Buffer>,
     target: wgpu::TextureView,
     overlay: Option<wgpu::TextureView>,
+    /// The HDR target the composite writes, with transmissive draws.
+    composite_target: Option<wgpu::TextureView>,
     raster: wgpu::BindGroup,
     dispatch: wgpu::BindGroup,
     shade: Vec<wgpu::BindGroup>,
+    composite: Option<wgpu::BindGroup>,
 }
 
 impl VisibilityBuffer {
     /// Registers the rasteriser's and the shading pass's pipeline families (shading binds the
-    /// `view` and `material` groups). `occlusion`: [`occlusion_layout`], which the renderer
+    /// `view` and `material` groups). `occlusion`: [`occlusion_layouts`], which the renderer
     /// also gives the forward and gizmo pipelines.
     pub fn new(
         device: &wgpu::Device,
         pipelines: &mut PipelineCache,
         view: &wgpu::BindGroupLayout,
         materials: &MaterialTable,
-        occlusion: &wgpu::BindGroupLayout,
+        occlusion: &[wgpu::BindGroupLayout; 2],
     ) -> Self {
         pipelines.register(ShadeFamily::new(device, view, materials));
         pipelines.register(RasterFamily::new(device, materials));
+        pipelines.register(CompositeFamily::new(device));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
@@ -380,7 +392,13 @@ impl VisibilityBuffer {
             batch_count: 0,
             bound: None,
             overlay: None,
-            occlusion_layout: occlusion.clone(),
+            occlusion_layouts: occlusion.clone(),
+            composite_params: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("visibility composite params"),
+                size: 16,
+                usage: U::UNIFORM | U::COPY_DST,
+                mapped_at_creation: false,
+            }),
         }
     }
 
@@ -520,8 +538,14 @@ impl VisibilityBuffer {
     }
 
     fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs) -> ShadeKey {
-        let overlay = if inputs.overlay.is_some() { inputs.samples } else { 0 };
+        let overlay = Self::shade_overlay(inputs);
         ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background, overlay }
+    }
+
+    /// The samples of the overlay the shading pass composites: 0 without one, or when the
+    /// composite runs after it (transmissive draws read what the shading pass wrote).
+    fn shade_overlay(inputs: &FrameInputs) -> u32 {
+        if inputs.overlay.is_some() && inputs.transmission.is_none() { inputs.samples } else { 0 }
     }
 
     /// A hybrid frame's overlay targets and occlusion group (made when the size, the sample
@@ -542,10 +566,27 @@ impl VisibilityBuffer {
         if overlay.occlusion.as_ref().is_none_or(|(b, _)| b != samples) {
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("visibility occlusion"),
-                layout: &self.occlusion_layout,
+                layout: &self.occlusion_layouts[0],
                 entries: &[entry(0, samples), entry(1, &overlay.params)],
             });
             overlay.occlusion = Some((samples.clone(), group));
+        }
+        match &inputs.transmission {
+            None => overlay.transmissive = None,
+            Some(copy) if overlay.transmissive.as_ref().is_none_or(|(b, v, _)| b != samples || v != copy.whole) => {
+                let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("visibility occlusion with transmission"),
+                    layout: &self.occlusion_layouts[1],
+                    entries: &[
+                        entry(0, samples),
+                        entry(1, &overlay.params),
+                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(copy.whole) },
+                        wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::Sampler(copy.sampler) },
+                    ],
+                });
+                overlay.transmissive = Some((samples.clone(), copy.whole.clone(), group));
+            }
+            Some(_) => {}
         }
     }
 
@@ -580,7 +621,15 @@ impl VisibilityBuffer {
         let steps: Vec<RasterStep> = self.raster_steps().collect();
         let raster = pipelines.prepare::<RasterFamily>(device, steps);
         let shade = pipelines.prepare::<ShadeFamily>(device, self.groups.iter().map(|g| self.shade_key(g, inputs)));
-        let compiled = raster.and(shade);
+        let composite = match (inputs.transmission.is_some(), inputs.overlay) {
+            (true, Some(rect)) => {
+                let words = [rect.origin.0, rect.origin.1, rect.size.0, rect.size.1];
+                queue.write_buffer(&self.composite_params, 0, bytemuck::cast_slice(&words));
+                pipelines.get::<CompositeFamily>(device, inputs.samples > 1).map(|_| ())
+            }
+            _ => Ok(()),
+        };
+        let compiled = raster.and(shade).and(composite);
         self.shaded = (0..self.groups.len())
             .filter(|&g| {
                 let group = &self.groups[g];
@@ -662,13 +711,20 @@ impl VisibilityBuffer {
             self.bin_params.buffer().clone(),
             inputs.materials.buffer().clone(),
         ];
-        let target = match (&self.display, inputs.hdr) {
-            (Some((_, view)), _) => view.clone(),
-            (None, Some(hdr)) => hdr.clone(),
-            (None, None) => unreachable!("an HDR frame passes its HDR target"),
+        let target = match (&self.display, inputs.hdr, &inputs.transmission) {
+            (Some((_, view)), _, _) => view.clone(),
+            (None, Some(_), Some(copy)) => copy.level0.clone(),
+            (None, Some(hdr), None) => hdr.clone(),
+            (None, None, _) => unreachable!("an HDR frame passes its HDR target"),
         };
         let overlay = self.overlay.as_ref().map(|o| o.colour.clone());
-        if self.bound.as_ref().is_some_and(|b| b.made_with == made_with && b.target == target && b.overlay == overlay) {
+        let composite_target = inputs.transmission.as_ref().and(inputs.hdr).cloned();
+        if self.bound.as_ref().is_some_and(|b| {
+            b.made_with == made_with
+                && b.target == target
+                && b.overlay == overlay
+                && b.composite_target == composite_target
+        }) {
             return;
         }
         let raster = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -702,7 +758,7 @@ impl VisibilityBuffer {
             layout: &pipelines.family::<RasterFamily>().dispatch,
             entries: &[entry(0, &self.dispatch)],
         });
-        let overlay_samples = self.overlay.as_ref().map_or(0, |o| o.samples);
+        let overlay_samples = Self::shade_overlay(inputs);
         let shade = self.shade_params[..self.groups.len()]
             .iter()
             .map(|params| {
@@ -715,7 +771,7 @@ impl VisibilityBuffer {
                     entry(5, self.partial.buffer()),
                     wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&target) },
                 ];
-                if let Some(view) = &overlay {
+                if let Some(view) = overlay.as_ref().filter(|_| overlay_samples > 0) {
                     entries
                         .push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(view) });
                 }
@@ -726,7 +782,21 @@ impl VisibilityBuffer {
                 })
             })
             .collect();
-        self.bound = Some(Bound { made_with, target, overlay, raster, dispatch, shade });
+        let composite = match (&composite_target, &overlay) {
+            (Some(hdr), Some(colour)) => {
+                let view = |binding, view| wgpu::BindGroupEntry {
+                    binding,
+                    resource: wgpu::BindingResource::TextureView(view),
+                };
+                Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("visibility composite"),
+                    layout: &pipelines.family::<CompositeFamily>().group[(inputs.samples > 1) as usize],
+                    entries: &[entry(0, &self.composite_params), view(1, &target), view(2, colour), view(3, hdr)],
+                }))
+            }
+            _ => None,
+        };
+        self.bound = Some(Bound { made_with, target, overlay, composite_target, raster, dispatch, shade, composite });
     }
 
     /// Encodes the raster steps (after `prepare_frame`); then, in a hybrid frame, the forward
@@ -838,6 +908,24 @@ impl VisibilityBuffer {
             );
         }
     }
+
+    /// With transmissive draws (`FrameInputs::transmission`), after the overlay's draws: the
+    /// overlay over the opaque colour the shading pass wrote, into the HDR target.
+    pub fn encode_composite(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        let (Some(bound), Some(pipeline)) =
+            (self.bound.as_ref(), cx.pipelines.cached::<CompositeFamily>(&(inputs.samples > 1)))
+        else {
+            return;
+        };
+        let Some(group) = &bound.composite else { return };
+        let mut pass = cx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("visibility composite"),
+            timestamp_writes: cx.timer.as_deref_mut().and_then(|t| t.compute_pass("visibility composite")),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(inputs.size.0.div_ceil(8), inputs.size.1.div_ceil(8), 1);
+    }
 }
 
 #[cfg(test)]
@@ -854,7 +942,6 @@ mod tests {
             culling: true,
             fits: true,
             occlusion_on: false,
-            transmission: false,
             opaque: true,
         };
         assert_eq!(open.decide(), Ok("--raster compute"));
@@ -863,8 +950,8 @@ mod tests {
         assert!(hopper.decide().unwrap().contains("few graphics units"));
         assert_eq!(RasterGate { setting: Raster::Hardware, ..hopper }.decide(), Err("--raster hardware"));
         // Several reasons: the first in order is named.
-        let both = RasterGate { transmission: true, opaque: false, ..hopper };
-        assert!(both.decide().unwrap_err().starts_with("transmissive draws"));
+        let both = RasterGate { occlusion_on: true, opaque: false, ..hopper };
+        assert!(both.decide().unwrap_err().starts_with("occlusion culling"));
         assert!(RasterGate { atomics: false, ..both }.decide().unwrap_err().contains("64-bit atomic"));
         assert!(
             RasterGate { opaque: false, ..hopper }.decide().unwrap_err().starts_with("no opaque or masked triangle")

@@ -29,15 +29,20 @@ use crate::pipelines::parts::{buffer_entry, storage};
 use crate::targets::render_target;
 
 /// The overlay's pipelines' occlusion group (2 of the forward pipelines, 1 of the gizmos'): the
-/// visibility buffer's samples and the overlay's parameters (`visibility_occlusion.wgsl`).
-pub fn occlusion_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+/// visibility buffer's samples and the overlay's parameters (`visibility_occlusion.wgsl`); and
+/// the same group for transmissive draws, which also read the opaque colour's copy and its
+/// sampler there (bindings 2 and 3: their forward layout has it as group 2 as well).
+pub fn occlusion_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 2] {
     let fragment = wgpu::ShaderStages::FRAGMENT;
     let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
-    crate::pipelines::parts::bind_group_layout(
-        device,
-        "visibility occlusion",
-        &[storage(0, fragment), buffer_entry(1, both, wgpu::BufferBindingType::Uniform)],
-    )
+    let occlusion = [storage(0, fragment), buffer_entry(1, both, wgpu::BufferBindingType::Uniform)];
+    let layout = crate::pipelines::parts::bind_group_layout;
+    let copy = [crate::pipelines::parts::texture(2, true), crate::pipelines::parts::sampler(3)];
+    let transmissive = [occlusion.as_slice(), copy.as_slice()].concat();
+    [
+        layout(device, "visibility occlusion", &occlusion),
+        layout(device, "visibility occlusion with transmission", &transmissive),
+    ]
 }
 
 /// The pixels a hybrid frame's overlay draws can cover, within the frame.
@@ -136,6 +141,9 @@ pub struct OverlayTargets {
     pub params: wgpu::Buffer,
     /// The occlusion group, and the samples buffer it binds (made again when that changes).
     pub occlusion: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// In a frame with transmissive draws: the occlusion group with the opaque colour's copy,
+    /// and the samples buffer and copy it binds.
+    pub transmissive: Option<(wgpu::Buffer, wgpu::TextureView, wgpu::BindGroup)>,
 }
 
 /// Target sizes are multiples of this many pixels.
@@ -165,6 +173,7 @@ impl OverlayTargets {
                 mapped_at_creation: false,
             }),
             occlusion: None,
+            transmissive: None,
         }
     }
 

@@ -295,3 +295,57 @@ fn shade_defs(key: ShadeKey) -> ShaderDefs {
         .with("VISIBILITY_OVERLAY", key.overlay > 0)
         .with("OVERLAY_MULTISAMPLED", key.overlay > 1)
 }
+
+/// The composite of a hybrid frame with transmissive draws (`visibility_composite.wgsl`): the
+/// overlay over the opaque colour, into the HDR target. Keyed by whether the overlay is
+/// multisampled.
+pub struct CompositeFamily {
+    pub group: [wgpu::BindGroupLayout; 2],
+    layouts: [wgpu::PipelineLayout; 2],
+}
+
+impl CompositeFamily {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let texture = |binding, multisampled| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: compute,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled,
+            },
+            count: None,
+        };
+        let group = [false, true].map(|multisampled| {
+            parts::bind_group_layout(
+                device,
+                "visibility composite",
+                &[
+                    uniform(0, compute),
+                    texture(1, false),
+                    texture(2, multisampled),
+                    parts::storage_texture(3, HDR_FORMAT, wgpu::TextureViewDimension::D2),
+                ],
+            )
+        });
+        let layouts = [0, 1].map(|k| parts::pipeline_layout(device, "visibility composite", &[&group[k]]));
+        Self { group, layouts }
+    }
+}
+
+impl PipelineFamily for CompositeFamily {
+    /// The overlay is multisampled.
+    type Key = bool;
+    type Pipeline = wgpu::ComputePipeline;
+    const NAME: &'static str = "visibility composite";
+
+    fn shader(&self, multisampled: &bool) -> (&'static str, ShaderDefs) {
+        ("visibility_composite.wgsl", ShaderDefs::default().with("OVERLAY_MULTISAMPLED", *multisampled))
+    }
+
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, multisampled: &bool) -> wgpu::ComputePipeline {
+        let layout = &self.layouts[*multisampled as usize];
+        parts::compute_pipeline(device, layout, module, "cs_composite", "visibility composite")
+    }
+}

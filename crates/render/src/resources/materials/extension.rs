@@ -198,9 +198,10 @@ impl PipelineLayouts {
         }
     }
 
-    /// With `layout` as group 2 of transmissive materials' pipelines.
+    /// With `layout` as group 2 of transmissive materials' pipelines (in place of the group 2
+    /// of the others, if they have one).
     pub fn with_transmission(self, layout: &wgpu::BindGroupLayout) -> Self {
-        debug_assert!(self.groups.len() <= 2);
+        debug_assert!(self.groups.len() <= TRANSMISSION_GROUP as usize + 1);
         Self { transmission: Some(layout.clone()), ..self }
     }
 
