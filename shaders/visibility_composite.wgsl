@@ -4,6 +4,12 @@
 // overlay's samples over the opaque colour. Blending is linear, so the mean of the samples
 // blended over one colour is their mean blended over it (as the shading pass composites when no
 // copy is needed). Outside the overlay's rectangle nothing was drawn over the opaque colour.
+// VISIBILITY_DISPLAY (with display.wgsl's tonemap switches): the displayed colour instead,
+// sRGB-encoded, which the renderer copies into the output (no tonemap pass).
+
+#ifdef VISIBILITY_DISPLAY
+#import penumbra::display::{display_rgb, srgb_encode}
+#endif
 
 struct CompositeParams {
     // The overlay's rectangle: its target's pixel (0, 0) is the frame's pixel `origin`.
@@ -18,11 +24,15 @@ struct CompositeParams {
 #else
 @group(0) @binding(2) var overlay: texture_2d<f32>;
 #endif
-@group(0) @binding(3) var hdr: texture_storage_2d<rgba16float, write>;
+#ifdef VISIBILITY_DISPLAY
+@group(0) @binding(3) var written: texture_storage_2d<rgba8unorm, write>;
+#else
+@group(0) @binding(3) var written: texture_storage_2d<rgba16float, write>;
+#endif
 
 @compute @workgroup_size(8, 8)
 fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(hdr);
+    let size = textureDimensions(written);
     if id.x >= size.x || id.y >= size.y {
         return;
     }
@@ -41,5 +51,8 @@ fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
 #endif
         rgb = over.rgb + rgb * (1.0 - over.a);
     }
-    textureStore(hdr, id.xy, vec4<f32>(rgb, 1.0));
+#ifdef VISIBILITY_DISPLAY
+    rgb = srgb_encode(clamp(display_rgb(rgb), vec3<f32>(0.0), vec3<f32>(1.0)));
+#endif
+    textureStore(written, id.xy, vec4<f32>(rgb, 1.0));
 }

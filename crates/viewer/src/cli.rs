@@ -222,9 +222,9 @@ pub struct LookArgs {
     /// Where opaque surfaces are rasterised: `auto` (the default): compute on GPUs whose
     /// graphics units are a small part of the chip (NVIDIA H100, H200), else the GPU's
     /// rasteriser; `hardware`; or `compute` (a visibility buffer written and shaded by compute
-    /// shaders; blended draws, gizmos, line and point meshes are drawn over it by the GPU's
-    /// rasteriser). Frames compute cannot draw yet (transmissive materials, GL) rasterise in
-    /// hardware; `render --explain` says which ran and why.
+    /// shaders; blended and transmissive draws, gizmos, line and point meshes are drawn over it
+    /// by the GPU's rasteriser). Frames compute cannot draw (no 64-bit atomics, as on GL; no
+    /// opaque triangle mesh) rasterise in hardware; `render --explain` says which ran and why.
     #[arg(long, value_enum)]
     pub raster: Option<RasterArg>,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a

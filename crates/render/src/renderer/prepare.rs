@@ -284,10 +284,8 @@ impl Renderer {
         // Direct output (no HDR target, no tonemap pass) and no depth target: see TargetNeeds.
         // The visibility buffer needs no depth, resolves its samples itself and shows the
         // background itself: it writes the displayed colour (copied into the output) unless
-        // post-processing or a readback wants HDR colour, or the output cannot take the copy, or
-        // transmissive draws need the opaque colour as radiance (the composite writes HDR).
+        // post-processing or a readback wants HDR colour, or the output cannot take the copy.
         let visibility_direct = visibility
-            && !transmission
             && !needs.keep_hdr
             && !needs.post_processing
             && matches!(output_format, wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb)

@@ -30,14 +30,18 @@
 //!    sRGB-encoded), which is copied into the output. Full-screen fragment passes are dear on
 //!    such GPUs (the background composite, the tonemap pass); these frames have neither.
 //!
-//! A hybrid frame (line or point meshes, blended draws, gizmo lines: what only the forward pass
-//! rasterises) splits the work: `encode_raster`, then the forward pass draws those into the
-//! overlay (`overlay`), each sample tested against the visibility buffer's depth, then
-//! `encode_shade`, which composites the overlay over each pixel's resolved colour.
+//! A hybrid frame (line or point meshes, blended or transmissive draws, gizmo lines: what only
+//! the forward pass rasterises) splits the work: `encode_raster`, then the forward pass draws
+//! those into the overlay (`overlay`), each sample tested against the visibility buffer's depth,
+//! then `encode_shade`, which composites the overlay over each pixel's resolved colour. With
+//! transmissive draws, which read the opaque colour, `encode_shade` runs before the overlay and
+//! writes it into the transmission copy's level 0 (`FrameInputs::transmission`), and
+//! `encode_composite` (`shaders/visibility_composite.wgsl`) writes the overlay over it into the
+//! HDR target after.
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
-//! GPU culling (the visible lists), no occlusion culling, no transmissive draws, at least one
-//! opaque or masked triangle mesh, and 64-bit atomics. The buffer rasterises opaque and masked triangle meshes (skinned and morphed ones
+//! GPU culling (the visible lists), no occlusion culling, at least one opaque or masked
+//! triangle mesh, and 64-bit atomics. The buffer rasterises opaque and masked triangle meshes (skinned and morphed ones
 //! from the deformation pass's vertices, like any other). A frame without a hybrid part has no
 //! depth or multisampled targets.
 
@@ -60,7 +64,7 @@ use overlay::GpuOcclusionParams;
 pub use overlay::{OverlayRect, OverlayTargets, occlusion_layouts};
 use pipelines::BIN_BYTES;
 pub use pipelines::{
-    CompositeFamily, MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key,
+    CompositeFamily, CompositeKey, MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key,
 };
 
 /// Where opaque draws are rasterised.
@@ -294,10 +298,10 @@ pub struct FrameInputs<'a> {
     /// A hybrid frame: the forward pass draws into the overlay (`overlay`) between the raster
     /// steps and the shading pass, which composites it; the rectangle its draws can cover.
     pub overlay: Option<OverlayRect>,
-    /// A hybrid frame with transmissive draws (`shade_output` is `Hdr`): the shading pass
-    /// writes the opaque colour into the copy's level 0 instead, the copy's mip chain is made,
-    /// the overlay's transmissive draws read it, and `encode_composite` writes the overlay over
-    /// it into `hdr`.
+    /// A hybrid frame with transmissive draws (`shade_output` is `Hdr` or `DisplayResolved`):
+    /// the shading pass writes the opaque colour, as radiance, into the copy's level 0 instead;
+    /// the copy's mip chain is made, the overlay's transmissive draws read it, and
+    /// `encode_composite` writes the overlay over it as `shade_output` says.
     pub transmission: Option<CopyViews<'a>>,
 }
 
@@ -539,7 +543,17 @@ impl VisibilityBuffer {
 
     fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs) -> ShadeKey {
         let overlay = Self::shade_overlay(inputs);
-        ShadeKey { forward: group.key, output: inputs.shade_output, background: inputs.background, overlay }
+        ShadeKey { forward: group.key, output: Self::shade_output(inputs), background: inputs.background, overlay }
+    }
+
+    /// What the shading pass writes: radiance into the transmission copy when the composite
+    /// comes after it, else the frame's output.
+    fn shade_output(inputs: &FrameInputs) -> ShadeOutput {
+        if inputs.transmission.is_some() { ShadeOutput::Hdr } else { inputs.shade_output }
+    }
+
+    fn composite_key(inputs: &FrameInputs) -> CompositeKey {
+        CompositeKey { multisampled: inputs.samples > 1, output: inputs.shade_output }
     }
 
     /// The samples of the overlay the shading pass composites: 0 without one, or when the
@@ -625,7 +639,7 @@ impl VisibilityBuffer {
             (true, Some(rect)) => {
                 let words = [rect.origin.0, rect.origin.1, rect.size.0, rect.size.1];
                 queue.write_buffer(&self.composite_params, 0, bytemuck::cast_slice(&words));
-                pipelines.get::<CompositeFamily>(device, inputs.samples > 1).map(|_| ())
+                pipelines.get::<CompositeFamily>(device, Self::composite_key(inputs)).map(|_| ())
             }
             _ => Ok(()),
         };
@@ -711,14 +725,17 @@ impl VisibilityBuffer {
             self.bin_params.buffer().clone(),
             inputs.materials.buffer().clone(),
         ];
-        let target = match (&self.display, inputs.hdr, &inputs.transmission) {
-            (Some((_, view)), _, _) => view.clone(),
-            (None, Some(_), Some(copy)) => copy.level0.clone(),
-            (None, Some(hdr), None) => hdr.clone(),
-            (None, None, _) => unreachable!("an HDR frame passes its HDR target"),
+        let output = match (&self.display, inputs.hdr) {
+            (Some((_, view)), _) => view.clone(),
+            (None, Some(hdr)) => hdr.clone(),
+            (None, None) => unreachable!("an HDR frame passes its HDR target"),
+        };
+        // With transmissive draws the shading pass writes the copy, and the composite the output.
+        let (target, composite_target) = match &inputs.transmission {
+            Some(copy) => (copy.level0.clone(), Some(output)),
+            None => (output, None),
         };
         let overlay = self.overlay.as_ref().map(|o| o.colour.clone());
-        let composite_target = inputs.transmission.as_ref().and(inputs.hdr).cloned();
         if self.bound.as_ref().is_some_and(|b| {
             b.made_with == made_with
                 && b.target == target
@@ -777,21 +794,21 @@ impl VisibilityBuffer {
                 }
                 device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("visibility shade"),
-                    layout: pipelines.family::<ShadeFamily>().layout(inputs.shade_output, overlay_samples),
+                    layout: pipelines.family::<ShadeFamily>().layout(Self::shade_output(inputs), overlay_samples),
                     entries: &entries,
                 })
             })
             .collect();
         let composite = match (&composite_target, &overlay) {
-            (Some(hdr), Some(colour)) => {
+            (Some(written), Some(colour)) => {
                 let view = |binding, view| wgpu::BindGroupEntry {
                     binding,
                     resource: wgpu::BindingResource::TextureView(view),
                 };
                 Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("visibility composite"),
-                    layout: &pipelines.family::<CompositeFamily>().group[(inputs.samples > 1) as usize],
-                    entries: &[entry(0, &self.composite_params), view(1, &target), view(2, colour), view(3, hdr)],
+                    layout: pipelines.family::<CompositeFamily>().layout(Self::composite_key(inputs)),
+                    entries: &[entry(0, &self.composite_params), view(1, &target), view(2, colour), view(3, written)],
                 }))
             }
             _ => None,
@@ -899,32 +916,40 @@ impl VisibilityBuffer {
                 multiview_mask: None,
             });
         }
+        if inputs.transmission.is_none() {
+            self.copy_display(encoder, inputs);
+        }
+    }
+
+    /// Copies the displayed colour, if the frame writes it, into the output.
+    fn copy_display(&self, encoder: &mut wgpu::CommandEncoder, inputs: &FrameInputs) {
         if let Some((display, _)) = &self.display {
             // Formats that differ only in sRGB-ness copy byte for byte: the bytes are encoded.
             encoder.copy_texture_to_texture(
                 display.as_image_copy(),
                 inputs.output.as_image_copy(),
-                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                wgpu::Extent3d { width: inputs.size.0, height: inputs.size.1, depth_or_array_layers: 1 },
             );
         }
     }
 
     /// With transmissive draws (`FrameInputs::transmission`), after the overlay's draws: the
-    /// overlay over the opaque colour the shading pass wrote, into the HDR target.
+    /// overlay over the opaque colour the shading pass wrote, into the HDR target or as the
+    /// displayed colour (then copied into the output).
     pub fn encode_composite(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
-        let (Some(bound), Some(pipeline)) =
-            (self.bound.as_ref(), cx.pipelines.cached::<CompositeFamily>(&(inputs.samples > 1)))
-        else {
-            return;
-        };
-        let Some(group) = &bound.composite else { return };
-        let mut pass = cx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("visibility composite"),
-            timestamp_writes: cx.timer.as_deref_mut().and_then(|t| t.compute_pass("visibility composite")),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(inputs.size.0.div_ceil(8), inputs.size.1.div_ceil(8), 1);
+        let key = Self::composite_key(inputs);
+        if let (Some(bound), Some(pipeline)) = (self.bound.as_ref(), cx.pipelines.cached::<CompositeFamily>(&key))
+            && let Some(group) = &bound.composite
+        {
+            let mut pass = cx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("visibility composite"),
+                timestamp_writes: cx.timer.as_deref_mut().and_then(|t| t.compute_pass("visibility composite")),
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(inputs.size.0.div_ceil(8), inputs.size.1.div_ceil(8), 1);
+        }
+        self.copy_display(cx.encoder, inputs);
     }
 }
 

@@ -297,11 +297,19 @@ fn shade_defs(key: ShadeKey) -> ShaderDefs {
 }
 
 /// The composite of a hybrid frame with transmissive draws (`visibility_composite.wgsl`): the
-/// overlay over the opaque colour, into the HDR target. Keyed by whether the overlay is
-/// multisampled.
+/// overlay over the opaque colour, into the HDR target or, tonemapped, the displayed colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CompositeKey {
+    pub multisampled: bool,
+    /// `Hdr`, or `DisplayResolved` (the overlay is blended over resolved radiance).
+    pub output: ShadeOutput,
+}
+
+/// The composite's pipelines, and its group's layout per overlay kind (single-sampled,
+/// multisampled) and output kind (HDR, display).
 pub struct CompositeFamily {
-    pub group: [wgpu::BindGroupLayout; 2],
-    layouts: [wgpu::PipelineLayout; 2],
+    group: [[wgpu::BindGroupLayout; 2]; 2],
+    layouts: [[wgpu::PipelineLayout; 2]; 2],
 }
 
 impl CompositeFamily {
@@ -318,34 +326,50 @@ impl CompositeFamily {
             count: None,
         };
         let group = [false, true].map(|multisampled| {
-            parts::bind_group_layout(
-                device,
-                "visibility composite",
-                &[
-                    uniform(0, compute),
-                    texture(1, false),
-                    texture(2, multisampled),
-                    parts::storage_texture(3, HDR_FORMAT, wgpu::TextureViewDimension::D2),
-                ],
-            )
+            [HDR_FORMAT, DISPLAY_FORMAT].map(|format| {
+                parts::bind_group_layout(
+                    device,
+                    "visibility composite",
+                    &[
+                        uniform(0, compute),
+                        texture(1, false),
+                        texture(2, multisampled),
+                        parts::storage_texture(3, format, wgpu::TextureViewDimension::D2),
+                    ],
+                )
+            })
         });
-        let layouts = [0, 1].map(|k| parts::pipeline_layout(device, "visibility composite", &[&group[k]]));
+        let layouts =
+            [0, 1].map(|m| [0, 1].map(|d| parts::pipeline_layout(device, "visibility composite", &[&group[m][d]])));
         Self { group, layouts }
+    }
+
+    /// The group's layout of `key`.
+    pub fn layout(&self, key: CompositeKey) -> &wgpu::BindGroupLayout {
+        &self.group[key.multisampled as usize][key.output.display() as usize]
     }
 }
 
 impl PipelineFamily for CompositeFamily {
-    /// The overlay is multisampled.
-    type Key = bool;
+    type Key = CompositeKey;
     type Pipeline = wgpu::ComputePipeline;
     const NAME: &'static str = "visibility composite";
 
-    fn shader(&self, multisampled: &bool) -> (&'static str, ShaderDefs) {
-        ("visibility_composite.wgsl", ShaderDefs::default().with("OVERLAY_MULTISAMPLED", *multisampled))
+    fn shader(&self, key: &CompositeKey) -> (&'static str, ShaderDefs) {
+        let tonemapper = match key.output {
+            ShadeOutput::DisplayPerSample(t) | ShadeOutput::DisplayResolved(t) => Some(t),
+            ShadeOutput::Hdr => None,
+        };
+        let defs = ShaderDefs::default()
+            .with("OVERLAY_MULTISAMPLED", key.multisampled)
+            .with("VISIBILITY_DISPLAY", key.output.display())
+            .with("TONEMAP_NEUTRAL", tonemapper == Some(Tonemapper::Neutral))
+            .with("TONEMAP_ACES", tonemapper == Some(Tonemapper::Aces));
+        ("visibility_composite.wgsl", defs)
     }
 
-    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, multisampled: &bool) -> wgpu::ComputePipeline {
-        let layout = &self.layouts[*multisampled as usize];
+    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &CompositeKey) -> wgpu::ComputePipeline {
+        let layout = &self.layouts[key.multisampled as usize][key.output.display() as usize];
         parts::compute_pipeline(device, layout, module, "cs_composite", "visibility composite")
     }
 }
