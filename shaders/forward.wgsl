@@ -868,8 +868,10 @@ fn shade(in: VertexOut, front_facing: bool, sets: UvSets) -> FragmentOut {
 // with VISIBILITY_DISPLAY, the displayed colour itself, sRGB-encoded, which the renderer copies
 // into the output: each triangle's colour tonemapped before the samples are averaged (the
 // display resolve, TONEMAP_IN_FORWARD) or the averaged radiance tonemapped (VISIBILITY_TONEMAP).
-// VISIBILITY_OVERLAY (with OVERLAY_MULTISAMPLED): a hybrid frame's overlay is composited over the
-// resolved radiance before it is tonemapped (never with TONEMAP_IN_FORWARD).
+// VISIBILITY_OVERLAY (with OVERLAY_MULTISAMPLED): a hybrid frame's overlay is composited before
+// the radiance is tonemapped (never with TONEMAP_IN_FORWARD), each overlay sample over its own
+// sample's colour: a triangle's colour counts by the transparency of the overlay samples over
+// the samples it covers, the background by that over the empty ones.
 #import penumbra::visibility::{RasterBatch, FRONT_CW, NON_INDEXED, pixel_weights, sample_empty}
 #ifdef VISIBILITY_BACKGROUND
 #import penumbra::ibl::{environment, prefiltered_radiance}
@@ -988,6 +990,24 @@ fn shade_triangle(number: u32, b: u32, frag_xy: vec2<f32>) -> vec3<f32> {
     return shade(v, front_facing, sets).color.rgb;
 }
 
+#ifdef VISIBILITY_OVERLAY
+// Whether the frame's pixel `at` lies in the overlay's rectangle; its pixel there.
+fn overlay_pixel(at: vec2<u32>) -> vec3<u32> {
+    let local = at - shade_params.overlay_origin;
+    let inside = all(at >= shade_params.overlay_origin) && all(local < shade_params.overlay_size);
+    return vec3<u32>(local, u32(inside));
+}
+
+// The overlay's sample `s` at its pixel `local` (premultiplied colour, coverage in alpha).
+fn overlay_sample(local: vec2<u32>, s: u32) -> vec4<f32> {
+#ifdef OVERLAY_MULTISAMPLED
+    return textureLoad(overlay, local, i32(s));
+#else
+    return textureLoad(overlay, local, 0);
+#endif
+}
+#endif
+
 @compute @workgroup_size(8, 8)
 fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = shade_params.target_size;
@@ -1001,6 +1021,16 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     if shade_params.accumulate != 0u {
         sum = partial[pixel];
     }
+    // What of each sample the overlay leaves to show through (1 outside its rectangle).
+    var through = array<f32, 8>(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
+#ifdef VISIBILITY_OVERLAY
+    let local = overlay_pixel(id.xy);
+    if local.z != 0u {
+        for (var s = 0u; s < min(samples, 8u); s++) {
+            through[s] = 1.0 - overlay_sample(local.xy, s).a;
+        }
+    }
+#endif
     // Samples already shaded (with an earlier sample of the same triangle) or empty.
     var done = 0u;
     let weight = 1.0 / f32(samples);
@@ -1013,18 +1043,21 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
             continue;
         }
         var count = 0u;
+        var seen = 0.0;
         for (var j = i; j < samples; j++) {
             let u = vis[pixel * samples + j];
             if !sample_empty(u) && u.x == v.x {
                 done |= 1u << j;
                 count++;
+                seen += through[min(j, 7u)];
             }
         }
         let b = number_batch(v.x);
         if raster_batches[b].shade_group != shade_params.group {
             continue;
         }
-        sum += vec4<f32>(shade_triangle(v.x, b, frag_xy), 1.0) * (f32(count) * weight);
+        // rgb: as much as the overlay lets through; alpha: the samples covered.
+        sum += vec4<f32>(shade_triangle(v.x, b, frag_xy) * seen, f32(count)) * weight;
     }
     if shade_params.last == 0u {
         partial[pixel] = sum;
@@ -1049,23 +1082,26 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     // The display resolve: the covered samples hold tonemapped colours already.
     behind = display_rgb(behind);
 #endif
-    var rgb = sum.rgb + behind * (1.0 - sum.a);
+    var rgb = sum.rgb;
 #ifdef VISIBILITY_OVERLAY
-    // The overlay's samples over this colour: blending is linear, so their mean blended over it
-    // is the mean of each blended over it. Outside its rectangle it drew nothing.
-    let at = id.xy - shade_params.overlay_origin;
-    if all(id.xy >= shade_params.overlay_origin) && all(at < shade_params.overlay_size) {
-#ifdef OVERLAY_MULTISAMPLED
-        var over = vec4<f32>(0.0);
-        for (var s = 0u; s < samples; s++) {
-            over += textureLoad(overlay, at, i32(s));
+    // The empty samples show what is behind as far as the overlay lets them, and each overlay
+    // sample adds its own colour (premultiplied).
+    var behind_seen = 0.0;
+    for (var j = 0u; j < samples; j++) {
+        if sample_empty(vis[pixel * samples + j]) {
+            behind_seen += through[min(j, 7u)];
         }
-        over *= weight;
-#else
-        let over = textureLoad(overlay, at, 0);
-#endif
-        rgb = over.rgb + rgb * (1.0 - over.a);
     }
+    rgb += behind * (behind_seen * weight);
+    if local.z != 0u {
+        var over = vec3<f32>(0.0);
+        for (var s = 0u; s < samples; s++) {
+            over += overlay_sample(local.xy, s).rgb;
+        }
+        rgb += over * weight;
+    }
+#else
+    rgb += behind * (1.0 - sum.a);
 #endif
 #ifdef VISIBILITY_TONEMAP
     rgb = display_rgb(rgb);

@@ -356,22 +356,29 @@ fn blended_draws_and_gizmos_are_drawn_over_the_visibility_buffer() {
         // Displayed: the forward pass's frame goes through the f16 HDR target and the tonemap
         // pass (its blended draws need them), the shading pass's from f32 straight to 8 bits:
         // pixels one step apart all over the sky, which FLIP weighs.
-        let bound = if hdr { 0.003 } else { 0.015 };
+        // Each overlay sample is blended over its own sample's colour, as the forward pass's
+        // multisampled blending does: where a line or a blended edge crosses an opaque edge the
+        // two agree too (over the pixel's mean instead: 14 pixels more than 24/255 apart here).
+        let bound = if hdr { 0.0012 } else { 0.012 };
         assert!(flip < bound, "{name}: FLIP mean {flip} between the compute and hardware rasters");
-        assert!(apart * 500 < total, "{name}: {apart} of {total} pixels differ by more than 24/255");
+        assert!(apart * 5000 < total, "{name}: {apart} of {total} pixels differ by more than 24/255");
     }
 }
 
 /// A transmissive box (seen through, tinted) and a rough transmissive sphere with a volume
 /// (refracted and blurred), in front of the stress scene's boxes and ground.
 fn add_transmissive(app: &mut App) {
-    spawn_mesh(
+    spawn_transmissive(app);
+}
+
+fn spawn_transmissive(app: &mut App) -> [Entity; 2] {
+    let clear = spawn_mesh(
         app,
         Mesh::cuboid(Vec3::ONE),
         StandardMaterial { transmission: 0.9, ..StandardMaterial::from_color(Vec4::new(0.8, 0.9, 1.0, 1.0), 0.05) },
         Transform::from_xyz(-0.7, 0.8, -3.0).with_rotation(Quat::from_rotation_y(0.4)),
     );
-    spawn_mesh(
+    let volume = spawn_mesh(
         app,
         Mesh::uv_sphere(0.45, 24, 16),
         StandardMaterial {
@@ -384,6 +391,7 @@ fn add_transmissive(app: &mut App) {
         },
         Transform::from_xyz(0.8, 0.7, -2.6),
     );
+    [clear, volume]
 }
 
 #[test]
@@ -436,6 +444,45 @@ fn transmissive_draws_see_the_scene_the_visibility_buffer_shaded() {
         assert!(flip < bound, "{name}: FLIP mean {flip} between the compute and hardware rasters");
         assert!(apart * 500 < total, "{name}: {apart} of {total} pixels differ by more than 24/255");
     }
+}
+
+#[test]
+fn transmissive_hybrid_frames_follow_size_changes_and_come_and_go() {
+    // One renderer across a size change, then with the transmissive draws removed and added
+    // again: each frame equals a fresh renderer's (the copy, the overlay's groups and the
+    // composite's group are made again or dropped, none left pointing at an old target).
+    let settings = settings(4, Raster::Compute);
+    let twice = |app: &mut App, size| {
+        render_app(app, size, settings.clone());
+        render_app(app, size, settings.clone())
+    };
+    let fresh = |size, transmissive: bool| {
+        let mut app = stress_scene();
+        if transmissive {
+            add_transmissive(&mut app);
+        }
+        twice(&mut app, size)
+    };
+    let mut app = stress_scene();
+    let glass = spawn_transmissive(&mut app);
+    twice(&mut app, SIZE);
+    if !visibility_supported(&app) {
+        assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
+        return;
+    }
+    assert!(plan_runs(&app, Pass::VISIBILITY_OVERLAY) && plan_runs(&app, Pass::TRANSMISSION));
+    let small = (160, 96);
+    let apart = pixels_apart(&twice(&mut app, small), &fresh(small, true), 0);
+    assert_eq!(apart, 0, "after the size change");
+    for e in glass {
+        app.world.despawn(e);
+    }
+    let apart = pixels_apart(&twice(&mut app, SIZE), &fresh(SIZE, false), 0);
+    assert_eq!(apart, 0, "without the transmissive draws");
+    assert!(!plan_runs(&app, Pass::TRANSMISSION));
+    spawn_transmissive(&mut app);
+    let apart = pixels_apart(&twice(&mut app, SIZE), &fresh(SIZE, true), 0);
+    assert_eq!(apart, 0, "with them again");
 }
 
 #[test]

@@ -66,12 +66,12 @@ impl Pass {
          (depth and triangle number per sample)",
     );
     /// Compute: each pixel's triangles in the visibility buffer shaded and resolved into the
-    /// HDR colour.
+    /// HDR colour (with transmissive draws, into the transmission copy's level 0).
     pub const VISIBILITY_SHADE: Pass = Pass::new(
         "VisibilityShade",
         "visibility buffer, mesh pool, instances, materials, textures, light store [, cluster lists] \
          [, shadow atlas] [, environment maps] -> HDR colour (resolved), or the displayed colour \
-         copied into the output",
+         copied into the output, or (transmissive draws) the transmission copy's level 0",
     );
     /// A hybrid frame's overlay: the forward pass draws line and point meshes, blended and
     /// transmissive draws and gizmo lines over the visibility buffer, each sample tested against
@@ -105,12 +105,14 @@ impl Pass {
 
     pub const TRANSMISSION: Pass = Pass::new(
         "Transmission",
-        "HDR colour after the opaque draws and the background -> its copy with a mip chain, which \
-         transmissive draws read",
+        "HDR colour after the opaque draws and the background (or level 0 as the visibility buffer's \
+         shading wrote it) -> its copy with a mip chain, which transmissive draws read",
     );
 }
 
-/// The plan's own passes in the order they can run; the post-processing chain's follow.
+/// The plan's own passes in the order they usually run (with transmissive draws over the
+/// visibility buffer, `VISIBILITY_SHADE` and `TRANSMISSION` come before `VISIBILITY_OVERLAY`);
+/// the post-processing chain's follow. The order of `left_out`.
 const CORE: [Pass; 15] = [
     Pass::ENVIRONMENT_PREFILTER,
     Pass::DEFORM,
@@ -384,6 +386,16 @@ mod tests {
         assert!(at(Pass::VISIBILITY_OVERLAY) < at(Pass::VISIBILITY_SHADE));
         assert!(hybrid.runs(Pass::TRANSPARENT));
         assert!(!hybrid.runs(Pass::OPAQUE));
+        // Transmissive draws read what the shading pass wrote: shade, copy, then the overlay,
+        // each once.
+        let transmissive = plan(SceneNeeds { transmission: true, ..hybrid.needs });
+        let order: Vec<Pass> = transmissive.passes.iter().map(|(p, _)| *p).collect();
+        let at = |pass| order.iter().position(|p| *p == pass).unwrap();
+        assert!(at(Pass::VISIBILITY_RASTER) < at(Pass::VISIBILITY_SHADE));
+        assert!(at(Pass::VISIBILITY_SHADE) < at(Pass::TRANSMISSION));
+        assert!(at(Pass::TRANSMISSION) < at(Pass::VISIBILITY_OVERLAY));
+        assert_eq!(order.iter().filter(|p| **p == Pass::TRANSMISSION).count(), 1);
+        assert!(!transmissive.runs(Pass::OPAQUE));
     }
 
     #[test]

@@ -223,8 +223,9 @@ pub struct LookArgs {
     /// graphics units are a small part of the chip (NVIDIA H100, H200), else the GPU's
     /// rasteriser; `hardware`; or `compute` (a visibility buffer written and shaded by compute
     /// shaders; blended and transmissive draws, gizmos, line and point meshes are drawn over it
-    /// by the GPU's rasteriser). Frames compute cannot draw (no 64-bit atomics, as on GL; no
-    /// opaque triangle mesh) rasterise in hardware; `render --explain` says which ran and why.
+    /// by the GPU's rasteriser). Frames compute cannot draw (no 64-bit atomics, as on GL; GPU
+    /// culling off; `--occlusion on`; a visibility buffer too large for one binding; no opaque
+    /// triangle mesh) rasterise in hardware; `render --explain` says which ran and why.
     #[arg(long, value_enum)]
     pub raster: Option<RasterArg>,
     /// Environment light and background: `auto` (a clear sky made for the scene's sun, or a

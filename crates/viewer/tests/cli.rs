@@ -690,7 +690,11 @@ fn explain_names_where_opaque_draws_were_rasterised_and_why() {
     let blended = explain(&asset("AlphaBlendModeTest/AlphaBlendModeTest.glb"), &["--raster", "compute"]);
     assert!(blended.contains("VisibilityRaster:") && blended.contains("VisibilityOverlay:"), "{blended}");
     assert!(blended.contains("blended draws or gizmo lines: the forward pass draws them over"), "{blended}");
-    // A transmissive draw keeps a compute frame on the forward pass, and says so.
+    // Transmissive draws: a hybrid frame whose shading pass runs first, into the copy they read.
     let transmissive = explain(&asset("TransmissionTest/TransmissionTest.glb"), &["--raster", "compute"]);
-    assert!(transmissive.contains("transmissive draws (they see the forward pass's opaque colour)"), "{transmissive}");
+    let at = |name: &str| transmissive.find(name).unwrap_or_else(|| panic!("{name}: {transmissive}"));
+    assert!(at("VisibilityShade: ") < at("Transmission: ") && at("Transmission: ") < at("VisibilityOverlay: "));
+    assert!(transmissive.contains("into the transmission copy's level 0"), "{transmissive}");
+    let ran = |line: &str| line.trim_start().split_once(". ").is_some_and(|(n, _)| n.parse::<u32>().is_ok());
+    assert!(!transmissive.lines().any(|l| ran(l) && l.contains(". Opaque: ")), "{transmissive}");
 }

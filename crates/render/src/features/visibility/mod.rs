@@ -36,8 +36,8 @@
 //! then `encode_shade`, which composites the overlay over each pixel's resolved colour. With
 //! transmissive draws, which read the opaque colour, `encode_shade` runs before the overlay and
 //! writes it into the transmission copy's level 0 (`FrameInputs::transmission`), and
-//! `encode_composite` (`shaders/visibility_composite.wgsl`) writes the overlay over it into the
-//! HDR target after.
+//! `encode_composite` (`shaders/visibility_composite.wgsl`) writes the overlay over it after,
+//! into the HDR target or, tonemapped, as the displayed colour.
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
 //! GPU culling (the visible lists), no occlusion culling, at least one opaque or masked
@@ -237,6 +237,23 @@ fn job_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
         usage: wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
     })
+}
+
+/// Clears `view` (a render attachment) to black.
+fn clear_black(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, label: &str) {
+    let _ = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
 }
 
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
@@ -817,7 +834,8 @@ impl VisibilityBuffer {
     }
 
     /// Encodes the raster steps (after `prepare_frame`); then, in a hybrid frame, the forward
-    /// pass draws into the overlay, and `encode_shade` shades.
+    /// pass draws into the overlay, and `encode_shade` shades (with transmissive draws:
+    /// `encode_shade`, the copy's mip chain, the overlay, then `encode_composite`).
     pub fn encode_raster(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
         let (encoder, device, pipelines, timer) =
             (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
@@ -899,22 +917,7 @@ impl VisibilityBuffer {
         if self.shaded.is_empty() {
             // Nothing could be shaded (a broken shader folder at start-up): black, not the last
             // frame's colour (the error is reported).
-            let _ = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("visibility shade, nothing shaded"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &bound.target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            clear_black(encoder, &bound.target, "visibility shade, nothing shaded");
         }
         if inputs.transmission.is_none() {
             self.copy_display(encoder, inputs);
@@ -937,10 +940,9 @@ impl VisibilityBuffer {
     /// overlay over the opaque colour the shading pass wrote, into the HDR target or as the
     /// displayed colour (then copied into the output).
     pub fn encode_composite(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        let Some(bound) = self.bound.as_ref() else { return };
         let key = Self::composite_key(inputs);
-        if let (Some(bound), Some(pipeline)) = (self.bound.as_ref(), cx.pipelines.cached::<CompositeFamily>(&key))
-            && let Some(group) = &bound.composite
-        {
+        if let (Some(pipeline), Some(group)) = (cx.pipelines.cached::<CompositeFamily>(&key), &bound.composite) {
             let mut pass = cx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("visibility composite"),
                 timestamp_writes: cx.timer.as_deref_mut().and_then(|t| t.compute_pass("visibility composite")),
@@ -948,6 +950,10 @@ impl VisibilityBuffer {
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(inputs.size.0.div_ceil(8), inputs.size.1.div_ceil(8), 1);
+        } else if let Some(written) = &bound.composite_target {
+            // Its shader did not compile (a broken shader folder, reported): black, not the last
+            // frame's colour.
+            clear_black(cx.encoder, written, "visibility composite, not compiled");
         }
         self.copy_display(cx.encoder, inputs);
     }

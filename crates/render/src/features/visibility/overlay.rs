@@ -8,11 +8,13 @@
 //! keeping only the samples nearer than the visibility buffer's depth there
 //! (`shaders/visibility_occlusion.wgsl`; the buffer is group 2 of the forward pipelines, group 1
 //! of the gizmos', whose layouts then share their groups' prefix). The shading pass
-//! then composites the overlay's mean over each pixel's resolved colour: blending is linear, so
-//! the mean of the samples blended over one colour is the mean blended over it. No full-screen
-//! pass hands depth or colour to the forward pass, which on GPUs with few graphics units costs
-//! more than the draws themselves; where an overlay edge crosses an opaque edge in one pixel, its
-//! samples blend over the pixel's mean colour rather than each sample's own.
+//! then composites each overlay sample over its own sample's colour: blending is linear, so a
+//! triangle's colour counts by how much the overlay samples over those it covers let through.
+//! No full-screen pass hands depth or colour to the forward pass, which on GPUs with few graphics
+//! units costs more than the draws themselves. With transmissive draws the composite runs after
+//! the shading pass (`visibility_composite.wgsl`), which has only the resolved colour left: where
+//! an overlay edge crosses an opaque edge in one pixel, its samples blend over the pixel's mean
+//! colour rather than each sample's own.
 //!
 //! Only the rectangle the overlay's draws can cover ([`OverlayRect`]: the screen box of the
 //! blended draws' bounds and the gizmo lines) is drawn: the targets are that rectangle's size,
