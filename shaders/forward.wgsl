@@ -908,6 +908,11 @@ struct ShadeParams {
 #else
 @group(2) @binding(6) var shaded: texture_storage_2d<rgba16float, write>;
 #endif
+#ifdef VISIBILITY_REUSE
+// The second shading of a frame with transmissive draws: the first wrote each pixel's opaque
+// colour (exposed radiance) into the transmission copy's level 0, which its draws read.
+@group(2) @binding(8) var first_shading: texture_2d<f32>;
+#endif
 #ifdef VISIBILITY_OVERLAY
 // A hybrid frame's overlay (features/visibility/overlay.rs): what the forward pass drew over the
 // visibility buffer, premultiplied, with its coverage in alpha.
@@ -1033,6 +1038,19 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
 #endif
     // Samples already shaded (with an earlier sample of the same triangle) or empty.
     var done = 0u;
+#ifdef VISIBILITY_REUSE
+    // A pixel whose samples all hold one triangle has its colour from the first shading; only
+    // the others (edges, and pixels with empty samples) are shaded again.
+    let head = vis[pixel * samples];
+    var reused = !sample_empty(head);
+    for (var j = 1u; j < samples; j++) {
+        let u = vis[pixel * samples + j];
+        reused = reused && !sample_empty(u) && u.x == head.x;
+    }
+    if reused {
+        done = (1u << samples) - 1u;
+    }
+#endif
     let weight = 1.0 / f32(samples);
     for (var i = 0u; i < samples; i++) {
         if (done & (1u << i)) != 0u {
@@ -1083,6 +1101,15 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     behind = display_rgb(behind);
 #endif
     var rgb = sum.rgb;
+#ifdef VISIBILITY_REUSE
+    if reused {
+        var seen = 0.0;
+        for (var j = 0u; j < samples; j++) {
+            seen += through[min(j, 7u)];
+        }
+        rgb = textureLoad(first_shading, id.xy, 0).rgb * (seen * weight);
+    }
+#endif
 #ifdef VISIBILITY_OVERLAY
     // The empty samples show what is behind as far as the overlay lets them, and each overlay
     // sample adds its own colour (premultiplied).

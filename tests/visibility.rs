@@ -396,9 +396,9 @@ fn spawn_transmissive(app: &mut App) -> [Entity; 2] {
 
 #[test]
 fn transmissive_draws_see_the_scene_the_visibility_buffer_shaded() {
-    // The shading pass writes the opaque colour into the transmission copy, the overlay's
-    // transmissive draws read it, and a compute pass composites them: the frame the forward pass
-    // draws, with HDR colour (MSAA 1 and 4) and with the displayed colour asked for.
+    // A first shading writes the opaque colour into the transmission copy, the overlay's
+    // transmissive draws read it, and the shading pass composites them: the frame the forward
+    // pass draws, with HDR colour (MSAA 1 and 4) and with the displayed colour asked for.
     let with_blended = |app: &mut App| {
         add_transmissive(app);
         add_blended(app);
@@ -424,7 +424,7 @@ fn transmissive_draws_see_the_scene_the_visibility_buffer_shaded() {
         assert!(at(Pass::VISIBILITY_RASTER) < at(Pass::VISIBILITY_SHADE), "{name}");
         assert!(at(Pass::VISIBILITY_SHADE) < at(Pass::TRANSMISSION), "{name}");
         assert!(at(Pass::TRANSMISSION) < at(Pass::VISIBILITY_OVERLAY), "{name}");
-        // Displayed colour asked for: the composite writes it, no tonemap pass runs.
+        // Displayed colour asked for: the shading pass writes it, no tonemap pass runs.
         assert_eq!(plan.runs(tonemap::PASS), compute_settings.keep_hdr, "{name}");
         if compute_settings.keep_hdr {
             assert_finite_hdr(&hdr_of(&app), "hybrid frame with transmission");
@@ -436,13 +436,14 @@ fn transmissive_draws_see_the_scene_the_visibility_buffer_shaded() {
         let total = (SIZE.0 * SIZE.1) as usize;
         eprintln!("{name}: FLIP mean {flip:.5}, {apart} of {total} pixels more than 24/255 apart, {drawn} drawn over");
         assert!(drawn * 50 > total, "{name}: only {drawn} pixels changed with the transmissive draws");
-        // Where an opaque silhouette in front of a transmissive surface crosses a multisampled
-        // pixel, the overlay's samples are blended over the pixel's mean opaque colour, not each
-        // sample's (overlay.rs): a few edge pixels. Displayed: the composite writes 8 bits from
-        // f32, the forward pass's frame goes through the f16 target and the tonemap pass.
-        let bound = if compute_settings.keep_hdr { 0.004 } else { 0.015 };
+        // Pixels of one triangle reuse the first shading's colour, the others (where an opaque
+        // silhouette in front of a transmissive surface crosses a pixel) are shaded again, each
+        // overlay sample over its own sample (over the pixel's mean instead: 27 pixels more than
+        // 24/255 apart, FLIP 0.0032). Displayed: 8 bits from f32, the forward pass's frame goes
+        // through the f16 target and the tonemap pass.
+        let bound = if compute_settings.keep_hdr { 0.0012 } else { 0.012 };
         assert!(flip < bound, "{name}: FLIP mean {flip} between the compute and hardware rasters");
-        assert!(apart * 500 < total, "{name}: {apart} of {total} pixels differ by more than 24/255");
+        assert!(apart * 5000 < total, "{name}: {apart} of {total} pixels differ by more than 24/255");
     }
 }
 

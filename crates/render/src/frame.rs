@@ -76,7 +76,7 @@ impl Pass {
     /// A hybrid frame's overlay: the forward pass draws line and point meshes, blended and
     /// transmissive draws and gizmo lines over the visibility buffer, each sample tested against
     /// its depth; the shading pass composites the result (with transmissive draws, which read
-    /// what the shading pass wrote, a compute pass after the overlay does).
+    /// what a first shading wrote, the plan lists `VISIBILITY_SHADE` before and after it).
     pub const VISIBILITY_OVERLAY: Pass = Pass::new(
         "VisibilityOverlay",
         "visibility buffer (depth), the forward pass's inputs -> overlay colour (premultiplied, \
@@ -235,8 +235,12 @@ impl FramePlan {
             passes.push((
                 Pass::VISIBILITY_OVERLAY,
                 "transmissive draws (and any line or point meshes, blended draws or gizmo lines): the forward \
-                 pass draws them over the visibility buffer, then a compute pass composites them over the \
-                 opaque colour",
+                 pass draws them over the visibility buffer, each sample tested against its depth",
+            ));
+            passes.push((
+                Pass::VISIBILITY_SHADE,
+                "again, compositing the overlay: pixels whose samples hold one triangle take the first \
+                 shading's colour, the others are shaded again",
             ));
         } else if visibility {
             passes.push((Pass::VISIBILITY_RASTER, raster_why));
@@ -395,6 +399,8 @@ mod tests {
         assert!(at(Pass::VISIBILITY_SHADE) < at(Pass::TRANSMISSION));
         assert!(at(Pass::TRANSMISSION) < at(Pass::VISIBILITY_OVERLAY));
         assert_eq!(order.iter().filter(|p| **p == Pass::TRANSMISSION).count(), 1);
+        let last_shade = order.iter().rposition(|p| *p == Pass::VISIBILITY_SHADE).unwrap();
+        assert!(at(Pass::VISIBILITY_OVERLAY) < last_shade, "{order:?}");
         assert!(!transmissive.runs(Pass::OPAQUE));
     }
 

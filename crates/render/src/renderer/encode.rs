@@ -182,7 +182,7 @@ impl Renderer {
             let copied = vis_inputs.transmission.is_some();
             if copied {
                 // Transmissive draws see the opaque colour: shaded into the copy's level 0 first.
-                self.visibility.encode_shade(&mut cx, &vis_inputs);
+                self.visibility.encode_first_shade(&mut cx, &vis_inputs);
                 self.transmission.encode_downsample(&mut cx);
             }
             let mut drawn = (DrawCounts::default(), error);
@@ -202,11 +202,7 @@ impl Renderer {
                     forward::encode_overlay(&mut cx, &inputs, batches, opaque_count, &unrasterised, target);
                 drawn = (counts, drawn.1.or(overlay_error));
             }
-            if copied {
-                self.visibility.encode_composite(&mut cx, &vis_inputs);
-            } else {
-                self.visibility.encode_shade(&mut cx, &vis_inputs);
-            }
+            self.visibility.encode_shade(&mut cx, &vis_inputs);
             drawn
         } else if plan.runs(Pass::OPAQUE) {
             forward::encode(&mut cx, &inputs, batches, opaque_count, OpaquePhase::All)

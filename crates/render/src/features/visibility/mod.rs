@@ -33,11 +33,11 @@
 //! A hybrid frame (line or point meshes, blended or transmissive draws, gizmo lines: what only
 //! the forward pass rasterises) splits the work: `encode_raster`, then the forward pass draws
 //! those into the overlay (`overlay`), each sample tested against the visibility buffer's depth,
-//! then `encode_shade`, which composites the overlay over each pixel's resolved colour. With
-//! transmissive draws, which read the opaque colour, `encode_shade` runs before the overlay and
-//! writes it into the transmission copy's level 0 (`FrameInputs::transmission`), and
-//! `encode_composite` (`shaders/visibility_composite.wgsl`) writes the overlay over it after,
-//! into the HDR target or, tonemapped, as the displayed colour.
+//! then `encode_shade`, which composites each overlay sample over its own sample's colour. With
+//! transmissive draws, which read the opaque colour, `encode_first_shade` runs before the
+//! overlay and writes it into the transmission copy's level 0 (`FrameInputs::transmission`);
+//! `encode_shade` then takes each pixel whose samples all hold one triangle from there and
+//! shades again only the others (edges, and pixels with empty samples).
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
 //! GPU culling (the visible lists), no occlusion culling, at least one opaque or masked
@@ -63,9 +63,7 @@ mod pipelines;
 use overlay::GpuOcclusionParams;
 pub use overlay::{OverlayRect, OverlayTargets, occlusion_layouts};
 use pipelines::BIN_BYTES;
-pub use pipelines::{
-    CompositeFamily, CompositeKey, MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key,
-};
+pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
 
 /// Where opaque draws are rasterised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -316,9 +314,10 @@ pub struct FrameInputs<'a> {
     /// steps and the shading pass, which composites it; the rectangle its draws can cover.
     pub overlay: Option<OverlayRect>,
     /// A hybrid frame with transmissive draws (`shade_output` is `Hdr` or `DisplayResolved`):
-    /// the shading pass writes the opaque colour, as radiance, into the copy's level 0 instead;
-    /// the copy's mip chain is made, the overlay's transmissive draws read it, and
-    /// `encode_composite` writes the overlay over it as `shade_output` says.
+    /// a first shading writes the opaque colour, as radiance, into the copy's level 0
+    /// (`encode_first_shade`); the copy's mip chain is made, the overlay's transmissive draws
+    /// read it, and `encode_shade` writes the output with the overlay composited, shading again
+    /// only the pixels whose samples hold more than one triangle or none.
     pub transmission: Option<CopyViews<'a>>,
 }
 
@@ -351,20 +350,19 @@ pub struct VisibilityBuffer {
     overlay: Option<OverlayTargets>,
     /// `occlusion_layouts`: without and with the transmission copy.
     occlusion_layouts: [wgpu::BindGroupLayout; 2],
-    /// `struct CompositeParams` of `visibility_composite.wgsl` (the overlay's rectangle).
-    composite_params: wgpu::Buffer,
 }
 
 struct Bound {
     made_with: Vec<wgpu::Buffer>,
     target: wgpu::TextureView,
     overlay: Option<wgpu::TextureView>,
-    /// The HDR target the composite writes, with transmissive draws.
-    composite_target: Option<wgpu::TextureView>,
+    /// With transmissive draws: the copy's level 0, which the first shading writes.
+    first_target: Option<wgpu::TextureView>,
     raster: wgpu::BindGroup,
     dispatch: wgpu::BindGroup,
     shade: Vec<wgpu::BindGroup>,
-    composite: Option<wgpu::BindGroup>,
+    /// The first shading's groups, with transmissive draws.
+    first: Vec<wgpu::BindGroup>,
 }
 
 impl VisibilityBuffer {
@@ -380,7 +378,6 @@ impl VisibilityBuffer {
     ) -> Self {
         pipelines.register(ShadeFamily::new(device, view, materials));
         pipelines.register(RasterFamily::new(device, materials));
-        pipelines.register(CompositeFamily::new(device));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
@@ -414,12 +411,6 @@ impl VisibilityBuffer {
             bound: None,
             overlay: None,
             occlusion_layouts: occlusion.clone(),
-            composite_params: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("visibility composite params"),
-                size: 16,
-                usage: U::UNIFORM | U::COPY_DST,
-                mapped_at_creation: false,
-            }),
         }
     }
 
@@ -558,25 +549,21 @@ impl VisibilityBuffer {
         self.bound = None;
     }
 
-    fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs) -> ShadeKey {
-        let overlay = Self::shade_overlay(inputs);
-        ShadeKey { forward: group.key, output: Self::shade_output(inputs), background: inputs.background, overlay }
+    /// The pipeline of `group` in the frame's shading pass, or (`first`) in the first
+    /// shading of a frame with transmissive draws, which writes the opaque colour into the copy.
+    fn shade_key(&self, group: &ShadeGroup, inputs: &FrameInputs, first: bool) -> ShadeKey {
+        let (forward, background) = (group.key, inputs.background);
+        if first {
+            return ShadeKey { forward, output: ShadeOutput::Hdr, background, overlay: 0, reuse: false };
+        }
+        let overlay = if inputs.overlay.is_some() { inputs.samples } else { 0 };
+        ShadeKey { forward, output: inputs.shade_output, background, overlay, reuse: inputs.transmission.is_some() }
     }
 
-    /// What the shading pass writes: radiance into the transmission copy when the composite
-    /// comes after it, else the frame's output.
-    fn shade_output(inputs: &FrameInputs) -> ShadeOutput {
-        if inputs.transmission.is_some() { ShadeOutput::Hdr } else { inputs.shade_output }
-    }
-
-    fn composite_key(inputs: &FrameInputs) -> CompositeKey {
-        CompositeKey { multisampled: inputs.samples > 1, output: inputs.shade_output }
-    }
-
-    /// The samples of the overlay the shading pass composites: 0 without one, or when the
-    /// composite runs after it (transmissive draws read what the shading pass wrote).
-    fn shade_overlay(inputs: &FrameInputs) -> u32 {
-        if inputs.overlay.is_some() && inputs.transmission.is_none() { inputs.samples } else { 0 }
+    /// The shading passes' keys of `group`: the frame's, and the first shading's if it has one.
+    fn shade_keys(&self, group: &ShadeGroup, inputs: &FrameInputs) -> Vec<ShadeKey> {
+        let first = inputs.transmission.is_some().then(|| self.shade_key(group, inputs, true));
+        std::iter::once(self.shade_key(group, inputs, false)).chain(first).collect()
     }
 
     /// A hybrid frame's overlay targets and occlusion group (made when the size, the sample
@@ -651,20 +638,13 @@ impl VisibilityBuffer {
         // Each is tried (a variant that fails leaves the others usable); the first error counts.
         let steps: Vec<RasterStep> = self.raster_steps().collect();
         let raster = pipelines.prepare::<RasterFamily>(device, steps);
-        let shade = pipelines.prepare::<ShadeFamily>(device, self.groups.iter().map(|g| self.shade_key(g, inputs)));
-        let composite = match (inputs.transmission.is_some(), inputs.overlay) {
-            (true, Some(rect)) => {
-                let words = [rect.origin.0, rect.origin.1, rect.size.0, rect.size.1];
-                queue.write_buffer(&self.composite_params, 0, bytemuck::cast_slice(&words));
-                pipelines.get::<CompositeFamily>(device, Self::composite_key(inputs)).map(|_| ())
-            }
-            _ => Ok(()),
-        };
-        let compiled = raster.and(shade).and(composite);
+        let shade =
+            pipelines.prepare::<ShadeFamily>(device, self.groups.iter().flat_map(|g| self.shade_keys(g, inputs)));
+        let compiled = raster.and(shade);
         self.shaded = (0..self.groups.len())
             .filter(|&g| {
                 let group = &self.groups[g];
-                pipelines.cached::<ShadeFamily>(&self.shade_key(group, inputs)).is_some()
+                self.shade_keys(group, inputs).iter().all(|k| pipelines.cached::<ShadeFamily>(k).is_some())
                     && inputs.materials.get(&group.material).is_some()
             })
             .collect();
@@ -742,22 +722,15 @@ impl VisibilityBuffer {
             self.bin_params.buffer().clone(),
             inputs.materials.buffer().clone(),
         ];
-        let output = match (&self.display, inputs.hdr) {
+        let target = match (&self.display, inputs.hdr) {
             (Some((_, view)), _) => view.clone(),
             (None, Some(hdr)) => hdr.clone(),
             (None, None) => unreachable!("an HDR frame passes its HDR target"),
         };
-        // With transmissive draws the shading pass writes the copy, and the composite the output.
-        let (target, composite_target) = match &inputs.transmission {
-            Some(copy) => (copy.level0.clone(), Some(output)),
-            None => (output, None),
-        };
+        let first_target = inputs.transmission.as_ref().map(|copy| copy.level0.clone());
         let overlay = self.overlay.as_ref().map(|o| o.colour.clone());
         if self.bound.as_ref().is_some_and(|b| {
-            b.made_with == made_with
-                && b.target == target
-                && b.overlay == overlay
-                && b.composite_target == composite_target
+            b.made_with == made_with && b.target == target && b.overlay == overlay && b.first_target == first_target
         }) {
             return;
         }
@@ -792,50 +765,49 @@ impl VisibilityBuffer {
             layout: &pipelines.family::<RasterFamily>().dispatch,
             entries: &[entry(0, &self.dispatch)],
         });
-        let overlay_samples = Self::shade_overlay(inputs);
-        let shade = self.shade_params[..self.groups.len()]
-            .iter()
-            .map(|params| {
-                let mut entries = vec![
-                    entry(0, params),
-                    entry(1, self.samples.buffer()),
-                    entry(2, self.batches.buffer()),
-                    entry(3, self.counters.buffer()),
-                    entry(4, inputs.mesh_pool.index_buffer()),
-                    entry(5, self.partial.buffer()),
-                    wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&target) },
-                ];
-                if let Some(view) = overlay.as_ref().filter(|_| overlay_samples > 0) {
-                    entries
-                        .push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(view) });
-                }
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("visibility shade"),
-                    layout: pipelines.family::<ShadeFamily>().layout(Self::shade_output(inputs), overlay_samples),
-                    entries: &entries,
-                })
-            })
-            .collect();
-        let composite = match (&composite_target, &overlay) {
-            (Some(written), Some(colour)) => {
-                let view = |binding, view| wgpu::BindGroupEntry {
-                    binding,
-                    resource: wgpu::BindingResource::TextureView(view),
-                };
-                Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("visibility composite"),
-                    layout: pipelines.family::<CompositeFamily>().layout(Self::composite_key(inputs)),
-                    entries: &[entry(0, &self.composite_params), view(1, &target), view(2, colour), view(3, written)],
-                }))
+        let texture =
+            |binding, view| wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) };
+        // Per group: the frame's shading pass's group, and the first shading's.
+        let groups = |first: bool| -> Vec<wgpu::BindGroup> {
+            if first && first_target.is_none() {
+                return Vec::new();
             }
-            _ => None,
+            self.shade_params[..self.groups.len()]
+                .iter()
+                .zip(&self.groups)
+                .map(|(params, group)| {
+                    let key = self.shade_key(group, inputs, first);
+                    let written = if first { first_target.as_ref().expect("checked above") } else { &target };
+                    let mut entries = vec![
+                        entry(0, params),
+                        entry(1, self.samples.buffer()),
+                        entry(2, self.batches.buffer()),
+                        entry(3, self.counters.buffer()),
+                        entry(4, inputs.mesh_pool.index_buffer()),
+                        entry(5, self.partial.buffer()),
+                        texture(6, written),
+                    ];
+                    if let Some(view) = overlay.as_ref().filter(|_| key.overlay > 0) {
+                        entries.push(texture(7, view));
+                    }
+                    if let Some(view) = first_target.as_ref().filter(|_| key.reuse) {
+                        entries.push(texture(8, view));
+                    }
+                    device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("visibility shade"),
+                        layout: pipelines.family::<ShadeFamily>().layout(&key),
+                        entries: &entries,
+                    })
+                })
+                .collect()
         };
-        self.bound = Some(Bound { made_with, target, overlay, composite_target, raster, dispatch, shade, composite });
+        let (shade, first) = (groups(false), groups(true));
+        self.bound = Some(Bound { made_with, target, overlay, first_target, raster, dispatch, shade, first });
     }
 
     /// Encodes the raster steps (after `prepare_frame`); then, in a hybrid frame, the forward
     /// pass draws into the overlay, and `encode_shade` shades (with transmissive draws:
-    /// `encode_shade`, the copy's mip chain, the overlay, then `encode_composite`).
+    /// `encode_first_shade`, the copy's mip chain, the overlay, then `encode_shade`).
     pub fn encode_raster(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
         let (encoder, device, pipelines, timer) =
             (&mut *cx.encoder, cx.device, &mut *cx.pipelines, cx.timer.as_deref_mut());
@@ -886,20 +858,38 @@ impl VisibilityBuffer {
         }
     }
 
-    /// Encodes the shading pass (after `encode_raster` and a hybrid frame's overlay draws).
+    /// Encodes the shading pass (after `encode_raster` and a hybrid frame's overlay draws),
+    /// which writes the frame's output.
     pub fn encode_shade(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        self.dispatch_shade(cx, inputs, false);
+        self.copy_display(cx.encoder, inputs);
+    }
+
+    /// With transmissive draws (`FrameInputs::transmission`), before the overlay's draws: the
+    /// first shading, which writes the opaque colour into the copy's level 0.
+    pub fn encode_first_shade(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
+        self.dispatch_shade(cx, inputs, true);
+    }
+
+    fn dispatch_shade(&self, cx: &mut FrameContext, inputs: &FrameInputs, first: bool) {
         let (encoder, pipelines, timer) = (&mut *cx.encoder, &mut *cx.pipelines, cx.timer.as_deref_mut());
         let bound = self.bound.as_ref().expect("bound by encode_raster");
+        let (groups, written) = match (first, &bound.first_target) {
+            (true, Some(level0)) => (&bound.first, level0),
+            (true, None) => return,
+            (false, _) => (&bound.shade, &bound.target),
+        };
         let (w, h) = inputs.size;
         {
+            let label = if first { "visibility first shade" } else { "visibility shade" };
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("visibility shade"),
-                timestamp_writes: timer.and_then(|t| t.compute_pass("visibility shade")),
+                label: Some(label),
+                timestamp_writes: timer.and_then(|t| t.compute_pass(label)),
             });
             pass.set_bind_group(0, inputs.view_bind_group, &[]);
             for &g in &self.shaded {
                 let group = &self.groups[g];
-                let key = self.shade_key(group, inputs);
+                let key = self.shade_key(group, inputs, first);
                 let (Some(pipeline), Some(material)) =
                     (pipelines.cached::<ShadeFamily>(&key), inputs.materials.get(&group.material))
                 else {
@@ -907,7 +897,7 @@ impl VisibilityBuffer {
                 };
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(1, &material.bind_group, &[]);
-                pass.set_bind_group(2, &bound.shade[g], &[]);
+                pass.set_bind_group(2, &groups[g], &[]);
                 if let Some((extension, _)) = &material.extension {
                     pass.set_bind_group(EXTENSION_GROUP, extension, &[]);
                 }
@@ -917,10 +907,7 @@ impl VisibilityBuffer {
         if self.shaded.is_empty() {
             // Nothing could be shaded (a broken shader folder at start-up): black, not the last
             // frame's colour (the error is reported).
-            clear_black(encoder, &bound.target, "visibility shade, nothing shaded");
-        }
-        if inputs.transmission.is_none() {
-            self.copy_display(encoder, inputs);
+            clear_black(encoder, written, "visibility shade, nothing shaded");
         }
     }
 
@@ -934,28 +921,6 @@ impl VisibilityBuffer {
                 wgpu::Extent3d { width: inputs.size.0, height: inputs.size.1, depth_or_array_layers: 1 },
             );
         }
-    }
-
-    /// With transmissive draws (`FrameInputs::transmission`), after the overlay's draws: the
-    /// overlay over the opaque colour the shading pass wrote, into the HDR target or as the
-    /// displayed colour (then copied into the output).
-    pub fn encode_composite(&mut self, cx: &mut FrameContext, inputs: &FrameInputs) {
-        let Some(bound) = self.bound.as_ref() else { return };
-        let key = Self::composite_key(inputs);
-        if let (Some(pipeline), Some(group)) = (cx.pipelines.cached::<CompositeFamily>(&key), &bound.composite) {
-            let mut pass = cx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("visibility composite"),
-                timestamp_writes: cx.timer.as_deref_mut().and_then(|t| t.compute_pass("visibility composite")),
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(inputs.size.0.div_ceil(8), inputs.size.1.div_ceil(8), 1);
-        } else if let Some(written) = &bound.composite_target {
-            // Its shader did not compile (a broken shader folder, reported): black, not the last
-            // frame's colour.
-            clear_black(cx.encoder, written, "visibility composite, not compiled");
-        }
-        self.copy_display(cx.encoder, inputs);
     }
 }
 

@@ -11,10 +11,9 @@
 //! then composites each overlay sample over its own sample's colour: blending is linear, so a
 //! triangle's colour counts by how much the overlay samples over those it covers let through.
 //! No full-screen pass hands depth or colour to the forward pass, which on GPUs with few graphics
-//! units costs more than the draws themselves. With transmissive draws the composite runs after
-//! the shading pass (`visibility_composite.wgsl`), which has only the resolved colour left: where
-//! an overlay edge crosses an opaque edge in one pixel, its samples blend over the pixel's mean
-//! colour rather than each sample's own.
+//! units costs more than the draws themselves. With transmissive draws a first shading writes the
+//! opaque colour their draws read, and the shading pass after the overlay reuses it for pixels
+//! whose samples hold one triangle (`FrameInputs::transmission`).
 //!
 //! Only the rectangle the overlay's draws can cover ([`OverlayRect`]: the screen box of the
 //! blended draws' bounds and the gizmo lines) is drawn: the targets are that rectangle's size,

@@ -93,6 +93,9 @@ pub struct ShadeKey {
     pub background: bool,
     /// A hybrid frame's overlay to composite (`overlay`): its sample count, 0 for none.
     pub overlay: u32,
+    /// The second shading of a frame with transmissive draws: pixels whose samples all hold one
+    /// triangle take the colour the first shading wrote into the transmission copy.
+    pub reuse: bool,
 }
 
 /// Which overlay binding a shading pipeline has: none, single-sampled, multisampled.
@@ -208,55 +211,64 @@ impl PipelineFamily for RasterFamily {
 
 /// The shading pass's pipelines: group 2 (after the forward pass's view and material groups),
 /// writing HDR colour or writing display colour, without an overlay or with a single-sampled or
-/// multisampled one.
+/// multisampled one, reading the first shading's colour (`ShadeKey::reuse`) or not.
 pub struct ShadeFamily {
-    shade: [[wgpu::BindGroupLayout; 3]; 2],
-    /// Per output kind and overlay kind: the view, material and shade groups, and the extension
-    /// group of the key's material extensions.
-    pipeline: [[PipelineLayouts; 3]; 2],
+    /// Per output kind, overlay kind and reuse.
+    shade: [[[wgpu::BindGroupLayout; 2]; 3]; 2],
+    /// The same: the view, material and shade groups, and the extension group of the key's
+    /// material extensions.
+    pipeline: [[[PipelineLayouts; 2]; 3]; 2],
 }
 
 impl ShadeFamily {
     pub fn new(device: &wgpu::Device, view: &wgpu::BindGroupLayout, materials: &MaterialTable) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
+        let texture = |binding, multisampled| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: compute,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled,
+            },
+            count: None,
+        };
         let shade = [HDR_FORMAT, DISPLAY_FORMAT].map(|format| {
             [None, Some(false), Some(true)].map(|overlay| {
-                let mut entries = vec![
-                    uniform(0, compute),
-                    storage(1, compute),
-                    storage(2, compute),
-                    storage(3, compute),
-                    storage(4, compute),
-                    storage_rw(5, compute),
-                    parts::storage_texture(6, format, wgpu::TextureViewDimension::D2),
-                ];
-                if let Some(multisampled) = overlay {
-                    entries.push(wgpu::BindGroupLayoutEntry {
-                        binding: 7,
-                        visibility: compute,
-                        ty: wgpu::BindingType::Texture {
-                            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                            view_dimension: wgpu::TextureViewDimension::D2,
-                            multisampled,
-                        },
-                        count: None,
-                    });
-                }
-                parts::bind_group_layout(device, "visibility shade", &entries)
+                [false, true].map(|reuse| {
+                    let mut entries = vec![
+                        uniform(0, compute),
+                        storage(1, compute),
+                        storage(2, compute),
+                        storage(3, compute),
+                        storage(4, compute),
+                        storage_rw(5, compute),
+                        parts::storage_texture(6, format, wgpu::TextureViewDimension::D2),
+                    ];
+                    if let Some(multisampled) = overlay {
+                        entries.push(texture(7, multisampled));
+                    }
+                    if reuse {
+                        entries.push(texture(8, false));
+                    }
+                    parts::bind_group_layout(device, "visibility shade", &entries)
+                })
             })
         });
         let pipeline = [0, 1].map(|i| {
             [0, 1, 2].map(|k| {
-                let groups = [Some(view), Some(materials.layout()), Some(&shade[i][k])];
-                PipelineLayouts::new("visibility shade", &groups, materials.extension_layouts().clone())
+                [0, 1].map(|r| {
+                    let groups = [Some(view), Some(materials.layout()), Some(&shade[i][k][r])];
+                    PipelineLayouts::new("visibility shade", &groups, materials.extension_layouts().clone())
+                })
             })
         });
         Self { shade, pipeline }
     }
 
-    /// The shade group's layout for `output` with an overlay of `overlay` samples (0: none).
-    pub fn layout(&self, output: ShadeOutput, overlay: u32) -> &wgpu::BindGroupLayout {
-        &self.shade[output.display() as usize][overlay_kind(overlay)]
+    /// The shade group's layout of `key`'s output, overlay and reuse.
+    pub fn layout(&self, key: &ShadeKey) -> &wgpu::BindGroupLayout {
+        &self.shade[key.output.display() as usize][overlay_kind(key.overlay)][key.reuse as usize]
     }
 }
 
@@ -271,8 +283,8 @@ impl PipelineFamily for ShadeFamily {
     }
 
     fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &ShadeKey) -> wgpu::ComputePipeline {
-        let layout =
-            self.pipeline[key.output.display() as usize][overlay_kind(key.overlay)].get(device, key.forward.features);
+        let layout = self.pipeline[key.output.display() as usize][overlay_kind(key.overlay)][key.reuse as usize]
+            .get(device, key.forward.features);
         parts::compute_pipeline(device, &layout, module, "cs_shade", "visibility shade")
     }
 }
@@ -294,82 +306,5 @@ fn shade_defs(key: ShadeKey) -> ShaderDefs {
         .with("VISIBILITY_BACKGROUND", key.background)
         .with("VISIBILITY_OVERLAY", key.overlay > 0)
         .with("OVERLAY_MULTISAMPLED", key.overlay > 1)
-}
-
-/// The composite of a hybrid frame with transmissive draws (`visibility_composite.wgsl`): the
-/// overlay over the opaque colour, into the HDR target or, tonemapped, the displayed colour.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct CompositeKey {
-    pub multisampled: bool,
-    /// `Hdr`, or `DisplayResolved` (the overlay is blended over resolved radiance).
-    pub output: ShadeOutput,
-}
-
-/// The composite's pipelines, and its group's layout per overlay kind (single-sampled,
-/// multisampled) and output kind (HDR, display).
-pub struct CompositeFamily {
-    group: [[wgpu::BindGroupLayout; 2]; 2],
-    layouts: [[wgpu::PipelineLayout; 2]; 2],
-}
-
-impl CompositeFamily {
-    pub fn new(device: &wgpu::Device) -> Self {
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let texture = |binding, multisampled| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: compute,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled,
-            },
-            count: None,
-        };
-        let group = [false, true].map(|multisampled| {
-            [HDR_FORMAT, DISPLAY_FORMAT].map(|format| {
-                parts::bind_group_layout(
-                    device,
-                    "visibility composite",
-                    &[
-                        uniform(0, compute),
-                        texture(1, false),
-                        texture(2, multisampled),
-                        parts::storage_texture(3, format, wgpu::TextureViewDimension::D2),
-                    ],
-                )
-            })
-        });
-        let layouts =
-            [0, 1].map(|m| [0, 1].map(|d| parts::pipeline_layout(device, "visibility composite", &[&group[m][d]])));
-        Self { group, layouts }
-    }
-
-    /// The group's layout of `key`.
-    pub fn layout(&self, key: CompositeKey) -> &wgpu::BindGroupLayout {
-        &self.group[key.multisampled as usize][key.output.display() as usize]
-    }
-}
-
-impl PipelineFamily for CompositeFamily {
-    type Key = CompositeKey;
-    type Pipeline = wgpu::ComputePipeline;
-    const NAME: &'static str = "visibility composite";
-
-    fn shader(&self, key: &CompositeKey) -> (&'static str, ShaderDefs) {
-        let tonemapper = match key.output {
-            ShadeOutput::DisplayPerSample(t) | ShadeOutput::DisplayResolved(t) => Some(t),
-            ShadeOutput::Hdr => None,
-        };
-        let defs = ShaderDefs::default()
-            .with("OVERLAY_MULTISAMPLED", key.multisampled)
-            .with("VISIBILITY_DISPLAY", key.output.display())
-            .with("TONEMAP_NEUTRAL", tonemapper == Some(Tonemapper::Neutral))
-            .with("TONEMAP_ACES", tonemapper == Some(Tonemapper::Aces));
-        ("visibility_composite.wgsl", defs)
-    }
-
-    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, key: &CompositeKey) -> wgpu::ComputePipeline {
-        let layout = &self.layouts[key.multisampled as usize][key.output.display() as usize];
-        parts::compute_pipeline(device, layout, module, "cs_composite", "visibility composite")
-    }
+        .with("VISIBILITY_REUSE", key.reuse)
 }
