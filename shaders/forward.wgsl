@@ -1026,9 +1026,9 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     if shade_params.accumulate != 0u {
         sum = partial[pixel];
     }
+#ifdef VISIBILITY_OVERLAY
     // What of each sample the overlay leaves to show through (1 outside its rectangle).
     var through = array<f32, 8>(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
-#ifdef VISIBILITY_OVERLAY
     let local = overlay_pixel(id.xy);
     if local.z != 0u {
         for (var s = 0u; s < min(samples, 8u); s++) {
@@ -1067,7 +1067,11 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
             if !sample_empty(u) && u.x == v.x {
                 done |= 1u << j;
                 count++;
+#ifdef VISIBILITY_OVERLAY
                 seen += through[min(j, 7u)];
+#else
+                seen += 1.0;
+#endif
             }
         }
         let b = number_batch(v.x);

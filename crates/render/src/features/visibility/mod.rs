@@ -557,7 +557,9 @@ impl VisibilityBuffer {
             return ShadeKey { forward, output: ShadeOutput::Hdr, background, overlay: 0, reuse: false };
         }
         let overlay = if inputs.overlay.is_some() { inputs.samples } else { 0 };
-        ShadeKey { forward, output: inputs.shade_output, background, overlay, reuse: inputs.transmission.is_some() }
+        // Transmissive draws are blended-phase draws: their frames always have an overlay.
+        let reuse = inputs.transmission.is_some() && overlay > 0;
+        ShadeKey { forward, output: inputs.shade_output, background, overlay, reuse }
     }
 
     /// The shading passes' keys of `group`: the frame's, and the first shading's if it has one.
