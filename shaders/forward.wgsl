@@ -995,7 +995,53 @@ fn shade_triangle(number: u32, b: u32, frag_xy: vec2<f32>) -> vec3<f32> {
     return shade(v, front_facing, sets).color.rgb;
 }
 
+// What nothing covered shows at the pixel centre `frag_xy`: the environment or the clear colour,
+// as the background pass or the cleared samples of a resolve do.
+fn shown_behind(frag_xy: vec2<f32>, size: vec2<u32>) -> vec3<f32> {
+    var behind = shade_params.clear.rgb;
+#ifdef VISIBILITY_BACKGROUND
+    if shade_params.background != 0u {
+        let ndc = vec2<f32>(-1.0, 1.0) + frag_xy * vec2<f32>(2.0, -2.0) / vec2<f32>(size);
+        let near = view.rel_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+        var dir = safe_normalize(near.xyz / near.w, view.camera_forward);
+        if view.is_orthographic != 0u {
+            dir = view.camera_forward;
+        }
+        let radiance = prefiltered_radiance(dir, environment.background_lod / max(environment.max_lod, 1.0)) * view.exposure;
+        behind = select(vec3<f32>(0.0), clamp(radiance, vec3<f32>(0.0), vec3<f32>(F16_MAX)), radiance == radiance);
+    }
+#endif
+#ifdef TONEMAP_IN_FORWARD
+    // The display resolve: the covered samples hold tonemapped colours already.
+    behind = display_rgb(behind);
+#endif
+    return behind;
+}
+
 #ifdef VISIBILITY_OVERLAY
+// Reads the overlay's samples at its pixel `local`: what each lets through into `through`; returns
+// the sum of their (premultiplied) colours.
+fn read_overlay(local: vec2<u32>, samples: u32, through: ptr<function, array<f32, 8>>) -> vec3<f32> {
+    var over = vec3<f32>(0.0);
+    for (var s = 0u; s < min(samples, 8u); s++) {
+        let o = overlay_sample(local, s);
+        (*through)[s] = 1.0 - o.a;
+        over += o.rgb;
+    }
+    return over;
+}
+
+// What the overlay lets through over the samples in `mask`.
+fn through_sum(mask: u32, samples: u32, through: ptr<function, array<f32, 8>>) -> f32 {
+    var seen = 0.0;
+    for (var s = 0u; s < min(samples, 8u); s++) {
+        if (mask & (1u << s)) != 0u {
+            seen += (*through)[s];
+        }
+    }
+    return seen;
+}
+
 // Whether the frame's pixel `at` lies in the overlay's rectangle; its pixel there.
 fn overlay_pixel(at: vec2<u32>) -> vec3<u32> {
     let local = at - shade_params.overlay_origin;
@@ -1027,25 +1073,24 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
         sum = partial[pixel];
     }
 #ifdef VISIBILITY_OVERLAY
-    // What of each sample the overlay leaves to show through (1 outside its rectangle).
+    // What of each sample the overlay lets through, and the sum of its samples' colours, read
+    // when first needed (outside its rectangle it drew nothing).
     var through = array<f32, 8>(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
+    var over = vec3<f32>(0.0);
     let local = overlay_pixel(id.xy);
-    if local.z != 0u {
-        for (var s = 0u; s < min(samples, 8u); s++) {
-            through[s] = 1.0 - overlay_sample(local.xy, s).a;
-        }
-    }
+    var overlay_read = local.z == 0u;
 #endif
     // Samples already shaded (with an earlier sample of the same triangle) or empty.
     var done = 0u;
 #ifdef VISIBILITY_REUSE
-    // A pixel whose samples all hold one triangle has its colour from the first shading; only
-    // the others (edges, and pixels with empty samples) are shaded again.
+    // A pixel whose samples all hold one triangle, or all none, has its colour from the first
+    // shading; only the others (edges, and pixels partly empty) are shaded again.
     let head = vis[pixel * samples];
-    var reused = !sample_empty(head);
+    var reused = true;
     for (var j = 1u; j < samples; j++) {
         let u = vis[pixel * samples + j];
-        reused = reused && !sample_empty(u) && u.x == head.x;
+        let both_empty = sample_empty(u) && sample_empty(head);
+        reused = reused && (both_empty || (!sample_empty(u) && !sample_empty(head) && u.x == head.x));
     }
     if reused {
         done = (1u << samples) - 1u;
@@ -1061,23 +1106,27 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
             continue;
         }
         var count = 0u;
-        var seen = 0.0;
+        var mask = 0u;
         for (var j = i; j < samples; j++) {
             let u = vis[pixel * samples + j];
             if !sample_empty(u) && u.x == v.x {
                 done |= 1u << j;
+                mask |= 1u << j;
                 count++;
-#ifdef VISIBILITY_OVERLAY
-                seen += through[min(j, 7u)];
-#else
-                seen += 1.0;
-#endif
             }
         }
         let b = number_batch(v.x);
         if raster_batches[b].shade_group != shade_params.group {
             continue;
         }
+        var seen = f32(count);
+#ifdef VISIBILITY_OVERLAY
+        if !overlay_read {
+            over = read_overlay(local.xy, samples, &through);
+            overlay_read = true;
+        }
+        seen = through_sum(mask, samples, &through);
+#endif
         // rgb: as much as the overlay lets through; alpha: the samples covered.
         sum += vec4<f32>(shade_triangle(v.x, b, frag_xy) * seen, f32(count)) * weight;
     }
@@ -1085,54 +1134,33 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
         partial[pixel] = sum;
         return;
     }
-    // What nothing covered shows the environment or the clear colour, as the background pass
-    // or the cleared samples of a resolve do.
-    var behind = shade_params.clear.rgb;
-#ifdef VISIBILITY_BACKGROUND
-    if shade_params.background != 0u {
-        let ndc = vec2<f32>(-1.0, 1.0) + frag_xy * vec2<f32>(2.0, -2.0) / vec2<f32>(size);
-        let near = view.rel_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-        var dir = safe_normalize(near.xyz / near.w, view.camera_forward);
-        if view.is_orthographic != 0u {
-            dir = view.camera_forward;
-        }
-        let radiance = prefiltered_radiance(dir, environment.background_lod / max(environment.max_lod, 1.0)) * view.exposure;
-        behind = select(vec3<f32>(0.0), clamp(radiance, vec3<f32>(0.0), vec3<f32>(F16_MAX)), radiance == radiance);
-    }
-#endif
-#ifdef TONEMAP_IN_FORWARD
-    // The display resolve: the covered samples hold tonemapped colours already.
-    behind = display_rgb(behind);
-#endif
     var rgb = sum.rgb;
-#ifdef VISIBILITY_REUSE
-    if reused {
-        var seen = 0.0;
-        for (var j = 0u; j < samples; j++) {
-            seen += through[min(j, 7u)];
-        }
-        rgb = textureLoad(first_shading, id.xy, 0).rgb * (seen * weight);
-    }
-#endif
 #ifdef VISIBILITY_OVERLAY
-    // The empty samples show what is behind as far as the overlay lets them, and each overlay
-    // sample adds its own colour (premultiplied).
-    var behind_seen = 0.0;
+    if !overlay_read {
+        over = read_overlay(local.xy, samples, &through);
+    }
+    var empty = 0u;
     for (var j = 0u; j < samples; j++) {
         if sample_empty(vis[pixel * samples + j]) {
-            behind_seen += through[min(j, 7u)];
+            empty |= 1u << j;
         }
     }
-    rgb += behind * (behind_seen * weight);
-    if local.z != 0u {
-        var over = vec3<f32>(0.0);
-        for (var s = 0u; s < samples; s++) {
-            over += overlay_sample(local.xy, s).rgb;
-        }
-        rgb += over * weight;
+#ifdef VISIBILITY_REUSE
+    if reused {
+        rgb = textureLoad(first_shading, id.xy, 0).rgb * (through_sum((1u << samples) - 1u, samples, &through) * weight);
+        empty = 0u;
     }
+#endif
+    // The empty samples show what is behind as far as the overlay lets them, and each overlay
+    // sample adds its own colour (premultiplied).
+    if empty != 0u {
+        rgb += shown_behind(frag_xy, size) * (through_sum(empty, samples, &through) * weight);
+    }
+    rgb += over * weight;
 #else
-    rgb += behind * (1.0 - sum.a);
+    if sum.a < 1.0 {
+        rgb += shown_behind(frag_xy, size) * (1.0 - sum.a);
+    }
 #endif
 #ifdef VISIBILITY_TONEMAP
     rgb = display_rgb(rgb);
