@@ -1019,24 +1019,23 @@ fn shown_behind(frag_xy: vec2<f32>, size: vec2<u32>) -> vec3<f32> {
 }
 
 #ifdef VISIBILITY_OVERLAY
-// Reads the overlay's samples at its pixel `local`: what each lets through into `through`; returns
-// the sum of their (premultiplied) colours.
-fn read_overlay(local: vec2<u32>, samples: u32, through: ptr<function, array<f32, 8>>) -> vec3<f32> {
+// The sum of the overlay's (premultiplied) colours at the frame's pixel `at` (`overlay_pixel`).
+fn overlay_sum(at: vec3<u32>, samples: u32) -> vec3<f32> {
     var over = vec3<f32>(0.0);
-    for (var s = 0u; s < min(samples, 8u); s++) {
-        let o = overlay_sample(local, s);
-        (*through)[s] = 1.0 - o.a;
-        over += o.rgb;
+    if at.z != 0u {
+        for (var s = 0u; s < samples; s++) {
+            over += overlay_sample(at.xy, s).rgb;
+        }
     }
     return over;
 }
 
-// What the overlay lets through over the samples in `mask`.
-fn through_sum(mask: u32, samples: u32, through: ptr<function, array<f32, 8>>) -> f32 {
+// What the overlay lets through over the samples in `mask` (all of each outside its rectangle).
+fn through_sum(at: vec3<u32>, mask: u32, samples: u32) -> f32 {
     var seen = 0.0;
-    for (var s = 0u; s < min(samples, 8u); s++) {
+    for (var s = 0u; s < samples; s++) {
         if (mask & (1u << s)) != 0u {
-            seen += (*through)[s];
+            seen += select(1.0, 1.0 - overlay_sample(at.xy, s).a, at.z != 0u);
         }
     }
     return seen;
@@ -1073,12 +1072,7 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
         sum = partial[pixel];
     }
 #ifdef VISIBILITY_OVERLAY
-    // What of each sample the overlay lets through, and the sum of its samples' colours, read
-    // when first needed (outside its rectangle it drew nothing).
-    var through = array<f32, 8>(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
-    var over = vec3<f32>(0.0);
     let local = overlay_pixel(id.xy);
-    var overlay_read = local.z == 0u;
 #endif
     // Samples already shaded (with an earlier sample of the same triangle) or empty.
     var done = 0u;
@@ -1121,11 +1115,7 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         var seen = f32(count);
 #ifdef VISIBILITY_OVERLAY
-        if !overlay_read {
-            over = read_overlay(local.xy, samples, &through);
-            overlay_read = true;
-        }
-        seen = through_sum(mask, samples, &through);
+        seen = through_sum(local, mask, samples);
 #endif
         // rgb: as much as the overlay lets through; alpha: the samples covered.
         sum += vec4<f32>(shade_triangle(v.x, b, frag_xy) * seen, f32(count)) * weight;
@@ -1136,9 +1126,6 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var rgb = sum.rgb;
 #ifdef VISIBILITY_OVERLAY
-    if !overlay_read {
-        over = read_overlay(local.xy, samples, &through);
-    }
     var empty = 0u;
     for (var j = 0u; j < samples; j++) {
         if sample_empty(vis[pixel * samples + j]) {
@@ -1147,16 +1134,16 @@ fn cs_shade(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 #ifdef VISIBILITY_REUSE
     if reused {
-        rgb = textureLoad(first_shading, id.xy, 0).rgb * (through_sum((1u << samples) - 1u, samples, &through) * weight);
+        rgb = textureLoad(first_shading, id.xy, 0).rgb * (through_sum(local, (1u << samples) - 1u, samples) * weight);
         empty = 0u;
     }
 #endif
     // The empty samples show what is behind as far as the overlay lets them, and each overlay
     // sample adds its own colour (premultiplied).
     if empty != 0u {
-        rgb += shown_behind(frag_xy, size) * (through_sum(empty, samples, &through) * weight);
+        rgb += shown_behind(frag_xy, size) * (through_sum(local, empty, samples) * weight);
     }
-    rgb += over * weight;
+    rgb += overlay_sum(local, samples) * weight;
 #else
     if sum.a < 1.0 {
         rgb += shown_behind(frag_xy, size) * (1.0 - sum.a);
