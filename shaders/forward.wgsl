@@ -1032,10 +1032,13 @@ fn overlay_sum(at: vec3<u32>, samples: u32) -> vec3<f32> {
 
 // What the overlay lets through over the samples in `mask` (all of each outside its rectangle).
 fn through_sum(at: vec3<u32>, mask: u32, samples: u32) -> f32 {
+    if at.z == 0u {
+        return f32(countOneBits(mask));
+    }
     var seen = 0.0;
     for (var s = 0u; s < samples; s++) {
         if (mask & (1u << s)) != 0u {
-            seen += select(1.0, 1.0 - overlay_sample(at.xy, s).a, at.z != 0u);
+            seen += 1.0 - overlay_sample(at.xy, s).a;
         }
     }
     return seen;

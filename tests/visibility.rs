@@ -450,8 +450,8 @@ fn transmissive_draws_see_the_scene_the_visibility_buffer_shaded() {
 #[test]
 fn transmissive_hybrid_frames_follow_size_changes_and_come_and_go() {
     // One renderer across a size change, then with the transmissive draws removed and added
-    // again: each frame equals a fresh renderer's (the copy, the overlay's groups and the
-    // composite's group are made again or dropped, none left pointing at an old target).
+    // again: each frame equals a fresh renderer's (the copy, the overlay's groups and both
+    // shadings' groups are made again or dropped, none left pointing at an old target).
     let settings = settings(4, Raster::Compute);
     let twice = |app: &mut App, size| {
         render_app(app, size, settings.clone());

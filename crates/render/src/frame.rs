@@ -66,7 +66,8 @@ impl Pass {
          (depth and triangle number per sample)",
     );
     /// Compute: each pixel's triangles in the visibility buffer shaded and resolved into the
-    /// HDR colour (with transmissive draws, into the transmission copy's level 0).
+    /// HDR colour (with transmissive draws twice: into the transmission copy's level 0, then,
+    /// after the overlay, into the output).
     pub const VISIBILITY_SHADE: Pass = Pass::new(
         "VisibilityShade",
         "visibility buffer, mesh pool, instances, materials, textures, light store [, cluster lists] \

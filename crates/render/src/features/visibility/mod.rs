@@ -36,8 +36,8 @@
 //! then `encode_shade`, which composites each overlay sample over its own sample's colour. With
 //! transmissive draws, which read the opaque colour, `encode_first_shade` runs before the
 //! overlay and writes it into the transmission copy's level 0 (`FrameInputs::transmission`);
-//! `encode_shade` then takes each pixel whose samples all hold one triangle from there and
-//! shades again only the others (edges, and pixels with empty samples).
+//! `encode_shade` then takes each pixel whose samples all hold one triangle, or all none, from
+//! there and shades again only the others (edges, and pixels partly empty).
 //!
 //! What a frame needs for this path (else the forward pass draws it, and the plan says why):
 //! GPU culling (the visible lists), no occlusion culling, at least one opaque or masked
@@ -317,7 +317,7 @@ pub struct FrameInputs<'a> {
     /// a first shading writes the opaque colour, as radiance, into the copy's level 0
     /// (`encode_first_shade`); the copy's mip chain is made, the overlay's transmissive draws
     /// read it, and `encode_shade` writes the output with the overlay composited, shading again
-    /// only the pixels whose samples hold more than one triangle or none.
+    /// only the pixels whose samples hold more than one triangle, or some none.
     pub transmission: Option<CopyViews<'a>>,
 }
 
