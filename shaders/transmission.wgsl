@@ -1,7 +1,6 @@
 // The opaque colour's copy that transmissive surfaces see through (features/transmission):
 // level 0 is the resolved HDR colour after the opaque draws and the background, each further
-// level the 2×2 mean of the one above (DOWNSAMPLE: one bilinear read at the block's centre; with
-// DOWNSAMPLE_COMPUTE also `cs_downsample`, the same read written by compute into the level).
+// level the 2×2 mean of the one above (DOWNSAMPLE: one bilinear read at the block's centre).
 // forward.wgsl's MATERIAL_TRANSMISSION reads it along the refracted ray, at a level chosen
 // from the surface's roughness.
 
@@ -26,17 +25,3 @@ fn fs_main(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     return vec4<f32>(textureLoad(source, vec2<i32>(position.xy), 0).rgb, 1.0);
 #endif
 }
-
-#ifdef DOWNSAMPLE_COMPUTE
-@group(0) @binding(2) var level: texture_storage_2d<rgba16float, write>;
-
-@compute @workgroup_size(8, 8)
-fn cs_downsample(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(level);
-    if id.x >= size.x || id.y >= size.y {
-        return;
-    }
-    let uv = 2.0 * (vec2<f32>(id.xy) + 0.5) / vec2<f32>(textureDimensions(source));
-    textureStore(level, id.xy, vec4<f32>(textureSampleLevel(source, source_sampler, uv, 0.0).rgb, 1.0));
-}
-#endif

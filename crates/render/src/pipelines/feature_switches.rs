@@ -41,7 +41,6 @@ pub const FEATURE_SWITCHES: &[&str] = &[
     "DECODE_SRGB",
     "DEFERRED_LOCAL_LIGHTS",
     "DOWNSAMPLE",
-    "DOWNSAMPLE_COMPUTE",
     "EMISSIVE_TEXTURE",
     "ENCODE_SRGB",
     "FIRST",

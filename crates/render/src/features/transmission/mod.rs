@@ -72,46 +72,6 @@ impl PipelineFamily for CopyFamily {
     }
 }
 
-/// The mip chain in compute (`transmission.wgsl`'s `cs_downsample`, one dispatch per level), for
-/// frames whose level 0 the visibility buffer's shading wrote: those run on GPUs where
-/// full-screen fragment passes are dear (a 1080p chain of them takes 0.21 ms on the H200).
-pub struct ComputeDownFamily {
-    group: wgpu::BindGroupLayout,
-    layout: wgpu::PipelineLayout,
-}
-
-impl ComputeDownFamily {
-    fn new(device: &wgpu::Device) -> Self {
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let group = parts::bind_group_layout(
-            device,
-            "transmission downsample in compute",
-            &[
-                wgpu::BindGroupLayoutEntry { visibility: compute, ..parts::texture(0, true) },
-                wgpu::BindGroupLayoutEntry { visibility: compute, ..parts::sampler(1) },
-                parts::storage_texture(2, HDR_FORMAT, wgpu::TextureViewDimension::D2),
-            ],
-        );
-        let layout = parts::pipeline_layout(device, "transmission downsample in compute", &[&group]);
-        Self { group, layout }
-    }
-}
-
-impl PipelineFamily for ComputeDownFamily {
-    type Key = ();
-    type Pipeline = wgpu::ComputePipeline;
-    const NAME: &'static str = "transmission downsample in compute";
-
-    fn shader(&self, _: &()) -> (&'static str, ShaderDefs) {
-        let defs = ShaderDefs::default().with("DOWNSAMPLE", true).with("DOWNSAMPLE_COMPUTE", true);
-        ("transmission.wgsl", defs)
-    }
-
-    fn create(&self, device: &Compiler, module: &wgpu::ShaderModule, _: &()) -> wgpu::ComputePipeline {
-        parts::compute_pipeline(device, &self.layout, module, "cs_downsample", "transmission downsample in compute")
-    }
-}
-
 /// The copy of one frame size: the texture, a view of each level, the group transmissive draws
 /// bind and the groups each downsampling step reads.
 struct Copy {
@@ -123,8 +83,6 @@ struct Copy {
     whole: wgpu::TextureView,
     bind_group: wgpu::BindGroup,
     down_groups: Vec<wgpu::BindGroup>,
-    /// With `storage`: each level's group for `ComputeDownFamily` (the level above, the level).
-    compute_groups: Vec<wgpu::BindGroup>,
 }
 
 /// What a visibility-buffer frame's passes bind of the copy.
@@ -147,7 +105,6 @@ impl Transmission {
     /// Registers the copy's pipeline family.
     pub fn new(device: &wgpu::Device, pipelines: &mut PipelineCache) -> Self {
         pipelines.register(CopyFamily::new(device));
-        pipelines.register(ComputeDownFamily::new(device));
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("transmission"),
             mag_filter: wgpu::FilterMode::Linear,
@@ -190,17 +147,15 @@ impl Transmission {
             return Ok(());
         }
         if self.copy.as_ref().is_none_or(|c| c.size != size || c.storage != storage) {
-            let layouts = (&pipelines.family::<CopyFamily>().down, &pipelines.family::<ComputeDownFamily>().group);
-            self.copy = Some(self.make(device, layouts, size, storage));
+            self.copy = Some(self.make(device, &pipelines.family::<CopyFamily>().down, size, storage));
         }
-        let compute = if storage { pipelines.get::<ComputeDownFamily>(device, ()).map(|_| ()) } else { Ok(()) };
-        pipelines.prepare::<CopyFamily>(device, [CopyStep::Level0, CopyStep::Down]).and(compute)
+        pipelines.prepare::<CopyFamily>(device, [CopyStep::Level0, CopyStep::Down])
     }
 
     fn make(
         &self,
         device: &wgpu::Device,
-        (down_layout, compute_layout): (&wgpu::BindGroupLayout, &wgpu::BindGroupLayout),
+        down_layout: &wgpu::BindGroupLayout,
         size: (u32, u32),
         storage: bool,
     ) -> Copy {
@@ -249,29 +204,7 @@ impl Transmission {
                 })
             })
             .collect();
-        let view = |binding, view| wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) };
-        let compute_groups = if storage {
-            levels
-                .windows(2)
-                .map(|pair| {
-                    device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("transmission downsample in compute"),
-                        layout: compute_layout,
-                        entries: &[
-                            view(0, &pair[0]),
-                            wgpu::BindGroupEntry {
-                                binding: 1,
-                                resource: wgpu::BindingResource::Sampler(&self.sampler),
-                            },
-                            view(2, &pair[1]),
-                        ],
-                    })
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        Copy { size, storage, texture, levels, whole, bind_group, down_groups, compute_groups }
+        Copy { size, storage, texture, levels, whole, bind_group, down_groups }
     }
 
     /// The group transmissive draws bind, in a frame that draws them.
@@ -312,25 +245,12 @@ impl Transmission {
         self.encode_downsample(cx);
     }
 
-    /// Fills the mip chain from level 0 (written by `encode_copy` or, in compute, by the
-    /// visibility buffer's shading pass).
+    /// Fills the mip chain from level 0 (written by `encode_copy` or by the visibility buffer's
+    /// shading pass).
     pub fn encode_downsample(&self, cx: &mut FrameContext) {
-        let Some(copy) = &self.copy else { return };
-        if let (true, Some(pipeline)) = (copy.storage, cx.pipelines.cached::<ComputeDownFamily>(&())) {
-            let mut pass = cx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("transmission downsample"),
-                timestamp_writes: cx.timer.as_deref_mut().and_then(|t| t.compute_pass("transmission downsample")),
-            });
-            pass.set_pipeline(pipeline);
-            let (w, h) = (copy.texture.width(), copy.texture.height());
-            for (k, group) in copy.compute_groups.iter().enumerate() {
-                let level = k as u32 + 1;
-                pass.set_bind_group(0, group, &[]);
-                pass.dispatch_workgroups((w >> level).max(1).div_ceil(8), (h >> level).max(1).div_ceil(8), 1);
-            }
+        let (Some(copy), Some(down)) = (&self.copy, cx.pipelines.cached::<CopyFamily>(&CopyStep::Down)) else {
             return;
-        }
-        let Some(down) = cx.pipelines.cached::<CopyFamily>(&CopyStep::Down) else { return };
+        };
         for (group, target) in copy.down_groups.iter().zip(&copy.levels[1..]) {
             // Each level's pass is timed under one label (the timer sums them).
             let timestamps = cx.timer.as_deref_mut().and_then(|t| t.pass("transmission downsample"));
