@@ -329,10 +329,8 @@ fn blended_draws_and_gizmos_are_drawn_over_the_visibility_buffer() {
         ("HDR, MSAA 4, blended boxes alone", settings(4, Raster::Hardware), add_blended),
     ];
     for (name, hardware_settings, add) in configs {
-        let compute_settings = RenderSettings { raster: Raster::Compute, ..hardware_settings.clone() };
-        let (hardware, hw_app) = render_with(hardware_settings, add);
+        let ((hardware, hw_app), (compute, app), compute_settings) = both_rasters(hardware_settings, add);
         assert!(plan_runs(&hw_app, Pass::TRANSPARENT));
-        let (compute, app) = render_with(compute_settings.clone(), add);
         assert!(plan_runs(&app, Pass::TRANSPARENT), "{name}");
         if !visibility_supported(&app) {
             assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
@@ -349,6 +347,18 @@ fn blended_draws_and_gizmos_are_drawn_over_the_visibility_buffer() {
         // instead of each sample's own put 14 pixels more than 24/255 apart.
         assert_hybrid_matches(name, (&compute, &hardware), compute_settings, 100);
     }
+}
+
+/// The stress scene with `add` drawn with `hardware_settings`, then with the same settings but
+/// rasterised in compute; and those settings.
+fn both_rasters(
+    hardware_settings: RenderSettings,
+    add: fn(&mut App),
+) -> ((Vec<u8>, App), (Vec<u8>, App), RenderSettings) {
+    let compute_settings = RenderSettings { raster: Raster::Compute, ..hardware_settings.clone() };
+    let hardware = render_with(hardware_settings, add);
+    let compute = render_with(compute_settings.clone(), add);
+    (hardware, compute, compute_settings)
 }
 
 /// Compares a hybrid frame rasterised in compute (drawn with `settings`) with the forward
@@ -416,10 +426,8 @@ fn transmissive_draws_see_the_scene_the_visibility_buffer_shaded() {
         ("HDR, MSAA 4, with blended boxes", settings(4, Raster::Hardware), with_blended),
     ];
     for (name, hardware_settings, add) in configs {
-        let compute_settings = RenderSettings { raster: Raster::Compute, ..hardware_settings.clone() };
-        let (hardware, hw_app) = render_with(hardware_settings, add);
+        let ((hardware, hw_app), (compute, app), compute_settings) = both_rasters(hardware_settings, add);
         assert!(plan_runs(&hw_app, Pass::TRANSMISSION) && plan_runs(&hw_app, Pass::OPAQUE), "{name}");
-        let (compute, app) = render_with(compute_settings.clone(), add);
         if !visibility_supported(&app) {
             assert!(plan_runs(&app, Pass::OPAQUE) && !plan_runs(&app, Pass::VISIBILITY_RASTER));
             continue;
