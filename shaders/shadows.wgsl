@@ -1,8 +1,13 @@
 // Directional-light shadows, read from the cascaded shadow maps the shadow orchestrator renders
-// (crates/render/src/features/shadows/): each cascade is one layer of a Depth32Float array atlas,
-// reverse-Z (1 nearest the light), holding the depth of the nearest caster over the window of the
-// cascade's map that receivers read (features/shadows/window.rs), at the layer's top-left; the
-// cascade's matrix maps straight into the layer, and filters step by the layer's texels.
+// (crates/render/src/features/shadows/): each cascade is one layer of an R32Float array atlas of
+// depths, reverse-Z (1 nearest the light), holding the depth of the nearest caster over the window
+// of the cascade's map that receivers read (features/shadows/window.rs), at the layer's top-left;
+// the cascade's matrix maps straight into the layer, and filters step by the layer's texels.
+// Floats rather than a depth texture because both rasterisers fill it: casters drawn in hardware
+// are copied in from a depth target, casters rasterised in compute from a buffer (a depth texture
+// can be neither written by compute nor copied into). So the comparisons are made here: each
+// bilinear comparison gathers the four texels around its point and weighs their results, as a
+// comparison sampler would.
 //
 // A fragment picks its cascade by view depth and blends into the next one over the last
 // `blend` of the cascade's depth range, so no seam shows where cascades meet; past the last
@@ -84,13 +89,13 @@ struct LocalShadow {
 };
 
 @group(0) @binding(11) var<uniform> shadows: Shadows;
-@group(0) @binding(12) var shadow_atlas: texture_depth_2d_array;
+@group(0) @binding(12) var shadow_atlas: texture_2d_array<f32>;
+// The local atlas's comparisons.
 @group(0) @binding(13) var shadow_sampler: sampler_comparison;
 @group(0) @binding(14) var<storage, read> local_shadows: array<LocalShadow>;
 @group(0) @binding(15) var local_atlas: texture_depth_2d_array;
-// The directional atlas again, as plain floats: the blocker search loads depths, and a load from
-// a depth texture has no GLSL translation (wgpu's GL backend).
-@group(0) @binding(16) var shadow_depths: texture_2d_array<f32>;
+// Nearest, clamped to the edge: the directional atlas's gathers.
+@group(0) @binding(16) var shadow_gather: sampler;
 
 // Taps of a Vogel (golden-angle spiral) disk of unit radius, turned by `angle`.
 fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {
@@ -99,24 +104,56 @@ fn vogel_tap(i: u32, count: u32, angle: f32) -> vec2<f32> {
     return r * vec2<f32>(cos(theta), sin(theta));
 }
 
+// 1 where a receiver at `depth` is lit by the texel (at least as near the light as its caster).
+fn lit(depth: f32, texels: vec4<f32>) -> vec4<f32> {
+    return select(vec4<f32>(0.0), vec4<f32>(1.0), vec4<f32>(depth) >= texels);
+}
+
+// Comparisons of `depth` with the 2×2 texels whose shared corner is `corner` (texel units):
+// x (left, lower), y (right, lower), z (right, upper), w (left, upper), as textureGather orders
+// them ("upper" is the smaller row).
+fn lit_quad(layer: u32, corner: vec2<f32>, size: vec2<f32>, depth: f32) -> vec4<f32> {
+    return lit(depth, textureGather(0, shadow_atlas, shadow_gather, corner / size, layer));
+}
+
+// The bilinear comparison at `uv`: the four texels around it compared, their results weighed by
+// the point's place between their centres.
+fn compare_bilinear(layer: u32, uv: vec2<f32>, size: vec2<f32>, depth: f32) -> f32 {
+    let t = uv * size - 0.5;
+    let base = floor(t);
+    let f = t - base;
+    let q = lit_quad(layer, base + 1.0, size, depth);
+    return mix(mix(q.w, q.z, f.x), mix(q.x, q.y, f.x), f.y);
+}
+
 // Fraction of the layer's texels around `uv` nearer the light than `depth`, sampled over a disk
 // of `radius` texels (at least the 4×4 texels of 3×3 bilinear comparisons).
 fn pcf(layer: u32, uv: vec2<f32>, depth: f32, radius: f32, angle: f32) -> f32 {
-    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_atlas));
-    var sum = 0.0;
+    let size = vec2<f32>(textureDimensions(shadow_atlas));
     if radius <= 1.5 {
-        for (var y = -1; y <= 1; y++) {
-            for (var x = -1; x <= 1; x++) {
-                let at = uv + vec2<f32>(f32(x), f32(y)) * texel;
-                sum += textureSampleCompareLevel(shadow_atlas, shadow_sampler, at, layer, depth);
-            }
-        }
+        // The 3×3 bilinear comparisons one texel apart, from four gathers: over the 4×4 texels
+        // they span, they weigh the columns (1 − f.x, 1, 1, f.x) and the rows likewise.
+        let t = uv * size - 0.5;
+        let base = floor(t);
+        let f = t - base;
+        let near = vec2<f32>(1.0) - f;
+        let upper_left = lit_quad(layer, base, size, depth);
+        let upper_right = lit_quad(layer, base + vec2<f32>(2.0, 0.0), size, depth);
+        let lower_left = lit_quad(layer, base + vec2<f32>(0.0, 2.0), size, depth);
+        let lower_right = lit_quad(layer, base + 2.0, size, depth);
+        // Per quad: (left, right) column weights a, b and (upper, lower) row weights r, s give
+        // (a·s, b·s, b·r, a·r) in gather order.
+        let sum = dot(upper_left, vec4<f32>(near.x, 1.0, near.y, near.x * near.y))
+            + dot(upper_right, vec4<f32>(1.0, f.x, f.x * near.y, near.y))
+            + dot(lower_left, vec4<f32>(near.x * f.y, f.y, 1.0, near.x))
+            + dot(lower_right, vec4<f32>(f.y, f.x * f.y, f.x, 1.0));
         return sum / 9.0;
     }
+    var sum = 0.0;
     let taps = 16u;
     for (var i = 0u; i < taps; i++) {
-        let at = uv + vogel_tap(i, taps, angle) * (radius * texel);
-        sum += textureSampleCompareLevel(shadow_atlas, shadow_sampler, at, layer, depth);
+        let at = uv + vogel_tap(i, taps, angle) * (radius / size);
+        sum += compare_bilinear(layer, at, size, depth);
     }
     return sum / f32(taps);
 }
@@ -133,7 +170,7 @@ fn pcss_radius(layer: u32, uv: vec2<f32>, depth: f32, cascade: ShadowCascade, an
     for (var i = 0u; i < taps; i++) {
         let at = uv + vogel_tap(i, taps, angle) * search / size;
         let texel = vec2<i32>(clamp(at * size, vec2<f32>(0.0), size - 1.0));
-        let d = textureLoad(shadow_depths, texel, layer, 0).x;
+        let d = textureLoad(shadow_atlas, texel, layer, 0).x;
         if d > depth {
             blockers += 1.0;
             blocker_depth += d;

@@ -32,8 +32,16 @@
 // by the same plane meet at the same point. The result does not depend on the order threads
 // run in. The shading pass (forward.wgsl, VISIBILITY_SHADE) decodes the
 // number the same way and recomputes the triangle from it.
+//
+// SHADOW_DEPTH: the same steps draw one shadow map's casters (features/shadows/raster.rs): the
+// map's culled lists and instance counts (at `view.slot_base` and `view.args_base` of the
+// caster cull's), its clip space, both faces, one sample a texel, and into each texel only the
+// depth (f32 bits, which order as the floats do) with a 32-bit atomicMax, pushed away from the
+// light by the casters' slope-scaled bias as the hardware's raster state pushes it.
 
+#ifndef SHADOW_DEPTH
 #import penumbra::view::View
+#endif
 #import penumbra::draw_data::{Instance, Material, TexCoord, UvSets, place_vertex, slot_coord}
 #import penumbra::common::STANDARD_SAMPLES_4
 #import penumbra::visibility::{RasterBatch, CULL_BACK, FRONT_CW, NON_INDEXED, pixel_weights}
@@ -46,9 +54,26 @@ struct RasterParams {
     job_capacity: u32,
     // Thread groups `raster_tiles` runs (each loops over jobs).
     tile_groups: u32,
+    // Pixels from one row of `vis` to the next (at least the target's width).
+    row_pitch: u32,
+    _pad: u32,
+};
+
+#ifdef SHADOW_DEPTH
+// One shadow map's casters as the caster pass sees them (shadow_caster.wgsl's CasterView).
+struct CasterRasterView {
+    clip_from_rel: mat4x4<f32>,
+    camera_position: vec3<f32>,
+    // Where the map's culled lists start in `visible_slots`, and its batches' instance counts
+    // in `cull_args`.
+    slot_base: u32,
+    args_base: u32,
+    // ShadowSettings::slope_bias.
+    slope_bias: f32,
     _pad_a: u32,
     _pad_b: u32,
 };
+#endif
 
 // The batches one raster bin draws: first_batch..end_batch of the table, whose numbers are
 // contiguous (end_batch may be the batch count: its word holds the total).
@@ -67,7 +92,11 @@ const WORKGROUP: u32 = 64u;
 // Dispatches wider than this many groups go 2D.
 const MAX_GROUPS_X: u32 = 32768u;
 
+#ifdef SHADOW_DEPTH
+@group(0) @binding(0) var<uniform> view: CasterRasterView;
+#else
 @group(0) @binding(0) var<uniform> view: View;
+#endif
 @group(0) @binding(1) var<storage, read> instances: array<Instance>;
 @group(0) @binding(2) var<storage, read> visible_slots: array<u32>;
 @group(0) @binding(3) var<storage, read> batches: array<RasterBatch>;
@@ -77,7 +106,11 @@ const MAX_GROUPS_X: u32 = 32768u;
 @group(0) @binding(7) var<uniform> params: RasterParams;
 // Per batch its first number, then the total, then the job count.
 @group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>>;
+#ifdef SHADOW_DEPTH
+@group(0) @binding(9) var<storage, read_write> vis: array<atomic<u32>>;
+#else
 @group(0) @binding(9) var<storage, read_write> vis: array<atomic<u64>>;
+#endif
 // Large triangles: (number, first tile y << 16 | x, tiles high << 16 | wide, first job).
 @group(0) @binding(10) var<storage, read_write> big: array<vec4<u32>>;
 // This dispatch's bin (a dynamic offset into the bins' uniforms).
@@ -98,6 +131,55 @@ const MAX_GROUPS_X: u32 = 32768u;
 #endif
 #endif
 
+// Where this draw's lists start in `visible_slots` and its counts in `cull_args`.
+fn slot_base() -> u32 {
+#ifdef SHADOW_DEPTH
+    return view.slot_base;
+#else
+    return 0u;
+#endif
+}
+
+fn args_base() -> u32 {
+#ifdef SHADOW_DEPTH
+    return view.args_base;
+#else
+    return 0u;
+#endif
+}
+
+// Whether a batch's back faces are left out (never for shadow casters: a single-sided wall
+// still blocks light coming from behind it).
+fn culls_back(flags: u32) -> bool {
+#ifdef SHADOW_DEPTH
+    return false;
+#else
+    return (flags & CULL_BACK) != 0u;
+#endif
+}
+
+// The slope-scaled depth bias of a triangle whose projected vertices are `a`, `b`, `c`
+// (framebuffer x, y and depth): the bias times its steepest depth change across one pixel
+// (as Vulkan's depth bias takes it, the larger of the two axes' slopes), toward 0, away from
+// the light. 0 outside shadow maps.
+fn depth_bias(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
+#ifdef SHADOW_DEPTH
+    let e1 = b - a;
+    let e2 = c - a;
+    let det = e1.x * e2.y - e1.y * e2.x;
+    if !(abs(det) > 0.0) {
+        return 0.0;
+    }
+    let dzdx = (e1.z * e2.y - e2.z * e1.y) / det;
+    let dzdy = (e1.x * e2.z - e2.x * e1.z) / det;
+    let slope = max(abs(dzdx), abs(dzdy));
+    // A sliver's slope can overflow: clamp the bias to the depth range.
+    return min(view.slope_bias * slope, 1.0);
+#else
+    return 0.0;
+#endif
+}
+
 // The number of large triangles recorded in `big`.
 fn big_count_word() -> u32 {
     return params.batch_count + 1u;
@@ -117,7 +199,7 @@ fn raster_prepare() {
     for (var b = 0u; b < params.batch_count; b++) {
         atomicStore(&counters[b], total);
         let batch = batches[b];
-        let instances_visible = cull_args[batch.count_word];
+        let instances_visible = cull_args[args_base() + batch.count_word];
         // Numbers are u32: a frame with more visible triangles than that draws what fits
         // (the renderer does not choose this path for such a scene).
         let n = u64(instances_visible) * u64(batch.triangle_count);
@@ -191,7 +273,7 @@ fn find_triangle(number: u32) -> TriangleRef {
     let instance = local / batch.triangle_count;
     let triangle = local % batch.triangle_count;
     r.batch = lo;
-    r.slot = visible_slots[batch.first + instance];
+    r.slot = visible_slots[slot_base() + batch.first + instance];
     if (batch.flags & NON_INDEXED) != 0u {
         let v = batch.index_start + 3u * triangle;
         r.vertices = vec3<u32>(v, v + 1u, v + 2u);
@@ -288,6 +370,14 @@ fn setup_triangle(number: u32) -> Setup {
 #ifdef ALPHA_MASK
     load_alpha_source(t, poly[0], poly[1], poly[2]);
 #endif
+    // From the whole triangle (shadow maps are orthographic: the projection keeps its plane),
+    // before clipping can leave slivers.
+    var bias = 0.0;
+#ifdef SHADOW_DEPTH
+    if poly[0].w > 0.0 && poly[1].w > 0.0 && poly[2].w > 0.0 {
+        bias = depth_bias(project(poly[0]), project(poly[1]), project(poly[2]));
+    }
+#endif
     // NaN anywhere: nothing to draw (the hardware's result is undefined; ours is nothing).
     for (var i = 0u; i < 3u; i++) {
         if any(poly[i] != poly[i]) {
@@ -346,7 +436,7 @@ fn setup_triangle(number: u32) -> Setup {
         }
         let f = project(c);
         s.xy[i] = snap(f.xy);
-        s.z[i] = f.z;
+        s.z[i] = f.z - bias;
         lo = min(lo, f.xy);
         hi = max(hi, f.xy);
     }
@@ -360,7 +450,7 @@ fn setup_triangle(number: u32) -> Setup {
         return s;
     }
     let front = (area < i64(0)) != ((batch.flags & FRONT_CW) != 0u);
-    if (batch.flags & CULL_BACK) != 0u && !front {
+    if culls_back(batch.flags) && !front {
         return s;
     }
     if hi.x < 0.0 || hi.y < 0.0 || lo.x > size.x || lo.y > size.y {
@@ -410,7 +500,11 @@ fn top_left(a: vec2<i32>, b: vec2<i32>, sign: i32) -> bool {
 // its alpha passes there, and tests only samples it would win.
 fn cover(at: u32, depth: f32, number: u32, pixel: vec2<i32>, k: u32) {
     if depth > 0.0 {
+#ifdef SHADOW_DEPTH
+        let value = bitcast<u32>(depth);
+#else
         let value = (u64(bitcast<u32>(depth)) << 32u) | u64(number);
+#endif
 #ifdef ALPHA_MASK
         if atomicLoad(&vis[at]) >= value || !alpha_passes(pixel, k) {
             return;
@@ -532,7 +626,7 @@ fn raster_fan_triangle(s: Setup, i: u32, lo: vec2<i32>, hi: vec2<i32>, number: u
     let grid = i32(SUBPIXEL);
     let tlo = max(lo, min(a, min(b, c)) / grid - 1);
     let thi = min(hi, max(a, max(b, c)) / grid + 1);
-    let width = params.target_size.x;
+    let width = params.row_pitch;
     let samples = params.samples;
     for (var y = tlo.y; y <= thi.y; y++) {
         for (var x = tlo.x; x <= thi.x; x++) {
@@ -578,7 +672,7 @@ fn raster_small_triangle(pa: vec2<i32>, pb: vec2<i32>, pc: vec2<i32>, z: vec3<f3
     let ta = top_left(b, c, sign);
     let tb = top_left(c, a, sign);
     let tc = top_left(a, b, sign);
-    let width = params.target_size.x;
+    let width = params.row_pitch;
     let samples = params.samples;
     for (var y = lo.y; y <= hi.y; y++) {
         for (var x = lo.x; x <= hi.x; x++) {
@@ -639,7 +733,7 @@ fn raster_unclipped_small(number: u32) -> bool {
     }
     let batch = batches[t.batch];
     let front = (area < i64(0)) != ((batch.flags & FRONT_CW) != 0u);
-    if (batch.flags & CULL_BACK) != 0u && !front {
+    if culls_back(batch.flags) && !front {
         return true;
     }
     if hi_f.x < 0.0 || hi_f.y < 0.0 || lo_f.x > size.x || lo_f.y > size.y || any(hi < lo) {
@@ -648,7 +742,7 @@ fn raster_unclipped_small(number: u32) -> bool {
 #ifdef ALPHA_MASK
     load_alpha_source(t, ca, cb, cc);
 #endif
-    raster_small_triangle(a, b, c, vec3<f32>(fa.z, fb.z, fc.z), lo, hi, number);
+    raster_small_triangle(a, b, c, vec3<f32>(fa.z, fb.z, fc.z) - depth_bias(fa, fb, fc), lo, hi, number);
     return true;
 }
 
@@ -793,7 +887,7 @@ fn raster_tile_column(s: Setup, i: u32, column: i32, row0: i32, number: u32) {
     let da = i64(c.x - b.x) * step;
     let db = i64(a.x - c.x) * step;
     let dc = i64(b.x - a.x) * step;
-    let width = params.target_size.x;
+    let width = params.row_pitch;
     let samples = params.samples;
     for (var k = 0u; k < samples; k++) {
         let p = vec2<i32>(column, row0) * grid + sample_offset(k);

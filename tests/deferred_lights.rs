@@ -117,22 +117,7 @@ fn compute_shaded_lights_equal_fragment_shaded_ones_for_every_kind_under_blended
     spawn_mesh(&mut app, Mesh::uv_sphere(0.5, 32, 16), glass, Transform::from_xyz(1.0, 0.5, 1.0));
     // A fence: an upright quad cut out by a checker of alpha, so its edges cross pixels at MSAA 4
     // and only some of their samples carry its surface to the compute pass.
-    let checker: Vec<u8> =
-        (0..64u32).flat_map(|i| [200, 220, 255, if (i % 8 + i / 8) % 2 == 0 { 255 } else { 0 }]).collect();
-    let image = app.world.resource_mut::<Assets<Image>>().add(Image {
-        width: 8,
-        height: 8,
-        rgba8: checker,
-        label: "alpha checker".into(),
-        mips: None,
-        compressed: None,
-    });
-    let fence = StandardMaterial {
-        base_color_texture: Some(TextureRef::new(image)),
-        alpha_mode: AlphaMode::Mask(0.5),
-        double_sided: true,
-        ..StandardMaterial::from_color(Vec4::ONE, 0.5)
-    };
+    let fence = common::checker_fence(&mut app);
     let upright = Transform::from_xyz(-1.5, 0.8, 1.2).with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2));
     spawn_mesh(&mut app, Mesh::plane(1.6), fence, upright);
     let unlit = StandardMaterial { base_color: Vec4::new(1.0, 0.2, 0.2, 1.0), unlit: true, ..Default::default() };

@@ -274,11 +274,12 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     // Everything lies within 5 m of the camera; the default cascades reach 100 m.
     assert!(frame.rendered[0] && !frame.rendered[3], "rendered layers {:?}", frame.rendered);
     // The atlas holds layers up to the farthest cascade that renders, not all four, each as
-    // large as the largest window of its cascade's map that receivers read.
+    // large as the largest window of its cascade's map that receivers read; beside it, one
+    // layer's staging (the hardware's depth target and the buffer it is copied in through).
     let rendered_to = frame.rendered.iter().rposition(|r| *r).unwrap() + 1;
     let (w, h) = frame.layer_extent;
     let layer = 4 * w as u64 * h as u64;
-    assert_eq!(renderer.memory().shadows, rendered_to as u64 * layer, "rendered layers {:?}", frame.rendered);
+    assert_eq!(renderer.memory().shadows, (rendered_to as u64 + 2) * layer, "rendered layers {:?}", frame.rendered);
     assert!(layer < 4 * (ShadowSettings::default().atlas_size as u64).pow(2), "{w}×{h} layers");
     assert!(renderer.forward_pipeline_keys().iter().all(|k| k.shadows));
 
@@ -344,7 +345,8 @@ fn cascade_layers_store_only_the_texels_receivers_read() {
     let small = renderer.shadow_frame().clone();
     let layers = small.stored.len() as u64;
     assert!(small.rendered.iter().filter(|r| **r).count() >= 2, "{:?}", small.rendered);
-    assert_eq!(renderer.memory().shadows, layers * layer_bytes(&small));
+    // The layers, and one layer's staging (a depth target and a buffer).
+    assert_eq!(renderer.memory().shadows, (layers + 2) * layer_bytes(&small));
     assert!(layer_bytes(&small) < 4 * (full_map as u64).pow(2) / 2, "{:?}", small.layer_extent);
     for (i, stored) in small.stored.iter().enumerate() {
         if let Some(stored) = stored {
@@ -800,4 +802,92 @@ fn the_cascade_view_colours_fragments_by_their_cascade() {
         seen.insert(got);
     }
     assert!(seen.len() >= 3, "cascades seen: {seen:?}");
+}
+
+/// The shadow stress scene: a ground, boxes upright and tilted, a sphere, a fence cut out of a
+/// checker of alpha (a masked, textured caster), and a line mesh (drawn over the visibility
+/// buffer, casting nothing, but counted among the opaque batches the casters are culled from),
+/// under a sun at 40°.
+fn caster_scene() -> App {
+    let mut app = scene_app();
+    spawn_mesh(&mut app, Mesh::plane(40.0), grey(0.8), Transform::default());
+    spawn_mesh(&mut app, Mesh::cuboid(Vec3::splat(0.6)), grey(0.6), Transform::from_xyz(-1.0, 0.3, -0.5));
+    let tilted = Transform::from_xyz(1.2, 0.7, -1.5)
+        .with_rotation(Quat::from_rotation_x(0.5) * Quat::from_rotation_y(0.8) * Quat::from_rotation_z(0.3));
+    spawn_mesh(&mut app, Mesh::cuboid(Vec3::new(0.8, 0.3, 0.5)), grey(0.5), tilted);
+    spawn_mesh(&mut app, Mesh::uv_sphere(0.45, 32, 16), grey(0.7), Transform::from_xyz(0.2, 0.9, 0.8));
+    // Far boxes, for the outer cascades.
+    for i in 0..6 {
+        let at = Vec3::new(-8.0 + 3.2 * i as f32, 0.75, -9.0 - 2.0 * i as f32);
+        spawn_mesh(&mut app, Mesh::cuboid(Vec3::new(0.8, 1.5, 0.8)), grey(0.6), Transform::from_translation(at));
+    }
+    let fence = common::checker_fence(&mut app);
+    let upright = Transform::from_xyz(-2.2, 0.9, 0.6).with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    spawn_mesh(&mut app, Mesh::plane(1.6), fence, upright);
+    let zigzag: Vec<Vec3> =
+        (0..12).map(|k| Vec3::new(-2.2 + 0.4 * k as f32, 0.4 + 0.5 * (k % 2) as f32, 1.5)).collect();
+    let lines = Mesh {
+        topology: Topology::LineList,
+        positions: zigzag.windows(2).flat_map(|w| [w[0], w[1]]).collect(),
+        ..Default::default()
+    };
+    let yellow = StandardMaterial { unlit: true, ..StandardMaterial::from_color(Vec4::new(1.0, 0.95, 0.2, 1.0), 1.0) };
+    spawn_mesh(&mut app, lines, yellow, Transform::IDENTITY);
+    app.world.spawn((DirectionalLight { illuminance: 2.0, ..Default::default() }, sun(40.0, 30.0)));
+    app.world
+        .spawn((Camera::default(), Transform::from_xyz(0.5, 2.5, 5.0).looking_at(Vec3::new(0.0, 0.3, -1.0), Vec3::Y)));
+    app
+}
+
+/// Cascade layers rasterised in compute (in a frame whose view is) hold what the hardware's
+/// caster passes draw: the same windows; the same texels covered, and the same depths within
+/// 2·10⁻⁵ of the depth range (the slope-scaled bias's slope measured by the larger axis, as
+/// Vulkan allows; vertex rounding), but for fewer than 1 texel in 2000 (samples exactly on an
+/// edge, which two rasterisers' vertex rounding may give to different triangles); the masked
+/// fence cut out alike; and frames that show the same shadows.
+#[test]
+fn cascades_rasterised_in_compute_hold_the_hardwares_depths() {
+    let size = (192, 128);
+    let shadows = ShadowSettings { atlas_size: 1024, ..Default::default() };
+    let mut layers = Vec::new();
+    let mut frames = Vec::new();
+    for raster in [Raster::Hardware, Raster::Compute] {
+        let mut app = caster_scene();
+        let px = render_app(&mut app, size, RenderSettings { raster, ..settings(shadows) });
+        let renderer = app.world.resource::<Renderer>();
+        assert_eq!(renderer.shader_error(), None);
+        let plan = &renderer.stats().plan;
+        assert_eq!(plan.runs(Pass::VISIBILITY_RASTER), raster == Raster::Compute);
+        let (_, why) = plan.passes.iter().find(|(p, _)| *p == Pass::SHADOWS).expect("shadows drawn");
+        assert_eq!(why.contains("rasterised in compute"), raster == Raster::Compute, "{why}");
+        let frame = renderer.shadow_frame().clone();
+        let depths: Vec<_> =
+            (0..frame.stored.len()).map(|layer| renderer.shadow_cascade_depths(layer).unwrap()).collect();
+        save(&format!("compute-{raster:?}"), &px, size);
+        layers.push((frame, depths));
+        frames.push(px);
+    }
+    let (hardware, compute) = (&layers[0], &layers[1]);
+    assert_eq!(hardware.0.stored, compute.0.stored, "the same windows");
+    assert!(hardware.0.redraw.iter().filter(|r| **r).count() >= 3, "{:?}", hardware.0.redraw);
+    for (layer, (h, c)) in hardware.1.iter().zip(&compute.1).enumerate() {
+        let (Some((window, h)), Some((_, c))) = (h, c) else { continue };
+        let covered = h.iter().filter(|d| **d > 0.0).count();
+        let coverage = h.iter().zip(c).filter(|(h, c)| (**h > 0.0) != (**c > 0.0)).count();
+        let both = || h.iter().zip(c).filter(|(h, c)| **h > 0.0 && **c > 0.0);
+        let worst = both().map(|(h, c)| (h - c).abs()).fold(0.0, f32::max);
+        let apart = both().filter(|(h, c)| (*h - *c).abs() > 2e-5).count();
+        let mean = both().map(|(h, c)| (h - c).abs() as f64).sum::<f64>() / covered.max(1) as f64;
+        eprintln!(
+            "layer {layer} {window:?}: {covered} of {} texels covered, {coverage} differ in coverage, depths differ \
+             by {worst:e} at most, {mean:e} on average",
+            h.len()
+        );
+        assert!(covered * 4 > h.len() / 10 || layer == 3, "layer {layer}: {covered} texels covered");
+        assert!(coverage * 2000 <= covered, "layer {layer}: {coverage} of {covered} texels differ in coverage");
+        assert!(apart * 2000 <= covered, "layer {layer}: {apart} of {covered} texels' depths differ by more than 2e-5");
+    }
+    let flip = common::flip_mean(&frames[0], &frames[1], size.0, size.1);
+    eprintln!("FLIP mean {flip}");
+    assert!(flip < 0.001, "FLIP mean {flip} between the frames");
 }

@@ -171,6 +171,27 @@ pub fn scene_app() -> App {
     app
 }
 
+/// A fence's material: a pale blue cut out (alpha mask 0.5, both sides) by an 8×8 checker of
+/// alpha, so its edges cross pixels and shadow-map texels.
+pub fn checker_fence(app: &mut App) -> StandardMaterial {
+    let checker: Vec<u8> =
+        (0..64u32).flat_map(|i| [200, 220, 255, if (i % 8 + i / 8) % 2 == 0 { 255 } else { 0 }]).collect();
+    let image = app.world.resource_mut::<Assets<Image>>().add(Image {
+        width: 8,
+        height: 8,
+        rgba8: checker,
+        label: "alpha checker".into(),
+        mips: None,
+        compressed: None,
+    });
+    StandardMaterial {
+        base_color_texture: Some(TextureRef::new(image)),
+        alpha_mode: AlphaMode::Mask(0.5),
+        double_sided: true,
+        ..StandardMaterial::from_color(Vec4::ONE, 0.5)
+    }
+}
+
 /// Runs one update of `app`, rendering headless at `size` (a renderer is attached on first use),
 /// and returns the tonemapped sRGB RGBA8 pixels. A shader error fails the test: some draw was
 /// left out of the frame, or drawn by older shaders (`Renderer::read_frame`).

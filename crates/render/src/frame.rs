@@ -223,7 +223,13 @@ impl FramePlan {
             passes.push((Pass::CLUSTER_BIN, "local lights to bin and draws to light"));
         }
         if shadow_layers > 0 {
-            passes.push((Pass::SHADOWS, "a shadowed light's casters reach what the camera sees"));
+            let why = if visibility {
+                "a shadowed light's casters reach what the camera sees (cascade layers up to 8192 texels a side \
+                 rasterised in compute, as the view is; local lights' maps by the hardware)"
+            } else {
+                "a shadowed light's casters reach what the camera sees"
+            };
+            passes.push((Pass::SHADOWS, why));
         }
         if visibility && overlay && transmission {
             // Transmissive draws see the opaque colour: it is shaded first, into the copy.

@@ -6,8 +6,12 @@
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Reverse-Z depth (cleared to 0, compared with `Greater`): f32 keeps far surfaces apart.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// The shadow atlases' layers (depth from the light, reverse-Z like the camera's).
+/// Shadow maps' depth targets (depth from the light, reverse-Z like the camera's): the local
+/// lights' atlas, and the hardware's staging target for a cascade layer.
 pub const SHADOW_ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The cascades' atlas: the same depths as floats, which either rasteriser's result is copied
+/// into (`features::shadows::atlas`).
+pub const SHADOW_DEPTHS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 /// The surface target opaque fragments write for the deferred-lights pass, beside roughness in
 /// the colour's alpha (see `gbuffer.wgsl`).
 pub const SURFACE_SHAPE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Uint;

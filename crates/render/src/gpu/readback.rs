@@ -83,7 +83,19 @@ pub fn read_texture(
     texture: &wgpu::Texture,
     bytes_per_pixel: u32,
 ) -> Result<Vec<u8>, ReadbackError> {
-    let (w, h) = (texture.width(), texture.height());
+    read_texture_region(device, queue, texture, 0, (texture.width(), texture.height()), bytes_per_pixel)
+}
+
+/// Copies `(w, h)` texels from the top-left corner of layer `layer` of a single-sampled 2D
+/// texture with `bytes_per_pixel` and returns tightly packed rows.
+pub fn read_texture_region(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    layer: u32,
+    (w, h): (u32, u32),
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, ReadbackError> {
     let unpadded = w * bytes_per_pixel;
     let padded = unpadded.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
@@ -94,7 +106,12 @@ pub fn read_texture(
     });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
     encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+            aspect: wgpu::TextureAspect::All,
+        },
         wgpu::TexelCopyBufferInfo {
             buffer: &buffer,
             layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },

@@ -76,6 +76,12 @@ impl Renderer {
         if plan.runs(Pass::CULL) {
             self.culling.encode(&mut cx, &cull_inputs);
         }
+        let computed = plan.runs(Pass::VISIBILITY_RASTER);
+        if computed && self.visibility_batches_seen != Some(self.draws.batch_generation()) {
+            // Before the shadows: their cascades' casters are rasterised from the same table.
+            self.visibility.prepare_batches(&device, &queue, self.draws.opaque_batches(), &self.mesh_pool);
+            self.visibility_batches_seen = Some(self.draws.batch_generation());
+        }
         let mut shadow_error = None;
         if plan.runs(Pass::SHADOWS) {
             shadow_error = self.shadows.encode(
@@ -86,6 +92,7 @@ impl Renderer {
                 [self.instances.buffer(), self.draws.slots().buffer(), self.materials.buffer()],
                 self.draws.opaque_batches(),
                 self.culling_active.then(|| self.culling.batch_buffers()),
+                computed.then(|| self.visibility.raster_table()),
             );
         }
         // Handles (reference-counted), so the culling owner stays free to encode between passes.
@@ -142,11 +149,7 @@ impl Renderer {
             // Both passes submit the opaque batches; count them once.
             let counts = DrawCounts { draw_calls: early.draw_calls + late.draw_calls, ..late };
             (counts, early_error.or(error))
-        } else if plan.runs(Pass::VISIBILITY_RASTER) {
-            if self.visibility_batches_seen != Some(self.draws.batch_generation()) {
-                self.visibility.prepare_batches(&device, &queue, self.draws.opaque_batches(), &self.mesh_pool);
-                self.visibility_batches_seen = Some(self.draws.batch_generation());
-            }
+        } else if computed {
             let tonemapper = self.settings.tonemapper;
             // Display colours are averaged only into an sRGB output, as the forward pass does.
             // A hybrid frame's overlay is composited over resolved radiance, as the forward pass

@@ -35,6 +35,13 @@ impl Renderer {
         self.shadows.read_culled_counts(&self.ctx.device, &self.ctx.queue)
     }
 
+    /// The window cascade layer `layer` of the last frame stores (width, height) and its depths
+    /// from the light (reverse-Z), row by row; `None` where it stores none. Reads back (waits
+    /// for the GPU): for tests and tools.
+    pub fn shadow_cascade_depths(&self, layer: usize) -> Result<Option<((u32, u32), Vec<f32>)>, ReadbackError> {
+        self.shadows.read_cascade_layer(&self.ctx.device, &self.ctx.queue, layer)
+    }
+
     /// Automatic exposure's state after the last frame: (the correction the tonemap pass
     /// applied on top of the camera's exposure, the adapted EV100). Reads back (waits for the
     /// GPU): for tests and tools.

@@ -16,11 +16,13 @@
 //! wider than 60°) six cube faces, each a layer of a second atlas, allocated to the lights that
 //! matter most on screen and re-rendered within a per-frame budget.
 
+pub mod atlas;
 pub mod cascades;
 pub mod caster_cull;
 pub mod casters;
 pub mod local;
 pub mod orchestrator;
+pub mod raster;
 pub mod window;
 
 /// How shadow maps are filtered.

@@ -17,17 +17,19 @@
 use glam::{DAffine3, DMat4, DVec3, DVec4, Mat4, Vec3};
 use penumbra_engine::bounds::Aabb;
 
+use super::atlas::{Atlas, LayerStaging};
 use super::cascades::{self, Cascade, CascadeCamera};
 use super::caster_cull::{CasterCulling, CasterSources, CullLayout, MapVolume};
 use super::casters::{CasterFamily, CasterKey};
 use super::local::{self, LocalCandidate, LocalFrame, LocalShadows};
+use super::raster::{CasterRaster, MapRaster, RasterInputs};
 use super::window::{self, TexelWindow};
 use super::{ShadowFilter, ShadowSettings};
 use crate::bindings::{GroupBuilder, GroupResources};
 use crate::features::culling::BatchBuffers;
+use crate::features::visibility::RasterTable;
 use crate::frame_context::FrameContext;
 use crate::gpu::array_layers::ArrayLayers;
-use crate::gpu::formats::SHADOW_ATLAS_FORMAT;
 use crate::pipelines::{PipelineCache, ShaderError};
 use crate::resources::draw_list::{CasterChanges, SceneBounds};
 use crate::resources::draws::{Batch, TopologyKey};
@@ -177,56 +179,6 @@ impl ShadowFrame {
     }
 }
 
-struct Atlas {
-    texture: wgpu::Texture,
-    array_view: wgpu::TextureView,
-    layer_views: Vec<wgpu::TextureView>,
-    /// Texels across and down a layer.
-    extent: (u32, u32),
-    /// Layers in use (the texture may have a spare one: `ArrayLayers`).
-    layers: u32,
-}
-
-impl Atlas {
-    fn new(device: &wgpu::Device, rule: ArrayLayers, (width, height): (u32, u32), layers: u32) -> Self {
-        let allocated = rule.allocate(layers, width, height);
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadow atlas"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: allocated },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: SHADOW_ATLAS_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
-        let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let layer_views = (0..layers)
-            .map(|layer| {
-                texture.create_view(&wgpu::TextureViewDescriptor {
-                    label: Some("shadow atlas layer"),
-                    dimension: Some(wgpu::TextureViewDimension::D2),
-                    base_array_layer: layer,
-                    array_layer_count: Some(1),
-                    ..Default::default()
-                })
-            })
-            .collect();
-        Self { texture, array_view, layer_views, extent: (width, height), layers }
-    }
-
-    fn layers(&self) -> u32 {
-        self.layers
-    }
-
-    fn bytes(&self) -> u64 {
-        self.extent.0 as u64 * self.extent.1 as u64 * 4 * self.texture.depth_or_array_layers() as u64
-    }
-}
-
 /// A caster's stored depth is its camera-relative position (f32) times the cascade's matrix, so
 /// it is off by a few units in the last place of that position's size: for a caster vertex 10⁶ m
 /// from the camera, centimetres, whatever the cascade's depth range. A receiver's own depth comes
@@ -257,9 +209,15 @@ pub struct ShadowOrchestrator {
     local_atlas: Option<Atlas>,
     /// `array<LocalShadow>`, one per local layer.
     local_buffer: wgpu::Buffer,
-    /// Fills the atlas binding while no light casts (nothing samples it then).
-    placeholder: Atlas,
+    /// Where cascade layers are drawn before being copied into `atlas` (with it).
+    staging: Option<LayerStaging>,
+    /// Fill the atlases' bindings while no light casts (nothing samples them then): cascades',
+    /// local lights'.
+    placeholders: [Atlas; 2],
+    /// The local atlas's comparisons.
     sampler: wgpu::Sampler,
+    /// The cascade atlas's gathers (nearest, clamped).
+    gather: wgpu::Sampler,
     array_layers: ArrayLayers,
     /// Added to a receiver's depth before comparing it with the map: 0 where depth is exact;
     /// [`INEXACT_DEPTH_TOLERANCE`] where the backend rounds it (`Capabilities::exact_depth`).
@@ -272,6 +230,9 @@ pub struct ShadowOrchestrator {
     /// Each map's casters culled on the GPU: made by the first culled frame, released with the
     /// atlases.
     cull: Option<CasterCulling>,
+    /// Cascade layers' casters rasterised in compute: made by the first such frame, released
+    /// with the atlases.
+    raster: Option<CasterRaster>,
     /// The camera's position this frame as the shaders take it (f32): caster vertices are
     /// placed relative to it. `ShadowFrame::eye` is the same point in f64, for the planes.
     camera_position: Vec3,
@@ -299,6 +260,7 @@ impl ShadowOrchestrator {
     ) -> Self {
         pipelines.register(CasterFamily::new(device, material));
         CasterCulling::register(device, pipelines);
+        CasterRaster::register(device, pipelines, material);
         Self {
             uniform: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("shadows"),
@@ -312,7 +274,11 @@ impl ShadowOrchestrator {
             local: LocalShadows::default(),
             local_atlas: None,
             local_buffer: local_buffer(device, 1),
-            placeholder: Atlas::new(device, array_layers, (1, 1), 1),
+            staging: None,
+            placeholders: [
+                Atlas::cascades(device, array_layers, (1, 1), 1),
+                Atlas::local(device, array_layers, (1, 1), 1),
+            ],
             array_layers,
             depth_tolerance: if exact_depth { 0.0 } else { INEXACT_DEPTH_TOLERANCE },
             // Reverse-Z: a receiver is lit where its depth is at least the nearest caster's.
@@ -325,9 +291,16 @@ impl ShadowOrchestrator {
                 compare: Some(wgpu::CompareFunction::GreaterEqual),
                 ..Default::default()
             }),
+            gather: device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("shadow gather"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                ..Default::default()
+            }),
             frame: ShadowFrame::default(),
             caster_bind_groups: Vec::new(),
             cull: None,
+            raster: None,
             camera_position: Vec3::ZERO,
             culled: false,
             warned_excess: false,
@@ -355,7 +328,7 @@ impl ShadowOrchestrator {
     }
 
     pub fn local_atlas_view(&self) -> &wgpu::TextureView {
-        &self.local_atlas.as_ref().unwrap_or(&self.placeholder).array_view
+        &self.local_atlas.as_ref().unwrap_or(&self.placeholders[1]).array_view
     }
 
     pub fn local_buffer(&self) -> &wgpu::Buffer {
@@ -372,7 +345,7 @@ impl ShadowOrchestrator {
 
     /// The atlas as the shaders bind it (the stand-in while none is allocated).
     pub fn atlas_view(&self) -> &wgpu::TextureView {
-        &self.atlas.as_ref().unwrap_or(&self.placeholder).array_view
+        &self.atlas.as_ref().unwrap_or(&self.placeholders[0]).array_view
     }
 
     pub fn sampler(&self) -> &wgpu::Sampler {
@@ -380,8 +353,8 @@ impl ShadowOrchestrator {
     }
 
     /// The orchestrator's share of the view group (`shaders/shadows.wgsl`): the uniform, the
-    /// directional atlas with its comparison sampler, the local lights' layers and atlas, and
-    /// the directional atlas again as floats for the PCSS blocker search's loads.
+    /// cascade atlas, the local atlas's comparison sampler, the local lights' layers and atlas,
+    /// and the cascade atlas's gather sampler.
     pub fn declare_view(b: &mut GroupBuilder) {
         let lit = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let atlas = |sample_type| wgpu::BindingType::Texture {
@@ -390,11 +363,11 @@ impl ShadowOrchestrator {
             multisampled: false,
         };
         b.buffer("shadows", lit, wgpu::BufferBindingType::Uniform)
-            .add("shadow_atlas", lit, atlas(wgpu::TextureSampleType::Depth))
+            .add("shadow_atlas", lit, atlas(wgpu::TextureSampleType::Float { filterable: false }))
             .add("shadow_sampler", lit, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison))
             .buffer("local_shadows", lit, wgpu::BufferBindingType::Storage { read_only: true })
             .add("local_atlas", lit, atlas(wgpu::TextureSampleType::Depth))
-            .add("shadow_depths", lit, atlas(wgpu::TextureSampleType::Float { filterable: false }));
+            .add("shadow_gather", lit, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::NonFiltering));
     }
 
     pub fn view_resources<'a>(&'a self, r: &mut GroupResources<'a>) {
@@ -403,7 +376,7 @@ impl ShadowOrchestrator {
             .add("shadow_sampler", wgpu::BindingResource::Sampler(self.sampler()))
             .buffer("local_shadows", self.local_buffer())
             .add("local_atlas", wgpu::BindingResource::TextureView(self.local_atlas_view()))
-            .add("shadow_depths", wgpu::BindingResource::TextureView(self.atlas_view()));
+            .add("shadow_gather", wgpu::BindingResource::Sampler(&self.gather));
     }
 
     /// The GPU cull's counts of the last frame's last cull pass: per map (in the order the
@@ -420,14 +393,29 @@ impl ShadowOrchestrator {
         }
     }
 
+    /// The window cascade layer `layer` stores (width, height) and its depths, row by row; `None`
+    /// where the layer stores none. Reads back (waits for the GPU): for tests and tools.
+    pub fn read_cascade_layer(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        layer: usize,
+    ) -> Result<Option<((u32, u32), Vec<f32>)>, crate::gpu::readback::ReadbackError> {
+        let (Some(atlas), Some(Some(window))) = (&self.atlas, self.frame.stored.get(layer)) else { return Ok(None) };
+        let size = (window.width, window.height);
+        Ok(Some((size, atlas.read_layer(device, queue, layer as u32, size)?)))
+    }
+
     /// The atlases' bytes.
     pub fn gpu_bytes(&self) -> u64 {
-        self.atlas.as_ref().map_or(0, Atlas::bytes) + self.local_atlas.as_ref().map_or(0, Atlas::bytes)
+        self.atlas.as_ref().map_or(0, Atlas::bytes)
+            + self.local_atlas.as_ref().map_or(0, Atlas::bytes)
+            + self.staging.as_ref().map_or(0, LayerStaging::bytes)
     }
 
     /// The culled maps' draw lists and arguments (counted with the other draw lists).
     pub fn caster_list_bytes(&self) -> u64 {
-        self.cull.as_ref().map_or(0, CasterCulling::gpu_bytes)
+        self.cull.as_ref().map_or(0, CasterCulling::gpu_bytes) + self.raster.as_ref().map_or(0, CasterRaster::gpu_bytes)
     }
 
     /// Decides this frame's shadows and writes the uniform. `caster_generation` changes
@@ -550,15 +538,17 @@ impl ShadowOrchestrator {
         });
         let mut changed = needs != has;
         if changed {
-            self.atlas = needs.map(|(_, extent, layers)| Atlas::new(device, self.array_layers, extent, layers));
+            self.atlas = needs.map(|(_, extent, layers)| Atlas::cascades(device, self.array_layers, extent, layers));
+            self.staging = None;
             self.atlas_resolution = resolution;
             // A fresh atlas holds nothing.
             self.held = vec![None; layers];
             kept.fill(false);
         }
         if !self.active() && !self.local_active() {
-            // No map to draw: the culled lists go with the atlases.
+            // No map to draw: the culled lists and the raster's buffers go with the atlases.
             self.cull = None;
+            self.raster = None;
             self.caster_bind_groups.clear();
         }
         self.frame.resolution = resolution;
@@ -584,7 +574,7 @@ impl ShadowOrchestrator {
         if local_needs != local_has {
             changed = true;
             self.local_atlas =
-                local_needs.map(|(size, layers)| Atlas::new(device, self.array_layers, (size, size), layers));
+                local_needs.map(|(size, layers)| Atlas::local(device, self.array_layers, (size, size), layers));
             if local_has.is_some() {
                 // The layers' contents are gone: every map renders again.
                 self.local = LocalShadows::default();
@@ -792,6 +782,7 @@ impl ShadowOrchestrator {
         buffers: [&wgpu::Buffer; 3],
         batches: &[Batch],
         culled: Option<BatchBuffers>,
+        raster_table: Option<RasterTable>,
     ) -> Option<ShaderError> {
         let (encoder, device, queue, pipelines, mut timer) =
             (&mut *cx.encoder, cx.device, cx.queue, &mut *cx.pipelines, cx.timer.as_deref_mut());
@@ -806,17 +797,12 @@ impl ShadowOrchestrator {
             .map(|(i, b)| (i, b, caster_key(b, settings)))
             .collect();
         let mut error = None;
-        for (_, _, key) in &casters {
-            if let Err(e) = pipelines.get::<CasterFamily>(device, *key) {
-                error = Some(e);
-            }
-        }
-        // Every pass this frame: the atlas layer's view, the caster view's index, the timing label,
-        // what the map holds (the casters are culled to), and the texels drawn (a cascade's
-        // stored window: nothing reads the rest of its layer).
+        // Every pass this frame: where it draws, the caster view's index, the timing label, what
+        // the map holds (the casters are culled to), and the texels drawn (a cascade's stored
+        // window: nothing reads the rest of its layer).
         let mut passes: Vec<Pass> = Vec::new();
         if let Some(atlas) = &self.atlas {
-            for (layer, view) in atlas.layer_views.iter().enumerate() {
+            for layer in 0..atlas.layers() as usize {
                 if self.frame.redraw[layer] {
                     let label = LAYER_LABELS[layer.min(LAYER_LABELS.len() - 1)];
                     let mut volume = MapVolume::clip(self.frame.window_clip_from_rel(layer));
@@ -826,9 +812,10 @@ impl ShadowOrchestrator {
                         *slot = p.truncate().extend(p.w + p.truncate().dot(self.frame.eye)).as_vec4();
                         volume.plane_count += 1;
                     }
-                    let scissor = self.frame.stored[layer].map(|w| (w.width, w.height));
+                    let window = self.frame.stored[layer].map_or(atlas.extent, |w| (w.width, w.height));
                     let clip_from_rel = self.frame.layer_clip_from_rel(layer);
-                    passes.push(Pass { view, index: layer as u64, label, volume, clip_from_rel, scissor });
+                    let target = Target::Cascade { layer: layer as u32, window };
+                    passes.push(Pass { view: None, target, index: layer as u64, label, volume, clip_from_rel });
                 }
             }
         }
@@ -838,12 +825,12 @@ impl ShadowOrchestrator {
                     let view = &atlas.layer_views[layer as usize];
                     let volume = MapVolume::clip(l.clip_from_rel);
                     passes.push(Pass {
-                        view,
+                        view: Some(view),
+                        target: Target::Local,
                         index: MAX_CASCADES as u64 + layer as u64,
                         label: "shadow local",
                         volume,
                         clip_from_rel: l.clip_from_rel,
-                        scissor: None,
                     });
                 }
             }
@@ -868,6 +855,69 @@ impl ShadowOrchestrator {
             let maps: Vec<MapVolume> = passes.iter().map(|p| p.volume).collect();
             let cull = self.cull.get_or_insert_with(|| CasterCulling::new(device));
             cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
+        }
+        // Cascade layers are rasterised in compute where the view is, from the cull's lists.
+        let extent = self.atlas.as_ref().map_or((1, 1), |a| a.extent);
+        let mut raster = match (raster_table, &sources, layout, &self.cull) {
+            (Some(table), Some(s), Some(_), Some(cull)) if CasterRaster::supports(&device.limits(), extent) => {
+                Some(RasterInputs {
+                    table,
+                    instances: s.instances,
+                    lists: cull.slots().clone(),
+                    args: cull.args().clone(),
+                    mesh_pool,
+                    materials,
+                })
+            }
+            _ => None,
+        };
+        let cascades = passes.iter().filter(|p| matches!(p.target, Target::Cascade { .. })).count();
+        let staged = |compute: bool, staging: &mut Option<LayerStaging>| {
+            if cascades > 0 && !staging.as_ref().is_some_and(|s| s.fits(extent, !compute)) {
+                *staging = Some(LayerStaging::new(device, extent, !compute));
+            }
+        };
+        staged(raster.is_some(), &mut self.staging);
+        if let (Some(inputs), Some(staging), Some(layout), Some(sources)) = (&raster, &self.staging, layout, &sources) {
+            // The cull's arguments cover every opaque batch (line and point meshes too, which the
+            // raster table leaves out).
+            let batch_count = sources.batches.batch_count;
+            let maps: Vec<MapRaster> = passes[..cascades]
+                .iter()
+                .enumerate()
+                .map(|(k, p)| MapRaster {
+                    clip_from_rel: p.clip_from_rel,
+                    slot_base: layout.slot_base(k % per_pass),
+                    args_base: (layout.args_offset(k % per_pass, batch_count, 0) / 4) as u32,
+                })
+                .collect();
+            let caster_raster = self.raster.get_or_insert_with(|| CasterRaster::new(device));
+            let prepared = caster_raster.prepare(
+                device,
+                queue,
+                pipelines,
+                inputs,
+                staging,
+                extent,
+                self.camera_position,
+                settings.slope_bias,
+                &maps,
+            );
+            if let Err(e) = prepared {
+                // A raster step that does not compile: this frame's layers in hardware.
+                error = Some(e);
+                raster = None;
+                staged(false, &mut self.staging);
+            }
+        }
+        // The hardware's pipelines, for the maps it draws.
+        let hardware = if raster.is_some() { passes.len() - cascades } else { passes.len() };
+        if hardware > 0 {
+            for (_, _, key) in &casters {
+                if let Err(e) = pipelines.get::<CasterFamily>(device, *key) {
+                    error = Some(e);
+                }
+            }
         }
         for (k, pass) in passes.iter().enumerate() {
             let index = pass.index;
@@ -923,11 +973,28 @@ impl ShadowOrchestrator {
             }
             for (j, p) in chunk.iter().enumerate() {
                 let (index, label) = (p.index, p.label);
+                if let (
+                    Target::Cascade { layer, window },
+                    Some(inputs),
+                    Some(caster_raster),
+                    Some(staging),
+                    Some(atlas),
+                ) = (p.target, &raster, &self.raster, &self.staging, &self.atlas)
+                {
+                    let k = pass_index * per_pass + j;
+                    let timer = timer.as_deref_mut();
+                    caster_raster.encode(encoder, pipelines, timer, inputs, staging, k, window.1, label);
+                    staging.copy_to_layer(encoder, atlas, layer, window);
+                    continue;
+                }
+                let Some(view) = p.view.or_else(|| self.staging.as_ref().and_then(LayerStaging::depth_view)) else {
+                    continue;
+                };
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some(label),
                     color_attachments: &[],
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: p.view,
+                        view,
                         // Reverse-Z: 0 is the far side, where nothing casts.
                         depth_ops: Some(wgpu::Operations {
                             load: wgpu::LoadOp::Clear(0.0),
@@ -939,7 +1006,7 @@ impl ShadowOrchestrator {
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
-                if let Some((width, height)) = p.scissor {
+                if let Target::Cascade { window: (width, height), .. } = p.target {
                     pass.set_scissor_rect(0, 0, width, height);
                 }
                 pass.set_bind_group(0, group, &[(index * CASTER_VIEW_STRIDE) as u32]);
@@ -973,6 +1040,13 @@ impl ShadowOrchestrator {
                         (_, _, _, None) => pass.draw(entry.vertices.clone(), b.first..b.first + b.count),
                     }
                 }
+                drop(pass);
+                if let (Target::Cascade { layer, window }, Some(staging), Some(atlas)) =
+                    (p.target, &self.staging, &self.atlas)
+                {
+                    staging.copy_depth_to_buffer(encoder);
+                    staging.copy_to_layer(encoder, atlas, layer, window);
+                }
             }
         }
         if error.is_some() {
@@ -983,17 +1057,27 @@ impl ShadowOrchestrator {
     }
 }
 
+/// Where a caster pass's depths end up.
+#[derive(Clone, Copy)]
+enum Target {
+    /// A layer of the local atlas, drawn into directly.
+    Local,
+    /// Cascade layer `layer`, whose `window` (width, height from the top-left) is copied in from
+    /// the staging target the pass draws into.
+    Cascade { layer: u32, window: (u32, u32) },
+}
+
 /// One caster pass: see [`ShadowOrchestrator::encode`].
 struct Pass<'a> {
-    view: &'a wgpu::TextureView,
+    /// The depth target drawn into: a local layer's (a cascade's is the staging target).
+    view: Option<&'a wgpu::TextureView>,
+    target: Target,
     /// The caster view's slot.
     index: u64,
     label: &'static str,
     volume: MapVolume,
     /// The layer's clip space from camera-relative positions.
     clip_from_rel: Mat4,
-    /// The texels drawn (width, height from the top-left), where not the whole layer.
-    scissor: Option<(u32, u32)>,
 }
 
 fn caster_views_buffer(device: &wgpu::Device, local_layers: u64) -> wgpu::Buffer {

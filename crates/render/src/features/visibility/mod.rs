@@ -62,8 +62,10 @@ mod overlay;
 mod pipelines;
 use overlay::GpuOcclusionParams;
 pub use overlay::{OverlayRect, OverlayTargets, occlusion_layouts};
-use pipelines::BIN_BYTES;
-pub use pipelines::{MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key};
+pub use pipelines::BIN_BYTES;
+pub use pipelines::{
+    CasterRasterFamily, MaskKey, RasterFamily, RasterStep, ShadeFamily, ShadeKey, ShadeOutput, shade_key,
+};
 
 /// Where opaque draws are rasterised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -170,13 +172,14 @@ struct GpuRasterBatch {
 /// Mirrors `struct RasterParams` in `shaders/visibility_raster.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct GpuRasterParams {
-    target_size: [u32; 2],
-    samples: u32,
-    batch_count: u32,
-    job_capacity: u32,
-    tile_groups: u32,
-    _pad: [u32; 2],
+pub struct GpuRasterParams {
+    pub target_size: [u32; 2],
+    pub samples: u32,
+    pub batch_count: u32,
+    pub job_capacity: u32,
+    pub tile_groups: u32,
+    pub row_pitch: u32,
+    pub _pad: u32,
 }
 
 /// Mirrors `struct ShadeParams` in `shaders/forward.wgsl` (VISIBILITY_SHADE).
@@ -200,7 +203,7 @@ struct GpuShadeParams {
 /// and, where it reads a texture, material textures. The batch table holds each bin's batches
 /// together (unmasked first), so its triangle numbers are contiguous.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct RasterBin {
+pub struct RasterBin {
     mask: Option<MaskKey>,
     /// The material group the alpha test reads (a masked bin's base colour texture).
     material: Option<MaterialKey>,
@@ -211,6 +214,79 @@ struct RasterBin {
 impl RasterBin {
     fn steps(&self) -> [RasterStep; 2] {
         [RasterStep::Triangles(self.mask), RasterStep::Tiles(self.mask)]
+    }
+}
+
+/// The batch table and its bins (`VisibilityBuffer::raster_table`).
+pub struct RasterTable<'a> {
+    /// `struct RasterBatch` per batch, each bin's together.
+    pub batches: &'a wgpu::Buffer,
+    pub batch_count: u32,
+    bins: &'a [RasterBin],
+    /// One `struct RasterBin` uniform per bin, `bin_stride` bytes apart.
+    pub bin_params: &'a wgpu::Buffer,
+    bin_stride: u64,
+}
+
+/// What the raster steps bind: group 0 (its bin uniform at a dynamic offset), the raster
+/// dispatch's group for the steps that size it, and that dispatch's arguments.
+pub struct RasterGroups<'a> {
+    pub raster: &'a wgpu::BindGroup,
+    pub dispatch: &'a wgpu::BindGroup,
+    pub args: &'a wgpu::Buffer,
+}
+
+impl RasterTable<'_> {
+    /// The raster steps the bins run, in order (each compiled once).
+    pub fn steps(&self) -> Vec<RasterStep> {
+        let begin = (self.bins.len() > 1).then_some(RasterStep::Begin);
+        RasterStep::OPAQUE.into_iter().chain(begin).chain(self.bins.iter().flat_map(RasterBin::steps)).collect()
+    }
+
+    /// Encodes every bin's raster steps into `pass` with `RasterFamily<DEPTH_ONLY>`'s
+    /// pipelines: the numbering, then per bin its triangles, the scan of its large ones and
+    /// their tiles. A step that did not compile (reported when prepared), or a masked bin whose
+    /// material is not there yet, leaves the bin's triangles undrawn.
+    pub fn encode<const DEPTH_ONLY: bool>(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        pipelines: &PipelineCache,
+        groups: &RasterGroups,
+        materials: &MaterialTable,
+    ) {
+        let step = |s: RasterStep| pipelines.cached::<RasterFamily<DEPTH_ONLY>>(&s);
+        let (Some(prepare), Some(scan)) = (step(RasterStep::Prepare), step(RasterStep::Scan)) else { return };
+        // The first bin starts with the numbering; each later one with raster_begin.
+        pass.set_bind_group(0, groups.raster, &[0]);
+        pass.set_bind_group(1, groups.dispatch, &[]);
+        pass.set_pipeline(prepare);
+        pass.dispatch_workgroups(1, 1, 1);
+        for (k, bin) in self.bins.iter().enumerate() {
+            let [triangles, tiles] = bin.steps().map(step);
+            let material = match bin.material {
+                Some(key) => materials.get(&key).map(|m| Some(&m.bind_group)),
+                None => Some(None),
+            };
+            let (Some(triangles), Some(tiles), Some(material)) = (triangles, tiles, material) else {
+                continue;
+            };
+            if k > 0 {
+                let Some(begin) = step(RasterStep::Begin) else { continue };
+                pass.set_bind_group(0, groups.raster, &[(k as u64 * self.bin_stride) as u32]);
+                pass.set_bind_group(1, groups.dispatch, &[]);
+                pass.set_pipeline(begin);
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+            if let Some(material) = material {
+                pass.set_bind_group(1, material, &[]);
+            }
+            pass.set_pipeline(triangles);
+            pass.dispatch_workgroups_indirect(groups.args, 0);
+            pass.set_pipeline(scan);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(tiles);
+            pass.dispatch_workgroups(TILE_GROUPS, 1, 1);
+        }
     }
 }
 
@@ -228,7 +304,13 @@ pub fn fits(limits: &wgpu::Limits, size: (u32, u32), samples: u32) -> bool {
     bytes <= limits.max_storage_buffer_binding_size && bytes <= limits.max_buffer_size
 }
 
-fn job_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
+/// Records of large triangles a frame of `size` pixels holds (see `JOBS_PER_TILE`).
+pub fn job_capacity((w, h): (u32, u32)) -> u32 {
+    (w.div_ceil(TILE) * h.div_ceil(TILE)).saturating_mul(JOBS_PER_TILE).max(MIN_JOBS)
+}
+
+/// The buffer of `capacity` records of large triangles (`big` in `visibility_raster.wgsl`).
+pub fn job_buffer(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("visibility large triangles"),
         size: capacity as u64 * RECORD_BYTES,
@@ -377,7 +459,7 @@ impl VisibilityBuffer {
         occlusion: &[wgpu::BindGroupLayout; 2],
     ) -> Self {
         pipelines.register(ShadeFamily::new(device, view, materials));
-        pipelines.register(RasterFamily::new(device, materials));
+        pipelines.register(RasterFamily::<false>::new(device, materials.layout()));
         use wgpu::BufferUsages as U;
         let storage = U::STORAGE | U::COPY_DST;
         Self {
@@ -621,10 +703,16 @@ impl VisibilityBuffer {
         pipelines.prepare::<RasterFamily>(device, RasterStep::OPAQUE)
     }
 
-    /// The raster steps this frame's bins run.
-    fn raster_steps(&self) -> impl Iterator<Item = RasterStep> + '_ {
-        let begin = (self.bins.len() > 1).then_some(RasterStep::Begin);
-        RasterStep::OPAQUE.into_iter().chain(begin).chain(self.bins.iter().flat_map(RasterBin::steps))
+    /// The batch table and its bins, as `prepare_batches` last made them: what rasterising the
+    /// same batches elsewhere reads (the shadow casters', `features::shadows::raster`).
+    pub fn raster_table(&self) -> RasterTable<'_> {
+        RasterTable {
+            batches: self.batches.buffer(),
+            batch_count: self.batch_count,
+            bins: &self.bins,
+            bin_params: self.bin_params.buffer(),
+            bin_stride: self.bin_stride,
+        }
     }
 
     /// Compiles what the frame needs, sizes the buffers for it and writes its parameters.
@@ -638,7 +726,7 @@ impl VisibilityBuffer {
         inputs: &FrameInputs,
     ) -> Result<(), ShaderError> {
         // Each is tried (a variant that fails leaves the others usable); the first error counts.
-        let steps: Vec<RasterStep> = self.raster_steps().collect();
+        let steps = self.raster_table().steps();
         let raster = pipelines.prepare::<RasterFamily>(device, steps);
         let shade =
             pipelines.prepare::<ShadeFamily>(device, self.groups.iter().flat_map(|g| self.shade_keys(g, inputs)));
@@ -678,8 +766,7 @@ impl VisibilityBuffer {
         } else {
             self.display = None;
         }
-        let tiles = w.div_ceil(TILE) * h.div_ceil(TILE);
-        let jobs = self.job_capacity_set.unwrap_or_else(|| (tiles.saturating_mul(JOBS_PER_TILE)).max(MIN_JOBS));
+        let jobs = self.job_capacity_set.unwrap_or_else(|| job_capacity((w, h)));
         self.resize_jobs(device, jobs);
         let raster = GpuRasterParams {
             target_size: [w, h],
@@ -687,7 +774,8 @@ impl VisibilityBuffer {
             batch_count: self.batch_count,
             job_capacity: self.job_capacity,
             tile_groups: TILE_GROUPS,
-            _pad: [0; 2],
+            row_pitch: w,
+            _pad: 0,
         };
         queue.write_buffer(&self.raster_params, 0, bytemuck::bytes_of(&raster));
         // The first group shaded starts the sums, the last writes the pixel.
@@ -821,42 +909,8 @@ impl VisibilityBuffer {
                 label: Some("visibility raster"),
                 timestamp_writes: timer.and_then(|t| t.compute_pass("visibility raster")),
             });
-            let step = |s: RasterStep| pipelines.cached::<RasterFamily>(&s);
-            if let (Some(prepare), Some(scan)) = (step(RasterStep::Prepare), step(RasterStep::Scan)) {
-                // The first bin starts with the numbering; each later one with raster_begin.
-                pass.set_bind_group(0, &bound.raster, &[0]);
-                pass.set_bind_group(1, &bound.dispatch, &[]);
-                pass.set_pipeline(prepare);
-                pass.dispatch_workgroups(1, 1, 1);
-                for (k, bin) in self.bins.iter().enumerate() {
-                    let [triangles, tiles] = bin.steps().map(step);
-                    let material = match bin.material {
-                        Some(key) => inputs.materials.get(&key).map(|m| Some(&m.bind_group)),
-                        None => Some(None),
-                    };
-                    // A step that did not compile (reported) or a material not there yet: the
-                    // bin's triangles are not drawn.
-                    let (Some(triangles), Some(tiles), Some(material)) = (triangles, tiles, material) else {
-                        continue;
-                    };
-                    if k > 0 {
-                        let Some(begin) = step(RasterStep::Begin) else { continue };
-                        pass.set_bind_group(0, &bound.raster, &[(k as u64 * self.bin_stride) as u32]);
-                        pass.set_bind_group(1, &bound.dispatch, &[]);
-                        pass.set_pipeline(begin);
-                        pass.dispatch_workgroups(1, 1, 1);
-                    }
-                    if let Some(material) = material {
-                        pass.set_bind_group(1, material, &[]);
-                    }
-                    pass.set_pipeline(triangles);
-                    pass.dispatch_workgroups_indirect(&self.dispatch, 0);
-                    pass.set_pipeline(scan);
-                    pass.dispatch_workgroups(1, 1, 1);
-                    pass.set_pipeline(tiles);
-                    pass.dispatch_workgroups(TILE_GROUPS, 1, 1);
-                }
-            }
+            let groups = RasterGroups { raster: &bound.raster, dispatch: &bound.dispatch, args: &self.dispatch };
+            self.raster_table().encode::<false>(&mut pass, pipelines, &groups, inputs.materials);
         }
     }
 
@@ -970,7 +1024,7 @@ mod tests {
             "visibility_raster.wgsl",
             [],
             "RasterParams",
-            [target_size, samples, batch_count, job_capacity, tile_groups]
+            [target_size, samples, batch_count, job_capacity, tile_groups, row_pitch]
         );
         assert_mirrors_wgsl!(
             GpuShadeParams,

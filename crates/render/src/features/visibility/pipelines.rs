@@ -129,8 +129,10 @@ pub fn shade_key(key: PipelineKey) -> PipelineKey {
     }
 }
 
-/// The rasteriser's pipelines and the layouts of its groups.
-pub struct RasterFamily {
+/// The rasteriser's pipelines and the layouts of its groups: into the visibility buffer, or
+/// (`DEPTH_ONLY`, `visibility_raster.wgsl` with SHADOW_DEPTH) a shadow map's casters into a
+/// buffer of depths (`features::shadows::raster`). Both bind the same groups.
+pub struct RasterFamily<const DEPTH_ONLY: bool = false> {
     /// Group 0 (see `visibility_raster.wgsl`'s bindings).
     pub raster: wgpu::BindGroupLayout,
     /// `raster_prepare`'s and `raster_begin`'s group 1: the raster dispatch's arguments.
@@ -141,8 +143,12 @@ pub struct RasterFamily {
     textured_pipeline: wgpu::PipelineLayout,
 }
 
-impl RasterFamily {
-    pub fn new(device: &wgpu::Device, materials: &MaterialTable) -> Self {
+/// The shadow casters' rasteriser.
+pub type CasterRasterFamily = RasterFamily<true>;
+
+impl<const DEPTH_ONLY: bool> RasterFamily<DEPTH_ONLY> {
+    /// `material`: the material group's layout (a masked bin's group 1).
+    pub fn new(device: &wgpu::Device, material: &wgpu::BindGroupLayout) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
         let bin = dynamic_uniform(11, compute, Some(BIN_BYTES));
         let raster = parts::bind_group_layout(
@@ -168,11 +174,7 @@ impl RasterFamily {
         Self {
             raster_pipeline: parts::pipeline_layout(device, "visibility raster", &[&raster]),
             prepare_pipeline: parts::pipeline_layout(device, "visibility raster prepare", &[&raster, &dispatch]),
-            textured_pipeline: parts::pipeline_layout(
-                device,
-                "visibility raster masked",
-                &[&raster, materials.layout()],
-            ),
+            textured_pipeline: parts::pipeline_layout(device, "visibility raster masked", &[&raster, material]),
             raster,
             dispatch,
         }
@@ -182,15 +184,16 @@ impl RasterFamily {
 /// Bytes of one bin's uniform (`struct RasterBin`).
 pub const BIN_BYTES: u64 = 16;
 
-impl PipelineFamily for RasterFamily {
+impl<const DEPTH_ONLY: bool> PipelineFamily for RasterFamily<DEPTH_ONLY> {
     type Key = RasterStep;
     type Pipeline = wgpu::ComputePipeline;
-    const NAME: &'static str = "visibility raster";
+    const NAME: &'static str = if DEPTH_ONLY { "shadow raster" } else { "visibility raster" };
 
     fn shader(&self, step: &RasterStep) -> (&'static str, ShaderDefs) {
+        let base = ShaderDefs::default().with("SHADOW_DEPTH", DEPTH_ONLY);
         let defs = match step.mask() {
-            None => ShaderDefs::default(),
-            Some(m) => ShaderDefs::default()
+            None => base,
+            Some(m) => base
                 .with("ALPHA_MASK", true)
                 .with("BASE_COLOR_TEXTURE", m.texture)
                 .with("TRANSFORMED_UVS", m.texture && m.transformed_uvs)
