@@ -85,7 +85,7 @@ struct RasterBin {
 };
 
 // Largest box (pixels each way) a triangle's own thread rasterises.
-const SMALL_BOX: u32 = 8u;
+const SMALL_BOX: u32 = 16u;
 // Side of a job's tile in pixels.
 const TILE: u32 = 16u;
 const WORKGROUP: u32 = 64u;

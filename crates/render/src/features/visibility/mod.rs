@@ -138,7 +138,7 @@ impl RasterGate {
 
 /// Bytes of one visibility sample (depth and triangle number).
 const SAMPLE_BYTES: u64 = 8;
-/// Records of large triangles (a box wider or taller than 8 pixels) the list holds per
+/// Records of large triangles (a box wider or taller than 16 pixels) the list holds per
 /// 16×16-pixel tile of the frame, and at least. A triangle whose record does not fit is
 /// rasterised whole by its own thread: the same samples, slower, and on lavapipe only while
 /// that thread's loops stay within Mesa's limit of 65 535 iterations an invocation (gallivm's
