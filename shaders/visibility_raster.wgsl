@@ -15,7 +15,7 @@
 // BASE_COLOR_TEXTURE, TRANSFORMED_UVS and VERTEX_COLORS as the forward variant has them) cover
 // a sample only where glTF's alpha test passes there (`alpha_passes`).
 //
-// A triangle whose box spans at most SMALL_BOX pixels each way is rasterised by its thread. A
+// A triangle whose box spans at most small_box() pixels each way is rasterised by its thread. A
 // larger one leaves a record (`big`); `raster_scan` gives each record its first job, and
 // `raster_tiles` runs one job per TILE×TILE-pixel tile of each record's box (each thread group
 // takes a run of consecutive jobs, sets each record's triangle up again from its number once,
@@ -84,8 +84,14 @@ struct RasterBin {
     _pad_b: u32,
 };
 
-// Largest box (pixels each way) a triangle's own thread rasterises.
-const SMALL_BOX: u32 = 16u;
+// Largest box (pixels each way) a triangle's own thread rasterises: 16×16 pixels of one sample
+// (shadow maps), 8×8 of four, the same number of sample tests. Larger boxes, a mix of sizes
+// holding each warp to its largest, measured slower on real models at four samples; mid-sized
+// triangles are what tile jobs do worst (one lane sets the triangle up again per tile while the
+// group waits, most of the tile outside it), as in a shadow map of many mid-sized casters.
+fn small_box() -> u32 {
+    return select(8u, 16u, params.samples == 1u);
+}
 // Side of a job's tile in pixels.
 const TILE: u32 = 16u;
 const WORKGROUP: u32 = 64u;
@@ -721,7 +727,7 @@ fn raster_unclipped_small(number: u32) -> bool {
     let lo = vec2<i32>(max(floor(lo_f), vec2<f32>(0.0)));
     let hi = vec2<i32>(min(floor(hi_f), size - 1.0));
     let compact = all(hi_f - lo_f <= vec2<f32>(COMPACT));
-    if !compact || any(vec2<u32>(max(hi - lo, vec2<i32>(0))) + 1u > vec2<u32>(SMALL_BOX)) {
+    if !compact || any(vec2<u32>(max(hi - lo, vec2<i32>(0))) + 1u > vec2<u32>(small_box())) {
         return false;
     }
     let a = snap(fa.xy);
@@ -772,7 +778,7 @@ fn raster_triangles(
         return;
     }
     let extent = vec2<u32>(s.hi - s.lo) + 1u;
-    if extent.x <= SMALL_BOX && extent.y <= SMALL_BOX {
+    if extent.x <= small_box() && extent.y <= small_box() {
         if s.compact {
             raster_small(s, number);
         } else {

@@ -17,8 +17,8 @@
 //!    `depth << 32 | number` into each covered sample with a 64-bit atomicMax (nearest wins;
 //!    ties go to the larger number, so the result is the same whatever order threads run in);
 //!    a masked bin's variant covers only samples where the alpha test passes. Triangles larger
-//!    than 8×8 pixels leave a record instead; `raster_scan` numbers their 16×16-pixel tiles, and
-//!    `raster_tiles` spreads those jobs over the GPU. A later bin starts with `raster_begin`
+//!    than 8×8 pixels (16×16 at one sample a pixel) leave a record instead; `raster_scan`
+//!    numbers their 16×16-pixel tiles, and `raster_tiles` spreads those jobs over the GPU. A later bin starts with `raster_begin`
 //!    (its dispatch's size, an empty job list); each bin's range is a dynamic offset into
 //!    `bin_params`.
 //! 3. The shading pass (`forward.wgsl`'s `cs_shade`, one pipeline per forward variant and one
@@ -138,8 +138,8 @@ impl RasterGate {
 
 /// Bytes of one visibility sample (depth and triangle number).
 const SAMPLE_BYTES: u64 = 8;
-/// Records of large triangles (a box wider or taller than 16 pixels) the list holds per
-/// 16×16-pixel tile of the frame, and at least. A triangle whose record does not fit is
+/// Records of large triangles (a box wider or taller than 8 pixels, 16 at one sample) the list
+/// holds per 16×16-pixel tile of the frame, and at least. A triangle whose record does not fit is
 /// rasterised whole by its own thread: the same samples, slower, and on lavapipe only while
 /// that thread's loops stay within Mesa's limit of 65 535 iterations an invocation (gallivm's
 /// loop limiter; a view-filling triangle at 192×112 passes it), so the list is sized for far
