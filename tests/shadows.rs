@@ -6,7 +6,7 @@
 use penumbra::prelude::*;
 use penumbra::render::features::shadows::{ShadowFilter, ShadowSettings};
 use penumbra::render::frame::Pass;
-use penumbra::render::{Raster, RenderSettings, Renderer};
+use penumbra::render::{OcclusionCulling, Raster, RenderSettings, Renderer};
 
 mod common;
 use common::golden_scenes::{grey, sun};
@@ -274,12 +274,11 @@ fn shadows_cost_nothing_without_casters_and_follow_what_the_camera_sees() {
     // Everything lies within 5 m of the camera; the default cascades reach 100 m.
     assert!(frame.rendered[0] && !frame.rendered[3], "rendered layers {:?}", frame.rendered);
     // The atlas holds layers up to the farthest cascade that renders, not all four, each as
-    // large as the largest window of its cascade's map that receivers read; beside it, one
-    // layer's staging (the hardware's depth target and the buffer it is copied in through).
+    // large as the largest window of its cascade's map that receivers read.
     let rendered_to = frame.rendered.iter().rposition(|r| *r).unwrap() + 1;
     let (w, h) = frame.layer_extent;
     let layer = 4 * w as u64 * h as u64;
-    assert_eq!(renderer.memory().shadows, (rendered_to as u64 + 2) * layer, "rendered layers {:?}", frame.rendered);
+    assert_eq!(renderer.memory().shadows, rendered_to as u64 * layer, "rendered layers {:?}", frame.rendered);
     assert!(layer < 4 * (ShadowSettings::default().atlas_size as u64).pow(2), "{w}×{h} layers");
     assert!(renderer.forward_pipeline_keys().iter().all(|k| k.shadows));
 
@@ -345,8 +344,7 @@ fn cascade_layers_store_only_the_texels_receivers_read() {
     let small = renderer.shadow_frame().clone();
     let layers = small.stored.len() as u64;
     assert!(small.rendered.iter().filter(|r| **r).count() >= 2, "{:?}", small.rendered);
-    // The layers, and one layer's staging (a depth target and a buffer).
-    assert_eq!(renderer.memory().shadows, (layers + 2) * layer_bytes(&small));
+    assert_eq!(renderer.memory().shadows, layers * layer_bytes(&small));
     assert!(layer_bytes(&small) < 4 * (full_map as u64).pow(2) / 2, "{:?}", small.layer_extent);
     for (i, stored) in small.stored.iter().enumerate() {
         if let Some(stored) = stored {
@@ -844,26 +842,43 @@ fn caster_scene() -> App {
 /// 2·10⁻⁵ of the depth range (the slope-scaled bias's slope measured by the larger axis, as
 /// Vulkan allows; vertex rounding), but for fewer than 1 texel in 2000 (samples exactly on an
 /// edge, which two rasterisers' vertex rounding may give to different triangles); the masked
-/// fence cut out alike; and frames that show the same shadows.
+/// fence cut out alike; and frames that show the same shadows. A frame that was to be
+/// rasterised in compute but goes to the hardware (`--occlusion on` asks for the forward pass's
+/// depth) draws its casters through the float atlas's staging: the hardware's very depths.
 #[test]
 fn cascades_rasterised_in_compute_hold_the_hardwares_depths() {
     let size = (192, 128);
     let shadows = ShadowSettings { atlas_size: 1024, ..Default::default() };
     let mut layers = Vec::new();
     let mut frames = Vec::new();
-    for raster in [Raster::Hardware, Raster::Compute] {
+    let fallback = RenderSettings { occlusion_culling: OcclusionCulling::On, ..settings(shadows) };
+    let configs = [
+        ("hardware", RenderSettings { raster: Raster::Hardware, ..settings(shadows) }, false),
+        ("compute", RenderSettings { raster: Raster::Compute, ..settings(shadows) }, true),
+        ("compute, falling back", RenderSettings { raster: Raster::Compute, ..fallback }, false),
+    ];
+    for (name, settings, computed) in configs {
         let mut app = caster_scene();
-        let px = render_app(&mut app, size, RenderSettings { raster, ..settings(shadows) });
+        let px = render_app(&mut app, size, settings.clone());
         let renderer = app.world.resource::<Renderer>();
         assert_eq!(renderer.shader_error(), None);
         let plan = &renderer.stats().plan;
-        assert_eq!(plan.runs(Pass::VISIBILITY_RASTER), raster == Raster::Compute);
+        assert_eq!(plan.runs(Pass::VISIBILITY_RASTER), computed, "{name}");
         let (_, why) = plan.passes.iter().find(|(p, _)| *p == Pass::SHADOWS).expect("shadows drawn");
-        assert_eq!(why.contains("rasterised in compute"), raster == Raster::Compute, "{why}");
+        assert_eq!(why.contains("rasterised in compute"), computed, "{name}: {why}");
         let frame = renderer.shadow_frame().clone();
+        // The hardware draws into the layers. A float atlas (the raster setting asks for
+        // compute) adds one layer's staging: the buffer compute writes, and the hardware's depth
+        // target where the frame falls back.
+        let layer = 4 * frame.layer_extent.0 as u64 * frame.layer_extent.1 as u64;
+        let staging = match settings.raster {
+            Raster::Compute => layer * if computed { 1 } else { 2 },
+            _ => 0,
+        };
+        assert_eq!(renderer.memory().shadows, frame.stored.len() as u64 * layer + staging, "{name}");
         let depths: Vec<_> =
             (0..frame.stored.len()).map(|layer| renderer.shadow_cascade_depths(layer).unwrap()).collect();
-        save(&format!("compute-{raster:?}"), &px, size);
+        save(&format!("compute-{}", name.replace([' ', ','], "")), &px, size);
         layers.push((frame, depths));
         frames.push(px);
     }
@@ -890,4 +905,9 @@ fn cascades_rasterised_in_compute_hold_the_hardwares_depths() {
     let flip = common::flip_mean(&frames[0], &frames[1], size.0, size.1);
     eprintln!("FLIP mean {flip}");
     assert!(flip < 0.001, "FLIP mean {flip} between the frames");
+    // The fallback's layers hold the hardware's depths exactly.
+    assert_eq!(layers[2].0.stored, hardware.0.stored);
+    for (layer, (h, f)) in hardware.1.iter().zip(&layers[2].1).enumerate() {
+        assert_eq!(h, f, "layer {layer}: the fallback's depths");
+    }
 }

@@ -513,6 +513,8 @@ impl Renderer {
             &bounds,
             self.draws.caster_generation(),
             self.draws.take_caster_changes(),
+            // The cascades' casters are rasterised in compute where the view will be.
+            self.raster_in_compute() && self.settings.gpu_culling && self.ctx.caps.indirect_first_instance,
         );
         // Local lights carry their first shadow layer; the store uploads what that changed.
         if self.lights.set_shadow_layers(self.shadows.frame().local.first_layers.clone()) {

@@ -1,17 +1,18 @@
 //! The shadow atlases' textures and the way casters reach the cascade atlas.
 //!
 //! Two atlases, both 2D arrays of reverse-Z depth from the light: the local lights' maps
-//! ([`Atlas::local`], `Depth32Float`, drawn into directly and read through a comparison sampler),
-//! and the cascades' ([`Atlas::cascades`], `R32Float`). The cascades' layers are floats because
-//! either rasteriser fills them: casters rasterised in compute (`super::raster`) write a buffer,
-//! and a depth texture can be neither written by compute nor copied into, while a depth
-//! target copies out and a float texture copies in. `shaders/shadows.wgsl` makes the
-//! comparisons itself from gathered texels.
+//! ([`Atlas::depth`], `Depth32Float`, drawn into directly and read through a comparison sampler),
+//! and the cascades'. The cascades' layers are a depth target drawn into directly where the
+//! hardware draws their casters, and floats ([`Atlas::floats`], `R32Float`) where they are
+//! rasterised in compute (`super::raster`), which writes a buffer: a depth texture can be neither
+//! written by compute nor copied into. `shaders/shadows.wgsl` reads either kind through one
+//! unfilterable-float binding and makes the comparisons itself from gathered texels.
 //!
-//! Data flow per cascade layer drawn: its casters land in [`LayerStaging`]'s buffer (one `u32`
-//! of depth bits a texel, rows a multiple of 256 bytes apart), either copied there from the
-//! staging depth target the hardware drew into or written there by the compute raster; then the
-//! stored window is copied into the layer. One staging serves every layer in turn.
+//! Data flow per layer of a float atlas drawn: its casters land in [`LayerStaging`]'s buffer
+//! (one `u32` of depth bits a texel, rows a multiple of 256 bytes apart), written there by the
+//! compute raster (or, where that raster cannot run this frame, copied there from a staging
+//! depth target the hardware drew into); then the stored window is copied into the layer. One
+//! staging serves every layer in turn.
 
 use crate::gpu::array_layers::ArrayLayers;
 use crate::gpu::formats::{SHADOW_ATLAS_FORMAT, SHADOW_DEPTHS_FORMAT};
@@ -25,20 +26,23 @@ pub struct Atlas {
     pub extent: (u32, u32),
     /// Layers in use (the texture may have a spare one: `ArrayLayers`).
     layers: u32,
+    /// `R32Float`, filled by copies ([`Atlas::floats`]); else a depth target.
+    pub floats: bool,
 }
 
 impl Atlas {
-    /// The local lights' maps: depth targets the caster passes draw into.
-    pub fn local(device: &wgpu::Device, rule: ArrayLayers, extent: (u32, u32), layers: u32) -> Self {
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+    /// Depth targets the caster passes draw into (the local lights' maps; the cascades' where
+    /// the hardware draws them). Copied out only by tests and tools (`read_layer`).
+    pub fn depth(device: &wgpu::Device, rule: ArrayLayers, extent: (u32, u32), layers: u32) -> Self {
+        use wgpu::TextureUsages as U;
+        let usage = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC;
         Self::new(device, rule, extent, layers, SHADOW_ATLAS_FORMAT, usage)
     }
 
-    /// The cascades' layers: floats, filled by copies from [`LayerStaging`].
-    pub fn cascades(device: &wgpu::Device, rule: ArrayLayers, extent: (u32, u32), layers: u32) -> Self {
-        // Copied out only by tests and tools (`read_layer`).
-        let usage =
-            wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+    /// Cascade layers as floats, filled by copies from [`LayerStaging`].
+    pub fn floats(device: &wgpu::Device, rule: ArrayLayers, extent: (u32, u32), layers: u32) -> Self {
+        use wgpu::TextureUsages as U;
+        let usage = U::COPY_DST | U::TEXTURE_BINDING | U::COPY_SRC;
         Self::new(device, rule, extent, layers, SHADOW_DEPTHS_FORMAT, usage)
     }
 
@@ -77,11 +81,12 @@ impl Atlas {
                 })
             })
             .collect();
-        Self { texture, array_view, layer_views, extent: (width, height), layers }
+        let floats = format == SHADOW_DEPTHS_FORMAT;
+        Self { texture, array_view, layer_views, extent: (width, height), layers, floats }
     }
 
-    /// The depths of `size` texels at layer `layer`'s top-left corner, row by row (a cascade
-    /// atlas's). Reads back (waits for the GPU): for tests and tools.
+    /// The depths of `size` texels at layer `layer`'s top-left corner, row by row. Reads back
+    /// (waits for the GPU): for tests and tools.
     pub fn read_layer(
         &self,
         device: &wgpu::Device,
@@ -89,7 +94,12 @@ impl Atlas {
         layer: u32,
         size: (u32, u32),
     ) -> Result<Vec<f32>, crate::gpu::readback::ReadbackError> {
-        let bytes = crate::gpu::readback::read_texture_region(device, queue, &self.texture, layer, size, 4)?;
+        // A depth texture copies out whole.
+        let copied = if self.floats { size } else { self.extent };
+        let bytes = crate::gpu::readback::read_texture_region(device, queue, &self.texture, layer, copied, 4)?;
+        let row = copied.0 as usize * 4;
+        let bytes: Vec<u8> =
+            bytes.chunks_exact(row).take(size.1 as usize).flat_map(|r| &r[..size.0 as usize * 4]).copied().collect();
         Ok(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
     }
 

@@ -276,8 +276,8 @@ impl ShadowOrchestrator {
             local_buffer: local_buffer(device, 1),
             staging: None,
             placeholders: [
-                Atlas::cascades(device, array_layers, (1, 1), 1),
-                Atlas::local(device, array_layers, (1, 1), 1),
+                Atlas::floats(device, array_layers, (1, 1), 1),
+                Atlas::depth(device, array_layers, (1, 1), 1),
             ],
             array_layers,
             depth_tolerance: if exact_depth { 0.0 } else { INEXACT_DEPTH_TOLERANCE },
@@ -436,6 +436,7 @@ impl ShadowOrchestrator {
         bounds: &SceneBounds,
         caster_generation: u64,
         changes: CasterChanges,
+        compute_casters: bool,
     ) -> bool {
         // Other settings (bias is raster state, sizes and filters change the maps): nothing held
         // is valid.
@@ -529,16 +530,23 @@ impl ShadowOrchestrator {
         // Layers as large as the largest stored window, in steps, growing and never shrinking
         // while the cascades' map size stays (a camera moving back and forth does not
         // reallocate the atlas).
-        let has = self.atlas.as_ref().map(|a| (self.atlas_resolution, a.extent, a.layers()));
+        // Floats where the casters will be rasterised in compute, a depth target where the
+        // hardware draws them (a change of kind allocates afresh).
+        let has = self.atlas.as_ref().map(|a| (self.atlas_resolution, a.extent, a.layers(), a.floats));
         let needs = self.active().then(|| {
             let grown = has.filter(|h| h.0 == resolution).map_or((0, 0), |h| h.1);
             let step = |texels: u32| texels.next_multiple_of(LAYER_STEP).min(resolution);
             let (w, h) = stored.iter().flatten().fold((1, 1), |(w, h), s| (w.max(s.width), h.max(s.height)));
-            (resolution, (step(w).max(grown.0), step(h).max(grown.1)), layers as u32)
+            let extent = (step(w).max(grown.0), step(h).max(grown.1));
+            let floats = compute_casters && CasterRaster::supports(&device.limits(), extent);
+            (resolution, extent, layers as u32, floats)
         });
         let mut changed = needs != has;
         if changed {
-            self.atlas = needs.map(|(_, extent, layers)| Atlas::cascades(device, self.array_layers, extent, layers));
+            self.atlas = needs.map(|(_, extent, layers, floats)| match floats {
+                true => Atlas::floats(device, self.array_layers, extent, layers),
+                false => Atlas::depth(device, self.array_layers, extent, layers),
+            });
             self.staging = None;
             self.atlas_resolution = resolution;
             // A fresh atlas holds nothing.
@@ -574,7 +582,7 @@ impl ShadowOrchestrator {
         if local_needs != local_has {
             changed = true;
             self.local_atlas =
-                local_needs.map(|(size, layers)| Atlas::local(device, self.array_layers, (size, size), layers));
+                local_needs.map(|(size, layers)| Atlas::depth(device, self.array_layers, (size, size), layers));
             if local_has.is_some() {
                 // The layers' contents are gone: every map renders again.
                 self.local = LocalShadows::default();
@@ -815,7 +823,9 @@ impl ShadowOrchestrator {
                     let window = self.frame.stored[layer].map_or(atlas.extent, |w| (w.width, w.height));
                     let clip_from_rel = self.frame.layer_clip_from_rel(layer);
                     let target = Target::Cascade { layer: layer as u32, window };
-                    passes.push(Pass { view: None, target, index: layer as u64, label, volume, clip_from_rel });
+                    // A float atlas's layers are drawn through the staging.
+                    let view = atlas.layer_views.get(layer).filter(|_| !atlas.floats);
+                    passes.push(Pass { view, target, index: layer as u64, label, volume, clip_from_rel });
                 }
             }
         }
@@ -856,24 +866,27 @@ impl ShadowOrchestrator {
             let cull = self.cull.get_or_insert_with(|| CasterCulling::new(device));
             cull.prepare(device, queue, sources, layout, &maps, self.camera_position);
         }
-        // Cascade layers are rasterised in compute where the view is, from the cull's lists.
+        // A float atlas's layers are rasterised in compute, from the cull's lists (`prepare` made
+        // the atlas floats where the view would be rasterised in compute).
         let extent = self.atlas.as_ref().map_or((1, 1), |a| a.extent);
+        let floats = self.atlas.as_ref().is_some_and(|a| a.floats);
         let mut raster = match (raster_table, &sources, layout, &self.cull) {
-            (Some(table), Some(s), Some(_), Some(cull)) if CasterRaster::supports(&device.limits(), extent) => {
-                Some(RasterInputs {
-                    table,
-                    instances: s.instances,
-                    lists: cull.slots().clone(),
-                    args: cull.args().clone(),
-                    mesh_pool,
-                    materials,
-                })
-            }
+            (Some(table), Some(s), Some(_), Some(cull)) if floats => Some(RasterInputs {
+                table,
+                instances: s.instances,
+                lists: cull.slots().clone(),
+                args: cull.args().clone(),
+                mesh_pool,
+                materials,
+            }),
             _ => None,
         };
         let cascades = passes.iter().filter(|p| matches!(p.target, Target::Cascade { .. })).count();
+        // A float atlas's staging: the buffer, and a depth target where the hardware draws.
         let staged = |compute: bool, staging: &mut Option<LayerStaging>| {
-            if cascades > 0 && !staging.as_ref().is_some_and(|s| s.fits(extent, !compute)) {
+            if !floats {
+                *staging = None;
+            } else if cascades > 0 && !staging.as_ref().is_some_and(|s| s.fits(extent, !compute)) {
                 *staging = Some(LayerStaging::new(device, extent, !compute));
             }
         };
@@ -1042,7 +1055,7 @@ impl ShadowOrchestrator {
                 }
                 drop(pass);
                 if let (Target::Cascade { layer, window }, Some(staging), Some(atlas)) =
-                    (p.target, &self.staging, &self.atlas)
+                    (p.target, &self.staging, self.atlas.as_ref().filter(|a| a.floats))
                 {
                     staging.copy_depth_to_buffer(encoder);
                     staging.copy_to_layer(encoder, atlas, layer, window);
@@ -1062,14 +1075,14 @@ impl ShadowOrchestrator {
 enum Target {
     /// A layer of the local atlas, drawn into directly.
     Local,
-    /// Cascade layer `layer`, whose `window` (width, height from the top-left) is copied in from
-    /// the staging target the pass draws into.
+    /// Cascade layer `layer`, of which `window` (width, height from the top-left) is drawn: into
+    /// the layer itself, or (a float atlas) into the staging and copied in.
     Cascade { layer: u32, window: (u32, u32) },
 }
 
 /// One caster pass: see [`ShadowOrchestrator::encode`].
 struct Pass<'a> {
-    /// The depth target drawn into: a local layer's (a cascade's is the staging target).
+    /// The depth target drawn into: the layer's (a float atlas's cascades: the staging's).
     view: Option<&'a wgpu::TextureView>,
     target: Target,
     /// The caster view's slot.
