@@ -21,7 +21,7 @@ use glam::{Mat4, Vec3};
 
 use super::atlas::LayerStaging;
 use crate::features::visibility::{
-    CasterRasterFamily, GpuRasterParams, RasterGroups, RasterTable, job_buffer, job_capacity,
+    CasterRasterFamily, GpuRasterParams, RasterGroups, RasterTable, TILE_GROUPS, job_buffer, job_capacity,
 };
 use crate::gpu::buffer::GrowableBuffer;
 use crate::pipelines::{PipelineCache, ShaderError};
@@ -35,8 +35,6 @@ pub const MAX_EXTENT: u32 = 8192;
 /// parameters (offsets are multiples of the uniform offset alignment).
 const MAP_STRIDE: u64 = 512;
 const PARAMS_OFFSET: u64 = 256;
-/// Thread groups of `raster_tiles` (as the view's raster runs it).
-const TILE_GROUPS: u32 = 2048;
 
 /// Mirrors `struct CasterRasterView` in `shaders/visibility_raster.wgsl` (SHADOW_DEPTH).
 #[repr(C)]
