@@ -1,13 +1,13 @@
 // Directional-light shadows, read from the cascaded shadow maps the shadow orchestrator renders
-// (crates/render/src/features/shadows/): each cascade is one layer of an R32Float array atlas of
-// depths, reverse-Z (1 nearest the light), holding the depth of the nearest caster over the window
-// of the cascade's map that receivers read (features/shadows/window.rs), at the layer's top-left;
-// the cascade's matrix maps straight into the layer, and filters step by the layer's texels.
-// Floats rather than a depth texture because both rasterisers fill it: casters drawn in hardware
-// are copied in from a depth target, casters rasterised in compute from a buffer (a depth texture
-// can be neither written by compute nor copied into). So the comparisons are made here: each
-// bilinear comparison gathers the four texels around its point and weighs their results, as a
-// comparison sampler would.
+// (crates/render/src/features/shadows/): each cascade is one layer of an array atlas of depths,
+// reverse-Z (1 nearest the light), holding the depth of the nearest caster over the window of the
+// cascade's map that receivers read (features/shadows/window.rs), at the layer's top-left; the
+// cascade's matrix maps straight into the layer, and filters step by the layer's texels. The atlas
+// is a Depth32Float target where the hardware draws the casters and R32Float where they are
+// rasterised in compute (copied in from a buffer: a depth texture can be neither written by
+// compute nor copied into); this binding reads either as plain floats. So the comparisons are made
+// here: each bilinear comparison gathers the four texels around its point and weighs their
+// results, as a comparison sampler would.
 //
 // A fragment picks its cascade by view depth and blends into the next one over the last
 // `blend` of the cascade's depth range, so no seam shows where cascades meet; past the last

@@ -377,6 +377,17 @@ mod tests {
     }
 
     #[test]
+    fn the_shadow_pass_says_when_cascades_are_rasterised_in_compute() {
+        let why = |visibility| {
+            let p = plan(SceneNeeds { has_opaque: true, shadow_layers: 2, visibility, ..Default::default() });
+            p.passes.into_iter().find(|(p, _)| *p == Pass::SHADOWS).unwrap().1
+        };
+        let limit = crate::features::shadows::raster::MAX_EXTENT.to_string();
+        assert!(why(true).contains("rasterised in compute") && why(true).contains(&limit), "{}", why(true));
+        assert!(!why(false).contains("compute"), "{}", why(false));
+    }
+
+    #[test]
     fn transparent_phase_only_with_blended_draws() {
         assert!(!plan(SceneNeeds { has_opaque: true, ..Default::default() }).runs(Pass::TRANSPARENT));
         assert!(plan(SceneNeeds { has_opaque: true, has_blend: true, ..Default::default() }).runs(Pass::TRANSPARENT));

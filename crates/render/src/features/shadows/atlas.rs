@@ -20,7 +20,7 @@ use crate::gpu::formats::{SHADOW_ATLAS_FORMAT, SHADOW_DEPTHS_FORMAT};
 pub struct Atlas {
     texture: wgpu::Texture,
     pub array_view: wgpu::TextureView,
-    /// Each layer as a render attachment (the local atlas; the cascades' are copied into).
+    /// Each layer as a render attachment (a depth atlas's; a float atlas's layers are copied into).
     pub layer_views: Vec<wgpu::TextureView>,
     /// Texels across and down a layer.
     pub extent: (u32, u32),

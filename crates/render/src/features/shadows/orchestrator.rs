@@ -1,7 +1,8 @@
-//! The shadow orchestrator: the one owner of shadow passes. It owns the atlases (`Depth32Float`
-//! 2D arrays: one layer per cascade of the directional lights, and one per spot map or cube face
-//! of the local lights), the shadow uniform and local-shadow table the shaders read
-//! (`shaders/shadows.wgsl`), the per-layer caster views, and the decision of what to render.
+//! The shadow orchestrator: the one owner of shadow passes. It owns the atlases ([`super::atlas`]:
+//! 2D arrays, one layer per cascade of the directional lights, and one per spot map or cube face
+//! of the local lights), the cascades' staging, the shadow uniform and local-shadow table the
+//! shaders read (`shaders/shadows.wgsl`), the per-layer caster views, and the decision of what to
+//! render and by which rasteriser.
 //!
 //! Per frame, [`ShadowOrchestrator::prepare`] takes the camera, the light store's shadowed
 //! lights and the bounds of casters and receivers, and produces the frame's [`ShadowFrame`]:
@@ -10,9 +11,13 @@
 //! layer still holding this projection's casters is kept), and (through
 //! [`super::local`]) which local lights hold maps and which maps re-render within the budget. A
 //! scene with no shadowed light, no caster or no camera gets no pass, and the atlases are
-//! released (a 1×1 stand-in fills the bindings). [`ShadowOrchestrator::encode`] then draws the
-//! caster batches into each layer to render: where the view's culling prepared the batches,
-//! only the casters [`super::caster_cull`] kept for that layer, indirectly.
+//! released (a 1×1 stand-in fills the bindings). The cascade atlas is a depth target, or floats
+//! where the view (and so the casters) will be rasterised in compute. [`ShadowOrchestrator::encode`]
+//! then draws each layer to render: where the view's culling prepared the batches, only the
+//! casters [`super::caster_cull`] kept for that layer; into a depth atlas by the hardware's
+//! caster passes (indirect draws), into a float atlas by [`super::raster`] (the compute raster,
+//! into the staging buffer, whose window is copied into the layer), or, where that raster cannot
+//! run this frame, by the caster passes into the staging's depth target, copied in the same way.
 
 use glam::{DAffine3, DMat4, DVec3, DVec4, Mat4, Vec3};
 use penumbra_engine::bounds::Aabb;
@@ -548,6 +553,9 @@ impl ShadowOrchestrator {
                 false => Atlas::depth(device, self.array_layers, extent, layers),
             });
             self.staging = None;
+            if let Some(r) = self.raster.as_mut() {
+                r.unbind();
+            }
             self.atlas_resolution = resolution;
             // A fresh atlas holds nothing.
             self.held = vec![None; layers];
@@ -921,6 +929,12 @@ impl ShadowOrchestrator {
                 error = Some(e);
                 raster = None;
                 staged(false, &mut self.staging);
+            }
+        }
+        if raster.is_none() {
+            // The raster's bind groups would keep a staging buffer alive that is gone or unused.
+            if let Some(r) = self.raster.as_mut() {
+                r.unbind();
             }
         }
         // The hardware's pipelines, for the maps it draws.

@@ -21,7 +21,7 @@ use glam::{Mat4, Vec3};
 
 use super::atlas::LayerStaging;
 use crate::features::visibility::{
-    CasterRasterFamily, GpuRasterParams, RasterGroups, RasterTable, TILE_GROUPS, job_buffer, job_capacity,
+    CasterRasterFamily, GpuRasterParams, RasterGroups, RasterTable, TILE_GROUPS, entry, job_buffer, job_capacity,
 };
 use crate::gpu::buffer::GrowableBuffer;
 use crate::pipelines::{PipelineCache, ShaderError};
@@ -113,6 +113,12 @@ impl CasterRaster {
             maps: GrowableBuffer::new(device, "shadow raster maps", U::UNIFORM | U::COPY_DST, MAP_STRIDE),
             bound: None,
         }
+    }
+
+    /// Drops the bind groups, and with them the staging buffer they hold (it was replaced, or
+    /// this frame's layers are not rasterised here).
+    pub fn unbind(&mut self) {
+        self.bound = None;
     }
 
     pub fn gpu_bytes(&self) -> u64 {
@@ -259,10 +265,6 @@ impl CasterRaster {
         let groups = RasterGroups { raster: group, dispatch, args: &self.dispatch };
         inputs.table.encode::<true>(&mut pass, pipelines, &groups, inputs.materials);
     }
-}
-
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
 }
 
 #[cfg(test)]

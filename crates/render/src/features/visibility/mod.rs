@@ -18,8 +18,9 @@
 //!    ties go to the larger number, so the result is the same whatever order threads run in);
 //!    a masked bin's variant covers only samples where the alpha test passes. Triangles larger
 //!    than 8×8 pixels (16×16 at one sample a pixel) leave a record instead; `raster_scan`
-//!    numbers their 16×16-pixel tiles, and `raster_tiles` spreads those jobs over the GPU. A later bin starts with `raster_begin`
-//!    (its dispatch's size, an empty job list); each bin's range is a dynamic offset into
+//!    numbers their 16×16-pixel tiles, and `raster_tiles` spreads those jobs over the GPU. A
+//!    later bin starts with `raster_begin` (its dispatch's size, an empty job list); each bin's
+//!    range is a dynamic offset into
 //!    `bin_params`.
 //! 3. The shading pass (`forward.wgsl`'s `cs_shade`, one pipeline per forward variant and one
 //!    dispatch per group of batches sharing variant and material textures) shades each
@@ -152,7 +153,7 @@ const RECORD_BYTES: u64 = 16;
 /// Thread groups of `raster_tiles`, each looping over a run of the tile jobs. Each group's first
 /// lane sets a record's triangle up while the group waits, so more groups hide more of that
 /// latency, until runs get so short that each group sets up as many triangles as it covers
-/// tiles. On the H200 (docs/performance.md) 4096 beat 2048 and came out even with 8192.
+/// tiles (docs/performance.md, "Rasterising in compute", has the measurements).
 pub const TILE_GROUPS: u32 = 4096;
 const CULL_BACK: u32 = 1;
 const FRONT_CW: u32 = 2;
@@ -339,7 +340,8 @@ fn clear_black(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, lab
     });
 }
 
-fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+/// A bind group entry binding all of `buffer`.
+pub(crate) fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
 }
 
