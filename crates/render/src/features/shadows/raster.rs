@@ -255,9 +255,11 @@ impl CasterRaster {
         rows: u32,
         label: &'static str,
     ) {
+        // Emptied first whatever follows: the window is copied into the layer next, and a map
+        // that cannot be drawn must read as lit, not as the previous layer's casters.
+        staging.clear_rows(encoder, rows);
         let Some((_, groups, dispatch)) = &self.bound else { return };
         let Some(group) = groups.get(k) else { return };
-        staging.clear_rows(encoder, rows);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(label),
             timestamp_writes: timer.and_then(|t| t.compute_pass(label)),
